@@ -1,0 +1,25 @@
+"""Torch twins of the GLSL library and passes.
+
+One module per GLSL file: ``shaders/lib/brdf.glsl`` <-> ``learned/twins/brdf.py``. A twin has the same
+snake_case name as its GLSL function, takes tensors whose trailing dimension is the GLSL vector size
+(scalars are ``[...]``, ``vec3`` is ``[..., 3]``), and its docstring names the GLSL function it
+mirrors. Each module lists ``PARITY_CASES``: how to draw random and adversarial inputs for each
+function and the tolerance, stated beside the error measured on llvmpipe.
+"""
+import importlib
+import pkgutil
+
+
+def twin_modules():
+    """All twin modules, imported."""
+    return [importlib.import_module(f"{__name__}.{m.name}")
+            for m in pkgutil.iter_modules(__path__) if not m.name.startswith("_")]
+
+
+def find_twin(name: str):
+    """The torch function named ``name`` in any twin module, or ``None``."""
+    for mod in twin_modules():
+        fn = getattr(mod, name, None)
+        if callable(fn):
+            return fn
+    return None

@@ -1,0 +1,137 @@
+"""Evaluate one GLSL library function on arrays of inputs, for parity tests and ``relight parity``.
+
+For ``float d_ggx(float NoH, float a)`` in ``lib/brdf.glsl``, :func:`evaluate` generates a compute
+shader that reads each argument from a std430 float buffer, calls the function once per element and
+writes the result back, so torch twins can be compared with what the GPU computes on the same inputs.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from shaders import SHADER_ROOT
+
+from ..errors import ShaderCompileError
+
+COMPONENTS = {"float": 1, "vec2": 2, "vec3": 3, "vec4": 4, "int": 1, "uint": 1}
+_SIGNATURE = re.compile(
+    r"^(float|vec[234]|int|uint)\s+([A-Za-z_]\w*)\s*\(([^)]*)\)\s*\{", re.MULTILINE)
+
+
+@dataclass(frozen=True)
+class Signature:
+    file: str  # relative to shaders/, e.g. "lib/brdf.glsl"
+    name: str
+    returns: str
+    params: tuple[tuple[str, str], ...]  # (type, name)
+
+
+def _parse_params(text: str) -> tuple[tuple[str, str], ...] | None:
+    params = []
+    for raw in filter(None, (p.strip() for p in text.split(","))):
+        words = raw.split()
+        if words[0] in ("in", "const"):
+            words = words[1:]
+        if len(words) != 2 or words[0] not in COMPONENTS:
+            return None  # samplers, out/inout, structs: tested at pass level
+        params.append((words[0], words[1]))
+    return tuple(params)
+
+
+def library_functions(lib_dir: Path | None = None) -> dict[str, Signature]:
+    """Every function in ``shaders/lib/*.glsl`` whose arguments and result are scalars or vectors."""
+    lib_dir = lib_dir or SHADER_ROOT / "lib"
+    found: dict[str, Signature] = {}
+    for path in sorted(lib_dir.glob("*.glsl")):
+        text = path.read_text()
+        for m in _SIGNATURE.finditer(text):
+            params = _parse_params(m.group(3))
+            if params is None:
+                continue
+            found[m.group(2)] = Signature(f"lib/{path.name}", m.group(2), m.group(1), params)
+    return found
+
+
+def all_library_function_names(lib_dir: Path | None = None) -> dict[str, str]:
+    """Name -> file of *every* function defined in ``shaders/lib`` (including sampler ones)."""
+    lib_dir = lib_dir or SHADER_ROOT / "lib"
+    any_sig = re.compile(r"^\s*(?:[A-Za-z_]\w*)\s+([A-Za-z_]\w*)\s*\([^;{]*\)\s*\{", re.MULTILINE)
+    names: dict[str, str] = {}
+    for path in sorted(lib_dir.glob("*.glsl")):
+        for m in any_sig.finditer(path.read_text()):
+            if m.group(1) not in ("if", "for", "while", "switch", "return"):
+                names[m.group(1)] = f"lib/{path.name}"
+    return names
+
+
+def _kernel_source(sig: Signature) -> str:
+    lines = [f'#include "{sig.file}"', "layout(local_size_x = 64) in;", "uniform uint u_count;"]
+    for i, (typ, _) in enumerate(sig.params):
+        lines.append(f"layout(std430, binding = {i}) readonly buffer In{i} {{ float in{i}[]; }};")
+    out_binding = len(sig.params)
+    lines.append(f"layout(std430, binding = {out_binding}) writeonly buffer Out {{ float outv[]; }};")
+    lines.append("void main() {")
+    lines.append("    uint i = gl_GlobalInvocationID.x;")
+    lines.append("    if (i >= u_count) return;")
+    args = []
+    for i, (typ, _) in enumerate(sig.params):
+        n = COMPONENTS[typ]
+        comps = ", ".join(f"in{i}[{n}u * i + {c}u]" for c in range(n))
+        ctor = {"int": "int", "uint": "uint"}.get(typ, typ)
+        lines.append(f"    {typ} a{i} = {ctor}({comps});")
+        args.append(f"a{i}")
+    n_out = COMPONENTS[sig.returns]
+    lines.append(f"    {sig.returns} r = {sig.name}({', '.join(args)});")
+    if n_out == 1:
+        lines.append("    outv[i] = float(r);")
+    else:
+        for c in range(n_out):
+            lines.append(f"    outv[{n_out}u * i + {c}u] = r[{c}];")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = None) -> np.ndarray:
+    """Run GLSL library function ``name`` on the GPU for every element of ``args``.
+
+    Each argument is an array ``[N]`` (scalars) or ``[N, k]`` (vecK); the result is ``[N]`` or
+    ``[N, k]`` float32. Integer arguments are passed as floats and converted in the shader.
+    """
+    sigs = signatures or library_functions()
+    if name not in sigs:
+        raise ShaderCompileError(f"no GLSL library function {name!r} with scalar/vector arguments",
+                                 where="shaders/lib")
+    sig = sigs[name]
+    if len(args) != len(sig.params):
+        raise ValueError(f"{name} takes {len(sig.params)} arguments, got {len(args)}")
+    ctx = programs.ctx
+    count = None
+    buffers = []
+    for (typ, pname), arr in zip(sig.params, args):
+        arr = np.asarray(arr, dtype=np.float32)
+        n = COMPONENTS[typ]
+        arr = arr.reshape(-1, n)
+        if count is None:
+            count = arr.shape[0]
+        elif arr.shape[0] != count:
+            raise ValueError(f"{name}: argument {pname} has {arr.shape[0]} rows, expected {count}")
+        buffers.append(ctx.buffer(np.ascontiguousarray(arr).tobytes()))
+    count = count or 0
+    n_out = COMPONENTS[sig.returns]
+    out = ctx.buffer(reserve=max(4, 4 * n_out * count))
+    prog = programs.compute(f"<kernel:{name}>", virtual={f"<kernel:{name}>": _kernel_source(sig)})
+    try:
+        for i, buf in enumerate(buffers):
+            buf.bind_to_storage_buffer(i)
+        out.bind_to_storage_buffer(len(buffers))
+        prog["u_count"].value = count
+        prog.run(group_x=max(1, (count + 63) // 64))
+        result = np.frombuffer(out.read(), dtype=np.float32)[: n_out * count].copy()
+    finally:
+        for buf in buffers:
+            buf.release()
+        out.release()
+    return result if n_out == 1 else result.reshape(count, n_out)

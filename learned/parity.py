@@ -105,7 +105,9 @@ def check_function(programs, case: ParityCase, seed: int = 0) -> ParityResult:
     glsl = evaluate(programs, case.name, *args)
     with torch.no_grad():
         ref = twin(*[torch.from_numpy(np.ascontiguousarray(a)) for a in args])
-    ref = ref.detach().cpu().numpy()
+    ref = np.asarray(ref.detach().cpu().numpy() if torch.is_tensor(ref) else ref, np.float32)
+    if ref.ndim == 0:
+        ref = ref.reshape(glsl.shape)
     return compare(case.name, glsl, ref, case.atol, case.rtol, measured=case.measured)
 
 

@@ -119,6 +119,8 @@ def evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = N
         elif arr.shape[0] != count:
             raise ValueError(f"{name}: argument {pname} has {arr.shape[0]} rows, expected {count}")
         buffers.append(ctx.buffer(np.ascontiguousarray(arr).tobytes()))
+    if not sig.params:
+        count = 1  # a constant function: evaluate once
     count = count or 0
     n_out = COMPONENTS[sig.returns]
     out = ctx.buffer(reserve=max(4, 4 * n_out * count))

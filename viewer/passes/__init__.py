@@ -1,0 +1,23 @@
+"""Render passes, one module per ``shaders/passes`` entry point: G-buffer fill (:mod:`.gbuffer`),
+lighting (:mod:`.shade`), tone mapping (:mod:`.tonemap`)."""
+
+
+class FullscreenDraw:
+    """Draws the single fullscreen triangle of ``passes/fullscreen.vert`` with any program,
+    keeping one empty vertex array per program (no per-frame allocation)."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self._vaos: dict[int, object] = {}
+
+    def __call__(self, program) -> None:
+        vao = self._vaos.get(id(program))
+        if vao is None:
+            vao = self._vaos[id(program)] = self.ctx.vertex_array(program, [])
+        self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND)
+        vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+
+    def release(self) -> None:
+        for vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()

@@ -1,0 +1,100 @@
+"""Twins of ``shaders/lib/brdf.glsl``: GGX / Smith / Schlick / Lambert / Blinn-Phong terms.
+
+Same operation order as the GLSL so float32 results agree to a few ulp. Scalars are ``[...]``,
+``vec3`` is ``[..., 3]``.
+"""
+from __future__ import annotations
+
+import math
+
+import torch
+
+from ._cases import Arg, ParityCase
+from .common import saturate, sq
+
+MIN_PERCEPTUAL_ROUGHNESS = 0.045  # Filament's clamp, applied by shading passes
+BRDF_MIN_A2 = 1e-8
+BRDF_MIN_DENOM = 1e-8
+BLINN_PHONG_MAX_SHININESS = 16384.0
+INV_PI = 1.0 / math.pi
+
+
+def clamp_perceptual_roughness(perceptual_roughness: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float clamp_perceptual_roughness(float)``: clamp to [0.045, 1]."""
+    return perceptual_roughness.clamp(MIN_PERCEPTUAL_ROUGHNESS, 1.0)
+
+
+def compute_f0(base_color: torch.Tensor, metallic: torch.Tensor, specular: torch.Tensor
+               ) -> torch.Tensor:
+    """GLSL ``vec3 compute_f0(vec3 base_color, float metallic, float specular)``.
+
+    base_color ``[..., 3]``, metallic/specular ``[...]`` -> ``[..., 3]``.
+    """
+    f0_dielectric = (0.16 * specular * specular)[..., None]
+    m = saturate(metallic)[..., None]
+    return f0_dielectric * (1.0 - m) + base_color * m  # GLSL mix(x, y, a) = x (1 - a) + y a
+
+
+def d_ggx(NoH: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float d_ggx(float NoH, float a)`` (Walter et al. 2007 eq. 33)."""
+    NoH = saturate(NoH)
+    a2 = sq(saturate(a)).clamp_min(BRDF_MIN_A2)
+    f = NoH * NoH * a2 + (1.0 - NoH) * (1.0 + NoH)
+    return a2 / (math.pi * f * f)
+
+
+def v_smith_ggx_correlated(NoV: torch.Tensor, NoL: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float v_smith_ggx_correlated(float NoV, float NoL, float a)`` (Heitz 2014)."""
+    NoV = saturate(NoV)
+    NoL = saturate(NoL)
+    a2 = sq(saturate(a))
+    ggx_v = NoL * torch.sqrt((NoV * NoV * (1.0 - a2) + a2).clamp_min(0.0))
+    ggx_l = NoV * torch.sqrt((NoL * NoL * (1.0 - a2) + a2).clamp_min(0.0))
+    return 0.5 / (ggx_v + ggx_l).clamp_min(BRDF_MIN_DENOM)
+
+
+def f_schlick(f0: torch.Tensor, f90: torch.Tensor, VoH: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 f_schlick(vec3 f0, float f90, float VoH)``: f0 ``[..., 3]``, others ``[...]``."""
+    x = 1.0 - saturate(VoH)
+    x2 = x * x
+    x5 = (x2 * x2 * x)[..., None]
+    return f0 + (f90[..., None] - f0) * x5
+
+
+def fd_lambert() -> torch.Tensor:
+    """GLSL ``float fd_lambert()``: 1/pi."""
+    return torch.tensor(INV_PI, dtype=torch.float32)
+
+
+def d_blinn_phong(NoH: torch.Tensor, shininess: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float d_blinn_phong(float NoH, float shininess)``: (s + 2)/(2 pi) NoH^s."""
+    s = shininess.clamp(0.0, BLINN_PHONG_MAX_SHININESS)
+    return (s + 2.0) * (0.5 * INV_PI) * torch.pow(saturate(NoH).clamp_min(1e-30), s)
+
+
+def blinn_phong_shininess(a: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float blinn_phong_shininess(float a)``: 2/a^2 - 2 clamped to [0, 16384]."""
+    a2 = sq(saturate(a)).clamp_min(BRDF_MIN_A2)
+    return (2.0 / a2 - 2.0).clamp(0.0, BLINN_PHONG_MAX_SHININESS)
+
+
+_DOT = Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0, 1e-7, 0.9999999, -0.5, 1.5))
+_ALPHA = Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1e-6, 0.002025, 1.0))
+
+PARITY_CASES = [
+    ParityCase("clamp_perceptual_roughness", (Arg(lo=-1, hi=2, adversarial=(0.0, 0.045, 1.0)),),
+               atol=0.0, rtol=0.0, measured="exact"),
+    ParityCase("compute_f0", (Arg(components=3), Arg(lo=-0.5, hi=1.5, adversarial=(0.0, 1.0)),
+                              Arg(lo=0.0, hi=1.0, adversarial=(0.0, 0.5, 1.0))),
+               atol=1e-7, rtol=1e-6, measured="TBD"),
+    ParityCase("d_ggx", (_DOT, _ALPHA), atol=0.0, rtol=1e-5, measured="TBD"),
+    ParityCase("v_smith_ggx_correlated", (_DOT, _DOT, _ALPHA), atol=0.0, rtol=1e-5,
+               measured="TBD"),
+    ParityCase("f_schlick", (Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0))),
+                             Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0)), _DOT),
+               atol=1e-7, rtol=1e-6, measured="TBD"),
+    ParityCase("fd_lambert", (), atol=0.0, rtol=1e-7, measured="TBD"),
+    ParityCase("d_blinn_phong", (_DOT, Arg(lo=0.0, hi=2000.0, adversarial=(0.0, 1.0, 16384.0, 1e6))),
+               atol=1e-6, rtol=1e-4, measured="TBD"),
+    ParityCase("blinn_phong_shininess", (_ALPHA,), atol=0.0, rtol=1e-6, measured="TBD"),
+]

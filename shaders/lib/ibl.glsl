@@ -1,0 +1,33 @@
+// ibl.glsl - image-based lighting lookups used by the shading passes (split-sum, Karis 2013).
+// Textures are built by viewer/ibl.py: the prefiltered chain is an equirect float texture whose
+// mip level k holds radiance prefiltered with GGX at perceptual roughness k / (levels - 1)
+// (GL_REPEAT in u, CLAMP_TO_EDGE in v, LINEAR_MIPMAP_LINEAR); the DFG LUT is RG float with
+// x = n.v and y = perceptual roughness at texel centres (CLAMP_TO_EDGE, LINEAR).
+// No uniforms, no main.
+#include "lib/common.glsl"
+#include "lib/equirect.glsl"
+
+// Karis 2013, "Real Shading in Unreal Engine 4", split-sum first term: prefiltered radiance along
+// the (already environment-rotated) reflection direction r_ws, at lod = r * (levels - 1).
+vec3 ibl_specular_radiance(sampler2D prefiltered, vec3 r_ws, float perceptual_roughness,
+                           float levels) {
+    float lod = saturate(perceptual_roughness) * max(levels - 1.0, 0.0);
+    return textureLod(prefiltered, equirect_uv(r_ws), lod).rgb;
+}
+
+// Karis 2013, split-sum second term: the DFG LUT at (n.v, perceptual roughness).
+vec2 ibl_dfg(sampler2D dfg, float NoV, float perceptual_roughness) {
+    return textureLod(dfg, vec2(saturate(NoV), saturate(perceptual_roughness)), 0.0).rg;
+}
+
+// Filament "Physically Based Rendering in Filament" sec. 5.3.4.3 (eq. 69): specular reflectance
+// f0 * (dfg.y - dfg.x) + dfg.x, with dfg.x = integral of Fc * Vis and dfg.y = integral of Vis.
+vec3 ibl_specular_dfg(vec2 dfg, vec3 f0) {
+    return mix(dfg.xxx, dfg.yyy, f0);
+}
+
+// Filament sec. 4.7.2 (multiple-scattering energy compensation, Fdez-Aguera 2019 / Kulla-Conty
+// 2017): specular is multiplied by 1 + f0 (1 / dfg.y - 1) >= 1. dfg.y is floored at 1e-4.
+vec3 ibl_energy_compensation(vec2 dfg, vec3 f0) {
+    return 1.0 + f0 * (1.0 / max(dfg.y, 1e-4) - 1.0);
+}

@@ -1,0 +1,44 @@
+// shading.glsl - material parameterisation and the per-pixel shading models, written against
+// pre-looked-up lighting (irradiance, prefiltered radiance, DFG terms) so each is a pure function.
+// Roughness clamping and f0 live in brdf.glsl (clamp_perceptual_roughness, compute_f0). The passes (shaders/passes/shade_*.frag) do the texture lookups.
+#include "lib/common.glsl"
+#include "lib/brdf.glsl"
+#include "lib/ibl.glsl"
+
+// Filament material model: metals have no diffuse lobe.
+vec3 diffuse_color(vec3 albedo, float metallic) {
+    return albedo * (1.0 - saturate(metallic));
+}
+
+// A unit normal and n.v that stays away from 0: back-facing or grazing normals are bent towards
+// the viewer instead of producing negative n.v (which makes the DFG lookup and 1/n.v blow up).
+vec3 shading_normal(vec3 n, vec3 v) {
+    float len2 = dot(n, n);
+    if (!(len2 > 1e-12)) {  // zero-length or NaN normal: face the viewer
+        return v;
+    }
+    n *= inversesqrt(len2);
+    float nv = dot(n, v);
+    // remove the part of n that points away from v, keeping a minimum n.v of 1e-4
+    return nv < 1e-4 ? normalize(n + (1e-4 - nv) * v) : n;
+}
+
+// Split-sum GGX image-based lighting (Karis 2013; Filament's IBL evaluation).
+// irradiance: E(n) (W/m^2-like, = pi for a unit constant environment); prefiltered: radiance
+// prefiltered with the GGX lobe along the reflected direction; dfg: the LUT terms at (n.v, r).
+vec3 ggx_split_sum(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefiltered, vec2 dfg,
+                   float multiscatter) {
+    vec3 fd = diffuse * irradiance * INV_PI * ao;
+    vec3 spec = ibl_specular_dfg(dfg, f0) * prefiltered;
+    if (multiscatter > 0.5) {
+        spec *= ibl_energy_compensation(dfg, f0);
+    }
+    return fd + spec;
+}
+
+// Blinn-Phong under environment light (the thesis baseline): Lambert diffuse plus a normalised,
+// Fresnel-free Blinn-Phong lobe whose convolution with the environment is the prefiltered radiance
+// at the matching roughness; the lobe integrates to 1, so the specular colour scales it directly.
+vec3 blinn_phong(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefiltered) {
+    return diffuse * irradiance * INV_PI * ao + f0 * prefiltered;
+}

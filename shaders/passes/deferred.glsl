@@ -1,0 +1,41 @@
+// deferred.glsl - the shared part of every lighting pass (shade_*.frag): G-buffer access, the
+// per-pixel view ray, the environment's rotation and intensity, and the background.
+// Pass-level chunk (has uniforms); the shading maths lives in shaders/lib.
+#define GBUFFER_READ
+#include "generated/gbuffer.glsl"
+#include "lib/common.glsl"
+#include "lib/equirect.glsl"
+
+uniform mat3 u_camera_to_world;  // columns: camera right, up, back (+Z of view space), world space
+uniform vec2 u_tan_half_fov;     // (tan(fov_x / 2), tan(fov_y / 2))
+uniform vec2 u_resolution;       // framebuffer size in pixels
+uniform float u_env_intensity;   // environment radiance scale
+uniform float u_env_rotation;    // radians about +Y, counter-clockwise seen from above
+uniform sampler2D u_env_radiance;
+
+in vec2 v_uv;
+layout(location = 0) out vec4 o_radiance;  // linear radiance (rgb), coverage (a)
+
+// Unit direction from the camera through the pixel centre at gl_FragCoord.xy, world space.
+vec3 view_ray_ws(vec2 frag_coord) {
+    vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
+    return normalize(u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0));
+}
+
+// World direction -> the environment's own frame (the environment is rotated by u_env_rotation).
+vec3 env_dir(vec3 d_ws) {
+    return rotate_y(d_ws, -u_env_rotation);
+}
+
+vec3 background_radiance(vec3 d_ws) {
+#if BACKGROUND_ENVIRONMENT
+    return textureLod(u_env_radiance, equirect_uv(env_dir(d_ws)), 0.0).rgb * u_env_intensity;
+#else
+    return vec3(0.0);
+#endif
+}
+
+// Composite a shaded surface of coverage alpha over the background and write it.
+void write_radiance(vec3 shaded, vec3 background, float alpha) {
+    o_radiance = vec4(mix(background, shaded, alpha), alpha);
+}

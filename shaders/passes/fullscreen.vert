@@ -1,0 +1,8 @@
+// fullscreen.vert - one triangle covering the viewport; no vertex buffer (draw 3 vertices).
+// v_uv has (0, 0) at the bottom-left of the framebuffer, as gl_FragCoord does.
+out vec2 v_uv;
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+    v_uv = p;
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}

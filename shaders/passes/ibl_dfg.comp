@@ -1,0 +1,36 @@
+// ibl_dfg.comp - the split-sum DFG LUT (Karis 2013; Filament's multiscatter form, sec. 5.3.4.3):
+// texel (i, j) holds, at n.v = (i + 0.5)/N and perceptual roughness r = (j + 0.5)/N (alpha = r^2),
+//   x = (1/S) sum Fc * G,  y = (1/S) sum G,  G = V(n.v, n.l, a) 4 (v.h)(n.l) / (n.h),  Fc = (1 - v.h)^5
+// over S GGX-importance-sampled half vectors (Hammersley). y is the single-scatter directional
+// albedo for f0 = 1 (-> 1 for smooth surfaces). Twin: learned.twins.ibl.dfg_lut.
+#include "lib/common.glsl"
+#include "lib/brdf.glsl"
+#include "lib/sampling.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rg32f, binding = 0) writeonly uniform image2D u_dst;
+uniform uint u_samples;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(u_dst);
+    if (any(greaterThanEqual(p, size))) return;
+    float NoV = (float(p.x) + 0.5) / float(size.x);
+    float r = (float(p.y) + 0.5) / float(size.y);
+    float a = r * r;
+    vec3 v = vec3(sqrt(max(1.0 - NoV * NoV, 0.0)), 0.0, NoV);
+    vec2 acc = vec2(0.0);
+    for (uint i = 0u; i < u_samples; ++i) {
+        vec3 h = importance_sample_ggx(hammersley(i, u_samples), a);
+        float VoH = dot(v, h);
+        vec3 l = 2.0 * VoH * h - v;
+        float NoL = l.z;
+        if (NoL > 0.0) {
+            float g = v_smith_ggx_correlated(NoV, NoL, a) * 4.0 * max(VoH, 0.0) * NoL
+                      / max(h.z, 1e-30);
+            float fc = f_schlick(vec3(0.0), 1.0, VoH).x;
+            acc += vec2(g * fc, g);
+        }
+    }
+    imageStore(u_dst, p, vec4(acc / float(max(u_samples, 1u)), 0.0, 0.0));
+}

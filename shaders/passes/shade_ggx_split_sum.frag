@@ -1,0 +1,37 @@
+// shade_ggx_split_sum.frag - Cook-Torrance GGX with split-sum image-based lighting.
+// Defines: MULTISCATTER (0/1), USE_AO (0/1), BACKGROUND_ENVIRONMENT (0/1).
+#include "passes/deferred.glsl"
+#include "lib/brdf.glsl"
+#include "lib/sh.glsl"
+#include "lib/ibl.glsl"
+#include "lib/shading.glsl"
+
+uniform sampler2D u_env_prefiltered;
+uniform sampler2D u_env_dfg;
+uniform float u_env_levels;
+uniform vec3 u_sh[9];
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    GBuffer g = gbuffer_load(pixel);
+    vec3 d = view_ray_ws(gl_FragCoord.xy);
+    vec3 background = background_radiance(d);
+    if (g.alpha <= 0.0) {
+        write_radiance(vec3(0.0), background, 0.0);
+        return;
+    }
+    vec3 v = -d;
+    vec3 n = shading_normal(g.normal, v);
+    float NoV = saturate(dot(n, v));
+    float r = clamp_perceptual_roughness(g.roughness);
+    vec3 reflected = reflect(-v, n);
+    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
+                       * u_env_intensity;
+    vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
+    float ao = USE_AO != 0 ? g.ao : 1.0;
+    vec3 c = ggx_split_sum(diffuse_color(g.albedo, g.metallic),
+                           compute_f0(g.albedo, g.metallic, g.specular), ao, irradiance,
+                           prefiltered, dfg, float(MULTISCATTER));
+    write_radiance(c, background, g.alpha);
+}

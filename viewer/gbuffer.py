@@ -1,0 +1,155 @@
+"""The G-buffer layout, declared once as data.
+
+Everything else is derived from :data:`CHANNELS`: the GLSL ``GBuffer`` struct with its store
+(``gbuffer_store``, for fill passes) and load (``gbuffer_load``, for lighting passes) functions, the
+framebuffer attachments, and the numpy pack/unpack used by loaders, AOV output and datasets.
+
+Channels (all linear, float):
+
+======== === ==========================================================================
+albedo    3  base colour, linear RGB in [0, 1]
+alpha     1  coverage in [0, 1]; 0 = background
+normal    3  unit normal, world space (image-space stacks: camera space = world space)
+roughness 1  perceptual roughness r in [0, 1]; alpha = r^2
+metallic  1  in [0, 1]
+specular  1  dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no specular lobe
+ao        1  ambient occlusion in [0, 1], applied to diffuse light
+depth     1  view-space depth, positive distance along the view axis (-z_vs); 0 = background
+color     3  baked unlit colour (splats' SH colour); only allocated when a scene has splats
+======== === ==========================================================================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Channel:
+    name: str
+    components: int
+    attachment: int  # colour attachment index
+    offset: int  # first component within the attachment (rgba)
+    background: tuple[float, ...]  # value where nothing was drawn
+    meaning: str
+    optional: bool = False  # allocated only when a scene needs it
+
+
+CHANNELS: tuple[Channel, ...] = (
+    Channel("albedo", 3, 0, 0, (0.0, 0.0, 0.0), "base colour, linear RGB"),
+    Channel("alpha", 1, 0, 3, (0.0,), "coverage"),
+    Channel("normal", 3, 1, 0, (0.0, 0.0, 0.0), "unit normal, world space"),
+    Channel("roughness", 1, 1, 3, (1.0,), "perceptual roughness"),
+    Channel("metallic", 1, 2, 0, (0.0,), "metalness"),
+    Channel("specular", 1, 2, 1, (0.5,), "dielectric reflectance, f0 = 0.16 s^2"),
+    Channel("ao", 1, 2, 2, (1.0,), "ambient occlusion"),
+    Channel("depth", 1, 2, 3, (0.0,), "view-space depth, positive in front of the camera"),
+    Channel("color", 3, 3, 0, (0.0, 0.0, 0.0), "baked unlit colour, premultiplied", optional=True),
+)
+CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
+_GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
+_SWIZZLE = "rgba"
+
+
+@dataclass(frozen=True)
+class GBufferLayout:
+    """The channels a scene needs, and their render-target precision (``"f4"`` or ``"f2"``)."""
+
+    with_color: bool = False
+    dtype: str = "f4"
+
+    @property
+    def channels(self) -> tuple[Channel, ...]:
+        return tuple(c for c in CHANNELS if self.with_color or not c.optional)
+
+    @property
+    def attachments(self) -> tuple[int, ...]:
+        return tuple(sorted({c.attachment for c in self.channels}))
+
+    def channel(self, name: str) -> Channel:
+        for c in CHANNELS:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    # ---- GLSL -------------------------------------------------------------------------------
+    def glsl(self) -> str:
+        """The generated ``generated/gbuffer.glsl``: struct, defaults, store and load functions.
+
+        ``#define GBUFFER_WRITE`` before including it declares the fragment outputs and
+        ``gbuffer_store``; ``#define GBUFFER_READ`` declares samplers ``u_gbuffer<i>`` and
+        ``gbuffer_load(ivec2 pixel)``. Channels not in this layout keep their background value.
+        """
+        lines = ["// generated from viewer/gbuffer.py (GBufferLayout); do not edit",
+                 f"#define GBUFFER_HAS_COLOR {int(self.with_color)}",
+                 "struct GBuffer {"]
+        lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
+        lines.append("};")
+        lines.append("GBuffer gbuffer_background() {")
+        lines.append("    GBuffer g;")
+        for c in CHANNELS:
+            vals = ", ".join(f"{v:.9g}" if "." in f"{v:.9g}" or "e" in f"{v:.9g}" else f"{v:.1f}"
+                             for v in c.background)
+            lines.append(f"    g.{c.name} = {_GLSL_TYPE[c.components]}({vals});")
+        lines.append("    return g;")
+        lines.append("}")
+        lines.append("#ifdef GBUFFER_WRITE")
+        for a in self.attachments:
+            lines.append(f"layout(location = {a}) out vec4 o_gbuffer{a};")
+        lines.append("void gbuffer_store(GBuffer g) {")
+        for a in self.attachments:
+            lines.append(f"    o_gbuffer{a} = vec4(0.0);")
+        for c in self.channels:
+            sw = _SWIZZLE[c.offset:c.offset + c.components]
+            lines.append(f"    o_gbuffer{c.attachment}.{sw} = g.{c.name};")
+        lines.append("}")
+        lines.append("#endif")
+        lines.append("#ifdef GBUFFER_READ")
+        for a in self.attachments:
+            lines.append(f"uniform sampler2D u_gbuffer{a};")
+        lines.append("GBuffer gbuffer_load(ivec2 pixel) {")
+        lines.append("    GBuffer g = gbuffer_background();")
+        for a in self.attachments:
+            lines.append(f"    vec4 t{a} = texelFetch(u_gbuffer{a}, pixel, 0);")
+        for c in self.channels:
+            sw = _SWIZZLE[c.offset:c.offset + c.components]
+            lines.append(f"    g.{c.name} = t{c.attachment}.{sw};")
+        lines.append("    return g;")
+        lines.append("}")
+        lines.append("#endif")
+        return "\n".join(lines) + "\n"
+
+    def virtual_files(self) -> dict[str, str]:
+        """For :func:`viewer.gl.programs.assemble`: ``#include "generated/gbuffer.glsl"``."""
+        return {"generated/gbuffer.glsl": self.glsl()}
+
+    # ---- numpy ------------------------------------------------------------------------------
+    def background(self, height: int, width: int) -> dict[str, np.ndarray]:
+        """Channel dict filled with background values, each ``[H, W, C]`` float32."""
+        return {c.name: np.broadcast_to(np.asarray(c.background, np.float32),
+                                        (height, width, c.components)).copy()
+                for c in self.channels}
+
+    def pack(self, channels: dict[str, np.ndarray]) -> dict[int, np.ndarray]:
+        """Channel dict (``[H, W, C]`` each; missing ones take background values) -> attachment
+        index -> ``[H, W, 4]`` float32 arrays, ready to upload."""
+        first = next(iter(channels.values()))
+        h, w = first.shape[:2]
+        full = self.background(h, w)
+        for name, arr in channels.items():
+            c = self.channel(name)
+            arr = np.asarray(arr, np.float32).reshape(h, w, -1)
+            if arr.shape[2] != c.components:
+                raise ValueError(f"channel {name} has {arr.shape[2]} components, "
+                                 f"expected {c.components}")
+            full[name] = arr
+        out = {a: np.zeros((h, w, 4), np.float32) for a in self.attachments}
+        for c in self.channels:
+            out[c.attachment][:, :, c.offset:c.offset + c.components] = full[c.name]
+        return out
+
+    def unpack(self, attachments: dict[int, np.ndarray]) -> dict[str, np.ndarray]:
+        """Attachment index -> ``[H, W, 4]`` arrays back to the channel dict."""
+        return {c.name: attachments[c.attachment][:, :, c.offset:c.offset + c.components].copy()
+                for c in self.channels}

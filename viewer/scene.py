@@ -1,0 +1,332 @@
+"""Scene descriptions: TOML files <-> frozen dataclasses.
+
+A scene is a camera, an environment, objects and render settings. Everything is immutable; change
+a parameter with :func:`dataclasses.replace` (``scene.with_render(exposure=1.0)``), so a render
+cache can key on values. Unknown keys, wrong types and out-of-range values are
+:class:`~viewer.errors.SceneError` naming the file and the key.
+
+Example::
+
+    [camera]
+    position = [0, 0.3, 3.2]
+    target = [0, 0, 0]
+    fov_y = 35                       # degrees, vertical
+    size = [512, 512]                # [W, H]
+
+    [environment]
+    procedural = "sky"               # "sky" | "studio" | "white", or path = "studio.exr"
+    intensity = 1.0
+    rotation_deg = 0                 # about +Y, counter-clockwise seen from above
+
+    [[objects]]
+    type = "sphere"                  # sphere | plane | material_grid | mesh | gbuffer | splats
+    center = [0, 0, 0]
+    radius = 1.0
+    [objects.material]
+    albedo = [0.8, 0.2, 0.2]
+    roughness = 0.3
+    metallic = 0.0
+    specular = 0.5
+
+    [render]
+    model = "ggx_split_sum"          # see viewer.models.MODELS
+    multiscatter = true
+    tonemap = "aces"                 # none | aces | reinhard
+    exposure = 0.0                   # EV stops, applied before tone mapping
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from .camera import Camera
+from .environment import EnvironmentSpec
+from .errors import SceneError
+from .material import Material
+
+try:
+    import tomllib
+except ImportError:  # pragma: no cover - Python < 3.11
+    import tomli as tomllib  # type: ignore[no-redef]
+
+OBJECT_TYPES = ("sphere", "plane", "material_grid", "mesh", "gbuffer", "splats")
+TONEMAPS = ("none", "aces", "reinhard")
+BACKGROUNDS = ("environment", "transparent")
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    model: str = "ggx_split_sum"
+    samples: int = 1  # Monte-Carlo / neural-teacher samples per pixel (ignored by 1-sample models)
+    sampling: str = "mis"  # Monte-Carlo sampling strategy (for models that sample)
+    multiscatter: bool = True  # GGX multiple-scattering energy compensation
+    ao: bool = True  # apply the G-buffer's ambient occlusion to diffuse light
+    tonemap: str = "aces"
+    exposure: float = 0.0  # EV stops: radiance * 2^exposure before tone mapping
+    background: str = "environment"  # "environment" | "transparent"
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """One ``[[objects]]`` entry. Paths are absolute (resolved against the scene file)."""
+
+    type: str
+    center: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius: float = 1.0
+    size: tuple[float, float] = (4.0, 4.0)  # plane extent (x, z)
+    normal: tuple[float, float, float] = (0.0, 1.0, 0.0)  # plane normal
+    transform: tuple[tuple[float, ...], ...] | None = None  # 4x4 row-major, for meshes
+    path: str | None = None
+    material: Material | None = None  # None: the file's own materials (meshes)
+    rows: int = 3  # material_grid: metallic 0..1 down the rows
+    cols: int = 5  # material_grid: roughness 0..1 across the columns
+    spacing: float = 2.2
+    fov_y: float | None = None  # gbuffer stacks without their own field of view
+    near: float = 1.0  # gbuffer depth normalisation (thesis appendix B.2)
+    far: float = 800.0
+
+
+@dataclass(frozen=True)
+class Scene:
+    camera: Camera = Camera()
+    environment: EnvironmentSpec = EnvironmentSpec(procedural="studio")
+    objects: tuple[ObjectSpec, ...] = ()
+    render: RenderSettings = RenderSettings()
+    source: str | None = None  # the TOML file it came from
+
+    def with_render(self, **changes) -> "Scene":
+        return replace(self, render=replace(self.render, **changes))
+
+    def with_camera(self, **changes) -> "Scene":
+        return replace(self, camera=replace(self.camera, **changes))
+
+    def with_environment(self, **changes) -> "Scene":
+        return replace(self, environment=replace(self.environment, **changes))
+
+
+# ---- parsing ----------------------------------------------------------------------------------
+
+def _check_keys(table: dict, allowed: set[str], where: str, file: str) -> None:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise SceneError(f"unknown key{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(repr(k) for k in unknown)} in {where} "
+                         f"(known: {', '.join(sorted(allowed))})", where=file)
+
+
+def _num(v: Any, key: str, file: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise SceneError(f"{key} must be a finite number, got {v!r}", where=file)
+    if not lo <= v <= hi:
+        raise SceneError(f"{key} = {v} is outside [{lo}, {hi}]", where=file)
+    return float(v)
+
+
+def _vec(v: Any, n: int, key: str, file: str) -> tuple[float, ...]:
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise SceneError(f"{key} must be a list of {n} numbers, got {v!r}", where=file)
+    return tuple(_num(x, key, file) for x in v)
+
+
+def _int(v: Any, key: str, file: str, lo: int = 1, hi: int = 1 << 30) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise SceneError(f"{key} must be an integer in [{lo}, {hi}], got {v!r}", where=file)
+    return v
+
+
+def _str(v: Any, key: str, file: str, choices: tuple[str, ...] | None = None) -> str:
+    if not isinstance(v, str):
+        raise SceneError(f"{key} must be a string, got {v!r}", where=file)
+    if choices is not None and v not in choices:
+        raise SceneError(f"{key} = {v!r} is not one of {', '.join(choices)}", where=file)
+    return v
+
+
+def _path(v: Any, key: str, file: str, base: Path) -> str:
+    s = _str(v, key, file)
+    p = Path(os.path.expanduser(s))
+    return str(p if p.is_absolute() else (base / p).resolve())
+
+
+def parse_material(t: dict, where: str, file: str) -> Material:
+    _check_keys(t, {f.name for f in fields(Material)}, where, file)
+    kw: dict[str, Any] = {}
+    if "albedo" in t:
+        kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
+    for k in ("roughness", "metallic", "specular", "ao"):
+        if k in t:
+            kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
+    m = Material(**kw)
+    if not all(0.0 <= c <= 1.0 for c in m.albedo):
+        raise SceneError(f"{where}.albedo = {list(m.albedo)} must be in [0, 1]", where=file)
+    return m
+
+
+def parse_camera(t: dict, file: str) -> Camera:
+    _check_keys(t, {f.name for f in fields(Camera)}, "[camera]", file)
+    kw: dict[str, Any] = {}
+    for k in ("position", "target", "up"):
+        if k in t:
+            kw[k] = _vec(t[k], 3, f"camera.{k}", file)
+    if "fov_y" in t:
+        kw["fov_y"] = _num(t["fov_y"], "camera.fov_y", file, 0.01, 179.0)
+    if "size" in t:
+        s = t["size"]
+        if not isinstance(s, (list, tuple)) or len(s) != 2:
+            raise SceneError(f"camera.size must be [W, H], got {s!r}", where=file)
+        kw["size"] = (_int(s[0], "camera.size[0]", file, 1, 16384),
+                      _int(s[1], "camera.size[1]", file, 1, 16384))
+    for k in ("near", "far"):
+        if k in t:
+            kw[k] = _num(t[k], f"camera.{k}", file, 1e-6, 1e9)
+    cam = Camera(**kw)
+    if cam.near >= cam.far:
+        raise SceneError(f"camera.near ({cam.near}) must be less than camera.far ({cam.far})",
+                         where=file)
+    try:
+        cam.basis()
+    except ValueError as exc:
+        raise SceneError(f"camera: {exc}", where=file) from None
+    return cam
+
+
+def parse_environment(t: dict, file: str, base: Path) -> EnvironmentSpec:
+    allowed = {f.name for f in fields(EnvironmentSpec)}
+    _check_keys(t, allowed, "[environment]", file)
+    kw: dict[str, Any] = {}
+    for k, v in t.items():
+        if k == "path":
+            kw[k] = _path(v, "environment.path", file, base)
+        elif k == "procedural":
+            kw[k] = _str(v, "environment.procedural", file)
+        elif k == "intensity":
+            kw[k] = _num(v, "environment.intensity", file, 0.0)
+        elif isinstance(v, int) and not isinstance(v, bool) and k in ("width",):
+            kw[k] = _int(v, f"environment.{k}", file, 8, 8192)
+        else:
+            kw[k] = _num(v, f"environment.{k}", file) if not isinstance(v, str) else v
+    if "path" in kw and "procedural" in kw:
+        raise SceneError("environment has both path and procedural; choose one", where=file)
+    if "path" not in kw and "procedural" not in kw:
+        kw["procedural"] = "studio"
+    try:
+        return EnvironmentSpec(**kw)
+    except (TypeError, ValueError) as exc:
+        raise SceneError(f"environment: {exc}", where=file) from None
+
+
+def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
+    where = f"objects[{index}]"
+    if "type" not in t:
+        raise SceneError(f"{where} has no type (one of {', '.join(OBJECT_TYPES)})", where=file)
+    typ = _str(t["type"], f"{where}.type", file, OBJECT_TYPES)
+    common = {"type", "material"}
+    allowed = {
+        "sphere": {"center", "radius"},
+        "plane": {"center", "size", "normal"},
+        "material_grid": {"center", "rows", "cols", "spacing", "radius"},
+        "mesh": {"path", "transform"},
+        "gbuffer": {"path", "fov_y", "near", "far"},
+        "splats": {"path", "transform"},
+    }[typ] | common
+    _check_keys(t, allowed, where, file)
+    kw: dict[str, Any] = {"type": typ}
+    if "center" in t:
+        kw["center"] = _vec(t["center"], 3, f"{where}.center", file)
+    if "radius" in t:
+        kw["radius"] = _num(t["radius"], f"{where}.radius", file, 1e-6)
+    if "size" in t:
+        kw["size"] = _vec(t["size"], 2, f"{where}.size", file)
+    if "normal" in t:
+        kw["normal"] = _vec(t["normal"], 3, f"{where}.normal", file)
+        if math.hypot(*kw["normal"]) < 1e-9:
+            raise SceneError(f"{where}.normal must not be zero", where=file)
+    for k in ("rows", "cols"):
+        if k in t:
+            kw[k] = _int(t[k], f"{where}.{k}", file, 1, 64)
+    if "spacing" in t:
+        kw["spacing"] = _num(t["spacing"], f"{where}.spacing", file, 1e-6)
+    if "fov_y" in t:
+        kw["fov_y"] = _num(t["fov_y"], f"{where}.fov_y", file, 0.01, 179.0)
+    for k in ("near", "far"):
+        if k in t:
+            kw[k] = _num(t[k], f"{where}.{k}", file, 1e-6)
+    if "transform" in t:
+        m = t["transform"]
+        if (not isinstance(m, list) or len(m) != 4
+                or not all(isinstance(r, list) and len(r) == 4 for r in m)):
+            raise SceneError(f"{where}.transform must be a 4x4 list of rows", where=file)
+        kw["transform"] = tuple(_vec(r, 4, f"{where}.transform", file) for r in m)
+    if typ in ("mesh", "gbuffer", "splats"):
+        if "path" not in t:
+            raise SceneError(f"{where} ({typ}) needs a path", where=file)
+        kw["path"] = _path(t["path"], f"{where}.path", file, base)
+    if "material" in t:
+        if not isinstance(t["material"], dict):
+            raise SceneError(f"{where}.material must be a table", where=file)
+        kw["material"] = parse_material(t["material"], f"{where}.material", file)
+    elif typ in ("sphere", "plane", "material_grid"):
+        kw["material"] = Material()
+    return ObjectSpec(**kw)
+
+
+def parse_render(t: dict, file: str) -> RenderSettings:
+    from .models import MODELS, SAMPLINGS
+
+    _check_keys(t, {f.name for f in fields(RenderSettings)}, "[render]", file)
+    kw: dict[str, Any] = {}
+    if "model" in t:
+        kw["model"] = _str(t["model"], "render.model", file, tuple(MODELS))
+    if "samples" in t:
+        kw["samples"] = _int(t["samples"], "render.samples", file, 1, 1 << 20)
+    if "sampling" in t:
+        kw["sampling"] = _str(t["sampling"], "render.sampling", file, SAMPLINGS)
+    for k in ("multiscatter", "ao"):
+        if k in t:
+            if not isinstance(t[k], bool):
+                raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)
+            kw[k] = t[k]
+    if "tonemap" in t:
+        kw["tonemap"] = _str(t["tonemap"], "render.tonemap", file, TONEMAPS)
+    if "exposure" in t:
+        kw["exposure"] = _num(t["exposure"], "render.exposure", file, -40.0, 40.0)
+    if "background" in t:
+        kw["background"] = _str(t["background"], "render.background", file, BACKGROUNDS)
+    if "seed" in t:
+        kw["seed"] = _int(t["seed"], "render.seed", file, 0, (1 << 31) - 1)
+    return RenderSettings(**kw)
+
+
+def scene_from_dict(data: dict, file: str = "<scene>", base: Path | None = None) -> Scene:
+    """Build a :class:`Scene` from parsed TOML. ``base`` resolves relative paths."""
+    base = base or Path.cwd()
+    _check_keys(data, {"camera", "environment", "objects", "render"}, "the scene", file)
+    for k in ("camera", "environment", "render"):
+        if k in data and not isinstance(data[k], dict):
+            raise SceneError(f"[{k}] must be a table", where=file)
+    objs = data.get("objects", [])
+    if not isinstance(objs, list) or not all(isinstance(o, dict) for o in objs):
+        raise SceneError("objects must be an array of tables ([[objects]])", where=file)
+    return Scene(
+        camera=parse_camera(data.get("camera", {}), file),
+        environment=parse_environment(data.get("environment", {}), file, base),
+        objects=tuple(parse_object(o, i, file, base) for i, o in enumerate(objs)),
+        render=parse_render(data.get("render", {}), file),
+        source=file,
+    )
+
+
+def load_scene(path: str | os.PathLike) -> Scene:
+    """Read a scene TOML file. Errors are one-line :class:`SceneError` naming the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError("scene file not found", where=path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SceneError(f"not valid TOML ({exc})", where=path) from None
+    return scene_from_dict(data, str(path), path.resolve().parent)

@@ -2,7 +2,7 @@
 // texel (i, j) holds, at n.v = (i + 0.5)/N and perceptual roughness r = (j + 0.5)/N (alpha = r^2),
 //   x = (1/S) sum Fc * G,  y = (1/S) sum G,  G = V(n.v, n.l, a) 4 (v.h)(n.l) / (n.h),  Fc = (1 - v.h)^5
 // over S GGX-importance-sampled half vectors (Hammersley). y is the single-scatter directional
-// albedo for f0 = 1 (-> 1 for smooth surfaces). Twin: learned.twins.ibl.dfg_lut.
+// albedo for f0 = 1 (-> 1 for smooth surfaces), clamped to <= 1. Twin: learned.twins.ibl.dfg_lut.
 #include "lib/common.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sampling.glsl"
@@ -32,5 +32,10 @@ void main() {
             acc += vec2(g * fc, g);
         }
     }
-    imageStore(u_dst, p, vec4(acc / float(max(u_samples, 1u)), 0.0, 0.0));
+    // The estimate of y overshoots 1 by up to ~2e-4 at grazing n.v on smooth surfaces (the exact
+    // albedo is <= 1): clamp, keeping x <= y.
+    vec2 dfg = acc / float(max(u_samples, 1u));
+    dfg.y = min(dfg.y, 1.0);
+    dfg.x = min(dfg.x, dfg.y);
+    imageStore(u_dst, p, vec4(dfg, 0.0, 0.0));
 }

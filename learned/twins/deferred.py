@@ -1,0 +1,168 @@
+"""Twins of the lighting passes: ``shaders/passes/deferred.glsl`` and ``shade_<model>.frag``.
+
+:func:`shade` evaluates a whole shading model on a G-buffer read back from GL, with the same
+environment resources (prefiltered chain, DFG LUT, SH coefficients read back from the GPU), so the
+registered ``model:<name>`` parity checks compare the torch path and the GLSL path pixel by pixel.
+Images here are in GL row order (row 0 at the bottom), as the passes see them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from .brdf import clamp_perceptual_roughness, compute_f0
+from .equirect import equirect_uv, rotate_y
+from .ibl import ibl_dfg, ibl_specular_radiance, sample_bilinear
+from .sh import sh_irradiance
+from .shading import blinn_phong, diffuse_color, ggx_split_sum, shading_normal
+
+PASS_LEVEL = ()
+
+
+def view_ray_ws(frag_coord: torch.Tensor, camera_to_world: torch.Tensor,
+                tan_half_fov: torch.Tensor, resolution: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 view_ray_ws(vec2 frag_coord)`` of ``passes/deferred.glsl``.
+    frag_coord [..., 2] (pixel centres, origin bottom-left), camera_to_world [3, 3] (columns right,
+    up, back) -> [..., 3] unit world directions."""
+    ndc = frag_coord / resolution * 2.0 - 1.0
+    d_vs = torch.cat([ndc * tan_half_fov, -torch.ones_like(ndc[..., :1])], dim=-1)
+    d = d_vs @ camera_to_world.T
+    return d / torch.linalg.vector_norm(d, dim=-1, keepdim=True)
+
+
+def env_dir(d_ws: torch.Tensor, rotation: float) -> torch.Tensor:
+    """GLSL ``vec3 env_dir(vec3 d_ws)``: world direction -> the rotated environment's frame."""
+    return rotate_y(d_ws, torch.full(d_ws.shape[:-1], -rotation, dtype=d_ws.dtype))
+
+
+def reflect(i: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
+    """GLSL built-in ``reflect(I, N)`` = I - 2 dot(N, I) N."""
+    return i - 2.0 * (n * i).sum(-1, keepdim=True) * n
+
+
+def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, intensity: float,
+          rotation_rad: float, defines: dict[str, int]) -> torch.Tensor:
+    """The lighting pass ``model`` on a G-buffer (channel -> [H, W, C], GL row order).
+
+    ``env``: ``radiance`` (list of mips [h, w, 4]), ``prefiltered`` (list), ``dfg`` ([n, n, 2]),
+    ``sh`` ([9, 3]), ``levels``. ``defines`` as in :func:`viewer.passes.shade.shade_defines`.
+    Returns [H, W, 4]: composited radiance and coverage.
+    """
+    h, w = gbuffer["alpha"].shape[:2]
+    ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32) + 0.5,
+                            torch.arange(w, dtype=torch.float32) + 0.5, indexing="ij")
+    frag = torch.stack([xs, ys], dim=-1)
+    basis = torch.tensor(camera.basis(), dtype=torch.float32)  # rows right, up, back
+    d = view_ray_ws(frag, basis.T, torch.tensor(camera.tan_half_fov(), dtype=torch.float32),
+                    torch.tensor([float(w), float(h)]))
+    if defines.get("BACKGROUND_ENVIRONMENT", 1):
+        background = sample_bilinear(env["radiance"][0], equirect_uv(env_dir(d, rotation_rad)))
+        background = background[..., :3] * intensity
+    else:
+        background = torch.zeros_like(d)
+    g = gbuffer
+    alpha = g["alpha"][..., 0]
+    if model == "unlit":
+        if "color" in g:
+            c = torch.where(alpha[..., None] > 0, g["color"] / alpha.clamp_min(1e-30)[..., None],
+                            torch.zeros_like(g["color"]))
+        else:
+            c = g["albedo"]
+    else:
+        v = -d
+        n = shading_normal(g["normal"], v)
+        r = clamp_perceptual_roughness(g["roughness"][..., 0])
+        sh = env["sh"]
+        irradiance = sh_irradiance(env_dir(n, rotation_rad), sh) * intensity
+        prefiltered = ibl_specular_radiance(env["prefiltered"], env_dir(reflect(-v, n), rotation_rad),
+                                            r, env["levels"]) * intensity
+        ao = g["ao"][..., 0] if defines.get("USE_AO", 1) else torch.ones_like(r)
+        diffuse = diffuse_color(g["albedo"], g["metallic"][..., 0])
+        f0 = compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0])
+        if model == "ggx_split_sum":
+            nov = (n * v).sum(-1).clamp(0.0, 1.0)
+            dfg = ibl_dfg(env["dfg"], nov, r)
+            ms = torch.full_like(r, float(defines.get("MULTISCATTER", 1)))
+            c = ggx_split_sum(diffuse, f0, ao, irradiance, prefiltered, dfg, ms)
+        elif model == "blinn_phong":
+            c = blinn_phong(diffuse, f0, ao, irradiance, prefiltered)
+        else:
+            raise ValueError(f"no torch twin for model {model!r}")
+    covered = alpha > 0.0
+    a = alpha[..., None]
+    out = torch.where(covered[..., None], background + (c - background) * a, background)
+    return torch.cat([out, alpha[..., None]], dim=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# model-level parity: render in GL, shade the read-back G-buffer in torch, compare
+# ---------------------------------------------------------------------------------------------
+
+PARITY_SCENE = {
+    "camera": {"position": [0.4, 0.8, 3.2], "target": [0, 0, 0], "fov_y": 45, "size": [64, 48]},
+    "environment": {"procedural": "sky", "intensity": 1.7, "rotation_deg": 33, "width": 64},
+    "objects": [
+        {"type": "sphere", "center": [-0.6, 0, 0], "radius": 0.7,
+         "material": {"albedo": [0.9, 0.6, 0.3], "roughness": 0.3, "metallic": 1.0}},
+        {"type": "sphere", "center": [0.7, 0.1, -0.3], "radius": 0.6,
+         "material": {"albedo": [0.2, 0.5, 0.8], "roughness": 0.0, "specular": 1.0}},
+        {"type": "plane", "center": [0, -0.7, 0], "size": [6, 6],
+         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.7, "ao": 0.6}},
+    ],
+}
+# Tolerance for whole models: the texture lookups dominate. llvmpipe filters float textures with
+# 8-bit fixed-point bilinear weights, so lookups differ from exact float filtering by up to
+# ~1/512 of the texel difference; measured on llvmpipe: max rel 4e-3 on the sun-lit sky.
+MODEL_ATOL = 2e-3
+MODEL_RTOL = 1e-2
+
+
+def _register_checks() -> None:
+    from learned.parity import compare, register_pass_check
+
+    for model in ("unlit", "blinn_phong", "ggx_split_sum"):
+        def check(programs, model=model):
+            return [_check_model(programs, model, variant)
+                    for variant in ({}, {"multiscatter": False, "ao": False,
+                                         "background": "transparent"})
+                    if variant == {} or model != "unlit"]
+
+        register_pass_check(f"model:{model}", model=model)(check)
+
+
+def _check_model(programs, model: str, variant: dict):
+    from learned.parity import compare
+    from viewer.passes.shade import shade_defines
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    scene = scene_from_dict(PARITY_SCENE).with_render(model=model, **variant)
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        targets = renderer.draw(scene)
+        gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
+        w, h = targets["radiance"].size
+        glsl = np.frombuffer(targets["radiance"].read(), dtype=np.float32).reshape(h, w, 4)
+        ibl = renderer.ibl(scene)
+        env = {
+            "radiance": [torch.from_numpy(ibl.read_level("radiance", k)) for k in range(1)],
+            "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
+                            for k in range(ibl.levels)],
+            "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
+            "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)),
+            "levels": float(ibl.levels),
+        }
+        with torch.no_grad():
+            ref = shade(model, gb, targets["camera"], env, scene.environment.intensity,
+                        math.radians(scene.environment.rotation_deg),
+                        shade_defines(model, scene.render)).numpy()
+    finally:
+        renderer.release()
+    name = f"model:{model}" + ("" if not variant else ":" + ",".join(
+        f"{k}={v}" for k, v in variant.items()))
+    return compare(name, glsl, ref, MODEL_ATOL, MODEL_RTOL, kind="model")
+
+
+_register_checks()

@@ -1,0 +1,425 @@
+"""Twins of ``shaders/lib/ibl.glsl`` and of the IBL precompute passes (``shaders/passes/ibl_*.comp``).
+
+Textures are lists of mip levels, each ``[h_k, w_k, C]`` float32 with row 0 first (as uploaded to
+GL). :func:`sample_bilinear` / :func:`sample_trilinear` reproduce GL filtering: texel centres at
+(i + 0.5) / size, GL_REPEAT in u, CLAMP_TO_EDGE in v (``repeat_u=False`` clamps u too, as the DFG
+LUT does), LINEAR_MIPMAP_LINEAR between levels ``floor(lod)`` and ``floor(lod) + 1``.
+
+The precompute twins (:func:`downsample_box`, :func:`prefilter_environment`, :func:`sh_project`,
+:func:`dfg_lut`) use the same Hammersley sequences and the same operation order as the passes.
+This module also registers the pass-level parity checks (``learned.parity.PASS_CHECKS``) at import.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from ._cases import Arg, ParityCase
+from .brdf import d_ggx, f_schlick, v_smith_ggx_correlated
+from .equirect import equirect_dir, equirect_uv
+from .sampling import hammersley_sequence, importance_sample_ggx, tangent_to_world
+from .sh import sh_basis_all, sh_irradiance
+
+# Functions taking samplers (or arrays) covered by the pass checks registered below.
+PASS_LEVEL = ("ibl_specular_radiance", "ibl_dfg")
+
+
+# ---------------------------------------------------------------------------------------------
+# GL texture filtering
+# ---------------------------------------------------------------------------------------------
+
+def sample_bilinear(level: torch.Tensor, uv: torch.Tensor, repeat_u: bool = True) -> torch.Tensor:
+    """GL_LINEAR lookup of one level ``[h, w, C]`` at ``uv [..., 2]`` -> ``[..., C]``."""
+    h, w = level.shape[:2]
+    x = uv[..., 0] * w - 0.5
+    y = uv[..., 1] * h - 0.5
+    x0 = torch.floor(x)
+    y0 = torch.floor(y)
+    fx = (x - x0)[..., None]
+    fy = (y - y0)[..., None]
+    x0 = x0.to(torch.int64)
+    y0 = y0.to(torch.int64)
+    if repeat_u:
+        xa, xb = torch.remainder(x0, w), torch.remainder(x0 + 1, w)
+    else:
+        xa, xb = x0.clamp(0, w - 1), (x0 + 1).clamp(0, w - 1)
+    ya, yb = y0.clamp(0, h - 1), (y0 + 1).clamp(0, h - 1)
+    t00, t10 = level[ya, xa], level[ya, xb]
+    t01, t11 = level[yb, xa], level[yb, xb]
+    top = t00 + (t10 - t00) * fx
+    bottom = t01 + (t11 - t01) * fx
+    return top + (bottom - top) * fy
+
+
+def sample_trilinear(levels: list[torch.Tensor], uv: torch.Tensor, lod: torch.Tensor,
+                     repeat_u: bool = True) -> torch.Tensor:
+    """GL_LINEAR_MIPMAP_LINEAR ``textureLod`` on a mip chain; lod ``[...]`` clamped to the chain."""
+    lod = lod.clamp(0.0, float(len(levels) - 1))
+    base = torch.floor(lod)
+    frac = (lod - base)[..., None]
+    base = base.to(torch.int64)
+    out = torch.zeros(*uv.shape[:-1], levels[0].shape[-1], dtype=levels[0].dtype)
+    for k in range(len(levels)):
+        lo = base == k
+        hi = (base == k - 1) & (frac[..., 0] > 0)
+        if not (lo.any() or hi.any()):
+            continue
+        s = sample_bilinear(levels[k], uv, repeat_u)
+        out = out + torch.where(lo[..., None], s * (1.0 - frac), 0.0) \
+                  + torch.where(hi[..., None], s * frac, 0.0)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# lib/ibl.glsl
+# ---------------------------------------------------------------------------------------------
+
+def ibl_specular_radiance(prefiltered: list[torch.Tensor], r_ws: torch.Tensor,
+                          perceptual_roughness: torch.Tensor, levels: float) -> torch.Tensor:
+    """GLSL ``vec3 ibl_specular_radiance(sampler2D, vec3 r_ws, float r, float levels)``:
+    prefiltered chain (list of ``[h, w, C]``), r_ws ``[..., 3]`` -> ``[..., 3]``."""
+    lod = perceptual_roughness.clamp(0.0, 1.0) * max(float(levels) - 1.0, 0.0)
+    return sample_trilinear(prefiltered, equirect_uv(r_ws), lod)[..., :3]
+
+
+def ibl_dfg(dfg: torch.Tensor, NoV: torch.Tensor, perceptual_roughness: torch.Tensor
+            ) -> torch.Tensor:
+    """GLSL ``vec2 ibl_dfg(sampler2D dfg, float NoV, float r)``: LUT ``[n, n, 2]`` -> ``[..., 2]``."""
+    uv = torch.stack([NoV.clamp(0.0, 1.0), perceptual_roughness.clamp(0.0, 1.0)], dim=-1)
+    return sample_bilinear(dfg, uv, repeat_u=False)[..., :2]
+
+
+def ibl_specular_dfg(dfg: torch.Tensor, f0: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ibl_specular_dfg(vec2 dfg, vec3 f0)`` = mix(dfg.x, dfg.y, f0)."""
+    x = dfg[..., 0:1]
+    y = dfg[..., 1:2]
+    return x * (1.0 - f0) + y * f0
+
+
+def ibl_energy_compensation(dfg: torch.Tensor, f0: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ibl_energy_compensation(vec2 dfg, vec3 f0)`` = 1 + f0 (1 / dfg.y - 1)."""
+    return 1.0 + f0 * (1.0 / dfg[..., 1:2].clamp_min(1e-4) - 1.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Precompute passes
+# ---------------------------------------------------------------------------------------------
+
+def downsample_box(src: torch.Tensor) -> torch.Tensor:
+    """Twin of ``passes/ibl_downsample.comp``: ``[h, w, C]`` -> ``[max(h/2,1), max(w/2,1), C]``."""
+    h, w = src.shape[:2]
+    ho, wo = max(1, h // 2), max(1, w // 2)
+    ys = torch.arange(ho)
+    xs = torch.arange(wo)
+    y0, y1 = (2 * ys).clamp(max=h - 1), (2 * ys + 1).clamp(max=h - 1)
+    x0, x1 = (2 * xs).clamp(max=w - 1), (2 * xs + 1).clamp(max=w - 1)
+    a = src[y0][:, x0]
+    b = src[y0][:, x1]
+    c = src[y1][:, x0]
+    d = src[y1][:, x1]
+    return ((a + b) + (c + d)) * 0.25
+
+
+def radiance_chain(env: torch.Tensor) -> list[torch.Tensor]:
+    """The full box mip chain of ``env [H, W, C]`` down to 1x1 (what ``build_ibl`` uploads)."""
+    chain = [env]
+    while chain[-1].shape[:2] != (1, 1):
+        chain.append(downsample_box(chain[-1]))
+    return chain
+
+
+def _texel_dirs(h: int, w: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Texel-centre uv ``[h, w, 2]`` and directions ``[h, w, 3]`` (float32, as the passes)."""
+    ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32),
+                            torch.arange(w, dtype=torch.float32), indexing="ij")
+    uv = torch.stack([(xs + 0.5) / w, (ys + 0.5) / h], dim=-1)
+    return uv, equirect_dir(uv)
+
+
+def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def prefilter_level(chain: list[torch.Tensor], size: tuple[int, int], perceptual_roughness: float,
+                    samples: int) -> torch.Tensor:
+    """Twin of one dispatch of ``passes/ibl_prefilter.comp``: a ``[h, w, C]`` prefiltered level."""
+    h, w = size
+    h0, w0 = chain[0].shape[:2]
+    omega_p = torch.tensor(4.0 * math.pi / (w0 * h0), dtype=torch.float32)
+    max_lod = float(len(chain) - 1)
+    _, n = _texel_dirs(h, w)
+    n = n[:, :, None, :]  # [h, w, 1, 3]
+    r = torch.tensor(perceptual_roughness, dtype=torch.float32)
+    a = r * r
+    xi = hammersley_sequence(samples)  # [S, 2]
+    inv_samples = torch.tensor(1.0, dtype=torch.float32) / float(samples)
+    hv = tangent_to_world(importance_sample_ggx(xi, a).expand(h, w, samples, 3),
+                          n.expand(h, w, samples, 3))
+    NoH = _dot(n, hv)
+    l = 2.0 * NoH[..., None] * hv - n
+    NoL = _dot(n, l)
+    keep = NoL > 0.0
+    pdf = d_ggx(NoH, a) * 0.25
+    omega_s = inv_samples / pdf.clamp_min(1e-30)
+    lod = (0.5 * torch.log2(omega_s / omega_p) + 1.0).clamp(0.0, max_lod)
+    rad = sample_trilinear(chain, equirect_uv(l), lod)  # [h, w, S, C]
+    wgt = torch.where(keep, NoL, 0.0)
+    total = (rad * wgt[..., None]).sum(dim=2)
+    return total / wgt.sum(dim=2).clamp_min(1e-30)[..., None]
+
+
+def prefilter_environment(chain: list[torch.Tensor], levels: int, samples: int
+                          ) -> list[torch.Tensor]:
+    """Twin of the prefiltered chain of ``build_ibl``: level 0 = ``chain[0]``, level k = GGX
+    prefiltered at perceptual roughness k / (levels - 1) with ``samples`` Hammersley points."""
+    out = [chain[0]]
+    for k in range(1, levels):
+        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]), k / (levels - 1), samples))
+    return out
+
+
+def texel_solid_angle(h: int, w: int) -> torch.Tensor:
+    """Exact solid angle ``[h]`` of one texel in each equirect row (float32, as ``ibl_sh.comp``)."""
+    v = (torch.arange(h, dtype=torch.float32) + 0.5) / h
+    return (2.0 * math.pi / w) * 2.0 * torch.sin(math.pi * v) * math.sin(0.5 * math.pi / h)
+
+
+def sh_project(env: torch.Tensor) -> torch.Tensor:
+    """Twin of ``passes/ibl_sh.comp`` + the float64 reduction: ``[H, W, 3]`` -> ``[9, 3]``
+    radiance SH coefficients (float64)."""
+    h, w = env.shape[:2]
+    _, n = _texel_dirs(h, w)
+    weighted = env[..., :3].to(torch.float32) * texel_solid_angle(h, w)[:, None, None]
+    basis = sh_basis_all(n)  # [h, w, 9]
+    return (weighted[:, :, None, :] * basis[..., None]).to(torch.float64).sum(dim=(0, 1))
+
+
+def dfg_lut(size: int, samples: int) -> torch.Tensor:
+    """Twin of ``passes/ibl_dfg.comp``: ``[size (roughness), size (n.v), 2]`` float32."""
+    c = (torch.arange(size, dtype=torch.float32) + 0.5) / size
+    r, NoV = torch.meshgrid(c, c, indexing="ij")
+    a = (r * r)[..., None]
+    NoV = NoV[..., None]
+    v = torch.stack([torch.sqrt((1.0 - NoV * NoV).clamp_min(0.0)), torch.zeros_like(NoV), NoV],
+                    dim=-1)  # [size, size, 1, 3]
+    xi = hammersley_sequence(samples)
+    hv = importance_sample_ggx(xi, a)  # [size, size, S, 3]
+    VoH = _dot(v, hv)
+    l = 2.0 * VoH[..., None] * hv - v
+    NoL = l[..., 2]
+    g = v_smith_ggx_correlated(NoV, NoL, a) * 4.0 * VoH.clamp_min(0.0) * NoL \
+        / hv[..., 2].clamp_min(1e-30)
+    fc = f_schlick(torch.zeros(1, dtype=torch.float32), torch.ones_like(VoH), VoH)[..., 0]
+    keep = NoL > 0.0
+    gx = torch.where(keep, g * fc, 0.0).sum(dim=-1)
+    gy = torch.where(keep, g, 0.0).sum(dim=-1)
+    gx = gx / float(max(samples, 1))
+    gy = (gy / float(max(samples, 1))).clamp_max(1.0)
+    return torch.stack([torch.minimum(gx, gy), gy], dim=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# Parity cases and pass checks
+# ---------------------------------------------------------------------------------------------
+
+_DFG = Arg(lo=0.0, hi=1.0, components=2, adversarial=((0.0, 1.0), (1.0, 1.0), (0.5, 1e-6)))
+_F0 = Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
+
+PARITY_CASES = [
+    ParityCase("ibl_specular_dfg", (_DFG, _F0), atol=3e-7, rtol=1e-6,
+               measured="max abs 1.2e-7 (mix rounding)"),
+    ParityCase("ibl_energy_compensation", (_DFG, _F0), atol=0.0, rtol=1e-6,
+               measured="max rel 1.2e-7"),
+]
+
+
+def parity_environment(width: int = 64, seed: int = 0) -> np.ndarray:
+    """A small ``[width/2, width, 3]`` environment for pass checks: random positive radiance plus
+    a bright 3x3 spot (so the prefilter and SH see a high-frequency feature)."""
+    rng = np.random.default_rng(seed)
+    h = width // 2
+    env = rng.uniform(0.05, 1.0, size=(h, width, 3)).astype(np.float32)
+    env[h // 3: h // 3 + 3, width // 5: width // 5 + 3] = (40.0, 30.0, 20.0)
+    return env
+
+
+def _register_checks() -> None:
+    from learned.parity import compare, register_pass_check
+
+    cache: dict = {}
+
+    def built(programs):
+        """One small IBL per programs object, shared by the checks (and torch chains)."""
+        key = id(programs)
+        if key not in cache:
+            from viewer.ibl import IBLOptions, build_ibl
+
+            env = parity_environment()
+            opts = IBLOptions(prefilter_levels=5, prefilter_samples=32, dfg_size=32,
+                              dfg_samples=128)
+            ibl = build_ibl(programs, env, opts)
+            cache.clear()
+            cache[key] = (env, opts, ibl)
+        return cache[key]
+
+    @register_pass_check("ibl_downsample")
+    def check_downsample(programs):
+        env, opts, ibl = built(programs)
+        chain = radiance_chain(torch.from_numpy(env))
+        gl = np.concatenate([ibl.read_level("radiance", k)[..., :3].ravel()
+                             for k in range(len(chain))])
+        ref = np.concatenate([c.numpy().ravel() for c in chain])
+        return [compare("ibl_downsample", gl, ref, atol=0.0, rtol=1e-6, kind="pass",
+                        measured="exact (0 abs), all 7 levels of a 64x32 env")]
+
+    @register_pass_check("ibl_prefilter")
+    def check_prefilter(programs):
+        env, opts, ibl = built(programs)
+        chain = radiance_chain(torch.from_numpy(env))
+        with torch.no_grad():
+            ref = prefilter_environment(chain, ibl.levels, opts.prefilter_samples)
+        gl = np.concatenate([ibl.read_level("prefiltered", k)[..., :3].ravel()
+                             for k in range(ibl.levels)])
+        ref = np.concatenate([r[..., :3].numpy().ravel() for r in ref])
+        return [compare("ibl_prefilter", gl, ref, atol=1e-5, rtol=1e-4, kind="pass",
+                        measured="max abs 2.8e-4 (values to 40), max rel 2.0e-5")]
+
+    @register_pass_check("ibl_sh")
+    def check_sh(programs):
+        env, opts, ibl = built(programs)
+        ref = sh_project(torch.from_numpy(env)).numpy()
+        scale = float(np.abs(ref).max())
+        return [compare("ibl_sh", ibl.sh, ref, atol=1e-6 * scale, rtol=1e-5, kind="pass",
+                        measured="max abs 1.2e-7, max rel 1.7e-7")]
+
+    @register_pass_check("ibl_dfg_lut")
+    def check_dfg(programs):
+        env, opts, ibl = built(programs)
+        with torch.no_grad():
+            ref = dfg_lut(opts.dfg_size, opts.dfg_samples).numpy()
+        return [compare("ibl_dfg_lut", ibl.read_level("dfg"), ref, atol=2e-6, rtol=1e-5,
+                        kind="pass", measured="max abs 4.8e-7, max rel 3.8e-6")]
+
+    @register_pass_check("ibl_lookups")
+    def check_lookups(programs):
+        env, opts, ibl = built(programs)
+        n = 4096
+        rng = np.random.default_rng(1)
+        dirs = rng.normal(size=(n, 3)).astype(np.float32)
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        rough = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
+        rough[:8] = (0.0, 1.0, 0.25, 0.5, 0.75, 0.045, 1e-3, 0.999)
+        nov = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
+        nov[:4] = (0.0, 1.0, 1e-4, 0.5)
+        spec_gl, dfg_gl = _eval_lookups(programs, ibl, dirs, rough, nov)
+        pre = [torch.from_numpy(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)]
+        lut = torch.from_numpy(ibl.read_level("dfg"))
+        with torch.no_grad():
+            spec = ibl_specular_radiance(pre, torch.from_numpy(dirs), torch.from_numpy(rough),
+                                         float(ibl.levels)).numpy()
+            dfg = ibl_dfg(lut, torch.from_numpy(nov), torch.from_numpy(rough)).numpy()
+        scale = float(np.abs(spec).max())
+        return [compare("ibl_specular_radiance", spec_gl, spec, atol=5e-5 * scale, rtol=1e-4,
+                        kind="pass", measured="max abs 4.7e-4 (values to 40: 1.2e-5 of the "
+                        "scale), uv (atan) differences times texel contrast"),
+                compare("ibl_dfg", dfg_gl, dfg, atol=1e-5, rtol=1e-4, kind="pass",
+                        measured="max abs 6e-8")]
+
+    @register_pass_check("sh_irradiance")
+    def check_sh_irradiance(programs):
+        rng = np.random.default_rng(2)
+        sh = rng.normal(size=(9, 3)).astype(np.float32)
+        sh[0] += 4.0  # mostly positive irradiance, some clamped
+        n = 4096
+        normals = rng.normal(size=(n, 3)).astype(np.float32)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        gl = eval_sh_irradiance(programs, normals, sh)
+        with torch.no_grad():
+            ref = sh_irradiance(torch.from_numpy(normals), torch.from_numpy(sh)).numpy()
+        return [compare("sh_irradiance", gl, ref, atol=1e-5, rtol=1e-5, kind="pass",
+                        measured="max abs 1.9e-6, max rel 5.9e-7")]
+
+
+_LOOKUP_KERNEL = """
+#include "lib/ibl.glsl"
+layout(local_size_x = 64) in;
+uniform uint u_count;
+uniform sampler2D u_pre;
+uniform sampler2D u_lut;
+uniform float u_levels;
+layout(std430, binding = 0) readonly buffer In { float inv[]; };   // [n][5] dir, r, NoV
+layout(std430, binding = 1) writeonly buffer Out { float outv[]; }; // [n][5] rgb, dfg
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= u_count) return;
+    vec3 d = vec3(inv[5u * i], inv[5u * i + 1u], inv[5u * i + 2u]);
+    vec3 s = ibl_specular_radiance(u_pre, d, inv[5u * i + 3u], u_levels);
+    vec2 g = ibl_dfg(u_lut, inv[5u * i + 4u], inv[5u * i + 3u]);
+    outv[5u * i] = s.x; outv[5u * i + 1u] = s.y; outv[5u * i + 2u] = s.z;
+    outv[5u * i + 3u] = g.x; outv[5u * i + 4u] = g.y;
+}
+"""
+
+_SH_KERNEL = """
+#include "lib/sh.glsl"
+layout(local_size_x = 64) in;
+uniform uint u_count;
+uniform vec3 u_sh[9];
+layout(std430, binding = 0) readonly buffer In { float inv[]; };
+layout(std430, binding = 1) writeonly buffer Out { float outv[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= u_count) return;
+    vec3 e = sh_irradiance(vec3(inv[3u * i], inv[3u * i + 1u], inv[3u * i + 2u]), u_sh);
+    outv[3u * i] = e.x; outv[3u * i + 1u] = e.y; outv[3u * i + 2u] = e.z;
+}
+"""
+
+
+def _run_kernel(programs, name: str, source: str, inputs: np.ndarray, out_width: int, setup):
+    ctx = programs.ctx
+    prog = programs.compute(name, virtual={name: source})
+    count = inputs.shape[0]
+    src = ctx.buffer(np.ascontiguousarray(inputs, dtype=np.float32).tobytes())
+    dst = ctx.buffer(reserve=max(4, 4 * out_width * count))
+    try:
+        setup(prog)
+        src.bind_to_storage_buffer(0)
+        dst.bind_to_storage_buffer(1)
+        prog["u_count"].value = count
+        prog.run((count + 63) // 64)
+        ctx.memory_barrier()
+        return np.frombuffer(dst.read(), dtype=np.float32)[: out_width * count].reshape(
+            count, out_width).copy()
+    finally:
+        src.release()
+        dst.release()
+
+
+def _eval_lookups(programs, ibl, dirs, rough, nov):
+    """GL ``ibl_specular_radiance`` and ``ibl_dfg`` on the textures of ``ibl``."""
+
+    def setup(prog):
+        ibl.prefiltered.use(location=0)
+        ibl.dfg.use(location=1)
+        prog["u_pre"].value = 0
+        prog["u_lut"].value = 1
+        prog["u_levels"].value = float(ibl.levels)
+
+    inputs = np.concatenate([dirs, rough[:, None], nov[:, None]], axis=1)
+    out = _run_kernel(programs, "<kernel:ibl_lookups>", _LOOKUP_KERNEL, inputs, 5, setup)
+    return out[:, :3], out[:, 3:]
+
+
+def eval_sh_irradiance(programs, normals: np.ndarray, sh: np.ndarray) -> np.ndarray:
+    """GL ``sh_irradiance`` for unit normals ``[n, 3]`` and coefficients ``[9, 3]`` -> ``[n, 3]``."""
+
+    def setup(prog):
+        prog["u_sh"].write(np.ascontiguousarray(sh, dtype=np.float32).tobytes())
+
+    return _run_kernel(programs, "<kernel:sh_irradiance>", _SH_KERNEL, normals, 3, setup)
+
+
+_register_checks()

@@ -1,0 +1,169 @@
+"""Image-space G-buffer stacks: the 12-channel EXR round trip and FFHQ256-PBR sample folders."""
+import json
+
+import numpy as np
+import pytest
+
+from viewer.camera import Camera
+from viewer.errors import InputError
+from viewer.geometry.imagespace import (ImageGBuffer, load_ffhq_pbr, load_stack_exr,
+                                        save_stack_exr, view_dirs_cs)
+from viewer.geometry.mesh import srgb_to_linear
+from viewer.imageio import read_image, write_exr, write_png
+
+H, W = 12, 16
+
+
+def _stack(seed=0) -> ImageGBuffer:
+    rng = np.random.default_rng(seed)
+    n = rng.normal(size=(H, W, 3)) + [0, 0, 2]
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    alpha = np.ones((H, W, 1), np.float32)
+    alpha[:3] = 0
+    fg = alpha > 0
+    ch = {"albedo": rng.random((H, W, 3)), "normal": n, "roughness": rng.random((H, W, 1)),
+          "specular": rng.random((H, W, 1)), "depth": 1 + rng.random((H, W, 1)) * 700,
+          "alpha": alpha}
+    ch = {k: v.astype(np.float32) for k, v in ch.items()}
+    bg = {"albedo": 0.0, "normal": 0.0, "roughness": 1.0, "specular": 0.5, "depth": 0.0}
+    for k, v in bg.items():  # canonical background, as the loaders produce
+        ch[k] = np.where(fg, ch[k], np.float32(v))
+    ch["metallic"] = np.zeros((H, W, 1), np.float32)
+    ch["ao"] = np.ones((H, W, 1), np.float32)
+    return ImageGBuffer(channels=ch, fov_y=27.5)
+
+
+def test_stack_exr_round_trip(tmp_path):
+    g = _stack()
+    path = tmp_path / "stack.exr"
+    save_stack_exr(path, g, near=1.0, far=800.0)
+    arr, names = read_image(path)
+    assert arr.shape == (H, W, 12)
+    # depth is normalised by appendix B.2 and replicated to the three coordinate channels
+    d = g.channels["depth"][5, 5, 0]
+    for c in ("coord.X", "coord.Y", "coord.Z"):
+        assert arr[5, 5, names.index(c)] == pytest.approx((d - 1.0) / 799.0, rel=1e-6)
+    back = load_stack_exr(path, fov_y=10.0)
+    assert back.fov_y == pytest.approx(27.5)  # the attribute wins over the argument
+    assert back.size == (W, H)
+    for name, want in g.channels.items():
+        atol = 1e-4 if name == "depth" else 1e-6  # depth: float32 of (D - 1) / 799
+        np.testing.assert_allclose(back.channels[name], want, atol=atol, err_msg=name)
+
+
+def test_stack_exr_positional_channels_and_fov_argument(tmp_path):
+    """A file from elsewhere: generic channel names, (x, y, z) coordinates, no fov attribute."""
+    rng = np.random.default_rng(1)
+    arr = rng.random((H, W, 12)).astype(np.float32)
+    arr[:, :, 8:11] = np.float32([0.5, 0.5, 1.0])  # normal (0, 0, 1)
+    arr[:, :, 11] = 1.0
+    arr[:, :, 7] = 0.25
+    path = tmp_path / "generic.exr"
+    write_exr(path, arr, [f"c{i:02d}" for i in range(12)])
+    g = load_stack_exr(path, fov_y=30.0, near=2.0, far=10.0)
+    assert g.fov_y == 30.0
+    np.testing.assert_allclose(g.channels["depth"], 2.0 + 0.25 * 8.0)
+    np.testing.assert_allclose(g.channels["albedo"], arr[:, :, :3])
+    np.testing.assert_allclose(g.channels["normal"][..., 2], 1.0)
+
+
+def test_stack_exr_validation(tmp_path):
+    bad = tmp_path / "eleven.exr"
+    write_exr(bad, np.zeros((4, 4, 11), np.float32))
+    with pytest.raises(InputError, match="eleven.exr.*11 channels"):
+        load_stack_exr(bad, fov_y=30)
+    nan = tmp_path / "nan.exr"
+    arr = np.full((4, 4, 12), 0.5, np.float32)
+    arr[1, 2, 9] = np.nan
+    write_exr(nan, arr, [f"c{i:02d}" for i in range(12)])
+    with pytest.raises(InputError, match="nan.exr.*normal.*NaN"):
+        load_stack_exr(nan, fov_y=30)
+    arr[1, 2, 9] = 0.5
+    write_exr(nan, arr, [f"c{i:02d}" for i in range(12)])
+    with pytest.raises(InputError, match="nan.exr.*no fov_y"):
+        load_stack_exr(nan)
+
+
+def _write_ffhq(folder, size=(W, H), **overrides):
+    folder.mkdir(exist_ok=True)
+    w, h = size
+    rng = np.random.default_rng(2)
+    u8 = lambda a: np.clip(np.round(a * 255), 0, 255).astype(np.uint8)  # noqa: E731
+    files = {
+        "rgb.png": lambda p: write_png(p, u8(rng.random((h, w, 3)))),
+        "albedo.png": lambda p: write_png(p, u8(np.full((h, w, 3), 0.5))),
+        "normal.png": lambda p: write_png(p, u8(np.full((h, w, 3), (0.5, 0.5, 1.0)))),
+        "roughness.png": lambda p: write_png(p, u8(np.full((h, w, 1), 0.4))),
+        "specular.png": lambda p: write_png(p, u8(np.full((h, w, 1), 0.6))),
+        "depth.exr": lambda p: write_exr(p, np.full((h, w, 1), 3.5, np.float32)),
+        "mask.png": lambda p: write_png(p, u8(np.tile((np.arange(w) >= 4)[None, :, None],
+                                                      (h, 1, 1)))),
+        "env.exr": lambda p: write_exr(p, np.ones((4, 8, 3), np.float32)),
+    }
+    files.update(overrides)
+    for name, writer in files.items():
+        if writer is not None:
+            writer(folder / name)
+    (folder / "camera.json").write_text(json.dumps({"fov_y": 12.0}))
+    return folder
+
+
+def test_ffhq_folder(tmp_path):
+    g = load_ffhq_pbr(_write_ffhq(tmp_path / "00001"))
+    assert g.size == (W, H) and g.fov_y == 12.0
+    assert g.environment.name == "env.exr"
+    assert g.target.shape == (H, W, 3)
+    fg = g.channels["alpha"][..., 0] > 0
+    assert fg.sum() == (W - 4) * H and (g.channels["alpha"][fg] == 1).all()
+    np.testing.assert_allclose(g.channels["albedo"][fg], srgb_to_linear(np.float32(128 / 255)),
+                               atol=1e-6)
+    np.testing.assert_allclose(g.channels["normal"][fg], np.tile([0, 0, 1], (fg.sum(), 1)),
+                               atol=0.005)  # 8-bit 128 decodes to 2 * 128 / 255 - 1 = 0.0039
+    np.testing.assert_allclose(np.linalg.norm(g.channels["normal"][fg], axis=-1), 1, atol=1e-6)
+    np.testing.assert_allclose(g.channels["depth"][fg], 3.5)
+    np.testing.assert_allclose(g.channels["roughness"][fg], 102 / 255, atol=1e-6)
+    np.testing.assert_allclose(g.channels["ao"], 1.0)
+    # background takes the G-buffer background values
+    assert (g.channels["depth"][~fg] == 0).all() and (g.channels["normal"][~fg] == 0).all()
+
+
+def test_ffhq_depth_png_is_denormalised(tmp_path):
+    folder = _write_ffhq(tmp_path / "s", **{
+        "depth.exr": None,
+        "depth.png": lambda p: write_png(p, np.full((H, W, 1), 51, np.uint8))})
+    g = load_ffhq_pbr(folder)
+    fg = g.channels["alpha"][..., 0] > 0
+    np.testing.assert_allclose(g.channels["depth"][fg], 1.0 + 0.2 * 799.0, rtol=1e-6)
+
+
+def test_ffhq_validation(tmp_path):
+    small = lambda p: write_png(p, np.full((H // 2, W // 2, 3), 128, np.uint8))  # noqa: E731
+    with pytest.raises(InputError, match=r"normal.png.*8x6.*16x12"):
+        load_ffhq_pbr(_write_ffhq(tmp_path / "a", **{"normal.png": small}))
+    grey = lambda p: write_png(p, np.full((H, W, 1), 128, np.uint8))  # noqa: E731
+    with pytest.raises(InputError, match=r"normal.png.*1 channels"):
+        load_ffhq_pbr(_write_ffhq(tmp_path / "b", **{"normal.png": grey}))
+    with pytest.raises(InputError, match=r"missing required channel 'albedo'"):
+        load_ffhq_pbr(_write_ffhq(tmp_path / "c", **{"albedo.png": None}))
+    nan_depth = np.full((H, W, 1), 3.0, np.float32)
+    nan_depth[2, 3] = np.inf
+    with pytest.raises(InputError, match=r"depth.exr.*NaN/Inf"):
+        load_ffhq_pbr(_write_ffhq(tmp_path / "d",
+                                  **{"depth.exr": lambda p: write_exr(p, nan_depth)}))
+
+
+def test_ffhq_zero_normals_face_the_camera(tmp_path):
+    normal = np.full((H, W, 3), (128, 128, 255), np.uint8)
+    normal[5, 10] = (127, 127, 127)  # decodes to ~(-0.004, -0.004, -0.004): zero length
+    folder = _write_ffhq(tmp_path / "z", **{"normal.png": lambda p: write_png(p, normal)})
+    with pytest.warns(UserWarning, match="1 zero-length normals"):
+        g = load_ffhq_pbr(folder)
+    np.testing.assert_allclose(g.channels["normal"][5, 10], [0, 0, 1])
+
+
+def test_view_dirs_match_camera():
+    d = view_dirs_cs(8, 6, 40.0)
+    cam = Camera(position=(0, 0, 0), target=(0, 0, -1), fov_y=40.0, size=(8, 6))
+    np.testing.assert_allclose(d, cam.view_rays_ws(), atol=1e-7)
+    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0 and (d[..., 2] < 0).all()  # row 0 is the top
+    np.testing.assert_allclose(np.linalg.norm(d, axis=-1), 1, atol=1e-6)

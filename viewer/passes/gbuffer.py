@@ -1,0 +1,283 @@
+"""The G-buffer fill pass: triangle meshes and image-space stacks -> the layout's render targets.
+
+:class:`GBufferTargets` owns one RGBA texture per layout attachment plus a depth texture;
+:class:`GBufferPass` draws meshes (``passes/gbuffer_mesh.vert`` + ``.frag``, one program variant per
+combination of texture maps) and image stacks (``passes/fullscreen.vert`` + ``gbuffer_image.frag``)
+into them. Both write through ``gbuffer_store`` of the generated ``generated/gbuffer.glsl``.
+
+Mesh pass variants (prepended defines): ``USE_BASE_COLOR_MAP``, ``USE_METALLIC_ROUGHNESS_MAP``,
+``USE_NORMAL_MAP``, ``USE_OCCLUSION_MAP``; ``USE_UV`` with any of them; ``HAS_TANGENTS`` when a
+normal-mapped mesh has vertex tangents (otherwise a cotangent frame from screen derivatives).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..camera import Camera, gl_bytes
+from ..errors import InputError
+from ..gbuffer import GBufferLayout
+from ..geometry.imagespace import ImageGBuffer
+from ..geometry.mesh import Mesh
+
+_MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
+                "metallic_roughness": "USE_METALLIC_ROUGHNESS_MAP",
+                "normal": "USE_NORMAL_MAP", "occlusion": "USE_OCCLUSION_MAP"}
+
+
+@dataclass
+class GBufferTargets:
+    """Render targets for one G-buffer: attachment index -> RGBA texture, plus depth."""
+
+    ctx: object
+    layout: GBufferLayout
+    size: tuple[int, int]  # (W, H)
+    textures: dict[int, object]  # attachment index -> moderngl.Texture (layout.dtype, NEAREST)
+    depth: object  # moderngl depth texture (24-bit: moderngl cannot allocate DEPTH32F)
+    fbo: object
+    _clear_fbos: dict[int, object] = field(default_factory=dict)
+    _clear_values: dict[int, tuple[float, ...]] = field(default_factory=dict)
+
+    @classmethod
+    def create(cls, ctx, layout: GBufferLayout, size: tuple[int, int]) -> "GBufferTargets":
+        w, h = int(size[0]), int(size[1])
+        attachments = layout.attachments
+        if attachments != tuple(range(len(attachments))):
+            raise ValueError(f"layout attachments {attachments} are not 0..n-1")
+        textures = {}
+        for a in attachments:
+            tex = ctx.texture((w, h), 4, dtype=layout.dtype)
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            tex.repeat_x = tex.repeat_y = False
+            textures[a] = tex
+        depth = ctx.depth_texture((w, h))
+        fbo = ctx.framebuffer(color_attachments=[textures[a] for a in attachments],
+                              depth_attachment=depth)
+        packed = layout.pack(layout.background(1, 1))
+        targets = cls(ctx=ctx, layout=layout, size=(w, h), textures=textures, depth=depth, fbo=fbo)
+        for a in attachments:
+            targets._clear_fbos[a] = ctx.framebuffer(color_attachments=[textures[a]])
+            targets._clear_values[a] = tuple(float(v) for v in packed[a][0, 0])
+        return targets
+
+    def clear(self) -> None:
+        """Depth to 1 and every attachment to the layout's packed background values."""
+        self.fbo.clear(depth=1.0)
+        for a, fbo in self._clear_fbos.items():
+            fbo.clear(*self._clear_values[a])
+
+    def read(self, names=None) -> dict[str, np.ndarray]:
+        """Channel name -> ``[H, W, C]`` float32, row 0 at the top (default: every channel)."""
+        channels = self.layout.channels
+        if names is not None:
+            wanted = set(names)
+            unknown = wanted - {c.name for c in channels}
+            if unknown:
+                raise KeyError(f"not in this G-buffer layout: {', '.join(sorted(unknown))}")
+            channels = tuple(c for c in channels if c.name in wanted)
+        w, h = self.size
+        raw = {}
+        for a in sorted({c.attachment for c in channels}):
+            data = self.fbo.read(viewport=(0, 0, w, h), components=4, attachment=a, dtype="f4")
+            raw[a] = np.frombuffer(data, np.float32).reshape(h, w, 4)[::-1]
+        return {c.name: raw[c.attachment][:, :, c.offset:c.offset + c.components].copy()
+                for c in channels}
+
+    def release(self) -> None:
+        for fbo in self._clear_fbos.values():
+            fbo.release()
+        self._clear_fbos.clear()
+        self.fbo.release()
+        for tex in self.textures.values():
+            tex.release()
+        self.depth.release()
+
+
+@dataclass
+class _Uploaded:
+    mesh: Mesh  # held so id(mesh) cannot be reused while the entry lives
+    vao: object
+    buffers: list
+    textures: dict[str, object]  # map key -> texture (shared through GBufferPass._textures)
+    defines: dict[str, int]
+
+
+class GBufferPass:
+    """Fills a :class:`GBufferTargets` from meshes and image-space stacks."""
+
+    def __init__(self, programs, layout: GBufferLayout):
+        self.programs = programs
+        self.ctx = programs.ctx
+        self.layout = layout
+        self._meshes: dict[int, _Uploaded] = {}
+        self._textures: dict[int, tuple[np.ndarray, object]] = {}  # id(array) -> (array, texture)
+        self._empty_vao = None
+
+    # ---- meshes ----------------------------------------------------------------------------------
+    def mesh_defines(self, mesh: Mesh) -> dict[str, int]:
+        """The program variant for ``mesh``: one define per texture map it has (and can use)."""
+        if mesh.uvs is None:
+            return {}
+        defines = {_MAP_DEFINES[k]: 1 for k in mesh.textures if k in _MAP_DEFINES}
+        if defines:
+            defines["USE_UV"] = 1
+        if "USE_NORMAL_MAP" in defines and mesh.tangents is not None:
+            defines["HAS_TANGENTS"] = 1
+        return defines
+
+    def _program(self, defines: dict[str, int]):
+        return self.programs.graphics("passes/gbuffer_mesh.vert", "passes/gbuffer_mesh.frag",
+                                      defines=defines, virtual=self.layout.virtual_files())
+
+    def _texture(self, image: np.ndarray):
+        key = id(image)
+        if key not in self._textures:
+            arr = np.asarray(image, np.float32)
+            if arr.ndim == 2:
+                arr = arr[:, :, None]
+            h, w, c = arr.shape
+            rgba = np.zeros((h, w, 4), np.float16)
+            rgba[:, :, 3] = 1.0
+            rgba[:, :, :c] = arr[:, :, :4]
+            if c == 1:  # grey: replicate so .rgb reads the value
+                rgba[:, :, 1] = rgba[:, :, 2] = rgba[:, :, 0]
+            # numpy row 0 (the image top) becomes texture row t = 0, which is where glTF uv v = 0
+            # samples: no flip.
+            tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes(), dtype="f2")
+            tex.build_mipmaps()
+            tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
+            tex.anisotropy = 8.0
+            self._textures[key] = (image, tex)
+        return self._textures[key][1]
+
+    def _upload(self, mesh: Mesh) -> _Uploaded:
+        entry = self._meshes.get(id(mesh))
+        if entry is not None and entry.mesh is mesh:
+            return entry
+        mesh.validated()
+        defines = self.mesh_defines(mesh)
+        prog = self._program(defines)
+        arrays = {"in_position": (mesh.positions, "3f"), "in_normal": (mesh.normals, "3f")}
+        if "USE_UV" in defines:
+            arrays["in_uv"] = (mesh.uvs, "2f")
+        if "HAS_TANGENTS" in defines:
+            arrays["in_tangent"] = (mesh.tangents, "4f")
+        buffers, content = [], []
+        for name, (arr, fmt) in arrays.items():
+            buf = self.ctx.buffer(np.ascontiguousarray(arr, np.float32).tobytes())
+            buffers.append(buf)
+            if name in prog:  # the compiler may drop an unused attribute
+                content.append((buf, fmt, name))
+        ibo = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
+        buffers.append(ibo)
+        vao = self.ctx.vertex_array(prog, content, index_buffer=ibo, index_element_size=4)
+        textures = {k: self._texture(mesh.textures[k]) for k in mesh.textures
+                    if _MAP_DEFINES.get(k) in defines}
+        entry = _Uploaded(mesh=mesh, vao=vao, buffers=buffers, textures=textures, defines=defines)
+        self._meshes[id(mesh)] = entry
+        return entry
+
+    def draw_meshes(self, targets: GBufferTargets, camera: Camera, meshes: list[Mesh]) -> None:
+        """Rasterise ``meshes`` into ``targets``, depth-tested (call ``targets.clear()`` first).
+
+        The camera is used at the targets' size; its own ``size`` is ignored. Each mesh is
+        uploaded on first use and cached by identity: after editing a mesh's arrays in place,
+        :meth:`release` (or draw a new :class:`Mesh`).
+        """
+        camera = camera.with_size(*targets.size)
+        view, proj = gl_bytes(camera.view_matrix()), gl_bytes(camera.projection_matrix())
+        ctx = self.ctx
+        targets.fbo.use()
+        ctx.viewport = (0, 0, *targets.size)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        try:
+            for mesh in meshes:
+                entry = self._upload(mesh)
+                prog = entry.vao.program
+                _write(prog, "u_view", view)
+                _write(prog, "u_projection", proj)
+                m = mesh.material
+                _set(prog, "u_albedo", tuple(float(c) for c in m.albedo))
+                _set(prog, "u_roughness", float(m.roughness))
+                _set(prog, "u_metallic", float(m.metallic))
+                _set(prog, "u_specular", float(m.specular))
+                _set(prog, "u_ao", float(m.ao))
+                _set(prog, "u_normal_scale", float(mesh.normal_scale))
+                _set(prog, "u_occlusion_strength", float(mesh.occlusion_strength))
+                for unit, (key, tex) in enumerate(entry.textures.items()):
+                    tex.use(unit)
+                    _set(prog, f"u_{key}_map", unit)
+                entry.vao.render(ctx.TRIANGLES)
+        finally:
+            ctx.disable(ctx.DEPTH_TEST)
+
+    # ---- image stacks ----------------------------------------------------------------------------
+    def draw_image(self, targets: GBufferTargets, image: ImageGBuffer,
+                   camera: Camera | None = None) -> None:
+        """Write the stack's foreground pixels into ``targets`` (same size required).
+
+        ``gl_FragDepth`` comes from the stored depth through ``camera``'s projection (default:
+        ``image.camera()``, the stack's own camera at the origin), so meshes drawn with the same
+        camera depth-test correctly against the stack. Background pixels (alpha 0) are not written.
+        """
+        if tuple(image.size) != tuple(targets.size):
+            raise InputError(f"image G-buffer is {image.size[0]}x{image.size[1]} but the render "
+                             f"targets are {targets.size[0]}x{targets.size[1]}",
+                             where=image.source)
+        camera = (camera or image.camera()).with_size(*targets.size)
+        ctx = self.ctx
+        w, h = targets.size
+        known = {c.name for c in self.layout.channels}
+        packed = self.layout.pack({k: v for k, v in image.channels.items() if k in known})
+        prog = self.programs.graphics("passes/fullscreen.vert", "passes/gbuffer_image.frag",
+                                      virtual=self.layout.virtual_files())
+        uploads = []
+        try:
+            for unit, (a, arr) in enumerate(sorted(packed.items())):
+                tex = ctx.texture((w, h), 4, np.ascontiguousarray(arr, np.float32).tobytes(),
+                                  dtype="f4")
+                tex.filter = (ctx.NEAREST, ctx.NEAREST)
+                uploads.append(tex)
+                tex.use(unit)
+                _set(prog, f"u_gbuffer{a}", unit)
+            _write(prog, "u_projection", gl_bytes(camera.projection_matrix()))
+            _set(prog, "u_height", h)
+            if self._empty_vao is None or self._empty_vao.program is not prog:
+                if self._empty_vao is not None:
+                    self._empty_vao.release()
+                self._empty_vao = ctx.vertex_array(prog, [])
+            targets.fbo.use()
+            ctx.viewport = (0, 0, w, h)
+            ctx.enable(ctx.DEPTH_TEST)
+            ctx.disable(ctx.BLEND)
+            self._empty_vao.render(ctx.TRIANGLES, vertices=3)
+        finally:
+            ctx.disable(ctx.DEPTH_TEST)
+            for tex in uploads:
+                tex.release()
+
+    def release(self) -> None:
+        """Free every uploaded mesh and texture."""
+        for entry in self._meshes.values():
+            entry.vao.release()
+            for buf in entry.buffers:
+                buf.release()
+        self._meshes.clear()
+        for _, tex in self._textures.values():
+            tex.release()
+        self._textures.clear()
+        if self._empty_vao is not None:
+            self._empty_vao.release()
+            self._empty_vao = None
+
+
+def _set(prog, name: str, value) -> None:
+    if name in prog:
+        prog[name].value = value
+
+
+def _write(prog, name: str, data: bytes) -> None:
+    if name in prog:
+        prog[name].write(data)

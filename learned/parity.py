@@ -130,6 +130,7 @@ def coverage() -> list[str]:
 def run_parity(programs, model: str | None = None, seed: int = 0) -> list[ParityResult]:
     """All library functions (unless ``model`` narrows to one model's passes) and pass checks."""
     results: list[ParityResult] = []
+    twin_modules()  # importing the twin modules registers their pass checks
     if model is None:
         for case in library_cases().values():
             results.append(check_function(programs, case, seed))

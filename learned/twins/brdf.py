@@ -35,6 +35,11 @@ def compute_f0(base_color: torch.Tensor, metallic: torch.Tensor, specular: torch
     return f0_dielectric * (1.0 - m) + base_color * m  # GLSL mix(x, y, a) = x (1 - a) + y a
 
 
+def f90_from_f0(f0: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float f90_from_f0(vec3 f0)`` (Filament): 1 for real materials, 0 when f0 = 0."""
+    return (f0 * (50.0 * 0.33)).sum(-1).clamp(0.0, 1.0)
+
+
 def d_ggx(NoH: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """GLSL ``float d_ggx(float NoH, float a)`` (Walter et al. 2007 eq. 33)."""
     NoH = saturate(NoH)
@@ -87,6 +92,9 @@ PARITY_CASES = [
     ParityCase("compute_f0", (Arg(components=3), Arg(lo=-0.5, hi=1.5, adversarial=(0.0, 1.0)),
                               Arg(lo=0.0, hi=1.0, adversarial=(0.0, 0.5, 1.0))),
                atol=1e-7, rtol=1e-6, measured="exact (0 abs) on llvmpipe"),
+    ParityCase("f90_from_f0", (Arg(components=3, adversarial=((0, 0, 0), (0.02, 0.02, 0.02),
+                                                           (1, 1, 1), (0.001, 0, 0))),),
+               atol=1e-7, rtol=1e-6, measured="max abs 6e-8"),
     ParityCase("d_ggx", (_DOT, _ALPHA), atol=0.0, rtol=1e-5,
                measured="exact (0 rel) on llvmpipe, seeds 0-3"),
     ParityCase("v_smith_ggx_correlated", (_DOT, _DOT, _ALPHA), atol=0.0, rtol=1e-5,

@@ -91,11 +91,11 @@ def ibl_dfg(dfg: torch.Tensor, NoV: torch.Tensor, perceptual_roughness: torch.Te
     return sample_bilinear(dfg, uv, repeat_u=False)[..., :2]
 
 
-def ibl_specular_dfg(dfg: torch.Tensor, f0: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 ibl_specular_dfg(vec2 dfg, vec3 f0)`` = mix(dfg.x, dfg.y, f0)."""
+def ibl_specular_dfg(dfg: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ibl_specular_dfg(vec2 dfg, vec3 f0, float f90)`` = f0 (y - x) + f90 x."""
     x = dfg[..., 0:1]
     y = dfg[..., 1:2]
-    return x * (1.0 - f0) + y * f0
+    return f0 * (y - x) + f90[..., None] * x
 
 
 def ibl_energy_compensation(dfg: torch.Tensor, f0: torch.Tensor) -> torch.Tensor:
@@ -228,8 +228,8 @@ _DFG = Arg(lo=0.0, hi=1.0, components=2, adversarial=((0.0, 1.0), (1.0, 1.0), (0
 _F0 = Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
 
 PARITY_CASES = [
-    ParityCase("ibl_specular_dfg", (_DFG, _F0), atol=3e-7, rtol=1e-6,
-               measured="max abs 1.2e-7 (mix rounding)"),
+    ParityCase("ibl_specular_dfg", (_DFG, _F0, Arg(adversarial=(0.0, 1.0))), atol=3e-7, rtol=1e-6,
+               measured="max abs 1.2e-7 (fma rounding)"),
     ParityCase("ibl_energy_compensation", (_DFG, _F0), atol=0.0, rtol=1e-6,
                measured="max rel 1.2e-7"),
 ]

@@ -35,10 +35,11 @@ def ggx_split_sum(diffuse: torch.Tensor, f0: torch.Tensor, ao: torch.Tensor,
 
     diffuse, f0, irradiance, prefiltered: [..., 3]; ao, multiscatter: [...]; dfg: [..., 2].
     """
+    from .brdf import f90_from_f0
     from .ibl import ibl_energy_compensation, ibl_specular_dfg
 
     fd = diffuse * irradiance * INV_PI * ao[..., None]
-    spec = ibl_specular_dfg(dfg, f0) * prefiltered
+    spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0)) * prefiltered
     comp = ibl_energy_compensation(dfg, f0)
     spec = torch.where((multiscatter > 0.5)[..., None], spec * comp, spec)
     return fd + spec

@@ -24,6 +24,12 @@ vec3 compute_f0(vec3 base_color, float metallic, float specular) {
     return mix(vec3(f0_dielectric), base_color, saturate(metallic));
 }
 
+// Filament sec. 5.6 (specular occlusion from f0): Schlick's grazing reflectance f90, 1 for any
+// real material (f0 >= 0.02) and 0 when f0 = 0, so "specular = 0" removes the lobe entirely.
+float f90_from_f0(vec3 f0) {
+    return saturate(dot(f0, vec3(50.0 * 0.33)));
+}
+
 // Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces", eq. 33 (GGX NDF).
 float d_ggx(float NoH, float a) {
     // D = a^2 / (pi (NoH^2 (a^2 - 1) + 1)^2), with the bracket written as

@@ -21,9 +21,11 @@ vec2 ibl_dfg(sampler2D dfg, float NoV, float perceptual_roughness) {
 }
 
 // Filament "Physically Based Rendering in Filament" sec. 5.3.4.3 (eq. 69): specular reflectance
-// f0 * (dfg.y - dfg.x) + dfg.x, with dfg.x = integral of Fc * Vis and dfg.y = integral of Vis.
-vec3 ibl_specular_dfg(vec2 dfg, vec3 f0) {
-    return mix(dfg.xxx, dfg.yyy, f0);
+// f0 * (dfg.y - dfg.x) + f90 * dfg.x, with dfg.x = integral of Fc * Vis and dfg.y = integral of
+// Vis. With f90 = 1 this is mix(dfg.x, dfg.y, f0); f90 < 1 (f90_from_f0) lets f0 = 0 mean "no
+// specular lobe" even at grazing angles.
+vec3 ibl_specular_dfg(vec2 dfg, vec3 f0, float f90) {
+    return f0 * (dfg.y - dfg.x) + f90 * dfg.x;
 }
 
 // Filament sec. 4.7.2 (multiple-scattering energy compensation, Fdez-Aguera 2019 / Kulla-Conty

@@ -29,7 +29,7 @@ vec3 shading_normal(vec3 n, vec3 v) {
 vec3 ggx_split_sum(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefiltered, vec2 dfg,
                    float multiscatter) {
     vec3 fd = diffuse * irradiance * INV_PI * ao;
-    vec3 spec = ibl_specular_dfg(dfg, f0) * prefiltered;
+    vec3 spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0)) * prefiltered;
     if (multiscatter > 0.5) {
         spec *= ibl_energy_compensation(dfg, f0);
     }

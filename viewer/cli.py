@@ -79,7 +79,10 @@ def cmd_render(args) -> int:
     size = _parse_size(args.size) if args.size else None
 
     renderer = Renderer(options=_context_options(args))
-    frame = renderer.render(scene, aovs=tuple(aovs), size=size)
+    try:
+        frame = renderer.render(scene, aovs=tuple(aovs), size=size)
+    finally:
+        renderer.release()
     # everything is in memory before the first file is written: an error writes nothing
     if out.suffix.lower() == ".exr":
         rgba = frame.radiance if scene.render.background == "transparent" else frame.radiance[..., :3]
@@ -113,8 +116,12 @@ def cmd_parity(args) -> int:
 
     if args.model is not None:
         model_info(args.model)
-    programs = Programs(create_context(_context_options(args)))
-    results = run_parity(programs, model=args.model, seed=args.seed)
+    ctx = create_context(_context_options(args))
+    try:
+        with ctx:
+            results = run_parity(Programs(ctx), model=args.model, seed=args.seed)
+    finally:
+        ctx.release()
     if args.json:
         print(json.dumps([r.as_json() for r in results], indent=1))
     else:
@@ -132,7 +139,11 @@ def cmd_parity(args) -> int:
 def cmd_info(args) -> int:
     from .gl import create_context, gl_info
 
-    info = gl_info(create_context(_context_options(args)))
+    ctx = create_context(_context_options(args))
+    try:
+        info = gl_info(ctx)
+    finally:
+        ctx.release()
     if args.json:
         print(json.dumps(info, indent=1))
         return 0

@@ -45,6 +45,7 @@ class Renderer:
     """Owns one GL context and every GPU resource derived from scenes rendered with it."""
 
     def __init__(self, ctx=None, options: ContextOptions = ContextOptions()):
+        self._owns_context = ctx is None
         self.ctx = ctx if ctx is not None else create_context(options)
         self.programs = Programs(self.ctx)
         self._geometry: dict[ObjectSpec, object] = {}
@@ -117,7 +118,16 @@ class Renderer:
         return self._targets[key]
 
     # ---- rendering --------------------------------------------------------------------------
-    def draw(self, scene: Scene, size: tuple[int, int] | None = None) -> dict:
+    def draw(self, scene: Scene, size: tuple[int, int] | None = None, **kwargs) -> dict:
+        """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers).
+
+        The renderer's context is made current for the call (and the previous one restored), so
+        several renderers and contexts can live in one process.
+        """
+        with self.ctx:
+            return self._draw(scene, size, **kwargs)
+
+    def _draw(self, scene: Scene, size: tuple[int, int] | None = None) -> dict:
         """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers)."""
         from .passes.gbuffer import GBufferPass
         from .passes.shade import ShadePass
@@ -160,11 +170,17 @@ class Renderer:
     def render(self, scene: Scene, aovs: tuple[str, ...] | list[str] = (),
                size: tuple[int, int] | None = None) -> Frame:
         """Render ``scene`` and read back radiance, display pixels and the requested AOVs."""
+        with self.ctx:
+            return self._render(scene, aovs, size)
+
+    def _render(self, scene: Scene, aovs: tuple[str, ...] | list[str] = (),
+                size: tuple[int, int] | None = None) -> Frame:
+        """Render ``scene`` and read back radiance, display pixels and the requested AOVs."""
         unknown = [a for a in aovs if a not in AOV_NAMES]
         if unknown:
             raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
                              f"(known: {', '.join(AOV_NAMES)})", where="--aov")
-        targets = self.draw(scene, size)
+        targets = self._draw(scene, size)
         radiance = _read(targets["radiance"], "f4")
         display = _read(targets["display"], "f1")
         frame = Frame(radiance=radiance, display=display, camera=targets["camera"])
@@ -179,6 +195,13 @@ class Renderer:
         return frame
 
     def release(self) -> None:
+        """Free every GPU resource (and the context, if this renderer created it)."""
+        with self.ctx:
+            self._release()
+        if self._owns_context:
+            self.ctx.release()
+
+    def _release(self) -> None:
         for ibl in self._ibl.values():
             ibl.release()
         for t in self._targets.values():

@@ -25,12 +25,18 @@ def pytest_addoption(parser):
                      help="rewrite the golden reference images in tests/golden")
 
 
+@pytest.fixture(scope="module", autouse=True)
+def _session_context_current_module(request):
+    """Tests that call the CLI in-process create (and release) contexts of their own, which leaves
+    no context current. Make the session context current again for every module (before its
+    module-scoped fixtures) and every test."""
+    from viewer.gl import make_current
+
+    make_current(request.getfixturevalue("ctx"))
+
+
 @pytest.fixture(autouse=True)
-def _session_context_current(request):
-    """Tests that call the CLI in-process create (and release) other contexts; make the session
-    context current again for every test that uses it."""
-    if "ctx" in request.fixturenames:
-        with request.getfixturevalue("ctx"):
-            yield
-    else:
-        yield
+def _session_context_current(ctx):
+    from viewer.gl import make_current
+
+    make_current(ctx)

@@ -118,8 +118,7 @@ def cmd_parity(args) -> int:
         model_info(args.model)
     ctx = create_context(_context_options(args))
     try:
-        with ctx:
-            results = run_parity(Programs(ctx), model=args.model, seed=args.seed)
+        results = run_parity(Programs(ctx), model=args.model, seed=args.seed)
     finally:
         ctx.release()
     if args.json:

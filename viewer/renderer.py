@@ -24,7 +24,7 @@ import numpy as np
 from .camera import Camera
 from .errors import InputError, SceneError
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
-from .gl import ContextOptions, Programs, create_context
+from .gl import ContextOptions, Programs, create_context, make_current
 from .models import model_info
 from .scene import ObjectSpec, Scene
 
@@ -121,11 +121,11 @@ class Renderer:
     def draw(self, scene: Scene, size: tuple[int, int] | None = None, **kwargs) -> dict:
         """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers).
 
-        The renderer's context is made current for the call (and the previous one restored), so
-        several renderers and contexts can live in one process.
+        The renderer's context is made current first, so several renderers and contexts can live
+        in one process.
         """
-        with self.ctx:
-            return self._draw(scene, size, **kwargs)
+        make_current(self.ctx)
+        return self._draw(scene, size, **kwargs)
 
     def _draw(self, scene: Scene, size: tuple[int, int] | None = None) -> dict:
         """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers)."""
@@ -170,8 +170,8 @@ class Renderer:
     def render(self, scene: Scene, aovs: tuple[str, ...] | list[str] = (),
                size: tuple[int, int] | None = None) -> Frame:
         """Render ``scene`` and read back radiance, display pixels and the requested AOVs."""
-        with self.ctx:
-            return self._render(scene, aovs, size)
+        make_current(self.ctx)
+        return self._render(scene, aovs, size)
 
     def _render(self, scene: Scene, aovs: tuple[str, ...] | list[str] = (),
                 size: tuple[int, int] | None = None) -> Frame:
@@ -196,8 +196,8 @@ class Renderer:
 
     def release(self) -> None:
         """Free every GPU resource (and the context, if this renderer created it)."""
-        with self.ctx:
-            self._release()
+        make_current(self.ctx)
+        self._release()
         if self._owns_context:
             self.ctx.release()
 

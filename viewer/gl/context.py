@@ -57,6 +57,17 @@ def create_context(options: ContextOptions = ContextOptions()):
     return ctx
 
 
+def make_current(ctx) -> None:
+    """Make ``ctx`` the current context of this thread and leave it current.
+
+    Several contexts can live in one process (a window and a headless one, or tests that run the
+    CLI in-process); every entry point that issues GL calls makes its own context current first.
+    (moderngl's ``with ctx:`` would restore the previously current context on exit, which for a
+    freshly created standalone context is *no* context, breaking later calls.)
+    """
+    ctx.__enter__()
+
+
 def _float_target_bits(ctx, dtype: str) -> int:
     """Mantissa bits a colour target of ``dtype`` keeps, measured by clearing to 1 + 2^-k."""
     fbo = ctx.simple_framebuffer((1, 1), components=4, dtype=dtype)
@@ -91,3 +102,163 @@ def gl_info(ctx) -> dict:
                                        "f4": _float_target_bits(ctx, "f4")},
         "extensions": sorted(ctx.extensions),
     }
+
+
+# ---- windows --------------------------------------------------------------------------------
+# A window's context is created by glfw, then wrapped by moderngl (``ctx.screen`` is the window's
+# default framebuffer). ``offscreen=True`` uses glfw's Null platform with an EGL context: a real
+# default framebuffer and real input plumbing, no display needed (what CI uses). imgui-bundle ships
+# its own libglfw; it is imported before ``glfw`` so that both drive the same library.
+
+_EGL_DRAW, _EGL_READ = 0x3059, 0x305A
+_glfw_state = {"platform": None, "windows": 0}
+
+
+@dataclass
+class WindowContext:
+    """A glfw window and the moderngl context made from it (create with :func:`create_window`)."""
+
+    window: object  # glfw window handle
+    ctx: object  # moderngl.Context of the window; ctx.screen is its default framebuffer
+    offscreen: bool
+    _previous: tuple | None = None  # the EGL context current before the window's (restored)
+    _closed: bool = False
+
+    @property
+    def address(self) -> int:
+        """The window pointer as an integer (imgui-bundle's native backends take it)."""
+        import ctypes
+
+        return ctypes.cast(self.window, ctypes.c_void_p).value
+
+    def framebuffer_size(self) -> tuple[int, int]:
+        import glfw
+
+        return tuple(glfw.get_framebuffer_size(self.window))
+
+    def make_current(self) -> None:
+        import glfw
+
+        glfw.make_context_current(self.window)
+
+    def close(self) -> None:
+        """Destroy the window and make the previously current (standalone EGL) context current."""
+        if self._closed:
+            return
+        import glfw
+
+        self._closed = True
+        self.ctx.release()
+        glfw.destroy_window(self.window)
+        _glfw_state["windows"] -= 1
+        if self._previous is not None:
+            _egl_make_current(self._previous)
+
+
+def _egl_lib():
+    import ctypes
+
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+    except OSError:
+        return None
+    for name in ("eglGetCurrentContext", "eglGetCurrentDisplay", "eglGetCurrentSurface"):
+        getattr(egl, name).restype = ctypes.c_void_p
+    egl.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+    egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+    return egl
+
+
+def _egl_current() -> tuple | None:
+    """The calling thread's current EGL (display, draw, read, context), or None."""
+    egl = _egl_lib()
+    if egl is None or not egl.eglGetCurrentContext():
+        return None
+    return (egl.eglGetCurrentDisplay(), egl.eglGetCurrentSurface(_EGL_DRAW),
+            egl.eglGetCurrentSurface(_EGL_READ), egl.eglGetCurrentContext())
+
+
+def _egl_make_current(saved: tuple) -> None:
+    egl = _egl_lib()
+    if egl is not None:
+        egl.eglMakeCurrent(*saved)
+
+
+def _import_glfw():
+    import sys
+
+    if "glfw" in sys.modules and "imgui_bundle" not in sys.modules:
+        raise GLContextError("glfw was imported before imgui_bundle; import imgui_bundle first so "
+                             "both use the same libglfw")
+    try:
+        import imgui_bundle  # noqa: F401  (sets PYGLFW_LIBRARY to its own libglfw)
+    except ImportError:
+        pass  # a window without Dear ImGui still works with pip's glfw
+    try:
+        import glfw
+    except ImportError as exc:  # pragma: no cover - dependency missing
+        raise GLContextError(f"glfw is not installed ({exc})") from None
+    return glfw
+
+
+def create_window(size: tuple[int, int] = (1280, 800), title: str = "relight",
+                  offscreen: bool = False, options: ContextOptions = ContextOptions()
+                  ) -> WindowContext:
+    """Open a glfw window with an OpenGL 4.3+ core context and wrap it in moderngl.
+
+    ``offscreen=True``: glfw's Null platform with an EGL context (no display needed; the window
+    is invisible but has a real default framebuffer). Create windows before any standalone
+    context when you can; if one is current, :meth:`WindowContext.close` makes it current again.
+    Raises :class:`GLContextError` with one line when no window can be made.
+    """
+    glfw = _import_glfw()
+    if options.software or os.environ.get("RELIGHT_SOFTWARE_GL") == "1":
+        _force_software_env()
+    previous = _egl_current()
+    platform = glfw.PLATFORM_NULL if offscreen else glfw.ANY_PLATFORM
+    if _glfw_state["platform"] != platform:
+        if _glfw_state["windows"]:
+            raise GLContextError("cannot mix offscreen and on-screen windows in one process")
+        if _glfw_state["platform"] is not None:
+            glfw.terminate()
+        glfw.init_hint(glfw.PLATFORM, platform)
+        errors: list[str] = []
+        glfw.set_error_callback(lambda code, text: errors.append(
+            text.decode() if isinstance(text, bytes) else str(text)))
+        if not glfw.init():
+            _glfw_state["platform"] = None
+            why = errors[-1] if errors else "glfw.init failed"
+            hint = "" if offscreen else "; no display? use --offscreen"
+            raise GLContextError(f"cannot initialise glfw ({why}){hint}")
+        _glfw_state["platform"] = platform
+    glfw.default_window_hints()
+    if offscreen:
+        glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
+        glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
+    glfw.window_hint(glfw.CLIENT_API, glfw.OPENGL_API)
+    glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, REQUIRED_GL // 100)
+    glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, REQUIRED_GL % 100 // 10)
+    glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+    glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE)
+    window = glfw.create_window(int(size[0]), int(size[1]), title, None, None)
+    if not window:
+        if previous is not None:
+            _egl_make_current(previous)
+        raise GLContextError(f"cannot open a {size[0]}x{size[1]} OpenGL "
+                             f"{REQUIRED_GL // 100}.{REQUIRED_GL % 100 // 10} window"
+                             + (" (glfw Null platform, EGL)" if offscreen else ""))
+    _glfw_state["windows"] += 1
+    glfw.make_context_current(window)
+    glfw.swap_interval(0 if offscreen else 1)
+    import moderngl
+
+    try:
+        ctx = moderngl.create_context(require=REQUIRED_GL)
+    except Exception as exc:
+        glfw.destroy_window(window)
+        _glfw_state["windows"] -= 1
+        if previous is not None:
+            _egl_make_current(previous)
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise GLContextError(f"cannot use the window's OpenGL context ({first})") from None
+    return WindowContext(window=window, ctx=ctx, offscreen=offscreen, _previous=previous)

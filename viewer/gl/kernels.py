@@ -97,8 +97,10 @@ def _kernel_source(sig: Signature) -> str:
 def evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = None) -> np.ndarray:
     """Run GLSL library function ``name`` on the GPU (see :func:`_evaluate`), with the programs'
     context current (another context may be current in the same process)."""
-    with programs.ctx:
-        return _evaluate(programs, name, *args, signatures=signatures)
+    from .context import make_current
+
+    make_current(programs.ctx)
+    return _evaluate(programs, name, *args, signatures=signatures)
 
 
 def _evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = None) -> np.ndarray:

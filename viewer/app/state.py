@@ -1,0 +1,127 @@
+"""All viewer state in one dataclass, and the pure functions between it and a :class:`Scene`.
+
+The window's UI reads and writes a :class:`ViewerState`; every frame the window renders
+``scene_from_state(state)`` through the same :class:`~viewer.renderer.Renderer` graph that
+``relight render`` uses, so what the window shows, what a test asserts and what "save scene" writes
+are the same scene. Nothing here touches GL.
+
+    state = state_from_scene(load_scene("demo.toml"))
+    state.render = replace(state.render, exposure=1.0)      # what a slider does
+    scene = scene_from_state(state)                         # what gets rendered and saved
+
+Material edits: ``object_materials[i]`` is object ``i``'s material as edited (``None``: a mesh's own
+materials). ``material_override`` overrides chosen fields for every object on top of that.
+A ``material_grid`` sweeps roughness and metallic itself; only its albedo follows edits.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, fields, replace
+
+from ..camera import Camera
+from ..environment import PROCEDURAL, EnvironmentSpec
+from ..gbuffer import CHANNEL_NAMES
+from ..material import Material
+from ..scene import RenderSettings, Scene
+
+# What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
+# reference render ("difference": |render - reference| exposed like the image; "error": relative
+# error in false colour).
+VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
+MATERIAL_FIELDS = ("albedo", "roughness", "metallic", "specular")  # what the UI edits
+ENVIRONMENT_CHOICES = PROCEDURAL  # plus any file path
+
+
+@dataclass(frozen=True)
+class MaterialOverride:
+    """Fields that override every object's material (``None``: not overridden)."""
+
+    albedo: tuple[float, float, float] | None = None
+    roughness: float | None = None
+    metallic: float | None = None
+    specular: float | None = None
+
+    def changes(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if getattr(self, f.name) is not None}
+
+
+@dataclass
+class ViewerState:
+    """Everything the viewer shows and edits. The UI writes these fields; nothing else does."""
+
+    scene: Scene  # the scene as loaded (objects, source); the edits below apply on top
+    camera: Camera
+    environment: EnvironmentSpec
+    render: RenderSettings
+    object_materials: tuple[Material | None, ...]
+    material_override: MaterialOverride = MaterialOverride()
+    view: str = "display"  # one of VIEWS
+    error_scale: float = 0.25  # "error": relative error mapped to the top of the colour map
+    reference_path: str | None = None  # a linear EXR/HDR render to compare against
+    show_ui: bool = True
+    show_overlay: bool = True
+    message: str | None = None  # the last problem (bad file, bad scene, missing weights)
+    screenshot_path: str = "relight_view.png"
+    scene_path: str = "relight_view.toml"
+    environment_path: str = ""  # the text field of the environment file chooser
+
+    def copy(self) -> "ViewerState":
+        return replace(self)
+
+
+def state_from_scene(scene: Scene) -> ViewerState:
+    """A fresh state showing ``scene`` exactly (``scene_from_state`` gives ``scene`` back)."""
+    return ViewerState(scene=scene, camera=scene.camera, environment=scene.environment,
+                       render=scene.render,
+                       object_materials=tuple(o.material for o in scene.objects))
+
+
+def effective_material(state: ViewerState, index: int) -> Material | None:
+    """Object ``index``'s material after its own edit and the global override."""
+    material = state.object_materials[index]
+    changes = state.material_override.changes()
+    if not changes:
+        return material
+    return replace(material if material is not None else Material(), **changes)
+
+
+def scene_from_state(state: ViewerState) -> Scene:
+    """The scene the state describes: what the window renders, what "save scene" writes."""
+    objects = tuple(replace(o, material=effective_material(state, i))
+                    for i, o in enumerate(state.scene.objects))
+    return replace(state.scene, camera=state.camera, environment=state.environment,
+                   render=state.render, objects=objects)
+
+
+def load_into(state: ViewerState, scene: Scene) -> ViewerState:
+    """A state for a newly loaded ``scene`` that keeps the viewer's own settings (view, paths,
+    panels); camera, environment, render settings and materials come from the scene."""
+    fresh = state_from_scene(scene)
+    return replace(fresh, view=state.view, error_scale=state.error_scale,
+                   reference_path=state.reference_path, show_ui=state.show_ui,
+                   show_overlay=state.show_overlay, screenshot_path=state.screenshot_path,
+                   scene_path=state.scene_path)
+
+
+def with_environment_file(state: ViewerState, path: str) -> ViewerState:
+    """The state with ``path`` (an equirect HDR/EXR) as the environment; intensity and rotation
+    are kept."""
+    env = replace(state.environment, path=str(path), procedural=None)
+    return replace(state, environment=env)
+
+
+def with_procedural_environment(state: ViewerState, name: str) -> ViewerState:
+    env = replace(state.environment, path=None, procedural=name)
+    return replace(state, environment=env)
+
+
+def reset_camera(state: ViewerState) -> ViewerState:
+    """Back to the loaded scene's camera (the render size stays what the user chose)."""
+    cam = state.scene.camera.with_size(*state.camera.size)
+    return replace(state, camera=cam)
+
+
+def render_settings_fields() -> tuple[dataclasses.Field, ...]:
+    """The knobs of :class:`RenderSettings`, read at call time so knobs added later show up."""
+    return fields(RenderSettings)

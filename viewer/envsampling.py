@@ -1,0 +1,110 @@
+"""Environment importance sampling: the 2D distribution ``luminance x sin(theta)`` built on the GPU.
+
+:func:`build_env_sampling` turns the level-0 radiance texture of an :class:`~viewer.ibl.IBL` (an
+equirect ``W x H`` RGBA32F texture) into three R32F textures that ``lib/env_sampling.glsl`` samples
+(marginal + conditional CDFs and the per-texel density), in three compute passes:
+
+1. ``env_cdf_rows.comp`` (one invocation per row): f = 3x3-dilated luminance x sin(theta); the
+   row's conditional CDF (uniform for an all-zero row) and its sum.
+2. ``env_cdf_marginal.comp`` (one invocation): the marginal CDF over rows; an all-zero (or
+   overflowing) environment falls back to uniform sampling of the sphere.
+3. ``env_cdf_pdf.comp``: ``p_uv = f / mean(f)``, the density on the uv square.
+
+Intensity and rotation stay shader uniforms (they do not change the normalised distribution).
+Torch twin: :func:`learned.twins.env_sampling.env_distribution`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class EnvSampling:
+    """GPU textures of one environment's sampling distribution (``needs`` entry ``"cdf"``)."""
+
+    def __init__(self, marginal, conditional, pdf, fallback: bool):
+        self.marginal = marginal        # moderngl.Texture R32F [(H + 1) x 1]
+        self.conditional = conditional  # moderngl.Texture R32F [(W + 1) x H]
+        self.pdf = pdf                  # moderngl.Texture R32F [W x H], p_uv (mean 1)
+        self.fallback = fallback        # True: the environment was black; sampling is uniform
+
+    def bind(self, program, first_unit: int = 0) -> int:
+        """Bind to the uniforms ``program`` has among ``u_env_marginal``, ``u_env_conditional``,
+        ``u_env_pdf`` (texture units from ``first_unit`` on). Returns the next free unit."""
+        unit = first_unit
+        for name, tex in (("u_env_marginal", self.marginal),
+                          ("u_env_conditional", self.conditional), ("u_env_pdf", self.pdf)):
+            if tex is not None and name in program:
+                tex.use(location=unit)
+                program[name].value = unit
+                unit += 1
+        return unit
+
+    def read(self) -> dict[str, np.ndarray]:
+        """``marginal [H + 1]``, ``conditional [H, W + 1]``, ``pdf [H, W]`` float32 (row 0 = the
+        zenith row, as in the texture)."""
+        out = {}
+        for name in ("marginal", "conditional", "pdf"):
+            tex = getattr(self, name)
+            arr = np.frombuffer(tex.read(), np.float32).reshape(tex.height, tex.width)
+            out[name] = arr[0].copy() if name == "marginal" else arr.copy()
+        return out
+
+    def release(self) -> None:
+        for name in ("marginal", "conditional", "pdf"):
+            tex = getattr(self, name)
+            if tex is not None:
+                tex.release()
+                setattr(self, name, None)
+
+
+def _r32f(ctx, width: int, height: int):
+    import moderngl
+
+    tex = ctx.texture((width, height), 1, dtype="f4")
+    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    tex.repeat_x = tex.repeat_y = False
+    return tex
+
+
+def build_env_sampling(programs, radiance) -> EnvSampling:
+    """The sampling distribution of the equirect ``radiance`` texture (level 0 is read; W x H with
+    W = 2H, as :func:`viewer.ibl.build_ibl` makes it), computed on the GPU of ``programs.ctx``."""
+    ctx = programs.ctx
+    w, h = radiance.width, radiance.height
+    func = _r32f(ctx, w, h)
+    conditional = _r32f(ctx, w + 1, h)
+    marginal = _r32f(ctx, h + 1, 1)
+    rows = ctx.buffer(reserve=4 * h)
+    stats = ctx.buffer(reserve=8)
+    try:
+        prog = programs.compute("passes/env_cdf_rows.comp")
+        radiance.use(location=0)
+        prog["u_env_radiance"].value = 0
+        func.bind_to_image(0, read=False, write=True)
+        conditional.bind_to_image(1, read=False, write=True)
+        rows.bind_to_storage_buffer(2)
+        prog.run((h + 63) // 64)
+        ctx.memory_barrier()
+
+        prog = programs.compute("passes/env_cdf_marginal.comp")
+        marginal.bind_to_image(0, read=False, write=True)
+        rows.bind_to_storage_buffer(2)
+        stats.bind_to_storage_buffer(3)
+        prog["u_height"].value = h
+        prog.run(1)
+        ctx.memory_barrier()
+
+        prog = programs.compute("passes/env_cdf_pdf.comp")
+        func.bind_to_image(0, read=True, write=True)
+        stats.bind_to_storage_buffer(3)
+        prog.run((w + 7) // 8, (h + 7) // 8)
+        ctx.memory_barrier()
+        fallback = bool(np.frombuffer(stats.read(), np.float32)[1] > 0.5)
+    except BaseException:
+        for tex in (func, conditional, marginal):
+            tex.release()
+        raise
+    finally:
+        rows.release()
+        stats.release()
+    return EnvSampling(marginal, conditional, func, fallback)

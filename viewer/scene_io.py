@@ -1,0 +1,92 @@
+"""Writing scenes back to TOML: the inverse of :func:`viewer.scene.load_scene`.
+
+    save_scene(scene, "edited.toml")
+    load_scene("edited.toml") == scene      # up to ``source``: equal dataclasses, equal pixels
+
+Every field is written from the dataclasses themselves (``dataclasses.fields``), so render
+settings or environment knobs added later are saved without changes here. Floats are written with
+``repr`` precision (tomli-w), paths as the absolute paths the loader resolved, and fields that hold
+``None`` or an object type's defaults are left out (the loader rejects keys a type does not take).
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+from typing import Any
+
+from .errors import SceneError
+from .scene import ObjectSpec, Scene
+
+
+def _plain(value: Any) -> Any:
+    """Dataclass values -> TOML values: tuples become lists, nested tuples nested lists."""
+    if isinstance(value, tuple):
+        return [_plain(v) for v in value]
+    if dataclasses.is_dataclass(value):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)
+                if getattr(value, f.name) is not None}
+    return value
+
+
+def _table(obj, skip_defaults: bool = False) -> dict:
+    out = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if value is None:
+            continue
+        if skip_defaults and f.default is not dataclasses.MISSING and value == f.default:
+            continue
+        out[f.name] = _plain(value)
+    return out
+
+
+_OBJECT_DEFAULTS = ObjectSpec(type="sphere")
+
+
+def _object_table(obj: ObjectSpec) -> dict:
+    out: dict[str, Any] = {"type": obj.type}
+    for f in dataclasses.fields(obj):
+        if f.name in ("type", "material"):
+            continue
+        value = getattr(obj, f.name)
+        # a value equal to the default was either written so or left out: both load equal, and
+        # leaving it out keeps keys a type does not accept (a sphere's "rows") out of the file
+        if value is None or value == getattr(_OBJECT_DEFAULTS, f.name):
+            continue
+        out[f.name] = _plain(value)
+    if obj.material is not None:
+        out["material"] = _plain(obj.material)
+    return out
+
+
+def scene_to_dict(scene: Scene) -> dict:
+    """The TOML document of ``scene`` as plain dicts and lists (what ``scene_from_dict`` reads)."""
+    return {
+        "camera": _table(scene.camera),
+        "environment": _table(scene.environment),
+        "objects": [_object_table(o) for o in scene.objects],
+        "render": _table(scene.render),
+    }
+
+
+def save_scene(scene: Scene, path: str | os.PathLike) -> Path:
+    """Write ``scene`` as TOML to ``path`` (parent folder must exist); returns the path.
+
+    ``load_scene(path)`` gives back an equal :class:`Scene` (apart from ``source``), so
+    ``relight render path`` renders the same pixels. Raises :class:`SceneError` when the folder
+    is missing or the file cannot be written.
+    """
+    import tomli_w
+
+    path = Path(path)
+    if not path.resolve().parent.is_dir():
+        raise SceneError("folder does not exist", where=path.parent)
+    text = "# saved by relight view\n" + tomli_w.dumps(scene_to_dict(scene))
+    try:
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise SceneError(f"cannot write the scene ({exc.strerror or exc})", where=path) from None
+    return path

@@ -38,17 +38,18 @@ def ggx_split_sum(diffuse: torch.Tensor, f0: torch.Tensor, ao: torch.Tensor,
     from .brdf import f90_from_f0
     from .ibl import ibl_energy_compensation, ibl_specular_dfg
 
-    fd = diffuse * irradiance * INV_PI * ao[..., None]
-    spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0)) * prefiltered
-    comp = ibl_energy_compensation(dfg, f0)
-    spec = torch.where((multiscatter > 0.5)[..., None], spec * comp, spec)
-    return fd + spec
+    e_spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0))
+    e_spec = torch.where((multiscatter > 0.5)[..., None], e_spec * ibl_energy_compensation(dfg, f0),
+                         e_spec)
+    fd = diffuse * irradiance * INV_PI * ao[..., None] * (1.0 - e_spec).clamp_min(0.0)
+    return fd + e_spec * prefiltered
 
 
 def blinn_phong(diffuse: torch.Tensor, f0: torch.Tensor, ao: torch.Tensor,
                 irradiance: torch.Tensor, prefiltered: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 blinn_phong(...)``: Lambert + normalised Fresnel-free Blinn-Phong lobe."""
-    return diffuse * irradiance * INV_PI * ao[..., None] + f0 * prefiltered
+    """GLSL ``vec3 blinn_phong(...)``: Lambert (keeping 1 - f0) + normalised Fresnel-free
+    Blinn-Phong lobe."""
+    return diffuse * irradiance * INV_PI * ao[..., None] * (1.0 - f0) + f0 * prefiltered
 
 
 def _nonneg3(hi=1.0, adv=()):

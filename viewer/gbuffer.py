@@ -49,25 +49,61 @@ CHANNELS: tuple[Channel, ...] = (
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
+
+
+def _pack(channels: tuple[Channel, ...]) -> tuple[Channel, ...]:
+    """Assign attachments and offsets: declaration order, first RGBA attachment with room."""
+    from dataclasses import replace
+
+    used: list[int] = []  # components used per attachment
+    out = []
+    for c in channels:
+        for a, n in enumerate(used):
+            if n + c.components <= 4:
+                break
+        else:
+            used.append(0)
+            a = len(used) - 1
+        out.append(replace(c, attachment=a, offset=used[a]))
+        used[a] += c.components
+    return tuple(out)
 _SWIZZLE = "rgba"
 
 
 @dataclass(frozen=True)
 class GBufferLayout:
-    """The channels a scene needs, and their render-target precision (``"f4"`` or ``"f2"``)."""
+    """The channels a scene needs and their render-target precision (``"f4"`` or ``"f2"``).
+
+    ``omit`` names channels this scene does not need (a diffuse-only scene has no use for
+    roughness, metallic and specular; depth is only read by screen-space passes): they are not
+    allocated and read back as their background value. The kept channels are packed in declaration
+    order into as few RGBA attachments as fit, so a smaller layout is also fewer targets to write.
+    """
 
     with_color: bool = False
     dtype: str = "f4"
+    omit: frozenset[str] = frozenset()
+
+    def __post_init__(self):
+        unknown = set(self.omit) - set(CHANNEL_NAMES)
+        if unknown or {"alpha"} & set(self.omit):
+            raise ValueError(f"cannot omit G-buffer channels {sorted(unknown | ({'alpha'} & set(self.omit)))}")
 
     @property
     def channels(self) -> tuple[Channel, ...]:
-        return tuple(c for c in CHANNELS if self.with_color or not c.optional)
+        """The allocated channels, with this layout's attachment and offset for each."""
+        return _pack(tuple(c for c in CHANNELS
+                           if (self.with_color or not c.optional) and c.name not in self.omit))
 
     @property
     def attachments(self) -> tuple[int, ...]:
         return tuple(sorted({c.attachment for c in self.channels}))
 
     def channel(self, name: str) -> Channel:
+        """A channel of this layout (with its slot), or the declaration of an omitted one."""
+        for c in self.channels:
+            if c.name == name:
+                return c
         for c in CHANNELS:
             if c.name == name:
                 return c
@@ -137,7 +173,10 @@ class GBufferLayout:
         first = next(iter(channels.values()))
         h, w = first.shape[:2]
         full = self.background(h, w)
+        kept = {c.name for c in self.channels}
         for name, arr in channels.items():
+            if name not in kept:
+                continue
             c = self.channel(name)
             arr = np.asarray(arr, np.float32).reshape(h, w, -1)
             if arr.shape[2] != c.components:

@@ -1,0 +1,365 @@
+"""``relight bench``: the speed-accuracy trade of every shading model, measured.
+
+For every shading model and its knobs (samples, sampling strategy, multiscatter, G-buffer precision,
+resolution) on a fixed set of scenes (a mesh scene, an image-space G-buffer stack, splats when the
+splat renderer is present), the benchmark records the median time per frame and per pass (at least
+10 frames after warm-up; fenced wall clock on llvmpipe, timer queries on GPUs — see
+:mod:`viewer.gl.timing`) and the error against a converged Monte-Carlo ``ggx_mc`` reference of the
+same scene (PSNR and SSIM on the display image, RMSE and HDR-FLIP on linear radiance).
+
+Outputs in ``DIR``: ``bench.json`` (``{"machine", "results", "specialization"}``), ``bench.csv``,
+``bench.md`` and ``pareto.png`` (error vs time). Rows are appended to ``rows.jsonl`` as they are
+measured, so an interrupted run resumes where it stopped (``--fresh`` starts over).
+
+Extra suites (Monte-Carlo convergence, splats, neural) add their rows through :data:`SUITES`.
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import platform
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..errors import RelightError
+from ..scene import ObjectSpec, Scene, load_scene, scene_from_dict
+from . import metrics
+
+RESULT_KEYS = ("scene", "model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip")
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    quick: bool = False
+    frames: int = 10  # timed frames per case (after warm-up)
+    warmup: int = 2
+    reference_spp: int = 1024  # samples per pixel of the converged ggx_mc reference
+
+    @property
+    def sizes(self) -> list[tuple[int, int]]:
+        return [(160, 100)] if self.quick else [(256, 160), (512, 320)]
+
+
+def _bench_scenes(cache: Path, quick: bool) -> dict[str, Scene]:
+    from assets import ASSET_ROOT
+
+    scenes = {"mesh": load_scene(ASSET_ROOT / "scenes" / "demo.toml")}
+    scenes["gbuffer"] = _stack_scene(cache)
+    splats = _splat_scene(cache, quick)
+    if splats is not None:
+        scenes["splats"] = splats
+    return scenes
+
+
+def _stack_scene(cache: Path) -> Scene:
+    """An image-space G-buffer stack made by the project: the demo grid's G-buffer seen from the
+    stack camera, saved as a 12-channel EXR (depth normalised, near 1, far 800)."""
+    from ..geometry.imagespace import ImageGBuffer, save_stack_exr
+    from ..renderer import Renderer
+
+    path = cache / "stack.exr"
+    if not path.exists():
+        cap = scene_from_dict({
+            "camera": {"position": [0, 0, 0], "target": [0, 0, -1], "fov_y": 40, "size": [512, 320]},
+            "environment": {"procedural": "studio"},
+            "objects": [
+                {"type": "material_grid", "rows": 2, "cols": 4, "spacing": 1.3, "radius": 0.55,
+                 "center": [0, 0, -4.5], "material": {"albedo": [0.7, 0.45, 0.3]}},
+                {"type": "plane", "center": [0, -1.4, -4.5], "size": [10, 10],
+                 "material": {"albedo": [0.6, 0.6, 0.6], "roughness": 0.6}}]})
+        r = Renderer()
+        try:
+            aovs = ("albedo", "normal", "roughness", "specular", "metallic", "depth", "ao", "alpha")
+            frame = r.render(cap, aovs=aovs)
+        finally:
+            r.release()
+        save_stack_exr(path, ImageGBuffer(channels=dict(frame.aovs), fov_y=40.0))
+    return scene_from_dict({"environment": {"procedural": "studio"},
+                            "objects": [{"type": "gbuffer", "path": str(path)}]})
+
+
+def _splat_scene(cache: Path, quick: bool) -> Scene | None:
+    try:
+        from ..splats import generate  # noqa: F401  (present once the splat renderer lands)
+    except ImportError:
+        return None
+    path = cache / "splats.ply"
+    if not path.exists():
+        from ..splats.generate import write_demo_splats
+
+        write_demo_splats(path, count=20_000 if quick else 100_000)
+    return scene_from_dict({"camera": {"position": [0, 0.5, 3.5], "fov_y": 40},
+                            "environment": {"procedural": "sky"},
+                            "objects": [{"type": "splats", "path": str(path)}]})
+
+
+def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
+    """(model, variant, render-setting changes) for every model in the registry."""
+    from ..models import MODELS
+
+    cases: list[tuple[str, str, dict]] = []
+    for name in MODELS:
+        if name == "ggx_split_sum":
+            cases.append((name, "multiscatter", {"multiscatter": True}))
+            cases.append((name, "single-scatter", {"multiscatter": False}))
+            cases.append((name, "multiscatter fp16", {"multiscatter": True, "precision": "fp16"}))
+        elif name == "ggx_mc":
+            spps = (1, 4, 16, 64) if config.quick else (1, 4, 16, 64, 256)
+            for sampling in ("uniform", "cosine", "brdf", "env", "mis"):
+                for spp in spps:
+                    cases.append((name, f"{sampling} {spp}spp",
+                                  {"sampling": sampling, "samples": spp}))
+        elif name == "neural_teacher":
+            for spp in (8, 32, 128):
+                cases.append((name, f"{spp}spp", {"samples": spp}))
+        else:
+            cases.append((name, "default", {}))
+    return cases
+
+
+# ---------------------------------------------------------------------------------------------
+
+def _time_frames(renderer, scene: Scene, size, config: BenchConfig) -> tuple[float, dict]:
+    """Median ms per frame (sum of passes, precomputation excluded) and per pass."""
+    from ..gl.timing import PassTimer
+
+    timer = renderer.profiler if isinstance(renderer.profiler, PassTimer) else PassTimer(renderer.ctx)
+    renderer.profiler = timer
+    per_pass: dict[str, list[float]] = {}
+    totals = []
+    for i in range(config.warmup + config.frames):
+        timer.enabled = True
+        timer.reset()
+        renderer.draw(scene, size)
+        ms = {k: v for k, v in timer.milliseconds().items() if k != "ibl"}
+        if i >= config.warmup:
+            totals.append(sum(ms.values()))
+            for k, v in ms.items():
+                per_pass.setdefault(k, []).append(v)
+    timer.enabled = False
+    return statistics.median(totals), {k: statistics.median(v) for k, v in per_pass.items()}
+
+
+def _reference(renderer, scene: Scene, size, cache: Path, config: BenchConfig, name: str):
+    """Converged ggx_mc radiance and display image of ``scene`` (cached on disk)."""
+    from ..imageio import read_image, write_exr
+    from ..models import MODELS
+
+    if "ggx_mc" not in MODELS:
+        return None
+    path = cache / f"reference_{name}_{size[0]}x{size[1]}_{config.reference_spp}spp.exr"
+    disp_path = path.with_suffix(".display.npy")
+    if path.exists() and disp_path.exists():
+        return read_image(path)[0], np.load(disp_path)
+    ref_scene = scene.with_render(model="ggx_mc", samples=config.reference_spp, sampling="mis")
+    frame = renderer.render(ref_scene, size=size)
+    write_exr(path, frame.radiance)
+    np.save(disp_path, frame.display)
+    return frame.radiance, frame.display
+
+
+def _errors(frame, ref) -> dict:
+    if ref is None:
+        return {"psnr": float("nan"), "ssim": float("nan"), "flip": float("nan"),
+                "rmse": float("nan")}
+    ref_rad, ref_disp = ref
+    disp = frame.display[..., :3].astype(np.float64) / 255.0
+    rdisp = ref_disp[..., :3].astype(np.float64) / 255.0
+    return {"psnr": metrics.psnr(rdisp, disp), "ssim": metrics.ssim(rdisp, disp),
+            "flip": metrics.hdr_flip(ref_rad[..., :3], frame.radiance[..., :3]),
+            "rmse": metrics.rmse(ref_rad[..., :3], frame.radiance[..., :3])}
+
+
+def _row_key(row: dict) -> tuple:
+    return (row["scene"], row["model"], row["variant"], row["samples"], tuple(row["size"]))
+
+
+def machine_info(renderer) -> dict:
+    from ..gl import gl_info
+
+    info = gl_info(renderer.ctx)
+    info.pop("extensions", None)
+    import os
+
+    return {"gl": info, "python": sys.version.split()[0], "platform": platform.platform(),
+            "cpu": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
+            "numpy": np.__version__, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+
+
+# Extra suites: name -> callable(renderer, scenes, config, cache) -> list[row dict]
+SUITES: dict[str, Callable] = {}
+
+
+def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: bool = False,
+              progress: bool = True) -> dict:
+    """Measure, write ``bench.json``/``bench.csv``/``bench.md``/``pareto.png`` and return the
+    report dict."""
+    from tqdm import tqdm
+
+    from ..renderer import Renderer
+
+    out = Path(out_dir)
+    if not out.parent.exists():
+        raise RelightError("output folder's parent does not exist", where=out)
+    out.mkdir(exist_ok=True)
+    cache = out / "cache"
+    cache.mkdir(exist_ok=True)
+    rows_path = out / "rows.jsonl"
+    if fresh and rows_path.exists():
+        rows_path.unlink()
+    done: dict[tuple, dict] = {}
+    if rows_path.exists():
+        for line in rows_path.read_text().splitlines():
+            if line.strip():
+                row = json.loads(line)
+                done[_row_key(row)] = row
+
+    renderer = Renderer()
+    try:
+        scenes = _bench_scenes(cache, config.quick)
+        cases = _cases(config)
+        jobs = [(sname, size, c) for sname in scenes for size in config.sizes for c in cases]
+        rows = []
+        with open(rows_path, "a") as log:
+            bar = tqdm(jobs, desc="bench", unit="case", disable=not progress)
+            for sname, size, (model, variant, changes) in bar:
+                scene = scenes[sname]
+                samples = int(changes.get("samples", 1))
+                key = (sname, model, variant, samples, tuple(size))
+                if key in done:
+                    rows.append(done[key])
+                    continue
+                bar.set_postfix_str(f"{sname} {model} {variant} {size[0]}x{size[1]}")
+                case_scene = scene.with_render(model=model, **changes)
+                try:
+                    ref = _reference(renderer, scene, size, cache, config, sname)
+                    ms, per_pass = _time_frames(renderer, case_scene, size, config)
+                    frame = renderer.render(case_scene, size=size)
+                except RelightError as exc:  # a model that cannot run this scene: recorded
+                    ms, per_pass, frame, ref = float("nan"), {}, None, None
+                    note = str(exc)
+                else:
+                    note = ""
+                err = _errors(frame, ref) if frame is not None else _errors(None, None)
+                row = {"scene": sname, "model": model, "variant": variant, "samples": samples,
+                       "size": list(size), "ms": ms, **err, "passes": per_pass}
+                if note:
+                    row["note"] = note
+                rows.append(row)
+                log.write(json.dumps(row) + "\n")
+                log.flush()
+        for name, suite in SUITES.items():
+            rows.extend(suite(renderer, scenes, config, cache))
+        from .specialize import measure_specialization
+
+        specialization = measure_specialization(renderer, config)
+        report = {"machine": machine_info(renderer), "results": rows,
+                  "specialization": specialization}
+    finally:
+        renderer.release()
+    write_reports(out, report)
+    return report
+
+
+# ---- reports ------------------------------------------------------------------------------
+
+def pareto_front(rows: list[dict]) -> list[dict]:
+    """Rows not dominated in (lower ms, higher PSNR), per scene and size, sorted by time."""
+    front = []
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if math.isfinite(r.get("ms", float("nan"))) and math.isfinite(r.get("psnr", float("nan"))):
+            groups.setdefault((r["scene"], tuple(r["size"])), []).append(r)
+    for group in groups.values():
+        best = -math.inf
+        for r in sorted(group, key=lambda r: (r["ms"], -r["psnr"])):
+            if r["psnr"] > best:
+                front.append(r)
+                best = r["psnr"]
+    return front
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "–"
+        if math.isinf(v):
+            return "∞"
+        return f"{v:.4g}"
+    if isinstance(v, (list, tuple)):
+        return "x".join(str(x) for x in v)
+    return str(v)
+
+
+def write_reports(out: Path, report: dict) -> None:
+    rows = report["results"]
+    (out / "bench.json").write_text(json.dumps(report, indent=1, allow_nan=True))
+    with open(out / "bench.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(RESULT_KEYS)
+        for r in rows:
+            w.writerow([_fmt(r.get(k, float("nan"))) for k in RESULT_KEYS])
+    front = {id(r) for r in pareto_front(rows)}
+    lines = ["| " + " | ".join(RESULT_KEYS) + " | pareto |",
+             "|" + "---|" * (len(RESULT_KEYS) + 1)]
+    for r in rows:
+        lines.append("| " + " | ".join(_fmt(r.get(k, float("nan"))) for k in RESULT_KEYS)
+                     + f" | {'★' if id(r) in front else ''} |")
+    if report.get("specialization"):
+        lines += ["", "| scene | ms general | ms specialized | speed-up | max abs diff |",
+                  "|---|---|---|---|---|"]
+        for s in report["specialization"]:
+            lines.append(f"| {s['scene']} | {_fmt(s['ms_general'])} | {_fmt(s['ms_specialized'])} "
+                         f"| {_fmt(s['ms_general'] / s['ms_specialized'])}× "
+                         f"| {_fmt(s['max_abs_diff'])} |")
+    m = report["machine"]
+    header = (f"Measured on {m['gl'].get('renderer')} ({m['cpus']} CPUs, {m['platform']}), "
+              f"{m['date']}. Times: median ms per frame; PSNR/SSIM on the display image and "
+              f"HDR-FLIP on linear radiance against a converged `ggx_mc` reference.\n\n")
+    (out / "bench.md").write_text(header + "\n".join(lines) + "\n")
+    _plot(out / "pareto.png", rows)
+
+
+def _plot(path: Path, rows: list[dict]) -> None:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # the bench extra is not installed: tables only
+        return
+    pts = [r for r in rows if math.isfinite(r.get("ms", math.nan))
+           and math.isfinite(r.get("psnr", math.nan))]
+    if not pts:
+        return
+    scenes = sorted({(r["scene"], tuple(r["size"])) for r in pts})
+    fig, axes = plt.subplots(1, len(scenes), figsize=(5.5 * len(scenes), 4.5), squeeze=False)
+    models = sorted({r["model"] for r in pts})
+    colours = {m: plt.cm.tab10(i % 10) for i, m in enumerate(models)}
+    front = {id(r) for r in pareto_front(rows)}
+    for ax, (sname, size) in zip(axes[0], scenes):
+        group = [r for r in pts if r["scene"] == sname and tuple(r["size"]) == size]
+        for m in models:
+            g = [r for r in group if r["model"] == m]
+            if g:
+                ax.scatter([r["ms"] for r in g], [r["psnr"] for r in g], color=colours[m],
+                           label=m, s=22)
+        f = sorted((r for r in group if id(r) in front), key=lambda r: r["ms"])
+        ax.plot([r["ms"] for r in f], [r["psnr"] for r in f], "k--", lw=0.8, label="Pareto front")
+        ax.set_xscale("log")
+        ax.set_xlabel("ms per frame (log)")
+        ax.set_ylabel("PSNR vs converged ggx_mc (dB)")
+        ax.set_title(f"{sname} {size[0]}x{size[1]}")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

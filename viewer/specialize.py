@@ -1,0 +1,122 @@
+"""Model only what a scene requires.
+
+:func:`analyse` reads what a scene actually contains (which object kinds, whether any surface has
+a specular lobe or ambient occlusion, whether the environment is constant) from the loaded data —
+material factors, texture maps, image-stack channels — not from guesses. :func:`specialise` turns
+that, the shading model and the render settings into a :class:`Specialization`: the G-buffer
+channels to allocate (the others are neither written nor read and keep their background value) and
+the prepended defines of the lighting pass (``SPECULAR_LOBE 0`` compiles the environment's
+specular lookups out). Everything it removes contributes exactly zero on the general path, so the
+output is unchanged (``relight bench`` measures both paths and records the difference).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .gbuffer import CHANNEL_NAMES, GBufferLayout
+
+
+@dataclass(frozen=True)
+class SceneFeatures:
+    splats: bool = False
+    meshes: bool = False
+    stacks: bool = False
+    specular: bool = True  # some surface has f0 > 0 (dielectric specular > 0, or metallic > 0)
+    ao: bool = True  # some surface has ambient occlusion < 1
+    constant_environment: bool = False  # every environment texel is the same colour
+
+
+@dataclass(frozen=True)
+class Specialization:
+    layout: GBufferLayout
+    defines: dict = field(default_factory=dict, hash=False, compare=False)
+
+    @property
+    def key(self) -> tuple:
+        return (self.layout, tuple(sorted(self.defines.items())))
+
+
+GENERAL = SceneFeatures()  # what the all-features path assumes
+
+
+def _mesh_features(mesh) -> tuple[bool, bool]:
+    m = mesh.material
+    tex = mesh.textures
+    metal = m.metallic > 0.0
+    if metal and "metallic_roughness" in tex:
+        metal = float(np.max(tex["metallic_roughness"][..., 2])) > 0.0
+    specular = m.specular > 0.0 or metal
+    ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
+                        and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
+    return specular, ao
+
+
+def analyse(renderer, scene) -> SceneFeatures:
+    """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
+    splats = meshes = stacks = False
+    specular = ao = False
+    for obj in scene.objects:
+        if obj.type == "splats":
+            splats = True
+            specular = True  # splats carry per-splat materials; never assume them away
+            continue
+        content = renderer.geometry(obj)
+        if obj.type == "gbuffer":
+            stacks = True
+            ch = content.channels
+            fg = ch["alpha"][..., 0] > 0
+            if fg.any():
+                f0 = np.maximum(ch.get("specular", np.full_like(ch["alpha"], 0.5))[..., 0][fg],
+                                ch.get("metallic", np.zeros_like(ch["alpha"]))[..., 0][fg])
+                specular = specular or bool(f0.max() > 0.0)
+                if "ao" in ch:
+                    ao = ao or bool(ch["ao"][..., 0][fg].min() < 1.0)
+        else:
+            meshes = True
+            for mesh in content:
+                s, a = _mesh_features(mesh)
+                specular, ao = specular or s, ao or a
+    constant = False
+    spec = scene.environment
+    if spec.path is None and spec.procedural == "white":
+        constant = True
+    return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
+                         constant_environment=constant)
+
+
+# G-buffer channels each model reads (besides albedo, alpha)
+_MODEL_CHANNELS = {
+    "unlit": set(),
+    "blinn_phong": {"normal", "roughness", "metallic", "specular", "ao"},
+    "ggx_split_sum": {"normal", "roughness", "metallic", "specular", "ao"},
+}
+_SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
+
+
+def specialise(features: SceneFeatures, settings, aovs=(), enabled: bool = True) -> Specialization:
+    """Layout and defines for ``settings.model`` on a scene with ``features``.
+
+    ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
+    the all-features path (every channel, every lobe), the baseline ``relight bench`` compares to.
+    """
+    dtype = "f2" if getattr(settings, "precision", "fp32") == "fp16" else "f4"
+    if not enabled:
+        return Specialization(GBufferLayout(with_color=True, dtype=dtype), {"SPECULAR_LOBE": 1})
+    model = settings.model
+    # models not listed read everything they might need (sampling, neural, future ones)
+    needed = set(_MODEL_CHANNELS.get(model, set(CHANNEL_NAMES)))
+    defines = {}
+    if model in ("blinn_phong", "ggx_split_sum"):
+        defines["SPECULAR_LOBE"] = int(features.specular)
+        if not features.specular:
+            needed -= _SPECULAR_CHANNELS
+    if not features.ao or not getattr(settings, "ao", True):
+        needed.discard("ao")
+    if getattr(settings, "ssao", False) or getattr(settings, "indirect", False):
+        needed |= {"depth", "normal"}
+    needed |= set(aovs) | {"albedo", "alpha"}
+    needed.discard("color")
+    omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c != "color")
+    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit), defines)

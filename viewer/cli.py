@@ -2,7 +2,11 @@
 
     relight render [SCENE.toml] --out FILE [--model M] [--samples N] [--size WxH] [--aov a,b]
     relight parity [--model M] [--json]
+    relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
+    relight train [--data DIR] [--out RUN] [--quick] [--install]
+    relight eval DATA [--split test] [--json]
+    relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
 writing nothing.
@@ -115,7 +119,12 @@ def cmd_parity(args) -> int:
     from .models import model_info
 
     if args.model is not None:
-        model_info(args.model)
+        from learned.parity import PASS_CHECKS
+        from learned.twins import twin_modules
+
+        twin_modules()  # registers the pass checks
+        if args.model not in {m for m, _ in PASS_CHECKS.values() if m is not None}:
+            model_info(args.model)  # not a pass-check group (e.g. "splats"): must be a model
     ctx = create_context(_context_options(args))
     try:
         results = run_parity(Programs(ctx), model=args.model, seed=args.seed)
@@ -135,6 +144,34 @@ def cmd_parity(args) -> int:
     return 0 if all(r.passed for r in results) else 1
 
 
+def cmd_decompose(args) -> int:
+    try:
+        from learned.splats.decompose import DecomposeOptions, run
+    except ImportError as exc:
+        raise RelightError(f"relight decompose needs torch: pip install -e '.[learned]' ({exc})",
+                           where="decompose") from None
+    out = Path(args.out)
+    if out.suffix.lower() != ".ply":
+        raise SceneError("--out must end in .ply", where=out)
+    if not out.resolve().parent.is_dir():
+        raise SceneError("output folder does not exist", where=out.parent)
+    if (args.input is None) == (not args.synthetic):
+        raise SceneError("give either an input PLY or --synthetic N", where="decompose")
+    for name, lo in (("views", 1), ("size", 8), ("iterations", 1), ("synthetic", 0)):
+        if getattr(args, name) < lo:
+            raise SceneError(f"--{name} must be at least {lo}", where=f"--{name}")
+    options = DecomposeOptions(views=args.views, size=args.size, iterations=args.iterations,
+                               checkpoint=args.checkpoint, seed=args.seed,
+                               progress=not args.quiet and not args.json)
+    report = run(args.input, out, options, synthetic=args.synthetic)
+    if args.json:
+        print(json.dumps(report, indent=1))
+    elif not args.quiet:
+        for k, v in report.items():
+            print(f"{k:>17}: {v}")
+    return 0
+
+
 def cmd_info(args) -> int:
     from .gl import create_context, gl_info
 
@@ -150,6 +187,101 @@ def cmd_info(args) -> int:
     for k, v in info.items():
         print(f"{k:>26}: {v}")
     print(f"{'extensions':>26}: {len(exts)} ({', '.join(exts[:6])}, ...)")
+    return 0
+
+
+def cmd_view(args) -> int:
+    try:
+        import imgui_bundle  # noqa: F401  (before glfw: both must use the same libglfw)
+    except ImportError as exc:
+        raise RelightError(f"relight view needs imgui-bundle: pip install -e '.[gui]' ({exc})",
+                           where="view") from None
+    from .app.window import Viewer
+    from .scene import load_scene
+
+    if args.frames is not None and args.frames < 1:
+        raise SceneError(f"--frames must be at least 1, got {args.frames}", where="--frames")
+    shot = Path(args.screenshot) if args.screenshot else None
+    if shot is not None:
+        if shot.suffix.lower() not in (".png", ".exr"):
+            raise SceneError("--screenshot must end in .png (the view) or .exr (linear radiance)",
+                             where=shot)
+        if not shot.resolve().parent.is_dir():
+            raise SceneError("output folder does not exist", where=shot.parent)
+    scene = load_scene(args.scene or _demo_path())
+    if args.size:
+        scene = scene.with_camera(size=_parse_size(args.size))
+    viewer = Viewer(scene, offscreen=args.offscreen, options=_context_options(args),
+                    title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
+    try:
+        if args.reference:
+            viewer.frame()
+            if not viewer.load_reference(args.reference):
+                raise RelightError(viewer.state.message)
+        frames = args.frames
+        if frames is None and (args.offscreen or shot is not None):
+            frames = 1
+        viewer.run(frames=frames)
+        if viewer.renders == 0:  # the scene itself failed (a missing mesh, an unknown model)
+            raise RelightError(viewer.state.message or "nothing could be rendered")
+        if shot is not None:
+            viewer.screenshot(shot)
+            if not args.quiet:
+                print(f"{viewer.frames} frames -> {shot}")
+    finally:
+        viewer.close()
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench.run import BenchConfig, pareto_front, run_bench
+
+    config = BenchConfig(quick=args.quick, frames=args.frames)
+    report = run_bench(args.out, config, fresh=args.fresh, progress=not args.quiet)
+    front = pareto_front(report["results"])
+    print(f"wrote {args.out}/bench.json, bench.csv, bench.md, pareto.png "
+          f"({len(report['results'])} rows)")
+    print("Pareto front (fastest first, each more accurate than the previous):")
+    for r in front:
+        print(f"  {r['scene']:>8} {r['size'][0]}x{r['size'][1]}  {r['model']:<14} "
+              f"{r['variant']:<22} {r['ms']:9.2f} ms  {r['psnr']:6.2f} dB")
+    for s in report["specialization"]:
+        print(f"specialised {s['scene']}: {s['ms_general']:.2f} -> {s['ms_specialized']:.2f} ms "
+              f"({s['ms_general'] / s['ms_specialized']:.2f}x), max abs diff {s['max_abs_diff']:.2g}")
+    return 0
+
+
+def _learned(what: str):
+    import importlib
+
+    try:
+        return importlib.import_module(what)
+    except ImportError as exc:
+        raise RelightError(f"this command needs torch: pip install -e '.[learned]' ({exc})",
+                           where=what) from None
+
+
+def cmd_train(args) -> int:
+    """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student."""
+    train = _learned("learned.train")
+    res = train.pipeline(args.out, data=args.data, quick=args.quick, install=args.install,
+                         quiet=args.quiet)
+    if not args.quiet:
+        for k in ("teacher", "student", "installed_student", "installed_teacher"):
+            if k in res:
+                print(f"{k}: {res[k]}")
+    return 0
+
+
+def cmd_eval(args) -> int:
+    """PSNR, SSIM and HDR-FLIP of every model against the Monte-Carlo targets of a split."""
+    ev = _learned("learned.evaluate")
+    rows = ev.evaluate(args.data, split=args.split, teacher_samples=args.teacher_samples,
+                       limit=args.limit)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    else:
+        print(ev.format_table(rows))
     return 0
 
 
@@ -177,10 +309,65 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.set_defaults(func=cmd_parity)
 
+    p = sub.add_parser("bench", help="frame time and error of every model and knob -> tables, plot")
+    p.add_argument("--out", required=True, help="output folder (bench.json, .csv, .md, pareto.png)")
+    p.add_argument("--quick", action="store_true", help="one small size, fewer knobs (minutes)")
+    p.add_argument("--frames", type=int, default=10, help="timed frames per case (default 10)")
+    p.add_argument("--fresh", action="store_true", help="ignore rows measured by an earlier run")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("decompose", help="baked-colour splats -> per-splat materials + cubemap "
+                       "light (thesis eqs. 6.11-6.12, 6.24-6.27)")
+    p.add_argument("input", nargs="?", help="splat PLY (3DGS layout); omit with --synthetic")
+    p.add_argument("--out", required=True, help="output relightable PLY (+ <out>.light.exr)")
+    p.add_argument("--synthetic", type=int, default=0, metavar="N",
+                   help="decompose a generated N-splat scene with known truth and report the "
+                        "relighting error")
+    p.add_argument("--views", type=int, default=8)
+    p.add_argument("--size", type=int, default=64, help="view resolution (square)")
+    p.add_argument("--iterations", type=int, default=300)
+    p.add_argument("--checkpoint", help="checkpoint file (resumed when it exists)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_decompose)
+
+    p = sub.add_parser("train", help="train the neural shader: data, teacher, shadow, student")
+    p.add_argument("--data", help="dataset root in the FFHQ256-PBR layout (default: generate a "
+                                  "synthetic one under OUT/data)")
+    p.add_argument("--out", default="runs/quick", help="run folder (checkpoints, logs, weights)")
+    p.add_argument("--quick", action="store_true", help="small networks and few steps (minutes)")
+    p.add_argument("--install", action="store_true",
+                   help="copy the exported weights to assets/weights (the shipped defaults)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("eval", help="PSNR / SSIM / HDR-FLIP of every model on held-out samples")
+    p.add_argument("data", help="dataset root (FFHQ256-PBR layout with targets)")
+    p.add_argument("--split", default="test")
+    p.add_argument("--teacher-samples", type=int, default=128)
+    p.add_argument("--limit", type=int, help="at most this many samples")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_eval)
+
     p = sub.add_parser("info", help="GL renderer, version, extensions, float target precision")
     p.add_argument("--json", action="store_true")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("view", help="the interactive viewer (glfw + Dear ImGui)")
+    p.add_argument("scene", nargs="?", help="scene TOML (default: the built-in demo)")
+    p.add_argument("--frames", type=int, help="run exactly N frames, then exit")
+    p.add_argument("--screenshot", help="after the last frame, save the view (.png) or the "
+                   "linear radiance (.exr)")
+    p.add_argument("--offscreen", action="store_true",
+                   help="no display: glfw's Null platform with an EGL context")
+    p.add_argument("--size", help="WxH render size (overrides [camera] size)")
+    p.add_argument("--reference", help="a linear EXR/HDR render for the difference views")
+    p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_view)
     return parser
 
 

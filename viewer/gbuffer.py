@@ -13,6 +13,7 @@ normal    3  unit normal, world space (image-space stacks: camera space = world 
 roughness 1  perceptual roughness r in [0, 1]; alpha = r^2
 metallic  1  in [0, 1]
 specular  1  dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no specular lobe
+             (also its background value, so an omitted specular channel means "no lobe")
 ao        1  ambient occlusion in [0, 1], applied to diffuse light
 depth     1  view-space depth, positive distance along the view axis (-z_vs); 0 = background
 color     3  baked unlit colour (splats' SH colour); only allocated when a scene has splats
@@ -42,7 +43,7 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("normal", 3, 1, 0, (0.0, 0.0, 0.0), "unit normal, world space"),
     Channel("roughness", 1, 1, 3, (1.0,), "perceptual roughness"),
     Channel("metallic", 1, 2, 0, (0.0,), "metalness"),
-    Channel("specular", 1, 2, 1, (0.5,), "dielectric reflectance, f0 = 0.16 s^2"),
+    Channel("specular", 1, 2, 1, (0.0,), "dielectric reflectance, f0 = 0.16 s^2"),
     Channel("ao", 1, 2, 2, (1.0,), "ambient occlusion"),
     Channel("depth", 1, 2, 3, (0.0,), "view-space depth, positive in front of the camera"),
     Channel("color", 3, 3, 0, (0.0, 0.0, 0.0), "baked unlit colour, premultiplied", optional=True),
@@ -183,6 +184,9 @@ class GBufferLayout:
                 raise ValueError(f"channel {name} has {arr.shape[2]} components, "
                                  f"expected {c.components}")
             full[name] = arr
+        if "color" not in channels and self.with_color:
+            # surfaces without a baked colour show their albedo unlit (premultiplied)
+            full["color"] = full["albedo"] * full["alpha"]
         out = {a: np.zeros((h, w, 4), np.float32) for a in self.attachments}
         for c in self.channels:
             out[c.attachment][:, :, c.offset:c.offset + c.components] = full[c.name]

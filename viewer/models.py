@@ -12,7 +12,7 @@ class ModelInfo:
     name: str
     pass_file: str
     summary: str
-    needs: frozenset[str]  # subset of {"sh", "prefiltered", "dfg", "radiance"}
+    needs: frozenset[str]  # subset of {"sh", "prefiltered", "dfg", "radiance", "cdf"}
 
 
 MODELS: dict[str, ModelInfo] = {
@@ -28,9 +28,25 @@ MODELS: dict[str, ModelInfo] = {
                   "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
                   "prefiltered specular + SH diffuse; optional multiple-scattering compensation",
                   frozenset({"sh", "prefiltered", "dfg", "radiance"})),
+        ModelInfo("ggx_mc", "passes/shade_ggx_mc.frag",
+                  "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the environment: "
+                  "`samples` per pixel, `sampling` = uniform | cosine | env | brdf | mis, "
+                  "progressive accumulation",
+                  frozenset({"dfg", "radiance", "cdf"})),
+        ModelInfo("neural", "passes/shade_neural.frag",
+                  "the distilled neural shader (thesis ch. 4 student): one small MLP per pixel on "
+                  "the material, n.v, SH irradiance and prefiltered radiance; weights baked into "
+                  "generated GLSL from `weights` (default: assets/weights)",
+                  frozenset({"sh", "prefiltered", "radiance"})),
+        ModelInfo("neural_teacher", "passes/shade_neural_teacher.frag",
+                  "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse and "
+                  "specular MLPs per sampled light direction, `samples` averaged progressively; "
+                  "`sampling` uniform | cosine | env (brdf and mis use env)",
+                  frozenset({"radiance", "cdf"})),
     )
 }
 SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
+SAMPLING_MODELS = frozenset({"ggx_mc", "neural_teacher"})  # models that integrate by Monte Carlo (accumulate samples)
 
 
 def model_info(name: str) -> ModelInfo:

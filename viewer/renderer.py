@@ -25,6 +25,7 @@ from .camera import Camera
 from .errors import InputError, SceneError
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .gl import ContextOptions, Programs, create_context, make_current
+from .material import Material
 from .models import model_info
 from .scene import ObjectSpec, Scene
 
@@ -54,13 +55,33 @@ class Renderer:
         self._gbuffer_passes: dict[GBufferLayout, object] = {}
         self._shade_passes: dict[GBufferLayout, object] = {}
         self._tonemap = None
+        self._env_sampling: dict[tuple, object] = {}  # environment -> EnvSampling (model needs "cdf")
+        self._accumulators: dict[tuple, object] = {}  # size -> Accumulator (Monte-Carlo models)
+        self._ssao_passes: dict[GBufferLayout, object] = {}
+        self._splat_passes: dict[GBufferLayout, object] = {}
+        # optional per-pass profiler (the viewer's GPU timer queries): .begin(name) between passes
+        self.profiler = None
 
     # ---- scene content ------------------------------------------------------------------------
     def geometry(self, obj: ObjectSpec):
-        """CPU geometry for an object: a list of meshes, or an image-space G-buffer."""
-        if obj not in self._geometry:
-            self._geometry[obj] = _load_object(obj)
-        return self._geometry[obj]
+        """CPU geometry for an object: a list of meshes, or an image-space G-buffer.
+
+        Cached by shape: objects that differ only in their material share the loaded (and
+        uploaded) meshes, whose material (a uniform) is set from ``obj`` here, so material
+        sliders never re-tessellate, reload or re-upload.
+        """
+        key = _shape_key(obj)
+        if key not in self._geometry:
+            self._geometry[key] = _load_object(obj)
+        content = self._geometry[key]
+        _apply_material(obj, content)
+        return content
+
+    def _pass_begin(self, name: str | None) -> None:
+        """Profiling hook between passes: ``profiler.begin(name)`` ends the previous pass's timer
+        and starts ``name``'s (``None`` ends the last). Nothing without a profiler."""
+        if self.profiler is not None:
+            self.profiler.begin(name)
 
     def resolve_camera(self, scene: Scene, size: tuple[int, int] | None = None) -> Camera:
         """The scene's camera, or the camera of its image-space G-buffer stack."""
@@ -83,9 +104,18 @@ class Renderer:
             camera = camera.with_size(*size)
         return camera
 
-    def layout_for(self, scene: Scene) -> GBufferLayout:
-        """Only the channels the scene needs: the baked-colour channel exists with splats only."""
-        return GBufferLayout(with_color=any(o.type == "splats" for o in scene.objects))
+    def specialization(self, scene: Scene, aovs=()):
+        """The G-buffer layout and lighting-pass defines this scene needs (see
+        :mod:`viewer.specialize`; ``render.specialize = false`` gives the all-features path).
+        ``aovs``: channels the caller reads back, always allocated."""
+        from .specialize import analyse, specialise
+
+        if not scene.render.specialize:
+            return specialise(None, scene.render, aovs, enabled=False)
+        return specialise(analyse(self, scene), scene.render, aovs)
+
+    def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
+        return self.specialization(scene, aovs).layout
 
     def ibl(self, scene: Scene):
         from .environment import load_environment
@@ -97,6 +127,18 @@ class Renderer:
             env = load_environment(spec)
             self._ibl[key] = build_ibl(self.programs, env, IBLOptions())
         return self._ibl[key]
+
+    def env_sampling(self, scene: Scene):
+        """The environment's importance-sampling distribution (built on the GPU from the IBL's
+        radiance texture; cached like the IBL)."""
+        from .envsampling import build_env_sampling
+        from .ibl import IBLOptions
+
+        spec = dataclasses.replace(scene.environment, intensity=1.0, rotation_deg=0.0)
+        key = (spec, IBLOptions())
+        if key not in self._env_sampling:
+            self._env_sampling[key] = build_env_sampling(self.programs, self.ibl(scene).radiance)
+        return self._env_sampling[key]
 
     def _target_set(self, layout: GBufferLayout, size: tuple[int, int]) -> dict:
         from .passes.gbuffer import GBufferTargets
@@ -127,45 +169,149 @@ class Renderer:
         make_current(self.ctx)
         return self._draw(scene, size, **kwargs)
 
-    def _draw(self, scene: Scene, size: tuple[int, int] | None = None) -> dict:
-        """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers)."""
+    def _draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
+              samples_per_frame: int = 1, aovs=()) -> dict:
+        """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers).
+
+        Monte-Carlo models (``ggx_mc``) render ``scene.render.samples`` samples per pixel in
+        batches. With ``progressive=True`` a call adds only ``samples_per_frame`` samples to the
+        running mean kept since the last call, as long as the scene (except exposure and tone
+        mapping) and the size are unchanged (any change restarts), and stops adding once
+        ``scene.render.samples`` are in; ``targets["samples"]`` is the count accumulated.
+        ``aovs``: G-buffer channels the caller will read from ``targets["gbuffer"]`` (the layout
+        is specialised to the scene, so channels nothing reads are otherwise not allocated).
+        """
         from .passes.gbuffer import GBufferPass
         from .passes.shade import ShadePass
         from .passes.tonemap import TonemapPass
 
         settings = scene.render
         model_info(settings.model)  # unknown model -> SceneError before any GPU work
-        if any(o.type == "splats" for o in scene.objects):
-            raise SceneError("objects of type 'splats' are not supported by this version yet",
-                             where=scene.source)
         camera = self.resolve_camera(scene, size)
-        layout = self.layout_for(scene)
+        spec = self.specialization(scene, aovs)
+        layout = spec.layout
         targets = self._target_set(layout, camera.size)
+        targets["defines"] = spec.defines
         gpass = self._gbuffer_passes.get(layout)
         if gpass is None:
             gpass = self._gbuffer_passes[layout] = GBufferPass(self.programs, layout)
         gb = targets["gbuffer"]
+        self._pass_begin("gbuffer")
         gb.clear()
-        meshes = []
+        meshes, clouds = [], []
         for obj in scene.objects:
             content = self.geometry(obj)
             if obj.type == "gbuffer":
                 gpass.draw_image(gb, content)
+            elif obj.type == "splats":
+                clouds.append(content)
             else:
                 meshes.extend(content)
         if meshes:
             gpass.draw_meshes(gb, camera, meshes)
+        if clouds:  # after meshes: depth-tested against them, composited over them
+            from .passes.splats import SplatPass
+
+            self._pass_begin("splats")
+            if layout not in self._splat_passes:
+                self._splat_passes[layout] = SplatPass(self.programs, layout)
+            self._splat_passes[layout].draw_clouds(gb, camera, clouds)
         spass = self._shade_passes.get(layout)
         if spass is None:
             spass = self._shade_passes[layout] = ShadePass(self.programs, layout)
-        spass.run(gb.textures, targets["radiance_fbo"], camera, self.ibl(scene), scene.environment,
-                  settings)
+        self._pass_begin("ibl")  # precomputation, only when the environment is new
+        ibl = self.ibl(scene)
+        self._shade_frame(scene, layout, targets, camera, ibl, spass, progressive,
+                          samples_per_frame)
         if self._tonemap is None:
             self._tonemap = TonemapPass(self.programs)
+        self._pass_begin("tonemap")
         self._tonemap.run(targets["radiance"], targets["display_fbo"], settings.exposure,
                           settings.tonemap)
+        self._pass_begin(None)
         targets["camera"] = camera
         return targets
+
+    MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
+
+    def _shade_frame(self, scene: Scene, layout: GBufferLayout, targets: dict, camera: Camera,
+                     ibl, spass, progressive: bool, samples_per_frame: int) -> None:
+        """SSAO -> lighting (accumulated for Monte-Carlo models) -> indirect, into ``radiance``.
+
+        With ``indirect`` the lighting pass writes the direct-lighting buffer ``direct`` of this
+        frame, and the indirect pass adds eq. 6.22 gathered from it into ``radiance``.
+        """
+        from .models import SAMPLING_MODELS
+        from .passes.ssao import SSAOPass
+
+        settings = scene.render
+        info = model_info(settings.model)
+        gbt = targets["gbuffer"].textures
+        ssao = None
+        if settings.ssao or settings.indirect:
+            sspass = self._ssao_passes.get(layout)
+            if sspass is None:
+                sspass = self._ssao_passes[layout] = SSAOPass(self.programs, layout)
+        if settings.ssao:
+            self._pass_begin("ssao")
+            ssao = self._extra_target(targets, "ssao")
+            sspass.occlusion(gbt, targets["ssao_fbo"], camera, settings)
+        if settings.indirect:
+            out_tex = self._extra_target(targets, "direct")
+            out_fbo = targets["direct_fbo"]
+        else:
+            out_tex, out_fbo = targets["radiance"], targets["radiance_fbo"]
+        env_sampling = self.env_sampling(scene) if "cdf" in info.needs else None
+        self._pass_begin("shade")
+        if settings.model in SAMPLING_MODELS:
+            if settings.samples < 1:
+                raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
+                                 f"{settings.samples}", where=scene.source or "render.samples")
+            acc = self._accumulator(camera.size)
+            key = (dataclasses.replace(scene, render=dataclasses.replace(
+                settings, exposure=0.0, tonemap="none")), camera)
+            if not progressive or acc.key != key:
+                acc.reset(key)
+            if progressive:
+                todo = min(max(int(samples_per_frame), 1), max(settings.samples - acc.count, 0))
+            else:
+                todo = settings.samples
+            if todo == 0:  # converged: the history holds the mean
+                self.ctx.copy_framebuffer(dst=out_fbo, src=acc.history_fbo)
+            while todo > 0:
+                n = min(todo, self.MC_BATCH)
+                spass.run(gbt, acc.batch_fbo, camera, ibl, scene.environment, settings,
+                          env_sampling=env_sampling, ssao=ssao, sample_range=(acc.count, n),
+                          defines=targets["defines"])
+                acc.add(n, out_fbo)
+                todo -= n
+            targets["samples"] = acc.count
+        else:
+            spass.run(gbt, out_fbo, camera, ibl, scene.environment, settings,
+                      env_sampling=env_sampling, ssao=ssao, defines=targets["defines"])
+            targets["samples"] = 1
+        if settings.indirect:
+            self._pass_begin("indirect")
+            sspass.indirect(gbt, out_tex, targets["radiance_fbo"], camera, settings)
+
+    def _extra_target(self, targets: dict, name: str):
+        """An RGBA32F texture ``targets[name]`` (+ ``targets[name + "_fbo"]``) of the set's size,
+        made on first use (SSAO and direct-lighting buffers)."""
+        if name not in targets:
+            ctx = self.ctx
+            tex = ctx.texture(targets["radiance"].size, 4, dtype="f4")
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            targets[name] = tex
+            targets[name + "_fbo"] = ctx.framebuffer(color_attachments=[tex])
+        return targets[name]
+
+    def _accumulator(self, size: tuple[int, int]):
+        from .passes.accumulate import Accumulator
+
+        key = tuple(size)
+        if key not in self._accumulators:
+            self._accumulators[key] = Accumulator(self.programs, key)
+        return self._accumulators[key]
 
     def render(self, scene: Scene, aovs: tuple[str, ...] | list[str] = (),
                size: tuple[int, int] | None = None) -> Frame:
@@ -180,7 +326,7 @@ class Renderer:
         if unknown:
             raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
                              f"(known: {', '.join(AOV_NAMES)})", where="--aov")
-        targets = self._draw(scene, size)
+        targets = self._draw(scene, size, aovs=tuple(a for a in aovs if a != "color"))
         radiance = _read(targets["radiance"], "f4")
         display = _read(targets["display"], "f1")
         frame = Frame(radiance=radiance, display=display, camera=targets["camera"])
@@ -206,10 +352,20 @@ class Renderer:
             ibl.release()
         for t in self._targets.values():
             t["gbuffer"].release()
-            for k in ("radiance", "radiance_fbo", "display", "display_fbo"):
-                t[k].release()
-        for p in list(self._gbuffer_passes.values()) + list(self._shade_passes.values()):
+            for k in ("radiance", "radiance_fbo", "display", "display_fbo", "ssao", "ssao_fbo",
+                      "direct", "direct_fbo"):
+                if k in t:
+                    t[k].release()
+        for obj in (list(self._env_sampling.values()) + list(self._accumulators.values())
+                    + list(self._ssao_passes.values())):
+            obj.release()
+        self._env_sampling.clear()
+        self._accumulators.clear()
+        self._ssao_passes.clear()
+        for p in (list(self._gbuffer_passes.values()) + list(self._shade_passes.values())
+                  + list(self._splat_passes.values())):
             p.release()
+        self._splat_passes.clear()
         self._ibl.clear()
         self._targets.clear()
         self._gbuffer_passes.clear()
@@ -252,4 +408,33 @@ def _load_object(obj: ObjectSpec):
             return imagespace.load_stack_exr(path, fov_y=obj.fov_y, near=obj.near, far=obj.far)
         raise InputError("an image-space G-buffer is a folder (FFHQ256-PBR layout) or a "
                          "12-channel .exr stack", where=path)
+    if obj.type == "splats":
+        from .splats import load_splats
+
+        return load_splats(obj.path, transform=obj.transform, material=obj.material)
     raise SceneError(f"object type {obj.type!r} cannot be rendered")
+
+
+def _shape_key(obj: ObjectSpec) -> ObjectSpec:
+    """The geometry cache key: ``obj`` without the parts of its material that are uniforms.
+
+    Primitives take their material as uniforms (a grid only its albedo); a mesh's override only
+    decides whether its own texture maps are kept, so just its presence is part of the key.
+    """
+    if obj.type in ("sphere", "plane", "material_grid"):
+        return dataclasses.replace(obj, material=None)
+    if obj.type == "mesh" and obj.material is not None:
+        return dataclasses.replace(obj, material=Material())
+    return obj
+
+
+def _apply_material(obj: ObjectSpec, content) -> None:
+    """Set the (uniform) material of cached meshes from ``obj``, as :func:`_load_object` would."""
+    if obj.material is None or obj.type not in ("sphere", "plane", "material_grid", "mesh"):
+        return
+    for mesh in content:
+        if obj.type == "material_grid":  # the grid sweeps roughness and metallic itself
+            if mesh.material.albedo != obj.material.albedo:
+                mesh.material = dataclasses.replace(mesh.material, albedo=obj.material.albedo)
+        else:
+            mesh.material = obj.material

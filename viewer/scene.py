@@ -55,6 +55,8 @@ except ImportError:  # pragma: no cover - Python < 3.11
 OBJECT_TYPES = ("sphere", "plane", "material_grid", "mesh", "gbuffer", "splats")
 TONEMAPS = ("none", "aces", "reinhard")
 BACKGROUNDS = ("environment", "transparent")
+PRECISIONS = ("fp32", "fp16")
+MIS_HEURISTICS = ("power", "balance")
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,17 @@ class RenderSettings:
     exposure: float = 0.0  # EV stops: radiance * 2^exposure before tone mapping
     background: str = "environment"  # "environment" | "transparent"
     seed: int = 0
+    precision: str = "fp32"  # G-buffer render targets: "fp32" | "fp16" (radiance stays fp32)
+    specialize: bool = True  # build only the channels and shader variants the scene needs
+    mis_heuristic: str = "power"  # Monte-Carlo MIS weights: "power" (beta = 2) | "balance"
+    ssao: bool = False  # screen-space ambient occlusion on the diffuse term (thesis eqs. 6.19-6.20)
+    indirect: bool = False  # one-bounce screen-space indirect light (thesis eqs. 6.21-6.22)
+    ssao_rays: int = 8  # rays per pixel (SSAO and indirect)
+    ssao_steps: int = 8  # ray-marching steps per ray
+    ssao_radius: float = 0.5  # world units: how far each ray marches
+    ssao_thickness: float = 0.2  # world units: delta of eq. 6.20 (assumed surface thickness)
+    weights: str | None = None  # `neural` student weights (.safetensors); None = assets/weights
+    teacher_weights: str | None = None  # `neural_teacher` weights; None = assets/weights
 
 
 @dataclass(frozen=True)
@@ -298,6 +311,32 @@ def parse_render(t: dict, file: str) -> RenderSettings:
         kw["background"] = _str(t["background"], "render.background", file, BACKGROUNDS)
     if "seed" in t:
         kw["seed"] = _int(t["seed"], "render.seed", file, 0, (1 << 31) - 1)
+    if "specialize" in t:
+        if not isinstance(t["specialize"], bool):
+            raise SceneError(f"render.specialize must be true or false, got {t['specialize']!r}",
+                             where=file)
+        kw["specialize"] = t["specialize"]
+    if "precision" in t:
+        kw["precision"] = _str(t["precision"], "render.precision", file, PRECISIONS)
+    if "mis_heuristic" in t:
+        kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
+                                   MIS_HEURISTICS)
+    for k in ("ssao", "indirect"):
+        if k in t:
+            if not isinstance(t[k], bool):
+                raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)
+            kw[k] = t[k]
+    if "ssao_rays" in t:
+        kw["ssao_rays"] = _int(t["ssao_rays"], "render.ssao_rays", file, 1, 1024)
+    if "ssao_steps" in t:
+        kw["ssao_steps"] = _int(t["ssao_steps"], "render.ssao_steps", file, 1, 256)
+    for k in ("ssao_radius", "ssao_thickness"):
+        if k in t:
+            kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
+    for k in ("weights", "teacher_weights"):  # relative to the scene file
+        if k in t:
+            base = Path(file).resolve().parent if Path(file).is_file() else Path.cwd()
+            kw[k] = _path(t[k], f"render.{k}", file, base)
     return RenderSettings(**kw)
 
 

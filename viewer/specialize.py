@@ -116,6 +116,8 @@ def specialise(features: SceneFeatures, settings, aovs=(), enabled: bool = True)
         needed.discard("ao")
     if getattr(settings, "ssao", False) or getattr(settings, "indirect", False):
         needed |= {"depth", "normal"}
+    if features.stacks and (features.meshes or features.splats):
+        needed.add("depth")  # meshes and splats depth-test against the stack's stored depth
     needed |= set(aovs) | {"albedo", "alpha"}
     needed.discard("color")
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c != "color")

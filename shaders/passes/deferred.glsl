@@ -2,6 +2,9 @@
 // per-pixel view ray, the environment's rotation and intensity, and the background.
 // Pass-level chunk (has uniforms); the shading maths lives in shaders/lib.
 #define GBUFFER_READ
+#ifndef SPECULAR_LOBE
+#define SPECULAR_LOBE 1  // 0 when no surface of the scene has f0 > 0 (viewer/specialize.py)
+#endif
 #include "generated/gbuffer.glsl"
 #include "lib/common.glsl"
 #include "lib/equirect.glsl"
@@ -33,6 +36,27 @@ vec3 background_radiance(vec3 d_ws) {
 #else
     return vec3(0.0);
 #endif
+}
+
+// ---- ambient occlusion (applied to the diffuse term of every model) ----------------------------
+// USE_AO: the G-buffer's baked ao channel; USE_SSAO: screen-space occlusion from passes/ssao.frag
+// (thesis eq. 6.19), texture u_ssao (r = visibility O(x)). Both multiply diffuse light only.
+#ifndef USE_AO
+#define USE_AO 0
+#endif
+#ifndef USE_SSAO
+#define USE_SSAO 0
+#endif
+#if USE_SSAO
+uniform sampler2D u_ssao;
+#endif
+
+float ambient_occlusion(ivec2 pixel, GBuffer g) {
+    float ao = USE_AO != 0 ? g.ao : 1.0;
+#if USE_SSAO
+    ao *= texelFetch(u_ssao, pixel, 0).r;
+#endif
+    return ao;
 }
 
 // Composite a shaded surface of coverage alpha over the background and write it.

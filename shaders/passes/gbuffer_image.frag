@@ -21,7 +21,9 @@ void main() {
         vec4 clip = u_projection * vec4(0.0, 0.0, -g.depth, 1.0);
         gl_FragDepth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
     } else {
-        gl_FragDepth = 1.0;
+        // no depth (or a layout without the depth channel): behind everything, but in front of
+        // the cleared depth 1.0 so the LESS test keeps the pixel (0.9999999 < 1 in 24 bits)
+        gl_FragDepth = 0.9999999;
     }
     gbuffer_store(g);
 }

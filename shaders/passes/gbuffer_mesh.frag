@@ -94,5 +94,6 @@ void main() {
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;
     g.depth = v_depth_vs;
+    g.color = g.albedo;  // a mesh's unlit colour is its albedo (premultiplied by alpha = 1)
     gbuffer_store(g);
 }

@@ -1,5 +1,5 @@
 // shade_blinn_phong.frag - the thesis's classical baseline under environment light.
-// Defines: USE_AO (0/1), BACKGROUND_ENVIRONMENT (0/1).
+// Defines: USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1), SPECULAR_LOBE (0/1).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
@@ -21,12 +21,16 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
-    float r = clamp_perceptual_roughness(g.roughness);
     vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    float ao = ambient_occlusion(pixel, g);
+#if SPECULAR_LOBE
+    float r = clamp_perceptual_roughness(g.roughness);
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflect(-v, n)), r,
                                              u_env_levels) * u_env_intensity;
-    float ao = USE_AO != 0 ? g.ao : 1.0;
     vec3 c = blinn_phong(diffuse_color(g.albedo, g.metallic),
                          compute_f0(g.albedo, g.metallic, g.specular), ao, irradiance, prefiltered);
+#else
+    vec3 c = blinn_phong(diffuse_color(g.albedo, g.metallic), vec3(0.0), ao, irradiance, vec3(0.0));
+#endif
     write_radiance(c, background, g.alpha);
 }

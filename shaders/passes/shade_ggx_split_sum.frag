@@ -1,5 +1,6 @@
 // shade_ggx_split_sum.frag - Cook-Torrance GGX with split-sum image-based lighting.
-// Defines: MULTISCATTER (0/1), USE_AO (0/1), BACKGROUND_ENVIRONMENT (0/1).
+// Defines: MULTISCATTER (0/1), USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1),
+// SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
@@ -22,16 +23,22 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
+    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    float ao = ambient_occlusion(pixel, g);
+#if SPECULAR_LOBE
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
     vec3 reflected = reflect(-v, n);
-    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
                        * u_env_intensity;
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
-    float ao = USE_AO != 0 ? g.ao : 1.0;
     vec3 c = ggx_split_sum(diffuse_color(g.albedo, g.metallic),
                            compute_f0(g.albedo, g.metallic, g.specular), ao, irradiance,
                            prefiltered, dfg, float(MULTISCATTER));
+#else
+    // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0)
+    vec3 c = ggx_split_sum(diffuse_color(g.albedo, g.metallic), vec3(0.0), ao, irradiance,
+                           vec3(0.0), vec2(0.0, 1.0), 0.0);
+#endif
     write_radiance(c, background, g.alpha);
 }

@@ -51,7 +51,7 @@ def test_sphere_gbuffer(fill):
     for corner in ((0, 0), (0, -1), (-1, 0), (-1, -1)):
         assert g["alpha"][corner][0] == 0 and g["depth"][corner][0] == 0
         np.testing.assert_array_equal(g["normal"][corner], 0)
-        assert g["roughness"][corner][0] == 1.0 and g["specular"][corner][0] == 0.5
+        assert g["roughness"][corner][0] == 1.0 and g["specular"][corner][0] == 0.0
 
 
 def test_back_faces_face_the_viewer(fill):

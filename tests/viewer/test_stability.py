@@ -16,7 +16,6 @@ import pytest
 import torch
 
 from learned.twins.deferred import MODEL_ATOL, MODEL_RTOL, shade
-from viewer.gbuffer import GBufferLayout
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 from viewer.imageio import write_exr
 from viewer.passes.shade import shade_defines
@@ -82,7 +81,7 @@ def renderer(ctx):
     r.release()
 
 
-def render_extremes(renderer, tmp_path, env_kind, model, fov_y, dtype="f4", **render):
+def render_extremes(renderer, tmp_path, env_kind, model, fov_y, aovs=(), **render):
     env_path, max_radiance = environment_file(tmp_path, env_kind)
     image = extreme_gbuffer(fov_y)
     obj = ObjectSpec("gbuffer", path=str(tmp_path / f"extremes_{fov_y}.exr"))
@@ -92,7 +91,7 @@ def render_extremes(renderer, tmp_path, env_kind, model, fov_y, dtype="f4", **re
     scene = Scene(environment=base.environment, render=base.render, objects=(obj,))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the NaN/Inf environment warns by design
-        targets = renderer.draw(scene)
+        targets = renderer.draw(scene, aovs=aovs)
     w, h = targets["radiance"].size
     glsl = np.frombuffer(targets["radiance"].read(), np.float32).reshape(h, w, 4)
     return scene, targets, glsl, max_radiance, image
@@ -125,11 +124,12 @@ def test_extremes_are_finite_bounded_and_match_the_twin(renderer, tmp_path, env_
     np.testing.assert_allclose(glsl, ref, atol=MODEL_ATOL * max(1.0, max_radiance), rtol=MODEL_RTOL)
 
 
-def test_fp16_targets_stay_finite(renderer, tmp_path, monkeypatch):
+def test_fp16_targets_stay_finite(renderer, tmp_path):
     """Half-float G-buffer targets: depth at the far plane and normals survive; nothing overflows."""
-    monkeypatch.setattr(Renderer, "layout_for", lambda self, scene: GBufferLayout(dtype="f2"))
     scene, targets, glsl, max_radiance, _ = render_extremes(renderer, tmp_path, "sun",
-                                                            "ggx_split_sum", 40.0)
+                                                            "ggx_split_sum", 40.0, aovs=("depth",),
+                                                            precision="fp16")
+    assert targets["gbuffer"].layout.dtype == "f2"
     assert np.isfinite(glsl).all() and glsl[..., :3].max() <= max_radiance * 1.001
     depth = targets["gbuffer"].read()["depth"]
     assert np.isfinite(depth).all() and depth.max() == pytest.approx(800.0, rel=1e-3)

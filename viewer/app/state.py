@@ -15,11 +15,10 @@ A ``material_grid`` sweeps roughness and metallic itself; only its albedo follow
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, fields, replace
 
 from ..camera import Camera
-from ..environment import PROCEDURAL, EnvironmentSpec
+from ..environment import EnvironmentSpec
 from ..gbuffer import CHANNEL_NAMES
 from ..material import Material
 from ..scene import RenderSettings, Scene
@@ -29,7 +28,6 @@ from ..scene import RenderSettings, Scene
 # error in false colour).
 VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
 MATERIAL_FIELDS = ("albedo", "roughness", "metallic", "specular")  # what the UI edits
-ENVIRONMENT_CHOICES = PROCEDURAL  # plus any file path
 
 
 @dataclass(frozen=True)
@@ -120,8 +118,3 @@ def reset_camera(state: ViewerState) -> ViewerState:
     """Back to the loaded scene's camera (the render size stays what the user chose)."""
     cam = state.scene.camera.with_size(*state.camera.size)
     return replace(state, camera=cam)
-
-
-def render_settings_fields() -> tuple[dataclasses.Field, ...]:
-    """The knobs of :class:`RenderSettings`, read at call time so knobs added later show up."""
-    return fields(RenderSettings)

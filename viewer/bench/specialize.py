@@ -14,22 +14,16 @@ DIFFUSE_ONLY = {
     "camera": {"position": [0, 2.2, 7.5], "target": [0, 0.4, 0], "fov_y": 40},
     "environment": {"procedural": "sky"},
     "objects": [
-        {"type": "material_grid", "rows": 2, "cols": 4, "spacing": 2.0, "radius": 0.8,
-         "center": [0, 0.9, 0], "material": {"albedo": [0.7, 0.5, 0.3], "specular": 0.0}},
-        {"type": "plane", "center": [0, -0.6, 0], "size": [14, 10],
+        {"type": "sphere", "center": [x, y, 0], "radius": 0.8,
+         "material": {"albedo": [0.2 + 0.1 * i, 0.5, 0.9 - 0.1 * i], "roughness": round(i / 7, 3),
+                      "specular": 0.0, "metallic": 0.0}}
+        for i, (x, y) in enumerate((x, y) for y in (0.1, 1.8) for x in (-3, -1, 1, 3))
+    ] + [
+        {"type": "plane", "center": [0, -0.8, 0], "size": [14, 10],
          "material": {"albedo": [0.5, 0.5, 0.5], "specular": 0.0}},
     ],
     "render": {"model": "ggx_split_sum"},
 }
-
-
-def _diffuse_grid_fix(scene):
-    # the material grid sweeps metallic down its rows; a diffuse-only scene keeps metallic at 0
-    import dataclasses
-
-    objs = tuple(dataclasses.replace(o, rows=1) if o.type == "material_grid" else o
-                 for o in scene.objects)
-    return dataclasses.replace(scene, objects=objs)
 
 
 def measure_specialization(renderer, config) -> list[dict]:
@@ -37,7 +31,7 @@ def measure_specialization(renderer, config) -> list[dict]:
     from assets import ASSET_ROOT
     from ..scene import load_scene
 
-    scenes = {"diffuse_only": _diffuse_grid_fix(scene_from_dict(DIFFUSE_ONLY)),
+    scenes = {"diffuse_only": scene_from_dict(DIFFUSE_ONLY),
               "demo": load_scene(ASSET_ROOT / "scenes" / "demo.toml")}
     rows = []
     size = config.sizes[-1]

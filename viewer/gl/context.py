@@ -155,6 +155,27 @@ class WindowContext:
             _egl_make_current(self._previous)
 
 
+class _GlfwLoader:
+    """moderngl's context loader for a glfw window: entry points through glfwGetProcAddress, and
+    ``ctx.__enter__`` (:func:`make_current`) makes the window's context current."""
+
+    def __init__(self, glfw, window):
+        self._glfw = glfw
+        self._window = window
+
+    def load_opengl_function(self, name: str) -> int:
+        return self._glfw.get_proc_address(name) or 0
+
+    def __enter__(self):
+        self._glfw.make_context_current(self._window)
+
+    def __exit__(self, *args):
+        pass
+
+    def release(self):
+        pass
+
+
 def _egl_lib():
     import ctypes
 
@@ -232,8 +253,9 @@ def create_window(size: tuple[int, int] = (1280, 800), title: str = "relight",
             raise GLContextError(f"cannot initialise glfw ({why}){hint}")
         _glfw_state["platform"] = platform
     glfw.default_window_hints()
+    # EGL on every platform: moderngl's "egl" backend then knows how to make it current again
+    glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
     if offscreen:
-        glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
         glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
     glfw.window_hint(glfw.CLIENT_API, glfw.OPENGL_API)
     glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, REQUIRED_GL // 100)
@@ -253,7 +275,10 @@ def create_window(size: tuple[int, int] = (1280, 800), title: str = "relight",
     import moderngl
 
     try:
-        ctx = moderngl.create_context(require=REQUIRED_GL)
+        moderngl.init_context(loader=_GlfwLoader(glfw, window))  # becomes moderngl's default
+        ctx = moderngl.get_context()
+        if ctx.version_code < REQUIRED_GL:
+            raise ValueError(f"OpenGL {ctx.version_code} < {REQUIRED_GL}")
     except Exception as exc:
         glfw.destroy_window(window)
         _glfw_state["windows"] -= 1

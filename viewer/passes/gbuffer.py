@@ -17,7 +17,7 @@ import numpy as np
 
 from ..camera import Camera, gl_bytes
 from ..errors import InputError
-from ..gbuffer import GBufferLayout
+from ..gbuffer import CHANNELS, GBufferLayout
 from ..geometry.imagespace import ImageGBuffer
 from ..geometry.mesh import Mesh
 
@@ -70,19 +70,26 @@ class GBufferTargets:
     def read(self, names=None) -> dict[str, np.ndarray]:
         """Channel name -> ``[H, W, C]`` float32, row 0 at the top (default: every channel)."""
         channels = self.layout.channels
+        w, h = self.size
+        # channels the layout omits read back as their background value, as gbuffer_load does
+        omitted = {c.name: c for c in CHANNELS if not c.optional and c.name in self.layout.omit}
         if names is not None:
             wanted = set(names)
-            unknown = wanted - {c.name for c in channels}
+            unknown = wanted - {c.name for c in channels} - set(omitted)
             if unknown:
                 raise KeyError(f"not in this G-buffer layout: {', '.join(sorted(unknown))}")
             channels = tuple(c for c in channels if c.name in wanted)
-        w, h = self.size
+            omitted = {k: c for k, c in omitted.items() if k in wanted}
+        fill = {k: np.broadcast_to(np.asarray(c.background, np.float32), (h, w, c.components)).copy()
+                for k, c in omitted.items()}
         raw = {}
         for a in sorted({c.attachment for c in channels}):
             data = self.fbo.read(viewport=(0, 0, w, h), components=4, attachment=a, dtype="f4")
             raw[a] = np.frombuffer(data, np.float32).reshape(h, w, 4)[::-1]
-        return {c.name: raw[c.attachment][:, :, c.offset:c.offset + c.components].copy()
-                for c in channels}
+        out = {c.name: raw[c.attachment][:, :, c.offset:c.offset + c.components].copy()
+               for c in channels}
+        out.update(fill)
+        return out
 
     def release(self) -> None:
         for fbo in self._clear_fbos.values():
@@ -113,6 +120,7 @@ class GBufferPass:
         self._meshes: dict[int, _Uploaded] = {}
         self._textures: dict[int, tuple[np.ndarray, object]] = {}  # id(array) -> (array, texture)
         self._empty_vao = None
+        self._stacks: dict[int, tuple[object, list]] = {}  # id(image) -> (image, textures)
 
     # ---- meshes ----------------------------------------------------------------------------------
     def mesh_defines(self, mesh: Mesh) -> dict[str, int]:
@@ -229,17 +237,10 @@ class GBufferPass:
         camera = (camera or image.camera()).with_size(*targets.size)
         ctx = self.ctx
         w, h = targets.size
-        known = {c.name for c in self.layout.channels}
-        packed = self.layout.pack({k: v for k, v in image.channels.items() if k in known})
         prog = self.programs.graphics("passes/fullscreen.vert", "passes/gbuffer_image.frag",
                                       virtual=self.layout.virtual_files())
-        uploads = []
         try:
-            for unit, (a, arr) in enumerate(sorted(packed.items())):
-                tex = ctx.texture((w, h), 4, np.ascontiguousarray(arr, np.float32).tobytes(),
-                                  dtype="f4")
-                tex.filter = (ctx.NEAREST, ctx.NEAREST)
-                uploads.append(tex)
+            for unit, (a, tex) in enumerate(self._stack_textures(image)):
                 tex.use(unit)
                 _set(prog, f"u_gbuffer{a}", unit)
             _write(prog, "u_projection", gl_bytes(camera.projection_matrix()))
@@ -255,8 +256,24 @@ class GBufferPass:
             self._empty_vao.render(ctx.TRIANGLES, vertices=3)
         finally:
             ctx.disable(ctx.DEPTH_TEST)
-            for tex in uploads:
-                tex.release()
+
+    def _stack_textures(self, image: ImageGBuffer) -> list[tuple[int, object]]:
+        """The stack packed into this layout's attachments, uploaded once per image (the cache
+        holds the image, so its id cannot be reused while the textures live)."""
+        entry = self._stacks.get(id(image))
+        if entry is None:
+            ctx = self.ctx
+            w, h = image.size
+            known = {c.name for c in self.layout.channels}
+            packed = self.layout.pack({k: v for k, v in image.channels.items() if k in known})
+            textures = []
+            for a, arr in sorted(packed.items()):
+                tex = ctx.texture((w, h), 4, np.ascontiguousarray(arr, np.float32).tobytes(),
+                                  dtype="f4")
+                tex.filter = (ctx.NEAREST, ctx.NEAREST)
+                textures.append((a, tex))
+            entry = self._stacks[id(image)] = (image, textures)
+        return entry[1]
 
     def release(self) -> None:
         """Free every uploaded mesh and texture."""
@@ -268,6 +285,10 @@ class GBufferPass:
         for _, tex in self._textures.values():
             tex.release()
         self._textures.clear()
+        for _, textures in self._stacks.values():
+            for _, tex in textures:
+                tex.release()
+        self._stacks.clear()
         if self._empty_vao is not None:
             self._empty_vao.release()
             self._empty_vao = None

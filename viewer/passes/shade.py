@@ -12,16 +12,27 @@ import numpy as np
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import model_info
+from ..neural import virtual_files as neural_virtual_files
 from ..scene import RenderSettings
 from . import FullscreenDraw
 
 
+SAMPLING_IDS = {"uniform": 0, "cosine": 1, "env": 2, "brdf": 3, "mis": 4}
+MIS_POWERS = {"balance": 1, "power": 2}
+
+
 def shade_defines(model: str, settings: RenderSettings) -> dict[str, int]:
     defines = {"BACKGROUND_ENVIRONMENT": int(settings.background == "environment")}
-    if model in ("ggx_split_sum", "blinn_phong"):
+    if model in ("ggx_split_sum", "blinn_phong", "ggx_mc", "neural"):
         defines["USE_AO"] = int(settings.ao)
-    if model == "ggx_split_sum":
+        defines["USE_SSAO"] = int(settings.ssao)
+    if model in ("ggx_split_sum", "ggx_mc"):
         defines["MULTISCATTER"] = int(settings.multiscatter)
+    if model == "ggx_mc":
+        defines["SAMPLING"] = SAMPLING_IDS[settings.sampling]
+        defines["MIS_POWER"] = MIS_POWERS[settings.mis_heuristic]
+    if model == "neural_teacher":  # the teacher has no BRDF pdf: brdf and mis sample the environment
+        defines["SAMPLING"] = min(SAMPLING_IDS[settings.sampling], 2)
     return defines
 
 
@@ -32,16 +43,23 @@ class ShadePass:
         self.layout = layout
         self._draw = FullscreenDraw(self.ctx)
 
-    def _program(self, model: str, settings: RenderSettings):
+    def _program(self, model: str, settings: RenderSettings, extra: dict | None = None):
         info = model_info(model)
         return self.programs.graphics("passes/fullscreen.vert", info.pass_file,
-                                      defines=shade_defines(model, settings),
-                                      virtual=self.layout.virtual_files())
+                                      defines={**shade_defines(model, settings), **(extra or {})},
+                                      virtual={**self.layout.virtual_files(),
+                                               **neural_virtual_files(model, settings)})
 
     def run(self, gbuffer_textures: dict, out_fbo, camera: Camera, ibl, environment,
-            settings: RenderSettings) -> None:
-        """Shade into ``out_fbo`` (an RGBA32F target of the camera's size)."""
-        prog = self._program(settings.model, settings)
+            settings: RenderSettings, env_sampling=None, ssao=None,
+            sample_range: tuple[int, int] = (0, 1), defines: dict | None = None) -> None:
+        """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
+
+        ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
+        ``ssao``: the occlusion texture when ``settings.ssao``; ``sample_range``: (first index,
+        count) of the Monte-Carlo samples this call averages (sampling models only);
+        ``defines``: the scene's specialisation (:mod:`viewer.specialize`), e.g. SPECULAR_LOBE."""
+        prog = self._program(settings.model, settings, defines)
         unit = 0
         for index, tex in gbuffer_textures.items():
             name = f"u_gbuffer{index}"
@@ -50,6 +68,15 @@ class ShadePass:
                 prog[name].value = unit
                 unit += 1
         unit = ibl.bind(prog, unit)
+        if env_sampling is not None:
+            unit = env_sampling.bind(prog, unit)
+        if ssao is not None and "u_ssao" in prog:
+            ssao.use(unit)
+            prog["u_ssao"].value = unit
+            unit += 1
+        _set(prog, "u_sample_start", int(sample_range[0]))
+        _set(prog, "u_sample_count", int(sample_range[1]))
+        _set(prog, "u_seed", int(settings.seed))
         basis = camera.basis()  # rows: right, up, back
         _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
         _set(prog, "u_tan_half_fov", camera.tan_half_fov())

@@ -81,7 +81,8 @@ def make_splats(means, scales, rotations, opacities, sh=None, albedo=None, rough
     if sh is None:
         base = np.full((n, 3), 0.5, np.float32) if albedo is None else np.asarray(albedo, np.float32)
         sh = ((base - 0.5) / SH_C0).reshape(n, 1, 3)
-    sh = np.asarray(sh, np.float32).reshape(n, -1, 3)
+    sh = np.asarray(sh, np.float32)
+    sh = sh.reshape(n, sh.shape[1] if sh.ndim == 3 else max(sh.size // max(3 * n, 1), 1), 3)
     has_materials = albedo is not None
     if albedo is None:
         albedo = np.clip(sh[:, 0] * SH_C0 + 0.5, 0.0, 1.0)
@@ -181,7 +182,7 @@ def sh_rotation(rotation: np.ndarray, k: int) -> np.ndarray:
     d = np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], -1)
     y_world = sh_basis_3dgs(d, k)
     y_object = sh_basis_3dgs(d @ np.asarray(rotation, np.float64), k)  # rows: R^T d
-    return np.linalg.lstsq(y_world, y_object, rcond=None)[0].T
+    return np.linalg.lstsq(y_world, y_object, rcond=None)[0]
 
 
 def transform_splats(splats: Splats, matrix: np.ndarray) -> Splats:

@@ -93,8 +93,8 @@ def read_ply(path) -> Splats:
     metal = col("metallic") if mats else None
     normals = np.stack([col(n_) for n_ in NORMAL], -1) if all(m in props for m in NORMAL) else None
 
-    arrays = [means, sh.reshape(n, -1), logit[:, None], log_scale, rot]
-    arrays += [a.reshape(n, -1) for a in (albedo, rough, metal, normals) if a is not None]
+    arrays = [means, sh.reshape(n, 3 * k), logit[:, None], log_scale, rot]
+    arrays += [a.reshape(n, a.size // max(n, 1)) for a in (albedo, rough, metal, normals) if a is not None]
     finite = np.all(np.isfinite(np.concatenate(arrays, axis=1)), axis=1) if n else np.ones(0, bool)
     with np.errstate(over="ignore"):
         sigma = np.exp(log_scale)

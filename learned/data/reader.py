@@ -1,0 +1,95 @@
+"""Reader for datasets in the FFHQ256-PBR layout (thesis sec. 4.3.2).
+
+A dataset is a folder with one sub-folder per split (``train``, ``val``, ``test``) holding one
+folder per sample; a sample folder is exactly what :func:`viewer.geometry.imagespace.load_ffhq_pbr`
+reads (its docstring table is the layout: rgb, albedo, normal, roughness, specular, metallic, depth,
+ao, mask images as PNG/EXR, ``env.exr|hdr``, ``camera.json``). For training a sample must also
+have its target ``rgb`` and its environment ``env``. ``dataset.json`` at the root (written by the
+generator, optional for user data) summarises how it was made.
+
+Every problem is a one-line :class:`DatasetError` naming the file or folder.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from viewer.errors import InputError
+
+SPLITS = ("train", "val", "test")
+
+
+class DatasetError(InputError):
+    """A dataset folder or sample that cannot be used for training or evaluation."""
+
+
+@dataclass
+class Sample:
+    name: str
+    folder: Path
+    channels: dict  # G-buffer channel -> [H, W, C] float32 (camera space = world space)
+    target: np.ndarray  # [H, W, 3] linear RGB
+    environment: Path  # the HDR environment that lit the target
+    fov_y: float  # degrees
+
+    @property
+    def size(self) -> tuple[int, int]:
+        h, w = self.target.shape[:2]
+        return w, h
+
+    def view_dirs(self) -> np.ndarray:
+        """``[H, W, 3]`` unit directions from the camera (origin, looking down -Z) through pixels."""
+        from viewer.geometry.imagespace import view_dirs_cs
+
+        return view_dirs_cs(*self.size, self.fov_y)
+
+    def foreground(self) -> np.ndarray:
+        """``[H, W]`` bool: mask >= 0.5."""
+        return self.channels["alpha"][..., 0] > 0.0
+
+
+def load_sample(folder: str | os.PathLike, require_target: bool = True) -> Sample:
+    """One sample folder; the G-buffer through the viewer's FFHQ256-PBR loader."""
+    from viewer.geometry.imagespace import load_ffhq_pbr
+
+    folder = Path(folder)
+    gb = load_ffhq_pbr(folder)  # InputError naming the file for missing/mismatched channels
+    if gb.target is None and require_target:
+        raise DatasetError("missing the target image rgb (png/jpg/exr/hdr)", where=folder)
+    if gb.environment is None:
+        raise DatasetError("missing the environment env (exr/hdr)", where=folder)
+    target = gb.target[..., :3] if gb.target is not None else None
+    return Sample(name=folder.name, folder=folder, channels=gb.channels, target=target,
+                  environment=Path(gb.environment), fov_y=float(gb.fov_y))
+
+
+def list_samples(root: str | os.PathLike, split: str) -> list[Path]:
+    """Sample folders of ``split`` under ``root``, sorted by name (unfinished ``*.tmp`` skipped)."""
+    root = Path(root)
+    if split not in SPLITS:
+        raise DatasetError(f"unknown split {split!r} (known: {', '.join(SPLITS)})", where=root)
+    if not root.is_dir():
+        raise DatasetError("dataset folder not found", where=root)
+    folder = root / split
+    if not folder.is_dir():
+        raise DatasetError(f"no {split!r} split folder", where=root)
+    return sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.endswith(".tmp"))
+
+
+def summary(root: str | os.PathLike) -> dict:
+    """Sample counts per split and the generator's ``dataset.json`` (if any)."""
+    root = Path(root)
+    out = {"root": str(root)}
+    for split in SPLITS:
+        out[split] = len(list_samples(root, split)) if (root / split).is_dir() else 0
+    info = root / "dataset.json"
+    if info.is_file():
+        try:
+            out["generator"] = json.loads(info.read_text())
+        except ValueError as exc:
+            raise DatasetError(f"not valid JSON ({exc})", where=info) from None
+    return out

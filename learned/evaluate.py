@@ -1,0 +1,128 @@
+"""``relight eval``: every shading model against the Monte-Carlo targets of held-out samples.
+
+For each sample of a split (FFHQ256-PBR layout with ``rgb`` targets), every model renders the
+sample's own G-buffer under its own environment in GL; metrics are over the whole image with the
+background set to 0 in both (foreground only):
+
+* PSNR (dB) and SSIM (``pytorch_msssim``, 7x7 Gaussian window for small images) on Reinhard-mapped
+  radiance x / (1 + x) in [0, 1];
+* HDR-FLIP (``flip_evaluator``, mean over pixels) on linear radiance.
+
+Rows: ``{"model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip", "count"}``.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import torch
+
+
+def models_to_evaluate(teacher_samples: int) -> list[tuple[str, str, dict]]:
+    from viewer.models import MODELS
+
+    out = [("blinn_phong", "", {}), ("ggx_split_sum", "", {})]
+    if "ggx_mc" in MODELS:
+        out.append(("ggx_mc", "16 spp", {"samples": 16, "sampling": "mis"}))
+    out += [("neural", "student", {}),
+            ("neural_teacher", f"{teacher_samples} spp env",
+             {"samples": int(teacher_samples), "sampling": "env"})]
+    return out
+
+
+def metrics(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> dict:
+    """pred, ref ``[H, W, 3]`` linear; fg ``[H, W]`` bool."""
+    from pytorch_msssim import ssim
+
+    m = fg[..., None].astype(np.float32)
+    p = np.clip(pred, 0.0, None) * m
+    r = np.clip(ref, 0.0, None) * m
+    pt, rt = p / (1.0 + p), r / (1.0 + r)
+    mse = float(((pt - rt) ** 2)[fg].mean())
+    psnr = 10.0 * math.log10(1.0 / max(mse, 1e-12))
+    win = 7 if min(fg.shape) >= 7 else 1
+    s = float(ssim(torch.from_numpy(pt).permute(2, 0, 1)[None],
+                   torch.from_numpy(rt).permute(2, 0, 1)[None], data_range=1.0, win_size=win))
+    out = {"psnr": psnr, "ssim": s}
+    try:
+        import flip_evaluator
+
+        out["flip"] = float(flip_evaluator.evaluate(np.ascontiguousarray(r), np.ascontiguousarray(p),
+                                                    "HDR", applyMagma=False)[1])
+    except ImportError:  # optional [bench] extra
+        out["flip"] = float("nan")
+    return out
+
+
+def sample_scene(sample, **render):
+    from viewer.scene import scene_from_dict
+
+    return scene_from_dict({
+        "environment": {"path": str(sample.environment)},
+        "objects": [{"type": "gbuffer", "path": str(sample.folder)}],
+        "render": {"tonemap": "none", **render}}, file=str(sample.folder / "scene"))
+
+
+def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: int | None = None,
+             renderer=None) -> list[dict]:
+    from tqdm import tqdm
+
+    from viewer.renderer import Renderer
+
+    from .data.reader import list_samples, load_sample
+
+    folders = list_samples(root, split)[:limit]
+    own = renderer is None
+    renderer = renderer or Renderer()
+    acc: dict[tuple, list] = {}
+    try:
+        for folder in tqdm(folders, desc="eval", unit="sample"):
+            sample = load_sample(folder)
+            fg = sample.foreground()
+            for model, variant, render in models_to_evaluate(teacher_samples):
+                scene = sample_scene(sample, model=model, **render)
+                renderer.render(scene)  # warm: programs, IBL
+                t0 = time.perf_counter()
+                frame = renderer.render(scene)
+                ms = 1e3 * (time.perf_counter() - t0)
+                row = metrics(frame.radiance[..., :3], sample.target, fg) | {"ms": ms}
+                acc.setdefault((model, variant, render.get("samples", 1)), []).append(row)
+    finally:
+        if own:
+            renderer.release()
+    size = f"{load_sample(folders[0]).size[0]}x{load_sample(folders[0]).size[1]}" if folders else ""
+    rows = []
+    for (model, variant, samples), rs in acc.items():
+        rows.append({"model": model, "variant": variant, "samples": samples, "size": size,
+                     "count": len(rs), **{k: float(np.mean([r[k] for r in rs]))
+                                          for k in ("ms", "psnr", "ssim", "flip")}})
+    return rows
+
+
+def format_table(rows: list[dict]) -> str:
+    lines = [f"{'model':<16} {'variant':<14} {'spp':>5} {'ms':>9} {'PSNR dB':>8} {'SSIM':>7} "
+             f"{'HDR-FLIP':>9}  n"]
+    for r in rows:
+        lines.append(f"{r['model']:<16} {r['variant']:<14} {r['samples']:>5} {r['ms']:>9.2f} "
+                     f"{r['psnr']:>8.2f} {r['ssim']:>7.4f} {r['flip']:>9.4f}  {r['count']}")
+    return "\n".join(lines)
+
+
+@torch.no_grad()
+def torch_student_throughput(weights, pixels: int = 65536, repeats: int = 5) -> dict:
+    """Pixels per second of the exported student's MLP in torch (CPU, float32) on ``pixels``
+    random inputs: the reference the GLSL student throughput is compared with."""
+    from .export import load_model
+    from .twins.neural import student_inputs
+
+    model = load_model(weights, "student")
+    x = torch.from_numpy(student_inputs(pixels)[:pixels])
+    model.weights(x)
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        model.weights(x)
+        best = min(best, time.perf_counter() - t0)
+    return {"pixels": pixels, "seconds": best, "pixels_per_s": pixels / best,
+            "macs_per_pixel": model.macs_per_pixel()}

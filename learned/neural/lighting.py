@@ -1,0 +1,113 @@
+"""Environment lighting for the neural shaders, in torch: the same resources the GLSL passes read.
+
+A :class:`Lighting` holds what ``viewer.ibl.build_ibl`` and ``viewer.envsampling`` computed on the
+GPU, read back (so torch and GLSL see identical textures): level 0 of the equirect radiance, the
+prefiltered chain, SH irradiance coefficients and the importance-sampling tables. Per-pixel inputs
+are flattened: a G-buffer is a dict channel -> ``[N, C]`` and ``v`` the unit directions towards the
+viewer ``[N, 3]`` (world space).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from learned.twins.brdf import clamp_perceptual_roughness
+from learned.twins.deferred import env_dir, reflect
+from learned.twins.env_sampling import sample_env
+from learned.twins.equirect import equirect_uv, rotate_y
+from learned.twins.ibl import ibl_specular_radiance, sample_bilinear
+from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
+from learned.twins.sampling import tangent_to_world
+from learned.twins.sh import sh_irradiance
+from learned.twins.shading import shading_normal
+
+# sampling strategy ids of shade_neural_teacher.frag (SAMPLING define)
+STRATEGIES = {"uniform": 0, "cosine": 1, "env": 2}
+
+
+@dataclass
+class Lighting:
+    radiance: torch.Tensor  # [h, w, 4] level 0 of the equirect radiance (environment frame)
+    prefiltered: list  # [h_k, w_k, 4] per level
+    levels: float
+    sh: torch.Tensor  # [9, 3]
+    marginal: torch.Tensor  # [h + 1]
+    conditional: torch.Tensor  # [h, w + 1]
+    pdf: torch.Tensor  # [h, w] density on the uv square
+    intensity: float = 1.0
+    rotation: float = 0.0  # radians about +Y
+
+    def with_light(self, intensity: float, rotation: float) -> "Lighting":
+        return dataclasses.replace(self, intensity=float(intensity), rotation=float(rotation))
+
+
+def lighting_from_gl(renderer, environment) -> Lighting:
+    """Build (or reuse the renderer's cached) IBL and sampling tables of the
+    :class:`~viewer.environment.EnvironmentSpec` ``environment`` on the GPU and read them back."""
+    from viewer.gl import make_current
+    from viewer.scene import Scene
+
+    make_current(renderer.ctx)
+    scene = Scene(environment=environment)
+    ibl = renderer.ibl(scene)
+    tables = renderer.env_sampling(scene).read()
+    t = torch.from_numpy
+    return Lighting(
+        radiance=t(ibl.read_level("radiance", 0)),
+        prefiltered=[t(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)],
+        levels=float(ibl.levels), sh=t(np.asarray(ibl.sh, np.float32)),
+        marginal=t(tables["marginal"]), conditional=t(tables["conditional"]), pdf=t(tables["pdf"]),
+        intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg))
+
+
+def env_radiance(lighting: Lighting, l_ws: torch.Tensor) -> torch.Tensor:
+    """GLSL ``textureLod(u_env_radiance, equirect_uv(env_dir(l)), 0).rgb * u_env_intensity``."""
+    uv = equirect_uv(env_dir(l_ws, lighting.rotation))
+    return sample_bilinear(lighting.radiance, uv)[..., :3] * lighting.intensity
+
+
+def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Shading normal ``[N, 3]`` and n.v ``[N]`` (as every lighting pass computes them)."""
+    n = shading_normal(gb["normal"], v)
+    return n, (n * v).sum(-1).clamp(0.0, 1.0)
+
+
+def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor
+                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
+
+    Returns ``x [N, 8]`` (albedo, roughness, metallic, specular, ao, n.v), ``irradiance [N, 3]``
+    (SH, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered radiance along the mirror
+    direction at the pixel's roughness, times intensity). ``ao [N]`` is the occlusion the pass uses.
+    """
+    n, nov = surface(gb, v)
+    r = clamp_perceptual_roughness(gb["roughness"][..., 0])
+    irradiance = sh_irradiance(env_dir(n, lighting.rotation), lighting.sh) * lighting.intensity
+    prefiltered = ibl_specular_radiance(lighting.prefiltered,
+                                        env_dir(reflect(-v, n), lighting.rotation), r,
+                                        lighting.levels) * lighting.intensity
+    x = torch.cat([gb["albedo"], gb["roughness"], gb["metallic"], gb["specular"], ao[..., None],
+                   nov[..., None]], dim=-1)
+    return x, irradiance, prefiltered
+
+
+def sample_lights(n: torch.Tensor, u: torch.Tensor, strategy: str, lighting: Lighting
+                  ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Directions ``l [..., 3]`` (world) and their solid-angle pdfs ``[...]`` for the uniform pairs
+    ``u [..., 2]`` at normals ``n`` (broadcast): ``uniform`` / ``cosine`` hemisphere about n, or
+    ``env`` importance sampling of the environment (thesis appendix B.4). pdf 0 = skip."""
+    if strategy == "uniform":
+        l = tangent_to_world(sample_uniform_hemisphere(u), n.expand(*u.shape[:-1], 3))
+        return l, torch.full(u.shape[:-1], 0.5 / math.pi)
+    if strategy == "cosine":
+        l = tangent_to_world(sample_cosine_hemisphere(u), n.expand(*u.shape[:-1], 3))
+        return l, (n * l).sum(-1).clamp_min(0.0) / math.pi
+    if strategy == "env":
+        e = sample_env(lighting.marginal, lighting.conditional, lighting.pdf, u)
+        l = rotate_y(e[..., :3], torch.full(u.shape[:-1], lighting.rotation))
+        return l, e[..., 3]
+    raise ValueError(f"unknown light sampling strategy {strategy!r} (known: {', '.join(STRATEGIES)})")

@@ -1,0 +1,300 @@
+"""The torch twin of the GLSL splat pass (``viewer/passes/splats.py``): same projection, same
+back-to-front order, same alpha rule, same resolve - differentiable with respect to every splat
+attribute (geometry through the conic and centre, materials, SH, opacity).
+
+    tensors = splat_tensors(splats)                    # numpy Splats -> dict of float32 tensors
+    gbuffer = rasterize(tensors, camera)               # channel -> [H, W, C], row 0 at the top
+
+Compositing: with splats sorted front to back, T_i = prod_{j<i} (1 - alpha_i) and
+``x = sum_i T_i alpha_i x_i`` for the colour (premultiplied) and, divided by the coverage
+A = 1 - prod(1 - alpha_i), for albedo, normal (then normalised), roughness, metallic and depth
+(thesis eq. 6.10). The GLSL pass blends back to front - the same sums.
+
+Memory: pixels x splats-per-chunk floats per intermediate; every pixel is evaluated against every
+splat (no tiling), so this is for tests, parity and small training renders, not for 1M splats.
+"""
+from __future__ import annotations
+
+import math
+from typing import Iterator
+
+import numpy as np
+import torch
+
+from learned.twins.splat import (splat_alpha, splat_conic, splat_cov2d, splat_face_forward,
+                                 splat_mahalanobis2, splat_min_axis, splat_rotation,
+                                 splat_sh_basis_all)
+from viewer.camera import Camera
+from viewer.gbuffer import GBufferLayout
+from viewer.splats.data import Splats
+from viewer.splats.sort import depth_order
+
+FIELDS = ("means", "scales", "rotations", "opacities", "sh", "albedo", "roughness", "metallic",
+          "normals")
+PARITY_ATOL = 1e-3  # the issue's bound per G-buffer channel; measured values are in the report
+
+
+def splat_tensors(splats: Splats, requires_grad: bool = False) -> dict[str, torch.Tensor]:
+    """numpy :class:`Splats` -> dict of float32 tensors with the same names and shapes."""
+    return {k: torch.tensor(np.asarray(getattr(splats, k), np.float32),
+                            requires_grad=requires_grad) for k in FIELDS}
+
+
+def project(t: dict[str, torch.Tensor], camera: Camera) -> dict[str, torch.Tensor]:
+    """Mirror of ``splat_project.comp``: per-splat centre (GL pixels), conic, colour, normal,
+    depth, NDC z and validity (near < depth < far)."""
+    view = torch.tensor(camera.view_matrix(), dtype=torch.float32)
+    proj = torch.tensor(camera.projection_matrix(), dtype=torch.float32)
+    tx, ty = camera.tan_half_fov()
+    w, h = camera.width, camera.height
+    focal_tan = torch.tensor([w / (2 * tx), h / (2 * ty), tx, ty], dtype=torch.float32)
+    means = t["means"]
+    t_vs = means @ view[:3, :3].T + view[:3, 3]
+    depth = -t_vs[:, 2]
+    valid = (depth > camera.near) & (depth < camera.far)
+    r = splat_rotation(t["rotations"])
+    m = view[:3, :3] @ r * t["scales"][:, None, :]
+    c = m @ m.transpose(1, 2)
+    diag = torch.stack([c[:, 0, 0], c[:, 1, 1], c[:, 2, 2]], -1)
+    off = torch.stack([c[:, 1, 0], c[:, 2, 0], c[:, 2, 1]], -1)
+    safe_t = torch.where(valid[:, None], t_vs, torch.tensor([0.0, 0.0, -1.0]))
+    cov2d = splat_cov2d(safe_t, diag, off, focal_tan.expand(len(means), 4))
+    conic = splat_conic(cov2d)
+    clip = torch.cat([safe_t, torch.ones_like(depth)[:, None]], -1) @ proj.T
+    ndc = clip[:, :3] / clip[:, 3:]
+    centre = (ndc[:, :2] * 0.5 + 0.5) * torch.tensor([float(w), float(h)])
+    eye = torch.tensor(camera.position, dtype=torch.float32)
+    to_splat = means - eye
+    d = to_splat / torch.linalg.vector_norm(to_splat, dim=-1, keepdim=True).clamp_min(1e-30)
+    k = t["sh"].shape[1]
+    color = (splat_sh_basis_all(d, k)[..., None] * t["sh"]).sum(1) + 0.5
+    color = color.clamp_min(0.0)
+    n = t["normals"]
+    stored = (n * n).sum(-1) > 0
+    n = torch.where(stored[:, None], n, splat_min_axis(t["rotations"], t["scales"]))
+    n = n / torch.linalg.vector_norm(n, dim=-1, keepdim=True).clamp_min(1e-30)
+    n = splat_face_forward(n, -to_splat)
+    return {"centre": centre, "conic": conic, "ndc_z": ndc[:, 2], "depth": depth, "valid": valid,
+            "color": color, "normal": n}
+
+
+def _pixel_centres(camera: Camera) -> torch.Tensor:
+    """[H * W, 2] GL pixel centres in image row order (row 0 at the top)."""
+    w, h = camera.width, camera.height
+    ys = h - (torch.arange(h, dtype=torch.float32) + 0.5)
+    xs = torch.arange(w, dtype=torch.float32) + 0.5
+    gy, gx = torch.meshgrid(ys, xs, indexing="ij")
+    return torch.stack([gx, gy], -1).reshape(-1, 2)
+
+
+def weight_chunks(t: dict[str, torch.Tensor], camera: Camera, p: dict | None = None,
+                  under_depth: torch.Tensor | None = None, order: np.ndarray | None = None,
+                  chunk: int = 256) -> Iterator[tuple[torch.Tensor, torch.Tensor]]:
+    """Yield ``(index [S], weight [S, H*W])`` front to back, weight = T_i alpha_i per pixel.
+
+    ``under_depth`` [H*W] (view depth of meshes, 0 = none) rejects splats behind it, as the GL
+    depth test does. ``order`` defaults to :func:`viewer.splats.sort.depth_order` (reversed).
+    """
+    p = p if p is not None else project(t, camera)
+    if order is None:
+        order = depth_order(t["means"].detach().numpy(), camera.view_matrix())
+    front = torch.from_numpy(np.ascontiguousarray(order[::-1]).astype(np.int64))
+    front = front[p["valid"][front]]
+    pix = _pixel_centres(camera)
+    transmittance = torch.ones(pix.shape[0])
+    for s in range(0, len(front), chunk):
+        idx = front[s:s + chunk]
+        d = pix[None, :, :] - p["centre"][idx][:, None, :]
+        d2 = splat_mahalanobis2(d, p["conic"][idx][:, None, :])
+        alpha = splat_alpha(t["opacities"][idx][:, None], d2)
+        if under_depth is not None:
+            blocked = (under_depth[None, :] > 0) & (p["depth"][idx][:, None] >= under_depth[None, :])
+            alpha = torch.where(blocked, torch.zeros_like(alpha), alpha)
+        one_minus = 1.0 - alpha
+        excl = torch.cumprod(torch.cat([torch.ones_like(one_minus[:1]), one_minus[:-1]], 0), 0)
+        tr = transmittance[None, :] * excl
+        yield idx, tr * alpha
+        transmittance = tr[-1] * one_minus[-1]
+
+
+def rasterize(t: dict[str, torch.Tensor], camera: Camera,
+              under: dict[str, torch.Tensor] | None = None, order: np.ndarray | None = None,
+              chunk: int = 256) -> dict[str, torch.Tensor]:
+    """The splat G-buffer: channel -> [H, W, C] float32 (row 0 at the top), every channel of
+    ``GBufferLayout(with_color=True)``. ``under``: the G-buffer already drawn (meshes; channel ->
+    [H, W, C]); splats behind its depth are rejected and the result is composited over it as in
+    ``splat_resolve.frag``. Without ``under``, uncovered pixels hold background values."""
+    h, w = camera.height, camera.width
+    p = project(t, camera)
+    attrs = torch.cat([p["color"], t["albedo"], p["normal"], t["roughness"][:, None],
+                       t["metallic"][:, None], p["depth"][:, None]], -1)  # [N, 12]
+    acc = torch.zeros(h * w, 12)
+    coverage = torch.zeros(h * w)
+    under_depth = None
+    if under is not None:
+        ua = under["alpha"].reshape(-1)
+        under_depth = torch.where(ua > 0, under["depth"].reshape(-1), torch.zeros_like(ua))
+    for idx, wgt in weight_chunks(t, camera, p, under_depth, order, chunk):
+        acc = acc + wgt.T @ attrs[idx]
+        coverage = coverage + wgt.sum(0)
+    # coverage as GL accumulates it: 1 - prod(1 - alpha) equals sum T_i alpha_i
+    return resolve(acc, coverage, (h, w), under)
+
+
+def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
+            under: dict[str, torch.Tensor] | None = None) -> dict[str, torch.Tensor]:
+    """Mirror of ``splat_resolve.frag``. acc [P, 12] = sums of T a (colour, albedo, normal,
+    roughness, metallic, depth); coverage [P]."""
+    h, w = size_hw
+    layout = GBufferLayout(with_color=True)
+    bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
+    base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
+                                     for k in bg}
+    w_under = (1.0 - coverage) * base["alpha"][:, 0]
+    total = coverage + w_under
+    hit = total > 0
+    safe = torch.where(hit, total, torch.ones_like(total))[:, None]
+    wu = w_under[:, None]
+    n = acc[:, 6:9] + wu * base["normal"]
+    nn = torch.linalg.vector_norm(n, dim=-1, keepdim=True)
+    out = {
+        "alpha": total[:, None],
+        "albedo": (acc[:, 3:6] + wu * base["albedo"]) / safe,
+        "normal": torch.where(nn > 0, n / nn.clamp_min(1e-30), torch.zeros_like(n)),
+        "roughness": (acc[:, 9:10] + wu * base["roughness"]) / safe,
+        "metallic": (acc[:, 10:11] + wu * base["metallic"]) / safe,
+        "specular": (coverage[:, None] * 0.5 + wu * base["specular"]) / safe,
+        "ao": (coverage[:, None] + wu * base["ao"]) / safe,
+        "depth": (acc[:, 11:12] + wu * base["depth"]) / safe,
+        "color": acc[:, 0:3] + wu * base["albedo"],
+    }
+    return {k: torch.where(hit[:, None], v, base[k]).reshape(h, w, -1) for k, v in out.items()}
+
+
+def weight_matrix(t: dict[str, torch.Tensor], camera: Camera, chunk: int = 256
+                  ) -> torch.Tensor:
+    """Sparse [H*W, N] matrix of T_i alpha_i (no gradient: fixed geometry), for training renders
+    that only change per-splat attributes: ``maps = W @ attributes``."""
+    rows, cols, vals = [], [], []
+    with torch.no_grad():
+        for idx, wgt in weight_chunks(t, camera, chunk=chunk):
+            s, pix = torch.nonzero(wgt, as_tuple=True)
+            rows.append(pix)
+            cols.append(idx[s])
+            vals.append(wgt[s, pix])
+    n = t["means"].shape[0]
+    p = camera.width * camera.height
+    if not rows:
+        return torch.sparse_coo_tensor(torch.zeros(2, 0, dtype=torch.int64), torch.zeros(0), (p, n),
+                                       check_invariants=False)
+    return torch.sparse_coo_tensor(torch.stack([torch.cat(rows), torch.cat(cols)]),
+                                   torch.cat(vals), (p, n), check_invariants=False).coalesce()
+
+
+# ---- parity: GLSL splat pass vs this twin ------------------------------------------------------
+
+def random_scene(n: int, seed: int, sh_degree: int = 3) -> Splats:
+    """A random cloud in [-1, 1]^3 (some splats behind the near plane of :func:`parity_camera`,
+    some off-screen), SH of ``sh_degree``, random materials, half with stored normals."""
+    from viewer.splats.data import make_splats
+
+    rng = np.random.default_rng(seed)
+    means = rng.uniform(-1.0, 1.0, (n, 3)) * np.array([1.4, 1.2, 1.0])
+    means[: n // 50, 2] = 2.98  # right in front of / behind the near plane of a camera at z = 3
+    scales = np.exp(rng.uniform(np.log(0.005), np.log(0.12), (n, 3)))
+    rot = rng.normal(size=(n, 4))
+    opac = rng.uniform(0.02, 1.0, n)
+    k = (sh_degree + 1) ** 2
+    sh = rng.normal(0.0, 0.25, (n, k, 3))
+    sh[:, 0] += rng.uniform(-1.5, 1.5, (n, 3))
+    normals = rng.normal(size=(n, 3))
+    normals[: n // 2] = 0.0
+    return make_splats(means, scales, rot, opac, sh=sh, albedo=rng.uniform(0, 1, (n, 3)),
+                       roughness=rng.uniform(0, 1, n), metallic=rng.uniform(0, 1, n),
+                       normals=normals)
+
+
+def parity_camera(size=(96, 80)) -> Camera:
+    return Camera(position=(0.3, 0.2, 3.0), target=(0.0, 0.0, 0.0), fov_y=50.0, size=size,
+                  near=0.05)
+
+
+def render_gl(programs, splats: Splats, camera: Camera, meshes=(), sort: str = "cpu"):
+    """(before, after): G-buffer channel dicts read back before and after the splat pass."""
+    from viewer.passes.gbuffer import GBufferPass, GBufferTargets
+    from viewer.passes.splats import SplatPass
+
+    layout = GBufferLayout(with_color=True)
+    targets = GBufferTargets.create(programs.ctx, layout, camera.size)
+    gpass, spass = GBufferPass(programs, layout), SplatPass(programs, layout)
+    try:
+        targets.clear()
+        if meshes:
+            gpass.draw_meshes(targets, camera, list(meshes))
+        before = targets.read()
+        spass.draw(targets, camera, splats, sort=sort)
+        after = targets.read()
+    finally:
+        gpass.release()
+        spass.release()
+        targets.release()
+    return before, after
+
+
+def ambiguous_pixels(t: dict[str, torch.Tensor], camera: Camera,
+                     under_depth: torch.Tensor | None = None, band: float = 3e-4,
+                     band_d2: float = 2e-3) -> torch.Tensor:
+    """[H, W] bool: pixels where some splat sits within a relative band of a discontinuity
+    (``band_d2`` around the d^2 = 8 cut-off, ``band`` around the alpha = 1/255 skip and depth ties
+    with ``under_depth``). There a rounding difference between GLSL and torch switches a fragment
+    on or off (a jump of up to 0.99 exp(-4) = 0.018), so parity excludes these pixels and reports
+    how many. d^2 gets the wider band: for needle-like splats (2D eigenvalues 0.3 and ~1e4 px^2)
+    the conic's determinant a c - b^2 cancels, and float32 d^2 differs by up to ~1e-3 relative."""
+    p = project(t, camera)
+    pix = _pixel_centres(camera)
+    amb = torch.zeros(pix.shape[0], dtype=torch.bool)
+    idx_all = torch.nonzero(p["valid"])[:, 0]
+    with torch.no_grad():
+        for s in range(0, len(idx_all), 256):
+            idx = idx_all[s:s + 256]
+            d2 = splat_mahalanobis2(pix[None] - p["centre"][idx][:, None], p["conic"][idx][:, None])
+            raw = torch.clamp(t["opacities"][idx][:, None] * torch.exp(-0.5 * d2), max=0.99)
+            near = ((d2 - 8.0).abs() < 8.0 * band_d2) | ((raw * 255.0 - 1.0).abs() < band)
+            if under_depth is not None:
+                dep = p["depth"][idx][:, None]
+                near |= (under_depth[None] > 0) & ((dep - under_depth[None]).abs() < band * dep) \
+                    & (d2 <= 8.0)
+            amb |= near.any(0)
+    return amb.reshape(camera.height, camera.width)
+
+
+def parity_check(programs, seeds=(0, 1), n: int = 1500):
+    """ParityResults per G-buffer channel: random scenes without and with a mesh plane cutting
+    through the cloud (depth test + compositing over the mesh G-buffer). Pixels on a
+    discontinuity (:func:`ambiguous_pixels`, typically < 0.5%) are excluded and counted."""
+    from learned.parity import compare
+    from viewer.geometry import primitives
+    from viewer.material import Material
+
+    results = []
+    camera = parity_camera()
+    for seed in seeds:
+        splats = random_scene(n, seed)
+        meshes = () if seed % 2 == 0 else (
+            primitives.plane(center=(0.0, -0.2, 0.0), size=(3.0, 3.0), normal=(0.0, 1.0, 0.3),
+                             material=Material(albedo=(0.2, 0.6, 0.3), roughness=0.8)),)
+        before, gl = render_gl(programs, splats, camera, meshes)
+        under = {k: torch.from_numpy(v) for k, v in before.items()} if meshes else None
+        tensors = splat_tensors(splats)
+        with torch.no_grad():
+            ref = rasterize(tensors, camera, under=under)
+        under_depth = None
+        if under is not None:
+            under_depth = torch.where(under["alpha"] > 0, under["depth"], 0.0).reshape(-1)
+        keep = ~ambiguous_pixels(tensors, camera, under_depth).numpy()
+        tag = (f"splats:{n}{'+mesh' if meshes else ''}:seed{seed}"
+               f"({int((~keep).sum())}/{keep.size}px excluded)")
+        for name, arr in gl.items():
+            results.append(compare(f"{tag}:{name}", arr[keep], ref[name].numpy()[keep],
+                                   PARITY_ATOL, 0.0, kind="pass"))
+    return results

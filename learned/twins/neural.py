@@ -1,0 +1,259 @@
+"""Twins of ``shaders/lib/neural.glsl`` and the parity checks of the neural shading models.
+
+Function twins are compared element-wise like every library function. Three pass checks cover
+the generated network code and the two lighting passes, all on the shipped weights
+(``assets/weights``) unless a caller passes its own file:
+
+* ``neural:network``   the generated ``neural_student_weights`` in a compute kernel vs
+  ``Student.weights`` on 4096 random inputs (outputs in [0, 1]; the issue's float32 bound is
+  1e-4 abs; measured on llvmpipe 1.2e-7).
+* ``model:neural``     render, read the G-buffer back, shade in torch, compare radiance.
+* ``model:neural_teacher``  the same for the teacher pass with 8 samples of ``env`` and ``uniform``
+  sampling (the torch twin draws the same scrambled Sobol' samples, lib/mc.glsl).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from ._cases import Arg, ParityCase
+
+PASS_LEVEL = ()
+
+
+def fourier_feature(x: torch.Tensor, freq: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec2 fourier_feature(float x, float freq)``: ``[...]`` -> ``[..., 2]``."""
+    a = freq * x
+    return torch.stack([torch.sin(a), torch.cos(a)], dim=-1)
+
+
+def relu4(x: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 relu4(vec4 x)``."""
+    return x.clamp_min(0.0)
+
+
+def sigmoid4(x: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 sigmoid4(vec4 x)`` = 1 / (1 + e^-x)."""
+    return 1.0 / (1.0 + torch.exp(-x))
+
+
+def softplus4(x: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 softplus4(vec4 x)`` = max(x, 0) + log1p(e^-|x|), with log1p evaluated by the
+    same Goldberg formula as the GLSL (float32 log1p differs between libraries)."""
+    y = torch.exp(-x.abs())
+    u = 1.0 + y
+    d = u - 1.0
+    l1p = torch.where(d == 0.0, y, torch.log(u) * y / d.clamp_min(1e-30))
+    return x.clamp_min(0.0) + l1p
+
+
+def neural_half_vector(v: torch.Tensor, l: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 neural_half_vector(vec3 v, vec3 l)``: ``[..., 3]`` each."""
+    h = v + l
+    len2 = (h * h).sum(-1, keepdim=True)
+    ok = len2 > 1e-12
+    return torch.where(ok, h * torch.rsqrt(torch.where(ok, len2, torch.ones_like(len2))), v)
+
+
+PARITY_CASES = [
+    # sin/cos of |freq x| up to ~100 rad: llvmpipe's range reduction differs from libm by ~1 ulp of
+    # the argument; measured max abs 4.8e-7
+    ParityCase("fourier_feature", (Arg(lo=-1.0, hi=1.0, adversarial=(0.0, 1.0, -1.0)),
+                                   Arg(lo=0.0, hi=32 * math.pi,
+                                       adversarial=(math.pi, 2 * math.pi, 16 * math.pi))),
+               atol=2e-6, rtol=0.0, measured="max abs 4.8e-7"),
+    ParityCase("relu4", (Arg(lo=-5.0, hi=5.0, components=4, adversarial=((0, -0.0, 1e30, -1e30),)),),
+               atol=0.0, rtol=0.0, measured="exact"),
+    ParityCase("sigmoid4", (Arg(lo=-20.0, hi=20.0, components=4,
+                                adversarial=((0, 80, -80, 1e-7),)),),
+               atol=1e-7, rtol=1e-6, measured="max abs 6e-8"),
+    ParityCase("softplus4", (Arg(lo=-20.0, hi=20.0, components=4,
+                                 adversarial=((0, 80, -80, 1e-7),)),),
+               atol=1e-7, rtol=1e-6,
+               measured="max abs 9.5e-7 at x = 20 (rel 5e-8); values below 1e-7 within 1e-7"),
+    ParityCase("neural_half_vector", (Arg(kind="unit", components=3, adversarial=((0, 0, 1),)),
+                                      Arg(kind="unit", components=3,
+                                          adversarial=((0, 0, -1), (0, 0, 1)))),
+               atol=1e-6, rtol=1e-6, measured="max abs 1.2e-7"),
+]
+
+
+# ---------------------------------------------------------------------------------------------
+# pass checks
+# ---------------------------------------------------------------------------------------------
+
+NETWORK_ATOL = 1e-4  # the issue's float32 bound for outputs in [0, 1]
+# whole passes: the texture lookups dominate, as for the classical models (learned/twins/deferred)
+MODEL_ATOL = 1e-4
+MODEL_RTOL = 5e-4
+# the teacher pass is Monte Carlo: identical sample sequences on both sides, but directions that
+# agree to ~1e-7 hit the sky's 2000x sun disc through bilinear lookups divided by pdfs (the same
+# envelope as ggx_mc, learned/twins/deferred.py). Measured on llvmpipe: max abs 0.023 (uniform
+# sampling, radiance to ~40), max rel 8e-4.
+TEACHER_ATOL = 1e-3
+TEACHER_RTOL = 2e-3
+
+_WEIGHTS_KERNEL = """
+#include "lib/common.glsl"
+#include "generated/neural_student.glsl"
+layout(local_size_x = 64) in;
+uniform uint u_count;
+layout(std430, binding = 0) readonly buffer In { float inv[]; };    // [n][8]
+layout(std430, binding = 1) writeonly buffer Out { float outv[]; };  // [n][6]
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= u_count) return;
+    uint b = 8u * i;
+    vec3 kd;
+    vec3 ks;
+    neural_student_weights(vec3(inv[b], inv[b + 1u], inv[b + 2u]), inv[b + 3u], inv[b + 4u],
+                           inv[b + 5u], inv[b + 6u], inv[b + 7u], kd, ks);
+    outv[6u * i] = kd.x; outv[6u * i + 1u] = kd.y; outv[6u * i + 2u] = kd.z;
+    outv[6u * i + 3u] = ks.x; outv[6u * i + 4u] = ks.y; outv[6u * i + 5u] = ks.z;
+}
+"""
+
+
+def eval_student_weights(programs, net, x: np.ndarray) -> np.ndarray:
+    """GL ``neural_student_weights`` of the generated code of ``net`` at ``x [n, 8]`` -> ``[n, 6]``."""
+    name = f"<kernel:neural_student:{net.checkpoint[:12]}>"
+    return _run_kernel_with(programs, name, {name: _WEIGHTS_KERNEL, net.include_name: net.glsl},
+                            x, 6)
+
+
+def _run_kernel_with(programs, name, virtual, inputs, out_width):
+    ctx = programs.ctx
+    prog = programs.compute(name, virtual=virtual)
+    count = inputs.shape[0]
+    src = ctx.buffer(np.ascontiguousarray(inputs, dtype=np.float32).tobytes())
+    dst = ctx.buffer(reserve=max(4, 4 * out_width * count))
+    try:
+        src.bind_to_storage_buffer(0)
+        dst.bind_to_storage_buffer(1)
+        prog["u_count"].value = count
+        prog.run((count + 63) // 64)
+        ctx.memory_barrier()
+        return np.frombuffer(dst.read(), np.float32)[: out_width * count].reshape(
+            count, out_width).copy()
+    finally:
+        src.release()
+        dst.release()
+
+
+def student_inputs(n: int, seed: int = 0) -> np.ndarray:
+    """Random student inputs ``[n, 8]`` over the whole domain, plus the corners of [0, 1]^8."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.0, 1.0, size=(n, 8))
+    corners = np.array([[(k >> b) & 1 for b in range(8)] for k in range(256)], np.float64)
+    return np.concatenate([x, corners]).astype(np.float32)
+
+
+def check_network(programs, weights=None):
+    from learned.export import load_model
+    from learned.parity import compare
+    from viewer.neural import default_weights, load_network
+
+    path = weights or default_weights("student")
+    net = load_network(path, "student")
+    model = load_model(path, "student")
+    x = student_inputs(4096)
+    glsl = eval_student_weights(programs, net, x)
+    with torch.no_grad():
+        ref = model.weights(torch.from_numpy(x)).numpy()
+    return compare("neural:network", glsl, ref, NETWORK_ATOL, 0.0, kind="pass",
+                   measured="max abs 1.2e-7")
+
+
+def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dict,
+                 sample_range: tuple[int, int] = (0, 1), seed: int = 0) -> torch.Tensor:
+    """Torch twin of ``shade_neural.frag`` / ``shade_neural_teacher.frag`` on a G-buffer read back
+    from GL (channel -> ``[H, W, C]``, GL row order). Returns ``[H, W, 4]``."""
+    from learned.neural.lighting import STRATEGIES, env_radiance, student_features
+    from learned.twins.deferred import view_ray_ws
+    from learned.twins.mc import mc_sample_2d
+
+    h, w = gb["alpha"].shape[:2]
+    ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32) + 0.5,
+                            torch.arange(w, dtype=torch.float32) + 0.5, indexing="ij")
+    basis = torch.tensor(camera.basis(), dtype=torch.float32)
+    d = view_ray_ws(torch.stack([xs, ys], -1), basis.T,
+                    torch.tensor(camera.tan_half_fov(), dtype=torch.float32),
+                    torch.tensor([float(w), float(h)])).reshape(-1, 3)
+    if defines.get("BACKGROUND_ENVIRONMENT", 1):
+        background = env_radiance(lighting, d)
+    else:
+        background = torch.zeros_like(d)
+    flat = {k: t.reshape(h * w, -1) for k, t in gb.items()}
+    v = -d
+    if model == "neural":
+        ao = flat["ao"][:, 0] if defines.get("USE_AO", 1) else torch.ones(h * w)
+        x, irr, pre = student_features(flat, v, lighting, ao)
+        c = net_model(x, irr, pre)
+    else:
+        start, count = sample_range
+        px = xs.reshape(-1).floor().to(torch.int64)[:, None]
+        py = ys.reshape(-1).floor().to(torch.int64)[:, None]
+        idx = torch.arange(start, start + count, dtype=torch.int64)[None, :]
+        u = mc_sample_2d(px, py, idx, seed, 0)  # [N, S, 2]
+        strategy = {v_: k for k, v_ in STRATEGIES.items()}[defines["SAMPLING"]]
+        c = net_model(flat, v, lighting, u, strategy)
+    alpha = flat["alpha"][:, 0]
+    covered = (alpha > 0.0)[:, None]
+    out = torch.where(covered, background + (c - background) * alpha[:, None], background)
+    return torch.cat([out, alpha[:, None]], -1).reshape(h, w, 4)
+
+
+def check_model(programs, model: str, variant: dict, weights=None):
+    from learned.export import load_model
+    from learned.neural.lighting import lighting_from_gl
+    from learned.parity import compare
+    from learned.twins.deferred import PARITY_SCENE
+    from viewer.neural import MODEL_KINDS, default_weights
+    from viewer.passes.shade import shade_defines
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    kind = MODEL_KINDS[model]
+    path = weights or default_weights(kind)
+    key = "weights" if kind == "student" else "teacher_weights"
+    scene = scene_from_dict(PARITY_SCENE).with_render(model=model, **{key: str(path)}, **variant)
+    net_model = load_model(path, kind)
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        targets = renderer.draw(scene)
+        gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
+        w, h = targets["radiance"].size
+        glsl = np.frombuffer(targets["radiance"].read(), dtype=np.float32).reshape(h, w, 4)
+        lighting = lighting_from_gl(renderer, scene.environment)
+        with torch.no_grad():
+            ref = shade_neural(model, net_model, gb, targets["camera"], lighting,
+                               shade_defines(model, scene.render),
+                               (0, scene.render.samples), scene.render.seed).numpy()
+    finally:
+        renderer.release()
+    name = f"model:{model}" + ("" if not variant else ":" + ",".join(
+        f"{k}={v}" for k, v in variant.items()))
+    if model == "neural_teacher":
+        return compare(name, glsl, ref, TEACHER_ATOL, TEACHER_RTOL, kind="model",
+                       measured="max abs 0.023, max rel 8e-4 (uniform sampling, sun texels)")
+    return compare(name, glsl, ref, MODEL_ATOL, MODEL_RTOL, kind="model",
+                   measured="max abs 5.3e-5 (shipped weights); 1.0e-3 at max rel 7.6e-5 (random weights)")
+
+
+def _register_checks() -> None:
+    from learned.parity import register_pass_check
+
+    register_pass_check("neural:network", model="neural")(lambda programs: [check_network(programs)])
+    register_pass_check("model:neural", model="neural")(
+        lambda programs: [check_model(programs, "neural", v)
+                          for v in ({}, {"ao": False, "background": "transparent"})])
+    register_pass_check("model:neural_teacher", model="neural_teacher")(
+        lambda programs: [check_model(programs, "neural_teacher", v)
+                          for v in ({"samples": 8, "sampling": "env"},
+                                    {"samples": 8, "sampling": "uniform",
+                                     "background": "transparent"})])
+
+
+_register_checks()

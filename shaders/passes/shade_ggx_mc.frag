@@ -1,0 +1,150 @@
+// shade_ggx_mc.frag - Monte-Carlo reference of the ggx_split_sum BRDF (Cook-Torrance GGX, height-
+// correlated Smith, Schlick Fresnel, optional multiple-scattering compensation; Lambert diffuse
+// scaled by 1 - E_spec(n.v) from the DFG LUT, as ggx_split_sum) under the environment (eq. B.4):
+//   L_o = 1/N sum_i L(l_i) f(v, l_i) (n.l_i) / p(l_i)
+// over samples u_sample_start .. u_sample_start + u_sample_count - 1 of the pixel's scrambled
+// (0, 2)-sequence (lib/mc.glsl; a pure function of pixel, sample index and u_seed). Writes the
+// mean of this batch; passes/accumulate.frag averages batches. Nothing occludes (single bounce).
+// Defines: SAMPLING (0 uniform, 1 cosine, 2 env, 3 brdf, 4 mis), MIS_POWER (1 balance,
+// 2 power heuristic), MULTISCATTER, USE_AO, USE_SSAO, BACKGROUND_ENVIRONMENT (0/1 each).
+// "mis" draws one BRDF and one environment direction per sample (two evaluations).
+#include "passes/deferred.glsl"
+#include "lib/brdf.glsl"
+#include "lib/ibl.glsl"
+#include "lib/shading.glsl"
+#include "lib/sampling.glsl"
+#include "lib/mc.glsl"
+#include "lib/env_sampling.glsl"
+
+uniform sampler2D u_env_dfg;
+uniform sampler2D u_env_marginal;
+uniform sampler2D u_env_conditional;
+uniform sampler2D u_env_pdf;
+uniform uint u_sample_start;  // index of the first sample of this batch
+uniform uint u_sample_count;  // samples in this batch (0 writes the background / black)
+uniform uint u_seed;
+
+struct Surface {
+    vec3 n;            // shading normal, world space
+    vec3 t;            // tangent frame (tangent_to_world's)
+    vec3 b;
+    vec3 v;            // towards the viewer
+    float NoV;
+    vec3 diffuse;      // diffuse colour x ambient occlusion x (1 - E_spec)
+    vec3 f0;
+    float f90;
+    float a;           // alpha = clamped perceptual roughness^2
+    vec3 spec_scale;   // multiple-scattering energy compensation (1 without)
+    float p_spec;      // probability of sampling the specular lobe ("brdf", "mis")
+};
+
+vec3 env_radiance_ws(vec3 l) {
+    return textureLod(u_env_radiance, equirect_uv(env_dir(l)), 0.0).rgb * u_env_intensity;
+}
+
+// f(v, l) (n.l), 0 below the surface.
+vec3 surface_brdf_cos(Surface s, vec3 l) {
+    float NoL = dot(s.n, l);
+    if (!(NoL > 0.0)) return vec3(0.0);
+    vec3 h = normalize(s.v + l);
+    float NoH = saturate(dot(s.n, h));
+    float VoH = saturate(dot(s.v, h));
+    vec3 spec = ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a) * s.spec_scale;
+    return (s.diffuse * INV_PI + spec) * NoL;
+}
+
+// pdf of "brdf" sampling (lobe mixture: VNDF-reflected specular, cosine diffuse) for l.
+float surface_brdf_pdf(Surface s, vec3 l) {
+    float NoL = dot(s.n, l);
+    if (!(NoL > 0.0)) return 0.0;
+    vec3 h = normalize(s.v + l);
+    float NoH = saturate(dot(s.n, h));
+    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + (1.0 - s.p_spec) * pdf_cosine_hemisphere(NoL);
+}
+
+vec3 sample_surface_brdf(Surface s, vec2 u) {
+    if (u.x < s.p_spec) {
+        u.x = u.x / s.p_spec;
+        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
+        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
+        return reflect(-s.v, h);
+    }
+    u.x = (u.x - s.p_spec) / (1.0 - s.p_spec);
+    return tangent_to_world(sample_cosine_hemisphere(u), s.n);
+}
+
+// One sample's estimate; never NaN/Inf (a non-finite value would be a bug; it is dropped).
+vec3 estimate(Surface s, uvec2 pixel, uint index) {
+    vec2 u0 = mc_sample_2d(pixel.x, pixel.y, index, u_seed, 0u);
+    vec3 c = vec3(0.0);
+#if SAMPLING == 0 || SAMPLING == 1
+#if SAMPLING == 0
+    vec3 l = tangent_to_world(sample_uniform_hemisphere(u0), s.n);
+    float pdf = 0.5 * INV_PI;
+#else
+    vec3 l = tangent_to_world(sample_cosine_hemisphere(u0), s.n);
+    float pdf = pdf_cosine_hemisphere(dot(s.n, l));
+#endif
+    if (pdf > 0.0) c = env_radiance_ws(l) * surface_brdf_cos(s, l) / pdf;
+#elif SAMPLING == 2
+    vec4 e = sample_env(u_env_marginal, u_env_conditional, u_env_pdf, u0);
+    vec3 l = rotate_y(e.xyz, u_env_rotation);
+    if (e.w > 0.0) c = env_radiance_ws(l) * surface_brdf_cos(s, l) / e.w;
+#elif SAMPLING == 3
+    vec3 l = sample_surface_brdf(s, u0);
+    float pdf = surface_brdf_pdf(s, l);
+    if (pdf > 0.0) c = env_radiance_ws(l) * surface_brdf_cos(s, l) / pdf;
+#else
+    vec3 lb = sample_surface_brdf(s, u0);
+    float pb = surface_brdf_pdf(s, lb);
+    if (pb > 0.0) {
+        float w = mis_weight(pb, env_pdf(u_env_pdf, env_dir(lb)), float(MIS_POWER));
+        c += env_radiance_ws(lb) * surface_brdf_cos(s, lb) * (w / pb);
+    }
+    vec4 e = sample_env(u_env_marginal, u_env_conditional, u_env_pdf,
+                        mc_sample_2d(pixel.x, pixel.y, index, u_seed, 1u));
+    vec3 le = rotate_y(e.xyz, u_env_rotation);
+    if (e.w > 0.0) {
+        float w = mis_weight(e.w, surface_brdf_pdf(s, le), float(MIS_POWER));
+        c += env_radiance_ws(le) * surface_brdf_cos(s, le) * (w / e.w);
+    }
+#endif
+    bool finite = !any(isnan(c)) && !any(isinf(c));
+    return finite ? c : vec3(0.0);
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    GBuffer g = gbuffer_load(pixel);
+    vec3 d = view_ray_ws(gl_FragCoord.xy);
+    vec3 background = background_radiance(d);
+    if (g.alpha <= 0.0) {
+        write_radiance(vec3(0.0), background, 0.0);
+        return;
+    }
+    Surface s;
+    s.v = -d;
+    s.n = shading_normal(g.normal, s.v);
+    s.t = tangent_to_world(vec3(1.0, 0.0, 0.0), s.n);
+    s.b = tangent_to_world(vec3(0.0, 1.0, 0.0), s.n);
+    s.NoV = saturate(dot(s.n, s.v));
+    float r = clamp_perceptual_roughness(g.roughness);
+    s.a = r * r;
+    s.f0 = compute_f0(g.albedo, g.metallic, g.specular);
+    s.f90 = f90_from_f0(s.f0);
+    vec2 dfg = ibl_dfg(u_env_dfg, s.NoV, r);
+    s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, s.f0) : vec3(1.0);
+    // the energy-conserving split of ggx_split_sum: diffuse keeps 1 - E_spec(n.v), a per-pixel
+    // constant, so the integrand is the same BRDF the split-sum model approximates
+    vec3 e_spec = ibl_specular_dfg(dfg, s.f0, s.f90) * s.spec_scale;
+    s.diffuse = diffuse_color(g.albedo, g.metallic) * max(1.0 - e_spec, 0.0);
+    // lobe choice from the unoccluded albedos: occlusion then scales values, not sample paths
+    s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+    s.diffuse *= ambient_occlusion(pixel, g);
+    vec3 sum = vec3(0.0);
+    for (uint k = 0u; k < u_sample_count; ++k) {
+        sum += estimate(s, uvec2(pixel), u_sample_start + k);
+    }
+    vec3 c = sum / float(max(u_sample_count, 1u));
+    write_radiance(c, background, g.alpha);
+}

@@ -1,0 +1,42 @@
+// splat_resolve.frag - normalise the splat accumulation by coverage and composite it over what the
+// G-buffer held before (meshes, image stacks: bound as u_gbuffer<i>, a copy), premultiplied:
+//   w_under = (1 - A) alpha_under,  alpha = A + w_under,
+//   x = (sum_i T_i alpha_i x_i + w_under x_under) / alpha    (albedo, roughness, metallic, depth =
+//       thesis eq. 6.10, specular and ao with the splats' 0.5 and 1), normal normalised,
+//   color = sum_i T_i alpha_i c_i + w_under albedo_under     (premultiplied, no background).
+// Pixels that nothing covers are discarded (they keep the background).
+#define GBUFFER_WRITE
+#define GBUFFER_READ
+#include "generated/gbuffer.glsl"
+
+uniform sampler2D u_accum0;  // (sum T a c, A)
+uniform sampler2D u_accum1;  // (sum T a albedo, A)
+uniform sampler2D u_accum2;  // (sum T a normal, A)
+uniform sampler2D u_accum3;  // (sum T a roughness, sum T a metallic, sum T a depth, A)
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 a0 = texelFetch(u_accum0, px, 0);
+    vec4 a1 = texelFetch(u_accum1, px, 0);
+    vec4 a2 = texelFetch(u_accum2, px, 0);
+    vec4 a3 = texelFetch(u_accum3, px, 0);
+    GBuffer under = gbuffer_load(px);
+    float coverage = a0.a;
+    float w_under = (1.0 - coverage) * under.alpha;
+    float total = coverage + w_under;
+    if (total <= 0.0) {
+        discard;
+    }
+    GBuffer g = under;
+    g.alpha = total;
+    g.albedo = (a1.rgb + w_under * under.albedo) / total;
+    vec3 n = a2.xyz + w_under * under.normal;
+    g.normal = dot(n, n) > 0.0 ? normalize(n) : vec3(0.0);
+    g.roughness = (a3.r + w_under * under.roughness) / total;
+    g.metallic = (a3.g + w_under * under.metallic) / total;
+    g.depth = (a3.b + w_under * under.depth) / total;
+    g.specular = (coverage * 0.5 + w_under * under.specular) / total;
+    g.ao = (coverage + w_under * under.ao) / total;
+    g.color = a0.rgb + w_under * under.albedo;
+    gbuffer_store(g);
+}

@@ -1,0 +1,134 @@
+"""Datasets (generator, reader) and training (loss decreases, resume, DDP)."""
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from learned.data import DatasetError, list_samples, load_sample
+from learned.data.generator import GeneratorConfig, generate
+from viewer.errors import InputError
+
+TINY = GeneratorConfig(count=10, size=16, samples=4, seed=3, env_width=32)
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory, ctx):
+    from viewer.renderer import Renderer
+
+    root = tmp_path_factory.mktemp("data") / "d"
+    r = Renderer(ctx=ctx)
+    try:
+        generate(root, TINY, renderer=r, progress=False)
+    finally:
+        r.release()
+    return root
+
+
+def test_generator_layout_splits_and_targets(dataset):
+    assert [len(list_samples(dataset, s)) for s in ("train", "val", "test")] == [8, 1, 1]
+    s = load_sample(list_samples(dataset, "val")[0])
+    assert s.size == (16, 16) and s.target.shape == (16, 16, 3)
+    assert s.foreground().any() and np.isfinite(s.target).all()
+    n = s.channels["normal"][s.foreground()]
+    assert np.allclose(np.linalg.norm(n, axis=-1), 1.0, atol=1e-4)
+
+
+def test_generator_is_deterministic_and_resumable(dataset, tmp_path, ctx):
+    from viewer.renderer import Renderer
+
+    other = tmp_path / "again"
+    shutil.copytree(dataset, other)
+    victim = list_samples(other, "train")[2]
+    shutil.rmtree(victim)
+    (victim.parent / (victim.name + ".tmp")).mkdir()  # an interrupted write
+    r = Renderer(ctx=ctx)
+    try:
+        res = generate(other, TINY, renderer=r, progress=False)
+    finally:
+        r.release()
+    assert res == {"written": 1, "kept": 9, "root": str(other)}
+    a = load_sample(list_samples(dataset, "train")[2])
+    b = load_sample(victim)
+    assert np.array_equal(a.target, b.target)
+    for k in a.channels:
+        assert np.array_equal(a.channels[k], b.channels[k]), k
+    assert not (victim.parent / (victim.name + ".tmp")).exists()
+
+
+def test_generator_refuses_another_config(dataset):
+    with pytest.raises(DatasetError, match="another configuration"):
+        generate(dataset, GeneratorConfig(count=10, size=32), progress=False)
+
+
+def test_reader_errors_name_the_file(dataset, tmp_path):
+    src = list_samples(dataset, "test")[0]
+    bad = tmp_path / "s"
+    shutil.copytree(src, bad)
+    (bad / "rgb.exr").unlink()
+    with pytest.raises(DatasetError, match="missing the target image"):
+        load_sample(bad)
+    (bad / "albedo.exr").unlink()
+    with pytest.raises(InputError, match="missing required channel 'albedo'") as info:
+        load_sample(bad)
+    assert str(bad) in str(info.value)
+    shutil.rmtree(bad)
+    shutil.copytree(src, bad)
+    from viewer.imageio import write_exr
+
+    write_exr(bad / "roughness.exr", np.zeros((8, 16, 1), np.float32), ["Y"])
+    with pytest.raises(InputError, match="size mismatch"):
+        load_sample(bad)
+
+
+def _cfg(dataset, out, **kw):
+    from learned.train import TrainConfig
+
+    base = dict(teacher_steps=40, shadow_steps=30, student_steps=120, batch_pixels=256,
+                light_samples=8, teacher_hidden=16, teacher_freqs=1, student_hidden=(16, 16),
+                shadow_width=4, distill_samples=8, lr=3e-3, checkpoint_every=10, log_every=10)
+    return TrainConfig(data=str(dataset), out=str(out), **(base | kw))
+
+
+def test_training_losses_decrease_and_export(dataset, tmp_path):
+    from learned.train import train
+    from viewer.neural import load_network
+
+    res = train(_cfg(dataset, tmp_path / "run"), quiet=True)
+    for stage in ("teacher_loss", "shadow_loss", "student_loss"):
+        losses = res[stage]
+        assert np.mean(losses[-8:]) < np.mean(losses[:8]), stage
+    student = load_network(res["student"], "student")
+    assert student.training["distilled_from"] == res["teacher_checkpoint"]
+    assert "train.log" in os.listdir(tmp_path / "run")
+
+
+def test_training_resumes_from_checkpoint(dataset, tmp_path):
+    from learned.train import train
+
+    out = tmp_path / "run"
+    first = train(_cfg(dataset, out, teacher_steps=20), stages="teacher", quiet=True)
+    again = train(_cfg(dataset, out, teacher_steps=30), stages="teacher", quiet=True)
+    assert again["teacher_loss"][:20] == first["teacher_loss"]
+    assert len(again["teacher_loss"]) == 30
+    assert "resuming at step 20/30" in (out / "train.log").read_text()
+
+
+@pytest.mark.slow
+def test_torchrun_ddp_two_cpu_processes(dataset, tmp_path):
+    out = tmp_path / "ddp"
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2",
+           "-m", "learned.train", "--data", str(dataset), "--out", str(out), "--quick",
+           "--stage", "teacher", "--teacher-steps", "6", "--batch-pixels", "128",
+           "--light-samples", "4", "--quiet"]
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=240, env=env,
+                       cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    assert p.returncode == 0, p.stderr[-2000:]
+    log = (out / "train.log").read_text()
+    assert "world 2" in log and "teacher step 6/6" in log
+    ck = torch.load(out / "teacher.pt", weights_only=False)
+    assert ck["step"] == 6

@@ -1,0 +1,148 @@
+"""The neural shader: export/load round trip, GLSL parity on random weights, bad weights files."""
+import json
+import struct
+
+import numpy as np
+import pytest
+import torch
+
+from learned.export import export, load_model
+from learned.neural.student import Student
+from learned.neural.teacher import Teacher
+from learned.twins import neural as tn
+from viewer.neural import WeightsError, load_network
+
+
+@pytest.fixture(scope="module")
+def weights(tmp_path_factory):
+    d = tmp_path_factory.mktemp("weights")
+    torch.manual_seed(1)
+    s = Student(hidden=(16, 32), num_freqs=2)
+    t = Teacher(hidden=16, num_freqs=1)
+    with torch.no_grad():  # move outputs away from the sigmoid's flat ends
+        s.layers[-1].weight.mul_(3.0)
+    export(s, d / "s.safetensors", {"note": "test"})
+    export(t, d / "t.safetensors")
+    return d / "s.safetensors", d / "t.safetensors"
+
+
+def test_round_trip_and_generated_header(weights):
+    s_path, _ = weights
+    net = load_network(s_path, "student")
+    model = load_model(s_path)
+    assert net.checkpoint == model.checkpoint and net.training == {"note": "test"}
+    assert net.glsl.splitlines()[2] == f"// checkpoint sha256:{net.checkpoint}"
+    assert "mlp 40-16-32-6" in net.glsl  # 8 inputs x (1 + 2 x 2 frequencies)
+    assert net.macs() == model.macs_per_pixel() == 40 * 16 + 16 * 32 + 32 * 6
+
+
+def test_student_network_parity(programs, weights):
+    r = tn.check_network(programs, weights[0])
+    assert r.passed and r.max_abs <= 1e-4, r
+
+
+def test_student_and_teacher_pass_parity(programs, weights):
+    r = tn.check_model(programs, "neural", {}, weights[0])
+    assert r.passed, r
+    r = tn.check_model(programs, "neural_teacher", {"samples": 4, "sampling": "uniform"},
+                       weights[1])
+    assert r.passed, r
+
+
+def test_teacher_estimate_is_linear_in_light(weights):
+    """rho L_in / p: doubling the environment doubles the light feature's multiplier (the log
+    feature changes too, so only zero light is checked exactly: no light, no radiance)."""
+    t = load_model(weights[1])
+    n = torch.nn.functional.normalize(torch.randn(64, 3), dim=-1)
+    mat = torch.rand(64, 6)
+    l = torch.nn.functional.normalize(torch.randn(64, 3), dim=-1)
+    with torch.no_grad():
+        c = t.contribution(mat, n, -n, l, torch.zeros(64, 3))
+    assert torch.all(c == 0)
+
+
+def _tamper(src, dst, meta_change=None, tensor_change=None, truncate=None):
+    data = src.read_bytes()
+    n = struct.unpack("<Q", data[:8])[0]
+    header = json.loads(data[8:8 + n])
+    body = bytearray(data[8 + n:])
+    if meta_change:
+        header["__metadata__"].update(meta_change)
+    if tensor_change:
+        start = header[tensor_change]["data_offsets"][0]
+        body[start:start + 4] = struct.pack("<f", 123.0)
+    h = json.dumps(header).encode()
+    h += b" " * ((8 - len(h) % 8) % 8)
+    out = struct.pack("<Q", len(h)) + h + bytes(body)
+    dst.write_bytes(out[:truncate] if truncate else out)
+    return dst
+
+
+@pytest.mark.parametrize("case, message", [
+    ("truncated", "truncated or corrupt"),
+    ("version", "format version '99' is not supported"),
+    ("format", "not a relight neural-shader file"),
+    ("architecture", "is not the student architecture"),
+    ("tampered", "checkpoint hash mismatch"),
+    ("kind", "holds a teacher network, expected a student"),
+])
+def test_bad_weights_are_one_line_errors_naming_the_file(tmp_path, weights, case, message):
+    s_path, t_path = weights
+    bad = tmp_path / f"{case}.safetensors"
+    if case == "truncated":
+        bad.write_bytes(s_path.read_bytes()[:-100])
+    elif case == "version":
+        _tamper(s_path, bad, {"version": "99"})
+    elif case == "format":
+        _tamper(s_path, bad, {"format": "something-else"})
+    elif case == "architecture":
+        arch = json.loads(load_network(s_path).architecture and
+                          json.dumps(load_network(s_path).architecture))
+        arch["networks"]["mlp"]["sizes"][1] = 17
+        _tamper(s_path, bad, {"architecture": json.dumps(arch)})
+    elif case == "tampered":
+        _tamper(s_path, bad, tensor_change="mlp.0.weight")
+    else:
+        bad.write_bytes(t_path.read_bytes())
+    before = bad.read_bytes()
+    with pytest.raises(WeightsError) as info:
+        load_network(bad, "student")
+    text = str(info.value)
+    assert message in text and str(bad) in text and "\n" not in text
+    assert bad.read_bytes() == before  # nothing overwritten
+
+
+def test_render_with_bad_weights_is_a_scene_level_error(tmp_path, ctx):
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    missing = tmp_path / "none.safetensors"
+    scene = scene_from_dict({"camera": {"size": [8, 8]},
+                             "objects": [{"type": "sphere"}],
+                             "render": {"model": "neural", "weights": str(missing)}})
+    r = Renderer(ctx=ctx)
+    try:
+        with pytest.raises(WeightsError, match="weights file not found"):
+            r.render(scene)
+    finally:
+        r.release()
+
+
+def test_shipped_weights_load_and_are_small():
+    from viewer.neural import default_weights
+
+    net = load_network(default_weights("student"), "student")
+    assert net.macs() <= 4096 and net.training.get("stage") == "student"
+    teacher = load_network(default_weights("teacher"), "teacher")
+    assert net.training["distilled_from"] == teacher.checkpoint
+
+
+def test_parity_cli_neural_passes(capsys):
+    from viewer.cli import main
+
+    assert main(["parity", "--model", "neural", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    names = {r["name"] for r in rows}
+    assert {"neural:network", "model:neural"} <= names
+    net = next(r for r in rows if r["name"] == "neural:network")
+    assert net["passed"] and net["max_abs"] <= 1e-4

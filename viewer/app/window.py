@@ -1,0 +1,422 @@
+"""The interactive viewer: a glfw window, Dear ImGui (imgui-bundle's native glfw/OpenGL3
+backends) and the renderer's graph drawn with the window's own moderngl context.
+
+    viewer = Viewer(load_scene("demo.toml"), offscreen=True)   # offscreen: glfw Null + EGL
+    viewer.state.render = replace(viewer.state.render, exposure=1.0)
+    viewer.run(frames=2)
+    viewer.screenshot("shot.png")          # the view as shown (no UI); .exr: linear radiance
+    viewer.close()
+
+Each frame: input -> UI (writes :class:`ViewerState`) -> if ``scene_from_state(state)`` changed,
+``Renderer.draw`` (the same graph as ``relight render``) -> the view pass into the window ->
+ImGui. Nothing is re-rendered, allocated or read back while nothing changes. A change that fails
+(a corrupt dropped file, a bad scene, a model without weights) leaves the previous state and image
+and shows the one-line message. GPU time per pass comes from timer queries read one frame late.
+
+Mouse over the image: left drag orbits, right or middle drag (or shift + left) pans, the wheel
+zooms; R resets the camera, H hides the panels. Files dropped on the window: ``.toml`` opens a
+scene, an image (``.hdr``, ``.exr``, ...) becomes the environment.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, RelightError, SceneError
+from ..gl.context import ContextOptions, create_window, make_current
+from ..models import SAMPLING_MODELS
+from ..scene import Scene, load_scene
+from . import camera_control
+from .state import ViewerState, load_into, reset_camera, scene_from_state, state_from_scene, \
+    with_environment_file
+
+SCENE_SUFFIXES = (".toml",)
+IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
+PASS_NAMES = ("gbuffer", "ibl", "shade", "tonemap", "view", "ui")
+MAX_WINDOW = (1600, 1000)
+
+
+class GpuTimers:
+    """GPU milliseconds per named pass from ``GL_TIME_ELAPSED`` queries.
+
+    ``begin(name)`` ends the running query and starts ``name``'s (``None`` just ends). Queries are
+    double-buffered: a frame's results are read at the end of the next frame, when the GPU has
+    long finished them, so reading never stalls the pipeline. Queries are created once per name.
+    """
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.ms: dict[str, float] = {}  # last measured GPU time per pass
+        self._queries: list[dict[str, object]] = [{}, {}]
+        self._used: list[list[str]] = [[], []]
+        self._slot = 0
+        self._active = None
+
+    def begin(self, name: str | None) -> None:
+        if self._active is not None:
+            self._active.__exit__(None, None, None)
+            self._active = None
+        if name is None:
+            return
+        queries = self._queries[self._slot]
+        query = queries.get(name)
+        if query is None:
+            query = queries[name] = self.ctx.query(time=True)
+        if name in self._used[self._slot]:  # a pass that runs twice in a frame: keep the last
+            self._used[self._slot].remove(name)
+        self._used[self._slot].append(name)
+        query.__enter__()
+        self._active = query
+
+    def end_frame(self) -> None:
+        """Close the frame: read the *previous* frame's queries, then reuse its slot."""
+        self.begin(None)
+        self._slot ^= 1
+        queries, used = self._queries[self._slot], self._used[self._slot]
+        for name in used:
+            self.ms[name] = queries[name].elapsed / 1e6
+        used.clear()
+
+    def release(self) -> None:
+        self.begin(None)
+        for queries in self._queries:  # moderngl queries are freed with their context
+            queries.clear()
+
+
+class Viewer:
+    """One window on one :class:`ViewerState`; see the module docstring."""
+
+    def __init__(self, scene: Scene, *, window_size: tuple[int, int] | None = None,
+                 offscreen: bool = False, options: ContextOptions = ContextOptions(),
+                 title: str = "relight view"):
+        from imgui_bundle import imgui  # before glfw (create_window checks the order)
+
+        if window_size is None:
+            w, h = scene.camera.size
+            scale = min(1.0, MAX_WINDOW[0] / w, MAX_WINDOW[1] / h)
+            window_size = (max(1, int(w * scale)), max(1, int(h * scale)))
+        self.window = create_window(window_size, title, offscreen=offscreen, options=options)
+        import glfw
+
+        from ..passes.debug_view import DebugViewPass
+        from ..renderer import Renderer
+        from .ui import ViewerUI
+
+        self._glfw, self._imgui = glfw, imgui
+        self.ctx = self.window.ctx
+        self.renderer = Renderer(ctx=self.ctx)
+        self.timers = GpuTimers(self.ctx)
+        self.renderer.profiler = self.timers
+        self.view_pass = DebugViewPass(self.renderer.programs)
+        self.state: ViewerState = state_from_scene(scene)
+        self._good: ViewerState = self.state  # the last state that rendered
+        self._scene: Scene | None = None  # what the targets hold
+        self._targets: dict | None = None
+        self._reference = None  # RGBA32F texture of a loaded reference render
+        self._shot: dict[tuple[int, int], tuple] = {}  # size -> (texture, fbo) for screenshots
+        self.samples_per_frame = 4  # Monte-Carlo samples added per frame while accumulating
+        self.frame_ms = 0.0
+        self.frames = 0
+        self.renders = 0  # how many times the render graph ran (tests: no work when idle)
+        self._last_time = time.perf_counter()
+
+        self._imgui_ctx = imgui.create_context()
+        imgui.set_current_context(self._imgui_ctx)  # create_context does not when one exists
+        io = imgui.get_io()
+        io.set_ini_filename(None)  # no imgui.ini next to the user's files
+        imgui.backends.glfw_init_for_opengl(self.window.address, True)
+        imgui.backends.opengl3_init("#version 410 core")
+        self.ui = ViewerUI(self)
+        glfw.set_drop_callback(self.window.window, lambda _w, paths: self.drop(list(paths)))
+
+    # ---- the frame ---------------------------------------------------------------------------
+    def frame(self) -> None:
+        """One frame: events, UI, camera input, render if anything changed, present."""
+        imgui, glfw = self._imgui, self._glfw
+        make_current(self.ctx)
+        imgui.set_current_context(self._imgui_ctx)  # several viewers may live in one process
+        glfw.poll_events()
+        imgui.backends.opengl3_new_frame()
+        imgui.backends.glfw_new_frame()
+        imgui.new_frame()
+        self.ui.poll_dialogs()
+        if self.state.show_ui:
+            self.ui.draw()
+        self._input()
+        self._render()
+        self._present()
+        now = time.perf_counter()
+        self.frame_ms = (now - self._last_time) * 1e3
+        self._last_time = now
+        self.frames += 1
+
+    def run(self, frames: int | None = None) -> None:
+        """Run frames until the window is closed, or exactly ``frames`` frames."""
+        n = 0
+        while not self._glfw.window_should_close(self.window.window):
+            if frames is not None and n >= frames:
+                break
+            self.frame()
+            n += 1
+
+    def _input(self) -> None:
+        imgui = self._imgui
+        io = imgui.get_io()
+        state = self.state
+        if not io.want_capture_keyboard:
+            if imgui.is_key_pressed(imgui.Key.r, False):
+                self.state = reset_camera(state)
+            if imgui.is_key_pressed(imgui.Key.h, False):
+                state.show_ui = not state.show_ui
+        if io.want_capture_mouse:
+            return
+        dx, dy = io.mouse_delta.x, io.mouse_delta.y
+        scale = self._view_rect()[4]
+        cam = self.state.camera
+        if (dx or dy) and imgui.is_mouse_down(0) and not io.key_shift:
+            cam = camera_control.drag_orbit(cam, dx, dy)
+        elif (dx or dy) and (imgui.is_mouse_down(1) or imgui.is_mouse_down(2)
+                             or (imgui.is_mouse_down(0) and io.key_shift)):
+            cam = camera_control.pan(cam, dx / scale, dy / scale)
+        if io.mouse_wheel:
+            cam = camera_control.zoom(cam, camera_control.wheel_factor(io.mouse_wheel))
+        self.state.camera = cam
+
+    def _render(self) -> None:
+        """Run the render graph if the scene changed, or add samples while a Monte-Carlo model
+        is accumulating (the renderer restarts its running mean on any change)."""
+        scene = scene_from_state(self.state)
+        accumulating = (scene.render.model in SAMPLING_MODELS and self._targets is not None
+                        and self._targets.get("samples", 1) < scene.render.samples)
+        if scene == self._scene and not accumulating:
+            return  # nothing changed: no GPU work beyond presenting
+        try:
+            self._targets = self.renderer.draw(scene, progressive=True,
+                                               samples_per_frame=self.samples_per_frame)
+        except RelightError as exc:
+            self.timers.begin(None)
+            self.reject(str(exc))
+            # a failed draw may have cleared the targets: draw the last good scene again
+            if self._scene is not None:
+                self._targets = self.renderer.draw(self._scene, progressive=True,
+                                                   samples_per_frame=self.samples_per_frame)
+            return
+        self._scene = scene
+        self._good = self.state.copy()
+        self.renders += 1
+
+    def reject(self, message: str) -> None:
+        """Keep the last good scene state; show ``message``. Viewer-only settings stay."""
+        good, cur = self._good, self.state
+        self.state = replace(cur, scene=good.scene, camera=good.camera,
+                             environment=good.environment, render=good.render,
+                             object_materials=good.object_materials,
+                             material_override=good.material_override, message=message)
+
+    def _view_rect(self) -> tuple[int, int, int, int, float]:
+        """(x, y, w, h, scale): where the render is shown in the window (letterboxed)."""
+        fw, fh = self.window.framebuffer_size()
+        rw, rh = self.state.camera.size if self._scene is None else self._scene.camera.size
+        scale = min(fw / rw, fh / rh) if rw and rh else 1.0
+        w, h = max(1, int(round(rw * scale))), max(1, int(round(rh * scale)))
+        return (fw - w) // 2, (fh - h) // 2, w, h, max(scale, 1e-6)
+
+    def _draw_view(self) -> None:
+        """The chosen view of the current targets into the bound framebuffer's viewport."""
+        state = self.state
+        try:
+            self.view_pass.run(self._targets, state.view, exposure=state.render.exposure,
+                               reference=self._reference_for_view(),
+                               error_scale=state.error_scale, depth_scale=self._depth_scale())
+        except RelightError as exc:
+            state.view, state.message = "display", str(exc)
+            self.view_pass.run(self._targets, "display")
+
+    def _reference_for_view(self):
+        ref = self._reference
+        if ref is None or self._targets is None:
+            return None
+        if tuple(ref.size) != tuple(self._targets["radiance"].size):
+            w, h = self._targets["radiance"].size
+            raise SceneError(f"the reference is {ref.size[0]}x{ref.size[1]}, the render {w}x{h}",
+                             where=self.state.reference_path)
+        return ref
+
+    def _depth_scale(self) -> float:
+        cam = self.state.camera
+        dist = float(np.linalg.norm(np.subtract(cam.position, cam.target)))
+        return 1.0 / max(2.0 * dist, 1e-6)
+
+    def _present(self) -> None:
+        ctx, imgui = self.ctx, self._imgui
+        screen = ctx.screen
+        screen.use()
+        fw, fh = self.window.framebuffer_size()
+        ctx.viewport = (0, 0, fw, fh)
+        ctx.clear(0.08, 0.08, 0.09, 1.0)
+        if self._targets is not None:
+            x, y, w, h, _ = self._view_rect()
+            ctx.viewport = (x, y, w, h)
+            self.timers.begin("view")
+            self._draw_view()
+            ctx.viewport = (0, 0, fw, fh)
+        if self.state.show_overlay:
+            self.ui.overlay()
+        imgui.render()
+        self.timers.begin("ui")
+        imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+        self.timers.end_frame()
+        self._glfw.swap_buffers(self.window.window)
+
+    # ---- files ---------------------------------------------------------------------------------
+    def drop(self, paths: list[str]) -> None:
+        """Files dropped on the window: a ``.toml`` scene, or an image as the environment."""
+        for path in paths:
+            suffix = Path(path).suffix.lower()
+            if suffix in SCENE_SUFFIXES:
+                self.open_scene(path)
+            elif suffix in IMAGE_SUFFIXES:
+                self.set_environment_file(path)
+            else:
+                self.state.message = str(InputError(
+                    f"unsupported file type {suffix or '(none)'}: drop a .toml scene or an "
+                    f"HDR/EXR environment", where=path))
+
+    def open_scene(self, path: str) -> bool:
+        try:
+            scene = load_scene(path)
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        self.state = load_into(self.state, scene)
+        self.state.message = None
+        return True
+
+    def set_environment_file(self, path: str) -> None:
+        """Use an equirect HDR/EXR; a file that cannot be used leaves the environment as it was."""
+        self.state = with_environment_file(self.state, str(Path(path).resolve()))
+        self.state.message = None
+
+    def load_reference(self, path: str) -> bool:
+        """Load a linear render (EXR/HDR, the size of the render) for the difference views."""
+        from ..imageio import read_image
+
+        try:
+            arr, _ = read_image(path, channels=(3, 4))
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        h, w = arr.shape[:2]
+        rgba = np.ones((h, w, 4), np.float32)
+        rgba[..., :3] = arr[..., :3]
+        if self._reference is not None:
+            self._reference.release()
+        make_current(self.ctx)
+        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba[::-1]).tobytes(), dtype="f4")
+        tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        self._reference = tex
+        self.state.reference_path = str(path)
+        self.state.message = None
+        return True
+
+    def save_scene(self, path: str) -> bool:
+        """Write what is shown as a scene TOML that ``relight render`` renders identically."""
+        from ..scene_io import save_scene
+
+        try:
+            save_scene(self.current_scene(), path)
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        self.state.message = f"saved {path}"
+        return True
+
+    @property
+    def targets(self) -> dict | None:
+        """The render targets on screen (what :meth:`Renderer.draw` returned), or None."""
+        return self._targets
+
+    def current_scene(self) -> Scene:
+        """The scene on screen (the last one that rendered)."""
+        return self._scene if self._scene is not None else scene_from_state(self.state)
+
+    # ---- output --------------------------------------------------------------------------------
+    def screenshot(self, path: str) -> Path:
+        """``.png``: the current view exactly as shown, at the render's size, without the UI.
+        ``.exr``: the linear radiance (before exposure), as ``relight render --out x.exr``."""
+        from ..imageio import write_exr, write_png
+
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in (".png", ".exr"):
+            raise SceneError("a screenshot is .png (the view) or .exr (linear radiance)",
+                             where=path)
+        if not path.resolve().parent.is_dir():
+            raise SceneError("output folder does not exist", where=path.parent)
+        if self._targets is None:
+            self._render()
+        make_current(self.ctx)
+        scene = self.current_scene()
+        transparent = scene.render.background == "transparent"
+        if suffix == ".exr":
+            rgba = _read(self._targets["radiance"], "f4")
+            write_exr(path, rgba if transparent else rgba[..., :3],
+                      ["R", "G", "B", "A"][: 4 if transparent else 3])
+            return path
+        size = tuple(self._targets["display"].size)
+        if size not in self._shot:
+            tex = self.ctx.texture(size, 4, dtype="f1")
+            self._shot[size] = (tex, self.ctx.framebuffer(color_attachments=[tex]))
+        tex, fbo = self._shot[size]
+        fbo.use()
+        self.ctx.viewport = (0, 0, *size)
+        self._draw_view()
+        pixels = _read(tex, "f1")
+        if transparent and self.state.view == "display":
+            pixels[..., 3] = _read(self._targets["display"], "f1")[..., 3]
+            write_png(path, pixels)
+        else:
+            write_png(path, pixels[..., :3])
+        return path
+
+    def read_framebuffer(self) -> np.ndarray:
+        """The window's default framebuffer as ``[H, W, 4]`` uint8, row 0 at the top (tests)."""
+        make_current(self.ctx)
+        fw, fh = self.window.framebuffer_size()
+        data = self.ctx.screen.read(viewport=(0, 0, fw, fh), components=4)
+        return np.frombuffer(data, np.uint8).reshape(fh, fw, 4)[::-1].copy()
+
+    def close(self) -> None:
+        imgui = self._imgui
+        if self._imgui_ctx is None:
+            return
+        make_current(self.ctx)
+        imgui.set_current_context(self._imgui_ctx)
+        imgui.backends.opengl3_shutdown()
+        imgui.backends.glfw_shutdown()
+        imgui.destroy_context(self._imgui_ctx)
+        self._imgui_ctx = None
+        self.timers.release()
+        self.view_pass.release()
+        for tex, fbo in self._shot.values():
+            fbo.release()
+            tex.release()
+        if self._reference is not None:
+            self._reference.release()
+        self.renderer.release()
+        self.window.close()
+
+    def __enter__(self) -> "Viewer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _read(texture, dtype: str) -> np.ndarray:
+    from ..renderer import _read as read
+
+    return read(texture, dtype)

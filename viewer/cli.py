@@ -236,7 +236,8 @@ def cmd_view(args) -> int:
 def cmd_bench(args) -> int:
     from .bench.run import BenchConfig, pareto_front, run_bench
 
-    config = BenchConfig(quick=args.quick, frames=args.frames)
+    config = BenchConfig(quick=args.quick, frames=args.frames,
+                         reference_spp=256 if args.quick else 1024)
     report = run_bench(args.out, config, fresh=args.fresh, progress=not args.quiet)
     front = pareto_front(report["results"])
     print(f"wrote {args.out}/bench.json, bench.csv, bench.md, pareto.png "

@@ -151,7 +151,7 @@ class Renderer:
             for t in (radiance, display):
                 t.filter = (ctx.NEAREST, ctx.NEAREST)
             self._targets[key] = {
-                "gbuffer": GBufferTargets.create(ctx, layout, size),
+                "gbuffer_targets": GBufferTargets.create(ctx, layout, size),
                 "radiance": radiance,
                 "radiance_fbo": ctx.framebuffer(color_attachments=[radiance]),
                 "display": display,
@@ -195,11 +195,20 @@ class Renderer:
         gpass = self._gbuffer_passes.get(layout)
         if gpass is None:
             gpass = self._gbuffer_passes[layout] = GBufferPass(self.programs, layout)
-        gb = targets["gbuffer"]
+        gb = targets["gbuffer_targets"]
+        targets["gbuffer"] = gb
         self._pass_begin("gbuffer")
-        gb.clear()
+        direct = spec.direct_stack
+        if direct:
+            # one image-space stack and nothing else: its uploaded textures already are a
+            # G-buffer in this layout, so the lighting pass reads them and no copy pass runs
+            stack = self.geometry(scene.objects[0])
+            targets["gbuffer"] = gb.viewing(dict(gpass._stack_textures(stack)))
+        else:
+            gb.clear()
+        targets["gbuffer_textures"] = targets["gbuffer"].textures
         meshes, clouds = [], []
-        for obj in scene.objects:
+        for obj in (() if direct else scene.objects):
             content = self.geometry(obj)
             if obj.type == "gbuffer":
                 gpass.draw_image(gb, content)
@@ -246,7 +255,7 @@ class Renderer:
 
         settings = scene.render
         info = model_info(settings.model)
-        gbt = targets["gbuffer"].textures
+        gbt = targets["gbuffer_textures"]
         ssao = None
         if settings.ssao or settings.indirect:
             sspass = self._ssao_passes.get(layout)
@@ -351,7 +360,7 @@ class Renderer:
         for ibl in self._ibl.values():
             ibl.release()
         for t in self._targets.values():
-            t["gbuffer"].release()
+            t["gbuffer_targets"].release()
             for k in ("radiance", "radiance_fbo", "display", "display_fbo", "ssao", "ssao_fbo",
                       "direct", "direct_fbo"):
                 if k in t:

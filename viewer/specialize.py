@@ -26,12 +26,14 @@ class SceneFeatures:
     specular: bool = True  # some surface has f0 > 0 (dielectric specular > 0, or metallic > 0)
     ao: bool = True  # some surface has ambient occlusion < 1
     constant_environment: bool = False  # every environment texel is the same colour
+    single_object: bool = False  # the scene has exactly one object
 
 
 @dataclass(frozen=True)
 class Specialization:
     layout: GBufferLayout
     defines: dict = field(default_factory=dict, hash=False, compare=False)
+    direct_stack: bool = False  # a lone image-space stack is shaded from its own textures
 
     @property
     def key(self) -> tuple:
@@ -83,7 +85,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     if spec.path is None and spec.procedural == "white":
         constant = True
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
-                         constant_environment=constant)
+                         constant_environment=constant, single_object=len(scene.objects) == 1)
 
 
 # G-buffer channels each model reads (besides albedo, alpha)
@@ -121,4 +123,7 @@ def specialise(features: SceneFeatures, settings, aovs=(), enabled: bool = True)
     needed |= set(aovs) | {"albedo", "alpha"}
     needed.discard("color")
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c != "color")
-    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit), defines)
+    direct = features.stacks and not (features.meshes or features.splats) and \
+        features.single_object and dtype == "f4"
+    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit), defines,
+                          direct_stack=direct)

@@ -1,6 +1,5 @@
 // gbuffer_image.frag - copy an image-space G-buffer stack into the G-buffer (fullscreen pass).
-// The stack's attachments are bound as u_gbuffer<i> (uploaded from numpy: row 0 = image top, so
-// read at (x, H - 1 - y)). Background pixels (alpha = 0) are discarded, so meshes drawn before stay;
+// The stack's attachments are bound as u_gbuffer<i> (uploaded in GL row order, as a G-buffer). Background pixels (alpha = 0) are discarded, so meshes drawn before stay;
 // foreground pixels write gl_FragDepth from the stored view depth so later meshes depth-test
 // against the stack.
 #define GBUFFER_WRITE
@@ -8,11 +7,10 @@
 #include "generated/gbuffer.glsl"
 
 uniform mat4 u_projection;  // the stack camera's view -> clip
-uniform int u_height;       // stack height in pixels
 
 void main() {
     ivec2 xy = ivec2(gl_FragCoord.xy);
-    GBuffer g = gbuffer_load(ivec2(xy.x, u_height - 1 - xy.y));
+    GBuffer g = gbuffer_load(xy);
     if (g.alpha <= 0.0) {
         discard;
     }

@@ -60,3 +60,16 @@ def test_requested_aovs_are_allocated(renderer):
 def test_ssao_needs_depth(renderer):
     spec = renderer.specialization(diffuse_scene().with_render(ssao=True))
     assert "depth" not in spec.layout.omit and "normal" not in spec.layout.omit
+
+
+def test_lone_stack_is_shaded_in_place_with_identical_output(renderer, tmp_path):
+    """A stack-only scene skips the G-buffer copy: the lighting pass reads the stack's textures."""
+    from viewer.bench.specialize import _diffuse_stack
+
+    scene = _diffuse_stack(renderer, tmp_path)
+    spec = renderer.specialization(scene)
+    assert spec.direct_stack and spec.defines["SPECULAR_LOBE"] == 0
+    general = renderer.render(scene.with_render(specialize=False), aovs=("albedo",))
+    special = renderer.render(scene, aovs=("albedo", "normal"))
+    np.testing.assert_allclose(special.radiance, general.radiance, atol=1e-4, rtol=0)
+    np.testing.assert_array_equal(special.aovs["albedo"], general.aovs["albedo"])

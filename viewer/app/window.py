@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, RelightError, SceneError
+from ..gbuffer import CHANNEL_NAMES
 from ..gl.context import ContextOptions, create_window, make_current
 from ..models import SAMPLING_MODELS
 from ..scene import Scene, load_scene
@@ -114,6 +115,7 @@ class Viewer:
         self.state: ViewerState = state_from_scene(scene)
         self._good: ViewerState = self.state  # the last state that rendered
         self._scene: Scene | None = None  # what the targets hold
+        self._aovs: tuple[str, ...] = ()  # G-buffer channels the targets hold for a channel view
         self._targets: dict | None = None
         self._reference = None  # RGBA32F texture of a loaded reference render
         self._shot: dict[tuple[int, int], tuple] = {}  # size -> (texture, fbo) for screenshots
@@ -189,22 +191,27 @@ class Viewer:
         """Run the render graph if the scene changed, or add samples while a Monte-Carlo model
         is accumulating (the renderer restarts its running mean on any change)."""
         scene = scene_from_state(self.state)
+        # a channel view needs that channel allocated (the layout is specialised to the scene)
+        aovs = (self.state.view,) if self.state.view in CHANNEL_NAMES else ()
         accumulating = (scene.render.model in SAMPLING_MODELS and self._targets is not None
                         and self._targets.get("samples", 1) < scene.render.samples)
-        if scene == self._scene and not accumulating:
+        if scene == self._scene and aovs == self._aovs and not accumulating:
             return  # nothing changed: no GPU work beyond presenting
         try:
             self._targets = self.renderer.draw(scene, progressive=True,
-                                               samples_per_frame=self.samples_per_frame)
+                                               samples_per_frame=self.samples_per_frame,
+                                               aovs=aovs)
         except RelightError as exc:
             self.timers.begin(None)
             self.reject(str(exc))
             # a failed draw may have cleared the targets: draw the last good scene again
             if self._scene is not None:
                 self._targets = self.renderer.draw(self._scene, progressive=True,
-                                                   samples_per_frame=self.samples_per_frame)
+                                                   samples_per_frame=self.samples_per_frame,
+                                                   aovs=self._aovs)
             return
         self._scene = scene
+        self._aovs = aovs
         self._good = self.state.copy()
         self.renders += 1
 

@@ -52,23 +52,25 @@ def _bench_scenes(cache: Path, quick: bool) -> dict[str, Scene]:
     from assets import ASSET_ROOT
 
     scenes = {"mesh": load_scene(ASSET_ROOT / "scenes" / "demo.toml")}
-    scenes["gbuffer"] = _stack_scene(cache)
+    scenes["gbuffer"] = _stack_scene(cache)  # renders at the bench size: see _scene_at
     splats = _splat_scene(cache, quick)
     if splats is not None:
         scenes["splats"] = splats
     return scenes
 
 
-def _stack_scene(cache: Path) -> Scene:
-    """An image-space G-buffer stack made by the project: the demo grid's G-buffer seen from the
-    stack camera, saved as a 12-channel EXR (depth normalised, near 1, far 800)."""
+def _stack_scene(cache: Path, size: tuple[int, int] = (512, 320)) -> Scene:
+    """An image-space G-buffer stack made by the project: a material grid's G-buffer seen from the
+    stack camera, saved as a 12-channel EXR (depth normalised, near 1, far 800). A stack renders
+    at its own size, so there is one per bench size (:func:`_scene_at`)."""
     from ..geometry.imagespace import ImageGBuffer, save_stack_exr
     from ..renderer import Renderer
 
-    path = cache / "stack.exr"
+    path = cache / f"stack_{size[0]}x{size[1]}.exr"
     if not path.exists():
         cap = scene_from_dict({
-            "camera": {"position": [0, 0, 0], "target": [0, 0, -1], "fov_y": 40, "size": [512, 320]},
+            "camera": {"position": [0, 0, 0], "target": [0, 0, -1], "fov_y": 40,
+                       "size": list(size)},
             "environment": {"procedural": "studio"},
             "objects": [
                 {"type": "material_grid", "rows": 2, "cols": 4, "spacing": 1.3, "radius": 0.55,
@@ -86,16 +88,23 @@ def _stack_scene(cache: Path) -> Scene:
                             "objects": [{"type": "gbuffer", "path": str(path)}]})
 
 
+def _scene_at(scenes: dict, name: str, size, cache: Path) -> tuple[Scene, tuple | None]:
+    """The scene and the ``size`` argument to render it at ``size`` (stacks carry their own)."""
+    if name == "gbuffer":
+        return _stack_scene(cache, tuple(size)), None
+    return scenes[name], size
+
+
 def _splat_scene(cache: Path, quick: bool) -> Scene | None:
     try:
-        from ..splats import generate  # noqa: F401  (present once the splat renderer lands)
-    except ImportError:
+        from ..splats.generate import sphere_splats
+        from ..splats.ply import write_ply
+    except ImportError:  # no splat renderer in this build
         return None
-    path = cache / "splats.ply"
+    n = 20_000 if quick else 100_000
+    path = cache / f"splats_{n}.ply"
     if not path.exists():
-        from ..splats.generate import write_demo_splats
-
-        write_demo_splats(path, count=20_000 if quick else 100_000)
+        write_ply(path, sphere_splats(n=n, radius=0.8))
     return scene_from_dict({"camera": {"position": [0, 0.5, 3.5], "fov_y": 40},
                             "environment": {"procedural": "sky"},
                             "objects": [{"type": "splats", "path": str(path)}]})
@@ -112,8 +121,11 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
             cases.append((name, "single-scatter", {"multiscatter": False}))
             cases.append((name, "multiscatter fp16", {"multiscatter": True, "precision": "fp16"}))
         elif name == "ggx_mc":
+            # every strategy's convergence is its own table (the mc_convergence suite)
             spps = (1, 4, 16, 64) if config.quick else (1, 4, 16, 64, 256)
-            for sampling in ("uniform", "cosine", "brdf", "env", "mis"):
+            strategies = ("uniform", "mis") if config.quick else ("uniform", "cosine", "brdf",
+                                                                  "env", "mis")
+            for sampling in strategies:
                 for spp in spps:
                     cases.append((name, f"{sampling} {spp}spp",
                                   {"sampling": sampling, "samples": spp}))
@@ -155,7 +167,7 @@ def _reference(renderer, scene: Scene, size, cache: Path, config: BenchConfig, n
 
     if "ggx_mc" not in MODELS:
         return None
-    path = cache / f"reference_{name}_{size[0]}x{size[1]}_{config.reference_spp}spp.exr"
+    path = cache / f"reference_{name}_{config.reference_spp}spp.exr"
     disp_path = path.with_suffix(".display.npy")
     if path.exists() and disp_path.exists():
         return read_image(path)[0], np.load(disp_path)
@@ -194,8 +206,50 @@ def machine_info(renderer) -> dict:
             "numpy": np.__version__, "date": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
-# Extra suites: name -> callable(renderer, scenes, config, cache) -> list[row dict]
-SUITES: dict[str, Callable] = {}
+def _suite_mc(renderer, scenes, config, cache) -> list[dict]:
+    """Error vs samples per pixel for every sampling strategy (thesis ch. 5: uniform vs importance
+    sampling, measured), and time per sample, on the mesh scene."""
+    from ..models import MODELS
+    from .mc import mc_convergence
+
+    if "ggx_mc" not in MODELS:
+        return []
+    scene = scenes["mesh"].with_camera(size=config.sizes[0])
+    spps = (1, 4, 16, 64) if config.quick else (1, 4, 16, 64, 256)
+    return mc_convergence(renderer, scene, spp_list=spps, reference_spp=config.reference_spp)
+
+
+def _suite_splats(renderer, scenes, config, cache) -> list[dict]:
+    """Splats per second including sorting (CPU and GPU sort) and GLSL vs the torch twin."""
+    try:
+        from .splats import glsl_vs_torch, splat_throughput
+    except ImportError:
+        return []
+    counts = (10_000, 100_000) if config.quick else (10_000, 100_000, 1_000_000)
+    rows = splat_throughput(renderer.programs, counts=counts, size=512,
+                            frames=2 if config.quick else 3)
+    try:
+        rows += glsl_vs_torch(renderer.programs)
+    except ImportError:  # no torch: the GLSL rows only
+        pass
+    return rows
+
+
+def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
+    """Student vs teacher (128 samples): frame-time ratio and PSNR; GLSL vs torch MLP throughput."""
+    from ..models import MODELS
+
+    if "neural" not in MODELS:
+        return []
+    from .neural import neural_rows
+
+    return neural_rows(renderer, quick=config.quick)
+
+
+# Extra suites, each a section of bench.json and a table of bench.md:
+# name -> callable(renderer, scenes, config, cache) -> list[row dict]
+SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
+                               "neural": _suite_neural}
 
 
 def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: bool = False,
@@ -231,18 +285,19 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
         with open(rows_path, "a") as log:
             bar = tqdm(jobs, desc="bench", unit="case", disable=not progress)
             for sname, size, (model, variant, changes) in bar:
-                scene = scenes[sname]
                 samples = int(changes.get("samples", 1))
                 key = (sname, model, variant, samples, tuple(size))
                 if key in done:
                     rows.append(done[key])
                     continue
                 bar.set_postfix_str(f"{sname} {model} {variant} {size[0]}x{size[1]}")
+                scene, render_size = _scene_at(scenes, sname, size, cache)
                 case_scene = scene.with_render(model=model, **changes)
                 try:
-                    ref = _reference(renderer, scene, size, cache, config, sname)
-                    ms, per_pass = _time_frames(renderer, case_scene, size, config)
-                    frame = renderer.render(case_scene, size=size)
+                    ref = _reference(renderer, scene, render_size, cache, config,
+                                     f"{sname}_{size[0]}x{size[1]}")
+                    ms, per_pass = _time_frames(renderer, case_scene, render_size, config)
+                    frame = renderer.render(case_scene, size=render_size)
                 except RelightError as exc:  # a model that cannot run this scene: recorded
                     ms, per_pass, frame, ref = float("nan"), {}, None, None
                     note = str(exc)
@@ -256,13 +311,21 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
                 rows.append(row)
                 log.write(json.dumps(row) + "\n")
                 log.flush()
+        sections = {}
         for name, suite in SUITES.items():
-            rows.extend(suite(renderer, scenes, config, cache))
+            path = out / f"{name}.json"
+            if path.exists() and not fresh:  # resumable: a finished suite is not measured again
+                sections[name] = json.loads(path.read_text())
+                continue
+            if progress:
+                print(f"bench: {name} ...", file=sys.stderr, flush=True)
+            sections[name] = suite(renderer, scenes, config, cache)
+            path.write_text(json.dumps(sections[name], indent=1, allow_nan=True))
         from .specialize import measure_specialization
 
-        specialization = measure_specialization(renderer, config)
+        specialization = measure_specialization(renderer, config, cache)
         report = {"machine": machine_info(renderer), "results": rows,
-                  "specialization": specialization}
+                  "specialization": specialization, **sections}
     finally:
         renderer.release()
     write_reports(out, report)
@@ -320,6 +383,15 @@ def write_reports(out: Path, report: dict) -> None:
             lines.append(f"| {s['scene']} | {_fmt(s['ms_general'])} | {_fmt(s['ms_specialized'])} "
                          f"| {_fmt(s['ms_general'] / s['ms_specialized'])}× "
                          f"| {_fmt(s['max_abs_diff'])} |")
+    for name in SUITES:
+        section = report.get(name) or []
+        if not section:
+            continue
+        keys = list(dict.fromkeys(k for r in section for k in r if not isinstance(r[k], dict)))
+        lines += ["", f"### {name}", "", "| " + " | ".join(keys) + " |",
+                  "|" + "---|" * len(keys)]
+        for r in section:
+            lines.append("| " + " | ".join(_fmt(r.get(k, "")) for k in keys) + " |")
     m = report["machine"]
     header = (f"Measured on {m['gl'].get('renderer')} ({m['cpus']} CPUs, {m['platform']}), "
               f"{m['date']}. Times: median ms per frame; PSNR/SSIM on the display image and "

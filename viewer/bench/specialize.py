@@ -26,22 +26,51 @@ DIFFUSE_ONLY = {
 }
 
 
-def measure_specialization(renderer, config) -> list[dict]:
-    from .run import _time_frames
-    from assets import ASSET_ROOT
-    from ..scene import load_scene
+SPECIALIZATION_SIZE = (1024, 640)
 
-    scenes = {"diffuse_only": scene_from_dict(DIFFUSE_ONLY),
-              "demo": load_scene(ASSET_ROOT / "scenes" / "demo.toml")}
+
+def _diffuse_stack(renderer, cache) -> "Scene":
+    """The diffuse-only scene seen from a stack camera, saved as a 12-channel image-space
+    G-buffer (the thesis's main input: inverse-rendered G-buffers, no geometry to rasterise)."""
+    import copy
+
+    from ..geometry.imagespace import ImageGBuffer, save_stack_exr
+
+    path = cache / "diffuse_stack.exr"
+    if not path.exists():
+        d = copy.deepcopy(DIFFUSE_ONLY)
+        d["camera"] = {"position": [0, 0, 0], "target": [0, 0, -1], "fov_y": 40,
+                       "size": list(SPECIALIZATION_SIZE)}
+        for o in d["objects"]:
+            x, y, z = o["center"]
+            o["center"] = [x, y - 0.8, z - 8.0]
+        aovs = ("albedo", "normal", "roughness", "specular", "metallic", "depth", "ao", "alpha")
+        frame = renderer.render(scene_from_dict(d), aovs=aovs)
+        save_stack_exr(path, ImageGBuffer(channels=dict(frame.aovs), fov_y=40.0))
+    return scene_from_dict({"environment": {"procedural": "sky"},
+                            "objects": [{"type": "gbuffer", "path": str(path)}]})
+
+
+def measure_specialization(renderer, config, cache) -> list[dict]:
+    """``{"scene", "size", "ms_general", "ms_specialized", "max_abs_diff"}`` per scene: a
+    diffuse-only image-space stack, the same scene as meshes, and the demo."""
+    from assets import ASSET_ROOT
+
+    from ..scene import load_scene
+    from .run import _time_frames
+
+    scenes = {"diffuse_stack": (_diffuse_stack(renderer, cache), None),
+              "diffuse_meshes": (scene_from_dict(DIFFUSE_ONLY), SPECIALIZATION_SIZE),
+              "demo": (load_scene(ASSET_ROOT / "scenes" / "demo.toml"), SPECIALIZATION_SIZE)}
     rows = []
-    size = config.sizes[-1]
-    for name, scene in scenes.items():
+    for name, (scene, size) in scenes.items():
         general = scene.with_render(specialize=False)
         special = scene.with_render(specialize=True)
         ms_g, _ = _time_frames(renderer, general, size, config)
         ms_s, _ = _time_frames(renderer, special, size, config)
-        a = renderer.render(general, size=size).radiance
-        b = renderer.render(special, size=size).radiance
-        rows.append({"scene": name, "size": list(size), "ms_general": ms_g, "ms_specialized": ms_s,
-                     "max_abs_diff": float(np.abs(a - b).max())})
+        a = renderer.render(general, size=size)
+        b = renderer.render(special, size=size)
+        rows.append({"scene": name, "size": list(a.camera.size), "ms_general": ms_g,
+                     "ms_specialized": ms_s,
+                     "max_abs_diff": float(np.abs(a.radiance - b.radiance).max())})
     return rows

@@ -83,15 +83,25 @@ class GBufferTargets:
         fill = {k: np.broadcast_to(np.asarray(c.background, np.float32), (h, w, c.components)).copy()
                 for k, c in omitted.items()}
         raw = {}
+        np_dtype = np.float16 if self.layout.dtype == "f2" else np.float32
         for a in sorted({c.attachment for c in channels}):
-            data = self.fbo.read(viewport=(0, 0, w, h), components=4, attachment=a, dtype="f4")
-            raw[a] = np.frombuffer(data, np.float32).reshape(h, w, 4)[::-1]
+            data = self.textures[a].read()
+            raw[a] = np.frombuffer(data, np_dtype).reshape(h, w, 4)[::-1].astype(np.float32)
         out = {c.name: raw[c.attachment][:, :, c.offset:c.offset + c.components].copy()
                for c in channels}
         out.update(fill)
         return out
 
+    def viewing(self, textures: dict[int, object]) -> "GBufferTargets":
+        """The same G-buffer read from other textures of this layout and size (a lone image
+        stack shaded in place); ``read`` works on it, drawing and ``release`` do not."""
+        view = GBufferTargets(ctx=self.ctx, layout=self.layout, size=self.size,
+                              textures=dict(textures), depth=None, fbo=None)
+        return view
+
     def release(self) -> None:
+        if self.fbo is None:  # a view (see viewing): owns nothing
+            return
         for fbo in self._clear_fbos.values():
             fbo.release()
         self._clear_fbos.clear()
@@ -244,7 +254,6 @@ class GBufferPass:
                 tex.use(unit)
                 _set(prog, f"u_gbuffer{a}", unit)
             _write(prog, "u_projection", gl_bytes(camera.projection_matrix()))
-            _set(prog, "u_height", h)
             if self._empty_vao is None or self._empty_vao.program is not prog:
                 if self._empty_vao is not None:
                     self._empty_vao.release()
@@ -268,7 +277,9 @@ class GBufferPass:
             packed = self.layout.pack({k: v for k, v in image.channels.items() if k in known})
             textures = []
             for a, arr in sorted(packed.items()):
-                tex = ctx.texture((w, h), 4, np.ascontiguousarray(arr, np.float32).tobytes(),
+                # GL row order (row 0 at the bottom): the same addressing as a G-buffer target,
+                # so the lighting pass can read a lone stack's textures directly
+                tex = ctx.texture((w, h), 4, np.ascontiguousarray(arr[::-1], np.float32).tobytes(),
                                   dtype="f4")
                 tex.filter = (ctx.NEAREST, ctx.NEAREST)
                 textures.append((a, tex))

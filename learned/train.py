@@ -17,7 +17,6 @@ The exported weights are ``RUN/neural_student.safetensors`` and ``RUN/neural_tea
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import math
 import os

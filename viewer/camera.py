@@ -7,7 +7,7 @@ at the *top* of the image has its centre at ``((j + 0.5) / W, (i + 0.5) / H)``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 

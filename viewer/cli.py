@@ -14,7 +14,6 @@ writing nothing.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 from pathlib import Path

@@ -15,7 +15,6 @@ splat (no tiling), so this is for tests, parity and small training renders, not 
 """
 from __future__ import annotations
 
-import math
 from typing import Iterator
 
 import numpy as np

@@ -144,7 +144,7 @@ MC_RTOL = 2e-3
 
 
 def _register_checks() -> None:
-    from learned.parity import compare, register_pass_check
+    from learned.parity import register_pass_check
 
     for model in ("unlit", "blinn_phong", "ggx_split_sum"):
         def check(programs, model=model):

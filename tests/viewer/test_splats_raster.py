@@ -5,7 +5,7 @@ import pytest
 from viewer.camera import Camera
 from viewer.cli import main
 from viewer.splats import write_ply
-from viewer.splats.data import SH_C0, make_splats
+from viewer.splats.data import make_splats
 
 
 def _one_splat(opacity=0.8, sigma=(0.05, 0.02, 0.01), color=(0.9, 0.3, 0.1), z=0.0):

@@ -12,7 +12,6 @@ for the torch throughput row (``learned`` extra); without it that row is left ou
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np

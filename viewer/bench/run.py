@@ -16,7 +16,6 @@ Extra suites (Monte-Carlo convergence, splats, neural) add their rows through :d
 from __future__ import annotations
 
 import csv
-import dataclasses
 import json
 import math
 import platform
@@ -30,7 +29,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import RelightError
-from ..scene import ObjectSpec, Scene, load_scene, scene_from_dict
+from ..scene import Scene, load_scene, scene_from_dict
 from . import metrics
 
 RESULT_KEYS = ("scene", "model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip")

@@ -29,7 +29,7 @@ DIFFUSE_ONLY = {
 SPECIALIZATION_SIZE = (1024, 640)
 
 
-def _diffuse_stack(renderer, cache) -> "Scene":
+def _diffuse_stack(renderer, cache):
     """The diffuse-only scene seen from a stack camera, saved as a 12-channel image-space
     G-buffer (the thesis's main input: inverse-rendered G-buffers, no geometry to rasterise)."""
     import copy

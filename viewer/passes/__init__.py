@@ -2,6 +2,17 @@
 lighting (:mod:`.shade`), tone mapping (:mod:`.tonemap`)."""
 
 
+def set_uniform(prog, name: str, value) -> None:
+    """Set uniform ``name`` if ``prog`` has it (the compiler drops unused ones); ``bytes`` are
+    written raw (matrices, arrays), anything else through ``.value``."""
+    if name not in prog:
+        return
+    if isinstance(value, (bytes, bytearray)):
+        prog[name].write(value)
+    else:
+        prog[name].value = value
+
+
 class FullscreenDraw:
     """Draws the single fullscreen triangle of ``passes/fullscreen.vert`` with any program,
     keeping one empty vertex array per program (no per-frame allocation)."""

@@ -20,6 +20,7 @@ from ..errors import InputError
 from ..gbuffer import CHANNELS, GBufferLayout
 from ..geometry.imagespace import ImageGBuffer
 from ..geometry.mesh import Mesh
+from . import set_uniform as _set
 
 _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "metallic_roughness": "USE_METALLIC_ROUGHNESS_MAP",
@@ -214,8 +215,8 @@ class GBufferPass:
             for mesh in meshes:
                 entry = self._upload(mesh)
                 prog = entry.vao.program
-                _write(prog, "u_view", view)
-                _write(prog, "u_projection", proj)
+                _set(prog, "u_view", view)
+                _set(prog, "u_projection", proj)
                 m = mesh.material
                 _set(prog, "u_albedo", tuple(float(c) for c in m.albedo))
                 _set(prog, "u_roughness", float(m.roughness))
@@ -253,7 +254,7 @@ class GBufferPass:
             for unit, (a, tex) in enumerate(self._stack_textures(image)):
                 tex.use(unit)
                 _set(prog, f"u_gbuffer{a}", unit)
-            _write(prog, "u_projection", gl_bytes(camera.projection_matrix()))
+            _set(prog, "u_projection", gl_bytes(camera.projection_matrix()))
             if self._empty_vao is None or self._empty_vao.program is not prog:
                 if self._empty_vao is not None:
                     self._empty_vao.release()
@@ -303,13 +304,3 @@ class GBufferPass:
         if self._empty_vao is not None:
             self._empty_vao.release()
             self._empty_vao = None
-
-
-def _set(prog, name: str, value) -> None:
-    if name in prog:
-        prog[name].value = value
-
-
-def _write(prog, name: str, data: bytes) -> None:
-    if name in prog:
-        prog[name].write(data)

@@ -14,7 +14,7 @@ from ..gbuffer import GBufferLayout
 from ..models import model_info
 from ..neural import virtual_files as neural_virtual_files
 from ..scene import RenderSettings
-from . import FullscreenDraw
+from . import FullscreenDraw, set_uniform as _set
 
 
 SAMPLING_IDS = {"uniform": 0, "cosine": 1, "env": 2, "brdf": 3, "mis": 4}
@@ -88,12 +88,3 @@ class ShadePass:
 
     def release(self) -> None:
         self._draw.release()
-
-
-def _set(prog, name: str, value) -> None:
-    if name not in prog:
-        return
-    if isinstance(value, bytes):
-        prog[name].write(value)
-    else:
-        prog[name].value = value

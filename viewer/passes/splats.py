@@ -26,7 +26,7 @@ from ..camera import Camera, gl_bytes
 from ..gbuffer import GBufferLayout
 from ..splats.data import Splats
 from ..splats.sort import depth_order
-from . import FullscreenDraw
+from . import FullscreenDraw, set_uniform as _set
 
 RECORD = 24  # floats per projected splat (see splat_project.comp)
 CHUNK = 1 << 18  # splats per projection dispatch (keeps each bound range under SSBO limits)
@@ -275,8 +275,3 @@ class SplatPass:
                 t.release()
         self._accum.clear()
         self._fullscreen.release()
-
-
-def _set(prog, name: str, value) -> None:
-    if name in prog:
-        prog[name].value = value

@@ -13,7 +13,7 @@ import numpy as np
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..scene import RenderSettings
-from . import FullscreenDraw
+from . import FullscreenDraw, set_uniform as _set
 
 
 class SSAOPass:
@@ -65,12 +65,3 @@ class SSAOPass:
 
     def release(self) -> None:
         self._draw.release()
-
-
-def _set(prog, name: str, value) -> None:
-    if name not in prog:
-        return
-    if isinstance(value, bytes):
-        prog[name].write(value)
-    else:
-        prog[name].value = value

@@ -87,7 +87,9 @@ def ibl_specular_radiance(prefiltered: list[torch.Tensor], r_ws: torch.Tensor,
 def ibl_dfg(dfg: torch.Tensor, NoV: torch.Tensor, perceptual_roughness: torch.Tensor
             ) -> torch.Tensor:
     """GLSL ``vec2 ibl_dfg(sampler2D dfg, float NoV, float r)``: LUT ``[n, n, 2]`` -> ``[..., 2]``."""
-    uv = torch.stack([NoV.clamp(0.0, 1.0), perceptual_roughness.clamp(0.0, 1.0)], dim=-1)
+    n = torch.tensor([float(dfg.shape[1]), float(dfg.shape[0])], dtype=torch.float32)
+    x = torch.stack([NoV.clamp(0.0, 1.0), perceptual_roughness.clamp(0.0, 1.0)], dim=-1)
+    uv = (x * (n - 1.0) + 0.5) / n  # texel centres on the end points (see dfg_lut)
     return sample_bilinear(dfg, uv, repeat_u=False)[..., :2]
 
 
@@ -198,8 +200,8 @@ def sh_project(env: torch.Tensor) -> torch.Tensor:
 
 def dfg_lut(size: int, samples: int) -> torch.Tensor:
     """Twin of ``passes/ibl_dfg.comp``: ``[size (roughness), size (n.v), 2]`` float32."""
-    c = (torch.arange(size, dtype=torch.float32) + 0.5) / size
-    r, NoV = torch.meshgrid(c, c, indexing="ij")
+    c = torch.arange(size, dtype=torch.float32) / float(size - 1)
+    r, NoV = torch.meshgrid(c, c.clamp_min(1e-4), indexing="ij")
     a = (r * r)[..., None]
     NoV = NoV[..., None]
     v = torch.stack([torch.sqrt((1.0 - NoV * NoV).clamp_min(0.0)), torch.zeros_like(NoV), NoV],
@@ -299,8 +301,8 @@ def _register_checks() -> None:
         env, opts, ibl = built(programs)
         with torch.no_grad():
             ref = dfg_lut(opts.dfg_size, opts.dfg_samples).numpy()
-        return [compare("ibl_dfg_lut", ibl.read_level("dfg"), ref, atol=2e-6, rtol=1e-5,
-                        kind="pass", measured="max abs 4.8e-7, max rel 3.8e-6")]
+        return [compare("ibl_dfg_lut", ibl.read_level("dfg"), ref, atol=5e-6, rtol=1e-5,
+                        kind="pass", measured="max abs 1.9e-6, max rel 2.8e-6 (n.v = 1e-4 row)")]
 
     @register_pass_check("ibl_lookups")
     def check_lookups(programs):

@@ -17,7 +17,10 @@ vec3 ibl_specular_radiance(sampler2D prefiltered, vec3 r_ws, float perceptual_ro
 
 // Karis 2013, split-sum second term: the DFG LUT at (n.v, perceptual roughness).
 vec2 ibl_dfg(sampler2D dfg, float NoV, float perceptual_roughness) {
-    return textureLod(dfg, vec2(saturate(NoV), saturate(perceptual_roughness)), 0.0).rg;
+    // the LUT's texel centres sit on the end points (passes/ibl_dfg.comp): map [0, 1] onto them
+    vec2 n = vec2(textureSize(dfg, 0));
+    vec2 uv = (vec2(saturate(NoV), saturate(perceptual_roughness)) * (n - 1.0) + 0.5) / n;
+    return textureLod(dfg, uv, 0.0).rg;
 }
 
 // Filament "Physically Based Rendering in Filament" sec. 5.3.4.3 (eq. 69): specular reflectance

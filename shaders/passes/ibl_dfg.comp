@@ -1,5 +1,7 @@
 // ibl_dfg.comp - the split-sum DFG LUT (Karis 2013; Filament's multiscatter form, sec. 5.3.4.3):
-// texel (i, j) holds, at n.v = (i + 0.5)/N and perceptual roughness r = (j + 0.5)/N (alpha = r^2),
+// texel (i, j) holds, at n.v = i/(N - 1) (at least 1e-4) and perceptual roughness r = j/(N - 1)
+// (alpha = r^2) — texel centres on both end points, so lookups at n.v = 1 or r = 1 are exact
+// rather than clamped half a texel inside (which cost 3% at r = 1; see ibl_dfg) —
 //   x = (1/S) sum Fc * G,  y = (1/S) sum G,  G = V(n.v, n.l, a) 4 (v.h)(n.l) / (n.h),  Fc = (1 - v.h)^5
 // over S GGX-importance-sampled half vectors (Hammersley). y is the single-scatter directional
 // albedo for f0 = 1 (-> 1 for smooth surfaces), clamped to <= 1. Twin: learned.twins.ibl.dfg_lut.
@@ -15,8 +17,8 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(u_dst);
     if (any(greaterThanEqual(p, size))) return;
-    float NoV = (float(p.x) + 0.5) / float(size.x);
-    float r = (float(p.y) + 0.5) / float(size.y);
+    float NoV = max(float(p.x) / float(size.x - 1), 1e-4);
+    float r = float(p.y) / float(size.y - 1);
     float a = r * r;
     vec3 v = vec3(sqrt(max(1.0 - NoV * NoV, 0.0)), 0.0, NoV);
     vec2 acc = vec2(0.0);

@@ -63,8 +63,9 @@ def _clean(msg: str | None) -> str:
 
 
 def write_exr(path: str | os.PathLike, array: np.ndarray, channel_names: list[str] | None = None,
-              half: bool = False) -> None:
-    """Write ``[H, W, C]`` linear data to an OpenEXR file (float32 unless ``half``)."""
+              half: bool = False, attributes: dict | None = None) -> None:
+    """Write ``[H, W, C]`` linear data to an OpenEXR file (float32 unless ``half``), with optional
+    header ``attributes`` (e.g. ``{"fov_y": 30.0}``)."""
     oiio = _oiio()
     path = Path(path)
     arr = np.ascontiguousarray(array, dtype=np.float32)
@@ -77,6 +78,8 @@ def write_exr(path: str | os.PathLike, array: np.ndarray, channel_names: list[st
             raise ValueError(f"{len(channel_names)} channel names for {c} channels")
         spec.channelnames = tuple(channel_names)
     spec.attribute("compression", "zip")
+    for key, value in (attributes or {}).items():
+        spec.attribute(key, value)
     _write(path, spec, arr)
 
 

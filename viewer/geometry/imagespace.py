@@ -55,7 +55,7 @@ import numpy as np
 from ..camera import Camera
 from ..errors import InputError
 from ..gbuffer import CHANNELS
-from ..imageio import _write, read_image
+from ..imageio import read_image, write_exr
 from .mesh import srgb_to_linear
 
 STACK_CHANNELS = ("albedo.R", "albedo.G", "albedo.B", "roughness", "specular",
@@ -180,7 +180,6 @@ def save_stack_exr(path: str | os.PathLike, gbuffer: ImageGBuffer, near: float =
     The depth is written normalised to all three coordinate channels; background depth is 0.
     The field of view is stored as the float attribute ``fov_y``.
     """
-    import OpenImageIO as oiio
 
     path = Path(path)
     ch = gbuffer.channels
@@ -191,11 +190,7 @@ def save_stack_exr(path: str | os.PathLike, gbuffer: ImageGBuffer, near: float =
     out = np.concatenate([ch["albedo"], ch.get("roughness", np.full((h, w, 1), 1.0)),
                           ch.get("specular", np.full((h, w, 1), 0.5)), dn, dn, dn,
                           ch["normal"] * 0.5 + 0.5, alpha], axis=2).astype(np.float32)
-    spec = oiio.ImageSpec(w, h, 12, "float")
-    spec.channelnames = STACK_CHANNELS
-    spec.attribute("compression", "zip")
-    spec.attribute("fov_y", float(gbuffer.fov_y))
-    _write(path, spec, np.ascontiguousarray(out))
+    write_exr(path, out, list(STACK_CHANNELS), attributes={"fov_y": float(gbuffer.fov_y)})
 
 
 def _exr_attribute(path: Path, name: str):

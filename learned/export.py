@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from viewer.neural import (FORMAT, FORMAT_VERSION, STUDENT_INPUTS, TEACHER_INPUTS, checkpoint_hash,
-                           expected_networks, load_network)
+from viewer.neural import (FORMAT, FORMAT_VERSION, STUDENT_FEATURES, TEACHER_INPUTS,
+                           checkpoint_hash, expected_networks, load_network)
 
 from .neural.student import Student
 from .neural.teacher import Teacher
@@ -36,9 +36,13 @@ def network_tensors(model) -> dict[str, np.ndarray]:
 def metadata(model, training: dict | None = None) -> dict[str, str]:
     tensors = network_tensors(model)
     cfg = model.config
-    arch = {"networks": expected_networks(model.kind, cfg["num_freqs"], cfg["hidden"]),
+    features = cfg.get("features", "base")
+    arch = {"networks": expected_networks(model.kind, cfg["num_freqs"], cfg["hidden"], features),
             "hidden": cfg["hidden"], "num_freqs": cfg["num_freqs"],
-            "inputs": list(STUDENT_INPUTS if model.kind == "student" else TEACHER_INPUTS)}
+            "inputs": list(STUDENT_FEATURES[features] if model.kind == "student"
+                           else TEACHER_INPUTS)}
+    if model.kind == "student":
+        arch["features"] = features
     return {"format": FORMAT, "version": FORMAT_VERSION, "kind": model.kind,
             "architecture": json.dumps(arch),
             "encoding": json.dumps({"type": "fourier", "num_freqs": cfg["num_freqs"],
@@ -71,7 +75,8 @@ def load_model(path: str | os.PathLike, kind: str | None = None):
     net = load_network(path, kind)
     cfg = net.architecture
     if net.kind == "student":
-        model = Student(hidden=tuple(cfg["hidden"]), num_freqs=cfg["num_freqs"])
+        model = Student(hidden=tuple(cfg["hidden"]), num_freqs=cfg["num_freqs"],
+                        features=net.features)
     else:
         model = Teacher(hidden=cfg["hidden"], num_freqs=cfg["num_freqs"])
     with torch.no_grad():

@@ -47,8 +47,10 @@ class TrainConfig:
     lr: float = 1e-3
     teacher_hidden: int = 64
     teacher_freqs: int = 4
-    student_hidden: tuple[int, ...] = (32, 32)
+    # the shipped design, learned.neural.student.SHIPPED_DESIGN (chosen by compare_students)
+    student_hidden: tuple[int, ...] = (16, 16)
     student_freqs: int = 0
+    student_features: str = "dfg"  # "base" | "dfg" (learned.neural.student.FEATURE_INPUTS)
     shadow_width: int = 16
     distill_samples: int = 128
     seed: int = 0
@@ -279,16 +281,23 @@ def distillation_targets(images, unshadowed, shadow: ShadowUNet | None) -> list[
     return out
 
 
-def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tensor]
+def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tensor],
+                    design: dict | None = None, stage: str = "student", feats=None
                     ) -> tuple[Student, list[float]]:
+    """Distil a :class:`Student` (``design``: its keyword arguments, default the config's) from
+    the per-pixel ``targets``; every design starts from the same seed and draws the same batches.
+    ``feats``: :func:`student_features` per image, when the caller already has them."""
     cfg = run.cfg
     torch.manual_seed(cfg.seed + 3)
-    model = Student(hidden=cfg.student_hidden, num_freqs=cfg.student_freqs)
+    design = design if design is not None else {
+        "hidden": cfg.student_hidden, "num_freqs": cfg.student_freqs,
+        "features": cfg.student_features}
+    model = Student(**design)
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
-    feats = []
-    with torch.no_grad():
-        for img in images:
-            feats.append(student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0]))
+    if feats is None:
+        with torch.no_grad():
+            feats = [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0])
+                     for img in images]
 
     def step(ddp, _):
         k = int(rng.integers(0, len(images)))
@@ -297,7 +306,7 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
         x, irr, pre = (t[idx] for t in feats[k])
         return (ddp(x, irr, pre) - targets[k][idx]).abs().mean()
 
-    losses = _loop(run, "student", model, cfg.student_steps, cfg.lr, step)
+    losses = _loop(run, stage, model, cfg.student_steps, cfg.lr, step)
     return model.eval(), losses
 
 
@@ -346,7 +355,7 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     return result
 
 
-QUICK_DATA = {"count": 40, "size": 64, "samples": 256, "seed": 0}
+QUICK_DATA = {"count": 40, "size": 64, "samples": 256, "seed": 0, "gbuffer_fraction": 0.25}
 
 
 def pipeline(out: str, data: str | None = None, quick: bool = True, install: bool = False,
@@ -381,9 +390,179 @@ def pipeline(out: str, data: str | None = None, quick: bool = True, install: boo
     return res
 
 
+# ---- measured comparison of student designs ---------------------------------------------------
+
+COMPARE_SPLITS = ("val", "test")  # held out: never seen by the teacher, shadow or students
+
+
+def _held_out(root: str, renderer, splits) -> list[tuple[TrainImage, object]]:
+    from .data.reader import list_samples, load_sample
+
+    out = []
+    for split in splits:
+        images = {img.name: img for img in load_images(root, split, renderer)}
+        for folder in list_samples(root, split):
+            if folder.name in images:
+                out.append((images[folder.name], load_sample(folder)))
+    return out
+
+
+def compare_students(out: str, data: str | None = None, designs: dict | None = None,
+                     splits=COMPARE_SPLITS, install: bool = False, quiet: bool = False,
+                     repeats: int = 15, **overrides) -> dict:
+    """Distil every design of ``designs`` (default :data:`learned.neural.student.DESIGNS`) from one
+    teacher (x shadow) on one dataset and measure each: parameters, multiply-adds per pixel, PSNR
+    against the teacher and against the Monte-Carlo targets on the held-out ``splits`` (the GL
+    ``neural`` pass on each sample's own G-buffer and environment, as ``relight eval``), and GLSL ms
+    per frame (whole frame and the ``shade`` pass) at 256x256 on the bench scene.
+
+    ``data`` None: the quick synthetic dataset under ``OUT/data`` (:data:`QUICK_DATA`). The quick
+    teacher and shadow stages are trained (or loaded: the run folder is resumable, so ``OUT``
+    may be the ``relight train --quick`` run folder), each design is a stage
+    ``student_<design>``. Writes ``OUT/students/<design>.safetensors``, ``OUT/students/
+    compare.json`` and ``compare.md``; ``install`` copies them to ``assets/weights/students``
+    (what ``relight bench`` reads). Returns the JSON dict.
+    """
+    import shutil
+
+    from viewer.bench.neural import BENCH_SCENE, time_frame
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    from .data.generator import GeneratorConfig, generate
+    from .evaluate import metrics, sample_scene
+    from .export import export
+    from .neural.student import DESIGNS, SHIPPED_DESIGN
+
+    designs = designs or DESIGNS
+    out_path = Path(out)
+    if data is None:
+        data = str(out_path / "data")
+        generate(data, GeneratorConfig(**QUICK_DATA), progress=not quiet)
+    cfg = TrainConfig.quick(data, out, **overrides)
+    run = Run(cfg, 0, quiet)
+    run.log(f"compare students {sorted(designs)} config {json.dumps(asdict(cfg))}")
+    renderer = Renderer()
+    try:
+        images = load_images(cfg.data, "train", renderer)
+        teacher, _ = train_teacher(run, images)
+        unshadowed = teacher_images(teacher, images, cfg.distill_samples, cfg.strategy, cfg.seed)
+        shadow, _ = train_shadow(run, images, unshadowed)
+        targets = distillation_targets(images, unshadowed, shadow)
+        with torch.no_grad():
+            feats = [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0])
+                     for img in images]
+        held = _held_out(cfg.data, renderer, splits)
+        h_images = [img for img, _ in held]
+        with torch.no_grad():  # teacher x shadow map, whole images [H, W, 3]
+            h_teacher = [shadow(un[None], img.normal_image[None], img.ao_image[None])[0]
+                         .permute(1, 2, 0).numpy()
+                         for img, un in zip(h_images, teacher_images(
+                             teacher, h_images, cfg.distill_samples, cfg.strategy, cfg.seed))]
+        folder = out_path / "students"
+        folder.mkdir(parents=True, exist_ok=True)
+        bench = scene_from_dict(BENCH_SCENE).with_camera(size=(256, 256))
+        training = {"data": cfg.data, "config": asdict(cfg), "teacher": checkpoint_of(teacher)}
+
+        def held_out_psnr(render) -> tuple[float, float]:
+            vs_t, vs_mc = [], []
+            for (img, sample), t_img in zip(held, h_teacher):
+                pred = renderer.render(sample_scene(sample, **render)).radiance[..., :3]
+                fg = img.fg.numpy()
+                vs_t.append(metrics(pred, t_img, fg)["psnr"])
+                vs_mc.append(metrics(pred, sample.target, fg)["psnr"])
+            return float(np.mean(vs_t)), float(np.mean(vs_mc))
+
+        rows = []
+        for name in sorted(designs):
+            student, losses = distill_student(run, images, targets, designs[name],
+                                              stage=f"student_{name}", feats=feats)
+            path = folder / f"{name}.safetensors"
+            export(student, path, training | {"stage": "student", "design": name,
+                                              "final_loss": losses[-1]})
+            vs_t, vs_mc = held_out_psnr({"model": "neural", "weights": str(path)})
+            ms, shade_ms, _ = time_frame(renderer, bench.with_render(model="neural",
+                                                                     weights=str(path)), repeats)
+            rows.append({"design": name, **{k: (list(v) if isinstance(v, tuple) else v)
+                                            for k, v in designs[name].items()},
+                         "params": student.parameter_count(),
+                         "macs_per_pixel": student.macs_per_pixel(),
+                         "final_loss": float(np.mean(losses[-100:])),
+                         "psnr_vs_teacher": vs_t, "psnr_vs_mc": vs_mc,
+                         "ms_256": ms, "shade_ms_256": shade_ms, "shipped": name == SHIPPED_DESIGN})
+            run.log(f"student {name}: {rows[-1]}")
+        context = []
+        for model, render in (("ggx_split_sum", {"model": "ggx_split_sum"}),):
+            vs_t, vs_mc = held_out_psnr(render)
+            ms, shade_ms, _ = time_frame(renderer, bench.with_render(**render), repeats)
+            context.append({"model": model, "psnr_vs_teacher": vs_t, "psnr_vs_mc": vs_mc,
+                            "ms_256": ms, "shade_ms_256": shade_ms})
+        t_mc = [metrics(t, s.target, img.fg.numpy())["psnr"]
+                for (img, s), t in zip(held, h_teacher)]
+        context.append({"model": "teacher x shadow (torch)",
+                        "samples": cfg.distill_samples, "psnr_vs_mc": float(np.mean(t_mc))})
+    finally:
+        renderer.release()
+    result = {"held_out": {"splits": list(splits), "samples": len(held),
+                           "metric": "PSNR dB, Reinhard x/(1+x), foreground"},
+              "timing": "llvmpipe; GLSL ms at 256x256 on the bench scene (viewer/bench/neural.py)",
+              "teacher_checkpoint": training["teacher"], "rows": rows, "context": context}
+    _write_atomic(folder / "compare.json", json.dumps(result, indent=1))
+    _write_atomic(folder / "compare.md", compare_table(result))
+    if install:
+        from viewer.bench.neural import students_dir
+
+        dst = students_dir()
+        dst.mkdir(parents=True, exist_ok=True)
+        for f in sorted(folder.glob("*.safetensors")) + [folder / "compare.json",
+                                                          folder / "compare.md"]:
+            tmp = dst / (f.name + ".tmp")
+            shutil.copyfile(f, tmp)
+            os.replace(tmp, dst / f.name)
+        result["installed"] = str(dst)
+    return result
+
+
+def checkpoint_of(model) -> str:
+    from viewer.neural import checkpoint_hash
+
+    from .export import network_tensors
+
+    return checkpoint_hash(network_tensors(model))
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def compare_table(result: dict) -> str:
+    """The Markdown table of :func:`compare_students`."""
+    h = result["held_out"]
+    lines = [f"Student designs distilled from one teacher "
+             f"(sha256 {result['teacher_checkpoint'][:12]}); held-out {'+'.join(h['splits'])} ({h['samples']} samples), {h['metric']}; "
+             f"{result['timing']}.", "",
+             "| design | hidden | PE freqs | features | params | MACs/px | PSNR vs teacher | "
+             "PSNR vs MC | frame ms | shade ms | |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        lines.append(f"| {r['design']} | {'-'.join(map(str, r['hidden']))} | "
+                     f"{r.get('num_freqs', 0)} | {r.get('features', 'base')} | {r['params']:,} | "
+                     f"{r['macs_per_pixel']:,} | {r['psnr_vs_teacher']:.2f} | "
+                     f"{r['psnr_vs_mc']:.2f} | {r['ms_256']:.1f} | {r['shade_ms_256']:.1f} | "
+                     f"{'shipped' if r['shipped'] else ''} |")
+    for c in result["context"]:
+        t = c.get("psnr_vs_teacher")
+        lines.append(f"| *{c['model']}* | | | | | | {'' if t is None else f'{t:.2f}'} | "
+                     f"{c['psnr_vs_mc']:.2f} | {c.get('ms_256', float('nan')):.1f} | "
+                     f"{c.get('shade_ms_256', float('nan')):.1f} | |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m learned.train", description=__doc__.split("\n")[0])
-    p.add_argument("--data", required=True)
+    p.add_argument("--data", help="dataset root (required unless --compare-students)")
     p.add_argument("--out", required=True)
     p.add_argument("--quick", action="store_true")
     p.add_argument("--stage", default="all", choices=("all", "teacher"))
@@ -393,12 +572,22 @@ def main(argv=None) -> int:
     p.add_argument("--batch-pixels", type=int)
     p.add_argument("--light-samples", type=int)
     p.add_argument("--strategy", choices=("uniform", "cosine", "env"))
+    p.add_argument("--compare-students", action="store_true",
+                   help="distil and measure every candidate student design (compare_students)")
+    p.add_argument("--install", action="store_true",
+                   help="with --compare-students: copy the candidates and table to assets")
     p.add_argument("--quiet", action="store_true")
     a = p.parse_args(argv)
+    if a.data is None and not a.compare_students:
+        p.error("--data is required")
     over = {k: v for k, v in {"teacher_steps": a.teacher_steps, "student_steps": a.student_steps,
                               "shadow_steps": a.shadow_steps, "batch_pixels": a.batch_pixels,
                               "light_samples": a.light_samples, "strategy": a.strategy}.items()
             if v is not None}
+    if a.compare_students:
+        res = compare_students(a.out, a.data, install=a.install, quiet=a.quiet, **over)
+        print(compare_table(res))
+        return 0
     cfg = (TrainConfig.quick(a.data, a.out, **over) if a.quick
            else TrainConfig(data=a.data, out=a.out, **over))
     res = train(cfg, a.stage, quiet=a.quiet)

@@ -264,6 +264,11 @@ def _learned(what: str):
 def cmd_train(args) -> int:
     """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student."""
     train = _learned("learned.train")
+    if args.compare_students:
+        res = train.compare_students(args.out, data=args.data, install=args.install,
+                                     quiet=args.quiet)
+        print(train.compare_table(res))
+        return 0
     res = train.pipeline(args.out, data=args.data, quick=args.quick, install=args.install,
                          quiet=args.quiet)
     if not args.quiet:
@@ -340,6 +345,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="small networks and few steps (minutes)")
     p.add_argument("--install", action="store_true",
                    help="copy the exported weights to assets/weights (the shipped defaults)")
+    p.add_argument("--compare-students", action="store_true",
+                   help="distil every candidate student design from the quick teacher and write "
+                        "the measured table OUT/students/compare.{json,md} (--install: to "
+                        "assets/weights/students, read by relight bench)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_train)
 

@@ -6,7 +6,8 @@
 * ``radiance``: RGBA32F equirect texture with a box-filtered mip chain made by our own
   ``ibl_downsample.comp`` (level k is ``W >> k`` by ``max(H >> k, 1)``, down to 1x1).
 * ``prefiltered``: RGBA32F chain of ``levels`` mips; level k holds the radiance prefiltered with the
-  GGX lobe at perceptual roughness ``k / (levels - 1)`` (level 0 is the radiance itself), by
+  GGX lobe at perceptual roughness ``(k / (levels - 1))^2`` (:func:`prefilter_roughness`; level 0
+  is the radiance itself), by
   filtered importance sampling (Krivanek & Colbert 2008) with Hammersley points (``ibl_prefilter``).
 * ``sh``: 9 radiance SH coefficients ``[9, 3]`` float32 (``ibl_sh.comp`` tile sums weighted by the
   exact texel solid angle, reduced on the CPU in float64); irradiance is ``sh_irradiance`` in GLSL.
@@ -34,6 +35,12 @@ class IBLOptions:
     prefilter_samples: int = 64   # GGX samples per prefiltered texel
     dfg_size: int = 64            # DFG LUT is dfg_size x dfg_size
     dfg_samples: int = 256        # GGX samples per DFG texel
+
+
+def prefilter_roughness(level: int, levels: int) -> float:
+    """Perceptual roughness of prefiltered ``level``: (k / (levels - 1))^2, the inverse of the
+    shaders' ``prefilter_lod`` (more levels near the mirror, where the lobe changes fastest)."""
+    return (level / (levels - 1)) ** 2 if levels > 1 else 0.0
 
 
 def mip_sizes(width: int, height: int) -> list[tuple[int, int]]:
@@ -157,7 +164,7 @@ def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions()) -> 
         pre["u_omega_p"].value = 4.0 * math.pi / (w * h)
         pre["u_max_lod"].value = float(len(sizes) - 1)
         for k in range(1, levels):
-            pre["u_roughness"].value = k / (levels - 1)
+            pre["u_roughness"].value = prefilter_roughness(k, levels)
             prefiltered.bind_to_image(0, read=False, write=True, level=k)
             pre.run(_groups(sizes[k][0]), _groups(sizes[k][1]))
             ctx.memory_barrier()

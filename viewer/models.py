@@ -13,13 +13,17 @@ class ModelInfo:
     pass_file: str
     summary: str
     needs: frozenset[str]  # subset of {"sh", "prefiltered", "dfg", "radiance", "cdf"}
+    # how the model treats a scene's [light]: "shaded" (the analytic direct term), "unlit" (no
+    # lighting at all) or "ignored" (the neural models: trained under environment light only;
+    # the renderer warns once when a scene with a light is rendered with one)
+    directional_light: str = "shaded"
 
 
 MODELS: dict[str, ModelInfo] = {
     m.name: m for m in (
         ModelInfo("unlit", "passes/shade_unlit.frag",
                   "albedo (a splat's baked colour) without lighting, for inspection",
-                  frozenset({"radiance"})),
+                  frozenset({"radiance"}), directional_light="unlit"),
         ModelInfo("blinn_phong", "passes/shade_blinn_phong.frag",
                   "the thesis baseline: Lambert diffuse from SH irradiance + a Fresnel-free "
                   "normalised Blinn-Phong lobe from the prefiltered environment",
@@ -37,12 +41,12 @@ MODELS: dict[str, ModelInfo] = {
                   "the distilled neural shader (thesis ch. 4 student): one small MLP per pixel on "
                   "the material, n.v, SH irradiance and prefiltered radiance; weights baked into "
                   "generated GLSL from `weights` (default: assets/weights)",
-                  frozenset({"sh", "prefiltered", "radiance"})),
+                  frozenset({"sh", "prefiltered", "radiance"}), directional_light="ignored"),
         ModelInfo("neural_teacher", "passes/shade_neural_teacher.frag",
                   "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse and "
                   "specular MLPs per sampled light direction, `samples` averaged progressively; "
                   "`sampling` uniform | cosine | env (brdf and mis use env)",
-                  frozenset({"radiance", "cdf"})),
+                  frozenset({"radiance", "cdf"}), directional_light="ignored"),
     )
 }
 SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")

@@ -16,6 +16,7 @@ per size and layout, programs per variant. Arrays are row 0 at the top.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -255,6 +256,8 @@ class Renderer:
 
         settings = scene.render
         info = model_info(settings.model)
+        if scene.light is not None and info.directional_light == "ignored":
+            _warn_light_ignored(settings.model)
         gbt = targets["gbuffer_textures"]
         ssao = None
         if settings.ssao or settings.indirect:
@@ -291,13 +294,14 @@ class Renderer:
                 n = min(todo, self.MC_BATCH)
                 spass.run(gbt, acc.batch_fbo, camera, ibl, scene.environment, settings,
                           env_sampling=env_sampling, ssao=ssao, sample_range=(acc.count, n),
-                          defines=targets["defines"])
+                          defines=targets["defines"], light=scene.light)
                 acc.add(n, out_fbo)
                 todo -= n
             targets["samples"] = acc.count
         else:
             spass.run(gbt, out_fbo, camera, ibl, scene.environment, settings,
-                      env_sampling=env_sampling, ssao=ssao, defines=targets["defines"])
+                      env_sampling=env_sampling, ssao=ssao, defines=targets["defines"],
+                      light=scene.light)
             targets["samples"] = 1
         if settings.indirect:
             self._pass_begin("indirect")
@@ -379,6 +383,17 @@ class Renderer:
         self._targets.clear()
         self._gbuffer_passes.clear()
         self._shade_passes.clear()
+
+
+_LIGHT_WARNED: set[str] = set()
+
+
+def _warn_light_ignored(model: str) -> None:
+    """Once per model and process: ``model`` renders without the scene's directional light."""
+    if model not in _LIGHT_WARNED:
+        _LIGHT_WARNED.add(model)
+        warnings.warn(f"model {model!r} ignores the scene's [light] (trained under environment "
+                      f"light only); it is shaded by the environment alone", stacklevel=4)
 
 
 def _read(texture, dtype: str) -> np.ndarray:

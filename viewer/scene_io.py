@@ -62,12 +62,15 @@ def _object_table(obj: ObjectSpec) -> dict:
 
 def scene_to_dict(scene: Scene) -> dict:
     """The TOML document of ``scene`` as plain dicts and lists (what ``scene_from_dict`` reads)."""
-    return {
+    doc = {
         "camera": _table(scene.camera),
         "environment": _table(scene.environment),
         "objects": [_object_table(o) for o in scene.objects],
         "render": _table(scene.render),
     }
+    if scene.light is not None:  # no table: no light
+        doc["light"] = _table(scene.light)
+    return doc
 
 
 def save_scene(scene: Scene, path: str | os.PathLike) -> Path:

@@ -10,6 +10,15 @@ The target ``rgb.exr`` is the Monte-Carlo reference ``ggx_mc`` (``samples`` per 
 the G-buffer AO, SSAO and one-bounce indirect light when the renderer has them (see
 :func:`target_settings`) - so the shadow stage has occlusion to learn; otherwise ``ggx_split_sum``.
 
+Image G-buffers as geometry: a ``gbuffer_fraction`` of the samples (drawn per sample from its own
+stream ``default_rng([seed, i, 1])``, so datasets made without them are unchanged) takes its
+geometry from an image-space G-buffer instead: one of ``gbuffers`` (FFHQ256-PBR folders or
+12-channel ShadingFusion stack EXRs, resampled to ``size`` by nearest neighbour) or, when none is
+given, the G-buffer of a freshly rendered random scene. Its materials are perturbed per pixel
+(:func:`perturb_materials`: smooth random fields on albedo, roughness, metallic, specular and AO -
+spatially varying materials that the primitives cannot produce), it is written as an FFHQ256-PBR
+folder and rendered as a ``gbuffer`` object with the same target settings.
+
 Deterministic for a seed (sample i draws from ``default_rng([seed, i])``; its split is fixed by i),
 resumable (a finished sample is a folder; one being written is ``<name>.tmp`` and is redone), and
 shows a tqdm progress bar.
@@ -38,6 +47,8 @@ class GeneratorConfig:
     env_width: int = 128
     env_paths: tuple[str, ...] = ()  # extra equirect HDR/EXR files to draw from
     meshes: bool = True
+    gbuffer_fraction: float = 0.0  # share of samples whose geometry is an image G-buffer
+    gbuffers: tuple[str, ...] = ()  # FFHQ256-PBR folders / 12-channel stack EXRs to draw from
 
 
 def split_of(index: int) -> str:
@@ -163,7 +174,9 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
     if info_path.is_file():
         old = json.loads(info_path.read_text())
         new = json.loads(json.dumps(info["config"]))
-        if old.get("config", {}) | {"count": 0} != new | {"count": 0}:
+        # fields added since a dataset was written take their defaults (which reproduce it)
+        defaults = json.loads(json.dumps(asdict(GeneratorConfig())))
+        if defaults | old.get("config", {}) | {"count": 0} != new | {"count": 0}:
             from .reader import DatasetError
 
             raise DatasetError("was generated with another configuration; use a new folder "
@@ -191,6 +204,106 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
     return {"written": done, "kept": skipped, "root": str(root)}
 
 
+def _smooth_field(rng, size: int, cells: int) -> np.ndarray:
+    """``[size, size, 1]`` in [0, 1]: bilinear upsampling of a random ``cells`` x ``cells`` grid."""
+    grid = rng.random((cells, cells)).astype(np.float32)
+    t = (np.arange(size, dtype=np.float32) + 0.5) / size * (cells - 1)
+    i0 = np.clip(np.floor(t).astype(int), 0, cells - 2)
+    f = t - i0
+    rows = grid[i0] * (1 - f)[:, None] + grid[i0 + 1] * f[:, None]  # [size, cells]
+    out = rows[:, i0] * (1 - f)[None, :] + rows[:, i0 + 1] * f[None, :]
+    return out[..., None]
+
+
+def perturb_materials(channels: dict, rng) -> tuple[dict, dict]:
+    """Spatially varying materials on an image G-buffer (channel -> ``[H, W, C]``, square):
+    albedo times a random tint and a smooth field, roughness / specular blended towards random
+    smooth fields, metallic set where a smooth field exceeds a random threshold, AO darkened by a
+    smooth field. Returns the new channels and the recipe (for ``meta.json``)."""
+    size = channels["albedo"].shape[0]
+    cells = int(rng.integers(2, 7))
+    tint = rng.uniform(0.4, 1.2, 3).astype(np.float32)
+    mix = float(rng.uniform(0.3, 1.0))
+    metal_threshold = float(rng.uniform(0.6, 1.0))
+    fields = [_smooth_field(rng, size, cells) for _ in range(5)]
+    out = dict(channels)
+    out["albedo"] = np.clip(channels["albedo"] * tint * (0.5 + fields[0]), 0.02, 0.95)
+    out["roughness"] = np.clip((1 - mix) * channels["roughness"] + mix * (0.05 + 0.95 * fields[1]),
+                               0.0, 1.0)
+    out["specular"] = np.clip((1 - mix) * channels["specular"] + mix * (0.2 + 0.8 * fields[2]),
+                              0.0, 1.0)
+    out["metallic"] = np.where(fields[3] > metal_threshold, 1.0,
+                               channels["metallic"]).astype(np.float32)
+    out["ao"] = np.clip(channels["ao"] * (0.6 + 0.4 * fields[4]), 0.0, 1.0)
+    fg = channels["alpha"] > 0.0
+    for k in ("albedo", "roughness", "specular", "metallic", "ao"):
+        out[k] = np.where(fg, out[k], channels[k]).astype(np.float32)
+    recipe = {"cells": cells, "tint": [float(x) for x in tint], "mix": mix,
+              "metal_threshold": metal_threshold}
+    return out, recipe
+
+
+def _resize_nearest(channels: dict, size: int) -> dict:
+    h, w = channels["albedo"].shape[:2]
+    if (h, w) == (size, size):
+        return channels
+    ys = ((np.arange(size) + 0.5) * h / size).astype(int)
+    xs = ((np.arange(size) + 0.5) * w / size).astype(int)
+    return {k: np.ascontiguousarray(v[ys][:, xs]) for k, v in channels.items()}
+
+
+def _load_gbuffer_source(path: str):
+    from viewer.geometry.imagespace import load_ffhq_pbr, load_stack_exr
+
+    p = Path(path)
+    gb = load_stack_exr(p) if p.is_file() else load_ffhq_pbr(p)
+    return gb.channels, float(gb.fov_y)
+
+
+def _write_gbuffer(folder: Path, channels: dict, fov_y: float, write_exr) -> None:
+    """Write G-buffer channels (the renderer's AOV names) as an FFHQ256-PBR folder (no rgb/env)."""
+    fg = channels["alpha"] > 0.0
+    write_exr(folder / "albedo.exr", channels["albedo"], ["R", "G", "B"])
+    write_exr(folder / "normal.exr", np.where(fg, channels["normal"] * 0.5 + 0.5, 0.5),
+              ["R", "G", "B"])
+    for name in ("roughness", "metallic", "specular", "depth", "ao"):
+        write_exr(folder / f"{name}.exr", channels[name], ["Y"])
+    write_exr(folder / "mask.exr", channels["alpha"], ["Y"])
+    (folder / "camera.json").write_text(json.dumps({"fov_y": fov_y}))
+
+
+_AOVS = ("albedo", "normal", "roughness", "metallic", "specular", "depth", "ao", "alpha")
+
+
+def _gbuffer_geometry(renderer, tmp: Path, index: int, config: GeneratorConfig, meshes,
+                      scene_from_dict, write_exr) -> tuple[dict, dict] | None:
+    """For an image-G-buffer sample: ``({"objects": [one gbuffer object reading the perturbed
+    stack written to tmp/_source], "camera": {"fov_y"}}, geometry recipe)``; None for a sample
+    with primitive/mesh geometry (decided by the sample's own stream ``[seed, index, 1]``)."""
+    grng = np.random.default_rng([config.seed, index, 1])
+    if not grng.random() < config.gbuffer_fraction:
+        return None
+    if config.gbuffers:
+        src = config.gbuffers[int(grng.integers(0, len(config.gbuffers)))]
+        channels, fov = _load_gbuffer_source(src)
+        channels = _resize_nearest(channels, config.size)
+        recipe = {"kind": "gbuffer", "source": str(src)}
+    else:  # a previously rendered G-buffer of a random primitive/mesh scene
+        base = random_scene(grng, config, meshes)
+        base["environment"] = {"procedural": "studio", "width": 32}
+        base["render"] = {"model": "unlit", "tonemap": "none"}
+        frame = renderer.render(scene_from_dict(base, file=str(tmp / "scene")), aovs=_AOVS)
+        channels = {k: frame.aovs[k] for k in _AOVS}
+        fov = float(base["camera"]["fov_y"])
+        recipe = {"kind": "gbuffer", "source": "rendered",
+                  "objects": [o["type"] for o in base["objects"]]}
+    channels, recipe["perturbation"] = perturb_materials(channels, grng)
+    source = tmp / "_source"
+    source.mkdir()
+    _write_gbuffer(source, channels, fov, write_exr)
+    return {"objects": [{"type": "gbuffer", "path": str(source)}], "camera": {"fov_y": fov}}, recipe
+
+
 def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, meshes, write_exr,
                   scene_from_dict) -> None:
     rng = np.random.default_rng([config.seed, index])
@@ -200,26 +313,24 @@ def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, me
     tmp.mkdir(parents=True)
     scene_dict = random_scene(rng, config, meshes)
     env, env_info = random_environment(rng, config)
+    image = _gbuffer_geometry(renderer, tmp, index, config, meshes, scene_from_dict, write_exr)
+    geometry = {"kind": "primitives"}
+    if image is not None:  # the image G-buffer replaces the objects; it sets its own camera
+        parts, geometry = image
+        scene_dict = {"objects": parts["objects"], "camera": scene_dict["camera"] | parts["camera"]}
     write_exr(tmp / "env.exr", env, ["R", "G", "B"])
     scene_dict["environment"] = {"path": str(tmp / "env.exr")}
     scene_dict["render"] = target_settings(config.samples) | {"seed": int(rng.integers(0, 1 << 30))}
     scene = scene_from_dict(scene_dict, file=str(tmp / "scene"))
-    aovs = ("albedo", "normal", "roughness", "metallic", "specular", "depth", "ao", "alpha")
-    frame = renderer.render(scene, aovs=aovs)
-    a = frame.aovs
-    fg = a["alpha"] > 0.0
+    frame = renderer.render(scene, aovs=_AOVS)
     write_exr(tmp / "rgb.exr", frame.radiance[..., :3], ["R", "G", "B"])
-    write_exr(tmp / "albedo.exr", a["albedo"], ["R", "G", "B"])
-    normal = np.where(fg, a["normal"] * 0.5 + 0.5, 0.5)
-    write_exr(tmp / "normal.exr", normal, ["R", "G", "B"])
-    for name in ("roughness", "metallic", "specular", "depth", "ao"):
-        write_exr(tmp / f"{name}.exr", a[name], ["Y"])
-    write_exr(tmp / "mask.exr", a["alpha"], ["Y"])
-    (tmp / "camera.json").write_text(json.dumps({"fov_y": scene_dict["camera"]["fov_y"]}))
-    meta = {"index": index, "seed": config.seed, "environment": env_info,
+    _write_gbuffer(tmp, frame.aovs, float(scene_dict["camera"]["fov_y"]), write_exr)
+    meta = {"index": index, "seed": config.seed, "environment": env_info, "geometry": geometry,
             "objects": [{k: v for k, v in o.items() if k != "path"} | (
-                {"mesh": Path(o["path"]).stem} if "path" in o else {})
+                {"mesh": Path(o["path"]).stem} if o["type"] == "mesh" else {})
                 for o in scene_dict["objects"]],
             "render": scene_dict["render"]}
     (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
+    if (tmp / "_source").exists():
+        shutil.rmtree(tmp / "_source")
     os.replace(tmp, final)

@@ -19,7 +19,7 @@ from learned.twins.brdf import clamp_perceptual_roughness
 from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
 from learned.twins.equirect import equirect_uv, rotate_y
-from learned.twins.ibl import ibl_specular_radiance, sample_bilinear
+from learned.twins.ibl import ibl_dfg, ibl_specular_radiance, sample_bilinear
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
 from learned.twins.sh import sh_irradiance
@@ -40,6 +40,7 @@ class Lighting:
     pdf: torch.Tensor  # [h, w] density on the uv square
     intensity: float = 1.0
     rotation: float = 0.0  # radians about +Y
+    dfg: torch.Tensor | None = None  # [n, n, 2] split-sum LUT (x = n.v, y = perceptual roughness)
 
     def with_light(self, intensity: float, rotation: float) -> "Lighting":
         return dataclasses.replace(self, intensity=float(intensity), rotation=float(rotation))
@@ -61,7 +62,8 @@ def lighting_from_gl(renderer, environment) -> Lighting:
         prefiltered=[t(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)],
         levels=float(ibl.levels), sh=t(np.asarray(ibl.sh, np.float32)),
         marginal=t(tables["marginal"]), conditional=t(tables["conditional"]), pdf=t(tables["pdf"]),
-        intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg))
+        intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg),
+        dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()))
 
 
 def env_radiance(lighting: Lighting, l_ws: torch.Tensor) -> torch.Tensor:
@@ -80,9 +82,12 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
                      ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
 
-    Returns ``x [N, 8]`` (albedo, roughness, metallic, specular, ao, n.v), ``irradiance [N, 3]``
-    (SH, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered radiance along the mirror
-    direction at the pixel's roughness, times intensity). ``ao [N]`` is the occlusion the pass uses.
+    Returns ``x [N, 10]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b: every
+    input of :data:`learned.neural.student.FEATURE_INPUTS`; a student reads its first ones),
+    ``irradiance [N, 3]`` (SH, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
+    radiance along the mirror direction at the pixel's roughness, times intensity). ``ao [N]`` is
+    the occlusion the pass uses. ``dfg`` is the split-sum LUT at (n.v, clamped roughness), zeros
+    when ``lighting`` has no LUT.
     """
     n, nov = surface(gb, v)
     r = clamp_perceptual_roughness(gb["roughness"][..., 0])
@@ -90,8 +95,12 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     prefiltered = ibl_specular_radiance(lighting.prefiltered,
                                         env_dir(reflect(-v, n), lighting.rotation), r,
                                         lighting.levels) * lighting.intensity
+    if lighting.dfg is not None:
+        dfg = ibl_dfg(lighting.dfg, nov, r)
+    else:
+        dfg = torch.zeros(*nov.shape, 2)
     x = torch.cat([gb["albedo"], gb["roughness"], gb["metallic"], gb["specular"], ao[..., None],
-                   nov[..., None]], dim=-1)
+                   nov[..., None], dfg], dim=-1)
     return x, irradiance, prefiltered
 
 

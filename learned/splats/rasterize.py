@@ -20,9 +20,9 @@ from typing import Iterator
 import numpy as np
 import torch
 
-from learned.twins.splat import (splat_alpha, splat_conic, splat_cov2d, splat_face_forward,
-                                 splat_mahalanobis2, splat_min_axis, splat_rotation,
-                                 splat_sh_basis_all)
+from learned.twins.splat import (splat_alpha, splat_conic, splat_cov2d, splat_cov2d_det,
+                                 splat_face_forward, splat_mahalanobis2, splat_min_axis,
+                                 splat_rotation, splat_sh_basis_all)
 from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
 from viewer.splats.data import Splats
@@ -57,8 +57,10 @@ def project(t: dict[str, torch.Tensor], camera: Camera) -> dict[str, torch.Tenso
     diag = torch.stack([c[:, 0, 0], c[:, 1, 1], c[:, 2, 2]], -1)
     off = torch.stack([c[:, 1, 0], c[:, 2, 0], c[:, 2, 1]], -1)
     safe_t = torch.where(valid[:, None], t_vs, torch.tensor([0.0, 0.0, -1.0]))
-    cov2d = splat_cov2d(safe_t, diag, off, focal_tan.expand(len(means), 4))
-    conic = splat_conic(cov2d)
+    ft = focal_tan.expand(len(means), 4)
+    cov2d = splat_cov2d(safe_t, diag, off, ft)
+    det = splat_cov2d_det(safe_t, m[:, :, 0], m[:, :, 1], m[:, :, 2], ft)
+    conic = splat_conic(cov2d, det)
     clip = torch.cat([safe_t, torch.ones_like(depth)[:, None]], -1) @ proj.T
     ndc = clip[:, :3] / clip[:, 3:]
     centre = (ndc[:, :2] * 0.5 + 0.5) * torch.tensor([float(w), float(h)])

@@ -16,7 +16,8 @@ from .brdf import clamp_perceptual_roughness, compute_f0
 from .equirect import equirect_uv, rotate_y
 from .ibl import ibl_dfg, ibl_specular_radiance, sample_bilinear
 from .sh import sh_irradiance
-from .shading import blinn_phong, diffuse_color, ggx_split_sum, shading_normal
+from .shading import blinn_phong, blinn_phong_directional_light, diffuse_color, \
+    ggx_directional_light, ggx_split_sum, shading_normal
 
 PASS_LEVEL = ()
 
@@ -44,14 +45,16 @@ def reflect(i: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
 
 def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, intensity: float,
           rotation_rad: float, defines: dict[str, int], ssao: torch.Tensor | None = None,
-          mc: dict | None = None) -> torch.Tensor:
+          mc: dict | None = None, light=None) -> torch.Tensor:
     """The lighting pass ``model`` on a G-buffer (channel -> [H, W, C], GL row order).
 
     ``env``: ``radiance`` (list of mips [h, w, 4]), ``prefiltered`` (list), ``dfg`` ([n, n, 2]),
     ``sh`` ([9, 3]), ``levels``; for ``ggx_mc`` also the sampling distribution ``marginal``,
     ``conditional``, ``pdf`` (:func:`learned.twins.env_sampling.env_distribution` layout).
     ``defines`` as in :func:`viewer.passes.shade.shade_defines`; ``ssao`` ([H, W], the occlusion
-    texture) when ``USE_SSAO``; ``mc``: ``start``, ``count``, ``seed`` of the Monte-Carlo batch.
+    texture) when ``USE_SSAO``; ``mc``: ``start``, ``count``, ``seed`` of the Monte-Carlo batch;
+    ``light``: the scene's :class:`~viewer.scene.DirectionalLight`, shaded when
+    ``LIGHT_DIRECTIONAL`` (as the GLSL, the define decides, not the argument).
     Returns [H, W, 4]: composited radiance and coverage.
     """
     h, w = gbuffer["alpha"].shape[:2]
@@ -87,10 +90,10 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
             ao = ao * ssao  # deferred.glsl ambient_occlusion()
         diffuse = diffuse_color(g["albedo"], g["metallic"][..., 0])
         f0 = compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0])
+        nov = (n * v).sum(-1).clamp(0.0, 1.0)
+        ms = torch.full_like(r, float(defines.get("MULTISCATTER", 1)))
+        dfg = ibl_dfg(env["dfg"], nov, r) if model in ("ggx_split_sum", "ggx_mc") else None
         if model == "ggx_split_sum":
-            nov = (n * v).sum(-1).clamp(0.0, 1.0)
-            dfg = ibl_dfg(env["dfg"], nov, r)
-            ms = torch.full_like(r, float(defines.get("MULTISCATTER", 1)))
             c = ggx_split_sum(diffuse, f0, ao, irradiance, prefiltered, dfg, ms)
         elif model == "blinn_phong":
             c = blinn_phong(diffuse, f0, ao, irradiance, prefiltered)
@@ -108,10 +111,34 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
                                       int(mc.get("count", 1)), int(mc.get("seed", 0)))
         else:
             raise ValueError(f"no torch twin for model {model!r}")
+        if defines.get("LIGHT_DIRECTIONAL", 0):
+            c = c + _directional_light(model, diffuse, f0, r * r, dfg, ms, n, v, light, defines,
+                                       mc)
     covered = alpha > 0.0
     a = alpha[..., None]
     out = torch.where(covered[..., None], background + (c - background) * a, background)
     return torch.cat([out, alpha[..., None]], dim=-1)
+
+
+def _directional_light(model: str, diffuse, f0, a, dfg, ms, n, v, light, defines: dict,
+                       mc: dict | None) -> torch.Tensor:
+    """The ``LIGHT_DIRECTIONAL`` term of the lighting passes (no AO, no shadowing). ``ggx_mc``
+    adds it only to batches with samples, as its GLSL does. [H, W, 3]."""
+    l_ws = torch.tensor(light.direction, dtype=torch.float32).expand_as(n)
+    irradiance = torch.tensor(light.irradiance, dtype=torch.float32).expand_as(n)
+    if model == "blinn_phong":
+        if not defines.get("SPECULAR_LOBE", 1):  # the specialised variant passes f0 = 0, a = 1
+            f0, a = torch.zeros_like(f0), torch.ones_like(a)
+        return blinn_phong_directional_light(diffuse, f0, a, n, v, l_ws, irradiance)
+    if model == "ggx_split_sum" and not defines.get("SPECULAR_LOBE", 1):
+        f0, a = torch.zeros_like(f0), torch.ones_like(a)
+        dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
+        ms = torch.zeros_like(a)
+    if model == "ggx_mc":
+        ms = torch.full_like(a, float(defines.get("MULTISCATTER", 1)))
+        if int((mc or {}).get("count", 1)) <= 0:
+            return torch.zeros_like(n)
+    return ggx_directional_light(diffuse, f0, a, dfg, ms, n, v, l_ws, irradiance)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -148,15 +175,19 @@ def _register_checks() -> None:
 
     for model in ("unlit", "blinn_phong", "ggx_split_sum"):
         def check(programs, model=model):
-            return [_check_model(programs, model, variant)
-                    for variant in ({}, {"multiscatter": False, "ao": False,
-                                         "background": "transparent"})
-                    if variant == {} or model != "unlit"]
+            results = [_check_model(programs, model, variant)
+                       for variant in ({}, {"multiscatter": False, "ao": False,
+                                            "background": "transparent"})
+                       if variant == {} or model != "unlit"]
+            # the [light] variant: the scene's directional light on top of the environment
+            return results + [_check_model(programs, model, {}, light=PARITY_LIGHT)]
 
         register_pass_check(f"model:{model}", model=model)(check)
 
     def check_mc(programs):
-        return [_check_model(programs, "ggx_mc", variant) for variant in MC_VARIANTS]
+        return [_check_model(programs, "ggx_mc", variant) for variant in MC_VARIANTS] + \
+            [_check_model(programs, "ggx_mc", variant, light=PARITY_LIGHT)
+             for variant in MC_LIGHT_VARIANTS]
 
     register_pass_check("model:ggx_mc", model="ggx_mc")(check_mc)
 
@@ -179,13 +210,21 @@ MC_VARIANTS = (
 )
 
 
-def _check_model(programs, model: str, variant: dict):
+# The [light] of the light variants: from the upper right front, warm, brighter than the sky; the
+# environment stays (rotated by 33 degrees, which must not turn the light).
+PARITY_LIGHT = {"direction": [0.6, 0.7, 0.4], "color": [1.0, 0.9, 0.7], "intensity": 4.0}
+MC_LIGHT_VARIANTS = ({"samples": 2, "sampling": "mis"},
+                     {"samples": 2, "sampling": "brdf", "multiscatter": False, "ao": False})
+
+
+def _check_model(programs, model: str, variant: dict, light: dict | None = None):
     from learned.parity import compare
     from viewer.passes.shade import shade_defines
     from viewer.renderer import Renderer
     from viewer.scene import scene_from_dict
 
-    scene = scene_from_dict(PARITY_SCENE).with_render(model=model, **variant)
+    doc = PARITY_SCENE if light is None else {**PARITY_SCENE, "light": light}
+    scene = scene_from_dict(doc).with_render(model=model, **variant)
     renderer = Renderer(ctx=programs.ctx)
     try:
         targets = renderer.draw(scene)
@@ -213,11 +252,12 @@ def _check_model(programs, model: str, variant: dict):
         with torch.no_grad():
             ref = shade(model, gb, targets["camera"], env, scene.environment.intensity,
                         math.radians(scene.environment.rotation_deg),
-                        shade_defines(model, scene.render), ssao=ssao, mc=mc).numpy()
+                        shade_defines(model, scene.render, scene.light), ssao=ssao, mc=mc,
+                        light=scene.light).numpy()
     finally:
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(
-        f"{k}={v}" for k, v in variant.items()))
+        f"{k}={v}" for k, v in variant.items())) + (":light" if light is not None else "")
     if model == "ggx_mc":
         return compare(name, glsl, ref, MC_ATOL, MC_RTOL, kind="model",
                        measured="max abs 0.028, max rel 9e-4 (uniform sampling, sun texels)")

@@ -21,6 +21,7 @@ from .brdf import d_ggx, f_schlick, v_smith_ggx_correlated
 from .equirect import equirect_dir, equirect_uv
 from .sampling import hammersley_sequence, importance_sample_ggx, tangent_to_world
 from .sh import sh_basis_all, sh_irradiance
+from viewer.ibl import prefilter_roughness
 
 # Functions taking samplers (or arrays) covered by the pass checks registered below.
 PASS_LEVEL = ("ibl_specular_radiance", "ibl_dfg")
@@ -80,8 +81,13 @@ def ibl_specular_radiance(prefiltered: list[torch.Tensor], r_ws: torch.Tensor,
                           perceptual_roughness: torch.Tensor, levels: float) -> torch.Tensor:
     """GLSL ``vec3 ibl_specular_radiance(sampler2D, vec3 r_ws, float r, float levels)``:
     prefiltered chain (list of ``[h, w, C]``), r_ws ``[..., 3]`` -> ``[..., 3]``."""
-    lod = perceptual_roughness.clamp(0.0, 1.0) * max(float(levels) - 1.0, 0.0)
+    lod = prefilter_lod(perceptual_roughness, torch.full_like(perceptual_roughness, float(levels)))
     return sample_trilinear(prefiltered, equirect_uv(r_ws), lod)[..., :3]
+
+
+def prefilter_lod(perceptual_roughness: torch.Tensor, levels: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float prefilter_lod(float r, float levels)`` = sqrt(r) (levels - 1)."""
+    return torch.sqrt(perceptual_roughness.clamp(0.0, 1.0)) * (levels - 1.0).clamp_min(0.0)
 
 
 def ibl_dfg(dfg: torch.Tensor, NoV: torch.Tensor, perceptual_roughness: torch.Tensor
@@ -175,10 +181,12 @@ def prefilter_level(chain: list[torch.Tensor], size: tuple[int, int], perceptual
 def prefilter_environment(chain: list[torch.Tensor], levels: int, samples: int
                           ) -> list[torch.Tensor]:
     """Twin of the prefiltered chain of ``build_ibl``: level 0 = ``chain[0]``, level k = GGX
-    prefiltered at perceptual roughness k / (levels - 1) with ``samples`` Hammersley points."""
+    prefiltered at perceptual roughness ``viewer.ibl.prefilter_roughness(k, levels)`` with
+    ``samples`` Hammersley points."""
     out = [chain[0]]
     for k in range(1, levels):
-        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]), k / (levels - 1), samples))
+        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]),
+                                   prefilter_roughness(k, levels), samples))
     return out
 
 
@@ -230,6 +238,9 @@ _DFG = Arg(lo=0.0, hi=1.0, components=2, adversarial=((0.0, 1.0), (1.0, 1.0), (0
 _F0 = Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
 
 PARITY_CASES = [
+    ParityCase("prefilter_lod", (Arg(lo=0.0, hi=1.0, adversarial=(0.0, 0.045, 1.0, -1.0, 2.0)),
+                                 Arg(kind="int", lo=1, hi=8, adversarial=(1.0, 6.0))),
+               atol=1e-6, rtol=1e-6, measured="max abs 4.8e-7 (sqrt)"),
     ParityCase("ibl_specular_dfg", (_DFG, _F0, Arg(adversarial=(0.0, 1.0))), atol=3e-7, rtol=1e-6,
                measured="max abs 1.2e-7 (fma rounding)"),
     ParityCase("ibl_energy_compensation", (_DFG, _F0), atol=0.0, rtol=1e-6,

@@ -7,6 +7,7 @@ compares every G-buffer channel.
 """
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from ._cases import Arg, ParityCase
@@ -24,8 +25,11 @@ SH_C3 = (-0.5900435899266435, 2.890611442640554, -0.4570457994644658, 0.37317633
 
 def splat_rotation(q: torch.Tensor) -> torch.Tensor:
     """GLSL ``mat3 splat_rotation(vec4 q)``: q [..., 4] (w, x, y, z), normalised here ->
-    [..., 3, 3] with columns the rotated local axes (row-major indexing m[..., row, col])."""
-    q = q / torch.linalg.vector_norm(q, dim=-1, keepdim=True)
+    [..., 3, 3] with columns the rotated local axes (row-major indexing m[..., row, col]). A zero
+    quaternion gives the identity (not NaN)."""
+    len2 = (q * q).sum(-1, keepdim=True)
+    safe = torch.where(len2 > 0, len2, torch.ones_like(len2))  # no inf/NaN gradient at q = 0
+    q = torch.where(len2 > 0, q * torch.rsqrt(safe), torch.zeros_like(q))
     w, x, y, z = q.unbind(-1)
     return torch.stack([
         torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
@@ -79,20 +83,40 @@ def splat_cov2d(t_vs: torch.Tensor, cov_diag: torch.Tensor, cov_offdiag: torch.T
     return torch.stack([(j0 * s0).sum(-1) + 0.3, (j0 * s1).sum(-1), (j1 * s1).sum(-1) + 0.3], -1)
 
 
-def splat_conic(cov2d: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 splat_conic(vec3 cov2d)``: the inverse (A, B, C)."""
+def splat_cov2d_det(t_vs: torch.Tensor, m0: torch.Tensor, m1: torch.Tensor, m2: torch.Tensor,
+                    focal_tan: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float splat_cov2d_det(vec3 t_vs, vec3 m0, vec3 m1, vec3 m2, vec4 focal_tan)``: the
+    determinant of :func:`splat_cov2d` for Sigma = M M^T (M's columns m0..m2 [..., 3]) by
+    Cauchy-Binet, |t0 x t1|^2 + 0.3 (|t0|^2 + |t1|^2) + 0.09 with t_i = M^T j_i -> [...]."""
+    z = -t_vs[..., 2]
+    fx, fy, tx, ty = focal_tan.unbind(-1)
+    xz = torch.maximum(torch.minimum(t_vs[..., 0] / z, 1.3 * tx), -1.3 * tx)
+    yz = torch.maximum(torch.minimum(t_vs[..., 1] / z, 1.3 * ty), -1.3 * ty)
+    zero = torch.zeros_like(z)
+    j0 = torch.stack([fx / z, zero, fx * xz / z], -1)
+    j1 = torch.stack([zero, fy / z, fy * yz / z], -1)
+    t0 = torch.stack([(m * j0).sum(-1) for m in (m0, m1, m2)], -1)
+    t1 = torch.stack([(m * j1).sum(-1) for m in (m0, m1, m2)], -1)
+    x = torch.linalg.cross(t0, t1)
+    return (x * x).sum(-1) + 0.3 * ((t0 * t0).sum(-1) + (t1 * t1).sum(-1)) + 0.09
+
+
+def splat_conic(cov2d: torch.Tensor, det: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 splat_conic(vec3 cov2d, float det)``: the inverse (A, B, C); det [...] from
+    :func:`splat_cov2d_det`."""
     a, b, c = cov2d.unbind(-1)
-    det = a * c - b * b
     return torch.stack([c, -b, a], -1) / det[..., None]
 
 
-def splat_axes(cov2d: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec4 splat_axes(vec3 cov2d)``: (lambda1, lambda2, e1.x, e1.y)."""
+def splat_axes(cov2d: torch.Tensor, det: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 splat_axes(vec3 cov2d, float det)``: (lambda1, lambda2 = det / lambda1, e1.x,
+    e1.y)."""
     a, b, c = cov2d.unbind(-1)
     mid = 0.5 * (a + c)
     half_diff = 0.5 * (a - c)
     r = torch.sqrt(half_diff * half_diff + b * b)
-    l1, l2 = mid + r, mid - r
+    l1 = mid + r
+    l2 = det / l1
     v = torch.stack([b, l1 - a], -1)
     v = v / torch.linalg.vector_norm(v, dim=-1, keepdim=True).clamp_min(1e-30)
     ex = torch.where(a >= c, 1.0, 0.0)
@@ -159,21 +183,32 @@ def _spd_cov(args):
 
 
 def _cov2d_valid(args):
-    """2D covariances as the pipeline makes them: SPD with eigenvalues >= 0.3."""
-    (c,) = args
-    c = c.copy()
+    """2D covariances as the pipeline makes them: SPD with eigenvalues >= 0.3, and their
+    determinant (computed in float64, as splat_cov2d_det delivers it)."""
+    c = args[0].copy()
     c[:, 0] = abs(c[:, 0]) + 0.3
     c[:, 2] = abs(c[:, 2]) + 0.3
     lim = (c[:, 0] - 0.3) * (c[:, 2] - 0.3)
     c[:, 1] = c[:, 1].clip(-1, 1) * lim ** 0.5
-    return [c]
+    c64 = c.astype(np.float64)
+    det = c64[:, 0] * c64[:, 2] - c64[:, 1] ** 2
+    return [c, np.maximum(det, 0.09).astype(np.float32)]
+
+
+def _in_front(args):
+    """splat_cov2d_det inputs with the centre in front of the camera."""
+    t = args[0].copy()
+    t[:, 2] = -abs(t[:, 2]) - 0.2
+    return [t, *args[1:]]
 
 
 PARITY_CASES = [
-    ParityCase("splat_cov3d_diag", (Arg(lo=-1, hi=1, components=4, adversarial=((1, 0, 0, 0),)),
+    ParityCase("splat_cov3d_diag", (Arg(lo=-1, hi=1, components=4,
+                                        adversarial=((1, 0, 0, 0), (0, 0, 0, 0))),
                                     Arg(lo=1e-3, hi=2.0, components=3)),
                atol=1e-6, rtol=2e-5, measured="max abs 3.3e-6, max rel 5.4e-6"),
-    ParityCase("splat_cov3d_offdiag", (Arg(lo=-1, hi=1, components=4, adversarial=((1, 0, 0, 0),)),
+    ParityCase("splat_cov3d_offdiag", (Arg(lo=-1, hi=1, components=4,
+                                           adversarial=((1, 0, 0, 0), (0, 0, 0, 0))),
                                        Arg(lo=1e-3, hi=2.0, components=3)),
                atol=1e-5, rtol=2e-5, measured="max abs 2.0e-6 (cancellation near 0)"),
     ParityCase("splat_min_axis", (Arg(lo=-1, hi=1, components=4),
@@ -185,10 +220,20 @@ PARITY_CASES = [
                                Arg(lo=0.2, hi=1.5, components=4,
                                    adversarial=((300.0, 300.0, 0.5, 0.5),))),
                atol=1e-4, rtol=2e-5, measured="max rel 1.8e-7 (max abs 2e-3 on values ~1e5)", prepare=_spd_cov),
-    ParityCase("splat_conic", (Arg(lo=-50, hi=50, components=3),),
+    ParityCase("splat_cov2d_det", (Arg(lo=-3, hi=3, components=3),
+                                   Arg(lo=-1, hi=1, components=3,
+                                       adversarial=((1e4, 0.0, 0.0), (0.0, 0.0, 0.0))),
+                                   Arg(lo=-1, hi=1, components=3, adversarial=((0.0, 1e-8, 0.0),)),
+                                   Arg(lo=-1, hi=1, components=3, adversarial=((0.0, 0.0, 1e-8),)),
+                                   Arg(lo=0.2, hi=1.5, components=4,
+                                       adversarial=((300.0, 300.0, 0.5, 0.5),))),
+               atol=1e-6, rtol=2e-5, measured="max rel 2.9e-7 (max abs 4.9e-4 on values ~1e4)",
+               prepare=_in_front),
+    ParityCase("splat_conic", (Arg(lo=-50, hi=50, components=3), Arg(lo=1.0, hi=2.0)),
                atol=1e-7, rtol=1e-5, measured="exact on llvmpipe", prepare=_cov2d_valid),
     ParityCase("splat_axes", (Arg(lo=-50, hi=50, components=3,
-                                  adversarial=((2.0, 0.0, 1.0), (1.0, 0.0, 2.0), (1.0, 0.0, 1.0))),),
+                                  adversarial=((2.0, 0.0, 1.0), (1.0, 0.0, 2.0), (1.0, 0.0, 1.0))),
+                              Arg(lo=1.0, hi=2.0)),
                atol=2e-5, rtol=1e-5, measured="max abs 7.6e-6 (eigenvalues ~100)",
                prepare=_cov2d_valid),
     ParityCase("splat_mahalanobis2", (Arg(lo=-10, hi=10, components=2),

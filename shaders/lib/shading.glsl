@@ -47,3 +47,55 @@ vec3 ggx_split_sum(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefil
 vec3 blinn_phong(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefiltered) {
     return diffuse * irradiance * INV_PI * ao * (1.0 - f0) + f0 * prefiltered;
 }
+
+// ---- one directional light ([light]) -----------------------------------------------------------
+// A light at infinity of irradiance E (on a surface facing it) from the unit direction l adds
+// L_o = f(v, l) E (n.l), 0 when the light is below the surface (n.l <= 0). Nothing shadows it, and
+// ambient occlusion (the environment's visibility) does not apply to it. n, v, l: unit, world space;
+// a = alpha (clamped perceptual roughness squared).
+
+// The normalised half vector of v and l; +Z where v = -l (unreachable for the callers below: n.l > 0
+// and n.v > 0 keep v + l away from zero).
+vec3 half_vector(vec3 v, vec3 l) {
+    vec3 h = v + l;
+    float len2 = dot(h, h);
+    return len2 > 1e-30 ? h * inversesqrt(len2) : vec3(0.0, 0.0, 1.0);
+}
+
+// Cook-Torrance GGX + Lambert, the BRDF ggx_split_sum approximates and ggx_mc integrates:
+//   f = diffuse (1 - E_spec) / pi + D_GGX(h) V_SmithGGXCorrelated(v, l) F_Schlick(v.h) c_ms
+// (Walter et al. 2007, eq. 20 with Heitz 2014's V = G2 / (4 NoV NoL)), with the specular albedo
+// E_spec = (f0 (dfg.y - dfg.x) + f90 dfg.x) c_ms and the multiple-scattering compensation
+// c_ms = 1 + f0 (1/dfg.y - 1) (1 without multiscatter) from the DFG terms at (n.v, r): the energy
+// split of ggx_split_sum and of shade_ggx_mc.frag's Surface, so light and environment see one BRDF.
+vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
+                           vec3 v, vec3 l, vec3 irradiance) {
+    float NoL = dot(n, l);
+    if (!(NoL > 0.0)) return vec3(0.0);
+    vec3 h = half_vector(v, l);
+    float NoV = saturate(dot(n, v));
+    float NoH = saturate(dot(n, h));
+    float VoH = saturate(dot(v, h));
+    float f90 = f90_from_f0(f0);
+    vec3 spec_scale = multiscatter > 0.5 ? ibl_energy_compensation(dfg, f0) : vec3(1.0);
+    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale;
+    vec3 fd = diffuse * INV_PI * max(1.0 - e_spec, 0.0);
+    vec3 fs = d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a) * f_schlick(f0, f90, VoH)
+              * spec_scale;
+    return (fd + fs) * irradiance * NoL;
+}
+
+// Blinn-Phong under the light, split like blinn_phong(): Lambert keeping (1 - f0) plus the
+// normalised, Fresnel-free Blinn-Phong specular BRDF of Akenine-Moller, Haines & Hoffman,
+// "Real-Time Rendering" 3rd ed. (2008), eq. 7.49: f_s = f0 (s + 8) / (8 pi) (n.h)^s, with the
+// exponent s = blinn_phong_shininess(a) that matches the GGX alpha (Walter et al. 2007, sec. 5.2).
+vec3 blinn_phong_directional_light(vec3 diffuse, vec3 f0, float a, vec3 n, vec3 v, vec3 l,
+                                   vec3 irradiance) {
+    float NoL = dot(n, l);
+    if (!(NoL > 0.0)) return vec3(0.0);
+    float NoH = saturate(dot(n, half_vector(v, l)));
+    float s = blinn_phong_shininess(a);
+    // pow(0, 0) is undefined in GLSL: the floor makes NoH^0 = 1 (as d_blinn_phong does)
+    float lobe = (s + 8.0) * (0.125 * INV_PI) * pow(max(NoH, 1e-30), s);
+    return (diffuse * INV_PI * (1.0 - f0) + f0 * lobe) * irradiance * NoL;
+}

@@ -4,9 +4,12 @@
 // Twins: learned/twins/splat.py.
 
 // 3D Gaussian Splatting - Kerbl et al. 2023, sec. 4: rotation of the unit quaternion
-// q = (w, x, y, z) (normalised here, so files may store any non-zero length).
+// q = (w, x, y, z) (normalised here, so files may store any non-zero length). A zero quaternion
+// gives the identity, as in the reference implementation (torch's normalize leaves 0 at 0, and
+// the formula below maps 0 to I) instead of NaN.
 mat3 splat_rotation(vec4 q) {
-    q = normalize(q);
+    float len2 = dot(q, q);
+    q = len2 > 0.0 ? q * inversesqrt(len2) : vec4(0.0);
     float w = q.x, x = q.y, y = q.z, z = q.w;
     // mat3 constructor is column-major: columns are the images of the local axes
     return mat3(1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y),
@@ -59,20 +62,40 @@ vec3 splat_cov2d(vec3 t_vs, vec3 cov_diag, vec3 cov_offdiag, vec4 focal_tan) {
     return vec3(dot(j0, s0) + 0.3, dot(j0, s1), dot(j1, s1) + 0.3);
 }
 
-// Inverse of the 2D covariance (a, b, c) as (A, B, C): d^2 = A dx^2 + 2 B dx dy + C dy^2.
-vec3 splat_conic(vec3 cov2d) {
-    float det = cov2d.x * cov2d.z - cov2d.y * cov2d.y;
+// The determinant of splat_cov2d's result for Sigma = M M^T, M = [m0 m1 m2] the view-space
+// covariance factor (columns sigma_k W r_k), without the cancellation of a c - b^2: with the rows
+// t_i = M^T j_i of J M, det(J M M^T J^T + 0.3 I) = |t0 x t1|^2 + 0.3 (|t0|^2 + |t1|^2) + 0.09
+// (Cauchy-Binet). For a needle (sigmas 1e4 and 1e-8) a c - b^2 is rounding noise ~1e-7 a c, far
+// above the true value; each minor here is sigma_i sigma_j times an O(f^2 / z^2) 2x2 minor of J W R.
+// Same Jacobian (and clamp) as splat_cov2d.
+float splat_cov2d_det(vec3 t_vs, vec3 m0, vec3 m1, vec3 m2, vec4 focal_tan) {
+    float z = -t_vs.z;
+    vec2 lim = 1.3 * focal_tan.zw;
+    float xz = clamp(t_vs.x / z, -lim.x, lim.x);
+    float yz = clamp(t_vs.y / z, -lim.y, lim.y);
+    vec3 j0 = vec3(focal_tan.x / z, 0.0, focal_tan.x * xz / z);
+    vec3 j1 = vec3(0.0, focal_tan.y / z, focal_tan.y * yz / z);
+    vec3 t0 = vec3(dot(m0, j0), dot(m1, j0), dot(m2, j0));
+    vec3 t1 = vec3(dot(m0, j1), dot(m1, j1), dot(m2, j1));
+    vec3 x = cross(t0, t1);
+    return dot(x, x) + 0.3 * (dot(t0, t0) + dot(t1, t1)) + 0.09;
+}
+
+// Inverse of the 2D covariance (a, b, c) as (A, B, C): d^2 = A dx^2 + 2 B dx dy + C dy^2. det: its
+// determinant a c - b^2, from splat_cov2d_det (accurate where a c - b^2 in float cancels).
+vec3 splat_conic(vec3 cov2d, float det) {
     return vec3(cov2d.z, -cov2d.y, cov2d.x) / det;
 }
 
 // Eigen-decomposition of the 2D covariance: (lambda1, lambda2, e1.x, e1.y), lambda1 >= lambda2,
-// e1 the unit major axis (e2 = (-e1.y, e1.x)).
-vec4 splat_axes(vec3 cov2d) {
+// e1 the unit major axis (e2 = (-e1.y, e1.x)). det as for splat_conic: lambda2 = det / lambda1,
+// not mid - r, which cancels to noise (even a negative value, a NaN quad) for needle splats.
+vec4 splat_axes(vec3 cov2d, float det) {
     float mid = 0.5 * (cov2d.x + cov2d.z);
     float half_diff = 0.5 * (cov2d.x - cov2d.z);
     float r = sqrt(half_diff * half_diff + cov2d.y * cov2d.y);
     float l1 = mid + r;
-    float l2 = mid - r;
+    float l2 = det / l1;
     vec2 e1 = abs(cov2d.y) > 1e-12 ? normalize(vec2(cov2d.y, l1 - cov2d.x))
                                    : (cov2d.x >= cov2d.z ? vec2(1.0, 0.0) : vec2(0.0, 1.0));
     return vec4(l1, l2, e1);

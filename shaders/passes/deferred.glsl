@@ -1,5 +1,6 @@
 // deferred.glsl - the shared part of every lighting pass (shade_*.frag): G-buffer access, the
-// per-pixel view ray, the environment's rotation and intensity, and the background.
+// per-pixel view ray, the environment's rotation and intensity, the background, ambient occlusion
+// and the optional directional light's uniforms.
 // Pass-level chunk (has uniforms); the shading maths lives in shaders/lib.
 #define GBUFFER_READ
 #ifndef SPECULAR_LOBE
@@ -58,6 +59,16 @@ float ambient_occlusion(ivec2 pixel, GBuffer g) {
 #endif
     return ao;
 }
+
+// ---- the optional directional light ([light]; uniforms set by viewer/passes/shade.py) ----------
+// LIGHT_DIRECTIONAL 1 when the scene has a light and the model shades it; 0 compiles it out.
+#ifndef LIGHT_DIRECTIONAL
+#define LIGHT_DIRECTIONAL 0
+#endif
+#if LIGHT_DIRECTIONAL
+uniform vec3 u_light_direction;   // unit, towards the light, world space (not u_env_rotation'd)
+uniform vec3 u_light_irradiance;  // linear RGB irradiance on a surface facing it: color * intensity
+#endif
 
 // Composite a shaded surface of coverage alpha over the background and write it.
 void write_radiance(vec3 shaded, vec3 background, float alpha) {

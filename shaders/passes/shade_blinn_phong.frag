@@ -1,5 +1,6 @@
 // shade_blinn_phong.frag - the thesis's classical baseline under environment light.
-// Defines: USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1), SPECULAR_LOBE (0/1).
+// Defines: USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1), SPECULAR_LOBE (0/1),
+// LIGHT_DIRECTIONAL (0/1: the [light]'s analytic term, no shadowing).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
@@ -27,10 +28,20 @@ void main() {
     float r = clamp_perceptual_roughness(g.roughness);
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflect(-v, n)), r,
                                              u_env_levels) * u_env_intensity;
-    vec3 c = blinn_phong(diffuse_color(g.albedo, g.metallic),
-                         compute_f0(g.albedo, g.metallic, g.specular), ao, irradiance, prefiltered);
+    vec3 diffuse = diffuse_color(g.albedo, g.metallic);
+    vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
+    vec3 c = blinn_phong(diffuse, f0, ao, irradiance, prefiltered);
+#if LIGHT_DIRECTIONAL
+    c += blinn_phong_directional_light(diffuse, f0, r * r, n, v, u_light_direction,
+                                       u_light_irradiance);
+#endif
 #else
-    vec3 c = blinn_phong(diffuse_color(g.albedo, g.metallic), vec3(0.0), ao, irradiance, vec3(0.0));
+    vec3 diffuse = diffuse_color(g.albedo, g.metallic);
+    vec3 c = blinn_phong(diffuse, vec3(0.0), ao, irradiance, vec3(0.0));
+#if LIGHT_DIRECTIONAL  // f0 = 0: the lobe's weight is exactly 0 (any alpha)
+    c += blinn_phong_directional_light(diffuse, vec3(0.0), 1.0, n, v, u_light_direction,
+                                       u_light_irradiance);
+#endif
 #endif
     write_radiance(c, background, g.alpha);
 }

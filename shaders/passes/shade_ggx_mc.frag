@@ -6,7 +6,8 @@
 // (0, 2)-sequence (lib/mc.glsl; a pure function of pixel, sample index and u_seed). Writes the
 // mean of this batch; passes/accumulate.frag averages batches. Nothing occludes (single bounce).
 // Defines: SAMPLING (0 uniform, 1 cosine, 2 env, 3 brdf, 4 mis), MIS_POWER (1 balance,
-// 2 power heuristic), MULTISCATTER, USE_AO, USE_SSAO, BACKGROUND_ENVIRONMENT (0/1 each).
+// 2 power heuristic), MULTISCATTER, USE_AO, USE_SSAO, BACKGROUND_ENVIRONMENT, LIGHT_DIRECTIONAL
+// (0/1 each; the [light]'s term is analytic, not sampled: see main()).
 // "mis" draws one BRDF and one environment direction per sample (two evaluations).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -146,5 +147,14 @@ void main() {
         sum += estimate(s, uvec2(pixel), u_sample_start + k);
     }
     vec3 c = sum / float(max(u_sample_count, 1u));
+#if LIGHT_DIRECTIONAL
+    // a delta light is not sampled: its term is added exactly (the function ggx_split_sum uses,
+    // on the same diffuse, f0, alpha and DFG terms), to every batch alike
+    if (u_sample_count > 0u) {
+        c += ggx_directional_light(diffuse_color(g.albedo, g.metallic), s.f0, s.a, dfg,
+                                   float(MULTISCATTER), s.n, s.v, u_light_direction,
+                                   u_light_irradiance);
+    }
+#endif
     write_radiance(c, background, g.alpha);
 }

@@ -1,6 +1,7 @@
 // shade_ggx_split_sum.frag - Cook-Torrance GGX with split-sum image-based lighting.
 // Defines: MULTISCATTER (0/1), USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1),
-// SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0).
+// SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0),
+// LIGHT_DIRECTIONAL (0/1: the [light]'s analytic term, same BRDF, no shadowing).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
@@ -32,13 +33,22 @@ void main() {
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
                        * u_env_intensity;
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
-    vec3 c = ggx_split_sum(diffuse_color(g.albedo, g.metallic),
-                           compute_f0(g.albedo, g.metallic, g.specular), ao, irradiance,
-                           prefiltered, dfg, float(MULTISCATTER));
+    vec3 diffuse = diffuse_color(g.albedo, g.metallic);
+    vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
+    vec3 c = ggx_split_sum(diffuse, f0, ao, irradiance, prefiltered, dfg, float(MULTISCATTER));
+#if LIGHT_DIRECTIONAL
+    c += ggx_directional_light(diffuse, f0, r * r, dfg, float(MULTISCATTER), n, v,
+                               u_light_direction, u_light_irradiance);
+#endif
 #else
-    // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0)
-    vec3 c = ggx_split_sum(diffuse_color(g.albedo, g.metallic), vec3(0.0), ao, irradiance,
-                           vec3(0.0), vec2(0.0, 1.0), 0.0);
+    // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
+    // does the light's BRDF (F = 0; any alpha)
+    vec3 diffuse = diffuse_color(g.albedo, g.metallic);
+    vec3 c = ggx_split_sum(diffuse, vec3(0.0), ao, irradiance, vec3(0.0), vec2(0.0, 1.0), 0.0);
+#if LIGHT_DIRECTIONAL
+    c += ggx_directional_light(diffuse, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
+                               u_light_direction, u_light_irradiance);
+#endif
 #endif
     write_radiance(c, background, g.alpha);
 }

@@ -53,8 +53,9 @@ void main() {
     mat3 c = m * transpose(m);
     vec3 cov2d = splat_cov2d(t_vs, vec3(c[0][0], c[1][1], c[2][2]),
                              vec3(c[1][0], c[2][0], c[2][1]), u_focal_tan);
-    vec3 conic = splat_conic(cov2d);
-    vec4 axes = splat_axes(cov2d);
+    float det = splat_cov2d_det(t_vs, m[0], m[1], m[2], u_focal_tan);
+    vec3 conic = splat_conic(cov2d, det);
+    vec4 axes = splat_axes(cov2d, det);
     vec2 e1 = axes.zw;
     vec2 e2 = vec2(-e1.y, e1.x);
     vec4 clip = u_projection * vec4(t_vs, 1.0);
@@ -84,8 +85,13 @@ void main() {
     proj[o + 4u] = conic.x;
     proj[o + 5u] = conic.y;
     proj[o + 6u] = conic.z;
-    vec2 a1 = e1 * sqrt(8.0 * axes.x);
-    vec2 a2 = e2 * sqrt(8.0 * axes.y);
+    // quad half-axes: sqrt(8) sigma, at most as long as the farthest pixel is from the centre (a
+    // needle's 3e6 px axis would put the vertices where float rounding moves the quad's edges by
+    // a quarter pixel), plus 1 px so rounding never cuts the footprint (the d^2 <= 8 test in
+    // splat_raster.frag decides the covered pixels, not the quad)
+    float reach = length(centre - 0.5 * u_resolution) + length(u_resolution);
+    vec2 a1 = e1 * (min(sqrt(8.0 * axes.x), reach) + 1.0);
+    vec2 a2 = e2 * (min(sqrt(8.0 * axes.y), reach) + 1.0);
     proj[o + 7u] = a1.x;
     proj[o + 8u] = a1.y;
     proj[o + 9u] = a2.x;

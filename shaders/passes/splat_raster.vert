@@ -1,5 +1,6 @@
 // splat_raster.vert - one instanced quad per splat (4-vertex triangle strip), drawn in the order
-// given by u_order (back to front). The quad spans +-sqrt(8) sigma along the 2D eigen axes; all its
+// given by u_order (back to front). The quad spans +-sqrt(8) sigma (capped at the farthest pixel,
+// plus 1 px: see splat_project.comp) along the 2D eigen axes; all its
 // vertices sit at the splat centre's depth, so the depth test against meshes is per splat.
 layout(std430, binding = 0) readonly buffer Projected { float proj[]; };  // from splat_project
 layout(std430, binding = 1) readonly buffer Order { uint order[]; };

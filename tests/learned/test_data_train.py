@@ -132,3 +132,103 @@ def test_torchrun_ddp_two_cpu_processes(dataset, tmp_path):
     assert "world 2" in log and "teacher step 6/6" in log
     ck = torch.load(out / "teacher.pt", weights_only=False)
     assert ck["step"] == 6
+
+
+# ---- image G-buffers as geometry --------------------------------------------------------------
+
+IMAGE = GeneratorConfig(count=3, size=16, samples=4, seed=5, env_width=32, gbuffer_fraction=1.0)
+
+
+def _generate(root, cfg, ctx):
+    from viewer.renderer import Renderer
+
+    r = Renderer(ctx=ctx)
+    try:
+        return generate(root, cfg, renderer=r, progress=False)
+    finally:
+        r.release()
+
+
+def test_image_gbuffer_samples_are_deterministic_resumable_and_varied(tmp_path, ctx):
+    import json
+
+    root = tmp_path / "img"
+    assert _generate(root, IMAGE, ctx)["written"] == 3
+    folders = list_samples(root, "train")
+    for f in folders:
+        meta = json.loads((f / "meta.json").read_text())
+        assert meta["geometry"]["kind"] == "gbuffer" and meta["objects"][0]["type"] == "gbuffer"
+        assert not (f / "_source").exists()
+        s = load_sample(f)
+        fg = s.foreground()
+        assert fg.sum() > 10 and np.isfinite(s.target).all() and s.target[fg].max() > 0
+    # per-pixel materials: one rendered object (one material) became a spatially varying field
+    s = load_sample(folders[0])
+    assert s.channels["roughness"][s.foreground()].std() > 0.02
+    before = {k: v.copy() for k, v in s.channels.items()} | {"rgb": s.target.copy()}
+    shutil.rmtree(folders[0])
+    (folders[0].parent / (folders[0].name + ".tmp")).mkdir()
+    assert _generate(root, IMAGE, ctx) == {"written": 1, "kept": 2, "root": str(root)}
+    again = load_sample(folders[0])
+    for k, v in again.channels.items():
+        assert np.array_equal(v, before[k]), k
+    assert np.array_equal(again.target, before["rgb"])
+
+
+def test_image_gbuffer_from_a_12_channel_stack(dataset, tmp_path, ctx):
+    from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
+
+    src = load_sample(list_samples(dataset, "val")[0])
+    stack = tmp_path / "stack.exr"
+    save_stack_exr(stack, ImageGBuffer(channels=src.channels, fov_y=src.fov_y))
+    cfg = GeneratorConfig(count=1, size=16, samples=4, seed=1, env_width=32,
+                          gbuffer_fraction=1.0, gbuffers=(str(stack),))
+    _generate(tmp_path / "d", cfg, ctx)
+    out = load_sample(list_samples(tmp_path / "d", "train")[0])
+    fg = out.foreground()
+    assert np.array_equal(fg, src.foreground())  # the stack's geometry ...
+    assert np.allclose(out.channels["normal"][fg], src.channels["normal"][fg], atol=1e-3)
+    # ... with new materials
+    assert not np.allclose(out.channels["albedo"][fg], src.channels["albedo"][fg])
+
+
+def test_datasets_from_before_the_gbuffer_options_still_resume(dataset, tmp_path, ctx):
+    import json
+
+    other = tmp_path / "old"
+    shutil.copytree(dataset, other)
+    info = json.loads((other / "dataset.json").read_text())
+    for k in ("gbuffer_fraction", "gbuffers"):
+        info["config"].pop(k)
+    (other / "dataset.json").write_text(json.dumps(info))
+    assert _generate(other, TINY, ctx)["kept"] == 10
+
+
+def test_compare_students_writes_the_table_and_bench_rows(dataset, tmp_path, ctx):
+    import json
+
+    from learned.train import compare_students
+    from viewer.bench.neural import student_designs
+    from viewer.renderer import Renderer
+
+    designs = {"a": {"hidden": (4,)}, "b": {"hidden": (4, 4), "features": "dfg"}}
+    kw = dict(teacher_steps=10, shadow_steps=5, student_steps=20, batch_pixels=128,
+              light_samples=4, teacher_hidden=8, teacher_freqs=1, shadow_width=4,
+              distill_samples=4, checkpoint_every=10, log_every=10)
+    res = compare_students(str(tmp_path / "c"), str(dataset), designs, quiet=True, repeats=1, **kw)
+    rows = {r["design"]: r for r in res["rows"]}
+    assert rows["a"]["macs_per_pixel"] == 8 * 4 + 4 * 6 and rows["b"]["features"] == "dfg"
+    for r in rows.values():
+        assert np.isfinite([r["psnr_vs_teacher"], r["psnr_vs_mc"], r["ms_256"],
+                            r["shade_ms_256"]]).all()
+    folder = tmp_path / "c" / "students"
+    assert json.loads((folder / "compare.json").read_text())["rows"] == res["rows"]
+    assert "| b | 4-4 | 0 | dfg |" in (folder / "compare.md").read_text()
+    r = Renderer(ctx=ctx)
+    try:
+        bench = student_designs(r, size=32, reference_samples=4, repeats=1, folder=folder)
+    finally:
+        r.release()
+    assert [b["variant"] for b in bench] == ["a", "b"]
+    assert all(b["model"] == "neural" and b["samples"] == 1 and b["size"] == "32x32"
+               and b["psnr_test_vs_mc"] == rows[b["variant"]]["psnr_vs_mc"] for b in bench)

@@ -40,6 +40,35 @@ def test_student_network_parity(programs, weights):
     assert r.passed and r.max_abs <= 1e-4, r
 
 
+@pytest.fixture(scope="module")
+def dfg_weights(tmp_path_factory):
+    d = tmp_path_factory.mktemp("dfg")
+    torch.manual_seed(2)
+    s = Student(hidden=(8, 12), num_freqs=1, features="dfg")
+    with torch.no_grad():
+        s.layers[-1].weight.mul_(3.0)
+    export(s, d / "s.safetensors")
+    return d / "s.safetensors"
+
+
+def test_dfg_student_round_trip_and_parity(programs, dfg_weights):
+    net = load_network(dfg_weights, "student")
+    assert net.features == "dfg" and "mlp 30-8-12-6" in net.glsl  # 10 inputs x (1 + 2)
+    assert "#define NEURAL_STUDENT_DFG 1" in net.glsl
+    assert load_model(dfg_weights).features == "dfg"
+    r = tn.check_network(programs, dfg_weights)
+    assert r.passed and r.max_abs <= 1e-4, r
+    r = tn.check_model(programs, "neural", {}, dfg_weights)
+    assert r.passed, r
+
+
+def test_unknown_student_features_are_rejected(tmp_path, dfg_weights):
+    arch = dict(load_network(dfg_weights).architecture, features="fancy")
+    bad = _tamper(dfg_weights, tmp_path / "f.safetensors", {"architecture": json.dumps(arch)})
+    with pytest.raises(WeightsError, match="student features 'fancy'"):
+        load_network(bad)
+
+
 def test_student_and_teacher_pass_parity(programs, weights):
     r = tn.check_model(programs, "neural", {}, weights[0])
     assert r.passed, r

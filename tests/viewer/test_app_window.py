@@ -289,3 +289,87 @@ def test_progressive_accumulation_restarts_on_change_and_idles_when_done(fresh):
     fresh.state.environment = dataclasses.replace(env, rotation_deg=env.rotation_deg + 10.0)
     fresh.run(frames=1)
     assert fresh.targets["samples"] == 4  # any change restarts the running mean
+
+
+def test_directional_light_through_the_state_adds_lambert_and_saves(fresh, ctx, tmp_path):
+    """Turning the light on through the ViewerState adds exactly albedo E cos(theta) / pi to a
+    white Lambertian sphere's linear radiance; the saved scene renders the same pixels."""
+    from viewer.app.state import light_direction
+    from viewer.imageio import read_image
+    from viewer.scene import DirectionalLight
+
+    fresh.state.object_materials = (Material(albedo=(1.0, 1.0, 1.0), roughness=0.5,
+                                             specular=0.0),)
+    fresh.run(frames=1)
+    fresh.screenshot(tmp_path / "off.exr")
+    e, l_ws = 2.5, light_direction(140.0, 30.0)  # upper right, in front of the sphere
+    fresh.state.light = DirectionalLight(direction=l_ws, intensity=e)
+    fresh.run(frames=1)
+    fresh.screenshot(tmp_path / "on.exr")
+    off, _ = read_image(tmp_path / "off.exr")
+    on, _ = read_image(tmp_path / "on.exr")
+    truth = headless(ctx, fresh.current_scene(), aovs=("normal",))
+    np.testing.assert_array_equal(truth.radiance[..., :3], on)  # the screenshot is the render
+    normal = truth.aovs["normal"]
+    normal = normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-12)
+    cos = normal @ np.asarray(l_ws)
+    inside = truth.radiance[..., 3] == 1.0
+    expected = e / np.pi * np.clip(cos, 0.0, None)
+    assert (inside & (cos > 0.5)).sum() > 200 and (inside & (cos < -0.2)).sum() > 50
+    # measured: max abs 1.8e-7 (float32 radiance of two renders)
+    np.testing.assert_allclose((on - off)[..., :3][inside], np.repeat(
+        expected[inside][:, None], 3, axis=1), atol=2e-5, rtol=1e-4)
+    assert fresh.save_scene(str(tmp_path / "lit.toml"))
+    saved = load_scene(tmp_path / "lit.toml")
+    assert saved.light == fresh.state.light
+    np.testing.assert_array_equal(headless(ctx, saved).radiance[..., :3], on)
+    fresh.state.light = None
+    fresh.run(frames=1)
+    fresh.screenshot(tmp_path / "off2.exr")
+    np.testing.assert_array_equal(read_image(tmp_path / "off2.exr")[0], off)
+
+
+def test_light_panel_switches_moves_and_keeps_the_light():
+    """The Light panel's widgets, clicked through the glfw backend: the checkbox switches the
+    light on (and off, and back to what it was), the elevation slider moves it, and frames with
+    the panel open never rewrite it (float32 widget values are written only on an edit)."""
+    from imgui_bundle import imgui
+
+    from viewer.app.window import Viewer
+
+    tall = Viewer(sphere_scene(), window_size=(320, 640), offscreen=True)
+    draw = tall.ui.draw
+
+    def tall_panel():  # the panel fits its first layout; make room for the opened header
+        draw()
+        imgui.set_window_size("relight", (310.0, 630.0))
+
+    tall.ui.draw = tall_panel
+    try:
+        tall.run(frames=2)
+        x0, y0, x1, y1 = tall.ui.rects["Light"]
+        click(tall, x0 + 10, (y0 + y1) / 2)
+        release(tall)
+        x0, y0, x1, y1 = tall.ui.rects["directional light"]
+        click(tall, x0 + 5, (y0 + y1) / 2)
+        release(tall)
+        light = tall.state.light
+        assert light is not None and tall.current_scene().light == light
+        renders = tall.renders
+        tall.run(frames=3)
+        assert tall.state.light is light and tall.renders == renders
+        x0, y0, x1, y1 = tall.ui.rects["elevation"]
+        click(tall, x0 + 2, (y0 + y1) / 2)  # the slider's left end: -90 degrees
+        release(tall)
+        assert tall.state.light.direction[1] < -0.99
+        assert tall.state.light.intensity == light.intensity
+        moved = tall.state.light
+        x0, y0, x1, y1 = tall.ui.rects["directional light"]
+        click(tall, x0 + 5, (y0 + y1) / 2)
+        release(tall)
+        assert tall.state.light is None and tall.current_scene().light is None
+        click(tall, x0 + 5, (y0 + y1) / 2)
+        release(tall)
+        assert tall.state.light == moved
+    finally:
+        tall.close()

@@ -15,19 +15,42 @@ A ``material_grid`` sweeps roughness and metallic itself; only its albedo follow
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, replace
 
 from ..camera import Camera
 from ..environment import EnvironmentSpec
 from ..gbuffer import CHANNEL_NAMES
 from ..material import Material
-from ..scene import RenderSettings, Scene
+from ..scene import DirectionalLight, RenderSettings, Scene
 
 # What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
 # reference render ("difference": |render - reference| exposed like the image; "error": relative
 # error in false colour).
 VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
 MATERIAL_FIELDS = ("albedo", "roughness", "metallic", "specular")  # what the UI edits
+
+
+def light_direction(azimuth_deg: float, elevation_deg: float) -> tuple[float, float, float]:
+    """The unit direction towards a light at ``azimuth_deg`` about +Y and ``elevation_deg`` above
+    the horizon (the XZ plane), world space. Azimuth follows the environment's longitude (README,
+    Conventions): 0 is -Z, +90 is +X, so a light can sit on a sun of an unrotated environment."""
+    az, el = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return (math.cos(el) * math.sin(az), math.sin(el), -math.cos(el) * math.cos(az))
+
+
+def light_angles(direction) -> tuple[float, float]:
+    """(azimuth, elevation) in degrees of a unit ``direction``: the inverse of
+    :func:`light_direction` (azimuth 0 straight up or down)."""
+    x, y, z = direction
+    el = math.degrees(math.asin(max(-1.0, min(1.0, y))))
+    az = math.degrees(math.atan2(x, -z)) if x * x + z * z > 1e-24 else 0.0
+    return az, el
+
+
+# what enabling the light in the viewer starts from: white, from the upper right front, E = pi
+# (a white Lambertian surface facing it has radiance 1)
+DEFAULT_LIGHT = DirectionalLight(direction=light_direction(150.0, 45.0), intensity=math.pi)
 
 
 @dataclass(frozen=True)
@@ -54,6 +77,7 @@ class ViewerState:
     render: RenderSettings
     object_materials: tuple[Material | None, ...]
     material_override: MaterialOverride = MaterialOverride()
+    light: DirectionalLight | None = None  # the directional light (None: off)
     view: str = "display"  # one of VIEWS
     error_scale: float = 0.25  # "error": relative error mapped to the top of the colour map
     reference_path: str | None = None  # a linear EXR/HDR render to compare against
@@ -71,7 +95,7 @@ class ViewerState:
 def state_from_scene(scene: Scene) -> ViewerState:
     """A fresh state showing ``scene`` exactly (``scene_from_state`` gives ``scene`` back)."""
     return ViewerState(scene=scene, camera=scene.camera, environment=scene.environment,
-                       render=scene.render,
+                       render=scene.render, light=scene.light,
                        object_materials=tuple(o.material for o in scene.objects))
 
 
@@ -89,7 +113,7 @@ def scene_from_state(state: ViewerState) -> Scene:
     objects = tuple(replace(o, material=effective_material(state, i))
                     for i, o in enumerate(state.scene.objects))
     return replace(state.scene, camera=state.camera, environment=state.environment,
-                   render=state.render, objects=objects)
+                   render=state.render, objects=objects, light=state.light)
 
 
 def load_into(state: ViewerState, scene: Scene) -> ViewerState:
@@ -112,6 +136,15 @@ def with_environment_file(state: ViewerState, path: str) -> ViewerState:
 def with_procedural_environment(state: ViewerState, name: str) -> ViewerState:
     env = replace(state.environment, path=None, procedural=name)
     return replace(state, environment=env)
+
+
+def with_light_angles(state: ViewerState, azimuth_deg: float, elevation_deg: float
+                      ) -> ViewerState:
+    """The state with its light (:data:`DEFAULT_LIGHT` when off) moved to the given angles;
+    colour and intensity are kept."""
+    light = state.light or DEFAULT_LIGHT
+    return replace(state, light=replace(light, direction=light_direction(azimuth_deg,
+                                                                         elevation_deg)))
 
 
 def reset_camera(state: ViewerState) -> ViewerState:

@@ -18,8 +18,8 @@ from ..material import Material
 from ..models import MODELS, SAMPLING_MODELS, SAMPLINGS
 from .. import scene as scene_module
 from ..scene import BACKGROUNDS, TONEMAPS
-from .state import MATERIAL_FIELDS, VIEWS, MaterialOverride, reset_camera, \
-    with_procedural_environment
+from .state import DEFAULT_LIGHT, MATERIAL_FIELDS, VIEWS, MaterialOverride, light_angles, \
+    light_direction, reset_camera, with_procedural_environment
 
 # RenderSettings fields with a fixed set of values (others get a text field)
 CHOICES = {"model": lambda: tuple(MODELS), "sampling": lambda: SAMPLINGS,
@@ -40,6 +40,7 @@ class ViewerUI:
         self.rects: dict[str, tuple[float, float, float, float]] = {}  # label -> x0, y0, x1, y1
         self._dialog = None  # a pending portable-file-dialog: (kind, dialog)
         self._size = list(viewer.state.camera.size)
+        self._light_memory = None  # the light as it was when switched off (switching on restores)
 
     # ---- helpers ---------------------------------------------------------------------------------
     def _track(self, label: str) -> None:
@@ -77,7 +78,9 @@ class ViewerUI:
         for title, panel in (("Camera", self._camera), ("Light", self._light),
                              ("Material", self._material), ("Shading", self._shading),
                              ("Inspect", self._inspect), ("Output", self._output)):
-            if imgui.collapsing_header(title):
+            is_open = imgui.collapsing_header(title)
+            self._track(title)
+            if is_open:
                 panel(viewer.state)
         imgui.end()
 
@@ -129,6 +132,49 @@ class ViewerUI:
         if (intensity, rotation) != (env.intensity, env.rotation_deg):
             state.environment = replace(env, intensity=intensity, rotation_deg=rotation)
         imgui.text_disabled("drop an .hdr/.exr on the window to use it")
+        imgui.separator()
+        self._directional_light(viewer.state)
+
+    def _directional_light(self, state) -> None:
+        """The scene's [light]: on/off, azimuth/elevation, colour, intensity. Values are written
+        only when a widget reports an edit, so float32 widget rounding never moves the light."""
+        imgui = self.imgui
+        light = state.light
+        toggled, enabled = imgui.checkbox("directional light", light is not None)
+        self._track("directional light")
+        if toggled:
+            if not enabled:
+                self._light_memory = light
+            state.light = (self._light_memory or DEFAULT_LIGHT) if enabled else None
+            light = state.light
+        if light is None:
+            return
+        handling = MODELS[state.render.model].directional_light if state.render.model in MODELS \
+            else "shaded"
+        if handling != "shaded":
+            imgui.text_disabled(f"{state.render.model} ignores the light"
+                                + (" (trained under environment light only)"
+                                   if handling == "ignored" else ""))
+        az, el = light_angles(light.direction)
+        changes = {}
+        moved_az, az = imgui.slider_float("azimuth", float(az), -180.0, 180.0, "%.1f deg")
+        self._track("azimuth")
+        moved_el, el = imgui.slider_float("elevation", float(el), -90.0, 90.0, "%.1f deg")
+        self._track("elevation")
+        if moved_az or moved_el:
+            changes["direction"] = light_direction(az, el)
+        edited, color = imgui.color_edit3("light colour", list(light.color))
+        self._track("light colour")
+        if edited:
+            changes["color"] = tuple(max(0.0, float(c)) for c in color)
+        edited, intensity = imgui.slider_float("light intensity", float(light.intensity), 0.0,
+                                               20.0, "%.3f")
+        self._track("light intensity")
+        if edited:
+            changes["intensity"] = max(0.0, float(intensity))
+        if changes:
+            state.light = replace(light, **changes)
+        imgui.text_disabled("irradiance at normal incidence; azimuth 0 = -Z, 90 = +X; no shadows")
 
     def _material_widgets(self, label: str, m: Material) -> Material:
         imgui = self.imgui

@@ -221,7 +221,8 @@ class Viewer:
         self.state = replace(cur, scene=good.scene, camera=good.camera,
                              environment=good.environment, render=good.render,
                              object_materials=good.object_materials,
-                             material_override=good.material_override, message=message)
+                             material_override=good.material_override, light=good.light,
+                             message=message)
 
     def _view_rect(self) -> tuple[int, int, int, int, float]:
         """(x, y, w, h, scale): where the render is shown in the window (letterboxed)."""

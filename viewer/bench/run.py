@@ -245,10 +245,18 @@ def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
     return neural_rows(renderer, quick=config.quick)
 
 
+def _suite_clamps(renderer, scenes, config, cache) -> list[dict]:
+    """What each shading clamp (roughness, n.v, ACES input, dfg.y) costs against an unclamped
+    reference (:mod:`viewer.bench.clamps`)."""
+    from .clamps import clamp_costs
+
+    return clamp_costs(renderer, config)
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
-                               "neural": _suite_neural}
+                               "neural": _suite_neural, "clamps": _suite_clamps}
 
 
 def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: bool = False,

@@ -13,7 +13,7 @@ from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import model_info
 from ..neural import virtual_files as neural_virtual_files
-from ..scene import RenderSettings
+from ..scene import DirectionalLight, RenderSettings
 from . import FullscreenDraw, set_uniform as _set
 
 
@@ -21,8 +21,14 @@ SAMPLING_IDS = {"uniform": 0, "cosine": 1, "env": 2, "brdf": 3, "mis": 4}
 MIS_POWERS = {"balance": 1, "power": 2}
 
 
-def shade_defines(model: str, settings: RenderSettings) -> dict[str, int]:
+def shade_defines(model: str, settings: RenderSettings,
+                  light: DirectionalLight | None = None) -> dict[str, int]:
+    """The lighting pass's defines. ``light``: the scene's ``[light]``; models that shade it get
+    ``LIGHT_DIRECTIONAL`` 1 (0 without one compiles the term out); the others never see it
+    (:attr:`viewer.models.ModelInfo.directional_light`)."""
     defines = {"BACKGROUND_ENVIRONMENT": int(settings.background == "environment")}
+    if model_info(model).directional_light == "shaded":
+        defines["LIGHT_DIRECTIONAL"] = int(light is not None)
     if model in ("ggx_split_sum", "blinn_phong", "ggx_mc", "neural"):
         defines["USE_AO"] = int(settings.ao)
         defines["USE_SSAO"] = int(settings.ssao)
@@ -43,23 +49,27 @@ class ShadePass:
         self.layout = layout
         self._draw = FullscreenDraw(self.ctx)
 
-    def _program(self, model: str, settings: RenderSettings, extra: dict | None = None):
+    def _program(self, model: str, settings: RenderSettings, extra: dict | None = None,
+                 light: DirectionalLight | None = None):
         info = model_info(model)
         return self.programs.graphics("passes/fullscreen.vert", info.pass_file,
-                                      defines={**shade_defines(model, settings), **(extra or {})},
+                                      defines={**shade_defines(model, settings, light),
+                                               **(extra or {})},
                                       virtual={**self.layout.virtual_files(),
                                                **neural_virtual_files(model, settings)})
 
     def run(self, gbuffer_textures: dict, out_fbo, camera: Camera, ibl, environment,
             settings: RenderSettings, env_sampling=None, ssao=None,
-            sample_range: tuple[int, int] = (0, 1), defines: dict | None = None) -> None:
+            sample_range: tuple[int, int] = (0, 1), defines: dict | None = None,
+            light: DirectionalLight | None = None) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
         ``ssao``: the occlusion texture when ``settings.ssao``; ``sample_range``: (first index,
         count) of the Monte-Carlo samples this call averages (sampling models only);
-        ``defines``: the scene's specialisation (:mod:`viewer.specialize`), e.g. SPECULAR_LOBE."""
-        prog = self._program(settings.model, settings, defines)
+        ``defines``: the scene's specialisation (:mod:`viewer.specialize`), e.g. SPECULAR_LOBE;
+        ``light``: the scene's directional light (``None``: none)."""
+        prog = self._program(settings.model, settings, defines, light)
         unit = 0
         for index, tex in gbuffer_textures.items():
             name = f"u_gbuffer{index}"
@@ -83,6 +93,9 @@ class ShadePass:
         _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
         _set(prog, "u_env_intensity", float(environment.intensity))
         _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
+        if light is not None:  # world space: the environment's rotation does not turn it
+            _set(prog, "u_light_direction", tuple(float(x) for x in light.direction))
+            _set(prog, "u_light_irradiance", tuple(float(x) for x in light.irradiance))
         out_fbo.use()
         self._draw(prog)
 

@@ -55,6 +55,36 @@ def metrics(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> dict:
     return out
 
 
+CHROMA_EPS = 1e-3  # radiance sums below this have no meaningful hue (chromaticity -> 0)
+
+
+def chromaticity(rgb: np.ndarray) -> np.ndarray:
+    """``rgb [..., 3]`` linear -> ``rgb / max(r + g + b, CHROMA_EPS)``: hue and saturation
+    without intensity (sums to 1; near-black pixels go to 0 instead of amplifying noise)."""
+    rgb = np.clip(rgb, 0.0, None)
+    return rgb / np.maximum(rgb.sum(-1, keepdims=True), CHROMA_EPS)
+
+
+def chroma_error(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> float:
+    """Colour fidelity: mean over foreground pixels of the half-L1 distance between the linear
+    chromaticities, 0.5 sum_c |chromaticity(pred)_c - chromaticity(ref)_c| in [0, 1] (0: same
+    hue and saturation at any intensity), in percent: 1 % is e.g. chromaticity (0.343, 0.333,
+    0.323) against a grey reference, red 3 % above and blue 3 % below the channel mean.
+    pred, ref ``[H, W, 3]``."""
+    d = 0.5 * np.abs(chromaticity(pred) - chromaticity(ref)).sum(-1)
+    return 100.0 * float(d[fg].mean())
+
+
+def achromatic_error(rgb: np.ndarray, fg: np.ndarray) -> float:
+    """How far from grey: max over foreground pixels of (max(r, g, b) - min(r, g, b)) / Y
+    (Rec. 709 luminance, floored at CHROMA_EPS), in percent; covers |R - G|, |G - B| and |B - R|.
+    rgb ``[H, W, 3]`` linear."""
+    rgb = np.clip(rgb, 0.0, None)
+    y = np.maximum(rgb @ np.array([0.2126, 0.7152, 0.0722]), CHROMA_EPS)
+    spread = (rgb.max(-1) - rgb.min(-1)) / y
+    return 100.0 * float(spread[fg].max())
+
+
 def sample_scene(sample, **render):
     from viewer.scene import scene_from_dict
 

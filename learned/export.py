@@ -37,12 +37,15 @@ def metadata(model, training: dict | None = None) -> dict[str, str]:
     tensors = network_tensors(model)
     cfg = model.config
     features = cfg.get("features", "base")
-    arch = {"networks": expected_networks(model.kind, cfg["num_freqs"], cfg["hidden"], features),
+    output = cfg.get("output", "free6")
+    arch = {"networks": expected_networks(model.kind, cfg["num_freqs"], cfg["hidden"], features,
+                                          output),
             "hidden": cfg["hidden"], "num_freqs": cfg["num_freqs"],
             "inputs": list(STUDENT_FEATURES[features] if model.kind == "student"
                            else TEACHER_INPUTS)}
     if model.kind == "student":
         arch["features"] = features
+        arch["output"] = output
     return {"format": FORMAT, "version": FORMAT_VERSION, "kind": model.kind,
             "architecture": json.dumps(arch),
             "encoding": json.dumps({"type": "fourier", "num_freqs": cfg["num_freqs"],
@@ -76,7 +79,7 @@ def load_model(path: str | os.PathLike, kind: str | None = None):
     cfg = net.architecture
     if net.kind == "student":
         model = Student(hidden=tuple(cfg["hidden"]), num_freqs=cfg["num_freqs"],
-                        features=net.features)
+                        features=net.features, output=net.output)
     else:
         model = Teacher(hidden=cfg["hidden"], num_freqs=cfg["num_freqs"])
     with torch.no_grad():

@@ -10,8 +10,11 @@ format          ``relight-neural-shader``
 version         ``1`` (:data:`FORMAT_VERSION`)
 kind            ``student`` (model ``neural``) or ``teacher`` (model ``neural_teacher``)
 architecture    JSON: ``{"networks": {name: {"sizes": [...], "activations": [...]}}, "num_freqs": L,
-                "inputs": [...], "features": "base" | "dfg"}`` (students; no ``features`` =
-                ``base``: the 8 inputs of :data:`STUDENT_INPUTS`, ``dfg`` adds the split-sum LUT)
+                "inputs": [...], "features": "base" | "dfg", "output": "free6" | "pbr3"}``
+                (students; no ``features`` = ``base``: the 8 inputs of :data:`STUDENT_INPUTS`,
+                ``dfg`` adds the split-sum LUT; no ``output`` = ``free6``: six per-channel
+                factors, ``pbr3`` three achromatic ones of the split-sum form,
+                :data:`STUDENT_OUTPUTS`)
 encoding        JSON: ``{"type": "fourier", "num_freqs": L, "frequencies": "pi * 2^k"}``
 checkpoint      sha256 (hex) of the tensors (:func:`checkpoint_hash`); verified on load
 training        JSON summary of the training data and run (free form)
@@ -42,6 +45,10 @@ STUDENT_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "
                   "NoV")
 # student input sets (architecture "features"; twin: learned.neural.student.FEATURE_INPUTS)
 STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "dfg.b")}
+# student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
+# outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag
+# combines the factors with the lighting by lib/neural.glsl's neural_student_radiance[_pbr].
+STUDENT_OUTPUTS = {"free6": 6, "pbr3": 3}
 TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
                   "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
 # kind -> network name -> (input size given L, output size, activations of hidden/last layers)
@@ -79,6 +86,11 @@ class Network:
         """Student input set (``base`` | ``dfg``, :data:`STUDENT_FEATURES`)."""
         return str(self.architecture.get("features", "base"))
 
+    @property
+    def output(self) -> str:
+        """Student output form (``free6`` | ``pbr3``, :data:`STUDENT_OUTPUTS`)."""
+        return str(self.architecture.get("output", "free6"))
+
     def layers(self, network: str) -> list[tuple[np.ndarray, np.ndarray, str]]:
         spec = self.architecture["networks"][network]
         return [(self.tensors[f"{network}.{i}.weight"], self.tensors[f"{network}.{i}.bias"], act)
@@ -103,13 +115,14 @@ def checkpoint_hash(tensors: dict) -> str:
     return h.hexdigest()
 
 
-def expected_networks(kind: str, num_freqs: int, hidden, features: str = "base"
-                      ) -> dict[str, dict]:
+def expected_networks(kind: str, num_freqs: int, hidden, features: str = "base",
+                      output: str = "free6") -> dict[str, dict]:
     """The architecture every file of ``kind`` must have (sizes from its hidden widths and, for a
-    student, its input ``features``)."""
+    student, its input ``features`` and ``output`` form)."""
     enc = lambda d: d * (1 + 2 * num_freqs)  # noqa: E731
     if kind == "student":
-        sizes = [enc(len(STUDENT_FEATURES[features])), *[int(h) for h in hidden], 6]
+        sizes = [enc(len(STUDENT_FEATURES[features])), *[int(h) for h in hidden],
+                 STUDENT_OUTPUTS[output]]
         return {"mlp": {"sizes": sizes,
                         "activations": ["relu"] * (len(sizes) - 2) + ["sigmoid"]}}
     if kind == "teacher":
@@ -176,7 +189,11 @@ def _load(path: Path) -> Network:
         if kind == "student" and "inputs" in arch and \
                 tuple(arch["inputs"]) != STUDENT_FEATURES[features]:
             raise ValueError(f"inputs {arch['inputs']} are not the {features!r} student inputs")
-        want = expected_networks(kind, num_freqs, hidden, features)
+        output = arch.get("output", "free6") if kind == "student" else "free6"
+        if output not in STUDENT_OUTPUTS:
+            raise ValueError(f"student output form {output!r} (known: "
+                             f"{', '.join(STUDENT_OUTPUTS)})")
+        want = expected_networks(kind, num_freqs, hidden, features, output)
     except (KeyError, ValueError, TypeError) as exc:
         raise WeightsError(f"bad architecture metadata ({type(exc).__name__}: {exc})",
                            where=path) from None
@@ -305,31 +322,28 @@ def generate_glsl(net: Network) -> str:
     lines = _header(net)
     if net.kind == "student":
         dfg = net.features == "dfg"
+        pbr = net.output == "pbr3"
         lines += [f"#define NEURAL_STUDENT_DFG {int(dfg)}  // 1: the network reads the DFG LUT",
+                  f"#define NEURAL_STUDENT_PBR {int(pbr)}  // output form: 0 free6, 1 pbr3",
                   "",
-                  "// k [0, 1]^6: reflectance factors of (SH irradiance, prefiltered radiance);",
+                  "// k [0, 1]^6 (free6: k_0 = k_diffuse rgb, k_1 = k_specular rgb) or [0, 1]^3",
+                  "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0): the factors that",
+                  "// neural_student_radiance[_pbr] (lib/neural.glsl) combine with the lighting;",
                   "// dfg: split-sum LUT at (NoV, roughness), read only when NEURAL_STUDENT_DFG.",
                   "// twin: learned.neural.student.Student.weights",
                   "void neural_student_weights(vec3 albedo, float roughness, float metallic,",
                   "                            float specular, float ao, float NoV, vec2 dfg,",
-                  "                            out vec3 k_diffuse, out vec3 k_specular) {"]
+                  "                            out vec3 k_0, out vec3 k_1) {"]
         raw = ["albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao", "NoV"]
         raw += ["dfg.x", "dfg.y"] if dfg else []
         enc_lines, enc = _encode(raw, net.num_freqs)
         pack_lines, x = _pack("x", enc)
         mlp_lines, y = _mlp(net, "mlp", x)
         lines += enc_lines + pack_lines + mlp_lines
-        lines += [f"    k_diffuse = vec3({y[0]}.xyz);",
-                  f"    k_specular = vec3({y[0]}.w, {y[1]}.xy);", "}", "",
-                  "// Radiance: 2 k_d albedo E / pi + 2 k_s P (learned/neural/student.py).",
-                  "vec3 neural_student(vec3 albedo, float roughness, float metallic, float specular,",
-                  "                    float ao, float NoV, vec2 dfg, vec3 irradiance,",
-                  "                    vec3 prefiltered) {",
-                  "    vec3 kd;", "    vec3 ks;",
-                  "    neural_student_weights(albedo, roughness, metallic, specular, ao, NoV, dfg,",
-                  "                           kd, ks);",
-                  "    return 2.0 * kd * albedo * irradiance * INV_PI + 2.0 * ks * prefiltered;",
-                  "}"]
+        if pbr:
+            lines += [f"    k_0 = {y[0]}.xyz;", "    k_1 = vec3(0.0);", "}"]
+        else:
+            lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({y[0]}.w, {y[1]}.xy);", "}"]
     else:
         lines += ["",
                   "// rho * L_in of one light sample (learned.neural.teacher.Teacher.contribution)",
@@ -360,7 +374,8 @@ def generate_glsl(net: Network) -> str:
 # Compute kernel evaluating the generated ``neural_student_weights`` on a batch (parity checks and
 # the throughput bench). Planar layout: input k of item i at ``inv[k * u_count + i]`` (k < 10,
 # the ``dfg`` input order; base students ignore k = 8, 9), output k at ``outv[k * u_count + i]``
-# (k < 6): neighbouring invocations read neighbouring floats. Interleaved items (``inv[10 i + k]``)
+# (k < 6; a pbr3 student writes 3, then zeros): neighbouring invocations read neighbouring
+# floats. Interleaved items (``inv[10 i + k]``)
 # with 64 invocations per group took 4.4 ms for 65,536 items of the 8-32-32-6 student on llvmpipe
 # with the previous ``mat4`` code, this layout with 256 per group and the column form 3.0 ms.
 STUDENT_KERNEL_GROUP = 256
@@ -375,17 +390,17 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     uint n = u_count;
     if (i >= n) return;
-    vec3 kd;
-    vec3 ks;
+    vec3 k0;
+    vec3 k1;
     neural_student_weights(vec3(inv[i], inv[n + i], inv[2u * n + i]), inv[3u * n + i],
                            inv[4u * n + i], inv[5u * n + i], inv[6u * n + i], inv[7u * n + i],
-                           vec2(inv[8u * n + i], inv[9u * n + i]), kd, ks);
-    outv[i] = kd.x;
-    outv[n + i] = kd.y;
-    outv[2u * n + i] = kd.z;
-    outv[3u * n + i] = ks.x;
-    outv[4u * n + i] = ks.y;
-    outv[5u * n + i] = ks.z;
+                           vec2(inv[8u * n + i], inv[9u * n + i]), k0, k1);
+    outv[i] = k0.x;
+    outv[n + i] = k0.y;
+    outv[2u * n + i] = k0.z;
+    outv[3u * n + i] = k1.x;
+    outv[4u * n + i] = k1.y;
+    outv[5u * n + i] = k1.z;
 }
 """
 

@@ -4,29 +4,42 @@ Design (chosen by measurement among :data:`DESIGNS`, see README "Neural shader" 
 :func:`learned.train.compare_students`): the teacher integrates N light samples per pixel; the
 student instead reads the two pre-integrated lighting terms every classical model already has -
 SH irradiance E(n) and the GGX-prefiltered radiance P(r, roughness) - and an MLP of the per-pixel
-material and n.v predicts how much of each the surface reflects::
+material and n.v predicts how much of each the surface reflects. Two output forms
+(:data:`OUTPUTS`; the weights file records which, ``lib/neural.glsl`` holds both)::
 
-    k = sigmoid(MLP(enc(albedo, roughness, metallic, specular, ao, n.v [, dfg.a, dfg.b])))   # [6]
-    L_o = 2 k_d * albedo * E / pi + 2 k_s * P                                  # linear in light
+    x = enc(albedo, roughness, metallic, specular, ao, n.v [, dfg.a, dfg.b])
+    free6: k = sigmoid(MLP(x)) [6]    L_o = S k_d * albedo * E / pi + S k_s * P      (per channel)
+    pbr3:  k = sigmoid(MLP(x)) [3]    L_o = S k_d diffuse * E / pi + S (k_a f0 + k_b f90) P
 
-so the output is exactly linear in the environment (any intensity, any HDR range) and costs one
-evaluation per pixel. The scale 2 leaves room for the indirect light the teacher learned. With
-``features="dfg"`` the two split-sum terms of the DFG LUT at (n.v, roughness) (Karis 2013) are
-inputs too: the specular factor of the classical model, f0 A + B, is then one linear map away.
+with S = :data:`OUTPUT_SCALE` = 2 (room for the indirect light the teacher learned), diffuse =
+``diffuse_color(albedo, metallic)``, f0 = ``compute_f0(albedo, metallic, specular)`` and f90 =
+``f90_from_f0(f0)``. Both are exactly linear in the environment (any intensity, any HDR range)
+and cost one evaluation per pixel. ``free6`` predicts six free per-channel factors, so nothing
+ties the colour of the result to the material: an imperfectly trained network tints a grey floor
+purple or green. ``pbr3`` is the split-sum form (Karis 2013; Filament: f0 (dfg.y - dfg.x) + f90
+dfg.x) with learned achromatic scale and bias: the colour comes from the material and the
+lighting alone, and the network learns shadowing, AO, indirect light and Fresnel corrections.
+With ``features="dfg"`` the two split-sum terms of the DFG LUT at (n.v, roughness) are inputs
+too: the classical specular factor is then one linear map away.
 """
 from __future__ import annotations
 
-import math
-
 import torch
 from torch import nn
+
+from learned.twins.brdf import compute_f0, f90_from_f0
+from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_student_radiance,
+                                  neural_student_radiance_pbr)
+from learned.twins.shading import diffuse_color
 
 from .encoding import encoded_size, fourier_encode
 
 # input sets (feature name -> inputs); the generated GLSL and viewer/neural.py share these
 INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao", "NoV")
 FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b")}
-OUTPUT_SCALE = 2.0
+OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
+# output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
+OUTPUTS = {"free6": 6, "pbr3": 3}
 
 # Candidate designs of the measured comparison (learned.train.compare_students):
 # name -> Student keyword arguments
@@ -38,23 +51,31 @@ DESIGNS: dict[str, dict] = {
     "w32x2-pe2": {"hidden": (32, 32), "num_freqs": 2},
     "w16x2-dfg": {"hidden": (16, 16), "features": "dfg"},
     "w32x2-dfg": {"hidden": (32, 32), "features": "dfg"},
+    "w16-pbr": {"hidden": (16,), "output": "pbr3"},
+    "w16x2-pbr": {"hidden": (16, 16), "output": "pbr3"},
+    "w16x2-dfg-pbr": {"hidden": (16, 16), "features": "dfg", "output": "pbr3"},
+    "w32x2-dfg-pbr": {"hidden": (32, 32), "features": "dfg", "output": "pbr3"},
 }
-SHIPPED_DESIGN = "w16x2-dfg"  # assets/weights/neural_student.safetensors (README "Neural shader")
+SHIPPED_DESIGN = "w16x2-pbr"  # assets/weights/neural_student.safetensors (README "Neural shader")
 
 
 class Student(nn.Module):
     kind = "student"
 
     def __init__(self, hidden: tuple[int, ...] = (32, 32), num_freqs: int = 0,
-                 features: str = "base"):
+                 features: str = "base", output: str = "free6"):
         super().__init__()
         if features not in FEATURE_INPUTS:
             raise ValueError(f"unknown student features {features!r} "
                              f"(known: {', '.join(FEATURE_INPUTS)})")
+        if output not in OUTPUTS:
+            raise ValueError(f"unknown student output form {output!r} "
+                             f"(known: {', '.join(OUTPUTS)})")
         self.hidden = tuple(int(h) for h in hidden)
         self.num_freqs = int(num_freqs)
         self.features = features
-        sizes = [encoded_size(len(self.inputs), self.num_freqs), *self.hidden, 6]
+        self.output = output
+        sizes = [encoded_size(len(self.inputs), self.num_freqs), *self.hidden, OUTPUTS[output]]
         self.layers = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
 
     @property
@@ -64,14 +85,15 @@ class Student(nn.Module):
     @property
     def config(self) -> dict:
         return {"hidden": list(self.hidden), "num_freqs": self.num_freqs,
-                "features": self.features}
+                "features": self.features, "output": self.output}
 
     def activations(self) -> list[str]:
         return ["relu"] * len(self.hidden) + ["sigmoid"]
 
     def weights(self, x: torch.Tensor) -> torch.Tensor:
-        """``x [N, len(inputs)]`` (``inputs`` order; wider x is cut) -> the reflectance factors
-        ``k [N, 6]`` in [0, 1]."""
+        """``x [N, len(inputs)]`` (``inputs`` order; wider x is cut) -> the factors ``k [N, 6]``
+        (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
+        [0, 1]."""
         h = fourier_encode(x[:, :len(self.inputs)], self.num_freqs)
         for layer in self.layers[:-1]:
             h = torch.relu(layer(h))
@@ -79,9 +101,16 @@ class Student(nn.Module):
 
     def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor
                 ) -> torch.Tensor:
-        """Radiance ``[N, 3]`` from :func:`learned.neural.lighting.student_features`."""
-        k = self.weights(x) * OUTPUT_SCALE
-        return k[:, :3] * x[:, :3] * irradiance * (1.0 / math.pi) + k[:, 3:] * prefiltered
+        """Radiance ``[N, 3]`` from :func:`learned.neural.lighting.student_features` (``x`` holds
+        albedo, roughness, metallic, specular first: the material of the ``pbr3`` form)."""
+        k = self.weights(x)
+        albedo = x[:, :3]
+        if self.output == "free6":
+            return neural_student_radiance(k[:, :3], k[:, 3:], albedo, irradiance, prefiltered)
+        metallic, specular = x[:, 4], x[:, 5]
+        f0 = compute_f0(albedo, metallic, specular)
+        return neural_student_radiance_pbr(k, diffuse_color(albedo, metallic), f0,
+                                           f90_from_f0(f0), irradiance, prefiltered)
 
     def networks(self) -> dict[str, list[tuple[torch.Tensor, torch.Tensor, str]]]:
         """name -> [(weight [out, in], bias [out], activation)] as exported."""

@@ -3,6 +3,10 @@
 // call these). Pure functions, no uniforms. Twins: learned/twins/neural.py.
 #include "lib/common.glsl"
 
+// Scale of the student's sigmoid outputs (learned.neural.student.OUTPUT_SCALE): factors in [0, 2]
+// leave room for the indirect light the teacher learned.
+#define NEURAL_OUTPUT_SCALE 2.0
+
 // Mildenhall et al. 2020 (NeRF), eq. 4: one Fourier pair (sin(freq x), cos(freq x)) of the
 // positional encoding; freq = pi 2^k.
 vec2 fourier_feature(float x, float freq) {
@@ -37,4 +41,25 @@ vec3 neural_half_vector(vec3 v, vec3 l) {
     vec3 h = v + l;
     float len2 = dot(h, h);
     return len2 > 1e-12 ? h * inversesqrt(len2) : v;
+}
+
+// Student radiance, output form "free6" (learned/neural/student.py): six free per-channel factors
+// k in [0, 1] of the SH irradiance E and the GGX-prefiltered radiance P,
+// L_o = S k_diffuse albedo E / pi + S k_specular P (S = NEURAL_OUTPUT_SCALE). Nothing ties the
+// colour to the material: an imperfect network can tint a grey surface.
+vec3 neural_student_radiance(vec3 k_diffuse, vec3 k_specular, vec3 albedo, vec3 irradiance,
+                             vec3 prefiltered) {
+    return NEURAL_OUTPUT_SCALE * k_diffuse * albedo * irradiance * INV_PI
+         + NEURAL_OUTPUT_SCALE * k_specular * prefiltered;
+}
+
+// Student radiance, output form "pbr3": the split-sum form (Karis 2013; Filament eq. 69
+// f0 (dfg.y - dfg.x) + f90 dfg.x) with the three scalars k = (k_d, k_a, k_b) in [0, 1] learned,
+// L_o = S k_d diffuse E / pi + S (k_a f0 + k_b f90) P. The colour comes from the material
+// (diffuse = diffuse_color, f0 = compute_f0, f90 = f90_from_f0) and the lighting only, so a grey
+// material under a grey environment is grey whatever the network learned.
+vec3 neural_student_radiance_pbr(vec3 k, vec3 diffuse, vec3 f0, float f90, vec3 irradiance,
+                                 vec3 prefiltered) {
+    vec3 s = NEURAL_OUTPUT_SCALE * k;
+    return s.x * diffuse * irradiance * INV_PI + (s.y * f0 + vec3(s.z * f90)) * prefiltered;
 }

@@ -2,7 +2,9 @@
 // per pixel on the material, n.v and the pre-integrated lighting (SH irradiance, GGX-prefiltered
 // radiance, and the split-sum DFG LUT for students with NEURAL_STUDENT_DFG) every classical model
 // reads. The network is generated code baked from an exported weights file (viewer/neural.py ->
-// "generated/neural_student.glsl", which defines NEURAL_STUDENT_DFG).
+// "generated/neural_student.glsl", which defines NEURAL_STUDENT_DFG and NEURAL_STUDENT_PBR, the
+// output form: 1 = pbr3, three achromatic factors of the split-sum form, colour from the material;
+// 0 = free6, six per-channel factors; lib/neural.glsl).
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -40,7 +42,15 @@ void main() {
     vec2 dfg = vec2(0.0);
 #endif
     float ao = ambient_occlusion(pixel, g);
-    vec3 c = neural_student(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg,
-                            irradiance, prefiltered);
+    vec3 k_0;
+    vec3 k_1;
+    neural_student_weights(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg, k_0, k_1);
+#if NEURAL_STUDENT_PBR
+    vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
+    vec3 c = neural_student_radiance_pbr(k_0, diffuse_color(g.albedo, g.metallic), f0,
+                                         f90_from_f0(f0), irradiance, prefiltered);
+#else
+    vec3 c = neural_student_radiance(k_0, k_1, g.albedo, irradiance, prefiltered);
+#endif
     write_radiance(c, background, g.alpha);
 }

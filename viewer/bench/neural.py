@@ -43,6 +43,25 @@ BENCH_SCENE = {
 }
 
 
+# Colour-fidelity probe: grey materials only (albedo 0.5; a rough dielectric sphere, a metal
+# sphere and a floor). Under the achromatic "white" environment every physically based model
+# renders it grey (learned.evaluate.achromatic_error ~ 0); under "studio" (warm key, cool fill)
+# it is as tinted as the lights. compare_students and tests/learned/test_neural.py render it.
+GREY_SCENE = {
+    "camera": {"position": [0.0, 0.6, 3.4], "target": [0, -0.1, 0], "fov_y": 45, "size": [64, 64]},
+    "environment": {"procedural": "studio", "intensity": 1.0, "width": 256},
+    "objects": [
+        {"type": "sphere", "center": [-0.6, 0, 0], "radius": 0.5,
+         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.4}},
+        {"type": "sphere", "center": [0.6, 0, 0], "radius": 0.5,
+         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.3, "metallic": 1.0}},
+        {"type": "plane", "center": [0, -0.5, 0], "size": [8, 8],
+         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.8}},
+    ],
+    "render": {"tonemap": "none", "background": "transparent"},
+}
+
+
 def students_dir() -> Path:
     """Where the candidate student designs and their comparison table are shipped."""
     from assets import ASSET_ROOT

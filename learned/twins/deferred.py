@@ -22,6 +22,17 @@ from .shading import blinn_phong, blinn_phong_directional_light, diffuse_color, 
 PASS_LEVEL = ()
 
 
+def env_from_ibl(ibl) -> dict:
+    """The GPU environment resources of :class:`viewer.ibl.IBL`, read back as the ``env`` dict
+    :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH)."""
+    return {"radiance": [torch.from_numpy(ibl.read_level("radiance", 0))],
+            "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
+                            for k in range(ibl.levels)],
+            "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
+            "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)),
+            "levels": float(ibl.levels)}
+
+
 def view_ray_ws(frag_coord: torch.Tensor, camera_to_world: torch.Tensor,
                 tan_half_fov: torch.Tensor, resolution: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 view_ray_ws(vec2 frag_coord)`` of ``passes/deferred.glsl``.
@@ -231,15 +242,7 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None)
         gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
         w, h = targets["radiance"].size
         glsl = np.frombuffer(targets["radiance"].read(), dtype=np.float32).reshape(h, w, 4)
-        ibl = renderer.ibl(scene)
-        env = {
-            "radiance": [torch.from_numpy(ibl.read_level("radiance", k)) for k in range(1)],
-            "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
-                            for k in range(ibl.levels)],
-            "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
-            "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)),
-            "levels": float(ibl.levels),
-        }
+        env = env_from_ibl(renderer.ibl(scene))
         if model == "ggx_mc":
             env.update({k: torch.from_numpy(v)
                         for k, v in renderer.env_sampling(scene).read().items()})

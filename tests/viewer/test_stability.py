@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import torch
 
-from learned.twins.deferred import MODEL_ATOL, MODEL_RTOL, shade
+from learned.twins.deferred import env_from_ibl, MODEL_ATOL, MODEL_RTOL, shade
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 from viewer.imageio import write_exr
 from viewer.passes.shade import shade_defines
@@ -112,11 +112,7 @@ def test_extremes_are_finite_bounded_and_match_the_twin(renderer, tmp_path, env_
     # the torch twin on the same G-buffer (read back from GL) and the same IBL resources
     ibl = renderer.ibl(scene)
     gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
-    env = {"radiance": [torch.from_numpy(ibl.read_level("radiance", 0))],
-           "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
-                           for k in range(ibl.levels)],
-           "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
-           "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)), "levels": float(ibl.levels)}
+    env = env_from_ibl(ibl)
     with torch.no_grad():
         ref = shade(model, gb, targets["camera"], env, 1.0, 0.0,
                     shade_defines(model, scene.render)).numpy()

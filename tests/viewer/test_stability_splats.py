@@ -181,7 +181,7 @@ def _scene(tmp_path, model, splats_obj, **render):
 
 @pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum", "ggx_mc"])
 def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
-    from learned.twins.deferred import MODEL_ATOL, MODEL_RTOL, shade
+    from learned.twins.deferred import env_from_ibl, MODEL_ATOL, MODEL_RTOL, shade
     from viewer.passes.shade import shade_defines
     from viewer.scene import ObjectSpec
 
@@ -204,11 +204,7 @@ def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
     targets = renderer.draw(scene, aovs=aovs)
     ibl = renderer.ibl(scene)
     gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
-    env = {"radiance": [torch.from_numpy(ibl.read_level("radiance", 0))],
-           "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
-                           for k in range(ibl.levels)],
-           "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
-           "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)), "levels": float(ibl.levels)}
+    env = env_from_ibl(ibl)
     with torch.no_grad():
         ref = shade(model, gb, targets["camera"], env, 1.0, 0.0,
                     shade_defines(model, scene.render)).numpy()[::-1]

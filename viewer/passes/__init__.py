@@ -13,6 +13,19 @@ def set_uniform(prog, name: str, value) -> None:
         prog[name].value = value
 
 
+def bind_gbuffer(prog, textures: dict, first_unit: int = 0) -> int:
+    """Bind G-buffer attachment textures to the ``u_gbuffer<i>`` samplers ``prog`` uses (the
+    generated ``gbuffer_load``); returns the next free texture unit."""
+    unit = first_unit
+    for index, tex in textures.items():
+        name = f"u_gbuffer{index}"
+        if name in prog:
+            tex.use(unit)
+            prog[name].value = unit
+            unit += 1
+    return unit
+
+
 class FullscreenDraw:
     """Draws the single fullscreen triangle of ``passes/fullscreen.vert`` with any program,
     keeping one empty vertex array per program (no per-frame allocation)."""

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from ..errors import SceneError
 from ..gbuffer import CHANNELS, GBufferLayout
-from . import FullscreenDraw
+from . import FullscreenDraw, bind_gbuffer
 
 VIEW_MODES = {"display": 0, "difference": 2, "error": 3}  # any channel name is mode 1
 _COLOUR_CHANNELS = ("albedo", "color")
@@ -85,13 +85,7 @@ class DebugViewPass:
             if "u_error_scale" in prog:
                 prog["u_error_scale"].value = max(float(error_scale), 1e-6)
         else:
-            unit = 0
-            for index, tex in gb.textures.items():
-                name = f"u_gbuffer{index}"
-                if name in prog:
-                    tex.use(unit)
-                    prog[name].value = unit
-                    unit += 1
+            bind_gbuffer(prog, gb.textures)
             if "u_depth_scale" in prog:
                 prog["u_depth_scale"].value = float(depth_scale)
         self._draw(prog)

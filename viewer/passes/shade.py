@@ -14,7 +14,7 @@ from ..gbuffer import GBufferLayout
 from ..models import model_info
 from ..neural import virtual_files as neural_virtual_files
 from ..scene import DirectionalLight, RenderSettings
-from . import FullscreenDraw, set_uniform as _set
+from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
 
 
 SAMPLING_IDS = {"uniform": 0, "cosine": 1, "env": 2, "brdf": 3, "mis": 4}
@@ -70,13 +70,7 @@ class ShadePass:
         ``defines``: the scene's specialisation (:mod:`viewer.specialize`), e.g. SPECULAR_LOBE;
         ``light``: the scene's directional light (``None``: none)."""
         prog = self._program(settings.model, settings, defines, light)
-        unit = 0
-        for index, tex in gbuffer_textures.items():
-            name = f"u_gbuffer{index}"
-            if name in prog:
-                tex.use(unit)
-                prog[name].value = unit
-                unit += 1
+        unit = bind_gbuffer(prog, gbuffer_textures)
         unit = ibl.bind(prog, unit)
         if env_sampling is not None:
             unit = env_sampling.bind(prog, unit)

@@ -13,7 +13,7 @@ import numpy as np
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..scene import RenderSettings
-from . import FullscreenDraw, set_uniform as _set
+from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
 
 
 class SSAOPass:
@@ -29,13 +29,7 @@ class SSAOPass:
                                       defines={"SSAO_INDIRECT": int(indirect),
                                                "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
-        unit = 0
-        for index, tex in gbuffer_textures.items():
-            name = f"u_gbuffer{index}"
-            if name in prog:
-                tex.use(unit)
-                prog[name].value = unit
-                unit += 1
+        unit = bind_gbuffer(prog, gbuffer_textures)
         if direct is not None and "u_direct" in prog:
             direct.use(unit)
             prog["u_direct"].value = unit

@@ -140,6 +140,46 @@ def format_table(rows: list[dict]) -> str:
 
 
 @torch.no_grad()
+def _run_times(fn, repeats: int) -> list[float]:
+    """Seconds of each of ``repeats`` calls of ``fn`` after one warm-up call."""
+    with torch.no_grad():
+        fn()
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+    return times
+
+
+def torch_mlp_times(layers, x: np.ndarray, repeats: int = 7) -> list[float]:
+    """Seconds of each of ``repeats`` evaluations (after a warm-up) in torch (CPU, float32) of the
+    bare MLP ``layers`` ``[(weight [out, in], bias [out], "relu" | "sigmoid" | "softplus")]`` on
+    ``x [n, in]``: the torch reference of ``viewer.bench.neural.weight_storage_rows``."""
+    acts = {"relu": torch.relu, "sigmoid": torch.sigmoid,
+            "softplus": torch.nn.functional.softplus}
+    params = [(torch.from_numpy(w), torch.from_numpy(b), acts[a]) for w, b, a in layers]
+    xt = torch.from_numpy(np.ascontiguousarray(x, np.float32))
+
+    def run():
+        h = xt
+        for w, b, act in params:
+            h = act(torch.nn.functional.linear(h, w, b))
+        return h
+
+    return _run_times(run, repeats)
+
+
+def torch_student_times(weights, x: np.ndarray, repeats: int = 7) -> list[float]:
+    """Seconds of each of ``repeats`` ``Student.weights`` evaluations (after a warm-up) of the
+    exported student ``weights`` on ``x [n, 10]`` (torch, CPU, float32)."""
+    from .export import load_model
+
+    model = load_model(weights, "student")
+    xt = torch.from_numpy(np.ascontiguousarray(x, np.float32))
+    return _run_times(lambda: model.weights(xt), repeats)
+
+
 def torch_student_throughput(weights, pixels: int = 65536, repeats: int = 5) -> dict:
     """Pixels per second of the exported student's MLP in torch (CPU, float32) on ``pixels``
     random inputs: the reference the GLSL student throughput is compared with."""

@@ -23,16 +23,34 @@ training        JSON summary of the training data and run (free form)
 :func:`load_network` reads it with ``safetensors.numpy`` (no torch), checks all of the above and
 generates the GLSL evaluation (:attr:`Network.glsl`): a virtual include file
 ``generated/neural_<kind>.glsl`` whose header names the source file, the checkpoint hash and the
-layer sizes. Weights are baked into the code as constants (fully unrolled FMA chains, see
-:func:`_dense`): on llvmpipe a 32-64-64-1 probe ran ~15 GFLOP/s that way against ~3 with a uniform
-block and ~1.2 with texelFetch. Never edit generated GLSL by hand; re-export the weights.
+layer sizes. Never edit generated GLSL by hand; re-export the weights.
+
+Where the generated code reads its weights is the *storage* (:data:`WEIGHT_STORAGES`,
+``[render] neural_storage``; :meth:`Network.code` gives the code of each):
+
+=========== ========================================================================================
+storage     weights live in
+=========== ========================================================================================
+const       the code: literal constants in fully unrolled FMA chains (:func:`_dense`); the default
+ubo         a buffer of vec4 weight vectors: a std140 uniform block when it fits the 16 KiB every
+            GL 4.3 driver allows (:data:`UBO_MIN_MAX_BYTES`), otherwise a read-only std430
+            shader-storage block (:attr:`NetworkCode.binding` says which)
+texture     an RGBA32F texture read with ``texelFetch``, one texel per vec4
+=========== ========================================================================================
+
+The buffered storages use the same unrolled chains with the literal vectors replaced by reads at
+constant indices; their code depends on the architecture only (zero weights are read too), so a
+new file of the same shape only uploads new data. :class:`NeuralWeights` uploads and binds the data.
+Measured (``viewer.bench.neural.weight_storage_rows``, README "Neural shader"): ``const`` is the
+fastest on llvmpipe, which is why it is the default.
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from dataclasses import replace as _replace
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +72,12 @@ TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roug
 # kind -> network name -> (input size given L, output size, activations of hidden/last layers)
 _ACTIVATIONS = {"relu": "relu4", "sigmoid": "sigmoid4", "softplus": "softplus4"}
 MODEL_KINDS = {"neural": "student", "neural_teacher": "teacher"}
+WEIGHT_STORAGES = ("const", "ubo", "texture")  # where generated code reads weights (module doc)
+UBO_MIN_MAX_BYTES = 16384  # GL 4.3's minimum GL_MAX_UNIFORM_BLOCK_SIZE: larger blocks become SSBOs
+WEIGHT_TEXTURE_WIDTH = 256  # texels per row of the "texture" storage (vec4 i at (i % W, i / W))
+# buffer binding points of the weight blocks (uniform and storage blocks alike; the splat and
+# kernel buffers use 0-5)
+WEIGHT_BINDINGS = {"student": 6, "teacher": 7, "mlp": 6}
 
 
 class WeightsError(InputError):
@@ -71,11 +95,24 @@ class Network:
     architecture: dict
     training: dict
     tensors: dict  # name -> np.ndarray float32
-    glsl: str  # the text of the virtual file ``include_name``
+    _code: dict = field(default_factory=dict, repr=False, compare=False)  # storage -> NetworkCode
 
     @property
     def include_name(self) -> str:
         return f"generated/neural_{self.kind}.glsl"
+
+    @property
+    def glsl(self) -> str:
+        """The text of the virtual file ``include_name`` with weights baked as constants."""
+        return self.code("const").glsl
+
+    def code(self, storage: str = "const") -> NetworkCode:
+        """The generated GLSL and weight data for ``storage`` (:data:`WEIGHT_STORAGES`; cached)."""
+        if storage not in WEIGHT_STORAGES:
+            raise ValueError(f"weight storage {storage!r} (known: {', '.join(WEIGHT_STORAGES)})")
+        if storage not in self._code:
+            self._code[storage] = generate_glsl(self, storage)
+        return self._code[storage]
 
     @property
     def num_freqs(self) -> int:
@@ -224,8 +261,8 @@ def _load(path: Path) -> Network:
         raise WeightsError(f"checkpoint hash mismatch (metadata {str(meta.get('checkpoint'))[:12]}, "
                            f"tensors {digest[:12]}): the file was modified or damaged", where=path)
     net = Network(path=str(path), kind=kind, checkpoint=digest, architecture=arch,
-                  training=training, tensors=tensors, glsl="")
-    object.__setattr__(net, "glsl", generate_glsl(net))
+                  training=training, tensors=tensors)
+    net.code("const")  # generation errors belong to loading
     return net
 
 
@@ -237,35 +274,113 @@ def _f(x: float) -> str:
     return s if any(c in s for c in ".en") else s + ".0"
 
 
-def _dense(prefix: str, weight: np.ndarray, bias: np.ndarray, act: str, inputs: list[str]
-           ) -> tuple[list[str], list[str]]:
+@dataclass(frozen=True)
+class NetworkCode:
+    """Generated GLSL of one weight storage and the data it reads.
+
+    ``binding``: ``"const"`` (no data), ``"ubo"`` (std140 uniform block), ``"ssbo"`` (read-only
+    std430 storage block; ``ubo`` storage above :data:`UBO_MIN_MAX_BYTES`) or ``"texture"``;
+    ``data`` ``[N, 4]`` float32 vec4 weight vectors (``None`` for ``const``); ``symbol`` the
+    block / uniform name; ``point`` the buffer binding point (:data:`WEIGHT_BINDINGS`)."""
+
+    glsl: str
+    storage: str
+    binding: str
+    data: np.ndarray | None  # [N, 4] float32
+    symbol: str = ""
+    point: int = 0
+
+    def describe(self) -> str:
+        if self.data is None:
+            return "baked constants"
+        size = f"{len(self.data)} vec4, {self.data.nbytes} bytes"
+        return {"ubo": f"std140 uniform block ({size})",
+                "ssbo": f"std430 storage buffer ({size} > {UBO_MIN_MAX_BYTES // 1024} KiB UBO)",
+                "texture": f"RGBA32F texture + texelFetch ({size})"}[self.binding]
+
+
+class _Source:
+    """Where :func:`_dense` reads a weight vector: a literal (``const``) or the next vec4 of the
+    weight data at a constant index (``ubo``, ``texture``; collected in :attr:`rows`)."""
+
+    def __init__(self, storage: str, kind: str):
+        self.storage = storage
+        self.macro = f"NEURAL_{kind.upper()}_W"
+        self.rows: list[np.ndarray] = []
+
+    def vec(self, values: np.ndarray) -> str:
+        """GLSL ``float``/``vecK`` expression of ``values`` ``[K]``, K <= 4."""
+        k = len(values)
+        if self.storage == "const":
+            return f"{'float' if k == 1 else f'vec{k}'}({', '.join(_f(v) for v in values)})"
+        row = np.zeros(4, np.float32)
+        row[:k] = values
+        self.rows.append(row)
+        read = f"{self.macro}({len(self.rows) - 1})"
+        return read if k == 4 else f"{read}.{'xyzw'[:k]}"
+
+    def skip(self, column: np.ndarray) -> bool:
+        """Baked code skips all-zero columns; buffered code reads them (its code is shared by
+        every file of the same architecture).
+
+        Buffered reads stay unrolled: loops over blocks and input vec4s (tried) are unrolled again
+        by Mesa's compiler and ran 1.3x slower. Either way llvmpipe compiles storage-block reads
+        slowly: the first dispatch of the 32-64-64-1 probe (1,633 reads, an SSBO) took 136 s with
+        a cold shader cache (uniform block at 433 reads: 2 s; texture at 1,633: 1 s)."""
+        return self.storage == "const" and not column.any()
+
+    def finish(self, kind: str) -> tuple[list[str], NetworkCode]:
+        """Declarations to put before the code, and the storage's :class:`NetworkCode` (its
+        ``glsl`` left empty for the caller)."""
+        if self.storage == "const":
+            return [], NetworkCode("", "const", "const", None)
+        data = np.stack(self.rows) if self.rows else np.zeros((1, 4), np.float32)
+        n, point = len(data), WEIGHT_BINDINGS[kind]
+        name = f"neural_{kind}_w"
+        if self.storage == "texture":
+            sym = f"u_{name}"
+            lines = [f"uniform sampler2D {sym};  // RGBA32F, {WEIGHT_TEXTURE_WIDTH} texels a row",
+                     f"#define {self.macro}(i) texelFetch({sym}, ivec2((i) % "
+                     f"{WEIGHT_TEXTURE_WIDTH}, (i) / {WEIGHT_TEXTURE_WIDTH}), 0)"]
+            return lines, NetworkCode("", "texture", "texture", data, sym, 0)
+        block = "".join(w.capitalize() for w in name.split("_"))
+        if data.nbytes <= UBO_MIN_MAX_BYTES:
+            lines = [f"layout(std140, binding = {point}) uniform {block} {{ vec4 {name}[{n}]; }};"]
+            binding = "ubo"
+        else:  # over the minimum every driver allows: a storage block of the same vec4 array
+            lines = [f"layout(std430, binding = {point}) readonly buffer {block} "
+                     f"{{ vec4 {name}[{n}]; }};"]
+            binding = "ssbo"
+        lines.append(f"#define {self.macro}(i) {name}[i]")
+        return lines, NetworkCode("", "ubo", binding, data, block, point)
+
+
+def _dense(prefix: str, weight: np.ndarray, bias: np.ndarray, act: str, inputs: list[str],
+           source: _Source) -> tuple[list[str], list[str]]:
     """One fully connected layer over ``inputs`` (vec4 variable names, zero-padded); returns the
-    code lines and the names of the vec4 outputs (the last one padded with act(0)).
+    code lines and the names of the vec4 outputs (the last one padded with act(0)). ``source``
+    writes each weight vector (bias, then one column per input component) as a literal or a read.
 
     Column form: every output block is a chain ``y += vec4(W[:, j]) * x_j`` over the input
-    components whose weight column is non-zero (zero padding costs nothing), and a last block of
-    fewer than 4 outputs is accumulated as a vec2/vec3. Measured on llvmpipe (8-32-32-6,
-    262,144 inputs): 65 GFLOP/s against 62 for ``act(b + mat4(...) * x_0 + ...)`` blocks, 61 for
-    per-output dot products and 61 for ``x * mat4``: the unrolled constants make every form a
-    chain of broadcast-constant FMAs, so the form matters little; the zero columns and rows skipped
-    are what is saved.
+    components (the zero padding of ``inputs`` costs nothing; with baked constants, neither do
+    zero columns), and a last block of fewer than 4 outputs is accumulated as a vec2/vec3.
+    Measured on llvmpipe (8-32-32-6, 262,144 inputs): 65 GFLOP/s against 62 for
+    ``act(b + mat4(...) * x_0 + ...)`` blocks, 61 for per-output dot products and 61 for
+    ``x * mat4``: the unrolled constants make every form a chain of broadcast-constant FMAs, so the
+    form matters little; the zero columns and rows skipped are what is saved.
     """
     out_n, in_n = weight.shape
-    w = np.zeros((out_n, 4 * len(inputs)), np.float32)
-    w[:, :in_n] = weight
     lines, outs = [], []
     for o in range(0, out_n, 4):
         k = min(4, out_n - o)
         vec = "float" if k == 1 else f"vec{k}"
         var = f"{prefix}_{o // 4}"
         acc = var if k == 4 else f"{var}_acc"
-        lines.append(f"    {vec} {acc} = {vec}({', '.join(_f(v) for v in bias[o:o + k])});")
-        for j, name in enumerate(inputs):
-            for c in range(4):
-                col = w[o:o + k, 4 * j + c]
-                if col.any():
-                    lines.append(f"    {acc} += {vec}({', '.join(_f(v) for v in col)}) * "
-                                 f"{name}.{'xyzw'[c]};")
+        lines.append(f"    {vec} {acc} = {source.vec(bias[o:o + k])};")
+        for j in range(in_n):
+            col = weight[o:o + k, j]
+            if not source.skip(col):
+                lines.append(f"    {acc} += {source.vec(col)} * {inputs[j // 4]}.{'xyzw'[j % 4]};")
         if k == 4:
             lines.append(f"    {var} = {_ACTIVATIONS[act]}({var});")
         else:
@@ -297,15 +412,16 @@ def _encode(raw: list[str], num_freqs: int) -> tuple[list[str], list[str]]:
     return lines, out
 
 
-def _mlp(net: Network, name: str, inputs: list[str]) -> tuple[list[str], list[str]]:
+def _mlp(layers, prefix: str, inputs: list[str], source: _Source) -> tuple[list[str], list[str]]:
+    """The layers ``[(weight [out, in], bias [out], activation)]`` over vec4 ``inputs``."""
     lines = []
-    for i, (w, b, act) in enumerate(net.layers(name)):
-        more, inputs = _dense(f"{name[0]}{i}", w, b, act, inputs)
+    for i, (w, b, act) in enumerate(layers):
+        more, inputs = _dense(f"{prefix}{i}", w, b, act, inputs, source)
         lines += more
     return lines, inputs
 
 
-def _header(net: Network) -> list[str]:
+def _header(net: Network, code: NetworkCode) -> list[str]:
     nets = "; ".join(f"{n} {'-'.join(str(s) for s in spec['sizes'])} "
                      f"({', '.join(spec['activations'])})"
                      for n, spec in net.architecture["networks"].items())
@@ -314,12 +430,14 @@ def _header(net: Network) -> list[str]:
             f"// checkpoint sha256:{net.checkpoint}",
             f"// kind {net.kind}; layers: {nets}; Fourier frequencies: {net.num_freqs}",
             f"// parameters {net.parameter_count()}, multiply-adds per evaluation {net.macs()}",
+            f"// weight storage {code.storage}: {code.describe()}",
             '#include "lib/neural.glsl"']
 
 
-def generate_glsl(net: Network) -> str:
-    """The GLSL evaluation of ``net`` (see the module docstring)."""
-    lines = _header(net)
+def generate_glsl(net: Network, storage: str = "const") -> NetworkCode:
+    """The GLSL evaluation of ``net`` reading its weights from ``storage`` (module docstring)."""
+    source = _Source(storage, net.kind)
+    lines = []
     if net.kind == "student":
         dfg = net.features == "dfg"
         pbr = net.output == "pbr3"
@@ -338,7 +456,7 @@ def generate_glsl(net: Network) -> str:
         raw += ["dfg.x", "dfg.y"] if dfg else []
         enc_lines, enc = _encode(raw, net.num_freqs)
         pack_lines, x = _pack("x", enc)
-        mlp_lines, y = _mlp(net, "mlp", x)
+        mlp_lines, y = _mlp(net.layers("mlp"), "m", x, source)
         lines += enc_lines + pack_lines + mlp_lines
         if pbr:
             lines += [f"    k_0 = {y[0]}.xyz;", "    k_1 = vec3(0.0);", "}"]
@@ -357,7 +475,7 @@ def generate_glsl(net: Network) -> str:
                "specular", "l.x", "l.y", "l.z", "NoL", "log_lin.r", "log_lin.g", "log_lin.b"]
         enc_lines, enc = _encode(raw, net.num_freqs)
         pack_lines, x = _pack("x", enc)
-        d_lines, feat = _mlp(net, "diffuse", x)
+        d_lines, feat = _mlp(net.layers("diffuse"), "d", x, source)
         lines += enc_lines + pack_lines + d_lines
         lines += ["    vec3 h = neural_half_vector(v, l);",
                   "    vec4 vh_0 = vec4(v, h.x);", "    vec4 vh_1 = vec4(h.yz, 0.0, 0.0);"]
@@ -366,9 +484,11 @@ def generate_glsl(net: Network) -> str:
         if hidden % 4:
             raise WeightsError(f"teacher hidden width {hidden} must be a multiple of 4",
                                where=net.path)
-        s_lines, rgb = _mlp(net, "specular", feat + ["vh_0", "vh_1"])
+        s_lines, rgb = _mlp(net.layers("specular"), "s", feat + ["vh_0", "vh_1"], source)
         lines += s_lines + [f"    return {rgb[0]}.rgb * lin;", "}"]
-    return "\n".join(lines) + "\n"
+    declarations, code = source.finish(net.kind)
+    text = _header(net, code) + declarations + lines
+    return _replace(code, glsl="\n".join(text) + "\n")
 
 
 # Compute kernel evaluating the generated ``neural_student_weights`` on a batch (parity checks and
@@ -405,6 +525,67 @@ void main() {
 """
 
 
+def mlp_kernel(layers, storage: str = "const") -> NetworkCode:
+    """A compute kernel evaluating a bare MLP ``[(weight [out, in], bias [out], activation)]``
+    (no encoding) with weights from ``storage``: the weight-storage probe of
+    ``viewer.bench.neural.weight_storage_rows``. Layout and bindings as :data:`STUDENT_KERNEL`
+    (inputs ``inv[k * u_count + i]``, outputs ``outv[k * u_count + i]``, buffers 0 and 1)."""
+    source = _Source(storage, "mlp")
+    in_n, out_n = layers[0][0].shape[1], layers[-1][0].shape[0]
+    raw = [f"inv[{k}u * n + i]" for k in range(in_n)]
+    pack_lines, x = _pack("x", raw)
+    mlp_lines, y = _mlp(layers, "m", x, source)
+    declarations, code = source.finish("mlp")
+    sizes = "-".join(str(w.shape[1]) for w, _, _ in layers) + f"-{out_n}"
+    text = [f"// MLP {sizes} kernel - GENERATED by viewer/neural.py (weight storage {storage}: "
+            f"{code.describe()})", '#include "lib/neural.glsl"', *declarations,
+            f"layout(local_size_x = {STUDENT_KERNEL_GROUP}) in;", "uniform uint u_count;",
+            "layout(std430, binding = 0) readonly buffer In { float inv[]; };",
+            "layout(std430, binding = 1) writeonly buffer Out { float outv[]; };",
+            "void main() {", "    uint i = gl_GlobalInvocationID.x;", "    uint n = u_count;",
+            "    if (i >= n) return;", *pack_lines, *mlp_lines,
+            *[f"    outv[{k}u * n + i] = {y[k // 4]}.{'xyzw'[k % 4]};" for k in range(out_n)], "}"]
+    return _replace(code, glsl="\n".join(text) + "\n")
+
+
+class NeuralWeights:
+    """The GL side of one :class:`NetworkCode`: uploads its weight data once (a buffer for
+    ``ubo``/``ssbo``, an RGBA32F texture for ``texture``, nothing for ``const``);
+    :meth:`bind` before every draw or dispatch of a program built from ``code.glsl``."""
+
+    def __init__(self, ctx, code: NetworkCode):
+        self.code = code
+        self._buffer = self._texture = None
+        if code.binding in ("ubo", "ssbo"):
+            self._buffer = ctx.buffer(np.ascontiguousarray(code.data, "<f4").tobytes())
+        elif code.binding == "texture":
+            w = WEIGHT_TEXTURE_WIDTH
+            rows = -(-len(code.data) // w)
+            texels = np.zeros((rows * w, 4), np.float32)
+            texels[:len(code.data)] = code.data
+            self._texture = ctx.texture((w, rows), 4, texels.tobytes(), dtype="f4")
+            self._texture.filter = (ctx.NEAREST, ctx.NEAREST)
+            self._texture.repeat_x = self._texture.repeat_y = False
+
+    def bind(self, prog, unit: int) -> int:
+        """Bind the data for ``prog``; returns the next free texture unit."""
+        if self.code.binding == "ubo":
+            self._buffer.bind_to_uniform_block(self.code.point)
+        elif self.code.binding == "ssbo":
+            self._buffer.bind_to_storage_buffer(self.code.point)
+        elif self.code.binding == "texture" and self.code.symbol in prog:
+            self._texture.use(unit)
+            prog[self.code.symbol].value = unit
+            return unit + 1
+        return unit
+
+    def release(self) -> None:
+        for r in (self._buffer, self._texture):
+            if r is not None:
+                r.release()
+        self._buffer = self._texture = None
+
+
 def default_weights(kind: str) -> Path:
     """The weights shipped in ``assets/weights`` for ``kind``."""
     from assets import ASSET_ROOT
@@ -412,12 +593,22 @@ def default_weights(kind: str) -> Path:
     return ASSET_ROOT / "weights" / f"neural_{kind}.safetensors"
 
 
-def virtual_files(model: str, settings) -> dict[str, str]:
-    """Generated include files a lighting pass of ``model`` needs (empty for classical models)."""
+def model_network(model: str, settings) -> tuple[Network, NetworkCode] | None:
+    """The network of a lighting pass of ``model`` under the render ``settings`` (its weights file
+    and ``neural_storage``) and its generated code; ``None`` for classical models."""
     kind = MODEL_KINDS.get(model)
     if kind is None:
-        return {}
+        return None
     attr = "weights" if kind == "student" else "teacher_weights"
     path = getattr(settings, attr, None) or default_weights(kind)
     net = load_network(path, kind)
-    return {net.include_name: net.glsl}
+    return net, net.code(getattr(settings, "neural_storage", "const"))
+
+
+def virtual_files(model: str, settings) -> dict[str, str]:
+    """Generated include files a lighting pass of ``model`` needs (empty for classical models)."""
+    found = model_network(model, settings)
+    if found is None:
+        return {}
+    net, code = found
+    return {net.include_name: code.glsl}

@@ -86,6 +86,9 @@ class RenderSettings:
     ssao_thickness: float = 0.2  # world units: delta of eq. 6.20 (assumed surface thickness)
     weights: str | None = None  # `neural` student weights (.safetensors); None = assets/weights
     teacher_weights: str | None = None  # `neural_teacher` weights; None = assets/weights
+    # where the neural models' generated GLSL reads its weights: "const" (baked) | "ubo" (a
+    # uniform block, or a storage buffer above 16 KiB) | "texture" (viewer.neural.WEIGHT_STORAGES)
+    neural_storage: str = "const"
 
 
 @dataclass(frozen=True)
@@ -383,6 +386,11 @@ def parse_render(t: dict, file: str) -> RenderSettings:
     for k in ("ssao_radius", "ssao_thickness"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
+    if "neural_storage" in t:
+        from .neural import WEIGHT_STORAGES
+
+        kw["neural_storage"] = _str(t["neural_storage"], "render.neural_storage", file,
+                                    WEIGHT_STORAGES)
     for k in ("weights", "teacher_weights"):  # relative to the scene file
         if k in t:
             base = Path(file).resolve().parent if Path(file).is_file() else Path.cwd()

@@ -7,8 +7,11 @@ the generated network code and the two lighting passes, all on the shipped weigh
 * ``neural:network``   the generated ``neural_student_weights`` in a compute kernel vs
   ``Student.weights`` on 4096 random inputs (outputs in [0, 1]; the issue's float32 bound is
   1e-4 abs; measured on llvmpipe 1.0e-7, shipped 8-16-16-3 "pbr3" student; 1.2e-7 the 10-16-16-6
-  "dfg" free6 student shipped before).
-* ``model:neural``     render, read the G-buffer back, shade in torch, compare radiance.
+  "dfg" free6 student shipped before). Registered for every weight storage
+  (``viewer.neural.WEIGHT_STORAGES``: ``neural:network``, ``neural:network:ubo``,
+  ``neural:network:texture``; the same 1.0e-7 for each).
+* ``model:neural``     render, read the G-buffer back, shade in torch, compare radiance (also
+  with ``neural_storage`` ``ubo`` and ``texture``).
 * ``model:neural_teacher``  the same for the teacher pass with 8 samples of ``env`` and ``uniform``
   sampling (the torch twin draws the same scrambled Sobol' samples, lib/mc.glsl).
 """
@@ -128,21 +131,24 @@ MODEL_RTOL = 5e-4
 TEACHER_ATOL = 1e-3
 TEACHER_RTOL = 2e-3
 
-def eval_student_weights(programs, net, x: np.ndarray) -> np.ndarray:
-    """GL ``neural_student_weights`` of the generated code of ``net`` at ``x [n, 10]`` (every
-    student input, :func:`student_inputs`) -> ``[n, 6]`` (``k_0``, ``k_1``; a ``pbr3`` student's
-    ``k_1`` is 0)."""
-    from viewer.neural import STUDENT_KERNEL, STUDENT_KERNEL_GROUP
+def eval_student_weights(programs, net, x: np.ndarray, storage: str = "const") -> np.ndarray:
+    """GL ``neural_student_weights`` of the generated code of ``net`` for weight ``storage``
+    (``viewer.neural.WEIGHT_STORAGES``) at ``x [n, 10]`` (every student input,
+    :func:`student_inputs`) -> ``[n, 6]`` (``k_0``, ``k_1``; a ``pbr3`` student's ``k_1`` is 0)."""
+    from viewer.neural import STUDENT_KERNEL, STUDENT_KERNEL_GROUP, NeuralWeights
 
+    code = net.code(storage)
     name = f"<kernel:neural_student:{net.checkpoint[:12]}>"
     ctx = programs.ctx
-    prog = programs.compute(name, virtual={name: STUDENT_KERNEL, net.include_name: net.glsl})
+    prog = programs.compute(name, virtual={name: STUDENT_KERNEL, net.include_name: code.glsl})
     count = x.shape[0]
     src = ctx.buffer(np.ascontiguousarray(x.T, dtype=np.float32).tobytes())  # planar [10][n]
     dst = ctx.buffer(reserve=max(4, 4 * 6 * count))
+    weights = NeuralWeights(ctx, code)
     try:
         src.bind_to_storage_buffer(0)
         dst.bind_to_storage_buffer(1)
+        weights.bind(prog, 0)
         prog["u_count"].value = count
         prog.run((count + STUDENT_KERNEL_GROUP - 1) // STUDENT_KERNEL_GROUP)
         ctx.memory_barrier()
@@ -150,6 +156,7 @@ def eval_student_weights(programs, net, x: np.ndarray) -> np.ndarray:
     finally:
         src.release()
         dst.release()
+        weights.release()
 
 
 def student_inputs(n: int, seed: int = 0) -> np.ndarray:
@@ -162,7 +169,9 @@ def student_inputs(n: int, seed: int = 0) -> np.ndarray:
     return np.concatenate([x, corners]).astype(np.float32)
 
 
-def check_network(programs, weights=None):
+def check_network(programs, weights=None, storage: str = "const"):
+    """The generated student network with weights read from ``storage`` vs ``Student.weights``
+    (named ``neural:network`` for the default ``const``, ``neural:network:<storage>`` else)."""
     from learned.export import load_model
     from learned.parity import compare
     from viewer.neural import default_weights, load_network
@@ -171,13 +180,14 @@ def check_network(programs, weights=None):
     net = load_network(path, "student")
     model = load_model(path, "student")
     x = student_inputs(4096)
-    glsl = eval_student_weights(programs, net, x)
+    glsl = eval_student_weights(programs, net, x, storage)
     with torch.no_grad():
         ref = model.weights(torch.from_numpy(x)).numpy()
     # a pbr3 student writes 3 factors, then zeros (viewer.neural.STUDENT_KERNEL)
     ref = np.concatenate([ref, np.zeros((ref.shape[0], 6 - ref.shape[1]), np.float32)], 1)
-    return compare("neural:network", glsl, ref, NETWORK_ATOL, 0.0, kind="pass",
-                   measured="max abs 1.0e-7 (shipped pbr3), 1.2e-7 (free6)")
+    name = "neural:network" + ("" if storage == "const" else f":{storage}")
+    return compare(name, glsl, ref, NETWORK_ATOL, 0.0, kind="pass",
+                   measured="max abs 1.0e-7 (shipped pbr3, every storage), 1.2e-7 (free6)")
 
 
 def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dict,
@@ -260,15 +270,19 @@ def check_model(programs, model: str, variant: dict, weights=None):
 def _register_checks() -> None:
     from learned.parity import register_pass_check
 
-    register_pass_check("neural:network", model="neural")(lambda programs: [check_network(programs)])
+    from viewer.neural import WEIGHT_STORAGES
+
+    register_pass_check("neural:network", model="neural")(
+        lambda programs: [check_network(programs, storage=s) for s in WEIGHT_STORAGES])
     register_pass_check("model:neural", model="neural")(
         lambda programs: [check_model(programs, "neural", v)
-                          for v in ({}, {"ao": False, "background": "transparent"})])
+                          for v in ({}, {"ao": False, "background": "transparent"},
+                                    {"neural_storage": "ubo"}, {"neural_storage": "texture"})])
     register_pass_check("model:neural_teacher", model="neural_teacher")(
         lambda programs: [check_model(programs, "neural_teacher", v)
                           for v in ({"samples": 8, "sampling": "env"},
                                     {"samples": 8, "sampling": "uniform",
-                                     "background": "transparent"})])
+                                     "background": "transparent", "neural_storage": "ubo"})])
 
 
 _register_checks()

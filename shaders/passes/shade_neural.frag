@@ -1,10 +1,11 @@
 // shade_neural.frag - the distilled neural shader (learned/neural/student.py): one MLP evaluation
 // per pixel on the material, n.v and the pre-integrated lighting (SH irradiance, GGX-prefiltered
 // radiance, and the split-sum DFG LUT for students with NEURAL_STUDENT_DFG) every classical model
-// reads. The network is generated code baked from an exported weights file (viewer/neural.py ->
-// "generated/neural_student.glsl", which defines NEURAL_STUDENT_DFG and NEURAL_STUDENT_PBR, the
-// output form: 1 = pbr3, three achromatic factors of the split-sum form, colour from the material;
-// 0 = free6, six per-channel factors; lib/neural.glsl).
+// reads. The network is generated code from an exported weights file (viewer/neural.py ->
+// "generated/neural_student.glsl": weights baked as constants, or read from the uniform/storage
+// block or texture it declares, per [render] neural_storage; it defines NEURAL_STUDENT_DFG and
+// NEURAL_STUDENT_PBR, the output form: 1 = pbr3, three achromatic factors of the split-sum form,
+// colour from the material; 0 = free6, six per-channel factors; lib/neural.glsl).
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"

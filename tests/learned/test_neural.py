@@ -9,7 +9,7 @@ from learned.export import export, load_model
 from learned.neural.student import Student
 from learned.neural.teacher import Teacher
 from learned.twins import neural as tn
-from viewer.neural import WeightsError, load_network
+from viewer.neural import WEIGHT_STORAGES, WeightsError, load_network
 
 
 @pytest.fixture(scope="module")
@@ -38,6 +38,46 @@ def test_round_trip_and_generated_header(weights):
 def test_student_network_parity(programs, weights):
     r = tn.check_network(programs, weights[0])
     assert r.passed and r.max_abs <= 1e-4, r
+
+
+@pytest.mark.parametrize("storage", WEIGHT_STORAGES)
+def test_every_weight_storage_matches_torch(programs, weights, storage):
+    """Baked constants, uniform block and texture give the torch student's outputs (kernel and
+    lighting pass) and the teacher's (pass); measured max abs 1.0e-7 for every storage."""
+    s_path, t_path = weights
+    code = load_network(s_path).code(storage)
+    assert code.binding == storage and f"// weight storage {storage}" in code.glsl
+    assert (code.data is None) == (storage == "const")
+    r = tn.check_network(programs, s_path, storage)
+    assert r.passed and r.max_abs <= 1e-4, r
+    r = tn.check_model(programs, "neural", {"neural_storage": storage}, s_path)
+    assert r.passed, r
+    r = tn.check_model(programs, "neural_teacher",
+                       {"samples": 4, "sampling": "uniform", "neural_storage": storage}, t_path)
+    assert r.passed, r
+
+
+def test_weights_over_16_kib_go_to_a_storage_block(programs, weights, monkeypatch):
+    """``ubo`` storage above the 16 KiB minimum uniform-block size is a read-only SSBO (a small
+    limit stands in for a big network: a real one compiles for minutes on llvmpipe)."""
+    import viewer.neural as vn
+
+    net = load_network(weights[0], "student")
+    assert net.code("ubo").binding == "ubo"
+    monkeypatch.setattr(vn, "UBO_MIN_MAX_BYTES", 256)
+    code = vn.generate_glsl(net, "ubo")
+    assert code.binding == "ssbo" and "readonly buffer" in code.glsl
+    monkeypatch.setitem(net._code, "ubo", code)
+    r = tn.check_network(programs, weights[0], "ubo")
+    assert r.passed and r.max_abs <= 1e-4, r
+
+
+def test_unknown_weight_storage_is_a_scene_error():
+    from viewer.errors import SceneError
+    from viewer.scene import scene_from_dict
+
+    with pytest.raises(SceneError, match="render.neural_storage = 'ssbo' is not one of"):
+        scene_from_dict({"render": {"model": "neural", "neural_storage": "ssbo"}})
 
 
 @pytest.fixture(scope="module")

@@ -12,6 +12,10 @@
   real ``neural`` pass at 256x256: the MLP-size knob of the bench.
 * :func:`student_throughput`: the student MLP alone, GLSL (compute kernel over ``pixels`` inputs,
   generated code) against torch on the same weights and inputs (goal: GLSL >= torch).
+* :func:`weight_storage_rows`: each weight storage of the generated GLSL (baked constants, uniform
+  / storage block, texture; ``viewer.neural.WEIGHT_STORAGES``) on the shipped student and on the
+  issue's probe, a random 32-64-64-1 MLP, with torch on the same MLP and inputs: what chose the
+  default storage.
 
 Rows: ``{"model", "variant", "samples", "size", "ms", "psnr"}`` (+ extras, ``shade_ms`` the
 lighting pass alone). Torch is imported only for the torch throughput row (``learned`` extra);
@@ -232,6 +236,140 @@ def student_throughput(programs, weights=None, pixels: int = 65536, repeats: int
     return rows
 
 
+PROBE_SIZES = (32, 64, 64, 1)  # the issue's weight-storage probe: a 32-64-64-1 MLP
+
+
+def probe_layers(sizes=PROBE_SIZES, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray, str]]:
+    """A random MLP ``[(weight [out, in], bias [out], activation)]`` (ReLU hidden layers, sigmoid
+    output; torch's default U(+-1/sqrt(in)) initialisation)."""
+    rng = np.random.default_rng(seed)
+    layers = []
+    for i, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:])):
+        bound = 1.0 / np.sqrt(n_in)
+        layers.append((rng.uniform(-bound, bound, (n_out, n_in)).astype(np.float32),
+                       rng.uniform(-bound, bound, n_out).astype(np.float32),
+                       "sigmoid" if i == len(sizes) - 2 else "relu"))
+    return layers
+
+
+def _kernel_times(programs, source: str, virtual: dict, code, x: np.ndarray, outputs: int,
+                  repeats: int) -> tuple[list[float], np.ndarray]:
+    """Seconds of the warm-up dispatch (first: includes llvmpipe's JIT compilation unless
+    Mesa's shader cache has the program) and of each of ``repeats`` more (fenced with
+    ``finish``) of the compute ``source`` over the planar inputs ``x [n, in]`` with ``code``'s
+    weight data bound, and the outputs ``[n, outputs]`` of the last one."""
+    from ..neural import STUDENT_KERNEL_GROUP, NeuralWeights
+
+    ctx = programs.ctx
+    prog = programs.compute(source, virtual=virtual)
+    n = x.shape[0]
+    src = ctx.buffer(np.ascontiguousarray(x.T, dtype=np.float32).tobytes())
+    dst = ctx.buffer(reserve=4 * outputs * n)
+    weights = NeuralWeights(ctx, code)
+    times = []
+    try:
+        src.bind_to_storage_buffer(0)
+        dst.bind_to_storage_buffer(1)
+        weights.bind(prog, 0)
+        prog["u_count"].value = n
+        for i in range(repeats + 1):
+            ctx.finish()
+            t0 = time.perf_counter()
+            prog.run((n + STUDENT_KERNEL_GROUP - 1) // STUDENT_KERNEL_GROUP)
+            ctx.finish()
+            times.append(time.perf_counter() - t0)
+        out = np.frombuffer(dst.read(), np.float32).reshape(outputs, n).T.copy()
+    finally:
+        src.release()
+        dst.release()
+        weights.release()
+    return times, out
+
+
+def weight_storage_rows(programs, pixels: int = 65536, repeats: int = 7, rounds: int = 3,
+                        weights=None, probe: bool = True) -> list[dict]:
+    """Each weight storage (``viewer.neural.WEIGHT_STORAGES``) of the generated GLSL, timed on
+    (a) the student ``weights`` (default: shipped) in ``STUDENT_KERNEL`` and (b) the probe MLP
+    :data:`PROBE_SIZES` (:func:`probe_layers`) in ``viewer.neural.mlp_kernel``, over the same
+    ``pixels`` random inputs; torch on the same networks and inputs for reference (left out
+    without torch). Median ms of ``rounds`` x ``repeats`` runs, each after a warm-up, the rounds
+    interleaving the storages so that all see the same quiet and busy moments of a shared
+    machine; GFLOP/s = 2 MACs pixels / median time. ``first_ms``: the first dispatch, with
+    llvmpipe's JIT compilation unless Mesa's shader cache has the program (a cold cache costs
+    minutes for the probe's storage block). ``max_abs_vs_const``: the outputs'
+    largest difference from the baked-constants kernel (a sanity check; the tests check parity)."""
+    from ..neural import (STUDENT_KERNEL, WEIGHT_STORAGES, default_weights, load_network,
+                          mlp_kernel)
+
+    include_probe = probe
+
+    try:
+        from learned.evaluate import torch_mlp_times, torch_student_times
+    except ImportError:
+        torch_mlp_times = torch_student_times = None
+    path = weights or default_weights("student")
+    net = load_network(path, "student")
+    rng = np.random.default_rng(0)
+    x_student = rng.uniform(0, 1, (pixels, 10)).astype(np.float32)
+    layers = probe_layers()
+    x_probe = rng.uniform(-1, 1, (pixels, PROBE_SIZES[0])).astype(np.float32)
+    sizes = "-".join(str(s) for s in net.architecture["networks"]["mlp"]["sizes"])
+    probe_macs = int(sum(w.size for w, _, _ in layers))
+
+    def student(storage):
+        code = net.code(storage)
+        name = f"<bench:neural_student:{net.checkpoint[:12]}>"
+        return lambda: _kernel_times(programs, name, {name: STUDENT_KERNEL,
+                                                      net.include_name: code.glsl},
+                                     code, x_student, 6, repeats), code
+
+    def probe(storage):
+        code = mlp_kernel(layers, storage)
+        name = f"<bench:mlp_probe:{storage}>"
+        return lambda: _kernel_times(programs, name, {name: code.glsl}, code, x_probe,
+                                     PROBE_SIZES[-1], repeats), code
+
+    cases = [(f"student {sizes}", net.macs(), s, *student(s)) for s in WEIGHT_STORAGES]
+    if include_probe:  # ``probe=False``: the student only (a cold shader cache compiles the
+        # probe's storage-buffer kernel for minutes on llvmpipe; `relight bench --quick` skips it)
+        cases += [(f"mlp {'-'.join(map(str, PROBE_SIZES))}", probe_macs, s, *probe(s))
+                  for s in WEIGHT_STORAGES]
+    times = {i: [] for i in range(len(cases))}
+    first = {}
+    outputs = {}
+    torch_times = {"student": [], "probe": []}
+    for _ in range(rounds):
+        for i, (_, _, _, run, _) in enumerate(cases):
+            t, outputs[i] = run()
+            first.setdefault(i, t[0])
+            times[i] += t[1:]
+        if torch_mlp_times is not None:
+            torch_times["student"] += torch_student_times(path, x_student, repeats)
+            if include_probe:
+                torch_times["probe"] += torch_mlp_times(layers, x_probe, repeats)
+    rows = []
+    size = f"{pixels} px"
+    for i, (network, macs, storage, _, code) in enumerate(cases):
+        ms = 1e3 * statistics.median(times[i])
+        const = next(j for j, c in enumerate(cases) if c[0] == network and c[2] == "const")
+        rows.append({"model": "neural", "variant": f"weights {storage} ({code.binding})",
+                     "samples": 1, "size": size, "ms": ms, "psnr": None, "network": network,
+                     "storage": storage, "binding": code.binding, "macs_per_pixel": macs,
+                     "gflops": 2e-6 * macs * pixels / ms, "first_ms": 1e3 * first[i],
+                     "max_abs_vs_const": float(np.abs(outputs[i] - outputs[const]).max())})
+    if torch_mlp_times is not None:
+        torch_rows = [(cases[0][0], net.macs(), "student")]
+        if include_probe:
+            torch_rows.append((cases[-1][0], probe_macs, "probe"))
+        for network, macs, key in torch_rows:
+            ms = 1e3 * statistics.median(torch_times[key])
+            rows.append({"model": "neural", "variant": "weights torch (cpu)", "samples": 1,
+                         "size": size, "ms": ms, "psnr": None, "network": network,
+                         "storage": "torch", "binding": "", "macs_per_pixel": macs,
+                         "gflops": 2e-6 * macs * pixels / ms})
+    return rows
+
+
 def neural_rows(renderer, quick: bool = False) -> list[dict]:
     """Everything above, for ``relight bench``."""
     rows = student_vs_teacher(renderer, teacher_samples=128,
@@ -240,4 +378,6 @@ def neural_rows(renderer, quick: bool = False) -> list[dict]:
     rows += student_designs(renderer, size=256, reference_samples=256 if quick else 1024,
                             repeats=1 if quick else 3)
     rows += student_throughput(renderer.programs, pixels=16384 if quick else 65536)
+    rows += weight_storage_rows(renderer.programs, pixels=16384 if quick else 65536,
+                                rounds=1 if quick else 3, probe=not quick)
     return rows

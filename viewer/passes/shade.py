@@ -12,6 +12,7 @@ import numpy as np
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import model_info
+from ..neural import NeuralWeights, model_network
 from ..neural import virtual_files as neural_virtual_files
 from ..scene import DirectionalLight, RenderSettings
 from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
@@ -48,6 +49,18 @@ class ShadePass:
         self.ctx = programs.ctx
         self.layout = layout
         self._draw = FullscreenDraw(self.ctx)
+        self._weights: dict[tuple, NeuralWeights] = {}  # (checkpoint, storage) -> uploaded data
+
+    def _bind_weights(self, prog, settings: RenderSettings, unit: int) -> int:
+        """Upload (once) and bind the weight data of a neural model's buffered storage."""
+        found = model_network(settings.model, settings)
+        if found is None or found[1].data is None:
+            return unit
+        net, code = found
+        key = (net.checkpoint, code.storage, code.symbol)
+        if key not in self._weights:
+            self._weights[key] = NeuralWeights(self.ctx, code)
+        return self._weights[key].bind(prog, unit)
 
     def _program(self, model: str, settings: RenderSettings, extra: dict | None = None,
                  light: DirectionalLight | None = None):
@@ -72,6 +85,7 @@ class ShadePass:
         prog = self._program(settings.model, settings, defines, light)
         unit = bind_gbuffer(prog, gbuffer_textures)
         unit = ibl.bind(prog, unit)
+        unit = self._bind_weights(prog, settings, unit)
         if env_sampling is not None:
             unit = env_sampling.bind(prog, unit)
         if ssao is not None and "u_ssao" in prog:
@@ -95,3 +109,6 @@ class ShadePass:
 
     def release(self) -> None:
         self._draw.release()
+        for w in self._weights.values():
+            w.release()
+        self._weights.clear()

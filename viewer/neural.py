@@ -477,7 +477,7 @@ def generate_glsl(net: Network, storage: str = "const") -> NetworkCode:
         pack_lines, x = _pack("x", enc)
         d_lines, feat = _mlp(net.layers("diffuse"), "d", x, source)
         lines += enc_lines + pack_lines + d_lines
-        lines += ["    vec3 h = neural_half_vector(v, l);",
+        lines += ["    vec3 h = half_vector(v, l);",
                   "    vec4 vh_0 = vec4(v, h.x);", "    vec4 vh_1 = vec4(h.yz, 0.0, 0.0);"]
         hidden = int(net.architecture["hidden"])
         # the specular input is [feat (hidden), v, h]: feat fills whole vec4s when hidden % 4 == 0

@@ -22,16 +22,10 @@ from torch.nn import functional as F
 
 from .encoding import encoded_size, fourier_encode
 from .lighting import Lighting, env_radiance, sample_lights, surface
+from learned.twins.common import half_vector  # GLSL lib/common.glsl (same function)
 
 INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
           "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
-
-
-def half_vector(v: torch.Tensor, l: torch.Tensor) -> torch.Tensor:
-    """Twin of GLSL ``neural_half_vector`` (``lib/neural.glsl``)."""
-    from learned.twins.neural import neural_half_vector
-
-    return neural_half_vector(v, l)
 
 
 class Teacher(nn.Module):

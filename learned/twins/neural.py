@@ -55,14 +55,6 @@ def softplus4(x: torch.Tensor) -> torch.Tensor:
     return x.clamp_min(0.0) + l1p
 
 
-def neural_half_vector(v: torch.Tensor, l: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 neural_half_vector(vec3 v, vec3 l)``: ``[..., 3]`` each."""
-    h = v + l
-    len2 = (h * h).sum(-1, keepdim=True)
-    ok = len2 > 1e-12
-    return torch.where(ok, h * torch.rsqrt(torch.where(ok, len2, torch.ones_like(len2))), v)
-
-
 def neural_student_radiance(k_diffuse: torch.Tensor, k_specular: torch.Tensor,
                             albedo: torch.Tensor, irradiance: torch.Tensor,
                             prefiltered: torch.Tensor) -> torch.Tensor:
@@ -99,10 +91,6 @@ PARITY_CASES = [
                                  adversarial=((0, 80, -80, 1e-7),)),),
                atol=1e-7, rtol=1e-6,
                measured="max abs 9.5e-7 at x = 20 (rel 5e-8); values below 1e-7 within 1e-7"),
-    ParityCase("neural_half_vector", (Arg(kind="unit", components=3, adversarial=((0, 0, 1),)),
-                                      Arg(kind="unit", components=3,
-                                          adversarial=((0, 0, -1), (0, 0, 1)))),
-               atol=1e-6, rtol=1e-6, measured="max abs 1.2e-7"),
     ParityCase("neural_student_radiance",
                (Arg(components=3), Arg(components=3), Arg(components=3),
                 Arg(lo=0.0, hi=50.0, components=3), Arg(lo=0.0, hi=50.0, components=3,

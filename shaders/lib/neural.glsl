@@ -35,14 +35,6 @@ vec4 softplus4(vec4 x) {
     return max(x, vec4(0.0)) + l1p;
 }
 
-// The half vector of the PBND specular network input (thesis fig. 4.5): normalize(v + l), with the
-// fallback v when v + l vanishes (l = -v).
-vec3 neural_half_vector(vec3 v, vec3 l) {
-    vec3 h = v + l;
-    float len2 = dot(h, h);
-    return len2 > 1e-12 ? h * inversesqrt(len2) : v;
-}
-
 // Student radiance, output form "free6" (learned/neural/student.py): six free per-channel factors
 // k in [0, 1] of the SH irradiance E and the GGX-prefiltered radiance P,
 // L_o = S k_diffuse albedo E / pi + S k_specular P (S = NEURAL_OUTPUT_SCALE). Nothing ties the

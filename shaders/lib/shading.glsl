@@ -54,13 +54,7 @@ vec3 blinn_phong(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefilte
 // ambient occlusion (the environment's visibility) does not apply to it. n, v, l: unit, world space;
 // a = alpha (clamped perceptual roughness squared).
 
-// The normalised half vector of v and l; +Z where v = -l (unreachable for the callers below: n.l > 0
-// and n.v > 0 keep v + l away from zero).
-vec3 half_vector(vec3 v, vec3 l) {
-    vec3 h = v + l;
-    float len2 = dot(h, h);
-    return len2 > 1e-30 ? h * inversesqrt(len2) : vec3(0.0, 0.0, 1.0);
-}
+// half_vector(v, l) is in common.glsl (shared with the neural teacher's specular input).
 
 // Cook-Torrance GGX + Lambert, the BRDF ggx_split_sum approximates and ggx_mc integrates:
 //   f = diffuse (1 - E_spec) / pi + D_GGX(h) V_SmithGGXCorrelated(v, l) F_Schlick(v.h) c_ms

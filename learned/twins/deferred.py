@@ -22,6 +22,18 @@ from .shading import blinn_phong, blinn_phong_directional_light, diffuse_color, 
 PASS_LEVEL = ()
 
 
+def gl_gbuffer(targets: dict) -> dict[str, torch.Tensor]:
+    """The G-buffer :meth:`viewer.renderer.Renderer.draw` produced, channel -> [H, W, C] tensors in
+    GL row order (row 0 at the bottom), as the lighting passes and :func:`shade` see it."""
+    return {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
+
+
+def gl_texture(texture) -> np.ndarray:
+    """An RGBA32F target read back as [H, W, 4] float32 in GL row order."""
+    w, h = texture.size
+    return np.frombuffer(texture.read(), dtype=np.float32).reshape(h, w, 4).copy()
+
+
 def env_from_ibl(ibl) -> dict:
     """The GPU environment resources of :class:`viewer.ibl.IBL`, read back as the ``env`` dict
     :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH)."""
@@ -239,18 +251,15 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None)
     renderer = Renderer(ctx=programs.ctx)
     try:
         targets = renderer.draw(scene)
-        gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
-        w, h = targets["radiance"].size
-        glsl = np.frombuffer(targets["radiance"].read(), dtype=np.float32).reshape(h, w, 4)
+        gb = gl_gbuffer(targets)
+        glsl = gl_texture(targets["radiance"])
         env = env_from_ibl(renderer.ibl(scene))
         if model == "ggx_mc":
             env.update({k: torch.from_numpy(v)
                         for k, v in renderer.env_sampling(scene).read().items()})
         ssao = None
         if scene.render.ssao:
-            sw, sh_ = targets["ssao"].size
-            ssao = torch.from_numpy(np.frombuffer(targets["ssao"].read(), dtype=np.float32)
-                                    .reshape(sh_, sw, 4)[..., 0].copy())
+            ssao = torch.from_numpy(gl_texture(targets["ssao"])[..., 0].copy())
         mc = {"start": 0, "count": scene.render.samples, "seed": scene.render.seed}
         with torch.no_grad():
             ref = shade(model, gb, targets["camera"], env, scene.environment.intensity,

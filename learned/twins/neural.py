@@ -221,7 +221,7 @@ def check_model(programs, model: str, variant: dict, weights=None):
     from learned.export import load_model
     from learned.neural.lighting import lighting_from_gl
     from learned.parity import compare
-    from learned.twins.deferred import PARITY_SCENE
+    from learned.twins.deferred import PARITY_SCENE, gl_gbuffer, gl_texture
     from viewer.neural import MODEL_KINDS, default_weights
     from viewer.passes.shade import shade_defines
     from viewer.renderer import Renderer
@@ -235,9 +235,8 @@ def check_model(programs, model: str, variant: dict, weights=None):
     renderer = Renderer(ctx=programs.ctx)
     try:
         targets = renderer.draw(scene)
-        gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
-        w, h = targets["radiance"].size
-        glsl = np.frombuffer(targets["radiance"].read(), dtype=np.float32).reshape(h, w, 4)
+        gb = gl_gbuffer(targets)
+        glsl = gl_texture(targets["radiance"])
         lighting = lighting_from_gl(renderer, scene.environment)
         with torch.no_grad():
             ref = shade_neural(model, net_model, gb, targets["camera"], lighting,

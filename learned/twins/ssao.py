@@ -134,7 +134,7 @@ def _register_checks() -> None:
         from viewer.renderer import Renderer
         from viewer.scene import scene_from_dict
 
-        from .deferred import PARITY_SCENE
+        from .deferred import PARITY_SCENE, gl_gbuffer, gl_texture
 
         scene = scene_from_dict(PARITY_SCENE).with_render(
             model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6, ssao_steps=8,
@@ -142,12 +142,10 @@ def _register_checks() -> None:
         renderer = Renderer(ctx=programs.ctx)
         try:
             targets = renderer.draw(scene)
-            gb = {k: torch.from_numpy(v[::-1].copy())
-                  for k, v in targets["gbuffer"].read().items()}
+            gb = gl_gbuffer(targets)
 
             def read(name):
-                tw, th = targets[name].size
-                return np.frombuffer(targets[name].read(), np.float32).reshape(th, tw, 4).copy()
+                return gl_texture(targets[name])
 
             ao_gl, direct, final_gl = read("ssao"), read("direct"), read("radiance")
             s = scene.render

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import torch
 
-from learned.twins.deferred import env_from_ibl, MODEL_ATOL, MODEL_RTOL, shade
+from learned.twins.deferred import env_from_ibl, gl_gbuffer, MODEL_ATOL, MODEL_RTOL, shade
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 from viewer.imageio import write_exr
 from viewer.passes.shade import shade_defines
@@ -111,7 +111,7 @@ def test_extremes_are_finite_bounded_and_match_the_twin(renderer, tmp_path, env_
     assert glsl[..., :3].max() <= bound
     # the torch twin on the same G-buffer (read back from GL) and the same IBL resources
     ibl = renderer.ibl(scene)
-    gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
+    gb = gl_gbuffer(targets)
     env = env_from_ibl(ibl)
     with torch.no_grad():
         ref = shade(model, gb, targets["camera"], env, 1.0, 0.0,

@@ -181,7 +181,7 @@ def _scene(tmp_path, model, splats_obj, **render):
 
 @pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum", "ggx_mc"])
 def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
-    from learned.twins.deferred import env_from_ibl, MODEL_ATOL, MODEL_RTOL, shade
+    from learned.twins.deferred import env_from_ibl, gl_gbuffer, MODEL_ATOL, MODEL_RTOL, shade
     from viewer.passes.shade import shade_defines
     from viewer.scene import ObjectSpec
 
@@ -203,7 +203,7 @@ def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
     # the shading twin on the G-buffer the splat pass produced
     targets = renderer.draw(scene, aovs=aovs)
     ibl = renderer.ibl(scene)
-    gb = {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
+    gb = gl_gbuffer(targets)
     env = env_from_ibl(ibl)
     with torch.no_grad():
         ref = shade(model, gb, targets["camera"], env, 1.0, 0.0,

@@ -57,6 +57,7 @@ class Renderer:
         self._shade_passes: dict[GBufferLayout, object] = {}
         self._tonemap = None
         self._env_sampling: dict[tuple, object] = {}  # environment -> EnvSampling (model needs "cdf")
+        self._features: dict[tuple, object] = {}  # (objects, environment) -> SceneFeatures
         self._accumulators: dict[tuple, object] = {}  # size -> Accumulator (Monte-Carlo models)
         self._ssao_passes: dict[GBufferLayout, object] = {}
         self._splat_passes: dict[GBufferLayout, object] = {}
@@ -113,7 +114,11 @@ class Renderer:
 
         if not scene.render.specialize:
             return specialise(None, scene.render, aovs, enabled=False)
-        return specialise(analyse(self, scene), scene.render, aovs)
+        # the analysis scans materials and texture maps: once per scene content, not per frame
+        key = (scene.objects, scene.environment.path, scene.environment.procedural)
+        if key not in self._features:
+            self._features[key] = analyse(self, scene)
+        return specialise(self._features[key], scene.render, aovs)
 
     def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
         return self.specialization(scene, aovs).layout

@@ -29,10 +29,12 @@ class ParityResult:
     passed: bool
     kind: str = "function"  # "function" | "pass" | "model"
     measured: str = ""
+    envelope: str = ""
 
     def as_json(self) -> dict:
         d = asdict(self)
-        return {k: d[k] for k in ("name", "max_abs", "max_rel", "tolerance", "passed", "kind")}
+        return {k: d[k] for k in ("name", "max_abs", "max_rel", "tolerance", "passed", "kind",
+                                  "envelope")}
 
 
 # name -> (model or None, check(renderer_or_programs) -> list[ParityResult]).  Filled by modules
@@ -59,13 +61,13 @@ def library_cases() -> dict[str, ParityCase]:
 
 
 def compare(name: str, glsl: np.ndarray, ref: np.ndarray, atol: float, rtol: float,
-            kind: str = "function", measured: str = "") -> ParityResult:
+            kind: str = "function", measured: str = "", envelope: str = "") -> ParityResult:
     """Element-wise |glsl - ref| <= atol + rtol |ref|; non-finite values must match exactly."""
     glsl = np.asarray(glsl, dtype=np.float64)
     ref = np.asarray(ref, dtype=np.float64)
     if glsl.shape != ref.shape:
         return ParityResult(name, float("inf"), float("inf"), f"shape {glsl.shape} vs {ref.shape}",
-                            False, kind, measured)
+                            False, kind, measured, envelope)
     finite = np.isfinite(ref) & np.isfinite(glsl)
     same_nonfinite = np.array_equal(np.isfinite(ref), np.isfinite(glsl))
     diff = np.abs(glsl - ref)[finite]
@@ -75,7 +77,44 @@ def compare(name: str, glsl: np.ndarray, ref: np.ndarray, atol: float, rtol: flo
     big = np.abs(ref[finite]) > max(atol, 1e-12)
     max_rel = float(rel[big].max()) if big.any() else 0.0
     ok = bool(same_nonfinite and np.all(diff <= atol + rtol * np.abs(ref[finite])))
-    return ParityResult(name, max_abs, max_rel, f"atol {atol:g} + rtol {rtol:g}", ok, kind, measured)
+    return ParityResult(name, max_abs, max_rel, f"atol {atol:g} + rtol {rtol:g}", ok, kind, measured,
+                        envelope)
+
+
+_FILTER_BITS: dict[int, int] = {}
+
+
+def device_filter_bits(programs) -> int:
+    """Fraction bits of the device's texture filter (bilinear weights and lod fraction, the
+    smaller), measured once per context by :func:`viewer.gl.context.texture_filter_bits`: 16 (the
+    probe's resolution) on llvmpipe, 8 on GPUs. The envelopes of filtered lookups use it."""
+    from viewer.gl.context import texture_filter_bits
+
+    key = id(programs.ctx)
+    if key not in _FILTER_BITS:
+        _FILTER_BITS[key] = min(texture_filter_bits(programs.ctx).values())
+    return _FILTER_BITS[key]
+
+
+def compare_envelope(name: str, glsl: np.ndarray, ref: np.ndarray, bound: np.ndarray,
+                     kind: str = "pass", measured: str = "", envelope: str = "") -> ParityResult:
+    """Element-wise |glsl - ref| <= bound, with ``bound`` an error envelope per element derived
+    from what the computation may legitimately do differently (for example
+    :func:`learned.twins.ibl.sample_trilinear_envelope`); reports the largest share of it used."""
+    glsl = np.asarray(glsl, dtype=np.float64)
+    ref = np.asarray(ref, dtype=np.float64)
+    bound = np.broadcast_to(np.asarray(bound, dtype=np.float64), ref.shape)
+    if glsl.shape != ref.shape:
+        return ParityResult(name, float("inf"), float("inf"), f"shape {glsl.shape} vs {ref.shape}",
+                            False, kind, measured, envelope)
+    diff = np.abs(glsl - ref)
+    ok = bool(np.all(np.isfinite(glsl)) and np.all(np.isfinite(ref)) and np.all(diff <= bound))
+    used = float(np.max(diff / np.maximum(bound, 1e-30))) if diff.size else 0.0
+    rel = diff / np.maximum(np.abs(ref), 1e-30)
+    return ParityResult(name, float(diff.max()) if diff.size else 0.0,
+                        float(rel.max()) if rel.size else 0.0,
+                        f"per-element envelope ({used:.2%} of it used)", ok, kind, measured,
+                        envelope)
 
 
 def _inputs(case: ParityCase, seed: int) -> list[np.ndarray]:
@@ -108,7 +147,8 @@ def check_function(programs, case: ParityCase, seed: int = 0) -> ParityResult:
     ref = np.asarray(ref.detach().cpu().numpy() if torch.is_tensor(ref) else ref, np.float32)
     if ref.ndim == 0:
         ref = ref.reshape(glsl.shape)
-    return compare(case.name, glsl, ref, case.atol, case.rtol, measured=case.measured)
+    return compare(case.name, glsl, ref, case.atol, case.rtol, measured=case.measured,
+                   envelope=case.envelope)
 
 
 def coverage() -> list[str]:

@@ -22,7 +22,7 @@ import torch
 
 from learned.twins.splat import (splat_alpha, splat_conic, splat_cov2d, splat_cov2d_det,
                                  splat_face_forward, splat_mahalanobis2, splat_min_axis,
-                                 splat_rotation, splat_sh_basis_all)
+                                 splat_rotation, splat_sh_basis_all, splat_view_depth)
 from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
 from viewer.splats.data import Splats
@@ -49,7 +49,7 @@ def project(t: dict[str, torch.Tensor], camera: Camera) -> dict[str, torch.Tenso
     focal_tan = torch.tensor([w / (2 * tx), h / (2 * ty), tx, ty], dtype=torch.float32)
     means = t["means"]
     t_vs = means @ view[:3, :3].T + view[:3, 3]
-    depth = -t_vs[:, 2]
+    depth = splat_view_depth(view[2], means)  # the cull decision, bit-identical to GLSL's
     valid = (depth > camera.near) & (depth < camera.far)
     r = splat_rotation(t["rotations"])
     m = view[:3, :3] @ r * t["scales"][:, None, :]

@@ -41,8 +41,14 @@ class Arg:
 class ParityCase:
     """One GLSL library function against its torch twin.
 
-    ``atol``/``rtol``: an element passes if |glsl - torch| <= atol + rtol * |torch|. Write the error
-    measured on llvmpipe in ``measured`` so a reader sees how much headroom the tolerance has.
+    ``atol``/``rtol``: an element passes if |glsl - torch| <= atol + rtol * |torch|. ``envelope``
+    says where the bound comes from: the error float32 arithmetic may make on any conforming GL
+    (operations x ulp, the GLSL 4.60 precision table: + - * correctly rounded, / 2.5 ulp, exp2
+    3 + 2|x| ulp, log2 3 ulp or 2^-21 absolute in [0.5, 2], inversesqrt 2 ulp, sqrt as 1 /
+    inversesqrt; trigonometric functions have no required precision: ~1e-6 absolute is assumed,
+    what GPUs' and llvmpipe's implementations reach) and the conditioning of the function at the
+    tested inputs. Write the error measured on llvmpipe in ``measured`` so a reader sees how much
+    headroom the tolerance has.
     Adversarial values of all arguments are combined as a grid (every combination is evaluated).
     """
 
@@ -51,5 +57,6 @@ class ParityCase:
     atol: float = 1e-6
     rtol: float = 1e-5
     measured: str = ""
+    envelope: str = ""
     n: int = 4096
     prepare: Callable | None = field(default=None, compare=False)  # optional fixup of drawn inputs

@@ -54,6 +54,18 @@ def splat_cov3d_offdiag(q: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
     return torch.stack([c[..., 0, 1], c[..., 0, 2], c[..., 1, 2]], -1)
 
 
+def splat_view_depth(view_row2: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float splat_view_depth(vec4 view_row2, vec3 p)``: -(((v20 x + v21 y) + v22 z) + v23),
+    the same correctly rounded float32 operations in the same order (elementwise, no matmul), so
+    the near/far cull decision is bit-identical to GLSL's."""
+    v = view_row2.to(torch.float32)
+    p = p.to(torch.float32)
+    a = v[..., 0] * p[..., 0]
+    b = v[..., 1] * p[..., 1]
+    c = v[..., 2] * p[..., 2]
+    return -(((a + b) + c) + v[..., 3])
+
+
 def splat_min_axis(q: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 splat_min_axis(vec4 q, vec3 sigma)``: the column of R for the smallest sigma
     (ties: lowest index)."""
@@ -215,6 +227,13 @@ PARITY_CASES = [
                                   Arg(lo=1e-3, hi=2.0, components=3,
                                       adversarial=((0.1, 0.1, 0.1), (0.2, 0.1, 0.1)))),
                atol=1e-6, rtol=1e-5, measured="max abs 7.2e-7"),
+    # bit-exact by construction (see the GLSL comment): any difference means a driver contracted
+    # or reordered the `precise` operations, and the near-plane cull would differ again
+    ParityCase("splat_view_depth", (Arg(lo=-1.0, hi=1.0, components=4,
+                                        adversarial=((0.0, 0.0, -1.0, -3.0), (0.1, 0.2, -0.97, 2.95))),
+                                    Arg(lo=-3.0, hi=3.0, components=3,
+                                        adversarial=((0.3, 0.2, 2.95), (1e-8, -1e-8, 3.0)))),
+               atol=0.0, rtol=0.0, measured="exact (0 abs)"),
     ParityCase("splat_cov2d", (Arg(lo=-3, hi=3, components=3), Arg(lo=-1, hi=1, components=3),
                                Arg(lo=-1, hi=1, components=3),
                                Arg(lo=0.2, hi=1.5, components=4,

@@ -1,5 +1,6 @@
 // sampling.glsl - low-discrepancy sequences and GGX importance sampling. No uniforms, no main.
 #include "lib/common.glsl"
+#include "lib/brdf.glsl"
 
 // Van der Corput 1935 radical inverse in base 2 (bit reversal; Hacker's Delight 7-1 / Dammertz).
 // Only the top 24 reversed bits are kept, so the float conversion is exact and the result is
@@ -44,4 +45,17 @@ vec3 tangent_to_world(vec3 v, vec3 n) {
     vec3 t = vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
     vec3 bt = vec3(b, s + n.y * n.y * a, -n.y);
     return t * v.x + bt * v.y + n * v.z;
+}
+
+// D(h) of the half vector importance_sample_ggx(xi, a) returns, from xi alone: with
+// t = xi.y and q = (1 - t) + a^2 t, cos^2 = (1 - t) / q and sin^2 = a^2 t / q, so the GGX bracket
+// cos^2 (a^2 - 1) + 1 = cos^2 a^2 + sin^2 = a^2 / q and D = q^2 / (pi a^2). Equal to
+// d_ggx(h.z, a), but well conditioned: for a sharp lobe (a^2 = 1.5e-5) d_ggx(dot(n, h), a) reads
+// 1 - n.h ~ 1e-5 off a dot product whose last-ulp rounding (6e-8, and FMA contraction differs
+// between drivers) moves D by ~1%. a^2 is floored at BRDF_MIN_A2 as in d_ggx.
+float ggx_sample_d(vec2 xi, float a) {
+    float a2 = max(sq(clamp(a, 0.0, 1.0)), BRDF_MIN_A2);
+    float t = clamp(xi.y, 0.0, 1.0);
+    float q = (1.0 - t) + a2 * t;
+    return q * q / (PI * a2);
 }

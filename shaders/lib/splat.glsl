@@ -39,6 +39,22 @@ vec3 splat_min_axis(vec4 q, vec3 sigma) {
     return r[k];
 }
 
+// The view-space depth (distance in front of the eye along the view axis) of world point p, with
+// view_row2 = row 2 of the world -> view matrix: -(v20 p.x + v21 p.y + v22 p.z + v23). This is the
+// quantity that culls a splat at the near and far planes, a yes/no decision: `precise` forbids the
+// compiler to fuse or reorder the operations, so the result is the one sequence of correctly rounded
+// float32 products and sums (GLSL 4.x requires a * b and a + b correctly rounded) and the torch twin
+// reproduces it bit for bit on any conforming GL. A matrix product (u_view * p) may be contracted
+// into FMAs differently by every driver, which moved splats within an ulp of the near plane across
+// it on one side only.
+float splat_view_depth(vec4 view_row2, vec3 p) {
+    precise float a = view_row2.x * p.x;
+    precise float b = view_row2.y * p.y;
+    precise float c = view_row2.z * p.z;
+    precise float d = ((a + b) + c) + view_row2.w;
+    return -d;
+}
+
 // EWA Splatting - Zwicker et al. 2002, eq. 31 (local affine approximation of the projection), as
 // in Kerbl et al. 2023 eq. 5: Sigma' = J W Sigma W^T J^T. t_vs: the centre in view space;
 // cov_diag/cov_offdiag: the view-space covariance (xx, yy, zz) / (xy, xz, yz);

@@ -26,13 +26,15 @@ void main() {
     vec3 sum = vec3(0.0);
     float weight = 0.0;
     for (uint i = 0u; i < u_samples; ++i) {
-        vec3 h = tangent_to_world(importance_sample_ggx(hammersley(i, u_samples), a), n);
+        vec2 xi = hammersley(i, u_samples);
+        vec3 h = tangent_to_world(importance_sample_ggx(xi, a), n);
         float NoH = dot(n, h);  // = v.h, since v = n
         vec3 l = 2.0 * NoH * h - n;
         float NoL = dot(n, l);
         if (NoL > 0.0) {
-            // pdf(l) = D(h) (n.h) / (4 v.h) = D / 4 with v = n
-            float pdf = d_ggx(NoH, a) * 0.25;
+            // pdf(l) = D(h) (n.h) / (4 v.h) = D / 4 with v = n; D from xi (ggx_sample_d), not
+            // from NoH: 1 - NoH of a sharp lobe is ~1e-5 and an ulp of the dot product moves it 1%
+            float pdf = ggx_sample_d(xi, a) * 0.25;
             float omega_s = inv_samples / max(pdf, 1e-30);
             float lod = clamp(0.5 * log2(omega_s / u_omega_p) + 1.0, 0.0, u_max_lod);
             sum += textureLod(u_radiance, equirect_uv(l), lod).rgb * NoL;

@@ -38,7 +38,9 @@ void main() {
     vec3 sigma = vec3(geo[g + 8u], geo[g + 9u], geo[g + 10u]);
 
     vec3 t_vs = (u_view * vec4(mean, 1.0)).xyz;
-    float depth = -t_vs.z;
+    // the cull decision and the sort key from the bit-reproducible depth (see splat_view_depth)
+    float depth = splat_view_depth(vec4(u_view[0][2], u_view[1][2], u_view[2][2], u_view[3][2]),
+                                   mean);
     keys[id] = depth;
     order[id] = id;
     uint o = id * SPLAT_RECORD;

@@ -25,6 +25,54 @@ def test_pass_parity(programs, name):
                                f"max rel {result.max_rel:.3g} exceeds {result.tolerance}")
 
 
+def test_filter_envelope_covers_a_gpu_texture_unit():
+    """The envelope the IBL and model parity checks use on a GPU must hold for a GPU's filter:
+    lookups with 8-bit truncated bilinear weights and lod fraction, coordinates off by the
+    assumed trig error, stay inside sample_trilinear_envelope(bits = 8) - and the check can
+    fail: a 4-bit filter leaves it."""
+    torch = pytest.importorskip("torch")
+    chain = twins.radiance_chain(torch.from_numpy(twins.parity_environment()))
+    gen = torch.Generator().manual_seed(0)
+    n = 200_000
+    uv = torch.rand(n, 2, generator=gen)
+    lod = torch.rand(n, generator=gen) * (len(chain) - 1)
+    lod[: n // 10] = torch.round(lod[: n // 10])  # integer lods: a GPU may round either way
+    d = twins.equirect_dir(uv)
+    err = twins.equirect_uv_error(d, 0.0)
+    moved = uv + (2.0 * torch.rand(n, 2, generator=gen) - 1.0) * err
+    exact = twins.sample_trilinear(chain, uv, lod)
+    bound = twins.sample_trilinear_envelope(chain, uv, lod, err, weight_bits=8)
+    for bits, inside in ((8, True), (4, False)):
+        gpu = twins.sample_trilinear(chain, moved, lod, weight_bits=bits)
+        # a GPU's lod for an integer lod may come out a hair below it (log2 in the pass):
+        # then the level below gets a weight of one quantisation step
+        hair = lod.clone()
+        hair[: n // 10] = (hair[: n // 10] - 1e-6).clamp_min(0.0)
+        below = twins.sample_trilinear(chain, moved, hair, weight_bits=bits)
+        for got in (gpu, below):
+            ok = bool(((got - exact).abs() <= bound + 1e-6 * exact.abs()).all())
+            assert ok == inside, (bits, float(((got - exact).abs() / bound.clamp_min(1e-30))
+                                              .max()))
+
+
+def test_prefilter_envelope_covers_a_gpu_texture_unit():
+    """The same for a whole prefiltered level: the twin run with an 8-bit filter lands inside
+    prefilter_level_envelope, a 4-bit one does not."""
+    torch = pytest.importorskip("torch")
+    from viewer.ibl import prefilter_roughness
+
+    chain = twins.radiance_chain(torch.from_numpy(twins.parity_environment()))
+    for k in (1, 2):
+        size = tuple(chain[k].shape[:2])
+        r = prefilter_roughness(k, 5)
+        exact = twins.prefilter_level(chain, size, r, 32)
+        bound = twins.prefilter_level_envelope(chain, size, r, 32, weight_bits=8)
+        for bits, inside in ((8, True), (4, False)):
+            gpu = twins.prefilter_level(chain, size, r, 32, weight_bits=bits)
+            ok = bool(((gpu - exact).abs() <= bound).all())
+            assert ok == inside, (k, bits, float(((gpu - exact).abs() / bound).max()))
+
+
 @pytest.fixture(scope="module")
 def white_ibl(programs):
     ibl = build_ibl(programs, np.full((64, 128, 3), 2.5, np.float32), IBLOptions(dfg_size=32))

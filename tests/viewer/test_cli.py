@@ -95,6 +95,12 @@ def test_info_json(capsys):
     info = json.loads(capsys.readouterr().out)
     assert info["version_code"] >= 430
     assert info["float_target_mantissa_bits"]["f4"] == 23
+    # measured filter precision: GPUs keep 8 fraction bits (4 allowed), llvmpipe filters in
+    # float and shows the probe's resolution
+    bits = info["texture_filter_bits"]
+    assert 4 <= bits["subtexel"] <= 16 and 4 <= bits["mipmap"] <= 16, bits
+    if "llvmpipe" in str(info["renderer"]).lower():
+        assert bits == {"subtexel": 16, "mipmap": 16}, bits
 
 
 def test_demo_renders_by_default(tmp_path):

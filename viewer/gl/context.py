@@ -86,6 +86,57 @@ def _float_target_bits(ctx, dtype: str) -> int:
     return bits
 
 
+_FILTER_PROBE = """
+#version 430
+layout(local_size_x = 256) in;
+uniform sampler2D u_tex;
+uniform uint u_count;
+uniform int u_mip;  // 0: bilinear weight along x on level 0; 1: lod fraction between levels 0, 1
+layout(std430, binding = 0) writeonly buffer Out { float outv[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= u_count) return;
+    float f = float(i) / float(u_count);
+    outv[i] = u_mip == 0 ? textureLod(u_tex, vec2((1.5 + f) / 4.0, 0.5), 0.0).r
+                         : textureLod(u_tex, vec2(0.5, 0.5), f).r;
+}
+"""
+
+
+def texture_filter_bits(ctx, probes: int = 1 << 16) -> dict[str, int]:
+    """Fraction bits the texture unit keeps for bilinear weights (``subtexel``) and for the lod
+    fraction between mip levels (``mipmap``), measured: a 4x2 R32F texture holding 0 | 1 in
+    level 0 and 1 in level 1 is read at ``probes`` evenly spaced positions between two texel
+    centres (and lods between two levels); k distinct results mean log2(k) bits. GPUs keep 8
+    (Vulkan's subTexelPrecisionBits / mipmapPrecisionBits; 4 allowed), llvmpipe filters in
+    float32 and shows the probe's resolution (16). Used by the parity checks' error envelopes."""
+    prog = ctx.compute_shader(_FILTER_PROBE)
+    level0 = np.array([[0, 0, 1, 1], [0, 0, 1, 1]], np.float32)
+    tex = ctx.texture((4, 2), 1, level0.tobytes(), dtype="f4")
+    tex.build_mipmaps(0, 1)
+    tex.write(np.ones((1, 2), np.float32).tobytes(), level=1)
+    tex.filter = (ctx.LINEAR_MIPMAP_LINEAR, ctx.LINEAR)
+    tex.repeat_x = tex.repeat_y = False
+    out = ctx.buffer(reserve=4 * probes)
+    bits = {}
+    try:
+        tex.use(0)
+        prog["u_tex"].value = 0
+        prog["u_count"].value = probes
+        out.bind_to_storage_buffer(0)
+        for mip, name in ((0, "subtexel"), (1, "mipmap")):
+            prog["u_mip"].value = mip
+            prog.run(group_x=(probes + 255) // 256)
+            ctx.memory_barrier()
+            values = np.frombuffer(out.read(), dtype=np.float32)
+            bits[name] = int(np.floor(np.log2(max(len(np.unique(values)), 1))))
+    finally:
+        out.release()
+        tex.release()
+        prog.release()
+    return bits
+
+
 def gl_info(ctx) -> dict:
     """Renderer, version, extensions and the measured precision of float render targets."""
     info = ctx.info
@@ -100,6 +151,7 @@ def gl_info(ctx) -> dict:
         "max_color_attachments": info.get("GL_MAX_COLOR_ATTACHMENTS"),
         "float_target_mantissa_bits": {"f2": _float_target_bits(ctx, "f2"),
                                        "f4": _float_target_bits(ctx, "f4")},
+        "texture_filter_bits": texture_filter_bits(ctx),
         "extensions": sorted(ctx.extensions),
     }
 

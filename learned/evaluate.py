@@ -155,7 +155,7 @@ def _run_times(fn, repeats: int) -> list[float]:
 def torch_mlp_times(layers, x: np.ndarray, repeats: int = 7) -> list[float]:
     """Seconds of each of ``repeats`` evaluations (after a warm-up) in torch (CPU, float32) of the
     bare MLP ``layers`` ``[(weight [out, in], bias [out], "relu" | "sigmoid" | "softplus")]`` on
-    ``x [n, in]``: the torch reference of ``viewer.bench.neural.weight_storage_rows``."""
+    ``x [n, in]``: the torch reference of ``relight.bench.neural.weight_storage_rows``."""
     acts = {"relu": torch.relu, "sigmoid": torch.sigmoid,
             "softplus": torch.nn.functional.softplus}
     params = [(torch.from_numpy(w), torch.from_numpy(b), acts[a]) for w, b, a in layers]

@@ -433,7 +433,7 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
     ``neural`` pass on each sample's own G-buffer and environment, as ``relight eval``), colour
     fidelity (:func:`learned.evaluate.chroma_error` against the Monte-Carlo targets on the same
     samples, and :func:`learned.evaluate.achromatic_error` of the grey probe
-    ``viewer.bench.neural.GREY_SCENE`` under the white environment, where every physically
+    ``relight.bench.neural.GREY_SCENE`` under the white environment, where every physically
     based model renders grey), and GLSL ms per frame (whole frame and the ``shade`` pass) at
     256x256 on the bench scene.
 
@@ -446,7 +446,7 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
     """
     import shutil
 
-    from viewer.bench.neural import BENCH_SCENE, GREY_SCENE, time_frame
+    from relight.bench.neural import BENCH_SCENE, GREY_SCENE, time_frame
     from viewer.renderer import Renderer
     from viewer.scene import scene_from_dict
 
@@ -539,13 +539,13 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
                                      "chroma_error)",
                            "grey_tint": "max over foreground of (max - min of rgb) / luminance, "
                                         "%, grey probe under the white environment "
-                                        "(viewer.bench.neural.GREY_SCENE)"},
-              "timing": "llvmpipe; GLSL ms at 256x256 on the bench scene (viewer/bench/neural.py)",
+                                        "(relight.bench.neural.GREY_SCENE)"},
+              "timing": "llvmpipe; GLSL ms at 256x256 on the bench scene (relight/bench/neural.py)",
               "teacher_checkpoint": training["teacher"], "rows": rows, "context": context}
     _write_atomic(folder / "compare.json", json.dumps(result, indent=1))
     _write_atomic(folder / "compare.md", compare_table(result))
     if install:
-        from viewer.bench.neural import students_dir
+        from relight.bench.neural import students_dir
 
         dst = students_dir()
         dst.mkdir(parents=True, exist_ok=True)

@@ -41,7 +41,7 @@ texture     an RGBA32F texture read with ``texelFetch``, one texel per vec4
 The buffered storages use the same unrolled chains with the literal vectors replaced by reads at
 constant indices; their code depends on the architecture only (zero weights are read too), so a
 new file of the same shape only uploads new data. :class:`NeuralWeights` uploads and binds the data.
-Measured (``viewer.bench.neural.weight_storage_rows``, README "Neural shader"): ``const`` is the
+Measured (``relight.bench.neural.weight_storage_rows``, README "Neural shader"): ``const`` is the
 fastest on llvmpipe, which is why it is the default.
 """
 from __future__ import annotations
@@ -528,7 +528,7 @@ void main() {
 def mlp_kernel(layers, storage: str = "const") -> NetworkCode:
     """A compute kernel evaluating a bare MLP ``[(weight [out, in], bias [out], activation)]``
     (no encoding) with weights from ``storage``: the weight-storage probe of
-    ``viewer.bench.neural.weight_storage_rows``. Layout and bindings as :data:`STUDENT_KERNEL`
+    ``relight.bench.neural.weight_storage_rows``. Layout and bindings as :data:`STUDENT_KERNEL`
     (inputs ``inv[k * u_count + i]``, outputs ``outv[k * u_count + i]``, buffers 0 and 1)."""
     source = _Source(storage, "mlp")
     in_n, out_n = layers[0][0].shape[1], layers[-1][0].shape[0]

@@ -21,14 +21,15 @@ specular: the cubemap averaged under a spherical-Gaussian lobe around the reflec
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from viewer.camera import Camera
-from viewer.splats.data import Splats
+from viewer.splats.data import Splats, make_splats, sh_basis_3dgs
+from viewer.splats.generate import cube_directions, cube_solid_angles
 
 from .rasterize import rasterize, splat_tensors, weight_matrix
 
@@ -63,7 +64,6 @@ class DecomposeResult:
 # ---- shading ------------------------------------------------------------------------------------
 
 def _cube(res: int) -> tuple[torch.Tensor, torch.Tensor]:
-    from viewer.splats.generate import cube_directions, cube_solid_angles
 
     return (torch.from_numpy(cube_directions(res).reshape(-1, 3)).float(),
             torch.from_numpy(cube_solid_angles(res).reshape(-1)).float())
@@ -260,10 +260,39 @@ def relight_error(truth: Splats, estimate: Splats, light: np.ndarray, options: D
             "metallic_mae": float(np.abs(truth.metallic - estimate.metallic).mean())}
 
 
+def baked(splats: Splats, light: np.ndarray, degree: int = 2, directions: int = 96) -> Splats:
+    """The baked-colour (plain 3DGS) version of a relightable cloud: per splat, SH of ``degree``
+    least-squares fitted (3DGS convention, + 0.5 offset) to its shaded radiance under ``light``
+    seen from ``directions`` directions over the sphere (view-dependent specular included).
+    Materials are reset to the defaults of a plain 3DGS file, normals kept."""
+    i = np.arange(directions) + 0.5
+    phi = np.arccos(1 - 2 * i / directions)
+    theta = np.pi * (1 + 5 ** 0.5) * i
+    dirs = np.stack([np.cos(theta) * np.sin(phi), np.cos(phi), np.sin(theta) * np.sin(phi)], -1)
+    n = torch.from_numpy(splats.normals).float()[:, None].expand(-1, directions, -1)
+    view_to_splat = torch.from_numpy(dirs).float()[None].expand(len(splats), -1, -1)
+    # radiance towards the eye: v = -view direction; faces away from the eye use a flipped normal
+    v = -view_to_splat
+    n = torch.where(((n * v).sum(-1) < 0)[..., None], -n, n)
+    with torch.no_grad():
+        rad = shade(torch.from_numpy(splats.albedo)[:, None].expand(-1, directions, -1),
+                    n, torch.from_numpy(splats.roughness)[:, None].expand(-1, directions),
+                    torch.from_numpy(splats.metallic)[:, None].expand(-1, directions),
+                    v, torch.from_numpy(light)).numpy()
+    k = (degree + 1) ** 2
+    basis = sh_basis_3dgs(dirs, k)  # [D, k]
+    coef = np.linalg.lstsq(basis, (rad - 0.5).transpose(1, 0, 2).reshape(directions, -1),
+                           rcond=None)[0]  # [k, N * 3]
+    sh = coef.reshape(k, len(splats), 3).transpose(1, 0, 2).astype(np.float32)
+    out = make_splats(splats.means, splats.scales, splats.rotations, splats.opacities, sh=sh,
+                      normals=splats.normals)
+    return replace(out, source=splats.source)
+
+
 def synthetic_problem(n: int = 1500, seed: int = 0, light_res: int = 8):
     """(truth relightable splats, true light, baked-colour splats, novel light) for tests and
     ``relight decompose --synthetic``."""
-    from viewer.splats.generate import baked, sky_cubemap, sphere_splats
+    from viewer.splats.generate import sky_cubemap, sphere_splats
 
     truth = sphere_splats(n, seed=seed)
     light = sky_cubemap(light_res)

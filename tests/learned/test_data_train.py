@@ -208,7 +208,7 @@ def test_compare_students_writes_the_table_and_bench_rows(dataset, tmp_path, ctx
     import json
 
     from learned.train import compare_students
-    from viewer.bench.neural import student_designs
+    from relight.bench.neural import student_designs
     from viewer.renderer import Renderer
 
     designs = {"a": {"hidden": (4,)}, "b": {"hidden": (4, 4), "features": "dfg"}}

@@ -42,7 +42,7 @@ def test_decomposition_reduces_loss_and_error_vs_truth(tmp_path):
 
 
 def test_cli_decompose_synthetic_and_bad_input(tmp_path, capsys):
-    from viewer.cli import main
+    from relight.cli import main
     from viewer.splats import read_ply
 
     out = tmp_path / "out.ply"

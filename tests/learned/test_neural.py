@@ -143,10 +143,10 @@ def test_unknown_student_output_form_is_rejected(tmp_path, pbr_weights):
 
 
 def _grey_probe(ctx, environment: str, **render):
-    """The grey probe (viewer.bench.neural.GREY_SCENE) under ``environment``: (max tint %
+    """The grey probe (relight.bench.neural.GREY_SCENE) under ``environment``: (max tint %
     of learned.evaluate.achromatic_error, radiance [H, W, 4])."""
     from learned.evaluate import achromatic_error
-    from viewer.bench.neural import GREY_SCENE
+    from relight.bench.neural import GREY_SCENE
     from viewer.renderer import Renderer
     from viewer.scene import scene_from_dict
 
@@ -287,7 +287,7 @@ def test_shipped_weights_load_and_are_small():
 
 
 def test_parity_cli_neural_passes(capsys):
-    from viewer.cli import main
+    from relight.cli import main
 
     assert main(["parity", "--model", "neural", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)

@@ -33,7 +33,7 @@ def runs():
     procs = {}
     for name, extra in PATHS.items():
         env = {**os.environ, **extra, "MESA_SHADER_CACHE_DISABLE": "true"}
-        procs[name] = subprocess.Popen([sys.executable, "-m", "viewer", "parity", "--json"],
+        procs[name] = subprocess.Popen([sys.executable, "-m", "relight", "parity", "--json"],
                                        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                        text=True)
     out = {}
@@ -59,7 +59,7 @@ def test_parity_holds_on_another_float_path(runs, path):
 def test_the_alternative_paths_are_really_different():
     """The override must reach llvmpipe: its renderer string names the vector width."""
     env = {**os.environ, **PATHS["llvmpipe-sse4.1-128bit+torch-default"]}
-    info = subprocess.run([sys.executable, "-m", "viewer", "info"], env=env, capture_output=True,
+    info = subprocess.run([sys.executable, "-m", "relight", "info"], env=env, capture_output=True,
                           text=True, timeout=120)
     if "llvmpipe" not in info.stdout:
         pytest.skip("not llvmpipe: these paths are llvmpipe's")

@@ -16,13 +16,9 @@ OUR_CHECKS = ["ibl_downsample", "ibl_prefilter", "ibl_sh", "ibl_dfg_lut", "ibl_l
               "sh_irradiance"]
 
 
-@pytest.mark.parametrize("name", OUR_CHECKS)
-def test_pass_parity(programs, name):
-    _, check = PASS_CHECKS[name]
-    for result in check(programs):
-        assert result.kind == "pass"
-        assert result.passed, (f"{result.name}: max abs {result.max_abs:.3g}, "
-                               f"max rel {result.max_rel:.3g} exceeds {result.tolerance}")
+def test_ibl_pass_checks_are_registered():
+    """They run (with every other registered check) in tests/shaders/test_library_parity.py."""
+    assert set(OUR_CHECKS) <= set(PASS_CHECKS)
 
 
 def test_filter_envelope_covers_a_gpu_texture_unit():

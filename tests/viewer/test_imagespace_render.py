@@ -7,7 +7,7 @@ through a scene file and shaded: the radiance must match the mesh render.
 import numpy as np
 import pytest
 
-from viewer.cli import main
+from relight.cli import main
 from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
 from viewer.imageio import read_image, write_exr, write_png
 from viewer.renderer import Renderer

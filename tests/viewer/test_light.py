@@ -228,7 +228,7 @@ def test_scene_type_keeps_the_light_optional():
 # ---- viewer state --------------------------------------------------------------------------------
 
 def test_viewer_state_carries_the_light():
-    from viewer.app.state import DEFAULT_LIGHT, light_angles, light_direction, load_into, \
+    from relight.app.state import DEFAULT_LIGHT, light_angles, light_direction, load_into, \
         scene_from_state, state_from_scene, with_light_angles
 
     scene = scene_from_dict({"light": {"direction": [0.0, 1.0, 1.0], "intensity": 2.0}})

@@ -180,7 +180,7 @@ def test_no_nan_for_extreme_materials_and_grazing_views(renderer):
 
 
 def test_cli_render_samples(tmp_path):
-    from viewer.cli import main
+    from relight.cli import main
 
     scene = tmp_path / "s.toml"
     scene.write_text('[camera]\nsize = [16, 16]\n[environment]\nprocedural = "white"\nwidth = 32\n'

@@ -6,8 +6,8 @@ import sys
 def test_viewer_runtime_does_not_import_torch(tmp_path):
     code = (
         "import sys\n"
-        "import viewer, viewer.renderer, viewer.cli, viewer.neural, viewer.specialize\n"
-        "import viewer.app.state, viewer.splats, viewer.bench.run\n"
+        "import viewer, viewer.renderer, relight.cli, viewer.neural, viewer.specialize\n"
+        "import relight.app.state, viewer.splats, relight.bench.run\n"
         "from viewer.renderer import Renderer\n"
         "from viewer.scene import scene_from_dict\n"
         "r = Renderer()\n"

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from viewer.bench.specialize import DIFFUSE_ONLY
+from relight.bench.specialize import DIFFUSE_ONLY
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
@@ -64,7 +64,7 @@ def test_ssao_needs_depth(renderer):
 
 def test_lone_stack_is_shaded_in_place_with_identical_output(renderer, tmp_path):
     """A stack-only scene skips the G-buffer copy: the lighting pass reads the stack's textures."""
-    from viewer.bench.specialize import _diffuse_stack
+    from relight.bench.specialize import _diffuse_stack
 
     scene = _diffuse_stack(renderer, tmp_path)
     spec = renderer.specialization(scene)

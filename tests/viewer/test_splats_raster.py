@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from viewer.camera import Camera
-from viewer.cli import main
+from relight.cli import main
 from viewer.splats import write_ply
 from viewer.splats.data import make_splats
 

@@ -1,6 +1,6 @@
 """The viewer's view pass: render targets -> the window (or a screenshot target).
 
-Shows one of :data:`viewer.app.state.VIEWS`: the tone-mapped image, a G-buffer channel, or the
+Shows one of :data:`relight.app.state.VIEWS`: the tone-mapped image, a G-buffer channel, or the
 render against a reference (``difference``: |render - reference| exposed like the image;
 ``error``: relative luminance error in false colour, Turbo map, ``error_scale`` at the top).
 The program variant is chosen by prepended defines (``VIEW_MODE``) plus a generated chunk that

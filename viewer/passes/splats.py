@@ -60,7 +60,7 @@ class _Uploaded:
 class SplatPass:
     """Draws one splat cloud into a :class:`~viewer.passes.gbuffer.GBufferTargets`."""
 
-    sort = "cpu"  # default for draw_clouds: "cpu" | "gpu" (viewer.bench.splats measures both)
+    sort = "cpu"  # default for draw_clouds: "cpu" | "gpu" (relight.bench.splats measures both)
 
     def __init__(self, programs, layout: GBufferLayout):
         if not layout.with_color:

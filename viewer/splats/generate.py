@@ -4,13 +4,11 @@ benchmarks and examples).
 * :func:`sphere_splats` - flat Gaussians tiling a sphere, with smoothly varying albedo, roughness
   and metallic and outward normals (the relightable layout).
 * :func:`sky_cubemap` - a 6-face cubemap light: sky gradient plus a warm sun.
-* :func:`baked` - the plain 3DGS version of a relightable cloud: per-splat SH fitted to its radiance
-  under a light (needs torch; the shading is :func:`learned.splats.decompose.shade`).
+* The baked-colour (plain 3DGS) version of a relightable cloud needs the torch shading model:
+  it is :func:`learned.splats.decompose.baked`.
 * :func:`random_cloud` - N random Gaussians in a box (benchmarks).
 """
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 
@@ -73,41 +71,6 @@ def sky_cubemap(res: int = 8, sun=(0.5, 0.7, 0.4), sun_power: float = 4.0,
     sky = np.where(up > 0, 0.35 + 0.25 * up * np.array([0.6, 0.8, 1.0]), 0.15 + 0.05 * up)
     lobe = np.exp(6.0 * ((d @ s) - 1.0))[..., None] * sun_power * np.asarray(tint)
     return (sky + lobe).astype(np.float32)
-
-
-def baked(splats: Splats, light: np.ndarray, degree: int = 2, directions: int = 96) -> Splats:
-    """The baked-colour (plain 3DGS) version of a relightable cloud: per splat, SH of ``degree``
-    least-squares fitted (3DGS convention, + 0.5 offset) to its shaded radiance under ``light``
-    seen from ``directions`` directions over the sphere (view-dependent specular included).
-    Materials are reset to the defaults of a plain 3DGS file, normals kept."""
-    import torch
-
-    from learned.splats.decompose import shade
-
-    from .data import sh_basis_3dgs
-
-    i = np.arange(directions) + 0.5
-    phi = np.arccos(1 - 2 * i / directions)
-    theta = np.pi * (1 + 5 ** 0.5) * i
-    dirs = np.stack([np.cos(theta) * np.sin(phi), np.cos(phi), np.sin(theta) * np.sin(phi)], -1)
-    n = torch.from_numpy(splats.normals).float()[:, None].expand(-1, directions, -1)
-    view_to_splat = torch.from_numpy(dirs).float()[None].expand(len(splats), -1, -1)
-    # radiance towards the eye: v = -view direction; faces away from the eye use a flipped normal
-    v = -view_to_splat
-    n = torch.where(((n * v).sum(-1) < 0)[..., None], -n, n)
-    with torch.no_grad():
-        rad = shade(torch.from_numpy(splats.albedo)[:, None].expand(-1, directions, -1),
-                    n, torch.from_numpy(splats.roughness)[:, None].expand(-1, directions),
-                    torch.from_numpy(splats.metallic)[:, None].expand(-1, directions),
-                    v, torch.from_numpy(light)).numpy()
-    k = (degree + 1) ** 2
-    basis = sh_basis_3dgs(dirs, k)  # [D, k]
-    coef = np.linalg.lstsq(basis, (rad - 0.5).transpose(1, 0, 2).reshape(directions, -1),
-                           rcond=None)[0]  # [k, N * 3]
-    sh = coef.reshape(k, len(splats), 3).transpose(1, 0, 2).astype(np.float32)
-    out = make_splats(splats.means, splats.scales, splats.rotations, splats.opacities, sh=sh,
-                      normals=splats.normals)
-    return dataclasses.replace(out, source=splats.source)
 
 
 def random_cloud(n: int, seed: int = 0, sh_degree: int = 1, extent: float = 1.0,

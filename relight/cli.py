@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from .errors import RelightError, SceneError
+from viewer.errors import RelightError, SceneError
 
 DEMO_SCENE = "demo.toml"
 
@@ -40,16 +40,16 @@ def _parse_size(text: str) -> tuple[int, int]:
 
 
 def _context_options(args):
-    from .gl import ContextOptions
+    from viewer.gl import ContextOptions
 
     return ContextOptions(software=getattr(args, "software", False))
 
 
 def cmd_render(args) -> int:
-    from .imageio import write_exr, write_png
-    from .models import model_info
-    from .renderer import AOV_NAMES, Renderer
-    from .scene import TONEMAPS, load_scene
+    from viewer.imageio import write_exr, write_png
+    from viewer.models import model_info
+    from viewer.renderer import AOV_NAMES, Renderer
+    from viewer.scene import TONEMAPS, load_scene
 
     out = Path(args.out)
     if out.suffix.lower() not in (".exr", ".png"):
@@ -114,8 +114,8 @@ def cmd_parity(args) -> int:
     except ImportError as exc:
         raise RelightError(f"relight parity needs torch: pip install -e '.[learned]' ({exc})",
                            where="parity") from None
-    from .gl import Programs, create_context
-    from .models import model_info
+    from viewer.gl import Programs, create_context
+    from viewer.models import model_info
 
     if args.model is not None:
         from learned.parity import PASS_CHECKS
@@ -172,7 +172,7 @@ def cmd_decompose(args) -> int:
 
 
 def cmd_info(args) -> int:
-    from .gl import create_context, gl_info
+    from viewer.gl import create_context, gl_info
 
     ctx = create_context(_context_options(args))
     try:
@@ -196,7 +196,7 @@ def cmd_view(args) -> int:
         raise RelightError(f"relight view needs imgui-bundle: pip install -e '.[gui]' ({exc})",
                            where="view") from None
     from .app.window import Viewer
-    from .scene import load_scene
+    from viewer.scene import load_scene
 
     if args.frames is not None and args.frames < 1:
         raise SceneError(f"--frames must be at least 1, got {args.frames}", where="--frames")

@@ -1,4 +1,4 @@
-"""viewer.bench.clamps: every clamp's cost is measured, finite, and (for the roughness clamp)
+"""relight.bench.clamps: every clamp's cost is measured, finite, and (for the roughness clamp)
 real but small; the suite is registered in ``relight bench``."""
 import math
 
@@ -7,8 +7,8 @@ import pytest
 
 @pytest.fixture(scope="module")
 def rows(ctx):
-    from viewer.bench.clamps import clamp_costs
-    from viewer.bench.run import BenchConfig
+    from relight.bench.clamps import clamp_costs
+    from relight.bench.run import BenchConfig
     from viewer.renderer import Renderer
 
     r = Renderer(ctx=ctx)
@@ -26,7 +26,7 @@ def _get(rows, clamp, metric_start, scene_has=""):
 
 
 def test_rows_are_complete_and_finite(rows):
-    from viewer.bench.run import SUITES
+    from relight.bench.run import SUITES
 
     assert "clamps" in SUITES
     assert {r["clamp"].split()[0] for r in rows} == {"perceptual", "n.v", "radiance", "dfg.y"}

@@ -76,7 +76,7 @@ def students_dir() -> Path:
 def time_frame(renderer, scene, repeats: int = 3) -> tuple[float, float, np.ndarray]:
     """(best wall ms of a whole frame, median ms of the ``shade`` pass, radiance ``[H, W, 3]``) of
     ``scene``; one warm-up render first (programs, IBL, sampling tables)."""
-    from ..gl.timing import PassTimer
+    from viewer.gl.timing import PassTimer
 
     frame = renderer.render(scene)
     best = float("inf")
@@ -107,7 +107,7 @@ def _tm(x: np.ndarray) -> np.ndarray:
 
 
 def _reference(renderer, scene, samples: int) -> tuple[str, np.ndarray]:
-    from ..models import MODELS
+    from viewer.models import MODELS
 
     model = "ggx_mc" if "ggx_mc" in MODELS else "ggx_split_sum"
     img = renderer.render(scene.with_render(model=model, samples=samples,
@@ -117,7 +117,7 @@ def _reference(renderer, scene, samples: int) -> tuple[str, np.ndarray]:
 
 def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: int = 1024,
                        repeats: int = 3, scene=None, sizes=(128,)) -> list[dict]:
-    from ..scene import scene_from_dict
+    from viewer.scene import scene_from_dict
 
     base = scene or scene_from_dict(BENCH_SCENE)
     rows = []
@@ -148,8 +148,8 @@ def student_designs(renderer, size: int = 256, reference_samples: int = 1024, re
     """One row per candidate student in ``folder`` (default :func:`students_dir`), rendered through
     the real ``neural`` pass; the held-out metrics of the comparison (``compare.json``) ride along
     as ``psnr_test_vs_teacher`` / ``psnr_test_vs_mc``."""
-    from ..neural import load_network
-    from ..scene import scene_from_dict
+    from viewer.neural import load_network
+    from viewer.scene import scene_from_dict
 
     folder = Path(folder) if folder else students_dir()
     files = sorted(folder.glob("*.safetensors")) if folder.is_dir() else []
@@ -178,7 +178,7 @@ def student_designs(renderer, size: int = 256, reference_samples: int = 1024, re
 def time_student_kernel(programs, net, x: np.ndarray, repeats: int = 5) -> float:
     """Best seconds of the generated student MLP (``viewer.neural.STUDENT_KERNEL``) over the
     inputs ``x [n, 10]`` (planar upload outside the timing)."""
-    from ..neural import STUDENT_KERNEL, STUDENT_KERNEL_GROUP
+    from viewer.neural import STUDENT_KERNEL, STUDENT_KERNEL_GROUP
 
     ctx = programs.ctx
     name = f"<bench:neural_student:{net.checkpoint[:12]}>"
@@ -209,7 +209,7 @@ def student_throughput(programs, weights=None, pixels: int = 65536, repeats: int
     """GLSL vs torch evaluation of the student MLP on the same ``pixels`` random inputs: the best
     time of each over ``rounds`` interleaved rounds of ``repeats`` runs (both swing by 2x from
     run to run on a 2-core llvmpipe machine; interleaving gives both the same quiet moments)."""
-    from ..neural import default_weights, load_network
+    from viewer.neural import default_weights, load_network
 
     try:
         from learned.evaluate import torch_student_throughput
@@ -258,7 +258,7 @@ def _kernel_times(programs, source: str, virtual: dict, code, x: np.ndarray, out
     Mesa's shader cache has the program) and of each of ``repeats`` more (fenced with
     ``finish``) of the compute ``source`` over the planar inputs ``x [n, in]`` with ``code``'s
     weight data bound, and the outputs ``[n, outputs]`` of the last one."""
-    from ..neural import STUDENT_KERNEL_GROUP, NeuralWeights
+    from viewer.neural import STUDENT_KERNEL_GROUP, NeuralWeights
 
     ctx = programs.ctx
     prog = programs.compute(source, virtual=virtual)
@@ -298,7 +298,7 @@ def weight_storage_rows(programs, pixels: int = 65536, repeats: int = 7, rounds:
     llvmpipe's JIT compilation unless Mesa's shader cache has the program (a cold cache costs
     minutes for the probe's storage block). ``max_abs_vs_const``: the outputs'
     largest difference from the baked-constants kernel (a sanity check; the tests check parity)."""
-    from ..neural import (STUDENT_KERNEL, WEIGHT_STORAGES, default_weights, load_network,
+    from viewer.neural import (STUDENT_KERNEL, WEIGHT_STORAGES, default_weights, load_network,
                           mlp_kernel)
 
     include_probe = probe

@@ -2,12 +2,12 @@
 for each sampling strategy (the thesis's uniform-vs-importance comparison, appendix B.4, measured),
 and the frame time per sample.
 
-    from viewer.bench.mc import mc_convergence
+    from relight.bench.mc import mc_convergence
     rows = mc_convergence(Renderer(), scene, ("uniform", "cosine", "env", "brdf", "mis"),
                           (1, 4, 16, 64), reference_spp=4096)
 
 RMSE is on linear radiance over covered pixels; PSNR on the display image of the scene's settings
-(exposure, tone mapping, sRGB), like :mod:`viewer.bench.metrics`. The reference is a ``mis``
+(exposure, tone mapping, sRGB), like :mod:`relight.bench.metrics`. The reference is a ``mis``
 render with its own seed, so no strategy is compared with its own samples.
 """
 from __future__ import annotations
@@ -54,11 +54,11 @@ def mc_convergence(renderer, scene, strategies=("uniform", "cosine", "env", "brd
     return rows
 
 
-if __name__ == "__main__":  # python -m viewer.bench.mc [scene.toml]: a quick table
+if __name__ == "__main__":  # python -m relight.bench.mc [scene.toml]: a quick table
     import sys
 
-    from ..renderer import Renderer
-    from ..scene import load_scene, scene_from_dict
+    from viewer.renderer import Renderer
+    from viewer.scene import load_scene, scene_from_dict
 
     if len(sys.argv) > 1:
         sc = load_scene(sys.argv[1])

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..scene import scene_from_dict
+from viewer.scene import scene_from_dict
 from . import metrics
 
 COPPER = (0.95, 0.64, 0.54)  # metallic: f0 = albedo, no diffuse lobe
@@ -166,7 +166,7 @@ NOV_MATERIALS = {"dielectric r=0.5": ((0.8, 0.8, 0.8), 0.5, 0.0),
 
 
 def _nov_gbuffer(fov_y: float = 0.01):
-    from ..geometry.imagespace import ImageGBuffer, view_dirs_cs
+    from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 
     xs = NOV_CLAMPED + NOV_FREE
     w, h = len(xs), len(NOV_MATERIALS)
@@ -189,7 +189,7 @@ def _nov_gbuffer(fov_y: float = 0.01):
 
 
 def _nov_rows(renderer, size) -> list[dict]:
-    from ..scene import ObjectSpec, Scene
+    from viewer.scene import ObjectSpec, Scene
 
     rows = []
     obj = ObjectSpec("gbuffer", path="<clamp-bench n.v stack>.exr")

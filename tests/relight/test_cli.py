@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from viewer.cli import main
+from relight.cli import main
 from viewer.imageio import read_image
 
 SPHERE = """

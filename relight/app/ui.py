@@ -1,10 +1,10 @@
-"""The ImGui panels: they read and write the viewer's :class:`~viewer.app.state.ViewerState` and
-nothing else (file actions call the :class:`~viewer.app.window.Viewer`'s methods).
+"""The ImGui panels: they read and write the viewer's :class:`~relight.app.state.ViewerState` and
+nothing else (file actions call the :class:`~relight.app.window.Viewer`'s methods).
 
 Built from the registries, so new models and knobs appear without changes here: the model list is
 :data:`viewer.models.MODELS`; the "Shading" panel has one widget per field of
 :class:`~viewer.scene.RenderSettings` (bool: checkbox, int: input, float: drag, str: a combo when
-the field's choices are known, else a text field); views are :data:`viewer.app.state.VIEWS`.
+the field's choices are known, else a text field); views are :data:`relight.app.state.VIEWS`.
 
 ``rects`` records every widget's screen rectangle by label, so tests can click and drag the real
 widgets through the glfw backend's input callbacks.
@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 
-from ..environment import PROCEDURAL
-from ..material import Material
-from ..models import MODELS, SAMPLING_MODELS, SAMPLINGS
-from .. import scene as scene_module
-from ..scene import BACKGROUNDS, TONEMAPS
+from viewer.environment import PROCEDURAL
+from viewer.material import Material
+from viewer.models import MODELS, SAMPLING_MODELS, SAMPLINGS
+from viewer import scene as scene_module
+from viewer.scene import BACKGROUNDS, TONEMAPS
 from .state import DEFAULT_LIGHT, MATERIAL_FIELDS, VIEWS, MaterialOverride, light_angles, \
     light_direction, reset_camera, with_procedural_environment
 

@@ -18,11 +18,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
-from ..camera import Camera
-from ..environment import EnvironmentSpec
-from ..gbuffer import CHANNEL_NAMES
-from ..material import Material
-from ..scene import DirectionalLight, RenderSettings, Scene
+from viewer.camera import Camera
+from viewer.environment import EnvironmentSpec
+from viewer.gbuffer import CHANNEL_NAMES
+from viewer.material import Material
+from viewer.scene import DirectionalLight, RenderSettings, Scene
 
 # What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
 # reference render ("difference": |render - reference| exposed like the image; "error": relative

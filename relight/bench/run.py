@@ -19,7 +19,6 @@ import csv
 import json
 import math
 import platform
-import statistics
 import sys
 import time
 from dataclasses import dataclass
@@ -28,9 +27,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import RelightError
-from ..scene import Scene, load_scene, scene_from_dict
+from viewer.errors import RelightError
+from viewer.scene import Scene, load_scene, scene_from_dict
 from . import metrics
+from .timing import time_frames
 
 RESULT_KEYS = ("scene", "model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip")
 
@@ -62,8 +62,8 @@ def _stack_scene(cache: Path, size: tuple[int, int] = (512, 320)) -> Scene:
     """An image-space G-buffer stack made by the project: a material grid's G-buffer seen from the
     stack camera, saved as a 12-channel EXR (depth normalised, near 1, far 800). A stack renders
     at its own size, so there is one per bench size (:func:`_scene_at`)."""
-    from ..geometry.imagespace import ImageGBuffer, save_stack_exr
-    from ..renderer import Renderer
+    from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
+    from viewer.renderer import Renderer
 
     path = cache / f"stack_{size[0]}x{size[1]}.exr"
     if not path.exists():
@@ -96,8 +96,8 @@ def _scene_at(scenes: dict, name: str, size, cache: Path) -> tuple[Scene, tuple 
 
 def _splat_scene(cache: Path, quick: bool) -> Scene | None:
     try:
-        from ..splats.generate import sphere_splats
-        from ..splats.ply import write_ply
+        from viewer.splats.generate import sphere_splats
+        from viewer.splats.ply import write_ply
     except ImportError:  # no splat renderer in this build
         return None
     n = 20_000 if quick else 100_000
@@ -111,7 +111,7 @@ def _splat_scene(cache: Path, quick: bool) -> Scene | None:
 
 def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
     """(model, variant, render-setting changes) for every model in the registry."""
-    from ..models import MODELS
+    from viewer.models import MODELS
 
     cases: list[tuple[str, str, dict]] = []
     for name in MODELS:
@@ -138,31 +138,10 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
 
 # ---------------------------------------------------------------------------------------------
 
-def _time_frames(renderer, scene: Scene, size, config: BenchConfig) -> tuple[float, dict]:
-    """Median ms per frame (sum of passes, precomputation excluded) and per pass."""
-    from ..gl.timing import PassTimer
-
-    timer = renderer.profiler if isinstance(renderer.profiler, PassTimer) else PassTimer(renderer.ctx)
-    renderer.profiler = timer
-    per_pass: dict[str, list[float]] = {}
-    totals = []
-    for i in range(config.warmup + config.frames):
-        timer.enabled = True
-        timer.reset()
-        renderer.draw(scene, size)
-        ms = {k: v for k, v in timer.milliseconds().items() if k != "ibl"}
-        if i >= config.warmup:
-            totals.append(sum(ms.values()))
-            for k, v in ms.items():
-                per_pass.setdefault(k, []).append(v)
-    timer.enabled = False
-    return statistics.median(totals), {k: statistics.median(v) for k, v in per_pass.items()}
-
-
 def _reference(renderer, scene: Scene, size, cache: Path, config: BenchConfig, name: str):
     """Converged ggx_mc radiance and display image of ``scene`` (cached on disk)."""
-    from ..imageio import read_image, write_exr
-    from ..models import MODELS
+    from viewer.imageio import read_image, write_exr
+    from viewer.models import MODELS
 
     if "ggx_mc" not in MODELS:
         return None
@@ -194,7 +173,7 @@ def _row_key(row: dict) -> tuple:
 
 
 def machine_info(renderer) -> dict:
-    from ..gl import gl_info
+    from viewer.gl import gl_info
 
     info = gl_info(renderer.ctx)
     info.pop("extensions", None)
@@ -208,7 +187,7 @@ def machine_info(renderer) -> dict:
 def _suite_mc(renderer, scenes, config, cache) -> list[dict]:
     """Error vs samples per pixel for every sampling strategy (thesis ch. 5: uniform vs importance
     sampling, measured), and time per sample, on the mesh scene."""
-    from ..models import MODELS
+    from viewer.models import MODELS
     from .mc import mc_convergence
 
     if "ggx_mc" not in MODELS:
@@ -236,7 +215,7 @@ def _suite_splats(renderer, scenes, config, cache) -> list[dict]:
 
 def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
     """Student vs teacher (128 samples): frame-time ratio and PSNR; GLSL vs torch MLP throughput."""
-    from ..models import MODELS
+    from viewer.models import MODELS
 
     if "neural" not in MODELS:
         return []
@@ -247,7 +226,7 @@ def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
 
 def _suite_clamps(renderer, scenes, config, cache) -> list[dict]:
     """What each shading clamp (roughness, n.v, ACES input, dfg.y) costs against an unclamped
-    reference (:mod:`viewer.bench.clamps`)."""
+    reference (:mod:`relight.bench.clamps`)."""
     from .clamps import clamp_costs
 
     return clamp_costs(renderer, config)
@@ -265,7 +244,7 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
     report dict."""
     from tqdm import tqdm
 
-    from ..renderer import Renderer
+    from viewer.renderer import Renderer
 
     out = Path(out_dir)
     if not out.parent.exists():
@@ -303,7 +282,7 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
                 try:
                     ref = _reference(renderer, scene, render_size, cache, config,
                                      f"{sname}_{size[0]}x{size[1]}")
-                    ms, per_pass = _time_frames(renderer, case_scene, render_size, config)
+                    ms, per_pass = time_frames(renderer, case_scene, render_size, config)
                     frame = renderer.render(case_scene, size=render_size)
                 except RelightError as exc:  # a model that cannot run this scene: recorded
                     ms, per_pass, frame, ref = float("nan"), {}, None, None

@@ -28,7 +28,7 @@ def sphere_scene():
 
 @pytest.fixture(scope="module")
 def viewer():
-    from viewer.app.window import Viewer
+    from relight.app.window import Viewer
 
     try:
         v = Viewer(sphere_scene(), window_size=SIZE, offscreen=True)
@@ -41,7 +41,7 @@ def viewer():
 @pytest.fixture
 def fresh(viewer):
     """The module's viewer, reset to the test scene with the UI hidden."""
-    from viewer.app.state import state_from_scene
+    from relight.app.state import state_from_scene
 
     viewer.state = state_from_scene(sphere_scene())
     viewer.state.show_ui = viewer.state.show_overlay = False
@@ -259,7 +259,7 @@ def test_dropped_scene_and_environment_files_load(fresh, tmp_path):
 
 
 def test_cli_view_offscreen_screenshot(tmp_path, ctx):
-    from viewer.cli import main
+    from relight.cli import main
 
     out = tmp_path / "view.png"
     assert main(["view", "--offscreen", "--frames", "2", "--size", "64x40",
@@ -294,7 +294,7 @@ def test_progressive_accumulation_restarts_on_change_and_idles_when_done(fresh):
 def test_directional_light_through_the_state_adds_lambert_and_saves(fresh, ctx, tmp_path):
     """Turning the light on through the ViewerState adds exactly albedo E cos(theta) / pi to a
     white Lambertian sphere's linear radiance; the saved scene renders the same pixels."""
-    from viewer.app.state import light_direction
+    from relight.app.state import light_direction
     from viewer.imageio import read_image
     from viewer.scene import DirectionalLight
 
@@ -335,7 +335,7 @@ def test_light_panel_switches_moves_and_keeps_the_light():
     the panel open never rewrite it (float32 widget values are written only on an edit)."""
     from imgui_bundle import imgui
 
-    from viewer.app.window import Viewer
+    from relight.app.window import Viewer
 
     tall = Viewer(sphere_scene(), window_size=(320, 640), offscreen=True)
     draw = tall.ui.draw

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 
-from ..camera import Camera
-from ..gbuffer import GBufferLayout
+from viewer.camera import Camera
+from viewer.gbuffer import GBufferLayout
 
 
 def _orbit(i: int, size: int) -> Camera:
@@ -31,9 +31,9 @@ def _scale_range(n: int) -> tuple[float, float]:
 def splat_throughput(programs, counts=(10_000, 100_000, 1_000_000), size: int = 512,
                      sorts=("cpu", "gpu"), frames: int = 3, sh_degree: int = 1) -> list[dict]:
     """GLSL splat pass (projection + sort + raster + resolve) at ``size``^2 per count and sort."""
-    from ..passes.gbuffer import GBufferTargets
-    from ..passes.splats import SplatPass
-    from ..splats.generate import random_cloud
+    from viewer.passes.gbuffer import GBufferTargets
+    from viewer.passes.splats import SplatPass
+    from viewer.splats.generate import random_cloud
 
     layout = GBufferLayout(with_color=True)
     ctx = programs.ctx
@@ -75,9 +75,9 @@ def glsl_vs_torch(programs, n: int = 10_000, size: int = 128, frames: int = 2) -
     import torch
 
     from learned.splats.rasterize import rasterize, splat_tensors
-    from ..passes.gbuffer import GBufferTargets
-    from ..passes.splats import SplatPass
-    from ..splats.generate import random_cloud
+    from viewer.passes.gbuffer import GBufferTargets
+    from viewer.passes.splats import SplatPass
+    from viewer.splats.generate import random_cloud
 
     splats = random_cloud(n, sh_degree=3, scale_range=_scale_range(n))
     layout = GBufferLayout(with_color=True)

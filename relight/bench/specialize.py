@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import scene_from_dict
+from viewer.scene import scene_from_dict
+
+from .timing import time_frames
 
 DIFFUSE_ONLY = {
     "camera": {"position": [0, 2.2, 7.5], "target": [0, 0.4, 0], "fov_y": 40},
@@ -34,7 +36,7 @@ def _diffuse_stack(renderer, cache):
     G-buffer (the thesis's main input: inverse-rendered G-buffers, no geometry to rasterise)."""
     import copy
 
-    from ..geometry.imagespace import ImageGBuffer, save_stack_exr
+    from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
 
     path = cache / "diffuse_stack.exr"
     if not path.exists():
@@ -56,8 +58,7 @@ def measure_specialization(renderer, config, cache) -> list[dict]:
     diffuse-only image-space stack, the same scene as meshes, and the demo."""
     from assets import ASSET_ROOT
 
-    from ..scene import load_scene
-    from .run import _time_frames
+    from viewer.scene import load_scene
 
     scenes = {"diffuse_stack": (_diffuse_stack(renderer, cache), None),
               "diffuse_meshes": (scene_from_dict(DIFFUSE_ONLY), SPECIALIZATION_SIZE),
@@ -66,8 +67,8 @@ def measure_specialization(renderer, config, cache) -> list[dict]:
     for name, (scene, size) in scenes.items():
         general = scene.with_render(specialize=False)
         special = scene.with_render(specialize=True)
-        ms_g, _ = _time_frames(renderer, general, size, config)
-        ms_s, _ = _time_frames(renderer, special, size, config)
+        ms_g, _ = time_frames(renderer, general, size, config)
+        ms_s, _ = time_frames(renderer, special, size, config)
         a = renderer.render(general, size=size)
         b = renderer.render(special, size=size)
         rows.append({"scene": name, "size": list(a.camera.size), "ms_general": ms_g,

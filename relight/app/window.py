@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, RelightError, SceneError
-from ..gbuffer import CHANNEL_NAMES
-from ..gl.context import ContextOptions, create_window, make_current
-from ..models import SAMPLING_MODELS
-from ..scene import Scene, load_scene
+from viewer.errors import InputError, RelightError, SceneError
+from viewer.gbuffer import CHANNEL_NAMES
+from viewer.gl.context import ContextOptions, create_window, make_current
+from viewer.models import SAMPLING_MODELS
+from viewer.scene import Scene, load_scene
 from . import camera_control
 from .state import ViewerState, load_into, reset_camera, scene_from_state, state_from_scene, \
     with_environment_file
@@ -102,8 +102,8 @@ class Viewer:
         self.window = create_window(window_size, title, offscreen=offscreen, options=options)
         import glfw
 
-        from ..passes.debug_view import DebugViewPass
-        from ..renderer import Renderer
+        from viewer.passes.debug_view import DebugViewPass
+        from viewer.renderer import Renderer
         from .ui import ViewerUI
 
         self._glfw, self._imgui = glfw, imgui
@@ -310,7 +310,7 @@ class Viewer:
 
     def load_reference(self, path: str) -> bool:
         """Load a linear render (EXR/HDR, the size of the render) for the difference views."""
-        from ..imageio import read_image
+        from viewer.imageio import read_image
 
         try:
             arr, _ = read_image(path, channels=(3, 4))
@@ -332,7 +332,7 @@ class Viewer:
 
     def save_scene(self, path: str) -> bool:
         """Write what is shown as a scene TOML that ``relight render`` renders identically."""
-        from ..scene_io import save_scene
+        from viewer.scene_io import save_scene
 
         try:
             save_scene(self.current_scene(), path)
@@ -355,7 +355,7 @@ class Viewer:
     def screenshot(self, path: str) -> Path:
         """``.png``: the current view exactly as shown, at the render's size, without the UI.
         ``.exr``: the linear radiance (before exposure), as ``relight render --out x.exr``."""
-        from ..imageio import write_exr, write_png
+        from viewer.imageio import write_exr, write_png
 
         path = Path(path)
         suffix = path.suffix.lower()
@@ -425,6 +425,6 @@ class Viewer:
 
 
 def _read(texture, dtype: str) -> np.ndarray:
-    from ..renderer import _read as read
+    from viewer.renderer import _read as read
 
     return read(texture, dtype)

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..camera import Camera
+from viewer.camera import Camera
 
 ORBIT_DEG_PER_PIXEL = 0.3
 MAX_PITCH_DEG = 89.0  # from the plane orthogonal to ``up``

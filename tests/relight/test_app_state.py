@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from viewer.app import camera_control as cc
-from viewer.app.state import MaterialOverride, reset_camera, scene_from_state, state_from_scene, \
+from relight.app import camera_control as cc
+from relight.app.state import MaterialOverride, reset_camera, scene_from_state, state_from_scene, \
     with_environment_file
 from viewer.camera import Camera
 from viewer.errors import SceneError

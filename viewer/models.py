@@ -1,61 +1,125 @@
-"""The shading models: one lighting pass each (``shaders/passes/shade_<name>.frag``).
+"""The shading models: one record per model owns everything the renderer, the specialiser, the
+twins and the UI need to know about it.
 
-``needs`` lists the environment resources a model reads, so a scene builds only those.
+A :class:`ShadingModel` names its lighting pass (``shaders/passes/shade_<name>.frag``), the
+environment resources and G-buffer channels it reads, whether it accumulates Monte-Carlo samples,
+which network it loads, and how it turns render settings (and the scene's light and content) into
+a :class:`ShadeVariant`: the frozen set of prepended defines that selects the compiled program
+(and keys the program cache). There are no ``if model in (...)`` chains elsewhere: a new model is
+one record here and one pass file.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .errors import SceneError
+
+SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
+SAMPLING_IDS = {name: i for i, name in enumerate(SAMPLINGS)}  # the SAMPLING define
+MIS_POWERS = {"balance": 1, "power": 2}  # the MIS_POWER define (beta of the power heuristic)
+ALL_CHANNELS = None  # ShadingModel.reads: every G-buffer channel
+
 
 @dataclass(frozen=True)
-class ModelInfo:
+class ShadeVariant:
+    """One compiled variant of a lighting pass: the model and its prepended defines (sorted).
+    Frozen and hashable, so it is the program-cache key."""
+
+    model: str
+    define_items: tuple[tuple[str, int], ...]
+
+    @property
+    def defines(self) -> dict[str, int]:
+        return dict(self.define_items)
+
+
+@dataclass(frozen=True)
+class ShadingModel:
     name: str
     pass_file: str
     summary: str
-    needs: frozenset[str]  # subset of {"sh", "prefiltered", "dfg", "radiance", "cdf"}
+    needs: frozenset[str]  # environment resources: subset of {sh, prefiltered, dfg, radiance, cdf}
+    # G-buffer channels read besides albedo and alpha (None: all of them)
+    reads: frozenset[str] | None = ALL_CHANNELS
+    accumulates: bool = False  # Monte Carlo: `samples` accumulate in batches and over frames
+    network: str | None = None  # "student" | "teacher": the weights file the model loads
     # how the model treats a scene's [light]: "shaded" (the analytic direct term), "unlit" (no
     # lighting at all) or "ignored" (the neural models: trained under environment light only;
     # the renderer warns once when a scene with a light is rendered with one)
     directional_light: str = "shaded"
+    occlusion: bool = True  # honours `ao` (the G-buffer's) and `ssao` (USE_AO, USE_SSAO)
+    multiscatter: bool = False  # has the GGX energy compensation switch (MULTISCATTER)
+    # Monte-Carlo strategies it implements: SAMPLINGS, or a prefix of it (a request past the
+    # prefix falls back to its last entry: the teacher has no BRDF pdf, brdf and mis use env)
+    samplings: tuple[str, ...] = ()
+    specular_lobe: bool = False  # SPECULAR_LOBE 0 compiles out its specular lookups (specialise)
+
+    def variant(self, settings, light=None, specular: bool = True) -> ShadeVariant:
+        """The program variant for render ``settings``, the scene's ``light`` (a
+        :class:`~viewer.scene.DirectionalLight` or None) and whether any surface has a specular
+        lobe (:class:`viewer.specialize.SceneFeatures`)."""
+        d = {"BACKGROUND_ENVIRONMENT": int(settings.background == "environment")}
+        if self.directional_light == "shaded":
+            d["LIGHT_DIRECTIONAL"] = int(light is not None)
+        if self.occlusion:
+            d["USE_AO"] = int(settings.ao)
+            d["USE_SSAO"] = int(settings.ssao)
+        if self.multiscatter:
+            d["MULTISCATTER"] = int(settings.multiscatter)
+        if self.samplings:
+            d["SAMPLING"] = min(SAMPLING_IDS[settings.sampling], len(self.samplings) - 1)
+            if self.samplings == SAMPLINGS:
+                d["MIS_POWER"] = MIS_POWERS[settings.mis_heuristic]
+        if self.specular_lobe:
+            d["SPECULAR_LOBE"] = int(specular)
+        return ShadeVariant(self.name, tuple(sorted(d.items())))
 
 
-MODELS: dict[str, ModelInfo] = {
+_LIT = frozenset({"normal", "roughness", "metallic", "specular", "ao"})
+
+MODELS: dict[str, ShadingModel] = {
     m.name: m for m in (
-        ModelInfo("unlit", "passes/shade_unlit.frag",
-                  "albedo (a splat's baked colour) without lighting, for inspection",
-                  frozenset({"radiance"}), directional_light="unlit"),
-        ModelInfo("blinn_phong", "passes/shade_blinn_phong.frag",
-                  "the thesis baseline: Lambert diffuse from SH irradiance + a Fresnel-free "
-                  "normalised Blinn-Phong lobe from the prefiltered environment",
-                  frozenset({"sh", "prefiltered", "radiance"})),
-        ModelInfo("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
-                  "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
-                  "prefiltered specular + SH diffuse; optional multiple-scattering compensation",
-                  frozenset({"sh", "prefiltered", "dfg", "radiance"})),
-        ModelInfo("ggx_mc", "passes/shade_ggx_mc.frag",
-                  "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the environment: "
-                  "`samples` per pixel, `sampling` = uniform | cosine | env | brdf | mis, "
-                  "progressive accumulation",
-                  frozenset({"dfg", "radiance", "cdf"})),
-        ModelInfo("neural", "passes/shade_neural.frag",
-                  "the distilled neural shader (thesis ch. 4 student): one small MLP per pixel on "
-                  "the material, n.v, SH irradiance and prefiltered radiance; weights baked into "
-                  "generated GLSL from `weights` (default: assets/weights)",
-                  frozenset({"sh", "prefiltered", "radiance"}), directional_light="ignored"),
-        ModelInfo("neural_teacher", "passes/shade_neural_teacher.frag",
-                  "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse and "
-                  "specular MLPs per sampled light direction, `samples` averaged progressively; "
-                  "`sampling` uniform | cosine | env (brdf and mis use env)",
-                  frozenset({"radiance", "cdf"}), directional_light="ignored"),
+        ShadingModel("unlit", "passes/shade_unlit.frag",
+                     "albedo (a splat's baked colour) without lighting, for inspection",
+                     frozenset({"radiance"}), reads=frozenset(), directional_light="unlit",
+                     occlusion=False),
+        ShadingModel("blinn_phong", "passes/shade_blinn_phong.frag",
+                     "the thesis baseline: Lambert diffuse from SH irradiance + a Fresnel-free "
+                     "normalised Blinn-Phong lobe from the prefiltered environment",
+                     frozenset({"sh", "prefiltered", "radiance"}), reads=_LIT, specular_lobe=True),
+        ShadingModel("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
+                     "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
+                     "prefiltered specular + SH diffuse; optional multiple-scattering "
+                     "compensation",
+                     frozenset({"sh", "prefiltered", "dfg", "radiance"}), reads=_LIT,
+                     multiscatter=True, specular_lobe=True),
+        ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
+                     "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
+                     "environment: `samples` per pixel, `sampling` = uniform | cosine | env | "
+                     "brdf | mis, progressive accumulation",
+                     frozenset({"dfg", "radiance", "cdf"}), accumulates=True, multiscatter=True,
+                     samplings=SAMPLINGS),
+        ShadingModel("neural", "passes/shade_neural.frag",
+                     "the distilled neural shader (thesis ch. 4 student): one small MLP per "
+                     "pixel on the material, n.v, SH irradiance and prefiltered radiance; "
+                     "weights baked into generated GLSL from `weights` (default: assets/weights)",
+                     frozenset({"sh", "prefiltered", "radiance"}), network="student",
+                     directional_light="ignored"),
+        ShadingModel("neural_teacher", "passes/shade_neural_teacher.frag",
+                     "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse "
+                     "and specular MLPs per sampled light direction, `samples` averaged "
+                     "progressively; `sampling` uniform | cosine | env (brdf and mis use env)",
+                     frozenset({"radiance", "cdf"}), accumulates=True, network="teacher",
+                     directional_light="ignored", occlusion=False, samplings=SAMPLINGS[:3]),
     )
 }
-SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
-SAMPLING_MODELS = frozenset({"ggx_mc", "neural_teacher"})  # models that integrate by Monte Carlo (accumulate samples)
+# models that integrate by Monte Carlo (accumulate samples)
+SAMPLING_MODELS = frozenset(name for name, m in MODELS.items() if m.accumulates)
+ModelInfo = ShadingModel  # the earlier name
 
 
-def model_info(name: str) -> ModelInfo:
-    from .errors import SceneError
-
+def model_info(name: str) -> ShadingModel:
+    """The record of model ``name``; an unknown name is a :class:`~viewer.errors.SceneError`."""
     if name not in MODELS:
         raise SceneError(f"unknown shading model {name!r} (known: {', '.join(MODELS)})",
                          where="model")

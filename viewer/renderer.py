@@ -113,12 +113,12 @@ class Renderer:
         from .specialize import analyse, specialise
 
         if not scene.render.specialize:
-            return specialise(None, scene.render, aovs, enabled=False)
+            return specialise(None, scene.render, aovs, enabled=False, light=scene.light)
         # the analysis scans materials and texture maps: once per scene content, not per frame
         key = (scene.objects, scene.environment.path, scene.environment.procedural)
         if key not in self._features:
             self._features[key] = analyse(self, scene)
-        return specialise(self._features[key], scene.render, aovs)
+        return specialise(self._features[key], scene.render, aovs, light=scene.light)
 
     def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
         return self.specialization(scene, aovs).layout
@@ -197,7 +197,7 @@ class Renderer:
         spec = self.specialization(scene, aovs)
         layout = spec.layout
         targets = self._target_set(layout, camera.size)
-        targets["defines"] = spec.defines
+        targets["variant"] = spec.variant
         gpass = self._gbuffer_passes.get(layout)
         if gpass is None:
             gpass = self._gbuffer_passes[layout] = GBufferPass(self.programs, layout)
@@ -256,7 +256,6 @@ class Renderer:
         With ``indirect`` the lighting pass writes the direct-lighting buffer ``direct`` of this
         frame, and the indirect pass adds eq. 6.22 gathered from it into ``radiance``.
         """
-        from .models import SAMPLING_MODELS
         from .passes.ssao import SSAOPass
 
         settings = scene.render
@@ -280,7 +279,7 @@ class Renderer:
             out_tex, out_fbo = targets["radiance"], targets["radiance_fbo"]
         env_sampling = self.env_sampling(scene) if "cdf" in info.needs else None
         self._pass_begin("shade")
-        if settings.model in SAMPLING_MODELS:
+        if info.accumulates:
             if settings.samples < 1:
                 raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
                                  f"{settings.samples}", where=scene.source or "render.samples")
@@ -299,13 +298,13 @@ class Renderer:
                 n = min(todo, self.MC_BATCH)
                 spass.run(gbt, acc.batch_fbo, camera, ibl, scene.environment, settings,
                           env_sampling=env_sampling, ssao=ssao, sample_range=(acc.count, n),
-                          defines=targets["defines"], light=scene.light)
+                          variant=targets["variant"], light=scene.light)
                 acc.add(n, out_fbo)
                 todo -= n
             targets["samples"] = acc.count
         else:
             spass.run(gbt, out_fbo, camera, ibl, scene.environment, settings,
-                      env_sampling=env_sampling, ssao=ssao, defines=targets["defines"],
+                      env_sampling=env_sampling, ssao=ssao, variant=targets["variant"],
                       light=scene.light)
             targets["samples"] = 1
         if settings.indirect:

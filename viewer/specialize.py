@@ -5,17 +5,18 @@ a specular lobe or ambient occlusion, whether the environment is constant) from 
 material factors, texture maps, image-stack channels — not from guesses. :func:`specialise` turns
 that, the shading model and the render settings into a :class:`Specialization`: the G-buffer
 channels to allocate (the others are neither written nor read and keep their background value) and
-the prepended defines of the lighting pass (``SPECULAR_LOBE 0`` compiles the environment's
-specular lookups out). Everything it removes contributes exactly zero on the general path, so the
+the lighting pass's :class:`~viewer.models.ShadeVariant` (``SPECULAR_LOBE 0`` compiles the
+environment's specular lookups out). Everything it removes contributes exactly zero on the general path, so the
 output is unchanged (``relight bench`` measures both paths and records the difference).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
+from .models import ShadeVariant, model_info
 
 
 @dataclass(frozen=True)
@@ -32,12 +33,16 @@ class SceneFeatures:
 @dataclass(frozen=True)
 class Specialization:
     layout: GBufferLayout
-    defines: dict = field(default_factory=dict, hash=False, compare=False)
+    variant: ShadeVariant  # the lighting pass's program: model + prepended defines
     direct_stack: bool = False  # a lone image-space stack is shaded from its own textures
 
     @property
+    def defines(self) -> dict[str, int]:
+        return self.variant.defines
+
+    @property
     def key(self) -> tuple:
-        return (self.layout, tuple(sorted(self.defines.items())))
+        return (self.layout, self.variant)
 
 
 GENERAL = SceneFeatures()  # what the all-features path assumes
@@ -88,32 +93,26 @@ def analyse(renderer, scene) -> SceneFeatures:
                          constant_environment=constant, single_object=len(scene.objects) == 1)
 
 
-# G-buffer channels each model reads (besides albedo, alpha)
-_MODEL_CHANNELS = {
-    "unlit": set(),
-    "blinn_phong": {"normal", "roughness", "metallic", "specular", "ao"},
-    "ggx_split_sum": {"normal", "roughness", "metallic", "specular", "ao"},
-}
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
 
 
-def specialise(features: SceneFeatures, settings, aovs=(), enabled: bool = True) -> Specialization:
-    """Layout and defines for ``settings.model`` on a scene with ``features``.
+def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
+               light=None) -> Specialization:
+    """Layout and lighting-pass variant for ``settings.model`` on a scene with ``features`` and
+    ``light`` (the scene's directional light or None).
 
     ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
     the all-features path (every channel, every lobe), the baseline ``relight bench`` compares to.
     """
     dtype = "f2" if getattr(settings, "precision", "fp32") == "fp16" else "f4"
-    if not enabled:
-        return Specialization(GBufferLayout(with_color=True, dtype=dtype), {"SPECULAR_LOBE": 1})
-    model = settings.model
-    # models not listed read everything they might need (sampling, neural, future ones)
-    needed = set(_MODEL_CHANNELS.get(model, set(CHANNEL_NAMES)))
-    defines = {}
-    if model in ("blinn_phong", "ggx_split_sum"):
-        defines["SPECULAR_LOBE"] = int(features.specular)
-        if not features.specular:
-            needed -= _SPECULAR_CHANNELS
+    model = model_info(settings.model)
+    if not enabled or features is None:
+        return Specialization(GBufferLayout(with_color=True, dtype=dtype),
+                              model.variant(settings, light, specular=True))
+    # models that do not say what they read get every channel (sampling, neural, future ones)
+    needed = set(CHANNEL_NAMES if model.reads is None else model.reads)
+    if model.specular_lobe and not features.specular:
+        needed -= _SPECULAR_CHANNELS
     if not features.ao or not getattr(settings, "ao", True):
         needed.discard("ao")
     if getattr(settings, "ssao", False) or getattr(settings, "indirect", False):
@@ -125,5 +124,6 @@ def specialise(features: SceneFeatures, settings, aovs=(), enabled: bool = True)
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c != "color")
     direct = features.stacks and not (features.meshes or features.splats) and \
         features.single_object and dtype == "f4"
-    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit), defines,
+    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit),
+                          model.variant(settings, light, specular=features.specular),
                           direct_stack=direct)

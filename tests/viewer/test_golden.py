@@ -1,7 +1,8 @@
 """Golden images: small renders of the built-in scenes against stored references (tests/golden).
 
 Tolerances live in tests/golden/golden.toml next to the error they guard. On failure the render,
-the reference and a false-colour difference are written to tests/golden/failures/.
+the reference and a false-colour difference are written to pytest's temporary directory for the
+test (named in the failure message; pytest keeps the last three runs), never into the source tree.
 """
 from pathlib import Path
 
@@ -35,7 +36,7 @@ def _false_colour(err: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c["name"] for c in CASES])
-def test_golden(renderer, case, request):
+def test_golden(renderer, case, request, tmp_path):
     scene = load_scene(ASSET_ROOT / "scenes" / case["scene"]).with_render(model=case["model"])
     rad = renderer.render(scene, size=tuple(case["size"])).radiance[..., :3]
     assert np.isfinite(rad).all()
@@ -48,11 +49,10 @@ def test_golden(renderer, case, request):
     bad = err > case["max_abs"] + case["max_rel"] * np.abs(ref)
     fraction = bad.any(-1).mean()
     if fraction > case["allowed_fraction"]:
-        out = GOLDEN / "failures"
-        out.mkdir(exist_ok=True)
+        out = tmp_path
         write_exr(out / f"{case['name']}.render.exr", rad)
         write_exr(out / f"{case['name']}.reference.exr", ref)
         write_png(out / f"{case['name']}.diff.png", _false_colour(err.max(-1)))
     assert fraction <= case["allowed_fraction"], (
         f"{case['name']}: {fraction:.2%} of pixels differ (max abs {err.max():.3g}); "
-        f"images in {GOLDEN / 'failures'}")
+        f"images in {tmp_path}")

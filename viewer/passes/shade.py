@@ -1,7 +1,8 @@
 """The lighting pass: G-buffer + environment -> linear radiance, one program per shading model.
 
-The program variant is chosen by prepended defines from the model and the render settings
-(multiscatter, AO, background), so toggles cost a cached program switch, not a branch per pixel.
+The program variant is a :class:`~viewer.models.ShadeVariant`: prepended defines from the model's
+record, the render settings (multiscatter, AO, background, sampling) and the scene's content, so
+toggles cost a cached program switch, not a branch per pixel.
 """
 from __future__ import annotations
 
@@ -11,36 +12,18 @@ import numpy as np
 
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
-from ..models import model_info
+from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network
 from ..neural import virtual_files as neural_virtual_files
 from ..scene import DirectionalLight, RenderSettings
 from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
 
 
-SAMPLING_IDS = {"uniform": 0, "cosine": 1, "env": 2, "brdf": 3, "mis": 4}
-MIS_POWERS = {"balance": 1, "power": 2}
-
-
 def shade_defines(model: str, settings: RenderSettings,
                   light: DirectionalLight | None = None) -> dict[str, int]:
-    """The lighting pass's defines. ``light``: the scene's ``[light]``; models that shade it get
-    ``LIGHT_DIRECTIONAL`` 1 (0 without one compiles the term out); the others never see it
-    (:attr:`viewer.models.ModelInfo.directional_light`)."""
-    defines = {"BACKGROUND_ENVIRONMENT": int(settings.background == "environment")}
-    if model_info(model).directional_light == "shaded":
-        defines["LIGHT_DIRECTIONAL"] = int(light is not None)
-    if model in ("ggx_split_sum", "blinn_phong", "ggx_mc", "neural"):
-        defines["USE_AO"] = int(settings.ao)
-        defines["USE_SSAO"] = int(settings.ssao)
-    if model in ("ggx_split_sum", "ggx_mc"):
-        defines["MULTISCATTER"] = int(settings.multiscatter)
-    if model == "ggx_mc":
-        defines["SAMPLING"] = SAMPLING_IDS[settings.sampling]
-        defines["MIS_POWER"] = MIS_POWERS[settings.mis_heuristic]
-    if model == "neural_teacher":  # the teacher has no BRDF pdf: brdf and mis sample the environment
-        defines["SAMPLING"] = min(SAMPLING_IDS[settings.sampling], 2)
-    return defines
+    """The lighting pass's defines for ``model`` (no specialisation: every lobe on); see
+    :meth:`viewer.models.ShadingModel.variant`."""
+    return model_info(model).variant(settings, light).defines
 
 
 class ShadePass:
@@ -62,27 +45,26 @@ class ShadePass:
             self._weights[key] = NeuralWeights(self.ctx, code)
         return self._weights[key].bind(prog, unit)
 
-    def _program(self, model: str, settings: RenderSettings, extra: dict | None = None,
-                 light: DirectionalLight | None = None):
-        info = model_info(model)
-        return self.programs.graphics("passes/fullscreen.vert", info.pass_file,
-                                      defines={**shade_defines(model, settings, light),
-                                               **(extra or {})},
+    def _program(self, variant: ShadeVariant, settings: RenderSettings):
+        return self.programs.graphics("passes/fullscreen.vert", model_info(variant.model).pass_file,
+                                      defines=variant.defines,
                                       virtual={**self.layout.virtual_files(),
-                                               **neural_virtual_files(model, settings)})
+                                               **neural_virtual_files(variant.model, settings)})
 
     def run(self, gbuffer_textures: dict, out_fbo, camera: Camera, ibl, environment,
             settings: RenderSettings, env_sampling=None, ssao=None,
-            sample_range: tuple[int, int] = (0, 1), defines: dict | None = None,
+            sample_range: tuple[int, int] = (0, 1), variant: ShadeVariant | None = None,
             light: DirectionalLight | None = None) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
         ``ssao``: the occlusion texture when ``settings.ssao``; ``sample_range``: (first index,
         count) of the Monte-Carlo samples this call averages (sampling models only);
-        ``defines``: the scene's specialisation (:mod:`viewer.specialize`), e.g. SPECULAR_LOBE;
-        ``light``: the scene's directional light (``None``: none)."""
-        prog = self._program(settings.model, settings, defines, light)
+        ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
+        unspecialised variant); ``light``: the scene's directional light (``None``: none)."""
+        if variant is None:
+            variant = model_info(settings.model).variant(settings, light)
+        prog = self._program(variant, settings)
         unit = bind_gbuffer(prog, gbuffer_textures)
         unit = ibl.bind(prog, unit)
         unit = self._bind_weights(prog, settings, unit)

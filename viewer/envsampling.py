@@ -15,12 +15,12 @@ Torch twin: :func:`learned.twins.env_sampling.env_distribution`.
 """
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 
 class EnvSampling:
     """GPU textures of one environment's sampling distribution (``needs`` entry ``"cdf"``)."""
-
     def __init__(self, marginal, conditional, pdf, fallback: bool):
         self.marginal = marginal        # moderngl.Texture R32F [(H + 1) x 1]
         self.conditional = conditional  # moderngl.Texture R32F [(W + 1) x H]
@@ -58,8 +58,6 @@ class EnvSampling:
 
 
 def _r32f(ctx, width: int, height: int):
-    import moderngl
-
     tex = ctx.texture((width, height), 1, dtype="f4")
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     tex.repeat_x = tex.repeat_y = False

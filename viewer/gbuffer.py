@@ -21,7 +21,7 @@ color     3  baked unlit colour (splats' SH colour); only allocated when a scene
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -54,7 +54,6 @@ _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
 
 def _pack(channels: tuple[Channel, ...]) -> tuple[Channel, ...]:
     """Assign attachments and offsets: declaration order, first RGBA attachment with room."""
-    from dataclasses import replace
 
     used: list[int] = []  # components used per attachment
     out = []
@@ -80,7 +79,6 @@ class GBufferLayout:
     allocated and read back as their background value. The kept channels are packed in declaration
     order into as few RGBA attachments as fit, so a smaller layout is also fewer targets to write.
     """
-
     with_color: bool = False
     dtype: str = "f4"
     omit: frozenset[str] = frozenset()

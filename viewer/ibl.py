@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import moderngl
 import numpy as np
 
 from .errors import InputError
@@ -54,7 +55,6 @@ def mip_sizes(width: int, height: int) -> list[tuple[int, int]]:
 
 class IBL:
     """GPU resources of one environment: textures, SH coefficients and the options used."""
-
     def __init__(self, radiance, prefiltered, dfg, sh: np.ndarray, levels: int,
                  options: IBLOptions):
         self.radiance = radiance        # moderngl.Texture, RGBA32F, full box mip chain
@@ -105,8 +105,6 @@ def _groups(n: int) -> int:
 def _env_texture(ctx, rgba: np.ndarray, max_level: int):
     """RGBA32F equirect texture with storage for levels 0..max_level (allocated by
     glGenerateMipmap; every level above 0 is then overwritten by our own passes)."""
-    import moderngl
-
     h, w = rgba.shape[:2]
     tex = ctx.texture((w, h), 4, np.ascontiguousarray(rgba, dtype=np.float32).tobytes(), dtype="f4")
     if max_level > 0:
@@ -135,8 +133,6 @@ def _validate(env: np.ndarray) -> np.ndarray:
 def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions()) -> IBL:
     """Precompute the IBL resources of ``env`` (``[H, W, 3]`` float32 linear radiance, H = W / 2,
     W a power of two) on the GPU of ``programs.ctx``."""
-    import moderngl
-
     ctx = programs.ctx
     env = _validate(env)
     h, w = env.shape[:2]

@@ -10,13 +10,12 @@ import os
 from pathlib import Path
 
 import numpy as np
+import OpenImageIO as oiio
 
 from .errors import InputError
 
 
 def _oiio():
-    import OpenImageIO as oiio  # imported lazily: it is slow to import
-
     return oiio
 
 

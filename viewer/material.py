@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .errors import SceneError
+
 
 @dataclass(frozen=True)
 class Material:
@@ -13,8 +15,6 @@ class Material:
     ao: float = 1.0
 
     def validated(self, where: str = "material") -> "Material":
-        from .errors import SceneError
-
         vals = {"roughness": self.roughness, "metallic": self.metallic,
                 "specular": self.specular, "ao": self.ao}
         for k, v in vals.items():

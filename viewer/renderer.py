@@ -23,12 +23,25 @@ from pathlib import Path
 import numpy as np
 
 from .camera import Camera
+from .environment import load_environment
+from .envsampling import build_env_sampling
 from .errors import InputError, SceneError
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
+from .geometry import imagespace, primitives
+from .geometry.loaders import load_mesh
 from .gl import ContextOptions, Programs, create_context, make_current
+from .ibl import IBLOptions, build_ibl
 from .material import Material
 from .models import model_info
+from .passes.accumulate import Accumulator
+from .passes.gbuffer import GBufferPass, GBufferTargets
+from .passes.shade import ShadePass
+from .passes.splats import SplatPass
+from .passes.ssao import SSAOPass
+from .passes.tonemap import TonemapPass
 from .scene import ObjectSpec, Scene
+from .specialize import analyse, specialise
+from .splats import load_splats
 
 AOV_NAMES = CHANNEL_NAMES  # albedo, alpha, normal, roughness, metallic, specular, ao, depth, color
 
@@ -79,6 +92,13 @@ class Renderer:
         _apply_material(obj, content)
         return content
 
+    def add_geometry(self, obj: ObjectSpec, content) -> None:
+        """Use ``content`` (a list of meshes, an :class:`~viewer.geometry.imagespace.ImageGBuffer`
+        or :class:`~viewer.splats.data.Splats`, as the loaders return) for ``obj`` instead of
+        loading ``obj.path``: geometry made in memory (tests, benchmarks, generated data). It is
+        taken as given - the loaders' validation does not run - and cached like loaded geometry."""
+        self._geometry[_shape_key(obj)] = content
+
     def _pass_begin(self, name: str | None) -> None:
         """Profiling hook between passes: ``profiler.begin(name)`` ends the previous pass's timer
         and starts ``name``'s (``None`` ends the last). Nothing without a profiler."""
@@ -110,8 +130,6 @@ class Renderer:
         """The G-buffer layout and lighting-pass defines this scene needs (see
         :mod:`viewer.specialize`; ``render.specialize = false`` gives the all-features path).
         ``aovs``: channels the caller reads back, always allocated."""
-        from .specialize import analyse, specialise
-
         if not scene.render.specialize:
             return specialise(None, scene.render, aovs, enabled=False, light=scene.light)
         # the analysis scans materials and texture maps: once per scene content, not per frame
@@ -124,9 +142,6 @@ class Renderer:
         return self.specialization(scene, aovs).layout
 
     def ibl(self, scene: Scene):
-        from .environment import load_environment
-        from .ibl import IBLOptions, build_ibl
-
         spec = dataclasses.replace(scene.environment, intensity=1.0, rotation_deg=0.0)
         key = (spec, IBLOptions())
         if key not in self._ibl:
@@ -137,9 +152,6 @@ class Renderer:
     def env_sampling(self, scene: Scene):
         """The environment's importance-sampling distribution (built on the GPU from the IBL's
         radiance texture; cached like the IBL)."""
-        from .envsampling import build_env_sampling
-        from .ibl import IBLOptions
-
         spec = dataclasses.replace(scene.environment, intensity=1.0, rotation_deg=0.0)
         key = (spec, IBLOptions())
         if key not in self._env_sampling:
@@ -147,8 +159,6 @@ class Renderer:
         return self._env_sampling[key]
 
     def _target_set(self, layout: GBufferLayout, size: tuple[int, int]) -> dict:
-        from .passes.gbuffer import GBufferTargets
-
         key = (layout, tuple(size))
         if key not in self._targets:
             ctx = self.ctx
@@ -187,10 +197,6 @@ class Renderer:
         ``aovs``: G-buffer channels the caller will read from ``targets["gbuffer"]`` (the layout
         is specialised to the scene, so channels nothing reads are otherwise not allocated).
         """
-        from .passes.gbuffer import GBufferPass
-        from .passes.shade import ShadePass
-        from .passes.tonemap import TonemapPass
-
         settings = scene.render
         model_info(settings.model)  # unknown model -> SceneError before any GPU work
         camera = self.resolve_camera(scene, size)
@@ -225,7 +231,6 @@ class Renderer:
         if meshes:
             gpass.draw_meshes(gb, camera, meshes)
         if clouds:  # after meshes: depth-tested against them, composited over them
-            from .passes.splats import SplatPass
 
             self._pass_begin("splats")
             if layout not in self._splat_passes:
@@ -256,8 +261,6 @@ class Renderer:
         With ``indirect`` the lighting pass writes the direct-lighting buffer ``direct`` of this
         frame, and the indirect pass adds eq. 6.22 gathered from it into ``radiance``.
         """
-        from .passes.ssao import SSAOPass
-
         settings = scene.render
         info = model_info(settings.model)
         if scene.light is not None and info.directional_light == "ignored":
@@ -323,8 +326,6 @@ class Renderer:
         return targets[name]
 
     def _accumulator(self, size: tuple[int, int]):
-        from .passes.accumulate import Accumulator
-
         key = tuple(size)
         if key not in self._accumulators:
             self._accumulators[key] = Accumulator(self.programs, key)
@@ -408,8 +409,6 @@ def _read(texture, dtype: str) -> np.ndarray:
 
 
 def _load_object(obj: ObjectSpec):
-    from .geometry import primitives
-
     if obj.type == "sphere":
         return [primitives.sphere(center=obj.center, radius=obj.radius, material=obj.material)]
     if obj.type == "plane":
@@ -420,12 +419,10 @@ def _load_object(obj: ObjectSpec):
                                              radius=obj.radius, albedo=obj.material.albedo,
                                              center=obj.center)
     if obj.type == "mesh":
-        from .geometry.loaders import load_mesh
 
         transform = None if obj.transform is None else np.asarray(obj.transform, np.float64)
         return load_mesh(obj.path, transform=transform, material_override=obj.material)
     if obj.type == "gbuffer":
-        from .geometry import imagespace
 
         path = Path(obj.path)
         if path.is_dir():
@@ -437,7 +434,6 @@ def _load_object(obj: ObjectSpec):
         raise InputError("an image-space G-buffer is a folder (FFHQ256-PBR layout) or a "
                          "12-channel .exr stack", where=path)
     if obj.type == "splats":
-        from .splats import load_splats
 
         return load_splats(obj.path, transform=obj.transform, material=obj.material)
     raise SceneError(f"object type {obj.type!r} cannot be rendered")

@@ -15,6 +15,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+import tomli_w
+
 from .errors import SceneError
 from .scene import ObjectSpec, Scene
 
@@ -80,8 +82,6 @@ def save_scene(scene: Scene, path: str | os.PathLike) -> Path:
     ``relight render path`` renders the same pixels. Raises :class:`SceneError` when the folder
     is missing or the file cannot be written.
     """
-    import tomli_w
-
     path = Path(path)
     if not path.resolve().parent.is_dir():
         raise SceneError("folder does not exist", where=path.parent)

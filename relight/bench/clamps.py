@@ -193,7 +193,7 @@ def _nov_rows(renderer, size) -> list[dict]:
 
     rows = []
     obj = ObjectSpec("gbuffer", path="<clamp-bench n.v stack>.exr")
-    renderer._geometry[obj] = _nov_gbuffer()  # in memory: the loader would renormalise nothing
+    renderer.add_geometry(obj, _nov_gbuffer())  # in memory: the loader would renormalise nothing
     base = scene_from_dict({"environment": {"procedural": "studio"},
                             "render": {"model": "ggx_split_sum", "tonemap": "none"}})
     scene = Scene(environment=base.environment, render=base.render, objects=(obj,))

@@ -85,7 +85,7 @@ def render_extremes(renderer, tmp_path, env_kind, model, fov_y, aovs=(), **rende
     env_path, max_radiance = environment_file(tmp_path, env_kind)
     image = extreme_gbuffer(fov_y)
     obj = ObjectSpec("gbuffer", path=str(tmp_path / f"extremes_{fov_y}.exr"))
-    renderer._geometry[obj] = image  # in-memory stack: skips the loader's NaN rejection on purpose
+    renderer.add_geometry(obj, image)  # in-memory stack: skips the loader's NaN rejection on purpose
     base = scene_from_dict({"environment": {"path": str(env_path)},
                             "render": {"model": model, "tonemap": "none", **render}})
     scene = Scene(environment=base.environment, render=base.render, objects=(obj,))

@@ -187,7 +187,7 @@ def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
 
     splats = concat([_cloud(np.random.default_rng(7), 300)] + [degenerate(k) for k in KINDS])
     obj = ObjectSpec("splats", path=str(tmp_path / "in_memory.ply"))
-    renderer._geometry[obj] = splats  # in memory: skips the loader's validation on purpose
+    renderer.add_geometry(obj, splats)  # in memory: skips the loader's validation on purpose
     scene = _scene(tmp_path, model, obj, **({"samples": 4} if model == "ggx_mc" else {}))
     aovs = ("albedo", "alpha", "normal", "roughness", "metallic", "specular", "ao", "depth",
             "color")

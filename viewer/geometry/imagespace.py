@@ -51,6 +51,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import OpenImageIO as oiio
 
 from ..camera import Camera
 from ..errors import InputError
@@ -180,7 +181,6 @@ def save_stack_exr(path: str | os.PathLike, gbuffer: ImageGBuffer, near: float =
     The depth is written normalised to all three coordinate channels; background depth is 0.
     The field of view is stored as the float attribute ``fov_y``.
     """
-
     path = Path(path)
     ch = gbuffer.channels
     w, h = gbuffer.size
@@ -194,8 +194,6 @@ def save_stack_exr(path: str | os.PathLike, gbuffer: ImageGBuffer, near: float =
 
 
 def _exr_attribute(path: Path, name: str):
-    import OpenImageIO as oiio
-
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         return None

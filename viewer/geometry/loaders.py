@@ -28,6 +28,10 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pygltflib
+import trimesh
+from PIL import Image
+from trimesh.visual.material import PBRMaterial
 
 from ..errors import InputError
 from ..material import Material
@@ -112,8 +116,6 @@ def _pil_to_float(img) -> np.ndarray:
 
 
 def _decode_image(data: bytes, what: str) -> np.ndarray:
-    from PIL import Image
-
     try:
         img = Image.open(io.BytesIO(data))
         img.load()
@@ -142,8 +144,6 @@ _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "M
 
 class _GltfReader:
     def __init__(self, path: Path):
-        import pygltflib
-
         self.path = path
         self.gltf = pygltflib.GLTF2().load(str(path))
         if self.gltf is None:
@@ -380,8 +380,6 @@ def _gltf_material(reader: _GltfReader, index: int | None):
 
 # ---- trimesh (OBJ, PLY, STL, OFF) --------------------------------------------------------------
 def _load_trimesh(path: Path) -> list[Mesh]:
-    import trimesh
-
     logging.getLogger("trimesh").setLevel(logging.ERROR)  # it logs missing MTLs etc. per file
     scene = trimesh.load(str(path), force="scene", process=False)
     out: list[Mesh] = []
@@ -413,8 +411,6 @@ def _load_trimesh(path: Path) -> list[Mesh]:
 
 
 def _trimesh_material(mat) -> tuple[Material, dict[str, np.ndarray]]:
-    from trimesh.visual.material import PBRMaterial
-
     if not isinstance(mat, PBRMaterial):
         mat = mat.to_pbr()
     base = mat.baseColorFactor

@@ -15,6 +15,7 @@ import numpy as np
 from shaders import SHADER_ROOT
 
 from ..errors import ShaderCompileError
+from .context import make_current
 
 COMPONENTS = {"float": 1, "vec2": 2, "vec3": 3, "vec4": 4, "int": 1, "uint": 1}
 _SIGNATURE = re.compile(
@@ -97,8 +98,6 @@ def _kernel_source(sig: Signature) -> str:
 def evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = None) -> np.ndarray:
     """Run GLSL library function ``name`` on the GPU (see :func:`_evaluate`), with the programs'
     context current (another context may be current in the same process)."""
-    from .context import make_current
-
     make_current(programs.ctx)
     return _evaluate(programs, name, *args, signatures=signatures)
 

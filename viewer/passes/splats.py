@@ -24,9 +24,10 @@ import numpy as np
 
 from ..camera import Camera, gl_bytes
 from ..gbuffer import GBufferLayout
-from ..splats.data import Splats
+from ..splats.data import Splats, concat
 from ..splats.sort import depth_order
-from . import FullscreenDraw, set_uniform as _set
+from . import FullscreenDraw
+from . import set_uniform as _set
 
 RECORD = 24  # floats per projected splat (see splat_project.comp)
 CHUNK = 1 << 18  # splats per projection dispatch (keeps each bound range under SSBO limits)
@@ -59,7 +60,6 @@ class _Uploaded:
 
 class SplatPass:
     """Draws one splat cloud into a :class:`~viewer.passes.gbuffer.GBufferTargets`."""
-
     sort = "cpu"  # default for draw_clouds: "cpu" | "gpu" (relight.bench.splats measures both)
 
     def __init__(self, programs, layout: GBufferLayout):
@@ -243,7 +243,6 @@ class SplatPass:
     def draw_clouds(self, targets, camera: Camera, clouds: list[Splats]) -> None:
         """:meth:`draw` for several clouds of one scene, concatenated (once) so they sort
         together."""
-        from ..splats.data import concat
 
         key = tuple(id(c) for c in clouds)
         if key not in self._clouds:

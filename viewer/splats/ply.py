@@ -23,6 +23,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from plyfile import PlyData, PlyElement
 
 from ..errors import InputError
 from .data import SH_COUNTS, Splats, make_splats
@@ -37,7 +38,6 @@ NORMAL = ("normal_0", "normal_1", "normal_2")
 
 def read_ply(path) -> Splats:
     """Load a splat PLY (see the module docstring). Errors name ``path``."""
-    from plyfile import PlyData
 
     path = Path(path)
     if not path.is_file():
@@ -140,8 +140,6 @@ def _numeric(vertex, name: str) -> bool:
 def write_ply(path, splats: Splats, text: bool = False) -> None:
     """Write the relightable layout: 3DGS properties plus ``normal_*``, ``albedo_*``,
     ``roughness``, ``metallic`` (binary little-endian unless ``text``)."""
-    from plyfile import PlyData, PlyElement
-
     n, k = len(splats), splats.sh.shape[1]
     names = ["x", "y", "z", "normal_0", "normal_1", "normal_2", "f_dc_0", "f_dc_1", "f_dc_2"]
     names += [f"f_rest_{i}" for i in range(3 * (k - 1))]

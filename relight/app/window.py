@@ -28,6 +28,7 @@ import numpy as np
 from viewer.errors import InputError, RelightError, SceneError
 from viewer.gbuffer import CHANNEL_NAMES
 from viewer.gl.context import ContextOptions, create_window, make_current
+from viewer.gl.timing import PassTimer
 from viewer.models import SAMPLING_MODELS
 from viewer.scene import Scene, load_scene
 from . import camera_control
@@ -38,53 +39,6 @@ SCENE_SUFFIXES = (".toml",)
 IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
 PASS_NAMES = ("gbuffer", "ibl", "shade", "tonemap", "view", "ui")
 MAX_WINDOW = (1600, 1000)
-
-
-class GpuTimers:
-    """GPU milliseconds per named pass from ``GL_TIME_ELAPSED`` queries.
-
-    ``begin(name)`` ends the running query and starts ``name``'s (``None`` just ends). Queries are
-    double-buffered: a frame's results are read at the end of the next frame, when the GPU has
-    long finished them, so reading never stalls the pipeline. Queries are created once per name.
-    """
-
-    def __init__(self, ctx):
-        self.ctx = ctx
-        self.ms: dict[str, float] = {}  # last measured GPU time per pass
-        self._queries: list[dict[str, object]] = [{}, {}]
-        self._used: list[list[str]] = [[], []]
-        self._slot = 0
-        self._active = None
-
-    def begin(self, name: str | None) -> None:
-        if self._active is not None:
-            self._active.__exit__(None, None, None)
-            self._active = None
-        if name is None:
-            return
-        queries = self._queries[self._slot]
-        query = queries.get(name)
-        if query is None:
-            query = queries[name] = self.ctx.query(time=True)
-        if name in self._used[self._slot]:  # a pass that runs twice in a frame: keep the last
-            self._used[self._slot].remove(name)
-        self._used[self._slot].append(name)
-        query.__enter__()
-        self._active = query
-
-    def end_frame(self) -> None:
-        """Close the frame: read the *previous* frame's queries, then reuse its slot."""
-        self.begin(None)
-        self._slot ^= 1
-        queries, used = self._queries[self._slot], self._used[self._slot]
-        for name in used:
-            self.ms[name] = queries[name].elapsed / 1e6
-        used.clear()
-
-    def release(self) -> None:
-        self.begin(None)
-        for queries in self._queries:  # moderngl queries are freed with their context
-            queries.clear()
 
 
 class Viewer:
@@ -109,7 +63,8 @@ class Viewer:
         self._glfw, self._imgui = glfw, imgui
         self.ctx = self.window.ctx
         self.renderer = Renderer(ctx=self.ctx)
-        self.timers = GpuTimers(self.ctx)
+        self.timers = PassTimer(self.ctx, deferred=True)
+        self.timers.enabled = True
         self.renderer.profiler = self.timers
         self.view_pass = DebugViewPass(self.renderer.programs)
         self.state: ViewerState = state_from_scene(scene)

@@ -24,3 +24,29 @@ def test_renderer_profiler_times_every_pass(ctx):
     renderer.draw(scene)
     assert timer.milliseconds() == {}
     renderer.release()
+
+
+def test_deferred_queries_report_the_previous_frame(ctx):
+    """The interactive loop's timer (the window's): double-buffered queries, read one frame late
+    so reading never stalls; wall mode reports the frame just drawn."""
+    renderer = Renderer(ctx=ctx)
+    scene = scene_from_dict({"camera": {"size": [32, 32]}, "environment": {"procedural": "white"},
+                             "objects": [{"type": "sphere"}]})
+    for mode in ("query", "wall"):
+        timer = PassTimer(ctx, mode=mode, deferred=True)
+        timer.enabled = True
+        renderer.profiler = timer
+        renderer.draw(scene)
+        timer.end_frame()
+        first = dict(timer.ms)
+        renderer.draw(scene)
+        timer.end_frame()
+        assert {"gbuffer", "shade", "tonemap"} <= set(timer.ms), (mode, timer.ms)
+        if mode == "query":
+            assert first == {}  # nothing finished yet: results come one frame late
+        else:
+            assert {"gbuffer", "shade", "tonemap"} <= set(first)
+        assert all(v >= 0 or math.isnan(v) for v in timer.ms.values())
+        timer.release()
+    renderer.profiler = None
+    renderer.release()

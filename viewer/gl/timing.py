@@ -10,6 +10,11 @@ Mesa's llvmpipe answers ``GL_TIME_ELAPSED`` with the time to *submit* the comman
 0.6 ms for a pass whose fenced wall time is 18 ms; the first query returns 2^32 - 1), so on a
 software renderer each scope is fenced with ``glFinish`` and timed with ``perf_counter`` instead.
 One query object per pass name is reused (no per-frame allocation). Scopes must not overlap.
+
+An interactive loop uses ``deferred=True`` and calls :meth:`PassTimer.end_frame` once per frame:
+queries are double-buffered and a frame's results are read at the end of the next one, when the
+GPU has long finished them, so reading never stalls the pipeline; ``timer.ms`` holds the latest.
+(On a software rasteriser the scopes are fenced either way: its query times are not GPU times.)
 """
 from __future__ import annotations
 
@@ -20,7 +25,7 @@ _INVALID_NS = 2**32 - 1
 
 
 class PassTimer:
-    def __init__(self, ctx, mode: str = "auto"):
+    def __init__(self, ctx, mode: str = "auto", deferred: bool = False):
         self.ctx = ctx
         self.enabled = False
         if mode == "auto":
@@ -29,10 +34,17 @@ class PassTimer:
         if mode not in ("wall", "query"):
             raise ValueError(f"timer mode must be 'auto', 'wall' or 'query', not {mode!r}")
         self.mode = mode
-        self._queries: dict[str, object] = {}
+        self.deferred = deferred
+        self.ms: dict[str, float] = {}  # the latest finished frame's times (end_frame)
+        self._slots: list[dict[str, object]] = [{}, {}]  # query per name; two with deferred
+        self._slot = 0
         self._wall: dict[str, float] = {}
         self._order: list[str] = []
         self._active = None
+
+    @property
+    def _queries(self) -> dict[str, object]:
+        return self._slots[self._slot]
 
     @contextmanager
     def scope(self, name: str):
@@ -75,12 +87,26 @@ class PassTimer:
             out[name] = float("nan") if ns == _INVALID_NS else ns / 1e6
         return out
 
+    def end_frame(self) -> None:
+        """Close a frame of an interactive loop: ``ms`` gets this frame's times (wall mode, or
+        queries without ``deferred``) or the previous frame's (deferred queries: read now that
+        the GPU has finished them, then their slot is reused), and the scopes start afresh."""
+        self.begin(None)
+        if self.mode == "query" and self.deferred:
+            self._slot ^= 1
+            done = [n for n in self._order if n in self._queries]
+            self.ms = {n: (float("nan") if self._queries[n].elapsed == _INVALID_NS
+                           else self._queries[n].elapsed / 1e6) for n in done}
+        else:
+            self.ms = self.milliseconds()
+        self.reset()
+
     def reset(self) -> None:
         self._order.clear()
         self._wall.clear()
 
     def release(self) -> None:
-        for q in self._queries.values():
-            q.release()
-        self._queries.clear()
+        self.begin(None)
+        for slot in self._slots:  # moderngl frees query objects with their context
+            slot.clear()
         self.reset()

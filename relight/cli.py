@@ -4,7 +4,7 @@
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
-    relight train [--data DIR] [--out RUN] [--quick] [--install]
+    relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--install] [--compare-students]
     relight eval DATA [--split test] [--json]
     relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
 
@@ -261,16 +261,37 @@ def _learned(what: str):
                            where=what) from None
 
 
+# ``relight train`` options that override a field of learned.train.TrainConfig
+TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
+                   "light_samples", "strategy")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def cmd_train(args) -> int:
-    """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student."""
-    train = _learned("learned.train")
+    """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student, or
+    (--compare-students) the measured comparison of the candidate student designs."""
+    over = {k: getattr(args, k) for k in TRAIN_OVERRIDES if getattr(args, k) is not None}
     if args.compare_students:
-        res = train.compare_students(args.out, data=args.data, install=args.install,
-                                     quiet=args.quiet)
-        print(train.compare_table(res))
+        if args.stage != "all":
+            raise RelightError("--compare-students trains every stage it needs; drop --stage",
+                               where="--stage")
+        students = _learned("relight.bench.students")
+        res = students.compare_students(args.out, data=args.data, install=args.install,
+                                        quiet=args.quiet, **over)
+        print(students.compare_table(res))
         return 0
+    train = _learned("learned.train")
     res = train.pipeline(args.out, data=args.data, quick=args.quick, install=args.install,
-                         quiet=args.quiet)
+                         quiet=args.quiet, stages=args.stage, **over)
     if not args.quiet:
         for k in ("teacher", "student", "installed_student", "installed_teacher"):
             if k in res:
@@ -338,11 +359,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_decompose)
 
-    p = sub.add_parser("train", help="train the neural shader: data, teacher, shadow, student")
+    p = sub.add_parser("train", help="train the neural shader: data, teacher, shadow, student",
+                       description="Train the neural shader: synthetic data (unless --data), "
+                       "teacher, shadow estimator, distilled student. Several processes: "
+                       "torchrun --nproc_per_node=N -m relight train ... (DistributedDataParallel, "
+                       "gloo on CPU, NCCL on GPUs).")
     p.add_argument("--data", help="dataset root in the FFHQ256-PBR layout (default: generate a "
                                   "synthetic one under OUT/data)")
     p.add_argument("--out", default="runs/quick", help="run folder (checkpoints, logs, weights)")
     p.add_argument("--quick", action="store_true", help="small networks and few steps (minutes)")
+    p.add_argument("--stage", default="all", choices=("all", "teacher"),
+                   help="every stage (default) or the teacher alone")
+    p.add_argument("--teacher-steps", type=_positive_int, metavar="N")
+    p.add_argument("--shadow-steps", type=_positive_int, metavar="N")
+    p.add_argument("--student-steps", type=_positive_int, metavar="N")
+    p.add_argument("--batch-pixels", type=_positive_int, metavar="N",
+                   help="foreground pixels per step (teacher and student)")
+    p.add_argument("--light-samples", type=_positive_int, metavar="N",
+                   help="light directions per pixel while training the teacher")
+    p.add_argument("--strategy", choices=("uniform", "cosine", "env"),
+                   help="how the teacher samples light directions (default env)")
     p.add_argument("--install", action="store_true",
                    help="copy the exported weights to assets/weights (the shipped defaults)")
     p.add_argument("--compare-students", action="store_true",

@@ -1,7 +1,7 @@
 """The distilled student: one small MLP evaluation per pixel from pre-integrated lighting.
 
 Design (chosen by measurement among :data:`DESIGNS`, see README "Neural shader" and
-:func:`learned.train.compare_students`): the teacher integrates N light samples per pixel; the
+:func:`relight.bench.students.compare_students`): the teacher integrates N light samples per pixel; the
 student instead reads the two pre-integrated lighting terms every classical model already has -
 SH irradiance E(n) and the GGX-prefiltered radiance P(r, roughness) - and an MLP of the per-pixel
 material and n.v predicts how much of each the surface reflects. Two output forms
@@ -41,7 +41,7 @@ OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3}
 
-# Candidate designs of the measured comparison (learned.train.compare_students):
+# Candidate designs of the measured comparison (relight.bench.students.compare_students):
 # name -> Student keyword arguments
 DESIGNS: dict[str, dict] = {
     "w16": {"hidden": (16,)},

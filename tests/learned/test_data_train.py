@@ -117,11 +117,32 @@ def test_training_resumes_from_checkpoint(dataset, tmp_path):
     assert "resuming at step 20/30" in (out / "train.log").read_text()
 
 
+def test_relight_train_options_reach_the_config(dataset, tmp_path, capsys):
+    """``relight train`` is the one training CLI: the stage and the config overrides."""
+    from relight.cli import main
+
+    out = tmp_path / "cli"
+    assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
+                 "teacher", "--teacher-steps", "3", "--batch-pixels", "64", "--light-samples",
+                 "2", "--strategy", "cosine"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[-1] == f"teacher: {out / 'neural_teacher.safetensors'}"
+    ck = torch.load(out / "teacher.pt", weights_only=False)
+    assert ck["step"] == 3 and not (out / "neural_student.safetensors").exists()
+    assert {k: ck["config"][k] for k in ("teacher_steps", "batch_pixels", "light_samples",
+                                         "strategy", "teacher_hidden")} == {
+        "teacher_steps": 3, "batch_pixels": 64, "light_samples": 2, "strategy": "cosine",
+        "teacher_hidden": 32}  # --quick's network
+    with pytest.raises(SystemExit):
+        main(["train", "--teacher-steps", "0"])
+    assert main(["train", "--compare-students", "--stage", "teacher", "--out", str(out)]) == 2
+
+
 @pytest.mark.slow
 def test_torchrun_ddp_two_cpu_processes(dataset, tmp_path):
     out = tmp_path / "ddp"
     cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2",
-           "-m", "learned.train", "--data", str(dataset), "--out", str(out), "--quick",
+           "-m", "relight", "train", "--data", str(dataset), "--out", str(out), "--quick",
            "--stage", "teacher", "--teacher-steps", "6", "--batch-pixels", "128",
            "--light-samples", "4", "--quiet"]
     env = dict(os.environ, OMP_NUM_THREADS="1")
@@ -207,8 +228,8 @@ def test_datasets_from_before_the_gbuffer_options_still_resume(dataset, tmp_path
 def test_compare_students_writes_the_table_and_bench_rows(dataset, tmp_path, ctx):
     import json
 
-    from learned.train import compare_students
     from relight.bench.neural import student_designs
+    from relight.bench.students import compare_students
     from viewer.renderer import Renderer
 
     designs = {"a": {"hidden": (4,)}, "b": {"hidden": (4, 4), "features": "dfg"}}

@@ -1,0 +1,46 @@
+"""What a training run is: :class:`TrainConfig` (every knob of the three stages), its quick
+variant, and the quick synthetic dataset (:data:`QUICK_DATA`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    data: str
+    out: str
+    teacher_steps: int = 2000
+    shadow_steps: int = 500
+    student_steps: int = 3000
+    batch_pixels: int = 8192
+    light_samples: int = 32
+    strategy: str = "env"  # "uniform" | "cosine" | "env"
+    lr: float = 1e-3
+    teacher_hidden: int = 64
+    teacher_freqs: int = 4
+    # the shipped design, learned.neural.student.SHIPPED_DESIGN (chosen by compare_students)
+    student_hidden: tuple[int, ...] = (16, 16)
+    student_freqs: int = 0
+    student_features: str = "base"  # "base" | "dfg" (learned.neural.student.FEATURE_INPUTS)
+    student_output: str = "pbr3"  # "free6" | "pbr3" (learned.neural.student.OUTPUTS)
+    distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
+    shadow_width: int = 16
+    distill_samples: int = 128
+    seed: int = 0
+    checkpoint_every: int = 100
+    log_every: int = 50
+
+    @classmethod
+    def quick(cls, data: str, out: str, **kw) -> "TrainConfig":
+        """Minutes on two CPU cores: smaller networks, fewer steps and samples."""
+        base = dict(teacher_steps=3000, shadow_steps=150, student_steps=3000, batch_pixels=2048,
+                    light_samples=16, teacher_hidden=32, teacher_freqs=2, shadow_width=8,
+                    distill_samples=64, log_every=100)
+        return cls(data=data, out=out, **(base | kw))
+
+
+# the synthetic dataset ``relight train`` generates when it is given no data (OUT/data)
+QUICK_DATA = {"count": 40, "size": 64, "samples": 256, "seed": 0, "gbuffer_fraction": 0.25}
+
+# the student comparison's held-out splits: never seen by the teacher, shadow or students
+COMPARE_SPLITS = ("val", "test")

@@ -26,7 +26,9 @@ import math
 import numpy as np
 
 from viewer.scene import scene_from_dict
+
 from . import metrics
+from .scenes import bench_scene, with_material
 
 COPPER = (0.95, 0.64, 0.54)  # metallic: f0 = albedo, no diffuse lobe
 
@@ -53,14 +55,9 @@ def _row(clamp, value, scene, metric, error, note="") -> dict:
 # ---- (a) minimum roughness ----------------------------------------------------------------------
 
 def _sphere_scene(env: str, roughness: float, size):
-    return scene_from_dict({
-        "camera": {"position": [0.0, 0.3, 3.0], "target": [0, 0, 0], "fov_y": 42.0,
-                   "size": list(size)},
-        "environment": {"procedural": env, "width": 512},
-        "render": {"model": "ggx_split_sum", "tonemap": "aces", "background": "transparent"},
-        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1.0,
-                     "material": {"albedo": list(COPPER), "roughness": roughness,
-                                  "metallic": 1.0}}]})
+    """``assets/scenes/bench/copper_sphere.toml`` under ``env`` at ``roughness`` and ``size``."""
+    scene = with_material(bench_scene("copper_sphere"), albedo=COPPER, roughness=roughness)
+    return scene.with_environment(procedural=env).with_camera(size=tuple(size))
 
 
 def equirect_lookup(env: np.ndarray, d: np.ndarray) -> np.ndarray:

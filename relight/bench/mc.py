@@ -58,17 +58,11 @@ if __name__ == "__main__":  # python -m relight.bench.mc [scene.toml]: a quick t
     import sys
 
     from viewer.renderer import Renderer
-    from viewer.scene import load_scene, scene_from_dict
+    from viewer.scene import load_scene
 
-    if len(sys.argv) > 1:
-        sc = load_scene(sys.argv[1])
-    else:
-        sc = scene_from_dict({
-            "camera": {"position": [0, 0.3, 3.2], "fov_y": 35, "size": [96, 96]},
-            "environment": {"procedural": "sky", "width": 256},
-            "objects": [{"type": "sphere", "material": {"albedo": [0.8, 0.5, 0.3],
-                                                        "roughness": 0.3}}],
-        })
+    from .scenes import bench_scene
+
+    sc = load_scene(sys.argv[1]) if len(sys.argv) > 1 else bench_scene("mc_sphere")
     for row in mc_convergence(Renderer(), sc, spp_list=(1, 4, 16, 64), reference_spp=2048):
         print(f"{row['variant']:>9} {row['samples']:>5} spp  {row['ms']:8.1f} ms  "
               f"{row['ms_per_sample']:7.2f} ms/spp  rmse {row['rmse']:.4f}  "

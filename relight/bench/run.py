@@ -16,8 +16,10 @@ Extra suites (Monte-Carlo convergence, splats, neural) add their rows through :d
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
+import os
 import platform
 import sys
 import time
@@ -28,8 +30,20 @@ from typing import Callable
 import numpy as np
 
 from viewer.errors import RelightError
-from viewer.scene import Scene, load_scene, scene_from_dict
+from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
+from viewer.gl import gl_info
+from viewer.imageio import read_image, write_exr
+from viewer.models import MODELS
+from viewer.renderer import Renderer
+from viewer.scene import ObjectSpec, Scene
+from viewer.splats.generate import sphere_splats
+from viewer.splats.ply import write_ply
+
 from . import metrics
+from .clamps import clamp_costs
+from .mc import mc_convergence
+from .scenes import bench_scene, demo_scene, with_object
+from .specialize import measure_specialization
 from .timing import time_frames
 
 RESULT_KEYS = ("scene", "model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip")
@@ -48,43 +62,28 @@ class BenchConfig:
 
 
 def _bench_scenes(cache: Path, quick: bool) -> dict[str, Scene]:
-    from assets import ASSET_ROOT
-
-    scenes = {"mesh": load_scene(ASSET_ROOT / "scenes" / "demo.toml")}
+    scenes = {"mesh": demo_scene()}
     scenes["gbuffer"] = _stack_scene(cache)  # renders at the bench size: see _scene_at
-    splats = _splat_scene(cache, quick)
-    if splats is not None:
-        scenes["splats"] = splats
+    scenes["splats"] = _splat_scene(cache, quick)
     return scenes
 
 
 def _stack_scene(cache: Path, size: tuple[int, int] = (512, 320)) -> Scene:
-    """An image-space G-buffer stack made by the project: a material grid's G-buffer seen from the
-    stack camera, saved as a 12-channel EXR (depth normalised, near 1, far 800). A stack renders
-    at its own size, so there is one per bench size (:func:`_scene_at`)."""
-    from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
-    from viewer.renderer import Renderer
-
+    """An image-space G-buffer stack made by the project: the G-buffer of
+    ``assets/scenes/bench/stack_capture.toml`` (a material grid seen from the stack camera),
+    saved as a 12-channel EXR (depth normalised, near 1, far 800). A stack renders at its own
+    size, so there is one per bench size (:func:`_scene_at`)."""
     path = cache / f"stack_{size[0]}x{size[1]}.exr"
+    capture = bench_scene("stack_capture")
     if not path.exists():
-        cap = scene_from_dict({
-            "camera": {"position": [0, 0, 0], "target": [0, 0, -1], "fov_y": 40,
-                       "size": list(size)},
-            "environment": {"procedural": "studio"},
-            "objects": [
-                {"type": "material_grid", "rows": 2, "cols": 4, "spacing": 1.3, "radius": 0.55,
-                 "center": [0, 0, -4.5], "material": {"albedo": [0.7, 0.45, 0.3]}},
-                {"type": "plane", "center": [0, -1.4, -4.5], "size": [10, 10],
-                 "material": {"albedo": [0.6, 0.6, 0.6], "roughness": 0.6}}]})
         r = Renderer()
         try:
             aovs = ("albedo", "normal", "roughness", "specular", "metallic", "depth", "ao", "alpha")
-            frame = r.render(cap, aovs=aovs)
+            frame = r.render(capture.with_camera(size=tuple(size)), aovs=aovs)
         finally:
             r.release()
-        save_stack_exr(path, ImageGBuffer(channels=dict(frame.aovs), fov_y=40.0))
-    return scene_from_dict({"environment": {"procedural": "studio"},
-                            "objects": [{"type": "gbuffer", "path": str(path)}]})
+        save_stack_exr(path, ImageGBuffer(channels=dict(frame.aovs), fov_y=capture.camera.fov_y))
+    return dataclasses.replace(capture, objects=(ObjectSpec("gbuffer", path=str(path)),))
 
 
 def _scene_at(scenes: dict, name: str, size, cache: Path) -> tuple[Scene, tuple | None]:
@@ -94,24 +93,17 @@ def _scene_at(scenes: dict, name: str, size, cache: Path) -> tuple[Scene, tuple 
     return scenes[name], size
 
 
-def _splat_scene(cache: Path, quick: bool) -> Scene | None:
-    try:
-        from viewer.splats.generate import sphere_splats
-        from viewer.splats.ply import write_ply
-    except ImportError:  # no splat renderer in this build
-        return None
+def _splat_scene(cache: Path, quick: bool) -> Scene:
+    """``assets/scenes/bench/splats.toml`` with a generated cloud of flat Gaussians on a sphere."""
     n = 20_000 if quick else 100_000
     path = cache / f"splats_{n}.ply"
     if not path.exists():
         write_ply(path, sphere_splats(n=n, radius=0.8))
-    return scene_from_dict({"camera": {"position": [0, 0.5, 3.5], "fov_y": 40},
-                            "environment": {"procedural": "sky"},
-                            "objects": [{"type": "splats", "path": str(path)}]})
+    return with_object(bench_scene("splats"), ObjectSpec("splats", path=str(path)))
 
 
 def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
     """(model, variant, render-setting changes) for every model in the registry."""
-    from viewer.models import MODELS
 
     cases: list[tuple[str, str, dict]] = []
     for name in MODELS:
@@ -140,8 +132,6 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
 
 def _reference(renderer, scene: Scene, size, cache: Path, config: BenchConfig, name: str):
     """Converged ggx_mc radiance and display image of ``scene`` (cached on disk)."""
-    from viewer.imageio import read_image, write_exr
-    from viewer.models import MODELS
 
     if "ggx_mc" not in MODELS:
         return None
@@ -173,11 +163,8 @@ def _row_key(row: dict) -> tuple:
 
 
 def machine_info(renderer) -> dict:
-    from viewer.gl import gl_info
-
     info = gl_info(renderer.ctx)
     info.pop("extensions", None)
-    import os
 
     return {"gl": info, "python": sys.version.split()[0], "platform": platform.platform(),
             "cpu": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
@@ -187,8 +174,6 @@ def machine_info(renderer) -> dict:
 def _suite_mc(renderer, scenes, config, cache) -> list[dict]:
     """Error vs samples per pixel for every sampling strategy (thesis ch. 5: uniform vs importance
     sampling, measured), and time per sample, on the mesh scene."""
-    from viewer.models import MODELS
-    from .mc import mc_convergence
 
     if "ggx_mc" not in MODELS:
         return []
@@ -215,7 +200,6 @@ def _suite_splats(renderer, scenes, config, cache) -> list[dict]:
 
 def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
     """Student vs teacher (128 samples): frame-time ratio and PSNR; GLSL vs torch MLP throughput."""
-    from viewer.models import MODELS
 
     if "neural" not in MODELS:
         return []
@@ -227,7 +211,6 @@ def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
 def _suite_clamps(renderer, scenes, config, cache) -> list[dict]:
     """What each shading clamp (roughness, n.v, ACES input, dfg.y) costs against an unclamped
     reference (:mod:`relight.bench.clamps`)."""
-    from .clamps import clamp_costs
 
     return clamp_costs(renderer, config)
 
@@ -244,7 +227,6 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
     report dict."""
     from tqdm import tqdm
 
-    from viewer.renderer import Renderer
 
     out = Path(out_dir)
     if not out.parent.exists():
@@ -307,7 +289,6 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
                 print(f"bench: {name} ...", file=sys.stderr, flush=True)
             sections[name] = suite(renderer, scenes, config, cache)
             path.write_text(json.dumps(sections[name], indent=1, allow_nan=True))
-        from .specialize import measure_specialization
 
         specialization = measure_specialization(renderer, config, cache)
         report = {"machine": machine_info(renderer), "results": rows,

@@ -6,63 +6,38 @@ demo scene are rendered with ``specialize = false`` (every G-buffer channel, eve
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from viewer.scene import scene_from_dict
+from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
+from viewer.scene import ObjectSpec
 
+from .scenes import bench_scene, demo_scene
 from .timing import time_frames
-
-DIFFUSE_ONLY = {
-    "camera": {"position": [0, 2.2, 7.5], "target": [0, 0.4, 0], "fov_y": 40},
-    "environment": {"procedural": "sky"},
-    "objects": [
-        {"type": "sphere", "center": [x, y, 0], "radius": 0.8,
-         "material": {"albedo": [0.2 + 0.1 * i, 0.5, 0.9 - 0.1 * i], "roughness": round(i / 7, 3),
-                      "specular": 0.0, "metallic": 0.0}}
-        for i, (x, y) in enumerate((x, y) for y in (0.1, 1.8) for x in (-3, -1, 1, 3))
-    ] + [
-        {"type": "plane", "center": [0, -0.8, 0], "size": [14, 10],
-         "material": {"albedo": [0.5, 0.5, 0.5], "specular": 0.0}},
-    ],
-    "render": {"model": "ggx_split_sum"},
-}
-
 
 SPECIALIZATION_SIZE = (1024, 640)
 
 
 def _diffuse_stack(renderer, cache):
-    """The diffuse-only scene seen from a stack camera, saved as a 12-channel image-space
-    G-buffer (the thesis's main input: inverse-rendered G-buffers, no geometry to rasterise)."""
-    import copy
-
-    from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
-
+    """``assets/scenes/bench/diffuse_stack_capture.toml`` (the diffuse-only scene in front of a
+    stack camera) saved as a 12-channel image-space G-buffer (the thesis's main input:
+    inverse-rendered G-buffers, no geometry to rasterise)."""
     path = cache / "diffuse_stack.exr"
+    capture = bench_scene("diffuse_stack_capture")
     if not path.exists():
-        d = copy.deepcopy(DIFFUSE_ONLY)
-        d["camera"] = {"position": [0, 0, 0], "target": [0, 0, -1], "fov_y": 40,
-                       "size": list(SPECIALIZATION_SIZE)}
-        for o in d["objects"]:
-            x, y, z = o["center"]
-            o["center"] = [x, y - 0.8, z - 8.0]
         aovs = ("albedo", "normal", "roughness", "specular", "metallic", "depth", "ao", "alpha")
-        frame = renderer.render(scene_from_dict(d), aovs=aovs)
-        save_stack_exr(path, ImageGBuffer(channels=dict(frame.aovs), fov_y=40.0))
-    return scene_from_dict({"environment": {"procedural": "sky"},
-                            "objects": [{"type": "gbuffer", "path": str(path)}]})
+        frame = renderer.render(capture.with_camera(size=SPECIALIZATION_SIZE), aovs=aovs)
+        save_stack_exr(path, ImageGBuffer(channels=dict(frame.aovs), fov_y=capture.camera.fov_y))
+    return dataclasses.replace(capture, objects=(ObjectSpec("gbuffer", path=str(path)),))
 
 
 def measure_specialization(renderer, config, cache) -> list[dict]:
     """``{"scene", "size", "ms_general", "ms_specialized", "max_abs_diff"}`` per scene: a
     diffuse-only image-space stack, the same scene as meshes, and the demo."""
-    from assets import ASSET_ROOT
-
-    from viewer.scene import load_scene
-
     scenes = {"diffuse_stack": (_diffuse_stack(renderer, cache), None),
-              "diffuse_meshes": (scene_from_dict(DIFFUSE_ONLY), SPECIALIZATION_SIZE),
-              "demo": (load_scene(ASSET_ROOT / "scenes" / "demo.toml"), SPECIALIZATION_SIZE)}
+              "diffuse_meshes": (bench_scene("diffuse_only"), SPECIALIZATION_SIZE),
+              "demo": (demo_scene(), SPECIALIZATION_SIZE)}
     rows = []
     for name, (scene, size) in scenes.items():
         general = scene.with_render(specialize=False)

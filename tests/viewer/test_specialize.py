@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from relight.bench.specialize import DIFFUSE_ONLY
+from relight.bench.scenes import bench_scene
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
@@ -15,7 +15,7 @@ def renderer(ctx):
 
 
 def diffuse_scene():
-    return scene_from_dict(DIFFUSE_ONLY).with_camera(size=(96, 64))
+    return bench_scene("diffuse_only").with_camera(size=(96, 64))
 
 
 def test_diffuse_only_scene_drops_specular_channels_and_lobe(renderer):

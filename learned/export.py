@@ -1,4 +1,5 @@
-"""Export trained neural shaders to safetensors (format in :mod:`viewer.neural`) and load them back.
+"""Export trained neural shaders to safetensors and load them back; the file format (key names,
+metadata, architecture) is :mod:`viewer.neural.format`'s, the one the viewer reads.
 
     export(student, "assets/weights/neural_student.safetensors", training={...})
     model = load_model("assets/weights/neural_student.safetensors")   # Student or Teacher (torch)
@@ -9,62 +10,52 @@ so the torch side accepts exactly what the viewer accepts.
 """
 from __future__ import annotations
 
-import json
 import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import torch
+from safetensors.numpy import save_file
 
-from viewer.neural import (FORMAT, FORMAT_VERSION, STUDENT_FEATURES, TEACHER_INPUTS,
-                           checkpoint_hash, expected_networks, load_network)
+from viewer.neural import load_network
+from viewer.neural.format import architecture, metadata as file_metadata, tensor_name
 
 from .neural.student import Student
 from .neural.teacher import Teacher
 
 
 def network_tensors(model) -> dict[str, np.ndarray]:
+    """The file's tensors of ``model``: float32 numpy, keyed by :func:`tensor_name`."""
     out = {}
     for name, layers in model.networks().items():
         for i, (w, b, _) in enumerate(layers):
-            out[f"{name}.{i}.weight"] = w.detach().cpu().to(torch.float32).numpy().copy()
-            out[f"{name}.{i}.bias"] = b.detach().cpu().to(torch.float32).numpy().copy()
+            out[tensor_name(name, i, "weight")] = w.detach().cpu().to(torch.float32).numpy().copy()
+            out[tensor_name(name, i, "bias")] = b.detach().cpu().to(torch.float32).numpy().copy()
     return out
 
 
-def metadata(model, training: dict | None = None) -> dict[str, str]:
-    tensors = network_tensors(model)
+def metadata(model, training: dict | None = None,
+             tensors: dict[str, np.ndarray] | None = None) -> dict[str, str]:
+    """The file's metadata of ``model`` (``viewer.neural.format.metadata``); ``tensors``:
+    :func:`network_tensors` of ``model`` when already computed."""
     cfg = model.config
-    features = cfg.get("features", "base")
-    output = cfg.get("output", "free6")
-    arch = {"networks": expected_networks(model.kind, cfg["num_freqs"], cfg["hidden"], features,
-                                          output),
-            "hidden": cfg["hidden"], "num_freqs": cfg["num_freqs"],
-            "inputs": list(STUDENT_FEATURES[features] if model.kind == "student"
-                           else TEACHER_INPUTS)}
-    if model.kind == "student":
-        arch["features"] = features
-        arch["output"] = output
-    return {"format": FORMAT, "version": FORMAT_VERSION, "kind": model.kind,
-            "architecture": json.dumps(arch),
-            "encoding": json.dumps({"type": "fourier", "num_freqs": cfg["num_freqs"],
-                                    "frequencies": "pi * 2^k", "order": "x, (sin, cos) per k"}),
-            "checkpoint": checkpoint_hash(tensors),
-            "training": json.dumps(training or {})}
+    arch = architecture(model.kind, cfg["num_freqs"], cfg["hidden"], cfg.get("features"),
+                        cfg.get("output"))
+    return file_metadata(model.kind, arch,
+                         network_tensors(model) if tensors is None else tensors, training)
 
 
 def export(model, path: str | os.PathLike, training: dict | None = None) -> str:
     """Write ``model`` (Student or Teacher) to ``path``; returns the checkpoint hash."""
-    from safetensors.numpy import save_file
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    meta = metadata(model, training)
+    tensors = network_tensors(model)
+    meta = metadata(model, training, tensors)
     fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
-        save_file(network_tensors(model), tmp, metadata=meta)
+        save_file(tensors, tmp, metadata=meta)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -85,8 +76,8 @@ def load_model(path: str | os.PathLike, kind: str | None = None):
     with torch.no_grad():
         for name, layers in model.networks().items():
             for i, (w, b, _) in enumerate(layers):
-                w.copy_(torch.from_numpy(net.tensors[f"{name}.{i}.weight"]))
-                b.copy_(torch.from_numpy(net.tensors[f"{name}.{i}.bias"]))
+                w.copy_(torch.from_numpy(net.tensors[tensor_name(name, i, "weight")]))
+                b.copy_(torch.from_numpy(net.tensors[tensor_name(name, i, "bias")]))
     model.checkpoint = net.checkpoint
     model.training_summary = net.training
     return model.eval()

@@ -32,7 +32,7 @@ from .geometry.loaders import load_mesh
 from .gl import ContextOptions, Programs, create_context, make_current
 from .ibl import IBLOptions, build_ibl
 from .material import Material
-from .models import model_info
+from .models import ShadeVariant, model_info
 from .passes.accumulate import Accumulator
 from .passes.gbuffer import GBufferPass, GBufferTargets
 from .passes.shade import ShadePass
@@ -54,6 +54,22 @@ class Frame:
     display: np.ndarray  # [H, W, 4] uint8 sRGB after exposure and tone mapping
     aovs: dict[str, np.ndarray] = field(default_factory=dict)  # [H, W, C] float32 each
     camera: Camera | None = None
+
+
+@dataclass
+class FrameTargets:
+    """What :meth:`Renderer.draw` leaves on the GPU for one frame (nothing read back): what a
+    window shows, the debug views read and the parity checks compare. Textures are moderngl
+    textures, GL row order (row 0 at the bottom)."""
+
+    radiance: object  # RGBA32F: linear radiance composited over the background, alpha = coverage
+    display: object  # RGBA8: exposed, tone-mapped, sRGB-encoded
+    gbuffer: GBufferTargets  # the G-buffer the frame was shaded from (.textures, .read())
+    camera: Camera  # the camera it was rendered with (a stack's own camera for image stacks)
+    variant: ShadeVariant  # the lighting-pass program that shaded it
+    samples: int = 1  # Monte-Carlo samples averaged in `radiance` (1 for single-sample models)
+    ssao: object | None = None  # RGBA32F occlusion (r), when render.ssao
+    direct: object | None = None  # RGBA32F direct light before the indirect pass (render.indirect)
 
 
 class Renderer:
@@ -176,8 +192,8 @@ class Renderer:
         return self._targets[key]
 
     # ---- rendering --------------------------------------------------------------------------
-    def draw(self, scene: Scene, size: tuple[int, int] | None = None, **kwargs) -> dict:
-        """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers).
+    def draw(self, scene: Scene, size: tuple[int, int] | None = None, **kwargs) -> FrameTargets:
+        """Run every pass on the GPU; no readback. Returns the frame's :class:`FrameTargets`.
 
         The renderer's context is made current first, so several renderers and contexts can live
         in one process.
@@ -186,15 +202,15 @@ class Renderer:
         return self._draw(scene, size, **kwargs)
 
     def _draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
-              samples_per_frame: int = 1, aovs=()) -> dict:
-        """Run every pass on the GPU; no readback. Returns the target set (textures, framebuffers).
+              samples_per_frame: int = 1, aovs=()) -> FrameTargets:
+        """Run every pass on the GPU; no readback. Returns the frame's :class:`FrameTargets`.
 
         Monte-Carlo models (``ggx_mc``) render ``scene.render.samples`` samples per pixel in
         batches. With ``progressive=True`` a call adds only ``samples_per_frame`` samples to the
         running mean kept since the last call, as long as the scene (except exposure and tone
         mapping) and the size are unchanged (any change restarts), and stops adding once
-        ``scene.render.samples`` are in; ``targets["samples"]`` is the count accumulated.
-        ``aovs``: G-buffer channels the caller will read from ``targets["gbuffer"]`` (the layout
+        ``scene.render.samples`` are in; ``FrameTargets.samples`` is the count accumulated.
+        ``aovs``: G-buffer channels the caller will read from ``FrameTargets.gbuffer`` (the layout
         is specialised to the scene, so channels nothing reads are otherwise not allocated).
         """
         settings = scene.render
@@ -249,8 +265,11 @@ class Renderer:
         self._tonemap.run(targets["radiance"], targets["display_fbo"], settings.exposure,
                           settings.tonemap)
         self._pass_begin(None)
-        targets["camera"] = camera
-        return targets
+        return FrameTargets(radiance=targets["radiance"], display=targets["display"],
+                            gbuffer=targets["gbuffer"], camera=camera, variant=spec.variant,
+                            samples=targets["samples"],
+                            ssao=targets.get("ssao") if settings.ssao else None,
+                            direct=targets.get("direct") if settings.indirect else None)
 
     MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
 
@@ -345,11 +364,11 @@ class Renderer:
             raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
                              f"(known: {', '.join(AOV_NAMES)})", where="--aov")
         targets = self._draw(scene, size, aovs=tuple(a for a in aovs if a != "color"))
-        radiance = _read(targets["radiance"], "f4")
-        display = _read(targets["display"], "f1")
-        frame = Frame(radiance=radiance, display=display, camera=targets["camera"])
+        radiance = read_texture(targets.radiance, "f4")
+        display = read_texture(targets.display, "f1")
+        frame = Frame(radiance=radiance, display=display, camera=targets.camera)
         if aovs:
-            gb = targets["gbuffer"]
+            gb = targets.gbuffer
             channels = gb.read()
             for name in aovs:
                 if name == "color" and "color" not in channels:
@@ -401,7 +420,9 @@ def _warn_light_ignored(model: str) -> None:
                       f"light only); it is shaded by the environment alone", stacklevel=4)
 
 
-def _read(texture, dtype: str) -> np.ndarray:
+def read_texture(texture, dtype: str) -> np.ndarray:
+    """A texture read back as ``[H, W, C]`` numpy (``"f4"`` float32, ``"f1"`` uint8), row 0 at the
+    top (flipped from GL's bottom-up order)."""
     w, h = texture.size
     np_dtype = np.float32 if dtype == "f4" else np.uint8
     arr = np.frombuffer(texture.read(), dtype=np_dtype).reshape(h, w, texture.components)

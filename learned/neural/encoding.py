@@ -2,7 +2,7 @@
 
 ``fourier_encode(x, L)`` maps every input component x_i to
 ``[x_i, sin(pi 2^0 x_i), cos(pi 2^0 x_i), ..., sin(pi 2^(L-1) x_i), cos(pi 2^(L-1) x_i)]`` - the raw
-value first, then the pairs, component by component. The generated GLSL (``viewer/neural.py``)
+value first, then the pairs, component by component. The generated GLSL (``viewer/neural/``)
 emits the same order through ``fourier_feature`` of ``shaders/lib/neural.glsl``.
 """
 from __future__ import annotations

@@ -34,7 +34,7 @@ from learned.twins.shading import diffuse_color
 
 from .encoding import encoded_size, fourier_encode
 
-# input sets (feature name -> inputs); the generated GLSL and viewer/neural.py share these
+# input sets (feature name -> inputs); the generated GLSL and viewer/neural/ share these
 INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao", "NoV")
 FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b")}
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE

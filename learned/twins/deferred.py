@@ -26,7 +26,7 @@ PASS_LEVEL = ()
 def gl_gbuffer(targets: dict) -> dict[str, torch.Tensor]:
     """The G-buffer :meth:`viewer.renderer.Renderer.draw` produced, channel -> [H, W, C] tensors in
     GL row order (row 0 at the bottom), as the lighting passes and :func:`shade` see it."""
-    return {k: torch.from_numpy(v[::-1].copy()) for k, v in targets["gbuffer"].read().items()}
+    return {k: torch.from_numpy(v[::-1].copy()) for k, v in targets.gbuffer.read().items()}
 
 
 def gl_texture(texture) -> np.ndarray:
@@ -298,18 +298,18 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None)
     try:
         targets = renderer.draw(scene)
         gb = gl_gbuffer(targets)
-        glsl = gl_texture(targets["radiance"])
+        glsl = gl_texture(targets.radiance)
         env = env_from_ibl(renderer.ibl(scene))
         if model == "ggx_mc":
             env.update({k: torch.from_numpy(v)
                         for k, v in renderer.env_sampling(scene).read().items()})
         ssao = None
         if scene.render.ssao:
-            ssao = torch.from_numpy(gl_texture(targets["ssao"])[..., 0].copy())
+            ssao = torch.from_numpy(gl_texture(targets.ssao)[..., 0].copy())
         mc = {"start": 0, "count": scene.render.samples, "seed": scene.render.seed}
         envelope = {"weight_bits": device_filter_bits(programs)}
         with torch.enable_grad():  # the envelope differentiates through the lookups
-            ref = shade(model, gb, targets["camera"], env, scene.environment.intensity,
+            ref = shade(model, gb, targets.camera, env, scene.environment.intensity,
                         math.radians(scene.environment.rotation_deg),
                         shade_defines(model, scene.render, scene.light), ssao=ssao, mc=mc,
                         light=scene.light, envelope=envelope).detach().numpy()

@@ -75,32 +75,51 @@ def neural_student_radiance_pbr(k: torch.Tensor, diffuse: torch.Tensor, f0: torc
     return s[..., 0:1] * diffuse * irradiance * INV_PI + spec * prefiltered
 
 
+# Envelopes: u = 2^-24. "first-order on the draws": per-operation error bounds (GLSL 4.60
+# table on the GL side, correct rounding / 1 ulp libm on the torch side) propagated to first
+# order through the function at the drawn inputs; machine-independent.
 PARITY_CASES = [
-    # sin/cos of |freq x| up to ~100 rad: llvmpipe's range reduction differs from libm by ~1 ulp of
-    # the argument; measured max abs 4.8e-7
+    # sin/cos of |freq x| up to 32 pi ~ 100 rad: the argument's float32 reduction dominates
     ParityCase("fourier_feature", (Arg(lo=-1.0, hi=1.0, adversarial=(0.0, 1.0, -1.0)),
                                    Arg(lo=0.0, hi=32 * math.pi,
                                        adversarial=(math.pi, 2 * math.pi, 16 * math.pi))),
-               atol=2e-6, rtol=0.0, measured="max abs 4.8e-7"),
-    ParityCase("relu4", (Arg(lo=-5.0, hi=5.0, components=4, adversarial=((0, -0.0, 1e30, -1e30),)),),
-               atol=0.0, rtol=0.0, measured="exact"),
+               atol=1.7e-5, rtol=0.0,
+               measured="max abs 6e-8 (seeds 0-7); nosse (x87, a kept unrounded): 3.8e-6",
+               envelope="a = freq x, |a| <= 100.5: sin/cos ~1e-6 abs (assumed) + GPUs reduce "
+                        "a / 2pi in float32, |a| 2^-23 = 1.2e-5 + a's own rounding, skipped by "
+                        "x87: 0.5 ulp(a) = 3.8e-6 -> 1.7e-5 abs (atol widened from 2e-6)"),
+    ParityCase("relu4",
+               (Arg(lo=-5.0, hi=5.0, components=4, adversarial=((0, -0.0, 1e30, -1e30),)),),
+               atol=0.0, rtol=0.0, measured="exact",
+               envelope="exact: max selects the input or 0"),
     ParityCase("sigmoid4", (Arg(lo=-20.0, hi=20.0, components=4,
                                 adversarial=((0, 80, -80, 1e-7),)),),
-               atol=1e-7, rtol=1e-6, measured="max abs 6e-8"),
+               atol=1e-7, rtol=1e-6, measured="max abs 1.2e-7, max rel 9.9e-7 (seeds 0-7)",
+               envelope="1 / (1 + exp(-x)): exp (3 + 2|x|) ulp times s (1 - s) <= 1.2e-7 abs "
+                        "(|x| ~ 1), 1 + e and / (2.5 ulp) -> 4 ulp rel: first-order uses 75% "
+                        "of the tolerance"),
     ParityCase("softplus4", (Arg(lo=-20.0, hi=20.0, components=4,
                                  adversarial=((0, 80, -80, 1e-7),)),),
-               atol=1e-7, rtol=1e-6,
-               measured="max abs 9.5e-7 at x = 20 (rel 5e-8); values below 1e-7 within 1e-7"),
+               atol=8e-7, rtol=1e-6,
+               measured="max abs 9.5e-7 at x = 20 (rel 5e-8), values below 1e-7 within 1e-7 "
+                        "(seeds 0-7)",
+               envelope="log(u), u = 1 + e^-|x| in [1, 2]: GLSL allows 2^-21 abs, times "
+                        "y / (u - 1) <= 1.5 -> 7.2e-7 abs where the result ~ y (atol widened "
+                        "from 1e-7); exp (3 + 2|x|) ulp rel of y; large x: x + l1p, 2 ulp rel"),
     ParityCase("neural_student_radiance",
                (Arg(components=3), Arg(components=3), Arg(components=3),
                 Arg(lo=0.0, hi=50.0, components=3), Arg(lo=0.0, hi=50.0, components=3,
                                                         adversarial=((0, 0, 0), (2000, 1, 0)))),
-               atol=1e-6, rtol=1e-6, measured="max rel 2.3e-7 (max abs 7.6e-6 at ~2000)"),
+               atol=1e-6, rtol=1e-6, measured="max rel 2.3e-7 (max abs 7.6e-6 at ~2000)",
+               envelope="S k_d albedo E / pi + S k_s P: 5 products (S = 2 exact) + 1 add of "
+                        "terms >= 0 per side -> 4.8e-7 rel"),
     ParityCase("neural_student_radiance_pbr",
                (Arg(components=3), Arg(components=3), Arg(components=3), Arg(),
                 Arg(lo=0.0, hi=50.0, components=3), Arg(lo=0.0, hi=50.0, components=3,
                                                         adversarial=((0, 0, 0), (2000, 1, 0)))),
-               atol=1e-6, rtol=1e-6, measured="max rel 1.7e-7 (max abs 7.6e-6 at ~2000)"),
+               atol=1e-6, rtol=1e-6, measured="max rel 2.0e-7 (max abs 1.5e-5 at ~2000)",
+               envelope="s_d diffuse E / pi + (s_a f0 + s_b f90) P: 6 products + 2 adds of "
+                        "terms >= 0 per side -> 4.8e-7 rel"),
 ]
 
 
@@ -175,7 +194,12 @@ def check_network(programs, weights=None, storage: str = "const"):
     ref = np.concatenate([ref, np.zeros((ref.shape[0], 6 - ref.shape[1]), np.float32)], 1)
     name = "neural:network" + ("" if storage == "const" else f":{storage}")
     return compare(name, glsl, ref, NETWORK_ATOL, 0.0, kind="pass",
-                   measured="max abs 1.0e-7 (shipped pbr3, every storage), 1.2e-7 (free6)")
+                   measured="max abs 1.2e-7 (shipped pbr3, every storage), 1.2e-7 (free6)",
+                   envelope="first-order, shipped 8-16-16-3 student on these inputs: dots of "
+                            "8/16 terms in any order with FMA ((k + 1) 2^-24 sum|w x|), relu "
+                            "exact, sigmoid via exp ((3 + 2|x|) ulp) and / (2.5 ulp): <= 2.4e-6 "
+                            "both sides; atol 1e-4 is the issue's float32 bound (40x headroom); "
+                            "const/ubo/texture hold the exact float32 weights")
 
 
 def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dict,
@@ -236,10 +260,10 @@ def check_model(programs, model: str, variant: dict, weights=None):
     try:
         targets = renderer.draw(scene)
         gb = gl_gbuffer(targets)
-        glsl = gl_texture(targets["radiance"])
+        glsl = gl_texture(targets.radiance)
         lighting = lighting_from_gl(renderer, scene.environment)
         with torch.no_grad():
-            ref = shade_neural(model, net_model, gb, targets["camera"], lighting,
+            ref = shade_neural(model, net_model, gb, targets.camera, lighting,
                                shade_defines(model, scene.render),
                                (0, scene.render.samples), scene.render.seed).numpy()
     finally:
@@ -248,10 +272,19 @@ def check_model(programs, model: str, variant: dict, weights=None):
         f"{k}={v}" for k, v in variant.items()))
     if model == "neural_teacher":
         return compare(name, glsl, ref, TEACHER_ATOL, TEACHER_RTOL, kind="model",
-                       measured="max abs 0.023, max rel 8e-4 (uniform sampling, sun texels)")
+                       measured="max abs 0.023, max rel 8e-4 (uniform sampling, sun texels)",
+                       envelope="not derived: Monte Carlo as ggx_mc (per-sample radiance "
+                                "lookups divided by pdfs amplify ~1e-7 direction differences on "
+                                "the sun's texels); measured on llvmpipe, unverified on 8-bit "
+                                "GPU filtering")
     return compare(name, glsl, ref, MODEL_ATOL, MODEL_RTOL, kind="model",
                    measured="max abs 5.7e-4 at max rel 7.6e-5 (shipped pbr3 weights, bright "
-                            "sky texels); 1.0e-3 at max rel 7.6e-5 (random weights)")
+                            "sky texels); 1.0e-3 at max rel 7.6e-5 (random weights)",
+                   envelope="not derived per pixel: the network (<= 2.4e-6) and "
+                            "neural_student_radiance (5e-7 rel) are small; the SH, prefiltered "
+                            "and DFG lookups dominate as in learned/twins/deferred.py's models, "
+                            "but no per-lookup filtering envelope is added here: unverified on "
+                            "8-bit GPU filtering")
 
 
 def _register_checks() -> None:

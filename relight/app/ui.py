@@ -306,7 +306,7 @@ class ViewerUI:
         imgui.text(f"{viewer.frame_ms:6.2f} ms frame  {scene.render.model}  {w}x{h}")
         targets = viewer.targets
         if targets is not None and scene.render.model in SAMPLING_MODELS:
-            imgui.text(f"samples {targets.get('samples', 1)}/{scene.render.samples}")
+            imgui.text(f"samples {targets.samples}/{scene.render.samples}")
         for name, ms in viewer.timers.ms.items():
             imgui.text(f"{name:>8}: {ms:7.3f} ms GPU")
         imgui.end()

@@ -30,6 +30,7 @@ from viewer.gbuffer import CHANNEL_NAMES
 from viewer.gl.context import ContextOptions, create_window, make_current
 from viewer.gl.timing import PassTimer
 from viewer.models import SAMPLING_MODELS
+from viewer.renderer import FrameTargets, Renderer, read_texture
 from viewer.scene import Scene, load_scene
 from . import camera_control
 from .state import ViewerState, load_into, reset_camera, scene_from_state, state_from_scene, \
@@ -57,7 +58,6 @@ class Viewer:
         import glfw
 
         from viewer.passes.debug_view import DebugViewPass
-        from viewer.renderer import Renderer
         from .ui import ViewerUI
 
         self._glfw, self._imgui = glfw, imgui
@@ -71,7 +71,7 @@ class Viewer:
         self._good: ViewerState = self.state  # the last state that rendered
         self._scene: Scene | None = None  # what the targets hold
         self._aovs: tuple[str, ...] = ()  # G-buffer channels the targets hold for a channel view
-        self._targets: dict | None = None
+        self._targets: FrameTargets | None = None
         self._reference = None  # RGBA32F texture of a loaded reference render
         self._shot: dict[tuple[int, int], tuple] = {}  # size -> (texture, fbo) for screenshots
         self.samples_per_frame = 4  # Monte-Carlo samples added per frame while accumulating
@@ -149,7 +149,7 @@ class Viewer:
         # a channel view needs that channel allocated (the layout is specialised to the scene)
         aovs = (self.state.view,) if self.state.view in CHANNEL_NAMES else ()
         accumulating = (scene.render.model in SAMPLING_MODELS and self._targets is not None
-                        and self._targets.get("samples", 1) < scene.render.samples)
+                        and self._targets.samples < scene.render.samples)
         if scene == self._scene and aovs == self._aovs and not accumulating:
             return  # nothing changed: no GPU work beyond presenting
         try:
@@ -202,8 +202,8 @@ class Viewer:
         ref = self._reference
         if ref is None or self._targets is None:
             return None
-        if tuple(ref.size) != tuple(self._targets["radiance"].size):
-            w, h = self._targets["radiance"].size
+        if tuple(ref.size) != tuple(self._targets.radiance.size):
+            w, h = self._targets.radiance.size
             raise SceneError(f"the reference is {ref.size[0]}x{ref.size[1]}, the render {w}x{h}",
                              where=self.state.reference_path)
         return ref
@@ -325,11 +325,11 @@ class Viewer:
         scene = self.current_scene()
         transparent = scene.render.background == "transparent"
         if suffix == ".exr":
-            rgba = _read(self._targets["radiance"], "f4")
+            rgba = read_texture(self._targets.radiance, "f4")
             write_exr(path, rgba if transparent else rgba[..., :3],
                       ["R", "G", "B", "A"][: 4 if transparent else 3])
             return path
-        size = tuple(self._targets["display"].size)
+        size = tuple(self._targets.display.size)
         if size not in self._shot:
             tex = self.ctx.texture(size, 4, dtype="f1")
             self._shot[size] = (tex, self.ctx.framebuffer(color_attachments=[tex]))
@@ -337,9 +337,9 @@ class Viewer:
         fbo.use()
         self.ctx.viewport = (0, 0, *size)
         self._draw_view()
-        pixels = _read(tex, "f1")
+        pixels = read_texture(tex, "f1")
         if transparent and self.state.view == "display":
-            pixels[..., 3] = _read(self._targets["display"], "f1")[..., 3]
+            pixels[..., 3] = read_texture(self._targets.display, "f1")[..., 3]
             write_png(path, pixels)
         else:
             write_png(path, pixels[..., :3])
@@ -377,9 +377,3 @@ class Viewer:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-def _read(texture, dtype: str) -> np.ndarray:
-    from viewer.renderer import _read as read
-
-    return read(texture, dtype)

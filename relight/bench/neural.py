@@ -30,6 +30,13 @@ from pathlib import Path
 
 import numpy as np
 
+from assets import ASSET_ROOT
+from viewer.gl.timing import PassTimer
+from viewer.models import MODELS
+from viewer.neural import (STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, WEIGHT_STORAGES,
+                           NeuralWeights, default_weights, load_network, mlp_kernel)
+from viewer.scene import scene_from_dict
+
 from .metrics import psnr
 
 BENCH_SCENE = {
@@ -68,16 +75,12 @@ GREY_SCENE = {
 
 def students_dir() -> Path:
     """Where the candidate student designs and their comparison table are shipped."""
-    from assets import ASSET_ROOT
-
     return ASSET_ROOT / "weights" / "students"
 
 
 def time_frame(renderer, scene, repeats: int = 3) -> tuple[float, float, np.ndarray]:
     """(best wall ms of a whole frame, median ms of the ``shade`` pass, radiance ``[H, W, 3]``) of
     ``scene``; one warm-up render first (programs, IBL, sampling tables)."""
-    from viewer.gl.timing import PassTimer
-
     frame = renderer.render(scene)
     best = float("inf")
     for _ in range(repeats):
@@ -107,8 +110,6 @@ def _tm(x: np.ndarray) -> np.ndarray:
 
 
 def _reference(renderer, scene, samples: int) -> tuple[str, np.ndarray]:
-    from viewer.models import MODELS
-
     model = "ggx_mc" if "ggx_mc" in MODELS else "ggx_split_sum"
     img = renderer.render(scene.with_render(model=model, samples=samples,
                                             sampling="mis")).radiance[..., :3]
@@ -117,8 +118,6 @@ def _reference(renderer, scene, samples: int) -> tuple[str, np.ndarray]:
 
 def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: int = 1024,
                        repeats: int = 3, scene=None, sizes=(128,)) -> list[dict]:
-    from viewer.scene import scene_from_dict
-
     base = scene or scene_from_dict(BENCH_SCENE)
     rows = []
     for side in sizes:
@@ -148,9 +147,6 @@ def student_designs(renderer, size: int = 256, reference_samples: int = 1024, re
     """One row per candidate student in ``folder`` (default :func:`students_dir`), rendered through
     the real ``neural`` pass; the held-out metrics of the comparison (``compare.json``) ride along
     as ``psnr_test_vs_teacher`` / ``psnr_test_vs_mc``."""
-    from viewer.neural import load_network
-    from viewer.scene import scene_from_dict
-
     folder = Path(folder) if folder else students_dir()
     files = sorted(folder.glob("*.safetensors")) if folder.is_dir() else []
     if not files:
@@ -176,13 +172,10 @@ def student_designs(renderer, size: int = 256, reference_samples: int = 1024, re
 
 
 def time_student_kernel(programs, net, x: np.ndarray, repeats: int = 5) -> float:
-    """Best seconds of the generated student MLP (``viewer.neural.STUDENT_KERNEL``) over the
-    inputs ``x [n, 10]`` (planar upload outside the timing)."""
-    from viewer.neural import STUDENT_KERNEL, STUDENT_KERNEL_GROUP
-
+    """Best seconds of the generated student MLP (``viewer.neural.STUDENT_KERNEL_ENTRY``) over
+    the inputs ``x [n, 10]`` (planar upload outside the timing)."""
     ctx = programs.ctx
-    name = f"<bench:neural_student:{net.checkpoint[:12]}>"
-    prog = programs.compute(name, virtual={name: STUDENT_KERNEL, net.include_name: net.glsl})
+    prog = programs.compute(STUDENT_KERNEL_ENTRY, virtual={net.include_name: net.glsl})
     n = x.shape[0]
     src = ctx.buffer(np.ascontiguousarray(x.T, dtype=np.float32).tobytes())
     dst = ctx.buffer(reserve=4 * 6 * n)
@@ -209,8 +202,6 @@ def student_throughput(programs, weights=None, pixels: int = 65536, repeats: int
     """GLSL vs torch evaluation of the student MLP on the same ``pixels`` random inputs: the best
     time of each over ``rounds`` interleaved rounds of ``repeats`` runs (both swing by 2x from
     run to run on a 2-core llvmpipe machine; interleaving gives both the same quiet moments)."""
-    from viewer.neural import default_weights, load_network
-
     try:
         from learned.evaluate import torch_student_throughput
     except ImportError:
@@ -252,16 +243,15 @@ def probe_layers(sizes=PROBE_SIZES, seed: int = 0) -> list[tuple[np.ndarray, np.
     return layers
 
 
-def _kernel_times(programs, source: str, virtual: dict, code, x: np.ndarray, outputs: int,
+def _kernel_times(programs, entry: str, virtual: dict, code, x: np.ndarray, outputs: int,
                   repeats: int) -> tuple[list[float], np.ndarray]:
     """Seconds of the warm-up dispatch (first: includes llvmpipe's JIT compilation unless
     Mesa's shader cache has the program) and of each of ``repeats`` more (fenced with
-    ``finish``) of the compute ``source`` over the planar inputs ``x [n, in]`` with ``code``'s
-    weight data bound, and the outputs ``[n, outputs]`` of the last one."""
-    from viewer.neural import STUDENT_KERNEL_GROUP, NeuralWeights
-
+    ``finish``) of the compute program ``entry`` (a file under ``shaders/`` or a key of
+    ``virtual``) over the planar inputs ``x [n, in]`` with ``code``'s weight data bound, and the
+    outputs ``[n, outputs]`` of the last one."""
     ctx = programs.ctx
-    prog = programs.compute(source, virtual=virtual)
+    prog = programs.compute(entry, virtual=virtual)
     n = x.shape[0]
     src = ctx.buffer(np.ascontiguousarray(x.T, dtype=np.float32).tobytes())
     dst = ctx.buffer(reserve=4 * outputs * n)
@@ -289,8 +279,8 @@ def _kernel_times(programs, source: str, virtual: dict, code, x: np.ndarray, out
 def weight_storage_rows(programs, pixels: int = 65536, repeats: int = 7, rounds: int = 3,
                         weights=None, probe: bool = True) -> list[dict]:
     """Each weight storage (``viewer.neural.WEIGHT_STORAGES``) of the generated GLSL, timed on
-    (a) the student ``weights`` (default: shipped) in ``STUDENT_KERNEL`` and (b) the probe MLP
-    :data:`PROBE_SIZES` (:func:`probe_layers`) in ``viewer.neural.mlp_kernel``, over the same
+    (a) the student ``weights`` (default: shipped) in ``STUDENT_KERNEL_ENTRY`` and (b) the probe
+    MLP :data:`PROBE_SIZES` (:func:`probe_layers`) in ``viewer.neural.mlp_kernel``, over the same
     ``pixels`` random inputs; torch on the same networks and inputs for reference (left out
     without torch). Median ms of ``rounds`` x ``repeats`` runs, each after a warm-up, the rounds
     interleaving the storages so that all see the same quiet and busy moments of a shared
@@ -298,9 +288,6 @@ def weight_storage_rows(programs, pixels: int = 65536, repeats: int = 7, rounds:
     llvmpipe's JIT compilation unless Mesa's shader cache has the program (a cold cache costs
     minutes for the probe's storage block). ``max_abs_vs_const``: the outputs'
     largest difference from the baked-constants kernel (a sanity check; the tests check parity)."""
-    from viewer.neural import (STUDENT_KERNEL, WEIGHT_STORAGES, default_weights, load_network,
-                          mlp_kernel)
-
     include_probe = probe
 
     try:
@@ -318,9 +305,7 @@ def weight_storage_rows(programs, pixels: int = 65536, repeats: int = 7, rounds:
 
     def student(storage):
         code = net.code(storage)
-        name = f"<bench:neural_student:{net.checkpoint[:12]}>"
-        return lambda: _kernel_times(programs, name, {name: STUDENT_KERNEL,
-                                                      net.include_name: code.glsl},
+        return lambda: _kernel_times(programs, STUDENT_KERNEL_ENTRY, {net.include_name: code.glsl},
                                      code, x_student, 6, repeats), code
 
     def probe(storage):

@@ -1,4 +1,4 @@
-// neural.glsl - building blocks of the generated neural-shader GLSL (viewer/neural.py writes
+// neural.glsl - building blocks of the generated neural-shader GLSL (viewer/neural/ writes
 // "generated/neural_student.glsl" / "generated/neural_teacher.glsl" from exported weights, which
 // call these). Pure functions, no uniforms. Twins: learned/twins/neural.py.
 #include "lib/common.glsl"

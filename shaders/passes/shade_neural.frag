@@ -1,7 +1,7 @@
 // shade_neural.frag - the distilled neural shader (learned/neural/student.py): one MLP evaluation
 // per pixel on the material, n.v and the pre-integrated lighting (SH irradiance, GGX-prefiltered
 // radiance, and the split-sum DFG LUT for students with NEURAL_STUDENT_DFG) every classical model
-// reads. The network is generated code from an exported weights file (viewer/neural.py ->
+// reads. The network is generated code from an exported weights file (viewer/neural/ ->
 // "generated/neural_student.glsl": weights baked as constants, or read from the uniform/storage
 // block or texture it declares, per [render] neural_storage; it defines NEURAL_STUDENT_DFG and
 // NEURAL_STUDENT_PBR, the output form: 1 = pbr3, three achromatic factors of the split-sum form,

@@ -64,7 +64,7 @@ def test_weights_over_16_kib_go_to_a_storage_block(programs, weights, monkeypatc
 
     net = load_network(weights[0], "student")
     assert net.code("ubo").binding == "ubo"
-    monkeypatch.setattr(vn, "UBO_MIN_MAX_BYTES", 256)
+    monkeypatch.setattr(vn.glsl, "UBO_MIN_MAX_BYTES", 256)
     code = vn.generate_glsl(net, "ubo")
     assert code.binding == "ssbo" and "readonly buffer" in code.glsl
     monkeypatch.setitem(net._code, "ubo", code)

@@ -255,7 +255,7 @@ def test_dropped_scene_and_environment_files_load(fresh, tmp_path):
     fresh.drop([str(tmp_path / "s.toml")])
     fresh.run(frames=1)
     assert fresh.current_scene().render.model == "unlit"
-    assert fresh.targets["display"].size == (64, 48)
+    assert fresh.targets.display.size == (64, 48)
 
 
 def test_cli_view_offscreen_screenshot(tmp_path, ctx):
@@ -280,7 +280,7 @@ def test_progressive_accumulation_restarts_on_change_and_idles_when_done(fresh):
     counts = []
     for _ in range(3):
         fresh.run(frames=1)
-        counts.append(fresh.targets["samples"])
+        counts.append(fresh.targets.samples)
     assert counts == [4, 8, 8]
     renders = fresh.renders
     fresh.run(frames=2)
@@ -288,7 +288,7 @@ def test_progressive_accumulation_restarts_on_change_and_idles_when_done(fresh):
     env = fresh.state.environment
     fresh.state.environment = dataclasses.replace(env, rotation_deg=env.rotation_deg + 10.0)
     fresh.run(frames=1)
-    assert fresh.targets["samples"] == 4  # any change restarts the running mean
+    assert fresh.targets.samples == 4  # any change restarts the running mean
 
 
 def test_directional_light_through_the_state_adds_lambert_and_saves(fresh, ctx, tmp_path):

@@ -117,19 +117,19 @@ def test_progressive_accumulation_converges_and_restarts(renderer):
     mat = Material(albedo=(0.8, 0.5, 0.3), roughness=0.35)
     scene = sphere_scene(mat, {"procedural": "sky", "width": 64}, (24, 24), samples=12,
                          sampling="mis")
-    counts = [renderer.draw(scene, progressive=True, samples_per_frame=4)["samples"]
+    counts = [renderer.draw(scene, progressive=True, samples_per_frame=4).samples
               for _ in range(4)]
     assert counts == [4, 8, 12, 12]  # stops adding once scene.render.samples are in
     t = renderer.draw(scene, progressive=True, samples_per_frame=4)
-    w, h = t["radiance"].size
-    progressive = np.frombuffer(t["radiance"].read(), np.float32).reshape(h, w, 4)[::-1]
+    w, h = t.radiance.size
+    progressive = np.frombuffer(t.radiance.read(), np.float32).reshape(h, w, 4)[::-1]
     full = renderer.render(scene).radiance  # 12 samples in one batch, same sequence
     np.testing.assert_allclose(progressive, full, rtol=1e-5, atol=1e-6)
     # exposure does not change radiance: keeps accumulating state; anything else restarts
     assert renderer.draw(scene.with_render(exposure=2.0), progressive=True,
-                         samples_per_frame=4)["samples"] == 12
+                         samples_per_frame=4).samples == 12
     moved = scene.with_environment(rotation_deg=10.0)
-    assert renderer.draw(moved, progressive=True, samples_per_frame=4)["samples"] == 4
+    assert renderer.draw(moved, progressive=True, samples_per_frame=4).samples == 4
 
 
 def test_deterministic_for_a_seed(renderer):

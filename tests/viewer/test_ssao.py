@@ -34,8 +34,9 @@ def scene(objects, position=(0, 1.5, 2.5), target=(0, 0, -1), **render):
 
 
 def _read(targets, name):
-    w, h = targets[name].size
-    return np.frombuffer(targets[name].read(), np.float32).reshape(h, w, 4)[::-1].copy()
+    tex = getattr(targets, name)
+    w, h = tex.size
+    return np.frombuffer(tex.read(), np.float32).reshape(h, w, 4)[::-1].copy()
 
 
 @pytest.mark.parametrize("position", [(0, 1.5, 2.5), (0, 0.4, 3.0), (2.0, 3.0, 1.0)])
@@ -44,7 +45,7 @@ def test_flat_plane_is_unoccluded(renderer, position):
     reconstructed between pixel centres from its normal, so steps above it never test behind)."""
     t = renderer.draw(scene([FLOOR], position=position, ssao=True, **SSAO))
     ao = _read(t, "ssao")[..., 0]
-    covered = t["gbuffer"].read(["alpha"])["alpha"][..., 0] > 0
+    covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0
     assert covered.sum() > 100
     np.testing.assert_array_equal(ao[covered], 1.0)
 
@@ -52,7 +53,7 @@ def test_flat_plane_is_unoccluded(renderer, position):
 def _crease_rows(renderer, **render):
     t = renderer.draw(scene([FLOOR, WALL], ssao=True, **SSAO, **render))
     ao = _read(t, "ssao")[..., 0]
-    normal = t["gbuffer"].read(["normal"])["normal"]
+    normal = t.gbuffer.read(["normal"])["normal"]
     floor = normal[..., 1] > 0.9
     # the crease is where floor pixels start, column by column; distance in rows below it
     first = np.argmax(floor, axis=0)

@@ -92,8 +92,8 @@ def render_extremes(renderer, tmp_path, env_kind, model, fov_y, aovs=(), **rende
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the NaN/Inf environment warns by design
         targets = renderer.draw(scene, aovs=aovs)
-    w, h = targets["radiance"].size
-    glsl = np.frombuffer(targets["radiance"].read(), np.float32).reshape(h, w, 4)
+    w, h = targets.radiance.size
+    glsl = np.frombuffer(targets.radiance.read(), np.float32).reshape(h, w, 4)
     return scene, targets, glsl, max_radiance, image
 
 
@@ -114,7 +114,7 @@ def test_extremes_are_finite_bounded_and_match_the_twin(renderer, tmp_path, env_
     gb = gl_gbuffer(targets)
     env = env_from_ibl(ibl)
     with torch.no_grad():
-        ref = shade(model, gb, targets["camera"], env, 1.0, 0.0,
+        ref = shade(model, gb, targets.camera, env, 1.0, 0.0,
                     shade_defines(model, scene.render)).numpy()
     assert np.isfinite(ref).all()
     np.testing.assert_allclose(glsl, ref, atol=MODEL_ATOL * max(1.0, max_radiance), rtol=MODEL_RTOL)
@@ -125,7 +125,7 @@ def test_fp16_targets_stay_finite(renderer, tmp_path):
     scene, targets, glsl, max_radiance, _ = render_extremes(renderer, tmp_path, "sun",
                                                             "ggx_split_sum", 40.0, aovs=("depth",),
                                                             precision="fp16")
-    assert targets["gbuffer"].layout.dtype == "f2"
+    assert targets.gbuffer.layout.dtype == "f2"
     assert np.isfinite(glsl).all() and glsl[..., :3].max() <= max_radiance * 1.001
-    depth = targets["gbuffer"].read()["depth"]
+    depth = targets.gbuffer.read()["depth"]
     assert np.isfinite(depth).all() and depth.max() == pytest.approx(800.0, rel=1e-3)

@@ -206,7 +206,7 @@ def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
     gb = gl_gbuffer(targets)
     env = env_from_ibl(ibl)
     with torch.no_grad():
-        ref = shade(model, gb, targets["camera"], env, 1.0, 0.0,
+        ref = shade(model, gb, targets.camera, env, 1.0, 0.0,
                     shade_defines(model, scene.render)).numpy()[::-1]
     assert np.isfinite(ref).all()
     scale = np.maximum(1.0, np.abs(ref)) if model == "unlit" else max(1.0, env_max)

@@ -65,18 +65,18 @@ class DebugViewPass:
         """Draw ``view`` of ``targets`` (what :meth:`Renderer.draw` returned) into the bound
         framebuffer and viewport. ``reference`` (an RGBA32F texture of the render's size) is
         required for ``difference`` and ``error``."""
-        gb = targets["gbuffer"]
+        gb = targets.gbuffer
         prog = self.program(view, gb.layout)
         if "u_source_size" in prog:
             prog["u_source_size"].value = tuple(gb.size)
         if view == "display":
-            targets["display"].use(0)
+            targets.display.use(0)
             prog["u_display"].value = 0
         elif view in VIEW_MODES:
             if reference is None:
                 raise SceneError(f"the {view} view needs a reference render (load one first)",
                                  where="view")
-            targets["radiance"].use(0)
+            targets.radiance.use(0)
             reference.use(1)
             prog["u_radiance"].value = 0
             prog["u_reference"].value = 1

@@ -1,0 +1,47 @@
+"""Exported neural shaders, torch-free: the weights file, its GLSL, its GL data, bench kernels.
+
+One module per job:
+
+============ ======================================================================================
+module       job
+============ ======================================================================================
+``format``   the weights file (safetensors keys, metadata, architecture) and the networks' input /
+             output contract, for reading (validation, one-line errors naming the file) and for
+             writing (``learned.export``); :func:`checkpoint_hash`, :func:`default_weights`
+``glsl``     GLSL generation: ``generated/neural_<kind>.glsl`` for each weight storage
+             (:data:`WEIGHT_STORAGES`)
+``network``  :func:`load_network` (a validated file with its generated code, cached) and the
+             network a lighting pass of a neural model needs (:func:`virtual_files`)
+``upload``   :class:`NeuralWeights`: the buffer or texture a storage reads
+``kernels``  compute kernels for the MLP alone (``shaders/passes/neural_student.comp``,
+             :func:`mlp_kernel`): the ``neural:network`` parity check and the benches
+============ ======================================================================================
+
+Every name below is importable from ``viewer.neural`` itself.
+"""
+from .format import (DEFAULT_FEATURES, DEFAULT_OUTPUT, FORMAT, FORMAT_VERSION, KINDS, MODEL_KINDS,
+                     STUDENT_FEATURES, STUDENT_INPUTS, STUDENT_OUTPUTS, TEACHER_INPUTS,
+                     TENSOR_PARTS, NetworkFile, WeightsError, checkpoint_hash, default_weights,
+                     expected_networks, read_weights, tensor_name)
+from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_TEXTURE_WIDTH,
+                   NetworkCode, generate_glsl)
+from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
+from .network import Network, load_network, model_network, virtual_files
+from .upload import NeuralWeights
+
+__all__ = [
+    # format
+    "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "KINDS", "MODEL_KINDS",
+    "STUDENT_FEATURES", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
+    "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights", "expected_networks",
+    "read_weights", "tensor_name",
+    # glsl
+    "UBO_MIN_MAX_BYTES", "WEIGHT_BINDINGS", "WEIGHT_STORAGES", "WEIGHT_TEXTURE_WIDTH",
+    "NetworkCode", "generate_glsl",
+    # kernels
+    "STUDENT_KERNEL", "STUDENT_KERNEL_ENTRY", "STUDENT_KERNEL_GROUP", "mlp_kernel",
+    # network
+    "Network", "load_network", "model_network", "virtual_files",
+    # upload
+    "NeuralWeights",
+]

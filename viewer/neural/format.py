@@ -1,0 +1,266 @@
+"""The neural-shader weights file: its format, its input/output contract and its validation.
+
+The one definition of the file, for reading (:func:`read_weights`, the viewer) and for writing
+(:func:`architecture`, :func:`metadata`, :func:`tensor_name`; ``learned.export``). A weights file
+is a safetensors file with float32 tensors ``<network>.<layer>.weight`` ``[out, in]`` / ``.bias``
+``[out]`` (:func:`tensor_name`) and string metadata (:func:`metadata`):
+
+=============== ====================================================================================
+key             value
+=============== ====================================================================================
+format          ``relight-neural-shader``
+version         ``1`` (:data:`FORMAT_VERSION`)
+kind            ``student`` (model ``neural``) or ``teacher`` (model ``neural_teacher``)
+architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [...], "activations":
+                [...]}}, "hidden": ..., "num_freqs": L, "inputs": [...], "features": "base" | "dfg",
+                "output": "free6" | "pbr3"}`` (students; no ``features`` = ``base``: the 8 inputs of
+                :data:`STUDENT_INPUTS`, ``dfg`` adds the split-sum LUT; no ``output`` = ``free6``:
+                six per-channel factors, ``pbr3`` three achromatic ones of the split-sum form,
+                :data:`STUDENT_OUTPUTS`)
+encoding        JSON (:func:`encoding`): ``{"type": "fourier", "num_freqs": L, "frequencies":
+                "pi * 2^k", "order": ...}``
+checkpoint      sha256 (hex) of the tensors (:func:`checkpoint_hash`); verified on load
+training        JSON summary of the training data and run (free form)
+=============== ====================================================================================
+
+:func:`read_weights` reads it with ``safetensors`` (numpy, no torch) and checks all of the above;
+every problem is a one-line :class:`WeightsError` naming the file.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from safetensors import SafetensorError, safe_open
+
+from assets import ASSET_ROOT
+
+from ..errors import InputError
+
+FORMAT = "relight-neural-shader"
+FORMAT_VERSION = "1"
+KINDS = ("student", "teacher")
+MODEL_KINDS = {"neural": "student", "neural_teacher": "teacher"}  # model -> network kind
+STUDENT_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao",
+                  "NoV")
+# student input sets (architecture "features"; twin: learned.neural.student.FEATURE_INPUTS)
+STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "dfg.b")}
+# student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
+# outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag
+# combines the factors with the lighting by lib/neural.glsl's neural_student_radiance[_pbr].
+STUDENT_OUTPUTS = {"free6": 6, "pbr3": 3}
+# what a student file without "features" / "output" (written before they existed) holds
+DEFAULT_FEATURES = "base"
+DEFAULT_OUTPUT = "free6"
+TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
+                  "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
+TENSOR_PARTS = ("weight", "bias")  # the tensors of one layer, in file order per layer
+
+
+class WeightsError(InputError):
+    """A weights file that cannot be used: unreadable, truncated, another format, version or
+    architecture, or tensors that do not match the metadata."""
+
+
+@dataclass(frozen=True)
+class NetworkFile:
+    """The validated contents of a weights file (numpy, float32); :class:`viewer.neural.Network`
+    adds its generated GLSL."""
+
+    path: str
+    kind: str  # "student" | "teacher"
+    checkpoint: str  # sha256 hex of the tensors
+    architecture: dict
+    training: dict
+    tensors: dict  # name -> np.ndarray float32
+
+    @property
+    def include_name(self) -> str:
+        """The virtual include file of its generated GLSL."""
+        return f"generated/neural_{self.kind}.glsl"
+
+    @property
+    def num_freqs(self) -> int:
+        return int(self.architecture["num_freqs"])
+
+    @property
+    def features(self) -> str:
+        """Student input set (``base`` | ``dfg``, :data:`STUDENT_FEATURES`)."""
+        return str(self.architecture.get("features", DEFAULT_FEATURES))
+
+    @property
+    def output(self) -> str:
+        """Student output form (``free6`` | ``pbr3``, :data:`STUDENT_OUTPUTS`)."""
+        return str(self.architecture.get("output", DEFAULT_OUTPUT))
+
+    def layers(self, network: str) -> list[tuple[np.ndarray, np.ndarray, str]]:
+        """``[(weight [out, in], bias [out], activation)]`` of ``network``."""
+        spec = self.architecture["networks"][network]
+        return [(self.tensors[tensor_name(network, i, "weight")],
+                 self.tensors[tensor_name(network, i, "bias")], act)
+                for i, act in enumerate(spec["activations"])]
+
+    def parameter_count(self) -> int:
+        return int(sum(t.size for t in self.tensors.values()))
+
+    def macs(self) -> int:
+        """Multiply-adds of one evaluation (per pixel for a student, per light sample for a
+        teacher)."""
+        return int(sum(t.size for n, t in self.tensors.items() if n.endswith(".weight")))
+
+
+def tensor_name(network: str, layer: int, part: str) -> str:
+    """The key of a tensor: ``<network>.<layer>.<part>``, ``part`` in :data:`TENSOR_PARTS`."""
+    return f"{network}.{layer}.{part}"
+
+
+def checkpoint_hash(tensors: dict) -> str:
+    """sha256 over (name, shape, little-endian float32 bytes) of every tensor, names sorted."""
+    h = hashlib.sha256()
+    for name in sorted(tensors):
+        arr = np.ascontiguousarray(tensors[name], dtype="<f4")
+        h.update(name.encode())
+        h.update(json.dumps(list(arr.shape)).encode())
+        h.update(arr.tobytes())
+    return h.hexdigest()
+
+
+def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT_FEATURES,
+                      output: str = DEFAULT_OUTPUT) -> dict[str, dict]:
+    """The architecture every file of ``kind`` must have (sizes from its hidden widths and, for a
+    student, its input ``features`` and ``output`` form)."""
+    enc = lambda d: d * (1 + 2 * num_freqs)  # noqa: E731
+    if kind == "student":
+        sizes = [enc(len(STUDENT_FEATURES[features])), *[int(h) for h in hidden],
+                 STUDENT_OUTPUTS[output]]
+        return {"mlp": {"sizes": sizes,
+                        "activations": ["relu"] * (len(sizes) - 2) + ["sigmoid"]}}
+    if kind == "teacher":
+        h = int(hidden)
+        return {"diffuse": {"sizes": [enc(len(TEACHER_INPUTS)), h, h],
+                            "activations": ["relu", "relu"]},
+                "specular": {"sizes": [h + 6, h, 3], "activations": ["relu", "softplus"]}}
+    raise ValueError(kind)
+
+
+def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
+                 output: str | None = None) -> dict:
+    """The ``architecture`` metadata of a ``kind`` network (students record ``features`` and
+    ``output``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT`; teachers have
+    neither)."""
+    features = features or DEFAULT_FEATURES
+    output = output or DEFAULT_OUTPUT
+    arch = {"networks": expected_networks(kind, num_freqs, hidden, features, output),
+            "hidden": hidden, "num_freqs": num_freqs,
+            "inputs": list(STUDENT_FEATURES[features] if kind == "student" else TEACHER_INPUTS)}
+    if kind == "student":
+        arch["features"] = features
+        arch["output"] = output
+    return arch
+
+
+def encoding(num_freqs: int) -> dict:
+    """The ``encoding`` metadata: the Fourier features of ``learned/neural/encoding.py``."""
+    return {"type": "fourier", "num_freqs": num_freqs, "frequencies": "pi * 2^k",
+            "order": "x, (sin, cos) per k"}
+
+
+def metadata(kind: str, arch: dict, tensors: dict, training: dict | None = None) -> dict[str, str]:
+    """The string metadata of a file holding ``tensors`` of a ``kind`` network with the
+    architecture ``arch`` (:func:`architecture`)."""
+    return {"format": FORMAT, "version": FORMAT_VERSION, "kind": kind,
+            "architecture": json.dumps(arch),
+            "encoding": json.dumps(encoding(arch["num_freqs"])),
+            "checkpoint": checkpoint_hash(tensors),
+            "training": json.dumps(training or {})}
+
+
+def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
+    """The networks ``arch`` must describe; raises KeyError/ValueError/TypeError when it is
+    malformed."""
+    num_freqs = int(arch["num_freqs"])
+    hidden = arch["hidden"]
+    if not 0 <= num_freqs <= 16:
+        raise ValueError(f"num_freqs {num_freqs}")
+    features = arch.get("features", DEFAULT_FEATURES) if kind == "student" else DEFAULT_FEATURES
+    if features not in STUDENT_FEATURES:
+        raise ValueError(f"student features {features!r} (known: {', '.join(STUDENT_FEATURES)})")
+    if kind == "student" and "inputs" in arch and \
+            tuple(arch["inputs"]) != STUDENT_FEATURES[features]:
+        raise ValueError(f"inputs {arch['inputs']} are not the {features!r} student inputs")
+    output = arch.get("output", DEFAULT_OUTPUT) if kind == "student" else DEFAULT_OUTPUT
+    if output not in STUDENT_OUTPUTS:
+        raise ValueError(f"student output form {output!r} (known: {', '.join(STUDENT_OUTPUTS)})")
+    return expected_networks(kind, num_freqs, hidden, features, output)
+
+
+def _check_tensors(path: Path, want: dict[str, dict], tensors: dict) -> None:
+    names = set()
+    for net, spec in want.items():
+        sizes = spec["sizes"]
+        for i in range(len(sizes) - 1):
+            for part, shape in zip(TENSOR_PARTS, ((sizes[i + 1], sizes[i]), (sizes[i + 1],))):
+                name = tensor_name(net, i, part)
+                names.add(name)
+                t = tensors.get(name)
+                if t is None:
+                    raise WeightsError(f"missing tensor {name!r}", where=path)
+                if t.dtype != np.float32 or tuple(t.shape) != shape:
+                    raise WeightsError(f"tensor {name!r} is {t.dtype}{list(t.shape)}, expected "
+                                       f"float32{list(shape)}", where=path)
+                if not np.isfinite(t).all():
+                    raise WeightsError(f"tensor {name!r} has NaN/Inf values", where=path)
+    extra = sorted(set(tensors) - names)
+    if extra:
+        raise WeightsError(f"unexpected tensors {', '.join(extra)}", where=path)
+
+
+def read_weights(path: str | os.PathLike, cls: type[NetworkFile] = NetworkFile) -> NetworkFile:
+    """Read and validate the weights file ``path`` into a ``cls`` (:class:`NetworkFile` or a
+    subclass). Every problem is a one-line :class:`WeightsError` naming the file."""
+    path = Path(path)
+    try:
+        with safe_open(str(path), framework="numpy") as f:
+            meta = dict(f.metadata() or {})
+            tensors = {k: f.get_tensor(k) for k in f.keys()}
+    except (SafetensorError, OSError, ValueError, MemoryError) as exc:
+        raise WeightsError(f"not a readable safetensors file (truncated or corrupt: "
+                           f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__})",
+                           where=path) from None
+    if meta.get("format") != FORMAT:
+        raise WeightsError(f"not a relight neural-shader file (metadata format "
+                           f"{meta.get('format')!r}, expected {FORMAT!r})", where=path)
+    if meta.get("version") != FORMAT_VERSION:
+        raise WeightsError(f"format version {meta.get('version')!r} is not supported (this "
+                           f"viewer reads version {FORMAT_VERSION})", where=path)
+    kind = meta.get("kind")
+    if kind not in KINDS:
+        raise WeightsError(f"unknown network kind {kind!r} ({' | '.join(KINDS)})", where=path)
+    try:
+        arch = json.loads(meta["architecture"])
+        training = json.loads(meta.get("training", "{}"))
+        want = _required_networks(kind, arch)
+    except (KeyError, ValueError, TypeError) as exc:
+        raise WeightsError(f"bad architecture metadata ({type(exc).__name__}: {exc})",
+                           where=path) from None
+    if arch.get("networks") != want:
+        raise WeightsError(f"architecture {json.dumps(arch.get('networks'))} is not the {kind} "
+                           f"architecture this viewer generates GLSL for "
+                           f"({json.dumps(want)})", where=path)
+    _check_tensors(path, want, tensors)
+    digest = checkpoint_hash(tensors)
+    if meta.get("checkpoint") != digest:
+        raise WeightsError(f"checkpoint hash mismatch (metadata "
+                           f"{str(meta.get('checkpoint'))[:12]}, tensors {digest[:12]}): the file "
+                           f"was modified or damaged", where=path)
+    return cls(path=str(path), kind=kind, checkpoint=digest, architecture=arch, training=training,
+               tensors=tensors)
+
+
+def default_weights(kind: str) -> Path:
+    """The weights shipped in ``assets/weights`` for ``kind``."""
+    return ASSET_ROOT / "weights" / f"neural_{kind}.safetensors"

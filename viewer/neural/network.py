@@ -1,0 +1,75 @@
+"""Loaded networks: a validated weights file (:mod:`.format`) with its generated GLSL
+(:mod:`.glsl`), cached per file, and the network a lighting pass of a neural model needs."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .format import MODEL_KINDS, NetworkFile, WeightsError, default_weights, read_weights
+from .glsl import WEIGHT_STORAGES, NetworkCode, generate_glsl
+
+
+@dataclass(frozen=True)
+class Network(NetworkFile):
+    """A validated exported network (numpy, float32) and its generated GLSL."""
+
+    _code: dict = field(default_factory=dict, repr=False, compare=False)  # storage -> NetworkCode
+
+    @property
+    def glsl(self) -> str:
+        """The text of the virtual file ``include_name`` with weights baked as constants."""
+        return self.code("const").glsl
+
+    def code(self, storage: str = "const") -> NetworkCode:
+        """The generated GLSL and weight data for ``storage`` (:data:`WEIGHT_STORAGES`; cached)."""
+        if storage not in WEIGHT_STORAGES:
+            raise ValueError(f"weight storage {storage!r} (known: {', '.join(WEIGHT_STORAGES)})")
+        if storage not in self._code:
+            self._code[storage] = generate_glsl(self, storage)
+        return self._code[storage]
+
+
+_CACHE: dict[tuple, Network] = {}
+
+
+def load_network(path: str | os.PathLike, kind: str | None = None) -> Network:
+    """Read, validate and generate GLSL for the weights file ``path`` (cached by path, size and
+    modification time). ``kind`` (``"student"``/``"teacher"``) is required to match when given.
+    Every problem is a one-line :class:`WeightsError` naming the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise WeightsError("weights file not found", where=path)
+    st = path.stat()
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    net = _CACHE.get(key)
+    if net is None:
+        net = read_weights(path, Network)
+        net.code("const")  # generation errors belong to loading
+        _CACHE[key] = net
+    if kind is not None and net.kind != kind:
+        raise WeightsError(f"holds a {net.kind} network, expected a {kind} "
+                           f"(model {'neural' if kind == 'student' else 'neural_teacher'})",
+                           where=path)
+    return net
+
+
+def model_network(model: str, settings) -> tuple[Network, NetworkCode] | None:
+    """The network of a lighting pass of ``model`` under the render ``settings`` (its weights file
+    and ``neural_storage``) and its generated code; ``None`` for classical models."""
+    kind = MODEL_KINDS.get(model)
+    if kind is None:
+        return None
+    attr = "weights" if kind == "student" else "teacher_weights"
+    path = getattr(settings, attr, None) or default_weights(kind)
+    net = load_network(path, kind)
+    return net, net.code(getattr(settings, "neural_storage", "const"))
+
+
+def virtual_files(model: str, settings) -> dict[str, str]:
+    """Generated include files a lighting pass of ``model`` needs (empty for classical models)."""
+    found = model_network(model, settings)
+    if found is None:
+        return {}
+    net, code = found
+    return {net.include_name: code.glsl}

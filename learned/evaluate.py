@@ -184,7 +184,7 @@ def torch_student_throughput(weights, pixels: int = 65536, repeats: int = 5) -> 
     """Pixels per second of the exported student's MLP in torch (CPU, float32) on ``pixels``
     random inputs: the reference the GLSL student throughput is compared with."""
     from .export import load_model
-    from .twins.neural import student_inputs
+    from .parity.checks.neural import student_inputs
 
     model = load_model(weights, "student")
     x = torch.from_numpy(student_inputs(pixels)[:pixels])

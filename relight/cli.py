@@ -118,11 +118,9 @@ def cmd_parity(args) -> int:
     from viewer.models import model_info
 
     if args.model is not None:
-        from learned.parity import PASS_CHECKS
-        from learned.twins import twin_modules
+        from learned.parity import check_models
 
-        twin_modules()  # registers the pass checks
-        if args.model not in {m for m, _ in PASS_CHECKS.values() if m is not None}:
+        if args.model not in check_models():
             model_info(args.model)  # not a pass-check group (e.g. "splats"): must be a model
     ctx = create_context(_context_options(args))
     try:

@@ -2,7 +2,8 @@
 imported): ``viewer`` is the torch-free runtime and imports neither ``learned`` nor ``relight``
 nor torch; ``learned`` (torch side) may import ``viewer`` but not ``relight``; ``relight`` (the
 commands) may import both. No module imports itself back through a chain of others - counting
-imports inside functions too, which hide a cycle but do not remove it."""
+imports inside functions too, which hide a cycle but do not remove it. ``learned.twins`` imports
+only torch and itself: the GL side of every comparison is ``learned.parity``."""
 from __future__ import annotations
 
 import ast
@@ -11,6 +12,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("viewer", "learned", "relight", "shaders", "assets")
 FORBIDDEN = {"viewer": ("learned", "relight", "torch"), "learned": ("relight",)}
+# the twins are pure torch mirrors of the GLSL: nothing of the GL side, nor of the harness using them
+FORBIDDEN_SUBPACKAGE = {"learned.twins": ("viewer", "learned.parity", "learned.train")}
 
 
 def _module_name(path: Path) -> str:
@@ -77,6 +80,10 @@ def test_layers_import_only_downwards():
         for dep in deps:
             if dep.split(".")[0] in FORBIDDEN.get(top, ()):
                 bad.append(f"{name} imports {dep}")
+            for sub, banned in FORBIDDEN_SUBPACKAGE.items():
+                if (name == sub or name.startswith(sub + ".")) and any(
+                        dep == b or dep.startswith(b + ".") for b in banned):
+                    bad.append(f"{name} imports {dep}")
     assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
 
 

@@ -3,8 +3,9 @@
 One module per GLSL file: ``shaders/lib/brdf.glsl`` <-> ``learned/twins/brdf.py``. A twin has the same
 snake_case name as its GLSL function, takes tensors whose trailing dimension is the GLSL vector size
 (scalars are ``[...]``, ``vec3`` is ``[..., 3]``), and its docstring names the GLSL function it
-mirrors. Each module lists ``PARITY_CASES``: how to draw random and adversarial inputs for each
-function and the tolerance, stated beside the error measured on llvmpipe.
+mirrors. Twins of whole passes are named after their pass files (``shade.shade`` for the
+lighting passes, ``ibl.prefilter_environment`` ...). Twins import torch and each other, nothing from
+``viewer``: the GL side of the comparison lives in :mod:`learned.parity`.
 """
 import importlib
 import pkgutil

@@ -13,20 +13,17 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import torch
 
-from ._cases import Arg, ParityCase
 from .brdf import f_schlick, v_smith_ggx_correlated
 from .equirect import equirect_dir, equirect_uv
-from .sampling import (ggx_sample_d, hammersley_sequence, importance_sample_ggx,
-                       tangent_to_world)
-from .sh import sh_basis_all, sh_irradiance
-from viewer.ibl import prefilter_roughness
-
-# Functions taking samplers (or arrays) covered by the pass checks registered below.
-PASS_LEVEL = ("ibl_specular_radiance", "ibl_dfg")
-
+from .sampling import (
+    ggx_sample_d,
+    hammersley_sequence,
+    importance_sample_ggx,
+    tangent_to_world,
+)
+from .sh import sh_basis_all
 
 # ---------------------------------------------------------------------------------------------
 # GL texture filtering
@@ -318,15 +315,14 @@ def prefilter_level_envelope(chain: list[torch.Tensor], size: tuple[int, int],
     return (err * wgt[..., None]).sum(dim=2) / total + 2.0 * samples * 2.0 ** -24 * mean.abs()
 
 
-def prefilter_environment(chain: list[torch.Tensor], levels: int, samples: int
+def prefilter_environment(chain: list[torch.Tensor], roughness: list[float], samples: int
                           ) -> list[torch.Tensor]:
-    """Twin of the prefiltered chain of ``build_ibl``: level 0 = ``chain[0]``, level k = GGX
-    prefiltered at perceptual roughness ``viewer.ibl.prefilter_roughness(k, levels)`` with
-    ``samples`` Hammersley points."""
+    """Twin of the prefiltered chain of ``build_ibl``: level 0 = ``chain[0]``, level k >= 1 = GGX
+    prefiltered at perceptual roughness ``roughness[k]`` (the pass's uniform: the renderer uses
+    ``viewer.ibl.prefilter_roughness(k, levels)``) with ``samples`` Hammersley points."""
     out = [chain[0]]
-    for k in range(1, levels):
-        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]),
-                                   prefilter_roughness(k, levels), samples))
+    for k in range(1, len(roughness)):
+        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]), roughness[k], samples))
     return out
 
 
@@ -373,252 +369,3 @@ def dfg_lut(size: int, samples: int) -> torch.Tensor:
 # ---------------------------------------------------------------------------------------------
 # Parity cases and pass checks
 # ---------------------------------------------------------------------------------------------
-
-_DFG = Arg(lo=0.0, hi=1.0, components=2, adversarial=((0.0, 1.0), (1.0, 1.0), (0.5, 1e-6)))
-_F0 = Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
-
-PARITY_CASES = [
-    ParityCase("prefilter_lod", (Arg(lo=0.0, hi=1.0, adversarial=(0.0, 0.045, 1.0, -1.0, 2.0)),
-                                 Arg(kind="int", lo=1, hi=8, adversarial=(1.0, 6.0))),
-               atol=1e-6, rtol=1e-6, measured="max abs 4.8e-7 (sqrt)",
-               envelope="sqrt (1 / inversesqrt: 4.5 ulp) x (levels - 1) <= 7: 5e-7 rel of "
-                        "values <= 7 -> atol 1e-6"),
-    ParityCase("ibl_specular_dfg", (_DFG, _F0, Arg(adversarial=(0.0, 1.0))), atol=3e-7, rtol=1e-6,
-               measured="max abs 1.2e-7 (fma rounding)",
-               envelope="f0 (y - x) + f90 x: 4 ops, with or without FMA contraction 2 ulp of "
-                        "terms <= 1 -> 2.4e-7 abs"),
-    ParityCase("ibl_energy_compensation", (_DFG, _F0), atol=0.0, rtol=1e-6,
-               measured="max rel 1.2e-7",
-               envelope="1 + f0 (1 / y - 1): reciprocal 2.5 ulp, 3 correctly rounded ops, no "
-                        "cancellation (1 / y >= 1): 5.5 ulp = 6.6e-7 rel"),
-]
-
-
-def parity_environment(width: int = 64, seed: int = 0) -> np.ndarray:
-    """A small ``[width/2, width, 3]`` environment for pass checks: random positive radiance plus
-    a bright 3x3 spot (so the prefilter and SH see a high-frequency feature)."""
-    rng = np.random.default_rng(seed)
-    h = width // 2
-    env = rng.uniform(0.05, 1.0, size=(h, width, 3)).astype(np.float32)
-    env[h // 3: h // 3 + 3, width // 5: width // 5 + 3] = (40.0, 30.0, 20.0)
-    return env
-
-
-def _register_checks() -> None:
-    from learned.parity import compare, compare_envelope, device_filter_bits, register_pass_check
-
-    cache: dict = {}
-
-    def built(programs):
-        """One small IBL per programs object, shared by the checks (and torch chains)."""
-        key = id(programs)
-        if key not in cache:
-            from viewer.ibl import IBLOptions, build_ibl
-
-            env = parity_environment()
-            opts = IBLOptions(prefilter_levels=5, prefilter_samples=32, dfg_size=32,
-                              dfg_samples=128)
-            ibl = build_ibl(programs, env, opts)
-            cache.clear()
-            cache[key] = (env, opts, ibl, device_filter_bits(programs))
-        return cache[key]
-
-    @register_pass_check("ibl_downsample")
-    def check_downsample(programs):
-        env, opts, ibl, bits = built(programs)
-        chain = radiance_chain(torch.from_numpy(env))
-        gl = np.concatenate([ibl.read_level("radiance", k)[..., :3].ravel()
-                             for k in range(len(chain))])
-        ref = np.concatenate([c.numpy().ravel() for c in chain])
-        return [compare("ibl_downsample", gl, ref, atol=0.0, rtol=1e-6, kind="pass",
-                        measured="exact (0 abs), all 7 levels of a 64x32 env",
-                        envelope="(a + b) + (c + d) then * 0.25 (exact), the same order on both "
-                                 "sides, every op correctly rounded: identical; rtol 8 ulp")]
-
-    @register_pass_check("ibl_prefilter")
-    def check_prefilter(programs):
-        env, opts, ibl, bits = built(programs)
-        chain = radiance_chain(torch.from_numpy(env))
-        with torch.no_grad():
-            ref = prefilter_environment(chain, ibl.levels, opts.prefilter_samples)
-            bound = [torch.zeros_like(chain[0])] + [
-                prefilter_level_envelope(chain, tuple(chain[k].shape[:2]),
-                                         prefilter_roughness(k, ibl.levels),
-                                         opts.prefilter_samples, weight_bits=bits)
-                for k in range(1, ibl.levels)]
-        gl = np.concatenate([ibl.read_level("prefiltered", k)[..., :3].ravel()
-                             for k in range(ibl.levels)])
-        ref = np.concatenate([r[..., :3].numpy().ravel() for r in ref])
-        bound = np.concatenate([b[..., :3].numpy().ravel() for b in bound])
-        return [compare_envelope(
-            "ibl_prefilter", gl, ref, bound,
-            measured="max abs 5.2e-4 (values to 40), 3% of the envelope; 4.1e-4 / 2.7e-4 rel "
-                     "before D came from xi (ggx_sample_d) instead of 1 - n.h",
-            envelope="per texel: n.l-weighted mean over the 32 samples of each lookup's "
-                     "sample_trilinear_envelope (the device's measured filter-weight and lod "
-                     "fraction bits: 16 on llvmpipe, 8 on GPUs; uv error from sin/cos/atan) + "
-                     "2 S ulp summation; level 0 is a copy (exact)")]
-
-    @register_pass_check("ibl_sh")
-    def check_sh(programs):
-        env, opts, ibl, bits = built(programs)
-        ref = sh_project(torch.from_numpy(env)).numpy()
-        scale = float(np.abs(ref).max())
-        return [compare("ibl_sh", ibl.sh, ref, atol=1e-6 * scale, rtol=1e-5, kind="pass",
-                        measured="max abs 1.2e-7, max rel 1.7e-7",
-                        envelope="per texel term ~12 ops incl. sin (1e-6 abs assumed) -> "
-                                 "~1e-6 x |term|; float64 reduction: atol 1e-6 x the largest "
-                                 "coefficient covers cancellation in the summed terms")]
-
-    @register_pass_check("ibl_dfg_lut")
-    def check_dfg(programs):
-        env, opts, ibl, bits = built(programs)
-        with torch.no_grad():
-            ref = dfg_lut(opts.dfg_size, opts.dfg_samples).numpy()
-        return [compare("ibl_dfg_lut", ibl.read_level("dfg"), ref, atol=5e-6, rtol=1e-5,
-                        kind="pass", measured="max abs 1.9e-6, max rel 2.8e-6 (n.v = 1e-4 row)",
-                        envelope="128 terms <= 1 of ~30 ops (sqrt, 2.5-ulp divisions): 30 ulp "
-                                 "each = 3.6e-6 rel, sequential float32 sum <= 128 x 2^-24 = "
-                                 "7.6e-6 rel: 1.1e-5 at values ~1")]
-
-    @register_pass_check("ibl_lookups")
-    def check_lookups(programs):
-        env, opts, ibl, bits = built(programs)
-        n = 4096
-        rng = np.random.default_rng(1)
-        dirs = rng.normal(size=(n, 3)).astype(np.float32)
-        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-        rough = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
-        rough[:8] = (0.0, 1.0, 0.25, 0.5, 0.75, 0.045, 1e-3, 0.999)
-        nov = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
-        nov[:4] = (0.0, 1.0, 1e-4, 0.5)
-        spec_gl, dfg_gl = _eval_lookups(programs, ibl, dirs, rough, nov)
-        pre = [torch.from_numpy(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)]
-        lut = torch.from_numpy(ibl.read_level("dfg"))
-        with torch.no_grad():
-            spec = ibl_specular_radiance(pre, torch.from_numpy(dirs), torch.from_numpy(rough),
-                                         float(ibl.levels)).numpy()
-            dfg = ibl_dfg(lut, torch.from_numpy(nov), torch.from_numpy(rough)).numpy()
-            lod = prefilter_lod(torch.from_numpy(rough), torch.tensor(float(ibl.levels)))
-            d = torch.from_numpy(dirs)
-            # the input directions are exact: only atan's error moves uv
-            bound = sample_trilinear_envelope(pre, equirect_uv(d), lod,
-                                              equirect_uv_error(d, 0.0), weight_bits=bits)[..., :3]
-            bound = (bound + 4.0 * 2.0 ** -24 * torch.from_numpy(spec).abs()).numpy()
-            size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])
-            x = torch.stack([torch.from_numpy(nov).clamp(0.0, 1.0),
-                             torch.from_numpy(rough).clamp(0.0, 1.0)], -1)
-            uv_lut = (x * (size - 1.0) + 0.5) / size
-            dfg_bound = (sample_trilinear_envelope(
-                [lut], uv_lut, torch.zeros(n), torch.full_like(uv_lut, 1e-6), repeat_u=False,
-                weight_bits=bits)[..., :2] + 1e-5 + 1e-4 * torch.from_numpy(dfg).abs()).numpy()
-        return [compare_envelope(
-                    "ibl_specular_radiance", spec_gl, spec, bound,
-                    measured="max abs 4.7e-4 (values to 40), uv (atan) differences times "
-                             "texel contrast",
-                    envelope="per lookup: sample_trilinear_envelope (the device's measured "
-                             "filter bits, atan error 8e-6 rad) + 4 ulp"),
-                compare_envelope(
-                    "ibl_dfg", dfg_gl, dfg, dfg_bound, measured="max abs 6e-8",
-                    envelope="per lookup: sample_trilinear_envelope of the LUT (measured filter "
-                             "bits, uv from clamps and one fma: 1e-6) + 1e-5 + 1e-4 rel")]
-
-    @register_pass_check("sh_irradiance")
-    def check_sh_irradiance(programs):
-        rng = np.random.default_rng(2)
-        sh = rng.normal(size=(9, 3)).astype(np.float32)
-        sh[0] += 4.0  # mostly positive irradiance, some clamped
-        n = 4096
-        normals = rng.normal(size=(n, 3)).astype(np.float32)
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        gl = eval_sh_irradiance(programs, normals, sh)
-        with torch.no_grad():
-            ref = sh_irradiance(torch.from_numpy(normals), torch.from_numpy(sh)).numpy()
-        return [compare("sh_irradiance", gl, ref, atol=1e-5, rtol=1e-5, kind="pass",
-                        measured="max abs 1.9e-6, max rel 5.9e-7",
-                        envelope="9-term polynomial, ~25 ops: 25 ulp x sum |terms| (<= 4x the "
-                                 "result for these coefficients) = 1.2e-5 x result; atol where "
-                                 "the clamp at 0 meets cancellation")]
-
-
-_LOOKUP_KERNEL = """
-#include "lib/ibl.glsl"
-layout(local_size_x = 64) in;
-uniform uint u_count;
-uniform sampler2D u_pre;
-uniform sampler2D u_lut;
-uniform float u_levels;
-layout(std430, binding = 0) readonly buffer In { float inv[]; };   // [n][5] dir, r, NoV
-layout(std430, binding = 1) writeonly buffer Out { float outv[]; }; // [n][5] rgb, dfg
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= u_count) return;
-    vec3 d = vec3(inv[5u * i], inv[5u * i + 1u], inv[5u * i + 2u]);
-    vec3 s = ibl_specular_radiance(u_pre, d, inv[5u * i + 3u], u_levels);
-    vec2 g = ibl_dfg(u_lut, inv[5u * i + 4u], inv[5u * i + 3u]);
-    outv[5u * i] = s.x; outv[5u * i + 1u] = s.y; outv[5u * i + 2u] = s.z;
-    outv[5u * i + 3u] = g.x; outv[5u * i + 4u] = g.y;
-}
-"""
-
-_SH_KERNEL = """
-#include "lib/sh.glsl"
-layout(local_size_x = 64) in;
-uniform uint u_count;
-uniform vec3 u_sh[9];
-layout(std430, binding = 0) readonly buffer In { float inv[]; };
-layout(std430, binding = 1) writeonly buffer Out { float outv[]; };
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= u_count) return;
-    vec3 e = sh_irradiance(vec3(inv[3u * i], inv[3u * i + 1u], inv[3u * i + 2u]), u_sh);
-    outv[3u * i] = e.x; outv[3u * i + 1u] = e.y; outv[3u * i + 2u] = e.z;
-}
-"""
-
-
-def _run_kernel(programs, name: str, source: str, inputs: np.ndarray, out_width: int, setup):
-    ctx = programs.ctx
-    prog = programs.compute(name, virtual={name: source})
-    count = inputs.shape[0]
-    src = ctx.buffer(np.ascontiguousarray(inputs, dtype=np.float32).tobytes())
-    dst = ctx.buffer(reserve=max(4, 4 * out_width * count))
-    try:
-        setup(prog)
-        src.bind_to_storage_buffer(0)
-        dst.bind_to_storage_buffer(1)
-        prog["u_count"].value = count
-        prog.run((count + 63) // 64)
-        ctx.memory_barrier()
-        return np.frombuffer(dst.read(), dtype=np.float32)[: out_width * count].reshape(
-            count, out_width).copy()
-    finally:
-        src.release()
-        dst.release()
-
-
-def _eval_lookups(programs, ibl, dirs, rough, nov):
-    """GL ``ibl_specular_radiance`` and ``ibl_dfg`` on the textures of ``ibl``."""
-
-    def setup(prog):
-        ibl.prefiltered.use(location=0)
-        ibl.dfg.use(location=1)
-        prog["u_pre"].value = 0
-        prog["u_lut"].value = 1
-        prog["u_levels"].value = float(ibl.levels)
-
-    inputs = np.concatenate([dirs, rough[:, None], nov[:, None]], axis=1)
-    out = _run_kernel(programs, "<kernel:ibl_lookups>", _LOOKUP_KERNEL, inputs, 5, setup)
-    return out[:, :3], out[:, 3:]
-
-
-def eval_sh_irradiance(programs, normals: np.ndarray, sh: np.ndarray) -> np.ndarray:
-    """GL ``sh_irradiance`` for unit normals ``[n, 3]`` and coefficients ``[9, 3]`` -> ``[n, 3]``."""
-
-    def setup(prog):
-        prog["u_sh"].write(np.ascontiguousarray(sh, dtype=np.float32).tobytes())
-
-    return _run_kernel(programs, "<kernel:sh_irradiance>", _SH_KERNEL, normals, 3, setup)
-
-
-_register_checks()

@@ -1,14 +1,17 @@
 """Twins of ``shaders/lib/shading.glsl``: the per-pixel shading models on pre-looked-up lighting."""
 from __future__ import annotations
 
-import math
-
 import torch
 
-from ._cases import Arg, ParityCase
-from .common import half_vector
-
-INV_PI = 1.0 / math.pi
+from .brdf import (
+    blinn_phong_shininess,
+    d_ggx,
+    f90_from_f0,
+    f_schlick,
+    v_smith_ggx_correlated,
+)
+from .common import INV_PI, half_vector, saturate
+from .ibl import ibl_energy_compensation, ibl_specular_dfg
 
 
 def diffuse_color(albedo: torch.Tensor, metallic: torch.Tensor) -> torch.Tensor:
@@ -36,9 +39,6 @@ def ggx_split_sum(diffuse: torch.Tensor, f0: torch.Tensor, ao: torch.Tensor,
 
     diffuse, f0, irradiance, prefiltered: [..., 3]; ao, multiscatter: [...]; dfg: [..., 2].
     """
-    from .brdf import f90_from_f0
-    from .ibl import ibl_energy_compensation, ibl_specular_dfg
-
     e_spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0))
     e_spec = torch.where((multiscatter > 0.5)[..., None], e_spec * ibl_energy_compensation(dfg, f0),
                          e_spec)
@@ -64,10 +64,6 @@ def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tens
     """GLSL ``vec3 ggx_directional_light(...)``: f(v, l) E (n.l) for the GGX + Lambert BRDF with
     ggx_split_sum's energy split. diffuse, f0, n, v, l, irradiance [..., 3]; a, multiscatter [...];
     dfg [..., 2] -> [..., 3]; 0 where n.l <= 0."""
-    from .brdf import d_ggx, f90_from_f0, f_schlick, v_smith_ggx_correlated
-    from .common import saturate
-    from .ibl import ibl_energy_compensation, ibl_specular_dfg
-
     NoL = _dot(n, l)
     h = half_vector(v, l)
     NoV = saturate(_dot(n, v))
@@ -90,9 +86,6 @@ def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: to
     """GLSL ``vec3 blinn_phong_directional_light(...)``: Lambert keeping (1 - f0) + the normalised
     Blinn-Phong BRDF f0 (s + 8)/(8 pi) (n.h)^s (Real-Time Rendering 3rd ed. eq. 7.49), times E n.l.
     diffuse, f0, n, v, l, irradiance [..., 3]; a [...] -> [..., 3]; 0 where n.l <= 0."""
-    from .brdf import blinn_phong_shininess
-    from .common import saturate
-
     NoL = _dot(n, l)
     NoH = saturate(_dot(n, half_vector(v, l)))
     s = blinn_phong_shininess(a)
@@ -101,79 +94,3 @@ def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: to
     return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
 
 
-def _nonneg3(hi=1.0, adv=()):
-    return Arg(lo=0.0, hi=hi, components=3, adversarial=adv)
-
-
-def _fix_dfg_at(index):
-    """Keep argument ``index`` (dfg) in the LUT's range: it never holds dfg.y = 0 or
-    dfg.x > dfg.y."""
-
-    def fix(args):
-        dfg = args[index]
-        dfg[:, 1] = dfg[:, 1].clip(1e-3, 1.0)
-        dfg[:, 0] = dfg[:, 0].clip(0.0, None) * dfg[:, 1]
-        return args
-    return fix
-
-
-_UNIT = Arg(kind="unit", components=3, adversarial=((0, 0, 1),))
-_UP = Arg(kind="hemisphere", components=3, adversarial=((0, 0, 1), (1, 0, 0)))
-_ALPHA_L = Arg(lo=0.0, hi=1.0, adversarial=(0.002025, 1.0))
-
-# Envelopes: u = 2^-24. "first-order on the draws": per-operation error bounds (GLSL 4.60
-# table on the GL side, correct rounding / 1 ulp libm on the torch side) propagated to first
-# order through the function at the drawn inputs; machine-independent.
-PARITY_CASES = [
-    ParityCase("diffuse_color", (_nonneg3(), Arg(lo=-0.5, hi=1.5, adversarial=(0.0, 1.0))),
-               atol=0.0, rtol=2.4e-7, measured="exact on llvmpipe (seeds 0-7); nosse: 1.2e-7 rel",
-               envelope="albedo (1 - m): 2 roundings per side (1 - m may stay unrounded, x87) "
-                        "-> 4 x 2^-24 = 2.4e-7 rel (rtol widened from 1e-7)"),
-    ParityCase("shading_normal",
-               (Arg(kind="unit", components=3, adversarial=((0, 0, 0), (0, 0, -1), (0, 0, 1e-7),
-                                                            (1, 0, 0), (0, 0, 5))),
-                Arg(kind="hemisphere", components=3, adversarial=((0, 0, 1),))),
-               atol=1.25e-4, rtol=1e-5,
-               measured="max abs 2.4e-6 (seeds 0-7); nosse: 4.3e-6 (seeds 1, 7)",
-               envelope="bent = n + (1e-4 - n.v) v for back-facing n: its ~4 x 2^-24 abs per "
-                        "component per side (dot, product, add) divide by |bent| >= |n_perp| "
-                        "(>= 1e-4): first-order on the draws (seeds 0-63) median 1.6e-5, max "
-                        "1.22e-4 abs (atol widened from 2e-6; heavy tail as n -> -v); "
-                        "front-facing n inversesqrt(len2): ~10 x 2^-24"),
-    ParityCase("ggx_split_sum",
-               (_nonneg3(), _nonneg3(), Arg(), _nonneg3(10.0), _nonneg3(100.0, ((1e5, 0, 65504),)),
-                Arg(lo=0.0, hi=1.0, components=2), Arg(kind="int", lo=0, hi=1)),
-               atol=4e-6, rtol=2e-6, measured="max rel 4.2e-7 (seeds 0-7)",
-               prepare=_fix_dfg_at(5),
-               envelope="1 - e_spec cancels as e_spec -> 1: e_spec (~8 roundings + 1/dfg.y at "
-                        "2.5 ulp) ~20 x 2^-24 = 1.2e-6 of <= ~1, times diffuse E ao / pi <= "
-                        "10/pi -> 3.8e-6 abs (atol widened from 1e-6; first-order on the draws "
-                        "2.1e-6); otherwise ~6 roundings of terms >= 0 -> 7e-7 rel"),
-    ParityCase("blinn_phong",
-               (_nonneg3(), _nonneg3(), Arg(), _nonneg3(10.0), _nonneg3(100.0, ((1e5, 0, 65504),))),
-               atol=1e-6, rtol=2e-6, measured="max rel 1.9e-7 (seeds 0-7)",
-               envelope="diffuse E / pi ao (1 - f0) + f0 P: 1 - f0 cancels only where its term "
-                        "vanishes; ~6 roundings per side of terms >= 0 -> 7e-7 rel"),
-    # n anywhere, v and l anywhere on the sphere (n.l <= 0 gives 0); E up to the fp16 maximum
-    ParityCase("ggx_directional_light",
-               (_nonneg3(), _nonneg3(), _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
-                Arg(kind="int", lo=0, hi=1), _UNIT, _UP, _UNIT, _nonneg3(10.0, ((1e5, 0, 65504),))),
-               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(3),
-               measured="max rel 7.0e-5 (seeds 0-7): at alpha 0.002 D_GGX turns 1-ulp differences "
-                        "in n.h (inversesqrt, dot order) into ~1e-5 relative",
-               envelope="dD/D = 4 dNoH / (a^2 + 2 (1 - NoH)); NoH = dot(n, normalize(v + l)) "
-                        "carries ~18 x 2^-24 both sides (inversesqrt 2 ulp, dots in any order): "
-                        "first-order on the random draws (seeds 0-63) median 4e-4, max 3.5e-3 "
-                        "rel (rtol widened from 2e-4; heavy tail); NOT covered: grid n = v = l "
-                        "= +Z, a = 0.002025: NoH = 1 needs inversesqrt(4) = 0.5 exactly (D -35% "
-                        "if 2 ulp off)"),
-    ParityCase("blinn_phong_directional_light",
-               (_nonneg3(), _nonneg3(), _ALPHA_L, _UNIT, _UP, _UNIT,
-                _nonneg3(10.0, ((1e5, 0, 65504),))),
-               atol=1e-6, rtol=2.3e-2,
-               measured="max rel 4.1e-4 (seeds 0-7): (n.h)^s with s up to 16384 (GLSL pow = "
-                        "exp2(s log2 x)) on 1-ulp differences in n.h",
-               envelope="(n.h)^s, s = 2/a^2 - 2 <= 16384: s dNoH / NoH with dNoH ~18 x 2^-24 -> "
-                        "1.8e-2, + pow's log2 (2^-21 abs) x s ln 2 -> 5.4e-3: 2.3e-2 rel (rtol "
-                        "widened from 1e-3; first-order on the draws 2.2e-2, median 6.5e-4)"),
-]

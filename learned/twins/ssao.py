@@ -6,10 +6,12 @@ Images are in GL row order (row 0 at the bottom), as the pass sees them. Registe
 """
 from __future__ import annotations
 
-import numpy as np
 import torch
 
-from ._cases import Arg, ParityCase
+from .deferred import view_ray_ws
+from .mc import mc_sample_2d, sample_cosine_hemisphere
+from .sampling import tangent_to_world
+from .shading import shading_normal
 
 
 def view_position(frag_coord, resolution, depth, tan_half_fov) -> torch.Tensor:
@@ -47,11 +49,6 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
               seed: int, direct: torch.Tensor | None = None) -> torch.Tensor:
     """Twin of ``passes/ssao.frag``: G-buffer channels ``[H, W, C]`` (GL order) -> ``[H, W, 4]``:
     O(x) in every channel, or (with ``direct`` [H, W, 4]) direct + L_ind (eq. 6.22)."""
-    from .deferred import view_ray_ws
-    from .mc import mc_sample_2d, sample_cosine_hemisphere
-    from .sampling import tangent_to_world
-    from .shading import shading_normal
-
     g = gbuffer
     h, w = g["alpha"].shape[:2]
     ys, xs = torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")
@@ -104,98 +101,3 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
                            indirect * alpha[..., None], torch.zeros_like(indirect))
     out = torch.where(active[..., None], direct[..., :3] + indirect, direct[..., :3])
     return torch.cat([out, direct[..., 3:]], dim=-1)
-
-
-# Envelopes: u = 2^-24. "first-order on the draws": per-operation error bounds (GLSL 4.60
-# table on the GL side, correct rounding / 1 ulp libm on the torch side) propagated to first
-# order through the function at the drawn inputs; machine-independent.
-PARITY_CASES = [
-    ParityCase("view_position", (Arg(lo=0.0, hi=128.0, components=2), Arg(lo=16.0, hi=128.0,
-                                 components=2), Arg(lo=0.1, hi=50.0, adversarial=(0.0,)),
-                                 Arg(lo=0.05, hi=2.0, components=2)),
-               atol=5e-5, rtol=1e-5, measured="exact on llvmpipe (seeds 0-7); nosse: 6e-5 on "
-                                               "values ~300 (rel 1.7e-7)",
-               envelope="ndc = f / r * 2 - 1 cancels at the centre: f / r's 3 ulp (division 2.5 "
-                        "+ 0.5) x 2 = 3.6e-7 abs, times tan <= 2 and depth <= 50 -> 3.6e-5 "
-                        "abs (atol widened from 1e-6; first-order on the draws 4.6e-5); "
-                        "elsewhere 3 roundings rel"),
-    ParityCase("view_to_frag", (Arg(lo=-5.0, hi=5.0, components=3,
-                                    adversarial=((0.0, 0.0, -1.0), (1.0, 1.0, 0.0))),
-                                Arg(lo=16.0, hi=128.0, components=2),
-                                Arg(lo=0.05, hi=2.0, components=2)),
-               atol=1e-4, rtol=1e-5, measured="exact on llvmpipe (seeds 0-7)",
-               envelope="p.xy / (depth tan) (2.5 ulp + product), (ndc 0.5 + 0.5) res cancels "
-                        "near ndc = -1: ulps of ndc x res / 2 <= 64 -> first-order 3.6e-5 abs, "
-                        "38% of the tolerance; depth = -p.z exact"),
-    ParityCase("surface_depth_at", (Arg(lo=-3.0, hi=3.0, components=3),
-                                    Arg(lo=-3.0, hi=3.0, components=3),
-                                    Arg(kind="unit", components=3, adversarial=((0, 0, 0),)),
-                                    Arg(lo=0.1, hi=10.0)),
-               atol=4e-5, rtol=1e-4,
-               measured="max abs 1.9e-5, max rel 1.4e-3 (seeds 0-7; division by a small q.n "
-                        "just above the 5% cut)",
-               envelope="-q.z (p.n / q.n) with |q.n| > 0.05 |q|: p.n cancels, 3 x 2^-24 |p| "
-                        "(<= 5.2) per side, times |q.z| / |q.n| < 20 -> 3.7e-5 abs (atol widened "
-                        "from 1e-5); q.n's 60 x 2^-24 rel per side -> 7e-6 rel; the 5% cut may "
-                        "flip within ~1e-6 rel of it (p ~ 1% per 4096 draws)"),
-    ParityCase("ssao_occluded", (Arg(lo=0.0, hi=4.0), Arg(lo=0.0, hi=4.0, adversarial=(0.0,)),
-                                 Arg(lo=0.0, hi=1.0)),
-               atol=0.0, rtol=0.0, measured="exact (random inputs never sit on a threshold)",
-               envelope="exact: compares of inputs with z_d (1 + 1e-4) and z_d + thickness, "
-                        "each one correctly rounded op (x87 may keep it unrounded): a flip needs "
-                        "z within 1 ulp of a threshold (p ~ 1e-3 over 4096 draws)"),
-]
-
-
-def _register_checks() -> None:
-    from learned.parity import ParityResult, register_pass_check
-
-    @register_pass_check("ssao")
-    def check_ssao(programs):
-        from viewer.renderer import Renderer
-        from viewer.scene import scene_from_dict
-
-        from .deferred import PARITY_SCENE, gl_gbuffer, gl_texture
-
-        scene = scene_from_dict(PARITY_SCENE).with_render(
-            model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6, ssao_steps=8,
-            ssao_radius=0.6, ssao_thickness=0.3, seed=3)
-        renderer = Renderer(ctx=programs.ctx)
-        try:
-            targets = renderer.draw(scene)
-            gb = gl_gbuffer(targets)
-
-            def read(name):
-                return gl_texture(getattr(targets, name))
-
-            ao_gl, direct, final_gl = read("ssao"), read("direct"), read("radiance")
-            s = scene.render
-            with torch.no_grad():
-                ao = ssao_pass(gb, targets.camera, s.ssao_rays, s.ssao_steps, s.ssao_radius,
-                               s.ssao_thickness, s.seed).numpy()
-                final = ssao_pass(gb, targets.camera, s.ssao_rays, s.ssao_steps,
-                                  s.ssao_radius, s.ssao_thickness, s.seed,
-                                  direct=torch.from_numpy(direct)).numpy()
-        finally:
-            renderer.release()
-        return [_robust("ssao:occlusion", ao_gl, ao, 1.0 / 6.0),
-                _robust("ssao:indirect", final_gl, final, float(np.abs(final).max()))]
-
-    def _robust(name, gl, ref, step):
-        # A hit test is a threshold: float32 rounding may flip one ray's step in rare pixels.
-        # Pass: >= 99% of pixels within 1e-5 (abs + rel), none off by more than one ray's share.
-        diff = np.abs(gl - ref).max(axis=-1)
-        close = diff <= 1e-5 + 1e-5 * np.abs(ref).max(axis=-1)
-        frac = float(close.mean())
-        ok = frac >= 0.99 and float(diff.max()) <= step + 1e-5
-        rel = float((diff / np.maximum(np.abs(ref).max(axis=-1), 1e-6)).max())
-        return ParityResult(name, float(diff.max()), rel,
-                            f"99% of pixels within 1e-5, rest within one ray ({frac:.2%} close)",
-                            ok, "pass", "100% of pixels exact to 1e-5 on llvmpipe",
-                            "not a rounding bound: the march's hit tests are thresholds, so "
-                            "float32 differences (view_to_frag, surface_depth_at envelopes) "
-                            "flip whole rays in rare pixels; elsewhere both sides take the same "
-                            "hits and agree to ~1e-6")
-
-
-_register_checks()

@@ -8,7 +8,7 @@ import torch
 from learned.export import export, load_model
 from learned.neural.student import Student
 from learned.neural.teacher import Teacher
-from learned.twins import neural as tn
+from learned.parity.checks import neural as tn
 from viewer.neural import WEIGHT_STORAGES, WeightsError, load_network
 
 

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 import torch
 
-from learned.splats.rasterize import (PARITY_ATOL, parity_camera, parity_check, random_scene,
-                                      rasterize, splat_tensors, weight_matrix)
+from learned.parity.checks.splats import PARITY_ATOL, parity_camera, parity_check, random_scene
+from learned.splats.rasterize import rasterize, splat_tensors, weight_matrix
 from viewer.camera import Camera
 from viewer.splats.data import make_splats
 

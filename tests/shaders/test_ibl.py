@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import learned.twins.ibl as twins
-from learned.parity import PASS_CHECKS
+from learned.parity import pass_checks
+from learned.parity.checks.ibl import eval_sh_irradiance, parity_environment
 from viewer.environment import texel_directions
 from viewer.errors import InputError
 from viewer.ibl import IBLOptions, build_ibl, mip_sizes
@@ -18,7 +19,7 @@ OUR_CHECKS = ["ibl_downsample", "ibl_prefilter", "ibl_sh", "ibl_dfg_lut", "ibl_l
 
 def test_ibl_pass_checks_are_registered():
     """They run (with every other registered check) in tests/shaders/test_library_parity.py."""
-    assert set(OUR_CHECKS) <= set(PASS_CHECKS)
+    assert set(OUR_CHECKS) <= set(pass_checks())
 
 
 def test_filter_envelope_covers_a_gpu_texture_unit():
@@ -27,7 +28,7 @@ def test_filter_envelope_covers_a_gpu_texture_unit():
     assumed trig error, stay inside sample_trilinear_envelope(bits = 8) - and the check can
     fail: a 4-bit filter leaves it."""
     torch = pytest.importorskip("torch")
-    chain = twins.radiance_chain(torch.from_numpy(twins.parity_environment()))
+    chain = twins.radiance_chain(torch.from_numpy(parity_environment()))
     gen = torch.Generator().manual_seed(0)
     n = 200_000
     uv = torch.rand(n, 2, generator=gen)
@@ -57,7 +58,7 @@ def test_prefilter_envelope_covers_a_gpu_texture_unit():
     torch = pytest.importorskip("torch")
     from viewer.ibl import prefilter_roughness
 
-    chain = twins.radiance_chain(torch.from_numpy(twins.parity_environment()))
+    chain = twins.radiance_chain(torch.from_numpy(parity_environment()))
     for k in (1, 2):
         size = tuple(chain[k].shape[:2])
         r = prefilter_roughness(k, 5)
@@ -92,7 +93,7 @@ def test_constant_environment_sh_irradiance_is_pi_l(programs, white_ibl):
     rng = np.random.default_rng(0)
     normals = rng.normal(size=(64, 3))
     normals = (normals / np.linalg.norm(normals, axis=1, keepdims=True)).astype(np.float32)
-    e = twins.eval_sh_irradiance(programs, normals, white_ibl.sh)
+    e = eval_sh_irradiance(programs, normals, white_ibl.sh)
     # tolerance 1e-3 relative; measured 3.5e-4 at 128x64 (quadrature of the l=2 terms)
     np.testing.assert_allclose(e, math.pi * 2.5, rtol=1e-3)
 
@@ -124,7 +125,7 @@ def test_sh_irradiance_matches_direct_integration(programs, kind, rtol):
     normals[:3] = [(0, 1, 0), (0, -1, 0), (1, 0, 0)]
     ibl = build_ibl(programs, env, SMALL)
     try:
-        e_sh = twins.eval_sh_irradiance(programs, normals.astype(np.float32), ibl.sh)
+        e_sh = eval_sh_irradiance(programs, normals.astype(np.float32), ibl.sh)
     finally:
         ibl.release()
     e_ref = _direct_irradiance(env, normals)

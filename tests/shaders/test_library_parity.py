@@ -1,5 +1,5 @@
 """Every GLSL library function against its torch twin (tolerances and measured errors live in the
-``PARITY_CASES`` of each ``learned/twins`` module), and coverage of the whole library."""
+cases of ``learned/parity/cases``, one module per GLSL file), and coverage of the whole library."""
 import pytest
 
 from learned.parity import check_function, coverage, library_cases
@@ -24,11 +24,9 @@ def test_every_case_names_the_envelope_its_tolerance_guards():
 
 
 def _pass_checks():
-    from learned.parity import PASS_CHECKS
-    from learned.twins import twin_modules
+    from learned.parity import pass_checks
 
-    twin_modules()  # the twin modules register their pass checks
-    return PASS_CHECKS
+    return pass_checks()
 
 
 @pytest.mark.parametrize("name", sorted(_pass_checks()))

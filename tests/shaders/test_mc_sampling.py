@@ -134,7 +134,7 @@ def sky_sampling(programs):
 def test_environment_sampler_fits_its_pdf(programs, sky_sampling):
     """Texel frequencies of sampled directions follow p_uv / (W H) (chi-square over the 64 x 32
     texels, the distribution's own bins), and env_pdf integrates to one over the sphere."""
-    from learned.twins.env_sampling import eval_env_sampling
+    from learned.parity.checks.env_sampling import eval_env_sampling
 
     u = _uniform(N, 3)
     out = eval_env_sampling(programs, sky_sampling, u, np.tile([0, 1, 0], (N, 1)).astype(np.float32))
@@ -161,7 +161,7 @@ def test_environment_sampler_fits_its_pdf(programs, sky_sampling):
 
 
 def test_environment_pdf_matches_sampled_pdf(programs, sky_sampling):
-    from learned.twins.env_sampling import eval_env_sampling
+    from learned.parity.checks.env_sampling import eval_env_sampling
 
     u = _uniform(4096, 4)
     out = eval_env_sampling(programs, sky_sampling, u, np.zeros((4096, 3), np.float32))

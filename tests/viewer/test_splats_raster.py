@@ -17,7 +17,7 @@ CAM = Camera(position=(0.0, 0.0, 2.0), target=(0.0, 0.0, 0.0), fov_y=40.0, size=
 
 
 def test_single_splat_alpha_footprint_and_channels(programs):
-    from learned.splats.rasterize import render_gl
+    from learned.parity.checks.splats import render_gl
 
     _, g = render_gl(programs, _one_splat(), CAM)
     a = g["alpha"][..., 0]
@@ -45,7 +45,7 @@ def test_single_splat_alpha_footprint_and_channels(programs):
 
 
 def test_cpu_and_gpu_sort_agree(programs):
-    from learned.splats.rasterize import parity_camera, random_scene, render_gl
+    from learned.parity.checks.splats import parity_camera, random_scene, render_gl
 
     s = random_scene(3000, 5, sh_degree=1)
     _, cpu = render_gl(programs, s, parity_camera((48, 40)), sort="cpu")
@@ -55,7 +55,7 @@ def test_cpu_and_gpu_sort_agree(programs):
 
 
 def test_compositing_order_and_expected_depth(programs):
-    from learned.splats.rasterize import render_gl
+    from learned.parity.checks.splats import render_gl
 
     front = _one_splat(opacity=0.6, sigma=(0.2, 0.2, 0.01), color=(1, 0, 0), z=0.5)
     back = _one_splat(opacity=0.9, sigma=(0.2, 0.2, 0.01), color=(0, 0, 1), z=-0.5)
@@ -72,7 +72,7 @@ def test_compositing_order_and_expected_depth(programs):
 
 
 def test_splats_behind_a_mesh_are_hidden(programs):
-    from learned.splats.rasterize import render_gl
+    from learned.parity.checks.splats import render_gl
     from viewer.geometry import primitives
     from viewer.material import Material
 

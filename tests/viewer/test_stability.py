@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 import torch
 
-from learned.twins.deferred import env_from_ibl, gl_gbuffer, MODEL_ATOL, MODEL_RTOL, shade
+from learned.parity.checks.models import MODEL_ATOL, MODEL_RTOL, env_from_ibl, gl_gbuffer
+from learned.twins.shade import shade
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 from viewer.imageio import write_exr
 from viewer.passes.shade import shade_defines

@@ -7,7 +7,7 @@ exactly 0 and 1, centres behind the camera and exactly at it, many splats stradd
 plane, and SH coefficients of +-1e30. Checked everywhere: every G-buffer channel finite, coverage
 in [0, 1], depth >= 0, normals unit where covered and zero elsewhere, materials in [0, 1], and
 GLSL == twin within PARITY_ATOL on the pixels the splats project to (minus the ambiguous ones,
-counted, see ``learned.splats.rasterize.ambiguous_pixels``). Then all kinds in one scene through
+counted, see ``learned.parity.checks.splats.ambiguous_pixels``). Then all kinds in one scene through
 the real renderer with every classical shading model (and the shading twin), and through the
 loader from a PLY file.
 """
@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 import torch
 
-from learned.splats.rasterize import (PARITY_ATOL, ambiguous_pixels, rasterize, render_gl,
-                                      splat_tensors)
+from learned.parity.checks.splats import PARITY_ATOL, ambiguous_pixels, render_gl
+from learned.splats.rasterize import rasterize, splat_tensors
 from viewer.camera import Camera
 from viewer.splats import concat, write_ply
 from viewer.splats.data import make_splats
@@ -181,7 +181,8 @@ def _scene(tmp_path, model, splats_obj, **render):
 
 @pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum", "ggx_mc"])
 def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
-    from learned.twins.deferred import env_from_ibl, gl_gbuffer, MODEL_ATOL, MODEL_RTOL, shade
+    from learned.parity.checks.models import MODEL_ATOL, MODEL_RTOL, env_from_ibl, gl_gbuffer
+    from learned.twins.shade import shade
     from viewer.passes.shade import shade_defines
     from viewer.scene import ObjectSpec
 

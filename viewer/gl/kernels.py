@@ -145,3 +145,42 @@ def _evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = 
             buf.release()
         out.release()
     return result if n_out == 1 else result.reshape(count, n_out)
+
+
+def run_kernel(programs, entry: str, inputs, out_width: int, setup=None, *,
+               virtual: dict | None = None, defines: dict | None = None,
+               group: int = 64, count: int | None = None) -> np.ndarray:
+    """Dispatch a compute kernel over the rows of float32 ``inputs`` and read its output back.
+
+    The kernel's protocol (every kernel under ``shaders/passes`` written for it follows it):
+    ``uniform uint u_count`` rows; the inputs as std430 float buffer binding 0 (one ``[n, k]``
+    array, or a list of arrays bound to 0, 1, ...) and the output, ``[n, out_width]`` float32, as
+    the binding after the last input; ``local_size_x = group``. ``setup(program)`` binds whatever
+    else the kernel reads (textures, uniforms). ``entry`` is a file under ``shaders/`` or a name in
+    ``virtual`` (generated source); ``defines`` select its variant. ``count`` overrides the row
+    count for kernels that read planar inputs (``[k, n]``, one plane per component); the result is
+    then the output buffer's first ``count * out_width`` floats in whatever order the kernel wrote.
+    """
+    make_current(programs.ctx)
+    ctx = programs.ctx
+    arrays = inputs if isinstance(inputs, (list, tuple)) else [inputs]
+    arrays = [np.ascontiguousarray(a, dtype=np.float32) for a in arrays]
+    count = arrays[0].shape[0] if count is None else int(count)
+    prog = programs.compute(entry, defines=defines, virtual=virtual)
+    buffers = [ctx.buffer(a.tobytes() if a.size else b"\0\0\0\0") for a in arrays]
+    out = ctx.buffer(reserve=max(4, 4 * out_width * count))
+    try:
+        if setup is not None:
+            setup(prog)
+        for i, buf in enumerate(buffers):
+            buf.bind_to_storage_buffer(i)
+        out.bind_to_storage_buffer(len(buffers))
+        prog["u_count"].value = count
+        prog.run(group_x=max(1, (count + group - 1) // group))
+        ctx.memory_barrier()
+        result = np.frombuffer(out.read(), dtype=np.float32)[: out_width * count].copy()
+    finally:
+        for buf in buffers:
+            buf.release()
+        out.release()
+    return result.reshape(count, out_width)

@@ -1,0 +1,159 @@
+"""The generated neural-shader GLSL against the torch networks on the same weights: the MLP alone
+(every weight storage) and the ``neural`` / ``neural_teacher`` lighting passes."""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from learned.export import load_model
+from learned.neural.lighting import lighting_from_gl
+from learned.twins.neural import shade_neural
+from viewer.gl.kernels import run_kernel
+from viewer.neural import (
+    MODEL_KINDS,
+    STUDENT_KERNEL,
+    STUDENT_KERNEL_GROUP,
+    WEIGHT_STORAGES,
+    NeuralWeights,
+    default_weights,
+    load_network,
+)
+from viewer.passes.shade import shade_defines
+from viewer.renderer import Renderer
+from viewer.scene import scene_from_dict
+
+from ..results import compare
+from .models import PARITY_SCENE, gl_gbuffer, gl_texture
+
+NETWORK_ATOL = 1e-4  # the issue's float32 bound for outputs in [0, 1]
+
+
+# whole passes: the texture lookups dominate, as for the classical models (learned/twins/deferred)
+MODEL_ATOL = 1e-4
+
+
+MODEL_RTOL = 5e-4
+
+
+# the teacher pass is Monte Carlo: identical sample sequences on both sides, but directions that
+# agree to ~1e-7 hit the sky's 2000x sun disc through bilinear lookups divided by pdfs (the same
+# envelope as ggx_mc, learned/twins/deferred.py). Measured on llvmpipe: max abs 0.023 (uniform
+# sampling, radiance to ~40), max rel 8e-4.
+TEACHER_ATOL = 1e-3
+
+
+TEACHER_RTOL = 2e-3
+
+
+def eval_student_weights(programs, net, x: np.ndarray, storage: str = "const") -> np.ndarray:
+    """GL ``neural_student_weights`` of the generated code of ``net`` for weight ``storage``
+    (``viewer.neural.WEIGHT_STORAGES``) at ``x [n, 10]`` (every student input,
+    :func:`student_inputs`) -> ``[n, 6]`` (``k_0``, ``k_1``; a ``pbr3`` student's ``k_1`` is 0)."""
+    code = net.code(storage)
+    name = f"<kernel:neural_student:{net.checkpoint[:12]}>"
+    count = x.shape[0]
+    weights = NeuralWeights(programs.ctx, code)
+    try:
+        out = run_kernel(programs, name, x.T, 6, lambda prog: weights.bind(prog, 0),
+                         virtual={name: STUDENT_KERNEL, net.include_name: code.glsl},
+                         group=STUDENT_KERNEL_GROUP, count=count)  # planar in and out: [k][n]
+    finally:
+        weights.release()
+    return out.reshape(6, count).T.copy()
+
+
+def student_inputs(n: int, seed: int = 0) -> np.ndarray:
+    """Random student inputs ``[n, 10]`` (every input of the ``dfg`` set) over the whole domain,
+    plus the corners of [0, 1]^8 (dfg inputs 0 and 1 alternating)."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.0, 1.0, size=(n, 10))
+    corners = np.array([[(k >> b) & 1 for b in range(8)] + [k & 1, (k >> 1) & 1]
+                        for k in range(256)], np.float64)
+    return np.concatenate([x, corners]).astype(np.float32)
+
+
+def check_network(programs, weights=None, storage: str = "const"):
+    """The generated student network with weights read from ``storage`` vs ``Student.weights``
+    (named ``neural:network`` for the default ``const``, ``neural:network:<storage>`` else)."""
+    path = weights or default_weights("student")
+    net = load_network(path, "student")
+    model = load_model(path, "student")
+    x = student_inputs(4096)
+    glsl = eval_student_weights(programs, net, x, storage)
+    with torch.no_grad():
+        ref = model.weights(torch.from_numpy(x)).numpy()
+    # a pbr3 student writes 3 factors, then zeros (viewer.neural.STUDENT_KERNEL)
+    ref = np.concatenate([ref, np.zeros((ref.shape[0], 6 - ref.shape[1]), np.float32)], 1)
+    name = "neural:network" + ("" if storage == "const" else f":{storage}")
+    return compare(name, glsl, ref, NETWORK_ATOL, 0.0, kind="pass",
+                   measured="max abs 1.2e-7 (shipped pbr3, every storage), 1.2e-7 (free6)",
+                   envelope="first-order, shipped 8-16-16-3 student on these inputs: dots of "
+                            "8/16 terms in any order with FMA ((k + 1) 2^-24 sum|w x|), relu "
+                            "exact, sigmoid via exp ((3 + 2|x|) ulp) and / (2.5 ulp): <= 2.4e-6 "
+                            "both sides; atol 1e-4 is the issue's float32 bound (40x headroom); "
+                            "const/ubo/texture hold the exact float32 weights")
+
+
+def check_model(programs, model: str, variant: dict, weights=None):
+
+    kind = MODEL_KINDS[model]
+    path = weights or default_weights(kind)
+    key = "weights" if kind == "student" else "teacher_weights"
+    scene = scene_from_dict(PARITY_SCENE).with_render(model=model, **{key: str(path)}, **variant)
+    net_model = load_model(path, kind)
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        targets = renderer.draw(scene)
+        gb = gl_gbuffer(targets)
+        glsl = gl_texture(targets.radiance)
+        lighting = lighting_from_gl(renderer, scene.environment)
+        with torch.no_grad():
+            ref = shade_neural(model, net_model, gb, targets.camera, lighting,
+                               shade_defines(model, scene.render),
+                               (0, scene.render.samples), scene.render.seed).numpy()
+    finally:
+        renderer.release()
+    name = f"model:{model}" + ("" if not variant else ":" + ",".join(
+        f"{k}={v}" for k, v in variant.items()))
+    if model == "neural_teacher":
+        return compare(name, glsl, ref, TEACHER_ATOL, TEACHER_RTOL, kind="model",
+                       measured="max abs 0.023, max rel 8e-4 (uniform sampling, sun texels)",
+                       envelope="not derived: Monte Carlo as ggx_mc (per-sample radiance "
+                                "lookups divided by pdfs amplify ~1e-7 direction differences on "
+                                "the sun's texels); measured on llvmpipe, unverified on 8-bit "
+                                "GPU filtering")
+    return compare(name, glsl, ref, MODEL_ATOL, MODEL_RTOL, kind="model",
+                   measured="max abs 5.7e-4 at max rel 7.6e-5 (shipped pbr3 weights, bright "
+                            "sky texels); 1.0e-3 at max rel 7.6e-5 (random weights)",
+                   envelope="not derived per pixel: the network (<= 2.4e-6) and "
+                            "neural_student_radiance (5e-7 rel) are small; the SH, prefiltered "
+                            "and DFG lookups dominate as in learned/twins/deferred.py's models, "
+                            "but no per-lookup filtering envelope is added here: unverified on "
+                            "8-bit GPU filtering")
+
+
+def checks() -> dict:
+    """This module's pass checks: name -> (model or None, check(programs) -> results)."""
+    found: dict = {}
+
+    def register_pass_check(name, model=None):
+        def deco(fn):
+            found[name] = (model, fn)
+            return fn
+
+        return deco
+
+
+
+    register_pass_check("neural:network", model="neural")(
+        lambda programs: [check_network(programs, storage=s) for s in WEIGHT_STORAGES])
+    register_pass_check("model:neural", model="neural")(
+        lambda programs: [check_model(programs, "neural", v)
+                          for v in ({}, {"ao": False, "background": "transparent"},
+                                    {"neural_storage": "ubo"}, {"neural_storage": "texture"})])
+    register_pass_check("model:neural_teacher", model="neural_teacher")(
+        lambda programs: [check_model(programs, "neural_teacher", v)
+                          for v in ({"samples": 8, "sampling": "env"},
+                                    {"samples": 8, "sampling": "uniform",
+                                     "background": "transparent", "neural_storage": "ubo"})])
+    return found

@@ -88,10 +88,10 @@ def cmd_render(args) -> int:
         renderer.release()
     # everything is in memory before the first file is written: an error writes nothing
     if out.suffix.lower() == ".exr":
-        rgba = frame.radiance if scene.render.background == "transparent" else frame.radiance[..., :3]
+        rgba = frame.radiance if scene.render.display.background == "transparent" else frame.radiance[..., :3]
         write_exr(out, rgba, ["R", "G", "B", "A"][: rgba.shape[2]])
     else:
-        keep = 4 if scene.render.background == "transparent" else 3
+        keep = 4 if scene.render.display.background == "transparent" else 3
         write_png(out, frame.display[..., :keep])
     written = [out]
     for name in aovs:

@@ -58,18 +58,18 @@ class ShadingModel:
         """The program variant for render ``settings``, the scene's ``light`` (a
         :class:`~viewer.scene.DirectionalLight` or None) and whether any surface has a specular
         lobe (:class:`viewer.specialize.SceneFeatures`)."""
-        d = {"BACKGROUND_ENVIRONMENT": int(settings.background == "environment")}
+        d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.directional_light == "shaded":
             d["LIGHT_DIRECTIONAL"] = int(light is not None)
         if self.occlusion:
             d["USE_AO"] = int(settings.ao)
-            d["USE_SSAO"] = int(settings.ssao)
+            d["USE_SSAO"] = int(settings.ssao.enabled)
         if self.multiscatter:
             d["MULTISCATTER"] = int(settings.multiscatter)
         if self.samplings:
-            d["SAMPLING"] = min(SAMPLING_IDS[settings.sampling], len(self.samplings) - 1)
+            d["SAMPLING"] = min(SAMPLING_IDS[settings.mc.sampling], len(self.samplings) - 1)
             if self.samplings == SAMPLINGS:
-                d["MIS_POWER"] = MIS_POWERS[settings.mis_heuristic]
+                d["MIS_POWER"] = MIS_POWERS[settings.mc.mis_heuristic]
         if self.specular_lobe:
             d["SPECULAR_LOBE"] = int(specular)
         return ShadeVariant(self.name, tuple(sorted(d.items())))

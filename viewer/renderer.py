@@ -205,11 +205,11 @@ class Renderer:
               samples_per_frame: int = 1, aovs=()) -> FrameTargets:
         """Run every pass on the GPU; no readback. Returns the frame's :class:`FrameTargets`.
 
-        Monte-Carlo models (``ggx_mc``) render ``scene.render.samples`` samples per pixel in
+        Monte-Carlo models (``ggx_mc``) render ``scene.render.mc.samples`` samples per pixel in
         batches. With ``progressive=True`` a call adds only ``samples_per_frame`` samples to the
         running mean kept since the last call, as long as the scene (except exposure and tone
         mapping) and the size are unchanged (any change restarts), and stops adding once
-        ``scene.render.samples`` are in; ``FrameTargets.samples`` is the count accumulated.
+        ``scene.render.mc.samples`` are in; ``FrameTargets.samples`` is the count accumulated.
         ``aovs``: G-buffer channels the caller will read from ``FrameTargets.gbuffer`` (the layout
         is specialised to the scene, so channels nothing reads are otherwise not allocated).
         """
@@ -262,14 +262,14 @@ class Renderer:
         if self._tonemap is None:
             self._tonemap = TonemapPass(self.programs)
         self._pass_begin("tonemap")
-        self._tonemap.run(targets["radiance"], targets["display_fbo"], settings.exposure,
-                          settings.tonemap)
+        self._tonemap.run(targets["radiance"], targets["display_fbo"], settings.display.exposure,
+                          settings.display.tonemap)
         self._pass_begin(None)
         return FrameTargets(radiance=targets["radiance"], display=targets["display"],
                             gbuffer=targets["gbuffer"], camera=camera, variant=spec.variant,
                             samples=targets["samples"],
-                            ssao=targets.get("ssao") if settings.ssao else None,
-                            direct=targets.get("direct") if settings.indirect else None)
+                            ssao=targets.get("ssao") if settings.ssao.enabled else None,
+                            direct=targets.get("direct") if settings.ssao.indirect else None)
 
     MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
 
@@ -286,15 +286,15 @@ class Renderer:
             _warn_light_ignored(settings.model)
         gbt = targets["gbuffer_textures"]
         ssao = None
-        if settings.ssao or settings.indirect:
+        if settings.ssao.enabled or settings.ssao.indirect:
             sspass = self._ssao_passes.get(layout)
             if sspass is None:
                 sspass = self._ssao_passes[layout] = SSAOPass(self.programs, layout)
-        if settings.ssao:
+        if settings.ssao.enabled:
             self._pass_begin("ssao")
             ssao = self._extra_target(targets, "ssao")
             sspass.occlusion(gbt, targets["ssao_fbo"], camera, settings)
-        if settings.indirect:
+        if settings.ssao.indirect:
             out_tex = self._extra_target(targets, "direct")
             out_fbo = targets["direct_fbo"]
         else:
@@ -302,18 +302,20 @@ class Renderer:
         env_sampling = self.env_sampling(scene) if "cdf" in info.needs else None
         self._pass_begin("shade")
         if info.accumulates:
-            if settings.samples < 1:
+            if settings.mc.samples < 1:
                 raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
-                                 f"{settings.samples}", where=scene.source or "render.samples")
+                                 f"{settings.mc.samples}", where=scene.source or "render.samples")
             acc = self._accumulator(camera.size)
+            # exposure and tone mapping act after the running mean: they do not restart it
+            display = dataclasses.replace(settings.display, exposure=0.0, tonemap="none")
             key = (dataclasses.replace(scene, render=dataclasses.replace(
-                settings, exposure=0.0, tonemap="none")), camera)
+                settings, display=display)), camera)
             if not progressive or acc.key != key:
                 acc.reset(key)
             if progressive:
-                todo = min(max(int(samples_per_frame), 1), max(settings.samples - acc.count, 0))
+                todo = min(max(int(samples_per_frame), 1), max(settings.mc.samples - acc.count, 0))
             else:
-                todo = settings.samples
+                todo = settings.mc.samples
             if todo == 0:  # converged: the history holds the mean
                 self.ctx.copy_framebuffer(dst=out_fbo, src=acc.history_fbo)
             while todo > 0:
@@ -329,7 +331,7 @@ class Renderer:
                       env_sampling=env_sampling, ssao=ssao, variant=targets["variant"],
                       light=scene.light)
             targets["samples"] = 1
-        if settings.indirect:
+        if settings.ssao.indirect:
             self._pass_begin("indirect")
             sspass.indirect(gbt, out_tex, targets["radiance_fbo"], camera, settings)
 

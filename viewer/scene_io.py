@@ -68,7 +68,7 @@ def scene_to_dict(scene: Scene) -> dict:
         "camera": _table(scene.camera),
         "environment": _table(scene.environment),
         "objects": [_object_table(o) for o in scene.objects],
-        "render": _table(scene.render),
+        "render": {k: _plain(v) for k, v in scene.render.flat().items() if v is not None},
     }
     if scene.light is not None:  # no table: no light
         doc["light"] = _table(scene.light)

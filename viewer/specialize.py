@@ -104,7 +104,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
     the all-features path (every channel, every lobe), the baseline ``relight bench`` compares to.
     """
-    dtype = "f2" if getattr(settings, "precision", "fp32") == "fp16" else "f4"
+    dtype = "f2" if settings.precision == "fp16" else "f4"
     model = model_info(settings.model)
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype),
@@ -113,9 +113,9 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     needed = set(CHANNEL_NAMES if model.reads is None else model.reads)
     if model.specular_lobe and not features.specular:
         needed -= _SPECULAR_CHANNELS
-    if not features.ao or not getattr(settings, "ao", True):
+    if not features.ao or not settings.ao:
         needed.discard("ao")
-    if getattr(settings, "ssao", False) or getattr(settings, "indirect", False):
+    if settings.ssao.enabled or settings.ssao.indirect:
         needed |= {"depth", "normal"}
     if features.stacks and (features.meshes or features.splats):
         needed.add("depth")  # meshes and splats depth-test against the stack's stored depth

@@ -6,7 +6,7 @@ The window's UI reads and writes a :class:`ViewerState`; every frame the window 
 are the same scene. Nothing here touches GL.
 
     state = state_from_scene(load_scene("demo.toml"))
-    state.render = replace(state.render, exposure=1.0)      # what a slider does
+    state.render = state.render.with_flat(exposure=1.0)     # what a slider does
     scene = scene_from_state(state)                         # what gets rendered and saved
 
 Material edits: ``object_materials[i]`` is object ``i``'s material as edited (``None``: a mesh's own

@@ -11,7 +11,7 @@ widgets through the glfw backend's input callbacks.
 """
 from __future__ import annotations
 
-from dataclasses import fields, replace
+from dataclasses import replace
 
 from viewer.environment import PROCEDURAL
 from viewer.material import Material
@@ -87,10 +87,10 @@ class ViewerUI:
     def _quick(self, state) -> None:
         r = state.render
         model = self._combo("model", r.model, CHOICES["model"]())
-        exposure = self._slider("exposure", r.exposure, *LIMITS["exposure"], "%.2f EV")
-        tonemap = self._combo("tonemap", r.tonemap, CHOICES["tonemap"]())
-        if (model, exposure, tonemap) != (r.model, r.exposure, r.tonemap):
-            state.render = replace(r, model=model, exposure=exposure, tonemap=tonemap)
+        exposure = self._slider("exposure", r.display.exposure, *LIMITS["exposure"], "%.2f EV")
+        tonemap = self._combo("tonemap", r.display.tonemap, CHOICES["tonemap"]())
+        if (model, exposure, tonemap) != (r.model, r.display.exposure, r.display.tonemap):
+            state.render = r.with_flat(model=model, exposure=exposure, tonemap=tonemap)
 
     def _camera(self, state) -> None:
         imgui = self.imgui
@@ -234,30 +234,29 @@ class ViewerUI:
         imgui = self.imgui
         r = state.render
         changes = {}
-        for f in fields(r):
-            if f.name in QUICK_FIELDS:
+        for key, value in r.flat().items():  # one widget per [render] key
+            if key in QUICK_FIELDS:
                 continue
-            value = getattr(r, f.name)
             if isinstance(value, bool):
-                _, new = imgui.checkbox(f.name, value)
+                _, new = imgui.checkbox(key, value)
             elif isinstance(value, int):
-                lo, hi = LIMITS.get(f.name, (0, 1 << 30))
-                _, new = imgui.input_int(f.name, value)
+                lo, hi = LIMITS.get(key, (0, 1 << 30))
+                _, new = imgui.input_int(key, value)
                 new = max(lo, min(hi, new))
             elif isinstance(value, float):
-                _, new = imgui.drag_float(f.name, value, 0.01)
-            elif isinstance(value, str) and (CHOICES.get(f.name) or (lambda: None))():
-                new = self._combo(f.name, value, CHOICES[f.name]())
+                _, new = imgui.drag_float(key, value, 0.01)
+            elif isinstance(value, str) and (CHOICES.get(key) or (lambda: None))():
+                new = self._combo(key, value, CHOICES[key]())
             elif isinstance(value, str):
-                _, new = imgui.input_text(f.name, value)
+                _, new = imgui.input_text(key, value)
             else:
-                imgui.text_disabled(f"{f.name}: {value!r}")
+                imgui.text_disabled(f"{key}: {value!r}")
                 continue
-            self._track(f.name)
+            self._track(key)
             if new != value:
-                changes[f.name] = new
+                changes[key] = new
         if changes:
-            state.render = replace(r, **changes)
+            state.render = r.with_flat(**changes)
 
     def _inspect(self, state) -> None:
         imgui, viewer = self.imgui, self.viewer
@@ -306,7 +305,7 @@ class ViewerUI:
         imgui.text(f"{viewer.frame_ms:6.2f} ms frame  {scene.render.model}  {w}x{h}")
         targets = viewer.targets
         if targets is not None and scene.render.model in SAMPLING_MODELS:
-            imgui.text(f"samples {targets.samples}/{scene.render.samples}")
+            imgui.text(f"samples {targets.samples}/{scene.render.mc.samples}")
         for name, ms in viewer.timers.ms.items():
             imgui.text(f"{name:>8}: {ms:7.3f} ms GPU")
         imgui.end()

@@ -2,7 +2,7 @@
 backends) and the renderer's graph drawn with the window's own moderngl context.
 
     viewer = Viewer(load_scene("demo.toml"), offscreen=True)   # offscreen: glfw Null + EGL
-    viewer.state.render = replace(viewer.state.render, exposure=1.0)
+    viewer.state.render = viewer.state.render.with_flat(exposure=1.0)
     viewer.run(frames=2)
     viewer.screenshot("shot.png")          # the view as shown (no UI); .exr: linear radiance
     viewer.close()
@@ -149,7 +149,7 @@ class Viewer:
         # a channel view needs that channel allocated (the layout is specialised to the scene)
         aovs = (self.state.view,) if self.state.view in CHANNEL_NAMES else ()
         accumulating = (scene.render.model in SAMPLING_MODELS and self._targets is not None
-                        and self._targets.samples < scene.render.samples)
+                        and self._targets.samples < scene.render.mc.samples)
         if scene == self._scene and aovs == self._aovs and not accumulating:
             return  # nothing changed: no GPU work beyond presenting
         try:
@@ -191,7 +191,7 @@ class Viewer:
         """The chosen view of the current targets into the bound framebuffer's viewport."""
         state = self.state
         try:
-            self.view_pass.run(self._targets, state.view, exposure=state.render.exposure,
+            self.view_pass.run(self._targets, state.view, exposure=state.render.display.exposure,
                                reference=self._reference_for_view(),
                                error_scale=state.error_scale, depth_scale=self._depth_scale())
         except RelightError as exc:
@@ -323,7 +323,7 @@ class Viewer:
             self._render()
         make_current(self.ctx)
         scene = self.current_scene()
-        transparent = scene.render.background == "transparent"
+        transparent = scene.render.display.background == "transparent"
         if suffix == ".exr":
             rgba = read_texture(self._targets.radiance, "f4")
             write_exr(path, rgba if transparent else rgba[..., :3],

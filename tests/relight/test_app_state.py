@@ -127,13 +127,13 @@ def test_save_scene_round_trips_every_field(tmp_path):
     path = save_scene(scene, tmp_path / "saved.toml")
     loaded = load_scene(path)
     assert dataclasses.replace(loaded, source=None) == dataclasses.replace(scene, source=None)
-    assert loaded.render.exposure == 0.1 + 0.2  # floats keep every bit
+    assert loaded.render.display.exposure == 0.1 + 0.2  # floats keep every bit
 
 
 def test_saved_edited_scene_renders_identically_headless(ctx, tmp_path):
     """What the viewer shows (state -> scene) saved to TOML renders to the same pixels."""
     state = state_from_scene(sphere_scene())
-    state.render = dataclasses.replace(state.render, exposure=0.7, tonemap="aces")
+    state.render = state.render.with_flat(exposure=0.7, tonemap="aces")
     state.camera = cc.zoom(cc.orbit(state.camera, 25.0, 10.0), 0.9)
     state.material_override = MaterialOverride(roughness=0.15)
     state.environment = dataclasses.replace(state.environment, intensity=1.7, rotation_deg=45.0)

@@ -75,7 +75,7 @@ def test_window_shows_exactly_the_headless_render(fresh, ctx):
 
 def test_doubling_exposure_doubles_linear_radiance_on_screen(fresh):
     before = to_linear(shown(fresh))
-    fresh.state.render = dataclasses.replace(fresh.state.render, exposure=0.0)  # +1 EV
+    fresh.state.render = fresh.state.render.with_flat(exposure=0.0)  # +1 EV
     after = to_linear(shown(fresh))
     ok = (before > 0.05) & (before < 0.45)  # lit, and not clipped after doubling
     assert ok.sum() > 500
@@ -177,15 +177,15 @@ def test_mouse_on_the_exposure_slider_changes_the_image(fresh):
     y = (y0 + y1) / 2
     right = min(x1, SIZE[0]) - 3
     click(fresh, x0 + 2, y)
-    low = fresh.state.render.exposure
+    low = fresh.state.render.display.exposure
     assert low < -9.0  # the slider's left end is its minimum, -10 EV
     drag_to(fresh, right, y)
-    high = fresh.state.render.exposure
+    high = fresh.state.render.display.exposure
     release(fresh)
-    assert high > low + 2.0 and fresh.state.render.exposure == high
+    assert high > low + 2.0 and fresh.state.render.display.exposure == high
     fresh.state.show_ui = False
     bright = to_linear(shown(fresh)).mean()
-    fresh.state.render = dataclasses.replace(fresh.state.render, exposure=low)
+    fresh.state.render = fresh.state.render.with_flat(exposure=low)
     dark = to_linear(shown(fresh)).mean()
     assert bright > 4 * dark
 
@@ -222,14 +222,14 @@ def test_bad_input_keeps_the_previous_state_and_image(fresh, tmp_path):
     assert "bad.toml" in fresh.state.message and fresh.state.scene == good.scene
 
     # a model the graph cannot run (as a neural model without weights): message, old model kept
-    fresh.state.render = dataclasses.replace(fresh.state.render, model="no_such_model")
+    fresh.state.render = fresh.state.render.with_flat(model="no_such_model")
     assert np.array_equal(shown(fresh), image)
     assert fresh.state.render.model == good.render.model and "no_such_model" in fresh.state.message
 
 
 def test_saved_scene_renders_what_the_window_shows(fresh, ctx, tmp_path):
     fresh.state.object_materials = (Material(albedo=(0.2, 0.5, 0.8), roughness=0.35),)
-    fresh.state.render = dataclasses.replace(fresh.state.render, tonemap="aces", exposure=0.5)
+    fresh.state.render = fresh.state.render.with_flat(tonemap="aces", exposure=0.5)
     fb = shown(fresh)
     assert fresh.save_scene(str(tmp_path / "saved.toml"))
     frame = headless(ctx, load_scene(tmp_path / "saved.toml"))
@@ -276,7 +276,7 @@ def test_cli_view_offscreen_screenshot(tmp_path, ctx):
 
 def test_progressive_accumulation_restarts_on_change_and_idles_when_done(fresh):
     fresh.samples_per_frame = 4
-    fresh.state.render = dataclasses.replace(fresh.state.render, model="ggx_mc", samples=8)
+    fresh.state.render = fresh.state.render.with_flat(model="ggx_mc", samples=8)
     counts = []
     for _ in range(3):
         fresh.run(frames=1)

@@ -58,7 +58,7 @@ def test_full_scene_parses(tmp_path):
     assert Path(mesh.path) == (tmp_path / "models" / "thing.glb").resolve()  # relative to the file
     assert mesh.material is None  # meshes keep their own materials unless overridden
     r = scene.render
-    assert (r.model, r.multiscatter, r.ao, r.tonemap, r.exposure) == (
+    assert (r.model, r.multiscatter, r.ao, r.display.tonemap, r.display.exposure) == (
         "blinn_phong", False, False, "reinhard", -1.5)
 
 
@@ -71,7 +71,7 @@ def test_defaults():
 def test_with_render_is_immutable_update():
     scene = scene_from_dict({})
     brighter = scene.with_render(exposure=2.0)
-    assert brighter.render.exposure == 2.0 and scene.render.exposure == 0.0
+    assert brighter.render.display.exposure == 2.0 and scene.render.display.exposure == 0.0
 
 
 @pytest.mark.parametrize("text, needle", [

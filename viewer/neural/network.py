@@ -61,9 +61,9 @@ def model_network(model: str, settings) -> tuple[Network, NetworkCode] | None:
     if kind is None:
         return None
     attr = "weights" if kind == "student" else "teacher_weights"
-    path = getattr(settings, attr, None) or default_weights(kind)
+    path = getattr(settings.neural, attr) or default_weights(kind)
     net = load_network(path, kind)
-    return net, net.code(getattr(settings, "neural_storage", "const"))
+    return net, net.code(settings.neural.storage)
 
 
 def virtual_files(model: str, settings) -> dict[str, str]:

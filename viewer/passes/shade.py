@@ -58,7 +58,7 @@ class ShadePass:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
-        ``ssao``: the occlusion texture when ``settings.ssao``; ``sample_range``: (first index,
+        ``ssao``: the occlusion texture when ``settings.ssao.enabled``; ``sample_range``: (first index,
         count) of the Monte-Carlo samples this call averages (sampling models only);
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
         unspecialised variant); ``light``: the scene's directional light (``None``: none)."""
@@ -76,7 +76,7 @@ class ShadePass:
             unit += 1
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
-        _set(prog, "u_seed", int(settings.seed))
+        _set(prog, "u_seed", int(settings.mc.seed))
         basis = camera.basis()  # rows: right, up, back
         _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
         _set(prog, "u_tan_half_fov", camera.tan_half_fov())

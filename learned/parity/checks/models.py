@@ -145,9 +145,9 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None)
             env.update({k: torch.from_numpy(v)
                         for k, v in renderer.env_sampling(scene).read().items()})
         ssao = None
-        if scene.render.ssao:
+        if scene.render.ssao.enabled:
             ssao = torch.from_numpy(gl_texture(targets.ssao)[..., 0].copy())
-        mc = {"start": 0, "count": scene.render.samples, "seed": scene.render.seed}
+        mc = {"start": 0, "count": scene.render.mc.samples, "seed": scene.render.mc.seed}
         envelope = {"weight_bits": device_filter_bits(programs)}
         with torch.enable_grad():  # the envelope differentiates through the lookups
             ref = shade(model, gb, targets.camera, env, scene.environment.intensity,

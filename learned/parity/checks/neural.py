@@ -110,7 +110,7 @@ def check_model(programs, model: str, variant: dict, weights=None):
         with torch.no_grad():
             ref = shade_neural(model, net_model, gb, targets.camera, lighting,
                                shade_defines(model, scene.render),
-                               (0, scene.render.samples), scene.render.seed).numpy()
+                               (0, scene.render.mc.samples), scene.render.mc.seed).numpy()
     finally:
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(

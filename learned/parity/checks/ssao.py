@@ -42,10 +42,10 @@ def checks() -> dict:
             ao_gl, direct, final_gl = read("ssao"), read("direct"), read("radiance")
             s = scene.render
             with torch.no_grad():
-                ao = ssao_pass(gb, targets.camera, s.ssao_rays, s.ssao_steps, s.ssao_radius,
-                               s.ssao_thickness, s.seed).numpy()
-                final = ssao_pass(gb, targets.camera, s.ssao_rays, s.ssao_steps,
-                                  s.ssao_radius, s.ssao_thickness, s.seed,
+                ao = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
+                               s.ssao.thickness, s.mc.seed).numpy()
+                final = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps,
+                                  s.ssao.radius, s.ssao.thickness, s.mc.seed,
                                   direct=torch.from_numpy(direct)).numpy()
         finally:
             renderer.release()

@@ -18,20 +18,17 @@ from __future__ import annotations
 import dataclasses
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .camera import Camera
 from .environment import load_environment
 from .envsampling import build_env_sampling
-from .errors import InputError, SceneError
+from .errors import SceneError
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
-from .geometry import imagespace, primitives
-from .geometry.loaders import load_mesh
+from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .ibl import IBLOptions, build_ibl
-from .material import Material
 from .models import ShadeVariant, model_info
 from .passes.accumulate import Accumulator
 from .passes.gbuffer import GBufferPass, GBufferTargets
@@ -41,7 +38,6 @@ from .passes.ssao import SSAOPass
 from .passes.tonemap import TonemapPass
 from .scene import ObjectSpec, Scene
 from .specialize import analyse, specialise
-from .splats import load_splats
 
 AOV_NAMES = CHANNEL_NAMES  # albedo, alpha, normal, roughness, metallic, specular, ao, depth, color
 
@@ -79,7 +75,7 @@ class Renderer:
         self._owns_context = ctx is None
         self.ctx = ctx if ctx is not None else create_context(options)
         self.programs = Programs(self.ctx)
-        self._geometry: dict[ObjectSpec, object] = {}
+        self._geometry = GeometryCache()
         self._ibl: dict[tuple, object] = {}
         self._targets: dict[tuple, dict] = {}
         self._gbuffer_passes: dict[GBufferLayout, object] = {}
@@ -95,25 +91,14 @@ class Renderer:
 
     # ---- scene content ------------------------------------------------------------------------
     def geometry(self, obj: ObjectSpec):
-        """CPU geometry for an object: a list of meshes, or an image-space G-buffer.
-
-        Cached by shape: objects that differ only in their material share the loaded (and
-        uploaded) meshes, whose material (a uniform) is set from ``obj`` here, so material
-        sliders never re-tessellate, reload or re-upload.
-        """
-        key = _shape_key(obj)
-        if key not in self._geometry:
-            self._geometry[key] = _load_object(obj)
-        content = self._geometry[key]
-        _apply_material(obj, content)
-        return content
+        """CPU geometry for an object: a list of meshes, an image-space G-buffer or a splat cloud
+        (:class:`~viewer.geometry.cache.GeometryCache`: loaded once, shared across materials)."""
+        return self._geometry.get(obj)
 
     def add_geometry(self, obj: ObjectSpec, content) -> None:
-        """Use ``content`` (a list of meshes, an :class:`~viewer.geometry.imagespace.ImageGBuffer`
-        or :class:`~viewer.splats.data.Splats`, as the loaders return) for ``obj`` instead of
-        loading ``obj.path``: geometry made in memory (tests, benchmarks, generated data). It is
-        taken as given - the loaders' validation does not run - and cached like loaded geometry."""
-        self._geometry[_shape_key(obj)] = content
+        """Use ``content`` (as the loaders return it) for ``obj`` instead of loading ``obj.path``:
+        geometry made in memory (tests, benchmarks, generated data), taken as given."""
+        self._geometry.add(obj, content)
 
     def _pass_begin(self, name: str | None) -> None:
         """Profiling hook between passes: ``profiler.begin(name)`` ends the previous pass's timer
@@ -429,59 +414,3 @@ def read_texture(texture, dtype: str) -> np.ndarray:
     np_dtype = np.float32 if dtype == "f4" else np.uint8
     arr = np.frombuffer(texture.read(), dtype=np_dtype).reshape(h, w, texture.components)
     return arr[::-1].copy()
-
-
-def _load_object(obj: ObjectSpec):
-    if obj.type == "sphere":
-        return [primitives.sphere(center=obj.center, radius=obj.radius, material=obj.material)]
-    if obj.type == "plane":
-        return [primitives.plane(center=obj.center, size=obj.size, normal=obj.normal,
-                                 material=obj.material)]
-    if obj.type == "material_grid":
-        return primitives.material_ball_grid(rows=obj.rows, cols=obj.cols, spacing=obj.spacing,
-                                             radius=obj.radius, albedo=obj.material.albedo,
-                                             center=obj.center)
-    if obj.type == "mesh":
-
-        transform = None if obj.transform is None else np.asarray(obj.transform, np.float64)
-        return load_mesh(obj.path, transform=transform, material_override=obj.material)
-    if obj.type == "gbuffer":
-
-        path = Path(obj.path)
-        if path.is_dir():
-            return imagespace.load_ffhq_pbr(path)
-        if path.suffix.lower() == ".exr":
-            if obj.fov_y is None:
-                return imagespace.load_stack_exr(path, fov_y=None, near=obj.near, far=obj.far)
-            return imagespace.load_stack_exr(path, fov_y=obj.fov_y, near=obj.near, far=obj.far)
-        raise InputError("an image-space G-buffer is a folder (FFHQ256-PBR layout) or a "
-                         "12-channel .exr stack", where=path)
-    if obj.type == "splats":
-
-        return load_splats(obj.path, transform=obj.transform, material=obj.material)
-    raise SceneError(f"object type {obj.type!r} cannot be rendered")
-
-
-def _shape_key(obj: ObjectSpec) -> ObjectSpec:
-    """The geometry cache key: ``obj`` without the parts of its material that are uniforms.
-
-    Primitives take their material as uniforms (a grid only its albedo); a mesh's override only
-    decides whether its own texture maps are kept, so just its presence is part of the key.
-    """
-    if obj.type in ("sphere", "plane", "material_grid"):
-        return dataclasses.replace(obj, material=None)
-    if obj.type == "mesh" and obj.material is not None:
-        return dataclasses.replace(obj, material=Material())
-    return obj
-
-
-def _apply_material(obj: ObjectSpec, content) -> None:
-    """Set the (uniform) material of cached meshes from ``obj``, as :func:`_load_object` would."""
-    if obj.material is None or obj.type not in ("sphere", "plane", "material_grid", "mesh"):
-        return
-    for mesh in content:
-        if obj.type == "material_grid":  # the grid sweeps roughness and metallic itself
-            if mesh.material.albedo != obj.material.albedo:
-                mesh.material = dataclasses.replace(mesh.material, albedo=obj.material.albedo)
-        else:
-            mesh.material = obj.material

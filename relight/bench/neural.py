@@ -35,43 +35,9 @@ from viewer.gl.timing import PassTimer
 from viewer.models import MODELS
 from viewer.neural import (STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, WEIGHT_STORAGES,
                            NeuralWeights, default_weights, load_network, mlp_kernel)
-from viewer.scene import scene_from_dict
 
 from .metrics import psnr
-
-BENCH_SCENE = {
-    "camera": {"position": [0.0, 0.4, 3.4], "target": [0, 0, 0], "fov_y": 40, "size": [128, 128]},
-    "environment": {"procedural": "sky", "intensity": 0.4, "width": 256},
-    "objects": [
-        {"type": "sphere", "center": [-0.7, 0, 0], "radius": 0.6,
-         "material": {"albedo": [0.8, 0.3, 0.2], "roughness": 0.35}},
-        {"type": "sphere", "center": [0.7, 0, 0], "radius": 0.6,
-         "material": {"albedo": [0.9, 0.8, 0.6], "roughness": 0.25, "metallic": 1.0}},
-        {"type": "plane", "center": [0, -0.6, 0], "size": [8, 8],
-         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.8}},
-    ],
-    "render": {"tonemap": "none"},
-}
-
-
-# Colour-fidelity probe: grey materials only (albedo 0.5; a rough dielectric sphere, a metal
-# sphere and a floor). Under the achromatic "white" environment every physically based model
-# renders it grey (learned.evaluate.achromatic_error ~ 0); under "studio" (warm key, cool fill)
-# it is as tinted as the lights. compare_students and tests/learned/test_neural.py render it.
-GREY_SCENE = {
-    "camera": {"position": [0.0, 0.6, 3.4], "target": [0, -0.1, 0], "fov_y": 45, "size": [64, 64]},
-    "environment": {"procedural": "studio", "intensity": 1.0, "width": 256},
-    "objects": [
-        {"type": "sphere", "center": [-0.6, 0, 0], "radius": 0.5,
-         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.4}},
-        {"type": "sphere", "center": [0.6, 0, 0], "radius": 0.5,
-         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.3, "metallic": 1.0}},
-        {"type": "plane", "center": [0, -0.5, 0], "size": [8, 8],
-         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.8}},
-    ],
-    "render": {"tonemap": "none", "background": "transparent"},
-}
-
+from .scenes import bench_scene
 
 def students_dir() -> Path:
     """Where the candidate student designs and their comparison table are shipped."""
@@ -118,7 +84,7 @@ def _reference(renderer, scene, samples: int) -> tuple[str, np.ndarray]:
 
 def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: int = 1024,
                        repeats: int = 3, scene=None, sizes=(128,)) -> list[dict]:
-    base = scene or scene_from_dict(BENCH_SCENE)
+    base = scene or bench_scene("neural")
     rows = []
     for side in sizes:
         scene = base.with_camera(size=(int(side), int(side)))
@@ -154,7 +120,7 @@ def student_designs(renderer, size: int = 256, reference_samples: int = 1024, re
     table = {}
     if (folder / "compare.json").is_file():
         table = {r["design"]: r for r in json.loads((folder / "compare.json").read_text())["rows"]}
-    scene = (scene or scene_from_dict(BENCH_SCENE)).with_camera(size=(size, size))
+    scene = (scene or bench_scene("neural")).with_camera(size=(size, size))
     ref_name, ref = _reference(renderer, scene, reference_samples)
     rows = []
     for path in files:

@@ -25,9 +25,9 @@ from learned.train import (COMPARE_SPLITS, QUICK_DATA, Run, TrainConfig, TrainIm
                            checkpoint_of, distill_student, distillation_targets, load_images,
                            teacher_images, train_shadow, train_teacher)
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
 
-from .neural import BENCH_SCENE, GREY_SCENE, students_dir, time_frame
+from .neural import students_dir, time_frame
+from .scenes import bench_scene
 
 
 def _held_out(root: str, renderer, splits) -> list[tuple[TrainImage, object]]:
@@ -49,7 +49,7 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
     ``neural`` pass on each sample's own G-buffer and environment, as ``relight eval``), colour
     fidelity (:func:`learned.evaluate.chroma_error` against the Monte-Carlo targets on the same
     samples, and :func:`learned.evaluate.achromatic_error` of the grey probe
-    ``relight.bench.neural.GREY_SCENE`` under the white environment, where every physically
+    ``assets/scenes/bench/grey_probe.toml`` under the white environment, where every physically
     based model renders grey), and GLSL ms per frame (whole frame and the ``shade`` pass) at
     256x256 on the bench scene.
 
@@ -88,9 +88,8 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
                              teacher, h_images, cfg.distill_samples, cfg.strategy, cfg.seed))]
         folder = out_path / "students"
         folder.mkdir(parents=True, exist_ok=True)
-        bench = scene_from_dict(BENCH_SCENE).with_camera(size=(256, 256))
-        grey = scene_from_dict(GREY_SCENE | {"environment": GREY_SCENE["environment"]
-                                              | {"procedural": "white"}})
+        bench = bench_scene("neural").with_camera(size=(256, 256))
+        grey = bench_scene("grey_probe").with_environment(procedural="white")
         training = {"data": cfg.data, "config": asdict(cfg), "teacher": checkpoint_of(teacher)}
 
         def held_out(render) -> dict:
@@ -145,7 +144,7 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
                                      "chroma_error)",
                            "grey_tint": "max over foreground of (max - min of rgb) / luminance, "
                                         "%, grey probe under the white environment "
-                                        "(relight.bench.neural.GREY_SCENE)"},
+                                        "(assets/scenes/bench/grey_probe.toml)"},
               "timing": "llvmpipe; GLSL ms at 256x256 on the bench scene (relight/bench/neural.py)",
               "teacher_checkpoint": training["teacher"], "rows": rows, "context": context}
     _write_atomic(folder / "compare.json", json.dumps(result, indent=1))

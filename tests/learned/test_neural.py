@@ -143,15 +143,13 @@ def test_unknown_student_output_form_is_rejected(tmp_path, pbr_weights):
 
 
 def _grey_probe(ctx, environment: str, **render):
-    """The grey probe (relight.bench.neural.GREY_SCENE) under ``environment``: (max tint %
+    """The grey probe (assets/scenes/bench/grey_probe.toml) under ``environment``: (max tint %
     of learned.evaluate.achromatic_error, radiance [H, W, 4])."""
     from learned.evaluate import achromatic_error
-    from relight.bench.neural import GREY_SCENE
+    from relight.bench.scenes import bench_scene
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
 
-    scene = scene_from_dict(GREY_SCENE | {"environment": GREY_SCENE["environment"]
-                                          | {"procedural": environment}})
+    scene = bench_scene("grey_probe").with_environment(procedural=environment)
     r = Renderer(ctx=ctx)
     try:
         img = r.render(scene.with_render(**render)).radiance

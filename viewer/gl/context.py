@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GLContextError
+from .programs import assemble
 
 REQUIRED_GL = 430  # compute shaders and std430 buffers (precomputation, parity kernels)
 
@@ -86,21 +87,6 @@ def _float_target_bits(ctx, dtype: str) -> int:
     return bits
 
 
-_FILTER_PROBE = """
-#version 430
-layout(local_size_x = 256) in;
-uniform sampler2D u_tex;
-uniform uint u_count;
-uniform int u_mip;  // 0: bilinear weight along x on level 0; 1: lod fraction between levels 0, 1
-layout(std430, binding = 0) writeonly buffer Out { float outv[]; };
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= u_count) return;
-    float f = float(i) / float(u_count);
-    outv[i] = u_mip == 0 ? textureLod(u_tex, vec2((1.5 + f) / 4.0, 0.5), 0.0).r
-                         : textureLod(u_tex, vec2(0.5, 0.5), f).r;
-}
-"""
 
 
 def texture_filter_bits(ctx, probes: int = 1 << 16) -> dict[str, int]:
@@ -110,7 +96,7 @@ def texture_filter_bits(ctx, probes: int = 1 << 16) -> dict[str, int]:
     centres (and lods between two levels); k distinct results mean log2(k) bits. GPUs keep 8
     (Vulkan's subTexelPrecisionBits / mipmapPrecisionBits; 4 allowed), llvmpipe filters in
     float32 and shows the probe's resolution (16). Used by the parity checks' error envelopes."""
-    prog = ctx.compute_shader(_FILTER_PROBE)
+    prog = ctx.compute_shader(assemble("passes/texture_filter_probe.comp").source)
     level0 = np.array([[0, 0, 1, 1], [0, 0, 1, 1]], np.float32)
     tex = ctx.texture((4, 2), 1, level0.tobytes(), dtype="f4")
     tex.build_mipmaps(0, 1)

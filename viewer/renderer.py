@@ -75,7 +75,7 @@ class Renderer:
         self._owns_context = ctx is None
         self.ctx = ctx if ctx is not None else create_context(options)
         self.programs = Programs(self.ctx)
-        self._geometry = GeometryCache()
+        self.geometry_cache = GeometryCache()  # CPU geometry per object shape
         self._ibl: dict[tuple, object] = {}
         self._targets: dict[tuple, dict] = {}
         self._gbuffer_passes: dict[GBufferLayout, object] = {}
@@ -93,12 +93,12 @@ class Renderer:
     def geometry(self, obj: ObjectSpec):
         """CPU geometry for an object: a list of meshes, an image-space G-buffer or a splat cloud
         (:class:`~viewer.geometry.cache.GeometryCache`: loaded once, shared across materials)."""
-        return self._geometry.get(obj)
+        return self.geometry_cache.get(obj)
 
     def add_geometry(self, obj: ObjectSpec, content) -> None:
         """Use ``content`` (as the loaders return it) for ``obj`` instead of loading ``obj.path``:
         geometry made in memory (tests, benchmarks, generated data), taken as given."""
-        self._geometry.add(obj, content)
+        self.geometry_cache.add(obj, content)
 
     def _pass_begin(self, name: str | None) -> None:
         """Profiling hook between passes: ``profiler.begin(name)`` ends the previous pass's timer

@@ -197,7 +197,7 @@ def _nov_rows(renderer, size) -> list[dict]:
     try:
         rad = renderer.render(scene).radiance[..., :3].astype(np.float64)
     finally:
-        renderer._geometry.pop(obj, None)
+        renderer.geometry_cache.remove(obj)
     xs = np.array(NOV_CLAMPED + NOV_FREE)
     k = len(NOV_CLAMPED)
     for y, name in enumerate(NOV_MATERIALS):

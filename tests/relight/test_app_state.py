@@ -154,11 +154,11 @@ def test_material_edits_reuse_cached_geometry(ctx):
     renderer = Renderer(ctx=ctx)
     try:
         dull = renderer.render(scene).radiance
-        n = len(renderer._geometry)
+        n = len(renderer.geometry_cache)
         state = state_from_scene(scene)
         state.material_override = MaterialOverride(albedo=(1.0, 1.0, 1.0))
         bright = renderer.render(scene_from_state(state)).radiance
-        assert len(renderer._geometry) == n
+        assert len(renderer.geometry_cache) == n
         fresh = Renderer(ctx=ctx)
         try:
             expected = fresh.render(scene_from_state(state)).radiance

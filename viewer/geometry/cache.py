@@ -38,6 +38,13 @@ class GeometryCache:
         tests, benchmarks, generated data). Taken as given: the loaders' validation does not run."""
         self._content[_shape_key(obj)] = content
 
+    def remove(self, obj: ObjectSpec) -> None:
+        """Forget ``obj``'s content (added or loaded); the next lookup loads it again."""
+        self._content.pop(_shape_key(obj), None)
+
+    def __len__(self) -> int:
+        return len(self._content)
+
 
 def _load_object(obj: ObjectSpec):
     if obj.type == "sphere":

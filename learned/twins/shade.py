@@ -57,7 +57,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
 
     def traced(name, value, bound_fn):
         """Mark a lookup for the envelope: its value (now a leaf needing grad) and its bound."""
-        if envelope is None or model == "ggx_mc":
+        if envelope is None:
             return value
         value = value.detach().requires_grad_(True)
         with torch.no_grad():
@@ -126,10 +126,16 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
             pix = torch.stack(torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")[::-1],
                               dim=-1)  # [H, W, 2] (x, y), GL order
             c = torch.zeros_like(d)
+            mc_envelope = None if envelope is None else {"weight_bits": bits}
             c[covered] = shade_ggx_mc(n[covered], v[covered], {k: t[covered] for k, t in g.items()},
                                       ao[covered], env, intensity, rotation_rad, defines,
                                       pix[covered], int(mc.get("start", 0)),
-                                      int(mc.get("count", 1)), int(mc.get("seed", 0)))
+                                      int(mc.get("count", 1)), int(mc.get("seed", 0)),
+                                      envelope=mc_envelope)
+            if mc_envelope is not None:  # the samples' lookups; d out / d c = coverage
+                mc_bound = torch.zeros_like(d)
+                mc_bound[covered] = mc_envelope["bound"]
+                lookups["mc"] = (None, mc_bound * alpha[..., None])
         else:
             raise ValueError(f"no torch twin for model {model!r}")
         if defines.get("LIGHT_DIRECTIONAL", 0):
@@ -140,10 +146,14 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     out = torch.where(covered[..., None], background + (c - background) * a, background)
     if envelope is not None:
         bound = torch.zeros_like(out)
-        if lookups and out.requires_grad:
-            values = [v for v, _ in lookups.values()]
+        direct = {k: b for k, (v, b) in lookups.items() if v is None}  # bounds already in radiance
+        traced_lookups = {k: e for k, e in lookups.items() if e[0] is not None}
+        for b in direct.values():
+            bound = bound + b
+        if traced_lookups and out.requires_grad:
+            values = [v for v, _ in traced_lookups.values()]
             grads = torch.autograd.grad(out.sum(), values, allow_unused=True)
-            for (value, lookup_bound), grad in zip(lookups.values(), grads):
+            for (value, lookup_bound), grad in zip(traced_lookups.values(), grads):
                 if grad is not None:  # |d out / d lookup| summed over the lookup's components
                     bound = bound + (grad.abs() * lookup_bound).sum(-1, keepdim=True) \
                         if grad.shape[-1] != 3 else bound + grad.abs() * lookup_bound

@@ -9,7 +9,8 @@ from .common import INV_PI, saturate
 from .deferred import env_dir, reflect
 from .env_sampling import env_pdf, sample_env
 from .equirect import equirect_uv, rotate_y
-from .ibl import ibl_dfg, ibl_energy_compensation, ibl_specular_dfg, sample_bilinear
+from .ibl import (DIRECTION_ABS_ERROR, equirect_uv_error, ibl_dfg, ibl_energy_compensation,
+                  ibl_specular_dfg, sample_bilinear, sample_trilinear_envelope)
 from .mc import (
     ggx_specular_brdf,
     mc_sample_2d,
@@ -27,12 +28,18 @@ from .shading import diffuse_color
 
 def shade_ggx_mc(n, v, g: dict, ao, env: dict, intensity: float, rotation_rad: float,
                  defines: dict, pixel: torch.Tensor, sample_start: int, sample_count: int,
-                 seed: int) -> torch.Tensor:
+                 seed: int, envelope: dict | None = None) -> torch.Tensor:
     """Twin of ``main()`` of ``passes/shade_ggx_mc.frag`` for covered pixels: the mean of samples
     ``sample_start ..`` of each pixel. n, v ``[P, 3]`` (shading normal, towards the viewer), ``g``
     the G-buffer channels ``[P, C]``, ao ``[P]``, pixel ``[P, 2]`` int64 (GL order). ``env`` as in
     :func:`learned.twins.shade.shade` plus ``marginal``, ``conditional``, ``pdf``.
-    -> ``[P, 3]``."""
+    -> ``[P, 3]``.
+
+    ``envelope`` (a dict, filled in): ``"bound"`` ``[P, 3]``, how far a conforming GPU may land
+    from this mean through its radiance lookups: every sample's contribution is linear in its
+    lookup, so the bound is the mean of |BRDF cos / pdf x weight| times
+    :func:`~learned.twins.ibl.sample_trilinear_envelope` of the lookup (the device's filter bits,
+    ``envelope["weight_bits"]``; the sampled direction known to 3 trig errors)."""
     sampling = int(defines.get("SAMPLING", 4))
     power = float(defines.get("MIS_POWER", 2))
     P = n.shape[0]
@@ -58,6 +65,15 @@ def shade_ggx_mc(n, v, g: dict, ao, env: dict, intensity: float, rotation_rad: f
 
     def radiance(l):
         return sample_bilinear(level0, equirect_uv(env_dir(l, rotation_rad)))[..., :3] * intensity
+
+    bits = (envelope or {}).get("weight_bits", 8)
+    bound = torch.zeros(P, 3)
+
+    def radiance_bound(l):
+        d = env_dir(l, rotation_rad)
+        return sample_trilinear_envelope([level0], equirect_uv(d), torch.zeros(d.shape[:-1]),
+                                         equirect_uv_error(d, 3.0 * DIRECTION_ABS_ERROR),
+                                         weight_bits=bits)[..., :3] * intensity
 
     def brdf_cos(l):
         NoL = _dot(n, l)
@@ -96,10 +112,15 @@ def shade_ggx_mc(n, v, g: dict, ao, env: dict, intensity: float, rotation_rad: f
         return l, e[..., 3]
 
     def weighted(l, pdf, w=None):
-        c = radiance(l) * brdf_cos(l)
+        nonlocal bound
+        f = brdf_cos(l)
+        c = radiance(l) * f
         scale = torch.where(pdf > 0.0, (w if w is not None else 1.0)
                             / torch.where(pdf > 0.0, pdf, torch.ones_like(pdf)),
                             torch.zeros_like(pdf))
+        if envelope is not None:
+            e = (f * scale[..., None]).abs() * radiance_bound(l)
+            bound = bound + torch.where(torch.isfinite(e), e, torch.zeros_like(e))
         return c * scale[..., None]
 
     total = torch.zeros(P, 3)
@@ -130,6 +151,8 @@ def shade_ggx_mc(n, v, g: dict, ao, env: dict, intensity: float, rotation_rad: f
             c = c + weighted(le, pe, mis_weight(pe, brdf_pdf(le), power))
         c = torch.where(torch.isfinite(c).all(-1, keepdim=True), c, torch.zeros_like(c))
         total = total + c
+    if envelope is not None:
+        envelope["bound"] = bound / float(max(sample_count, 1))
     return total / float(max(sample_count, 1))
 
 

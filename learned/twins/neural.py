@@ -19,9 +19,13 @@ from __future__ import annotations
 
 import torch
 
-from learned.neural.lighting import STRATEGIES, env_radiance, student_features
-from learned.twins.deferred import view_ray_ws
+from learned.neural.lighting import STRATEGIES, env_radiance, student_features, surface
+from learned.twins.deferred import env_dir, reflect, view_ray_ws
 from learned.twins.mc import mc_sample_2d
+
+from .brdf import clamp_perceptual_roughness
+from .equirect import equirect_uv
+from .ibl import DIRECTION_ABS_ERROR, equirect_uv_error, prefilter_lod, sample_trilinear_envelope
 
 from .common import INV_PI
 
@@ -80,9 +84,16 @@ def neural_student_radiance_pbr(k: torch.Tensor, diffuse: torch.Tensor, f0: torc
 
 
 def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dict,
-                 sample_range: tuple[int, int] = (0, 1), seed: int = 0) -> torch.Tensor:
+                 sample_range: tuple[int, int] = (0, 1), seed: int = 0,
+                 envelope: dict | None = None) -> torch.Tensor:
     """Torch twin of ``shade_neural.frag`` / ``shade_neural_teacher.frag`` on a G-buffer read back
-    from GL (channel -> ``[H, W, C]``, GL row order). Returns ``[H, W, 4]``."""
+    from GL (channel -> ``[H, W, C]``, GL row order). Returns ``[H, W, 4]``.
+
+    ``envelope`` (a dict, filled in; the student only): ``"bound"`` ``[H, W, 3]``, how far a
+    conforming GPU may land from this result through its texture lookups - the background, the
+    prefiltered radiance and the DFG inputs, each lookup's
+    :func:`~learned.twins.ibl.sample_trilinear_envelope` (``envelope["weight_bits"]``) times
+    |d radiance / d lookup| through the network by autograd."""
     h, w = gb["alpha"].shape[:2]
     ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32) + 0.5,
                             torch.arange(w, dtype=torch.float32) + 0.5, indexing="ij")
@@ -96,9 +107,14 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
         background = torch.zeros_like(d)
     flat = {k: t.reshape(h * w, -1) for k, t in gb.items()}
     v = -d
+    tracing = envelope is not None and model == "neural"
+    if tracing:
+        background = background.detach().requires_grad_(True)
     if model == "neural":
         ao = flat["ao"][:, 0] if defines.get("USE_AO", 1) else torch.ones(h * w)
         x, irr, pre = student_features(flat, v, lighting, ao)
+        if tracing:
+            x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre)
     else:
         start, count = sample_range
@@ -111,4 +127,37 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
     alpha = flat["alpha"][:, 0]
     covered = (alpha > 0.0)[:, None]
     out = torch.where(covered, background + (c - background) * alpha[:, None], background)
+    if tracing:
+        envelope["bound"] = _student_envelope(out, background, x, pre, flat, d, v, lighting,
+                                              envelope.get("weight_bits", 8)).reshape(h, w, 3)
+        out = out.detach()
     return torch.cat([out, alpha[:, None]], -1).reshape(h, w, 4)
+
+
+def _student_envelope(out, background, x, pre, flat, d, v, lighting, bits: int) -> torch.Tensor:
+    """|d out / d lookup| x lookup envelope, summed over the student pass's filtered lookups."""
+    grads = torch.autograd.grad(out.sum(), [background, x, pre], allow_unused=True)
+    g_bg, g_x, g_pre = (torch.zeros_like(t) if g is None else g.abs()
+                        for g, t in zip(grads, (background, x, pre)))
+    with torch.no_grad():
+        d_env = env_dir(d, lighting.rotation)
+        bound = g_bg * sample_trilinear_envelope(
+            [lighting.radiance], equirect_uv(d_env), torch.zeros(d.shape[:-1]),
+            equirect_uv_error(d_env), weight_bits=bits)[..., :3] * lighting.intensity
+        n, nov = surface(flat, v)
+        r = clamp_perceptual_roughness(flat["roughness"][..., 0])
+        r_env = env_dir(reflect(-v, n), lighting.rotation)
+        lod = prefilter_lod(r, torch.full_like(r, float(lighting.levels)))
+        bound = bound + g_pre * sample_trilinear_envelope(
+            lighting.prefiltered, equirect_uv(r_env), lod,
+            equirect_uv_error(r_env, 2.0 * DIRECTION_ABS_ERROR), weight_bits=bits)[..., :3] \
+            * lighting.intensity
+        if lighting.dfg is not None:  # inputs 8, 9 of x: the DFG lookup
+            lut = lighting.dfg
+            size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])
+            uv = (torch.stack([nov, r.clamp(0.0, 1.0)], -1) * (size - 1.0) + 0.5) / size
+            e = sample_trilinear_envelope([lut], uv, torch.zeros_like(r),
+                                          torch.full_like(uv, 1e-6), repeat_u=False,
+                                          weight_bits=bits)[..., :2]
+            bound = bound + (g_x[:, 8:10] * e).sum(-1, keepdim=True)
+    return bound

@@ -29,7 +29,7 @@ from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .ibl import IBLOptions, build_ibl
-from .models import ShadeVariant, model_info
+from .models import ShadeVariant, ShadingModel, model_info
 from .passes.accumulate import Accumulator
 from .passes.gbuffer import GBufferPass, GBufferTargets
 from .passes.shade import ShadePass
@@ -199,7 +199,7 @@ class Renderer:
         is specialised to the scene, so channels nothing reads are otherwise not allocated).
         """
         settings = scene.render
-        model_info(settings.model)  # unknown model -> SceneError before any GPU work
+        model = model_info(settings.model)  # unknown model -> SceneError before any GPU work
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
         layout = spec.layout
@@ -242,7 +242,7 @@ class Renderer:
             spass = self._shade_passes[layout] = ShadePass(self.programs, layout)
         self._pass_begin("ibl")  # precomputation, only when the environment is new
         ibl = self.ibl(scene)
-        self._shade_frame(scene, layout, targets, camera, ibl, spass, progressive,
+        self._shade_frame(scene, model, layout, targets, camera, ibl, spass, progressive,
                           samples_per_frame)
         if self._tonemap is None:
             self._tonemap = TonemapPass(self.programs)
@@ -258,15 +258,15 @@ class Renderer:
 
     MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
 
-    def _shade_frame(self, scene: Scene, layout: GBufferLayout, targets: dict, camera: Camera,
-                     ibl, spass, progressive: bool, samples_per_frame: int) -> None:
+    def _shade_frame(self, scene: Scene, info: ShadingModel, layout: GBufferLayout, targets: dict,
+                     camera: Camera, ibl, spass, progressive: bool,
+                     samples_per_frame: int) -> None:
         """SSAO -> lighting (accumulated for Monte-Carlo models) -> indirect, into ``radiance``.
 
         With ``indirect`` the lighting pass writes the direct-lighting buffer ``direct`` of this
         frame, and the indirect pass adds eq. 6.22 gathered from it into ``radiance``.
         """
         settings = scene.render
-        info = model_info(settings.model)
         if scene.light is not None and info.directional_light == "ignored":
             _warn_light_ignored(settings.model)
         gbt = targets["gbuffer_textures"]

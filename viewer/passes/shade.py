@@ -14,7 +14,6 @@ from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network
-from ..neural import virtual_files as neural_virtual_files
 from ..scene import DirectionalLight, RenderSettings
 from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
 
@@ -34,9 +33,8 @@ class ShadePass:
         self._draw = FullscreenDraw(self.ctx)
         self._weights: dict[tuple, NeuralWeights] = {}  # (checkpoint, storage) -> uploaded data
 
-    def _bind_weights(self, prog, settings: RenderSettings, unit: int) -> int:
+    def _bind_weights(self, prog, found, unit: int) -> int:
         """Upload (once) and bind the weight data of a neural model's buffered storage."""
-        found = model_network(settings.model, settings)
         if found is None or found[1].data is None:
             return unit
         net, code = found
@@ -45,11 +43,14 @@ class ShadePass:
             self._weights[key] = NeuralWeights(self.ctx, code)
         return self._weights[key].bind(prog, unit)
 
-    def _program(self, variant: ShadeVariant, settings: RenderSettings):
+    def _program(self, variant: ShadeVariant, found):
+        """The variant's program; ``found``: the neural model's (network, generated code)."""
+        virtual = dict(self.layout.virtual_files())
+        if found is not None:
+            net, code = found
+            virtual[net.include_name] = code.glsl
         return self.programs.graphics("passes/fullscreen.vert", model_info(variant.model).pass_file,
-                                      defines=variant.defines,
-                                      virtual={**self.layout.virtual_files(),
-                                               **neural_virtual_files(variant.model, settings)})
+                                      defines=variant.defines, virtual=virtual)
 
     def run(self, gbuffer_textures: dict, out_fbo, camera: Camera, ibl, environment,
             settings: RenderSettings, env_sampling=None, ssao=None,
@@ -64,10 +65,11 @@ class ShadePass:
         unspecialised variant); ``light``: the scene's directional light (``None``: none)."""
         if variant is None:
             variant = model_info(settings.model).variant(settings, light)
-        prog = self._program(variant, settings)
+        found = model_network(settings.model, settings)  # the weights file, looked up once
+        prog = self._program(variant, found)
         unit = bind_gbuffer(prog, gbuffer_textures)
         unit = ibl.bind(prog, unit)
-        unit = self._bind_weights(prog, settings, unit)
+        unit = self._bind_weights(prog, found, unit)
         if env_sampling is not None:
             unit = env_sampling.bind(prog, unit)
         if ssao is not None and "u_ssao" in prog:

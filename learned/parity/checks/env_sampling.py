@@ -6,11 +6,12 @@ import numpy as np
 import torch
 
 from learned.twins.env_sampling import env_distribution, env_pdf, sample_env
-from viewer.gl.kernels import run_kernel
 from viewer.envsampling import build_env_sampling
+from viewer.gl.kernels import run_kernel
 from viewer.ibl import IBLOptions, build_ibl
 
 from ..results import compare
+from . import collector
 from .ibl import parity_environment
 
 
@@ -37,14 +38,7 @@ _DIST_ENVELOPE = ("first-order over the 64x32 parity environment and the black o
 
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
-    found: dict = {}
-
-    def register_pass_check(name, model=None):
-        def deco(fn):
-            found[name] = (model, fn)
-            return fn
-
-        return deco
+    found, register_pass_check = collector()
 
 
     def built(programs, zero=False):

@@ -24,6 +24,7 @@ from viewer.gl.kernels import run_kernel
 from viewer.ibl import IBLOptions, build_ibl, prefilter_roughness
 
 from ..results import compare, compare_envelope, device_filter_bits
+from . import collector
 
 
 def parity_environment(width: int = 64, seed: int = 0) -> np.ndarray:
@@ -38,14 +39,7 @@ def parity_environment(width: int = 64, seed: int = 0) -> np.ndarray:
 
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
-    found: dict = {}
-
-    def register_pass_check(name, model=None):
-        def deco(fn):
-            found[name] = (model, fn)
-            return fn
-
-        return deco
+    found, register_pass_check = collector()
 
 
     cache: dict = {}

@@ -14,6 +14,7 @@ from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
 from ..results import compare_envelope, device_filter_bits
+from . import collector
 
 
 def gl_gbuffer(targets: dict) -> dict[str, torch.Tensor]:
@@ -75,14 +76,7 @@ MC_RTOL = 2e-3
 
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
-    found: dict = {}
-
-    def register_pass_check(name, model=None):
-        def deco(fn):
-            found[name] = (model, fn)
-            return fn
-
-        return deco
+    found, register_pass_check = collector()
 
 
     for model in ("unlit", "blinn_phong", "ggx_split_sum"):

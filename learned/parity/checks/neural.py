@@ -23,6 +23,7 @@ from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
 from ..results import compare, compare_envelope, device_filter_bits
+from . import collector
 from .models import PARITY_SCENE, gl_gbuffer, gl_texture
 
 NETWORK_ATOL = 1e-4  # the issue's float32 bound for outputs in [0, 1]
@@ -139,14 +140,7 @@ def check_model(programs, model: str, variant: dict, weights=None):
 
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
-    found: dict = {}
-
-    def register_pass_check(name, model=None):
-        def deco(fn):
-            found[name] = (model, fn)
-            return fn
-
-        return deco
+    found, register_pass_check = collector()
 
 
 

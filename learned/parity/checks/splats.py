@@ -16,18 +16,12 @@ from viewer.passes.splats import SplatPass
 from viewer.splats.data import Splats, make_splats
 
 from ..results import compare
+from . import collector
 
 
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
-    found: dict = {}
-
-    def register_pass_check(name, model=None):
-        def deco(fn):
-            found[name] = (model, fn)
-            return fn
-
-        return deco
+    found, register_pass_check = collector()
 
 
     @register_pass_check("splats", model="splats")

@@ -9,19 +9,13 @@ from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
 from ..results import ParityResult
+from . import collector
 from .models import PARITY_SCENE, gl_gbuffer, gl_texture
 
 
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
-    found: dict = {}
-
-    def register_pass_check(name, model=None):
-        def deco(fn):
-            found[name] = (model, fn)
-            return fn
-
-        return deco
+    found, register_pass_check = collector()
 
 
     @register_pass_check("ssao")

@@ -5,6 +5,8 @@ them pixel by pixel. Images are in GL row order (row 0 at the bottom), as the pa
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import torch
 
 from .brdf import clamp_perceptual_roughness, compute_f0
@@ -81,66 +83,41 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         background = torch.zeros_like(d)
     g = gbuffer
     alpha = g["alpha"][..., 0]
-    if model == "unlit":
-        if "color" in g:
-            c = torch.where(alpha[..., None] > 0, g["color"] / alpha.clamp_min(1e-30)[..., None],
-                            torch.zeros_like(g["color"]))
-        else:
-            c = g["albedo"]
-    else:
+    if model not in PASS_TWINS:
+        raise ValueError(f"no torch twin for model {model!r} (known: {', '.join(PASS_TWINS)})")
+    surf = None
+    if model != "unlit":
         v = -d
         n = shading_normal(g["normal"], v)
         r = clamp_perceptual_roughness(g["roughness"][..., 0])
-        sh = env["sh"]
-        irradiance = sh_irradiance(env_dir(n, rotation_rad), sh) * intensity
+        irradiance = sh_irradiance(env_dir(n, rotation_rad), env["sh"]) * intensity
         r_env = env_dir(reflect(-v, n), rotation_rad)
         prefiltered = ibl_specular_radiance(env["prefiltered"], r_env, r, env["levels"])
         prefiltered = traced("prefiltered", prefiltered, lambda: sample_trilinear_envelope(
             env["prefiltered"], equirect_uv(r_env),
             prefilter_lod(r, torch.full_like(r, float(env["levels"]))),
             equirect_uv_error(r_env, 2.0 * DIRECTION_ABS_ERROR), weight_bits=bits)[..., :3])
-        prefiltered = prefiltered * intensity
         ao = g["ao"][..., 0] if defines.get("USE_AO", 1) else torch.ones_like(r)
         if defines.get("USE_SSAO", 0):
             ao = ao * ssao  # deferred.glsl ambient_occlusion()
-        diffuse = diffuse_color(g["albedo"], g["metallic"][..., 0])
-        f0 = compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0])
         nov = (n * v).sum(-1).clamp(0.0, 1.0)
-        ms = torch.full_like(r, float(defines.get("MULTISCATTER", 1)))
-        dfg = ibl_dfg(env["dfg"], nov, r) if model in ("ggx_split_sum", "ggx_mc") else None
-        if dfg is not None:
-            lut = env["dfg"]
-            size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])
-            uv_lut = (torch.stack([nov, r.clamp(0.0, 1.0)], -1) * (size - 1.0) + 0.5) / size
-            dfg = traced("dfg", dfg, lambda: sample_trilinear_envelope(
-                [lut], uv_lut, torch.zeros_like(r), torch.full_like(uv_lut, 1e-6),
-                repeat_u=False, weight_bits=bits))
-        if model == "ggx_split_sum":
-            c = ggx_split_sum(diffuse, f0, ao, irradiance, prefiltered, dfg, ms)
-        elif model == "blinn_phong":
-            c = blinn_phong(diffuse, f0, ao, irradiance, prefiltered)
-        elif model == "ggx_mc":
-
-            mc = mc or {}
-            covered = alpha > 0.0
-            pix = torch.stack(torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")[::-1],
-                              dim=-1)  # [H, W, 2] (x, y), GL order
-            c = torch.zeros_like(d)
-            mc_envelope = None if envelope is None else {"weight_bits": bits}
-            c[covered] = shade_ggx_mc(n[covered], v[covered], {k: t[covered] for k, t in g.items()},
-                                      ao[covered], env, intensity, rotation_rad, defines,
-                                      pix[covered], int(mc.get("start", 0)),
-                                      int(mc.get("count", 1)), int(mc.get("seed", 0)),
-                                      envelope=mc_envelope)
-            if mc_envelope is not None:  # the samples' lookups; d out / d c = coverage
-                mc_bound = torch.zeros_like(d)
-                mc_bound[covered] = mc_envelope["bound"]
-                lookups["mc"] = (None, mc_bound * alpha[..., None])
-        else:
-            raise ValueError(f"no torch twin for model {model!r}")
-        if defines.get("LIGHT_DIRECTIONAL", 0):
-            c = c + _directional_light(model, diffuse, f0, r * r, dfg, ms, n, v, light, defines,
-                                       mc)
+        lut = env["dfg"]
+        size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])
+        uv_lut = (torch.stack([nov, r.clamp(0.0, 1.0)], -1) * (size - 1.0) + 0.5) / size
+        dfg = traced("dfg", ibl_dfg(lut, nov, r), lambda: sample_trilinear_envelope(
+            [lut], uv_lut, torch.zeros_like(r), torch.full_like(uv_lut, 1e-6), repeat_u=False,
+            weight_bits=bits))
+        surf = _Surface(n=n, v=v, r=r, ao=ao, irradiance=irradiance,
+                        prefiltered=prefiltered * intensity, dfg=dfg,
+                        diffuse=diffuse_color(g["albedo"], g["metallic"][..., 0]),
+                        f0=compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0]),
+                        ms=torch.full_like(r, float(defines.get("MULTISCATTER", 1))))
+    mc_envelope = None if envelope is None else {"weight_bits": bits}
+    c = PASS_TWINS[model](g, surf, defines, env=env, intensity=intensity,
+                          rotation_rad=rotation_rad, mc=mc or {}, light=light,
+                          envelope=mc_envelope)
+    if mc_envelope is not None and "bound" in mc_envelope:  # Monte-Carlo lookups, in radiance
+        lookups["mc"] = (None, mc_envelope["bound"] * alpha[..., None])
     covered = alpha > 0.0
     a = alpha[..., None]
     out = torch.where(covered[..., None], background + (c - background) * a, background)
@@ -162,22 +139,91 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     return torch.cat([out, alpha[..., None]], dim=-1)
 
 
-def _directional_light(model: str, diffuse, f0, a, dfg, ms, n, v, light, defines: dict,
-                       mc: dict | None) -> torch.Tensor:
-    """The ``LIGHT_DIRECTIONAL`` term of the lighting passes (no AO, no shadowing). ``ggx_mc``
-    adds it only to batches with samples, as its GLSL does. [H, W, 3]."""
-    l_ws = torch.tensor(light.direction, dtype=torch.float32).expand_as(n)
-    irradiance = torch.tensor(light.irradiance, dtype=torch.float32).expand_as(n)
-    if model == "blinn_phong":
+@dataclass
+class _Surface:
+    """What every lit pass computes first (``deferred.glsl``): [H, W, ...] each."""
+
+    n: torch.Tensor  # shading normal
+    v: torch.Tensor  # towards the viewer
+    r: torch.Tensor  # clamped perceptual roughness
+    ao: torch.Tensor  # G-buffer AO x SSAO (as enabled)
+    irradiance: torch.Tensor  # SH irradiance x intensity
+    prefiltered: torch.Tensor  # prefiltered radiance along the mirror direction x intensity
+    dfg: torch.Tensor  # DFG LUT at (n.v, r)
+    diffuse: torch.Tensor
+    f0: torch.Tensor
+    ms: torch.Tensor  # MULTISCATTER as 0/1
+
+
+def _light(light) -> tuple[torch.Tensor, torch.Tensor]:
+    return (torch.tensor(light.direction, dtype=torch.float32),
+            torch.tensor(light.irradiance, dtype=torch.float32))
+
+
+def _shade_unlit(g, s, defines, **_) -> torch.Tensor:
+    """``shade_unlit.frag``: the baked colour (splats, un-premultiplied) or the albedo."""
+    if "color" not in g:
+        return g["albedo"]
+    alpha = g["alpha"][..., 0]
+    return torch.where(alpha[..., None] > 0, g["color"] / alpha.clamp_min(1e-30)[..., None],
+                       torch.zeros_like(g["color"]))
+
+
+def _shade_blinn_phong(g, s: _Surface, defines, light=None, **_) -> torch.Tensor:
+    """``shade_blinn_phong.frag``: the environment terms, plus the directional light."""
+    c = blinn_phong(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered)
+    if defines.get("LIGHT_DIRECTIONAL", 0):
+        f0, a = s.f0, s.r * s.r
         if not defines.get("SPECULAR_LOBE", 1):  # the specialised variant passes f0 = 0, a = 1
             f0, a = torch.zeros_like(f0), torch.ones_like(a)
-        return blinn_phong_directional_light(diffuse, f0, a, n, v, l_ws, irradiance)
-    if model == "ggx_split_sum" and not defines.get("SPECULAR_LOBE", 1):
-        f0, a = torch.zeros_like(f0), torch.ones_like(a)
-        dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
-        ms = torch.zeros_like(a)
-    if model == "ggx_mc":
-        ms = torch.full_like(a, float(defines.get("MULTISCATTER", 1)))
-        if int((mc or {}).get("count", 1)) <= 0:
-            return torch.zeros_like(n)
-    return ggx_directional_light(diffuse, f0, a, dfg, ms, n, v, l_ws, irradiance)
+        l_ws, e = _light(light)
+        c = c + blinn_phong_directional_light(s.diffuse, f0, a, s.n, s.v, l_ws.expand_as(s.n),
+                                              e.expand_as(s.n))
+    return c
+
+
+def _ggx_light(s: _Surface, f0, a, dfg, ms, light) -> torch.Tensor:
+    l_ws, e = _light(light)
+    return ggx_directional_light(s.diffuse, f0, a, dfg, ms, s.n, s.v, l_ws.expand_as(s.n),
+                                 e.expand_as(s.n))
+
+
+def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, **_) -> torch.Tensor:
+    """``shade_ggx_split_sum.frag``: split-sum GGX + SH diffuse, plus the directional light."""
+    c = ggx_split_sum(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
+    if defines.get("LIGHT_DIRECTIONAL", 0):
+        f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
+        if not defines.get("SPECULAR_LOBE", 1):
+            f0, a = torch.zeros_like(f0), torch.ones_like(a)
+            dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
+            ms = torch.zeros_like(a)
+        c = c + _ggx_light(s, f0, a, dfg, ms, light)
+    return c
+
+
+def _shade_ggx_mc(g, s: _Surface, defines, env=None, intensity=1.0, rotation_rad=0.0, mc=None,
+                  light=None, envelope=None) -> torch.Tensor:
+    """``shade_ggx_mc.frag`` on the covered pixels (:func:`shade_ggx_mc`), plus the directional
+    light on batches with samples. ``envelope``: filled with the samples' lookup bound."""
+    alpha = g["alpha"][..., 0]
+    h, w = alpha.shape
+    covered = alpha > 0.0
+    pix = torch.stack(torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")[::-1],
+                      dim=-1)  # [H, W, 2] (x, y), GL order
+    c = torch.zeros_like(s.n)
+    c[covered] = shade_ggx_mc(s.n[covered], s.v[covered], {k: t[covered] for k, t in g.items()},
+                              s.ao[covered], env, intensity, rotation_rad, defines,
+                              pix[covered], int(mc.get("start", 0)), int(mc.get("count", 1)),
+                              int(mc.get("seed", 0)), envelope=envelope)
+    if envelope is not None:
+        bound = torch.zeros_like(s.n)
+        bound[covered] = envelope["bound"]
+        envelope["bound"] = bound
+    if defines.get("LIGHT_DIRECTIONAL", 0) and int(mc.get("count", 1)) > 0:
+        c = c + _ggx_light(s, s.f0, s.r * s.r, s.dfg, s.ms, light)
+    return c
+
+
+# the twin of each lighting pass, by model (the pass files are shaders/passes/shade_<model>.frag)
+PASS_TWINS = {"unlit": _shade_unlit, "blinn_phong": _shade_blinn_phong,
+              "ggx_split_sum": _shade_ggx_split_sum, "ggx_mc": _shade_ggx_mc}

@@ -117,10 +117,10 @@ def test_transparent_background(renderer):
 def test_caches_geometry_and_ibl(renderer):
     scene = sphere_scene(Material(), env="studio")
     renderer.render(scene)
-    n_programs, n_ibl = len(renderer.programs), len(renderer._ibl)
+    n_programs, n_ibl = len(renderer.programs), renderer.resources.environments
     renderer.render(scene.with_render(exposure=1.0).with_environment(intensity=3.0,
                                                                      rotation_deg=20))
-    assert len(renderer.programs) == n_programs and len(renderer._ibl) == n_ibl
+    assert len(renderer.programs) == n_programs and renderer.resources.environments == n_ibl
 
 
 @pytest.mark.parametrize("roughness", [0.0, 0.3, 1.0])

@@ -1,0 +1,46 @@
+"""What a render produces: :class:`Frame` (read back to numpy) and :class:`FrameTargets` (left on
+the GPU), and the read-back helper."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .camera import Camera
+from .models import ShadeVariant
+from .passes.gbuffer import GBufferTargets
+
+
+@dataclass
+class Frame:
+    """What one render produced, read back to numpy (row 0 at the top)."""
+
+    radiance: np.ndarray  # [H, W, 4] float32 linear radiance, alpha = coverage
+    display: np.ndarray  # [H, W, 4] uint8 sRGB after exposure and tone mapping
+    aovs: dict[str, np.ndarray] = field(default_factory=dict)  # [H, W, C] float32 each
+    camera: Camera | None = None
+
+
+@dataclass
+class FrameTargets:
+    """What :meth:`~viewer.renderer.Renderer.draw` leaves on the GPU for one frame (nothing read
+    back): what a window shows, the debug views read and the parity checks compare. Textures are
+    moderngl textures, GL row order (row 0 at the bottom)."""
+
+    radiance: object  # RGBA32F: linear radiance composited over the background, alpha = coverage
+    display: object  # RGBA8: exposed, tone-mapped, sRGB-encoded
+    gbuffer: GBufferTargets  # the G-buffer the frame was shaded from (.textures, .read())
+    camera: Camera  # the camera it was rendered with (a stack's own camera for image stacks)
+    variant: ShadeVariant  # the lighting-pass program that shaded it
+    samples: int = 1  # Monte-Carlo samples averaged in `radiance` (1 for single-sample models)
+    ssao: object | None = None  # RGBA32F occlusion (r), when render.ssao
+    direct: object | None = None  # RGBA32F direct light before the indirect pass (render.indirect)
+
+
+def read_texture(texture, dtype: str) -> np.ndarray:
+    """A texture read back as ``[H, W, C]`` numpy (``"f4"`` float32, ``"f1"`` uint8), row 0 at the
+    top (flipped from GL's bottom-up order)."""
+    w, h = texture.size
+    np_dtype = np.float32 if dtype == "f4" else np.uint8
+    arr = np.frombuffer(texture.read(), dtype=np_dtype).reshape(h, w, texture.components)
+    return arr[::-1].copy()

@@ -1,0 +1,135 @@
+"""The GPU resources a :class:`~viewer.renderer.Renderer` keeps between frames, cached by value:
+render targets per G-buffer layout and size, passes per layout, Monte-Carlo accumulators per size,
+and each environment's IBL precomputation and importance-sampling distribution (intensity and
+rotation are uniforms, so light sliders never recompute them)."""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from .environment import EnvironmentSpec, load_environment
+from .envsampling import build_env_sampling
+from .gbuffer import GBufferLayout
+from .ibl import IBLOptions, build_ibl
+from .passes.accumulate import Accumulator
+from .passes.gbuffer import GBufferPass, GBufferTargets
+from .passes.shade import ShadePass
+from .passes.splats import SplatPass
+from .passes.ssao import SSAOPass
+from .passes.tonemap import TonemapPass
+
+# the passes that are built per G-buffer layout
+LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
+                 "shade": ShadePass}
+
+
+@dataclass
+class TargetSet:
+    """The render targets of one layout and size: the G-buffer, linear radiance (RGBA32F) and the
+    display image (RGBA8), plus extra RGBA32F targets made on first use (``ssao``, ``direct``)."""
+
+    gbuffer: GBufferTargets
+    radiance: object
+    radiance_fbo: object
+    display: object
+    display_fbo: object
+    extras: dict[str, tuple[object, object]] = field(default_factory=dict)  # name -> (tex, fbo)
+
+    @classmethod
+    def create(cls, ctx, layout: GBufferLayout, size: tuple[int, int]) -> "TargetSet":
+        radiance = ctx.texture(size, 4, dtype="f4")
+        display = ctx.texture(size, 4, dtype="f1")
+        for t in (radiance, display):
+            t.filter = (ctx.NEAREST, ctx.NEAREST)
+        return cls(GBufferTargets.create(ctx, layout, size), radiance,
+                   ctx.framebuffer(color_attachments=[radiance]), display,
+                   ctx.framebuffer(color_attachments=[display]))
+
+    def extra(self, ctx, name: str) -> tuple[object, object]:
+        """``(texture, framebuffer)`` of the RGBA32F target ``name`` (made on first use)."""
+        if name not in self.extras:
+            tex = ctx.texture(self.radiance.size, 4, dtype="f4")
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            self.extras[name] = (tex, ctx.framebuffer(color_attachments=[tex]))
+        return self.extras[name]
+
+    def release(self) -> None:
+        self.gbuffer.release()
+        for obj in (self.radiance, self.radiance_fbo, self.display, self.display_fbo):
+            obj.release()
+        for tex, fbo in self.extras.values():
+            tex.release()
+            fbo.release()
+        self.extras.clear()
+
+
+class GPUResources:
+    """Everything the renderer keeps on the GPU between frames; see the module docstring."""
+
+    def __init__(self, programs):
+        self.programs = programs
+        self._targets: dict[tuple, TargetSet] = {}
+        self._passes: dict[tuple, object] = {}  # (kind, layout) -> pass
+        self._tonemap: TonemapPass | None = None
+        self._accumulators: dict[tuple, Accumulator] = {}
+        self._ibl: dict[tuple, object] = {}
+        self._env_sampling: dict[tuple, object] = {}
+
+    def targets(self, layout: GBufferLayout, size: tuple[int, int]) -> TargetSet:
+        key = (layout, tuple(size))
+        if key not in self._targets:
+            self._targets[key] = TargetSet.create(self.programs.ctx, layout, size)
+        return self._targets[key]
+
+    def layout_pass(self, kind: str, layout: GBufferLayout):
+        """The ``kind`` pass (:data:`LAYOUT_PASSES`) built for ``layout``."""
+        key = (kind, layout)
+        if key not in self._passes:
+            self._passes[key] = LAYOUT_PASSES[kind](self.programs, layout)
+        return self._passes[key]
+
+    def tonemap(self) -> TonemapPass:
+        if self._tonemap is None:
+            self._tonemap = TonemapPass(self.programs)
+        return self._tonemap
+
+    def accumulator(self, size: tuple[int, int]) -> Accumulator:
+        key = tuple(size)
+        if key not in self._accumulators:
+            self._accumulators[key] = Accumulator(self.programs, key)
+        return self._accumulators[key]
+
+    @staticmethod
+    def _environment_key(spec: EnvironmentSpec) -> tuple:
+        # intensity and rotation are uniforms: one precomputation serves every value of them
+        return (dataclasses.replace(spec, intensity=1.0, rotation_deg=0.0), IBLOptions())
+
+    def ibl(self, spec: EnvironmentSpec):
+        key = self._environment_key(spec)
+        if key not in self._ibl:
+            self._ibl[key] = build_ibl(self.programs, load_environment(key[0]), key[1])
+        return self._ibl[key]
+
+    def env_sampling(self, spec: EnvironmentSpec):
+        """The environment's importance-sampling distribution, built on the GPU from the IBL's
+        radiance texture."""
+        key = self._environment_key(spec)
+        if key not in self._env_sampling:
+            self._env_sampling[key] = build_env_sampling(self.programs, self.ibl(spec).radiance)
+        return self._env_sampling[key]
+
+    @property
+    def environments(self) -> int:
+        """How many environments have an IBL precomputation cached."""
+        return len(self._ibl)
+
+    def release(self) -> None:
+        for obj in (list(self._ibl.values()) + list(self._targets.values())
+                    + list(self._env_sampling.values()) + list(self._accumulators.values())
+                    + list(self._passes.values())
+                    + ([self._tonemap] if self._tonemap is not None else [])):
+            if hasattr(obj, "release"):
+                obj.release()
+        for d in (self._ibl, self._targets, self._env_sampling, self._accumulators, self._passes):
+            d.clear()
+        self._tonemap = None

@@ -47,9 +47,8 @@ def _context_options(args):
 
 def cmd_render(args) -> int:
     from viewer.imageio import write_exr, write_png
-    from viewer.models import model_info
-    from viewer.renderer import AOV_NAMES, Renderer
-    from viewer.scene import TONEMAPS, load_scene
+    from viewer.renderer import Renderer, check_aovs
+    from viewer.scene import load_scene, validate_render
 
     out = Path(args.out)
     if out.suffix.lower() not in (".exr", ".png"):
@@ -58,27 +57,15 @@ def cmd_render(args) -> int:
     if not out.resolve().parent.is_dir():
         raise SceneError("output folder does not exist", where=out.parent)
     scene = load_scene(args.scene or _demo_path())
-    changes = {}
-    if args.model is not None:
-        model_info(args.model)
-        changes["model"] = args.model
-    if args.samples is not None:
-        if args.samples < 1:
-            raise SceneError(f"--samples must be at least 1, got {args.samples}", where="--samples")
-        changes["samples"] = args.samples
-    if args.exposure is not None:
-        changes["exposure"] = args.exposure
-    if args.tonemap is not None:
-        if args.tonemap not in TONEMAPS:
-            raise SceneError(f"--tonemap must be one of {', '.join(TONEMAPS)}", where="--tonemap")
-        changes["tonemap"] = args.tonemap
+    changes = {k: v for k, v in (("model", args.model), ("samples", args.samples),
+                                 ("exposure", args.exposure), ("tonemap", args.tonemap))
+               if v is not None}
+    for key, value in changes.items():  # checked as a scene file's [render] is, named by option
+        validate_render({key: value}, f"--{key}")
     if changes:
         scene = scene.with_render(**changes)
     aovs = [a.strip() for a in args.aov.split(",") if a.strip()] if args.aov else []
-    unknown = [a for a in aovs if a not in AOV_NAMES]
-    if unknown:
-        raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
-                         f"(known: {', '.join(AOV_NAMES)})", where="--aov")
+    check_aovs(aovs)  # before any GPU work
     size = _parse_size(args.size) if args.size else None
 
     renderer = Renderer(options=_context_options(args))

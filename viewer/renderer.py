@@ -29,7 +29,7 @@ from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
 from .specialize import Specialization, analyse, specialise
 
-__all__ = ["AOV_NAMES", "Frame", "FrameTargets", "Renderer", "read_texture"]
+__all__ = ["AOV_NAMES", "Frame", "FrameTargets", "Renderer", "check_aovs", "read_texture"]
 
 AOV_NAMES = CHANNEL_NAMES  # albedo, alpha, normal, roughness, metallic, specular, ao, depth, color
 
@@ -246,10 +246,7 @@ class Renderer:
                size: tuple[int, int] | None = None) -> Frame:
         """Render ``scene`` and read back radiance, display pixels and the requested AOVs."""
         make_current(self.ctx)
-        unknown = [a for a in aovs if a not in AOV_NAMES]
-        if unknown:
-            raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
-                             f"(known: {', '.join(AOV_NAMES)})", where="--aov")
+        check_aovs(aovs)
         targets = self.draw(scene, size, aovs=tuple(a for a in aovs if a != "color"))
         radiance = read_texture(targets.radiance, "f4")
         display = read_texture(targets.display, "f1")
@@ -270,6 +267,14 @@ class Renderer:
         self.resources.release()
         if self._owns_context:
             self.ctx.release()
+
+
+def check_aovs(aovs) -> None:
+    """Every name in ``aovs`` is a G-buffer channel (:data:`AOV_NAMES`), or a one-line error."""
+    unknown = [a for a in aovs if a not in AOV_NAMES]
+    if unknown:
+        raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
+                         f"(known: {', '.join(AOV_NAMES)})", where="--aov")
 
 
 _LIGHT_WARNED: set[str] = set()

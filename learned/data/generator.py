@@ -58,7 +58,7 @@ def split_of(index: int) -> str:
 def target_settings(samples: int) -> dict:
     """Render settings of the targets: ggx_mc + AO + SSAO + indirect when available."""
     from viewer.models import MODELS
-    from viewer.scene import RenderSettings
+    from viewer.settings import RenderSettings
 
     names = {f.name for f in RenderSettings.__dataclass_fields__.values()}
     if "ggx_mc" in MODELS:

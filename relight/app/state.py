@@ -22,7 +22,8 @@ from viewer.camera import Camera
 from viewer.environment import EnvironmentSpec
 from viewer.gbuffer import CHANNEL_NAMES
 from viewer.material import Material
-from viewer.scene import DirectionalLight, RenderSettings, Scene
+from viewer.scene import DirectionalLight, Scene
+from viewer.settings import RenderSettings
 
 # What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
 # reference render ("difference": |render - reference| exposed like the image; "error": relative

@@ -60,10 +60,10 @@ def test_every_model_renders(tmp_path, scene_file):
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--model", "phong"], "unknown shading model 'phong'"),
+    (["--model", "phong"], "--model: render.model = 'phong' is not one of"),
     (["--aov", "normals"], "unknown AOV 'normals'"),
     (["--size", "12by3"], "--size must look like"),
-    (["--samples", "0"], "--samples must be at least 1"),
+    (["--samples", "0"], "--samples: render.samples must be an integer in [1"),
 ])
 def test_bad_options_exit_2_and_write_nothing(tmp_path, scene_file, capsys, args, needle):
     out = tmp_path / "x.png"

@@ -1,5 +1,6 @@
 """ggx_mc, the Monte-Carlo reference model: agreement with split-sum where split-sum is exact, the
 white furnace, unbiasedness, progressive accumulation, determinism and bad input."""
+import dataclasses
 import math
 import warnings
 
@@ -143,9 +144,13 @@ def test_deterministic_for_a_seed(renderer):
 
 
 def test_samples_below_one_is_a_clear_error(renderer):
-    scene = sphere_scene(Material(), samples=1).with_render(samples=0)
+    scene = sphere_scene(Material(), samples=1)
+    with pytest.raises(SceneError, match=r"render.samples must be an integer in \[1"):
+        scene.with_render(samples=0)  # checked like a scene file
+    # settings built without validation (with_flat) still meet the renderer's own check
+    unchecked = dataclasses.replace(scene, render=scene.render.with_flat(samples=0))
     with pytest.raises(SceneError, match="samples must be at least 1"):
-        renderer.render(scene)
+        renderer.render(unchecked)
 
 
 @pytest.mark.parametrize("content", ["zero", "nan"])

@@ -14,8 +14,10 @@ from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network
-from ..scene import DirectionalLight, RenderSettings
-from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
+from ..scene import DirectionalLight
+from ..settings import RenderSettings
+from . import FullscreenDraw, bind_gbuffer
+from . import set_uniform as _set
 
 
 def shade_defines(model: str, settings: RenderSettings,

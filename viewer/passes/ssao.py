@@ -12,8 +12,9 @@ import numpy as np
 
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
-from ..scene import RenderSettings
-from . import FullscreenDraw, bind_gbuffer, set_uniform as _set
+from ..settings import RenderSettings
+from . import FullscreenDraw, bind_gbuffer
+from . import set_uniform as _set
 
 
 class SSAOPass:

@@ -1,0 +1,117 @@
+"""The ``[render]`` table as frozen dataclasses, grouped by the part of the renderer each setting
+steers (Monte Carlo, SSAO, the neural models, the display), with the flat TOML keys mapped onto
+them (:data:`RENDER_KEYS`). Parsing and validation: :func:`viewer.scene.validate_render`."""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+
+@dataclass(frozen=True)
+class MonteCarloSettings:
+    """How models that integrate by Monte Carlo (``ggx_mc``, ``neural_teacher``) sample."""
+
+    samples: int = 1  # samples per pixel (ignored by 1-sample models)
+    sampling: str = "mis"  # strategy: uniform | cosine | env | brdf | mis
+    mis_heuristic: str = "power"  # MIS weights: "power" (beta = 2) | "balance"
+    seed: int = 0  # scrambles the per-pixel sequences (also SSAO's rays)
+
+
+@dataclass(frozen=True)
+class SSAOSettings:
+    """Screen-space ambient occlusion and one-bounce indirect light (thesis eqs. 6.19-6.22)."""
+
+    enabled: bool = False  # occlusion on the diffuse term of every model (TOML: ssao)
+    indirect: bool = False  # + one-bounce indirect light
+    rays: int = 8  # rays per pixel, AO and indirect (TOML: ssao_rays)
+    steps: int = 8  # ray-marching steps per ray (ssao_steps)
+    radius: float = 0.5  # world units a ray marches (ssao_radius)
+    thickness: float = 0.2  # world units: delta of eq. 6.20, assumed thickness (ssao_thickness)
+
+    def __bool__(self):  # `if settings.ssao:` would always be true: say where the switch is
+        raise TypeError("SSAOSettings has no truth value: use settings.ssao.enabled")
+
+
+@dataclass(frozen=True)
+class NeuralSettings:
+    """Which weights the neural models load and where their generated GLSL reads them."""
+
+    weights: str | None = None  # `neural` student weights (.safetensors); None = assets/weights
+    teacher_weights: str | None = None  # `neural_teacher` weights; None = assets/weights
+    # "const" (baked) | "ubo" (a uniform block, or a storage buffer above 16 KiB) | "texture"
+    # (viewer.neural.WEIGHT_STORAGES); TOML: neural_storage
+    storage: str = "const"
+
+
+@dataclass(frozen=True)
+class DisplaySettings:
+    """The last pass: linear radiance -> the displayed image."""
+
+    tonemap: str = "aces"  # none | aces | reinhard
+    exposure: float = 0.0  # EV stops: radiance * 2^exposure before tone mapping
+    background: str = "environment"  # "environment" | "transparent"
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """The ``[render]`` table, grouped by the part of the renderer each setting steers. The TOML
+    stays flat: :data:`RENDER_KEYS` maps each key to its place; :meth:`flat` and :meth:`with_flat`
+    read and write settings by those keys (``scene.with_render(samples=64)``)."""
+
+    model: str = "ggx_split_sum"
+    multiscatter: bool = True  # GGX multiple-scattering energy compensation
+    ao: bool = True  # apply the G-buffer's ambient occlusion to diffuse light
+    precision: str = "fp32"  # G-buffer render targets: "fp32" | "fp16" (radiance stays fp32)
+    specialize: bool = True  # build only the channels and shader variants the scene needs
+    mc: MonteCarloSettings = MonteCarloSettings()
+    ssao: SSAOSettings = SSAOSettings()
+    neural: NeuralSettings = NeuralSettings()
+    display: DisplaySettings = DisplaySettings()
+
+    def flat(self) -> dict[str, Any]:
+        """Every setting by its TOML key, in :data:`RENDER_KEYS` order."""
+        return {key: (getattr(self, field) if group is None
+                      else getattr(getattr(self, group), field))
+                for key, (group, field) in RENDER_KEYS.items()}
+
+    def with_flat(self, **changes) -> "RenderSettings":
+        """A copy with settings changed by TOML key; an unknown key is a ``TypeError``."""
+        top: dict[str, Any] = {}
+        grouped: dict[str, dict[str, Any]] = {}
+        for key, value in changes.items():
+            if key not in RENDER_KEYS:
+                raise TypeError(f"unknown render setting {key!r} (known: {', '.join(RENDER_KEYS)})")
+            group, field = RENDER_KEYS[key]
+            if group is None:
+                top[field] = value
+            else:
+                grouped.setdefault(group, {})[field] = value
+        for group, fields_ in grouped.items():
+            top[group] = replace(getattr(self, group), **fields_)
+        return replace(self, **top)
+
+
+# TOML key of [render] -> (group attribute of RenderSettings or None, field)
+RENDER_KEYS: dict[str, tuple[str | None, str]] = {
+    "model": (None, "model"),
+    "samples": ("mc", "samples"),
+    "sampling": ("mc", "sampling"),
+    "multiscatter": (None, "multiscatter"),
+    "ao": (None, "ao"),
+    "tonemap": ("display", "tonemap"),
+    "exposure": ("display", "exposure"),
+    "background": ("display", "background"),
+    "seed": ("mc", "seed"),
+    "precision": (None, "precision"),
+    "specialize": (None, "specialize"),
+    "mis_heuristic": ("mc", "mis_heuristic"),
+    "ssao": ("ssao", "enabled"),
+    "indirect": ("ssao", "indirect"),
+    "ssao_rays": ("ssao", "rays"),
+    "ssao_steps": ("ssao", "steps"),
+    "ssao_radius": ("ssao", "radius"),
+    "ssao_thickness": ("ssao", "thickness"),
+    "weights": ("neural", "weights"),
+    "teacher_weights": ("neural", "teacher_weights"),
+    "neural_storage": ("neural", "storage"),
+}

@@ -1,0 +1,286 @@
+"""The ``relight`` sub-commands, one function each (``cmd_<name>(args) -> exit code``); the parser
+that maps the command line onto them is :mod:`relight.cli`. Torch-side commands import
+:mod:`learned` when they run, so ``relight render`` and ``relight view`` work without torch."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from viewer.errors import RelightError, SceneError
+
+DEMO_SCENE = "demo.toml"
+
+
+def _demo_path() -> Path:
+    from assets import ASSET_ROOT
+
+    return ASSET_ROOT / "scenes" / DEMO_SCENE
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise SceneError(f"--size must look like 512x512, got {text!r}", where="--size") from None
+    if not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise SceneError(f"--size {w}x{h} is outside 1..16384", where="--size")
+    return w, h
+
+
+def _context_options(args):
+    from viewer.gl import ContextOptions
+
+    return ContextOptions(software=getattr(args, "software", False))
+
+
+def cmd_render(args) -> int:
+    from viewer.imageio import write_exr, write_png
+    from viewer.renderer import Renderer, check_aovs
+    from viewer.scene import load_scene, validate_render
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".exr", ".png"):
+        raise SceneError("--out must end in .exr (linear radiance) or .png (tone-mapped sRGB)",
+                         where=out)
+    if not out.resolve().parent.is_dir():
+        raise SceneError("output folder does not exist", where=out.parent)
+    scene = load_scene(args.scene or _demo_path())
+    changes = {k: v for k, v in (("model", args.model), ("samples", args.samples),
+                                 ("exposure", args.exposure), ("tonemap", args.tonemap))
+               if v is not None}
+    for key, value in changes.items():  # checked as a scene file's [render] is, named by option
+        validate_render({key: value}, f"--{key}")
+    if changes:
+        scene = scene.with_render(**changes)
+    aovs = [a.strip() for a in args.aov.split(",") if a.strip()] if args.aov else []
+    check_aovs(aovs)  # before any GPU work
+    size = _parse_size(args.size) if args.size else None
+
+    renderer = Renderer(options=_context_options(args))
+    try:
+        frame = renderer.render(scene, aovs=tuple(aovs), size=size)
+    finally:
+        renderer.release()
+    # everything is in memory before the first file is written: an error writes nothing
+    if out.suffix.lower() == ".exr":
+        rgba = frame.radiance if scene.render.display.background == "transparent" else frame.radiance[..., :3]
+        write_exr(out, rgba, ["R", "G", "B", "A"][: rgba.shape[2]])
+    else:
+        keep = 4 if scene.render.display.background == "transparent" else 3
+        write_png(out, frame.display[..., :keep])
+    written = [out]
+    for name in aovs:
+        arr = frame.aovs[name]
+        names = {1: ["Y"], 3: ["R", "G", "B"]}.get(arr.shape[2])
+        path = out.with_name(f"{out.stem}.{name}.exr")
+        write_exr(path, arr, names)
+        written.append(path)
+    if not args.quiet:
+        cam = frame.camera
+        print(f"rendered {Path(scene.source).name if scene.source else 'scene'} "
+              f"({scene.render.model}, {cam.width}x{cam.height}) -> "
+              + ", ".join(str(p) for p in written))
+    return 0
+
+
+def cmd_parity(args) -> int:
+    try:
+        from learned.parity import run_parity
+    except ImportError as exc:
+        raise RelightError(f"relight parity needs torch: pip install -e '.[learned]' ({exc})",
+                           where="parity") from None
+    from viewer.gl import Programs, create_context
+    from viewer.models import model_info
+
+    if args.model is not None:
+        from learned.parity import check_models
+
+        if args.model not in check_models():
+            model_info(args.model)  # not a pass-check group (e.g. "splats"): must be a model
+    ctx = create_context(_context_options(args))
+    try:
+        results = run_parity(Programs(ctx), model=args.model, seed=args.seed)
+    finally:
+        ctx.release()
+    if args.json:
+        print(json.dumps([r.as_json() for r in results], indent=1))
+    else:
+        width = max((len(r.name) for r in results), default=10)
+        print(f"{'name':<{width}}  {'kind':<8} {'max_abs':>10} {'max_rel':>10}  tolerance")
+        for r in results:
+            flag = "ok  " if r.passed else "FAIL"
+            print(f"{r.name:<{width}}  {r.kind:<8} {r.max_abs:10.3g} {r.max_rel:10.3g}  "
+                  f"{r.tolerance}  {flag}")
+        failed = sum(not r.passed for r in results)
+        print(f"{len(results) - failed} passed, {failed} failed")
+    return 0 if all(r.passed for r in results) else 1
+
+
+def cmd_decompose(args) -> int:
+    try:
+        from learned.splats.decompose import DecomposeOptions, run
+    except ImportError as exc:
+        raise RelightError(f"relight decompose needs torch: pip install -e '.[learned]' ({exc})",
+                           where="decompose") from None
+    out = Path(args.out)
+    if out.suffix.lower() != ".ply":
+        raise SceneError("--out must end in .ply", where=out)
+    if not out.resolve().parent.is_dir():
+        raise SceneError("output folder does not exist", where=out.parent)
+    if (args.input is None) == (not args.synthetic):
+        raise SceneError("give either an input PLY or --synthetic N", where="decompose")
+    for name, lo in (("views", 1), ("size", 8), ("iterations", 1), ("synthetic", 0)):
+        if getattr(args, name) < lo:
+            raise SceneError(f"--{name} must be at least {lo}", where=f"--{name}")
+    options = DecomposeOptions(views=args.views, size=args.size, iterations=args.iterations,
+                               checkpoint=args.checkpoint, seed=args.seed,
+                               progress=not args.quiet and not args.json)
+    report = run(args.input, out, options, synthetic=args.synthetic)
+    if args.json:
+        print(json.dumps(report, indent=1))
+    elif not args.quiet:
+        for k, v in report.items():
+            print(f"{k:>17}: {v}")
+    return 0
+
+
+def cmd_info(args) -> int:
+    from viewer.gl import create_context, gl_info
+
+    ctx = create_context(_context_options(args))
+    try:
+        info = gl_info(ctx)
+    finally:
+        ctx.release()
+    if args.json:
+        print(json.dumps(info, indent=1))
+        return 0
+    exts = info.pop("extensions")
+    for k, v in info.items():
+        print(f"{k:>26}: {v}")
+    print(f"{'extensions':>26}: {len(exts)} ({', '.join(exts[:6])}, ...)")
+    return 0
+
+
+def cmd_view(args) -> int:
+    try:
+        import imgui_bundle  # noqa: F401  (before glfw: both must use the same libglfw)
+    except ImportError as exc:
+        raise RelightError(f"relight view needs imgui-bundle: pip install -e '.[gui]' ({exc})",
+                           where="view") from None
+    from viewer.scene import load_scene
+
+    from .app.window import Viewer
+
+    if args.frames is not None and args.frames < 1:
+        raise SceneError(f"--frames must be at least 1, got {args.frames}", where="--frames")
+    shot = Path(args.screenshot) if args.screenshot else None
+    if shot is not None:
+        if shot.suffix.lower() not in (".png", ".exr"):
+            raise SceneError("--screenshot must end in .png (the view) or .exr (linear radiance)",
+                             where=shot)
+        if not shot.resolve().parent.is_dir():
+            raise SceneError("output folder does not exist", where=shot.parent)
+    scene = load_scene(args.scene or _demo_path())
+    if args.size:
+        scene = scene.with_camera(size=_parse_size(args.size))
+    viewer = Viewer(scene, offscreen=args.offscreen, options=_context_options(args),
+                    title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
+    try:
+        if args.reference:
+            viewer.frame()
+            if not viewer.load_reference(args.reference):
+                raise RelightError(viewer.state.message)
+        frames = args.frames
+        if frames is None and (args.offscreen or shot is not None):
+            frames = 1
+        viewer.run(frames=frames)
+        if viewer.renders == 0:  # the scene itself failed (a missing mesh, an unknown model)
+            raise RelightError(viewer.state.message or "nothing could be rendered")
+        if shot is not None:
+            viewer.screenshot(shot)
+            if not args.quiet:
+                print(f"{viewer.frames} frames -> {shot}")
+    finally:
+        viewer.close()
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench.run import BenchConfig, pareto_front, run_bench
+
+    config = BenchConfig(quick=args.quick, frames=args.frames,
+                         reference_spp=256 if args.quick else 1024)
+    report = run_bench(args.out, config, fresh=args.fresh, progress=not args.quiet)
+    front = pareto_front(report["results"])
+    print(f"wrote {args.out}/bench.json, bench.csv, bench.md, pareto.png "
+          f"({len(report['results'])} rows)")
+    print("Pareto front (fastest first, each more accurate than the previous):")
+    for r in front:
+        print(f"  {r['scene']:>8} {r['size'][0]}x{r['size'][1]}  {r['model']:<14} "
+              f"{r['variant']:<22} {r['ms']:9.2f} ms  {r['psnr']:6.2f} dB")
+    for s in report["specialization"]:
+        print(f"specialised {s['scene']}: {s['ms_general']:.2f} -> {s['ms_specialized']:.2f} ms "
+              f"({s['ms_general'] / s['ms_specialized']:.2f}x), max abs diff {s['max_abs_diff']:.2g}")
+    return 0
+
+
+def _learned(what: str):
+    import importlib
+
+    try:
+        return importlib.import_module(what)
+    except ImportError as exc:
+        raise RelightError(f"this command needs torch: pip install -e '.[learned]' ({exc})",
+                           where=what) from None
+
+
+# ``relight train`` options that override a field of learned.train.TrainConfig
+TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
+                   "light_samples", "strategy")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def cmd_train(args) -> int:
+    """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student, or
+    (--compare-students) the measured comparison of the candidate student designs."""
+    over = {k: getattr(args, k) for k in TRAIN_OVERRIDES if getattr(args, k) is not None}
+    if args.compare_students:
+        if args.stage != "all":
+            raise RelightError("--compare-students trains every stage it needs; drop --stage",
+                               where="--stage")
+        students = _learned("relight.bench.students")
+        res = students.compare_students(args.out, data=args.data, install=args.install,
+                                        quiet=args.quiet, **over)
+        print(students.compare_table(res))
+        return 0
+    train = _learned("learned.train")
+    res = train.pipeline(args.out, data=args.data, quick=args.quick, install=args.install,
+                         quiet=args.quiet, stages=args.stage, **over)
+    if not args.quiet:
+        for k in ("teacher", "student", "installed_student", "installed_teacher"):
+            if k in res:
+                print(f"{k}: {res[k]}")
+    return 0
+
+
+def cmd_eval(args) -> int:
+    """PSNR, SSIM and HDR-FLIP of every model against the Monte-Carlo targets of a split."""
+    ev = _learned("learned.evaluate")
+    rows = ev.evaluate(args.data, split=args.split, teacher_samples=args.teacher_samples,
+                       limit=args.limit)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    else:
+        print(ev.format_table(rows))
+    return 0

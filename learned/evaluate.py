@@ -17,11 +17,18 @@ import time
 
 import numpy as np
 import torch
+from tqdm import tqdm
+
+from viewer.models import MODELS
+from viewer.renderer import Renderer
+from viewer.scene import scene_from_dict
+
+from .data.reader import list_samples, load_sample
+from .export import load_model
+from .parity.checks.neural import student_inputs
 
 
 def models_to_evaluate(teacher_samples: int) -> list[tuple[str, str, dict]]:
-    from viewer.models import MODELS
-
     out = [("blinn_phong", "", {}), ("ggx_split_sum", "", {})]
     if "ggx_mc" in MODELS:
         out.append(("ggx_mc", "16 spp", {"samples": 16, "sampling": "mis"}))
@@ -33,7 +40,7 @@ def models_to_evaluate(teacher_samples: int) -> list[tuple[str, str, dict]]:
 
 def metrics(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> dict:
     """pred, ref ``[H, W, 3]`` linear; fg ``[H, W]`` bool."""
-    from pytorch_msssim import ssim
+    from pytorch_msssim import ssim  # the `bench` extra: only the metrics need it
 
     m = fg[..., None].astype(np.float32)
     p = np.clip(pred, 0.0, None) * m
@@ -86,8 +93,6 @@ def achromatic_error(rgb: np.ndarray, fg: np.ndarray) -> float:
 
 
 def sample_scene(sample, **render):
-    from viewer.scene import scene_from_dict
-
     return scene_from_dict({
         "environment": {"path": str(sample.environment)},
         "objects": [{"type": "gbuffer", "path": str(sample.folder)}],
@@ -96,11 +101,8 @@ def sample_scene(sample, **render):
 
 def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: int | None = None,
              renderer=None) -> list[dict]:
-    from tqdm import tqdm
 
-    from viewer.renderer import Renderer
 
-    from .data.reader import list_samples, load_sample
 
     folders = list_samples(root, split)[:limit]
     own = renderer is None
@@ -173,8 +175,6 @@ def torch_mlp_times(layers, x: np.ndarray, repeats: int = 7) -> list[float]:
 def torch_student_times(weights, x: np.ndarray, repeats: int = 7) -> list[float]:
     """Seconds of each of ``repeats`` ``Student.weights`` evaluations (after a warm-up) of the
     exported student ``weights`` on ``x [n, 10]`` (torch, CPU, float32)."""
-    from .export import load_model
-
     model = load_model(weights, "student")
     xt = torch.from_numpy(np.ascontiguousarray(x, np.float32))
     return _run_times(lambda: model.weights(xt), repeats)
@@ -183,9 +183,6 @@ def torch_student_times(weights, x: np.ndarray, repeats: int = 7) -> list[float]
 def torch_student_throughput(weights, pixels: int = 65536, repeats: int = 5) -> dict:
     """Pixels per second of the exported student's MLP in torch (CPU, float32) on ``pixels``
     random inputs: the reference the GLSL student throughput is compared with."""
-    from .export import load_model
-    from .parity.checks.neural import student_inputs
-
     model = load_model(weights, "student")
     x = torch.from_numpy(student_inputs(pixels)[:pixels])
     model.weights(x)

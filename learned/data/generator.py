@@ -33,6 +33,18 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+import trimesh
+from tqdm import tqdm
+
+from viewer.environment import EnvironmentSpec, load_environment, resample
+from viewer.geometry.imagespace import load_ffhq_pbr, load_stack_exr
+from viewer.imageio import write_exr
+from viewer.models import MODELS
+from viewer.renderer import Renderer
+from viewer.scene import scene_from_dict
+from viewer.settings import RenderSettings
+
+from .reader import DatasetError
 
 SPLIT_PATTERN = ("train",) * 8 + ("val", "test")  # sample i -> SPLIT_PATTERN[i % 10]
 FORMAT = "relight-ffhq-pbr-synthetic/1"
@@ -57,8 +69,6 @@ def split_of(index: int) -> str:
 
 def target_settings(samples: int) -> dict:
     """Render settings of the targets: ggx_mc + AO + SSAO + indirect when available."""
-    from viewer.models import MODELS
-    from viewer.settings import RenderSettings
 
     names = {f.name for f in RenderSettings.__dataclass_fields__.values()}
     if "ggx_mc" in MODELS:
@@ -73,8 +83,6 @@ def target_settings(samples: int) -> dict:
 
 
 def _mesh_files(cache: Path) -> dict[str, Path]:
-    import trimesh
-
     cache.mkdir(parents=True, exist_ok=True)
     makers = {"torus": lambda: trimesh.creation.torus(0.6, 0.25, 48, 24),
               "box": lambda: trimesh.creation.box((0.9, 0.9, 0.9)),
@@ -136,8 +144,6 @@ def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
 
 def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
     """An equirect ``[H, W, 3]`` radiance image (intensity and rotation baked) and its recipe."""
-    from viewer.environment import EnvironmentSpec, load_environment
-
     choices = ["sky", "sky", "studio"] + list(config.env_paths)
     pick = choices[int(rng.integers(0, len(choices)))]
     if pick in ("sky", "studio"):
@@ -148,7 +154,6 @@ def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
         spec = EnvironmentSpec(path=pick, width=config.env_width)
     env = load_environment(spec)
     if env.shape[1] != config.env_width:
-        from viewer.environment import resample
 
         env = resample(env, config.env_width, config.env_width // 2)
     intensity = float(rng.uniform(0.5, 1.5)) * (0.05 if pick == "sky" else 1.0) ** 0.5
@@ -161,11 +166,7 @@ def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
 def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(),
              renderer=None, progress: bool = True) -> dict:
     """Write ``config.count`` samples under ``root/<split>/<name>``; finished ones are kept."""
-    from tqdm import tqdm
 
-    from viewer.imageio import write_exr
-    from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
 
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
@@ -177,7 +178,6 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
         # fields added since a dataset was written take their defaults (which reproduce it)
         defaults = json.loads(json.dumps(asdict(GeneratorConfig())))
         if defaults | old.get("config", {}) | {"count": 0} != new | {"count": 0}:
-            from .reader import DatasetError
 
             raise DatasetError("was generated with another configuration; use a new folder "
                                "(nothing was overwritten)", where=info_path)
@@ -253,8 +253,6 @@ def _resize_nearest(channels: dict, size: int) -> dict:
 
 
 def _load_gbuffer_source(path: str):
-    from viewer.geometry.imagespace import load_ffhq_pbr, load_stack_exr
-
     p = Path(path)
     gb = load_stack_exr(p) if p.is_file() else load_ffhq_pbr(p)
     return gb.channels, float(gb.fov_y)

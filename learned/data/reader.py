@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from viewer.errors import InputError
+from viewer.geometry.imagespace import load_ffhq_pbr, view_dirs_cs
 
 SPLITS = ("train", "val", "test")
 
@@ -43,7 +44,6 @@ class Sample:
 
     def view_dirs(self) -> np.ndarray:
         """``[H, W, 3]`` unit directions from the camera (origin, looking down -Z) through pixels."""
-        from viewer.geometry.imagespace import view_dirs_cs
 
         return view_dirs_cs(*self.size, self.fov_y)
 
@@ -54,8 +54,6 @@ class Sample:
 
 def load_sample(folder: str | os.PathLike, require_target: bool = True) -> Sample:
     """One sample folder; the G-buffer through the viewer's FFHQ256-PBR loader."""
-    from viewer.geometry.imagespace import load_ffhq_pbr
-
     folder = Path(folder)
     gb = load_ffhq_pbr(folder)  # InputError naming the file for missing/mismatched channels
     if gb.target is None and require_target:

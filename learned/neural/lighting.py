@@ -24,6 +24,8 @@ from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
 from learned.twins.sh import sh_irradiance
 from learned.twins.shading import shading_normal
+from viewer.gl import make_current
+from viewer.scene import Scene
 
 # sampling strategy ids of shade_neural_teacher.frag (SAMPLING define)
 STRATEGIES = {"uniform": 0, "cosine": 1, "env": 2}
@@ -49,9 +51,6 @@ class Lighting:
 def lighting_from_gl(renderer, environment) -> Lighting:
     """Build (or reuse the renderer's cached) IBL and sampling tables of the
     :class:`~viewer.environment.EnvironmentSpec` ``environment`` on the GPU and read them back."""
-    from viewer.gl import make_current
-    from viewer.scene import Scene
-
     make_current(renderer.ctx)
     scene = Scene(environment=environment)
     ibl = renderer.ibl(scene)

@@ -6,6 +6,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from viewer.gl.context import texture_filter_bits
+
 
 @dataclass
 class ParityResult:
@@ -73,8 +75,6 @@ def device_filter_bits(programs) -> int:
     """Fraction bits of the device's texture filter (bilinear weights and lod fraction, the
     smaller), measured once per context by :func:`viewer.gl.context.texture_filter_bits`: 16 (the
     probe's resolution) on llvmpipe, 8 on GPUs. The envelopes of filtered lookups use it."""
-    from viewer.gl.context import texture_filter_bits
-
     key = id(programs.ctx)
     if key not in _FILTER_BITS:
         _FILTER_BITS[key] = min(texture_filter_bits(programs.ctx).values())

@@ -20,16 +20,26 @@ specular: the cubemap averaged under a spherical-Gaussian lobe around the reflec
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import torch
+from tqdm import tqdm
 
 from viewer.camera import Camera
+from viewer.errors import InputError
+from viewer.imageio import write_exr
 from viewer.splats.data import Splats, make_splats, sh_basis_3dgs
-from viewer.splats.generate import cube_directions, cube_solid_angles
+from viewer.splats.generate import (
+    cube_directions,
+    cube_solid_angles,
+    sky_cubemap,
+    sphere_splats,
+)
+from viewer.splats.ply import read_ply, write_ply
 
 from .rasterize import rasterize, splat_tensors, weight_matrix
 
@@ -64,7 +74,6 @@ class DecomposeResult:
 # ---- shading ------------------------------------------------------------------------------------
 
 def _cube(res: int) -> tuple[torch.Tensor, torch.Tensor]:
-
     return (torch.from_numpy(cube_directions(res).reshape(-1, 3)).float(),
             torch.from_numpy(cube_solid_angles(res).reshape(-1)).float())
 
@@ -170,8 +179,6 @@ def psnr(a: torch.Tensor, b: torch.Tensor, peak: float = 1.0) -> float:
 
 def decompose(splats: Splats, options: DecomposeOptions = DecomposeOptions()) -> DecomposeResult:
     """Estimate per-splat albedo, roughness, metallic and a cubemap light (module docstring)."""
-    from tqdm import tqdm
-
     torch.manual_seed(options.seed)
     cameras = orbit_cameras(splats, options.views, options.size, options.fov_y, options.distance)
     views = _prepare_views(splats, cameras)
@@ -229,7 +236,6 @@ def decompose(splats: Splats, options: DecomposeOptions = DecomposeOptions()) ->
         albedo, rough, metal, light = current()
         rendered = torch.cat([render_view(v, albedo, rough, metal, light)[0] for v in views])
         target = torch.cat([v.target for v in views])
-    import dataclasses
 
     out = dataclasses.replace(splats, albedo=albedo.numpy().astype(np.float32),
                               roughness=rough.numpy().astype(np.float32),
@@ -292,8 +298,6 @@ def baked(splats: Splats, light: np.ndarray, degree: int = 2, directions: int = 
 def synthetic_problem(n: int = 1500, seed: int = 0, light_res: int = 8):
     """(truth relightable splats, true light, baked-colour splats, novel light) for tests and
     ``relight decompose --synthetic``."""
-    from viewer.splats.generate import sky_cubemap, sphere_splats
-
     truth = sphere_splats(n, seed=seed)
     light = sky_cubemap(light_res)
     novel = sky_cubemap(light_res, sun=(-0.6, 0.5, -0.3), sun_power=3.0, tint=(0.8, 0.9, 1.0))
@@ -302,7 +306,6 @@ def synthetic_problem(n: int = 1500, seed: int = 0, light_res: int = 8):
 
 def write_light(path, light: np.ndarray) -> None:
     """The cubemap as a horizontal strip EXR [R, 6R, 3]: faces +X, -X, +Y, -Y, +Z, -Z."""
-    from viewer.imageio import write_exr
 
     strip = np.concatenate(list(np.asarray(light, np.float32)), axis=1)
     write_exr(path, strip, ["R", "G", "B"])
@@ -312,9 +315,7 @@ def run(in_path, out_path, options: DecomposeOptions, synthetic: int = 0) -> dic
     """``relight decompose``: read ``in_path`` (or make a synthetic problem of ``synthetic``
     splats), decompose, write ``out_path`` (relightable PLY) and ``<out>.light.exr``; returns the
     report (re-render PSNR; with a synthetic problem also the relighting error vs the truth)."""
-    from viewer.splats.ply import read_ply, write_ply
 
-    from viewer.errors import InputError
 
     truth = novel = None
     if synthetic:
@@ -342,8 +343,6 @@ def run(in_path, out_path, options: DecomposeOptions, synthetic: int = 0) -> dic
 def dataclasses_replace_materials(splats: Splats) -> Splats:
     """``splats`` with the optimisation's starting materials (albedo 0.5, roughness 0.5,
     metallic sigmoid(-3)): the baseline the relighting error is compared with."""
-    import dataclasses
-
     n = len(splats)
     return dataclasses.replace(splats, albedo=np.full((n, 3), 0.5, np.float32),
                                roughness=np.full(n, 0.5, np.float32),

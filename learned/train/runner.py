@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from tqdm import tqdm
 
 from viewer.errors import InputError
 
 from .config import TrainConfig
-
 
 # ---- distributed ---------------------------------------------------------------------------------
 
@@ -94,8 +94,6 @@ class Run:
 
 def _loop(run: Run, stage: str, model, steps: int, lr: float, step_fn) -> list[float]:
     """Adam over ``steps`` steps of ``step_fn(ddp_model, step) -> loss``, with resume."""
-    from tqdm import tqdm  # the progress bar only: the learned extra installs it with torch
-
     opt = torch.optim.Adam(model.parameters(), lr=lr, betas=(0.9, 0.999))
     start, losses = run.load(stage, model, opt)
     if start >= steps:

@@ -25,7 +25,8 @@ import math
 
 import numpy as np
 
-from viewer.scene import scene_from_dict
+from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
+from viewer.scene import ObjectSpec, Scene, scene_from_dict
 
 from . import metrics
 from .scenes import bench_scene, with_material
@@ -163,8 +164,6 @@ NOV_MATERIALS = {"dielectric r=0.5": ((0.8, 0.8, 0.8), 0.5, 0.0),
 
 
 def _nov_gbuffer(fov_y: float = 0.01):
-    from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
-
     xs = NOV_CLAMPED + NOV_FREE
     w, h = len(xs), len(NOV_MATERIALS)
     v = -view_dirs_cs(w, h, fov_y).astype(np.float64)
@@ -186,8 +185,6 @@ def _nov_gbuffer(fov_y: float = 0.01):
 
 
 def _nov_rows(renderer, size) -> list[dict]:
-    from viewer.scene import ObjectSpec, Scene
-
     rows = []
     obj = ObjectSpec("gbuffer", path="<clamp-bench n.v stack>.exr")
     renderer.add_geometry(obj, _nov_gbuffer())  # in memory: the loader would renormalise nothing

@@ -42,8 +42,6 @@ def checks() -> dict:
 
 
     def built(programs, zero=False):
-
-
         env = parity_environment()
         if zero:
             env = np.zeros_like(env)

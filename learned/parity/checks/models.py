@@ -127,7 +127,6 @@ MC_LIGHT_VARIANTS = ({"samples": 2, "sampling": "mis"},
 
 
 def _check_model(programs, model: str, variant: dict, light: dict | None = None):
-
     doc = PARITY_SCENE if light is None else {**PARITY_SCENE, "light": light}
     scene = scene_from_dict(doc).with_render(model=model, **variant)
     renderer = Renderer(ctx=programs.ctx)

@@ -96,7 +96,6 @@ def check_network(programs, weights=None, storage: str = "const"):
 
 
 def check_model(programs, model: str, variant: dict, weights=None):
-
     kind = MODEL_KINDS[model]
     path = weights or default_weights(kind)
     key = "weights" if kind == "student" else "teacher_weights"

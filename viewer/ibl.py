@@ -35,7 +35,7 @@ class IBLOptions:
     prefilter_levels: int = 6     # mips of the prefiltered chain (capped at the full chain length)
     prefilter_samples: int = 64   # GGX samples per prefiltered texel
     dfg_size: int = 64            # DFG LUT is dfg_size x dfg_size
-    dfg_samples: int = 256        # GGX samples per DFG texel
+    dfg_samples: int = 4096       # GGX samples per DFG texel: E within 0.4% of the integral (256: 1.8%)
 
 
 def prefilter_roughness(level: int, levels: int) -> float:

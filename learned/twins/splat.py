@@ -123,7 +123,8 @@ def splat_axes(cov2d: torch.Tensor, det: torch.Tensor) -> torch.Tensor:
     r = torch.sqrt(half_diff * half_diff + b * b)
     l1 = mid + r
     l2 = det / l1
-    v = torch.stack([b, l1 - a], -1)
+    # (l1 - c, b) for a >= c, (b, l1 - a) otherwise: the subtraction that does not cancel
+    v = torch.where((a >= c)[..., None], torch.stack([l1 - c, b], -1), torch.stack([b, l1 - a], -1))
     v = v / torch.linalg.vector_norm(v, dim=-1, keepdim=True).clamp_min(1e-30)
     ex = torch.where(a >= c, 1.0, 0.0)
     fallback = torch.stack([ex, 1.0 - ex], -1)

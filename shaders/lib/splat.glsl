@@ -112,8 +112,11 @@ vec4 splat_axes(vec3 cov2d, float det) {
     float r = sqrt(half_diff * half_diff + cov2d.y * cov2d.y);
     float l1 = mid + r;
     float l2 = det / l1;
-    vec2 e1 = abs(cov2d.y) > 1e-12 ? normalize(vec2(cov2d.y, l1 - cov2d.x))
-                                   : (cov2d.x >= cov2d.z ? vec2(1.0, 0.0) : vec2(0.0, 1.0));
+    // the eigenvector is (b, l1 - a) = (l1 - c, b) up to scale; l1 - a = r - (a - c) / 2 cancels
+    // when a > c and |b| << a - c, so take the form whose subtraction adds: l1 - c for a >= c
+    vec2 e1 = abs(cov2d.y) <= 1e-12 ? (cov2d.x >= cov2d.z ? vec2(1.0, 0.0) : vec2(0.0, 1.0))
+            : cov2d.x >= cov2d.z ? normalize(vec2(l1 - cov2d.z, cov2d.y))
+                                 : normalize(vec2(cov2d.y, l1 - cov2d.x));
     return vec4(l1, l2, e1);
 }
 

@@ -115,7 +115,6 @@ MODELS: dict[str, ShadingModel] = {
 }
 # models that integrate by Monte Carlo (accumulate samples)
 SAMPLING_MODELS = frozenset(name for name, m in MODELS.items() if m.accumulates)
-ModelInfo = ShadingModel  # the earlier name
 
 
 def model_info(name: str) -> ShadingModel:

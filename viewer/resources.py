@@ -128,8 +128,7 @@ class GPUResources:
                     + list(self._env_sampling.values()) + list(self._accumulators.values())
                     + list(self._passes.values())
                     + ([self._tonemap] if self._tonemap is not None else [])):
-            if hasattr(obj, "release"):
-                obj.release()
+            obj.release()
         for d in (self._ibl, self._targets, self._env_sampling, self._accumulators, self._passes):
             d.clear()
         self._tonemap = None

@@ -54,28 +54,27 @@ def compare_envelope(name: str, glsl: np.ndarray, ref: np.ndarray, bound: np.nda
     :func:`learned.twins.ibl.sample_trilinear_envelope`); reports the largest share of it used."""
     glsl = np.asarray(glsl, dtype=np.float64)
     ref = np.asarray(ref, dtype=np.float64)
-    bound = np.broadcast_to(np.asarray(bound, dtype=np.float64), ref.shape)
     if glsl.shape != ref.shape:
         return ParityResult(name, float("inf"), float("inf"), f"shape {glsl.shape} vs {ref.shape}",
                             False, kind, measured, envelope)
+    bound = np.broadcast_to(np.asarray(bound, dtype=np.float64), ref.shape)
     diff = np.abs(glsl - ref)
     ok = bool(np.all(np.isfinite(glsl)) and np.all(np.isfinite(ref)) and np.all(diff <= bound))
     used = float(np.max(diff / np.maximum(bound, 1e-30))) if diff.size else 0.0
-    rel = diff / np.maximum(np.abs(ref), 1e-30)
+    # relative error where it means something: values above their own bound (as compare())
+    big = np.abs(ref) > bound
+    rel = diff[big] / np.abs(ref[big])
     return ParityResult(name, float(diff.max()) if diff.size else 0.0,
                         float(rel.max()) if rel.size else 0.0,
                         f"per-element envelope ({used:.2%} of it used)", ok, kind, measured,
                         envelope)
 
 
-_FILTER_BITS: dict[int, int] = {}
-
-
 def device_filter_bits(programs) -> int:
     """Fraction bits of the device's texture filter (bilinear weights and lod fraction, the
     smaller), measured once per context by :func:`viewer.gl.context.texture_filter_bits`: 16 (the
     probe's resolution) on llvmpipe, 8 on GPUs. The envelopes of filtered lookups use it."""
-    key = id(programs.ctx)
-    if key not in _FILTER_BITS:
-        _FILTER_BITS[key] = min(texture_filter_bits(programs.ctx).values())
-    return _FILTER_BITS[key]
+    bits = getattr(programs, "filter_bits", None)
+    if bits is None:
+        bits = programs.filter_bits = min(texture_filter_bits(programs.ctx).values())
+    return bits

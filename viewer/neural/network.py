@@ -66,9 +66,9 @@ def model_network(model: str, settings) -> tuple[Network, NetworkCode] | None:
     return net, net.code(settings.neural.storage)
 
 
-def virtual_files(model: str, settings) -> dict[str, str]:
-    """Generated include files a lighting pass of ``model`` needs (empty for classical models)."""
-    found = model_network(model, settings)
+def virtual_files(found: tuple[Network, NetworkCode] | None) -> dict[str, str]:
+    """The generated include file of a :func:`model_network` result (empty for ``None``: a
+    classical model)."""
     if found is None:
         return {}
     net, code = found

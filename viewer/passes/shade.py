@@ -13,7 +13,7 @@ import numpy as np
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import ShadeVariant, model_info
-from ..neural import NeuralWeights, model_network
+from ..neural import NeuralWeights, model_network, virtual_files
 from ..scene import DirectionalLight
 from ..settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
@@ -47,10 +47,7 @@ class ShadePass:
 
     def _program(self, variant: ShadeVariant, found):
         """The variant's program; ``found``: the neural model's (network, generated code)."""
-        virtual = dict(self.layout.virtual_files())
-        if found is not None:
-            net, code = found
-            virtual[net.include_name] = code.glsl
+        virtual = {**self.layout.virtual_files(), **virtual_files(found)}
         return self.programs.graphics("passes/fullscreen.vert", model_info(variant.model).pass_file,
                                       defines=variant.defines, virtual=virtual)
 

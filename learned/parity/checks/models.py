@@ -152,25 +152,22 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None)
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(
         f"{k}={v}" for k, v in variant.items())) + (":light" if light is not None else "")
-    lookups = envelope["bound"].numpy()
     if model == "ggx_mc":
-        bound = MC_ATOL + MC_RTOL * np.abs(ref)
-        bound[..., :3] += lookups
-        return compare_envelope(
-            name, glsl, ref, bound, kind="model",
-            measured="max abs 0.028 (uniform sampling, sun texels), max rel 9e-4 elsewhere",
-            envelope=f"per pixel: atol {MC_ATOL:g} + rtol {MC_RTOL:g} (per sample ~50 ops on "
-                     "contributions to ~60: 4e-4; MIS weights and pdfs well conditioned) + the "
-                     "mean over samples of |BRDF cos / pdf x weight| x the radiance lookup's "
-                     "sample_trilinear_envelope (measured filter bits, sampled directions known "
-                     "to 3 trig errors: the sun's texel contrast times uv error) + the "
-                     "background/DFG lookups by autograd")
-
-    bound = MODEL_ATOL + MODEL_RTOL * np.abs(ref)
-    bound[..., :3] += lookups
-    return compare_envelope(
-        name, glsl, ref, bound, kind="model",
-        measured="max abs 9.2e-4 on radiance to ~12 (max rel 7.6e-5)",
-        envelope=f"per pixel: atol {MODEL_ATOL:g} + rtol {MODEL_RTOL:g} (arithmetic, SH, "
-                 "BRDF) + sum over the background, prefiltered and DFG lookups of |d radiance "
-                 "/ d lookup| x sample_trilinear_envelope (measured filter bits)")
+        atol, rtol = MC_ATOL, MC_RTOL
+        measured = "max abs 0.028 (uniform sampling, sun texels), max rel 9e-4 elsewhere"
+        arithmetic = ("per sample ~50 ops on contributions to ~60: 4e-4; MIS weights and pdfs "
+                      "well conditioned")
+        lookups = ("the mean over samples of |BRDF cos / pdf x weight| x the radiance lookup's "
+                   "sample_trilinear_envelope (sampled directions known to 3 trig errors: the "
+                   "sun's texel contrast times uv error), + the background/DFG lookups by autograd")
+    else:
+        atol, rtol = MODEL_ATOL, MODEL_RTOL
+        measured = "max abs 9.2e-4 on radiance to ~12 (max rel 7.6e-5)"
+        arithmetic = "arithmetic, SH, BRDF"
+        lookups = ("sum over the background, prefiltered and DFG lookups of |d radiance / d "
+                   "lookup| x sample_trilinear_envelope")
+    bound = atol + rtol * np.abs(ref)
+    bound[..., :3] += envelope["bound"].numpy()
+    return compare_envelope(name, glsl, ref, bound, kind="model", measured=measured,
+                            envelope=f"per pixel: atol {atol:g} + rtol {rtol:g} ({arithmetic}) "
+                                     f"+ {lookups} (measured filter bits)")

@@ -8,7 +8,9 @@ glTF: the default scene's node hierarchy is flattened (node matrices or TRS appl
 :class:`Mesh` per primitive. Read: POSITION, NORMAL, TEXCOORD_n, TANGENT, indices (triangles,
 strips, fans), baseColorFactor/Texture, metallicFactor, roughnessFactor, metallicRoughnessTexture,
 normalTexture (+ scale), occlusionTexture (+ strength). Textures decode to float32 in [0, 1];
-base colour is sRGB-decoded. Sampler settings, KHR_texture_transform and emissive are ignored.
+base colour is sRGB-decoded. Everything else in a file (extensions, material features, attributes,
+skins, animations, cameras) is named in one warning per file (``warnings.warn``): nothing is
+ignored silently.
 
 OBJ (and PLY/STL/OFF): ``trimesh.load(path, force="scene", process=False)``; the scene graph's
 transforms are applied, MTL materials become PBR parameters through trimesh
@@ -42,6 +44,10 @@ log = logging.getLogger(__name__)
 GLTF_SUFFIXES = (".gltf", ".glb")
 TRIMESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
 _UNSUPPORTED_EXTENSIONS = ("KHR_draco_mesh_compression", "EXT_meshopt_compression")
+# glTF extensions this loader implements; any other one a file uses is named in a warning
+GLTF_EXTENSIONS: frozenset[str] = frozenset()
+# the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_n, TEXCOORD_n, _CUSTOM)
+GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1"})
 
 
 def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
@@ -341,7 +347,90 @@ def _load_gltf(path: Path) -> list[Mesh]:
             out.append(mesh.transformed(world) if not np.allclose(world, np.eye(4)) else mesh)
     if skipped:
         log.info("%s: skipped %d non-triangle primitives", path, skipped)
+    _warn_ignored(reader)
     return out
+
+
+# KHR_materials_* extensions that change the BSDF (none is implemented): named as such
+_BSDF_EXTENSIONS = ("KHR_materials_clearcoat", "KHR_materials_transmission", "KHR_materials_sheen",
+                    "KHR_materials_volume", "KHR_materials_ior", "KHR_materials_specular",
+                    "KHR_materials_iridescence", "KHR_materials_anisotropy",
+                    "KHR_materials_diffuse_transmission", "KHR_materials_dispersion",
+                    "KHR_materials_pbrSpecularGlossiness", "KHR_materials_unlit")
+
+
+def _extension_names(obj) -> set[str]:
+    ext = getattr(obj, "extensions", None)
+    return set(ext) if isinstance(ext, dict) else set()
+
+
+def _ignored_items(reader: "_GltfReader") -> list[str]:
+    """Everything in the file the loader does not use, one short phrase each (sorted, unique)."""
+    g = reader.gltf
+    used_ext = set(g.extensionsUsed or []) | _extension_names(g)
+    for coll in (g.materials, g.nodes, g.meshes, g.textures, g.images, g.samplers, g.accessors):
+        for obj in coll or []:
+            used_ext |= _extension_names(obj)
+    for mesh in g.meshes or []:
+        for prim in mesh.primitives:
+            used_ext |= _extension_names(prim)
+    for material in g.materials or []:
+        for info in _texture_infos(material):
+            used_ext |= _extension_names(info)
+    items: set[str] = set()
+    for name in sorted(used_ext - GLTF_EXTENSIONS):
+        if name in _BSDF_EXTENSIONS:
+            items.add(f"{name} (changes the BSDF; not implemented)")
+        else:
+            items.add(f"extension {name}")
+    for mesh in g.meshes or []:
+        for prim in mesh.primitives:
+            attrs = {k for k, v in vars(prim.attributes).items() if v is not None}
+            for name in sorted(attrs - GLTF_ATTRIBUTES):
+                items.add(f"attribute {name}")
+            if prim.targets:
+                items.add("morph targets")
+    for index, material in enumerate(g.materials or []):
+        items.update(f"{what} (material {index})" for what in _ignored_material_features(material))
+    if g.samplers and _SAMPLERS_IGNORED:
+        items.add("texture sampler wrap/filter modes")
+    if g.skins:
+        items.add("skins")
+    if g.animations:
+        items.add("animations")
+    if g.cameras:
+        items.add("cameras (the scene file's camera is used)")
+    return sorted(items)
+
+
+_SAMPLERS_IGNORED = True
+
+
+def _ignored_material_features(m) -> list[str]:
+    out = []
+    if (m.alphaMode or "OPAQUE") != "OPAQUE":
+        out.append(f"alphaMode {m.alphaMode}")
+    if not m.doubleSided:
+        out.append("doubleSided false (drawn double-sided)")
+    if m.emissiveTexture is not None or any(float(c) != 0.0 for c in (m.emissiveFactor or [])):
+        out.append("emission")
+    return out
+
+
+def _texture_infos(m) -> list:
+    """The textureInfo objects of a glTF material (None where a slot is empty)."""
+    pbr = m.pbrMetallicRoughness
+    return [m.normalTexture, m.occlusionTexture, m.emissiveTexture,
+            pbr.baseColorTexture if pbr is not None else None,
+            pbr.metallicRoughnessTexture if pbr is not None else None]
+
+
+def _warn_ignored(reader: "_GltfReader") -> None:
+    """One warning line naming everything in the file the loader does not use."""
+    items = _ignored_items(reader)
+    if items:
+        warnings.warn(f"{reader.path}: ignored (not supported): {'; '.join(items)}",
+                      stacklevel=2)
 
 
 def _gltf_material(reader: _GltfReader, index: int | None):

@@ -1,4 +1,5 @@
-"""3D Gaussian splats: PLY I/O and validation (:mod:`.ply`), the :class:`Splats` arrays
+"""3D Gaussian splats: file formats detected by content (:mod:`.formats`: PLY layouts, .splat),
+PLY I/O and validation (:mod:`.ply`), the :class:`Splats` arrays
 (:mod:`.data`), depth sorting (:mod:`.sort`) and synthetic scenes with known materials and light
 (:mod:`.generate`). Rendering: :mod:`viewer.passes.splats` (GLSL) and
 :mod:`learned.splats.rasterize` (torch twin)."""
@@ -9,17 +10,30 @@ import dataclasses
 import numpy as np
 
 from .data import Splats, concat, make_splats, transform_splats
-from .ply import read_ply, write_ply
+from .formats import detect_format, read_splat, unsupported
+from .ply import fields_to_splats, read_ply, write_ply
 
-__all__ = ["Splats", "concat", "load_splats", "make_splats", "read_ply", "transform_splats",
-           "write_ply"]
+__all__ = ["Splats", "concat", "load_splats", "make_splats", "read_ply", "read_splats",
+           "transform_splats", "write_ply"]
+
+
+def read_splats(path) -> Splats:
+    """Any supported splat file, its format told from the content (:func:`.formats.detect_format`),
+    not the extension. Unsupported formats (.spz, .ksplat) are named in a one-line
+    :class:`~viewer.errors.InputError`."""
+    fmt = detect_format(path)
+    if fmt == "ply":
+        return read_ply(path)
+    if fmt == "splat":
+        return fields_to_splats(path, read_splat(path))
+    raise unsupported(fmt, path)
 
 
 def load_splats(path, transform=None, material=None) -> Splats:
-    """A scene's ``type = "splats"`` object: :func:`read_ply`, then the optional row-major 4x4
+    """A scene's ``type = "splats"`` object: :func:`read_splats`, then the optional row-major 4x4
     ``transform``; a ``material`` (scene ``[objects.material]``) replaces every splat's albedo,
     roughness and metallic."""
-    splats = read_ply(path)
+    splats = read_splats(path)
     if transform is not None:
         splats = transform_splats(splats, np.asarray(transform, np.float64))
     if material is not None:

@@ -17,6 +17,8 @@ specular  1  dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no s
 ao        1  ambient occlusion in [0, 1], applied to diffuse light
 depth     1  view-space depth, positive distance along the view axis (-z_vs); 0 = background
 color     3  baked unlit colour (splats' SH colour); only allocated when a scene has splats
+emission  3  emitted radiance, linear RGB (glTF emissive x strength), added by every lighting
+             pass; only allocated when a scene has emissive surfaces
 ======== === ==========================================================================
 """
 from __future__ import annotations
@@ -47,6 +49,7 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("ao", 1, 2, 2, (1.0,), "ambient occlusion"),
     Channel("depth", 1, 2, 3, (0.0,), "view-space depth, positive in front of the camera"),
     Channel("color", 3, 3, 0, (0.0, 0.0, 0.0), "baked unlit colour, premultiplied", optional=True),
+    Channel("emission", 3, 4, 0, (0.0, 0.0, 0.0), "emitted radiance, linear RGB", optional=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -82,6 +85,7 @@ class GBufferLayout:
     with_color: bool = False
     dtype: str = "f4"
     omit: frozenset[str] = frozenset()
+    with_emission: bool = False  # the optional emission channel (scenes with emissive surfaces)
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -92,7 +96,11 @@ class GBufferLayout:
     def channels(self) -> tuple[Channel, ...]:
         """The allocated channels, with this layout's attachment and offset for each."""
         return _pack(tuple(c for c in CHANNELS
-                           if (self.with_color or not c.optional) and c.name not in self.omit))
+                           if self._wanted_optional(c) and c.name not in self.omit))
+
+    def _wanted_optional(self, c: Channel) -> bool:
+        return not c.optional or {"color": self.with_color,
+                                  "emission": self.with_emission}[c.name]
 
     @property
     def attachments(self) -> tuple[int, ...]:
@@ -118,6 +126,7 @@ class GBufferLayout:
         """
         lines = ["// generated from viewer/gbuffer.py (GBufferLayout); do not edit",
                  f"#define GBUFFER_HAS_COLOR {int(self.with_color)}",
+                 f"#define GBUFFER_HAS_EMISSION {int(self.with_emission)}",
                  "struct GBuffer {"]
         lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
         lines.append("};")

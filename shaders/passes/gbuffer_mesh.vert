@@ -1,17 +1,26 @@
 // gbuffer_mesh.vert - G-buffer fill for triangle meshes whose vertices are already in world space.
-// Defines: USE_UV (any texture map), HAS_TANGENTS (vertex tangents for the normal map).
+// Defines: USE_UV0 / USE_UV1 (a texture map reads texture coordinate set 0 / 1), HAS_TANGENTS
+// (vertex tangents for the normal map), USE_VERTEX_COLOR (glTF COLOR_0).
 uniform mat4 u_view;        // world -> view
 uniform mat4 u_projection;  // view -> clip
 
 in vec3 in_position;  // world space
 in vec3 in_normal;    // world space, unit
-#ifdef USE_UV
-in vec2 in_uv;        // glTF convention: (0, 0) at the top-left of the image
-out vec2 v_uv;
+#ifdef USE_UV0
+in vec2 in_uv0;       // glTF convention: (0, 0) at the top-left of the image
+out vec2 v_uv0;
+#endif
+#ifdef USE_UV1
+in vec2 in_uv1;
+out vec2 v_uv1;
 #endif
 #ifdef HAS_TANGENTS
 in vec4 in_tangent;   // xyz world space, w = bitangent sign (glTF)
 out vec4 v_tangent_ws;
+#endif
+#ifdef USE_VERTEX_COLOR
+in vec4 in_color;     // linear RGBA
+out vec4 v_color;
 #endif
 
 out vec3 v_position_ws;
@@ -23,11 +32,17 @@ void main() {
     v_position_ws = in_position;
     v_normal_ws = in_normal;
     v_depth_vs = -p_vs.z;
-#ifdef USE_UV
-    v_uv = in_uv;
+#ifdef USE_UV0
+    v_uv0 = in_uv0;
+#endif
+#ifdef USE_UV1
+    v_uv1 = in_uv1;
 #endif
 #ifdef HAS_TANGENTS
     v_tangent_ws = in_tangent;
+#endif
+#ifdef USE_VERTEX_COLOR
+    v_color = in_color;
 #endif
     gl_Position = u_projection * p_vs;
 }

@@ -4,12 +4,17 @@ used."""
 import base64
 import io
 import json
+import math
 import warnings
 
 import numpy as np
 import pygltflib
+import pytest
 
+from viewer.camera import Camera
+from viewer.gbuffer import GBufferLayout
 from viewer.geometry.loaders import load_mesh
+from viewer.passes.gbuffer import GBufferPass, GBufferTargets
 
 _COMPONENT = {np.dtype(np.int8): 5120, np.dtype(np.uint8): 5121, np.dtype(np.int16): 5122,
               np.dtype(np.uint16): 5123, np.dtype(np.uint32): 5125, np.dtype(np.float32): 5126}
@@ -148,3 +153,104 @@ def test_a_plain_file_loads_without_warnings(tmp_path):
                        doubleSided=True))
     _, messages = _load_warnings(b.save(tmp_path / "plain.gltf"))
     assert messages == []
+
+
+# ---- rendering a file into a G-buffer --------------------------------------------------------
+SIZE = 64
+TAN = math.tan(math.radians(20.0))  # half the field of view of the test camera
+
+
+@pytest.fixture
+def gbuffer_of(ctx, programs):
+    """``gbuffer_of(path)``: load a glTF and draw it from (0, 0, 3) towards the origin, 64x64;
+    returns the channels, row 0 at the top."""
+    layout = GBufferLayout(with_emission=True)
+    targets = GBufferTargets.create(ctx, layout, (SIZE, SIZE))
+    gpass = GBufferPass(programs, layout)
+    camera = Camera(position=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0), fov_y=40.0,
+                    size=(SIZE, SIZE))
+
+    def draw(path_or_meshes):
+        meshes = (load_mesh(path_or_meshes) if not isinstance(path_or_meshes, list)
+                  else path_or_meshes)
+        targets.clear()
+        gpass.draw_meshes(targets, camera, meshes)
+        return targets.read()
+
+    yield draw
+    gpass.release()
+    targets.release()
+
+
+def px(x: float, y: float = 0.0) -> tuple[int, int]:
+    """(row, column) of the pixel showing the point (x, y, 0) to the test camera."""
+    col = (x / (3.0 * TAN) + 1.0) / 2.0 * SIZE
+    row = (1.0 - (y / (3.0 * TAN) + 1.0) / 2.0) * SIZE
+    return int(row), int(col)
+
+
+RED, GREEN, BLUE, WHITE = (255, 0, 0, 255), (0, 255, 0, 255), (0, 0, 255, 255), (255,) * 4
+NEAREST = {"magFilter": 9728, "minFilter": 9728}
+
+
+def image(rows) -> np.ndarray:
+    return np.asarray(rows, np.uint8)
+
+
+def color_at(g, x, y):
+    return g["albedo"][px(x, y)]
+
+
+# ---- doubleSided, alphaMode MASK ---------------------------------------------------------------
+@pytest.mark.parametrize("double_sided", [False, True])
+def test_back_face_absent_when_single_sided_flipped_when_double_sided(tmp_path, gbuffer_of,
+                                                                       double_sided):
+    b = GltfBuilder()
+    m = b.material(pbrMetallicRoughness={"baseColorFactor": [0.5, 0.5, 0.5, 1]},
+                   doubleSided=double_sided)
+    quad(b, m, node={"rotation": [0.0, 1.0, 0.0, 0.0]})  # 180 degrees about y: faces -z
+    quad(b, m, positions=QUAD_POS * 0.25 + np.float32([0.6, 0.6, 0.5]))  # faces the camera
+    g = gbuffer_of(b.save(tmp_path / "sides.gltf"))
+    assert g["alpha"][px(0.75, 0.75)][0] == 1.0  # the front face, always there
+    np.testing.assert_allclose(g["normal"][px(0.75, 0.75)], [0, 0, 1], atol=1e-6)
+    back = px(-0.5, -0.5)
+    if double_sided:
+        assert g["alpha"][back][0] == 1.0
+        np.testing.assert_allclose(g["normal"][back], [0, 0, 1], atol=1e-6)  # flipped from -z
+    else:
+        assert g["alpha"][back][0] == 0.0
+        assert (g["alpha"][..., 0] > 0).sum() < 0.1 * SIZE * SIZE  # only the small front quad
+
+
+def _masked_quad(tmp_path, mode, factor_alpha=1.0, cutoff=None):
+    b = GltfBuilder()
+    # left column alpha 0.2, right column alpha 0.9
+    tex = b.image(image([[(255, 255, 255, 51), (255, 255, 255, 230)]] * 2),
+                  sampler={**NEAREST, "wrapS": 33071, "wrapT": 33071})
+    m = b.material(pbrMetallicRoughness={"baseColorTexture": {"index": tex},
+                                         "baseColorFactor": [1, 1, 1, factor_alpha]},
+                   alphaMode=mode, doubleSided=True,
+                   **({} if cutoff is None else {"alphaCutoff": cutoff}))
+    quad(b, m)
+    return b.save(tmp_path / f"mask_{mode}.gltf")
+
+
+def test_alpha_mask_discards_below_the_cutoff(tmp_path, gbuffer_of):
+    quad_pixels = np.zeros((SIZE, SIZE), bool)
+    r0, c0 = px(-1, 1)
+    r1, c1 = px(1, -1)
+    quad_pixels[r0 + 1:r1, c0 + 1:c1] = True
+    opaque = gbuffer_of(_masked_quad(tmp_path, "OPAQUE"))["alpha"][..., 0] > 0
+    assert opaque[quad_pixels].all()
+    masked = gbuffer_of(_masked_quad(tmp_path, "MASK"))["alpha"][..., 0] > 0
+    # coverage: the right half of the quad exactly (0.9 >= 0.5 > 0.2)
+    assert masked[px(0.5, 0.5)] and masked[px(0.5, -0.5)]
+    assert not masked[px(-0.5, 0.5)] and not masked[px(-0.5, -0.5)]
+    assert abs(masked.sum() / opaque.sum() - 0.5) < 0.05
+    # the factor's alpha multiplies: 0.6 x 0.9 = 0.54 >= 0.5 stays, 0.5 x 0.9 = 0.45 goes
+    assert (gbuffer_of(_masked_quad(tmp_path, "MASK", 0.6))["alpha"][..., 0] > 0).sum() \
+        == masked.sum()
+    assert (gbuffer_of(_masked_quad(tmp_path, "MASK", 0.5))["alpha"][..., 0] > 0).sum() == 0
+    # the cutoff is the file's: 0.1 keeps both columns
+    assert (gbuffer_of(_masked_quad(tmp_path, "MASK", cutoff=0.1))["alpha"][..., 0] > 0).sum() \
+        == opaque.sum()

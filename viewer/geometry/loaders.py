@@ -5,10 +5,14 @@ Every problem with a file (missing, corrupt, truncated, unsupported, no triangle
 never let through.
 
 glTF: the default scene's node hierarchy is flattened (node matrices or TRS applied), one
-:class:`Mesh` per primitive. Read: POSITION, NORMAL, TEXCOORD_n, TANGENT, indices (triangles,
-strips, fans), baseColorFactor/Texture, metallicFactor, roughnessFactor, metallicRoughnessTexture,
-normalTexture (+ scale), occlusionTexture (+ strength). Textures decode to float32 in [0, 1];
-base colour is sRGB-decoded. Everything else in a file (extensions, material features, attributes,
+:class:`Mesh` per primitive. Read: POSITION, NORMAL, TANGENT, TEXCOORD_0/1, COLOR_0, indices
+(triangles, strips, fans) - float, normalised or integer (``KHR_mesh_quantization``), sparse, or
+Draco-compressed (``KHR_draco_mesh_compression``, decoded by DracoPy); baseColorFactor/Texture,
+metallicFactor, roughnessFactor, metallicRoughnessTexture, normalTexture (+ scale),
+occlusionTexture (+ strength), emissiveFactor/Texture (+ ``KHR_materials_emissive_strength``),
+alphaMode/alphaCutoff, doubleSided; per texture its sampler (wrap, filters), texCoord and
+``KHR_texture_transform``. Textures decode to float32 in [0, 1]; base colour and emission are
+sRGB-decoded. Everything else in a file (extensions, material features, attributes,
 skins, animations, cameras) is named in one warning per file (``warnings.warn``): nothing is
 ignored silently.
 
@@ -37,17 +41,20 @@ from trimesh.visual.material import PBRMaterial
 
 from ..errors import InputError
 from ..material import Material
-from .mesh import Mesh, _normalize, smooth_normals, srgb_to_linear
+from .mesh import Mesh, TextureSampling, _normalize, smooth_normals, srgb_to_linear
 
 log = logging.getLogger(__name__)
 
 GLTF_SUFFIXES = (".gltf", ".glb")
 TRIMESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
-_UNSUPPORTED_EXTENSIONS = ("KHR_draco_mesh_compression", "EXT_meshopt_compression")
+_UNSUPPORTED_EXTENSIONS = ("EXT_meshopt_compression",)
 # glTF extensions this loader implements; any other one a file uses is named in a warning
-GLTF_EXTENSIONS: frozenset[str] = frozenset()
-# the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_n, TEXCOORD_n, _CUSTOM)
-GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1"})
+GLTF_EXTENSIONS = frozenset({"KHR_texture_transform", "KHR_mesh_quantization",
+                             "KHR_materials_emissive_strength", "KHR_draco_mesh_compression"})
+# the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_1.., TEXCOORD_2..,
+# _CUSTOM)
+GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1",
+                             "COLOR_0"})
 
 
 def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
@@ -56,7 +63,8 @@ def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
 
     ``transform`` (``[4, 4]``, column vectors) is applied after the file's own node transforms.
     ``material_override`` replaces each mesh's material and drops its base colour,
-    metallic-roughness and occlusion maps (a normal map is kept: it is shape, not material).
+    metallic-roughness, occlusion and emissive maps, vertex colours, emission and alpha modes (a
+    normal map and the sidedness are kept: they are shape, not material).
     """
     path = Path(path)
     if not path.is_file():
@@ -81,9 +89,11 @@ def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
         meshes = [m.transformed(t) for m in meshes]
     out = []
     for i, m in enumerate(meshes):
-        if material_override is not None:
-            m.material = material_override
+        if material_override is not None:  # opaque, not emissive; shape (normal map,
+            m.material = material_override  # sidedness) stays
             m.textures = {k: v for k, v in m.textures.items() if k == "normal"}
+            m.sampling = {k: v for k, v in m.sampling.items() if k == "normal"}
+            m.colors, m.emissive, m.alpha_mode, m.base_alpha = None, (0.0, 0.0, 0.0), "OPAQUE", 1.0
         m.source = str(path)
         out.append(m.validated(where=f"{path} (mesh {i}: {m.name})" if m.name else
                                f"{path} (mesh {i})"))
@@ -197,28 +207,69 @@ class _GltfReader:
                              where=self.path)
         return data[start:start + bv.byteLength]
 
-    def accessor(self, index: int) -> np.ndarray:
-        """Accessor ``index`` as a ``[count, components]`` array (normalised ints -> float32)."""
+    def _typed(self, view: int | None, byte_offset: int, dtype: np.dtype, nc: int, count: int,
+               what: str, use_stride: bool = True) -> np.ndarray:
+        """``count`` elements of ``nc`` components of ``dtype`` from bufferView ``view``."""
+        if view is None:
+            return np.zeros((count, nc), dtype)
+        bv = self.gltf.bufferViews[view]
+        data = self.buffer(bv.buffer)
+        start = (bv.byteOffset or 0) + (byte_offset or 0)
+        stride = (bv.byteStride if use_stride else None) or dtype.itemsize * nc
+        end = start + stride * max(count - 1, 0) + dtype.itemsize * nc
+        view_end = (bv.byteOffset or 0) + bv.byteLength
+        if count and end > min(len(data), view_end):
+            raise InputError(f"{what} runs past the end of its bufferView {view} "
+                             f"({end} > {min(len(data), view_end)} bytes; truncated file?)",
+                             where=self.path)
+        return np.ndarray((count, nc), dtype, buffer=data, offset=start,
+                          strides=(stride, dtype.itemsize)).copy()
+
+    def accessor(self, index: int, raw: np.ndarray | None = None) -> np.ndarray:
+        """Accessor ``index`` as a ``[count, components]`` array: sparse substitutions applied,
+        normalised integers -> float32 (glTF 3.11: c / (2^b - 1), signed max(c / (2^(b-1) - 1),
+        -1)); non-normalised integers stay integers (callers convert). ``raw``: the accessor's
+        data decoded elsewhere (Draco), taken instead of its bufferView."""
         acc = self.gltf.accessors[index]
-        if acc.sparse is not None:
-            raise InputError(f"accessor {index} is sparse (not supported)", where=self.path)
+        if acc.componentType not in _COMPONENT or acc.type not in _NCOMP:
+            raise InputError(f"accessor {index} has an unknown componentType "
+                             f"{acc.componentType} or type {acc.type!r}", where=self.path)
         dtype = np.dtype(_COMPONENT[acc.componentType])
         nc = _NCOMP[acc.type]
-        if acc.bufferView is None:
-            return np.zeros((acc.count, nc), dtype)
-        bv = self.gltf.bufferViews[acc.bufferView]
-        data = self.buffer(bv.buffer)
-        start = (bv.byteOffset or 0) + (acc.byteOffset or 0)
-        stride = bv.byteStride or dtype.itemsize * nc
-        end = start + stride * max(acc.count - 1, 0) + dtype.itemsize * nc
-        if acc.count and end > len(data):
-            raise InputError(f"accessor {index} runs past the end of buffer {bv.buffer} "
-                             f"({end} > {len(data)} bytes; truncated file?)", where=self.path)
-        arr = np.ndarray((acc.count, nc), dtype, buffer=data, offset=start,
-                         strides=(stride, dtype.itemsize)).copy()
-        if acc.normalized and dtype.kind in "iu":
-            info = np.iinfo(dtype)
+        if raw is not None:
+            arr = np.asarray(raw).reshape(len(raw), -1)
+            if arr.shape[1] != nc:
+                raise InputError(f"accessor {index}: decoded data has {arr.shape[1]} components, "
+                                 f"expected {nc}", where=self.path)
+        else:
+            arr = self._typed(acc.bufferView, acc.byteOffset, dtype, nc, acc.count,
+                              f"accessor {index}")
+        if acc.sparse is not None:
+            arr = self._apply_sparse(index, acc, arr, dtype, nc)
+        if acc.normalized and arr.dtype.kind in "iu":
+            info = np.iinfo(arr.dtype)
             arr = np.maximum(arr.astype(np.float32) / info.max, -1.0)
+        return arr
+
+    def _apply_sparse(self, index: int, acc, arr: np.ndarray, dtype, nc: int) -> np.ndarray:
+        """glTF 3.6.2.3 sparse accessors: ``values[i]`` replaces element ``indices[i]``."""
+        sp = acc.sparse
+        count = int(sp.count or 0)
+        ind, val = sp.indices, sp.values
+        if ind is None or val is None or count < 1:
+            raise InputError(f"accessor {index} has an incomplete sparse block", where=self.path)
+        if ind.componentType not in (5121, 5123, 5125):
+            raise InputError(f"accessor {index}: sparse indices componentType "
+                             f"{ind.componentType} is not an unsigned integer", where=self.path)
+        idx = self._typed(ind.bufferView, ind.byteOffset, np.dtype(_COMPONENT[ind.componentType]),
+                          1, count, f"accessor {index} sparse indices", use_stride=False)[:, 0]
+        values = self._typed(val.bufferView, val.byteOffset, dtype, nc, count,
+                             f"accessor {index} sparse values", use_stride=False)
+        if count and int(idx.max()) >= len(arr):
+            raise InputError(f"accessor {index}: sparse index {int(idx.max())} is out of range "
+                             f"for {len(arr)} elements", where=self.path)
+        arr = arr.astype(values.dtype, copy=True)
+        arr[idx.astype(np.int64)] = values
         return arr
 
     def image(self, texture_index: int, what: str) -> np.ndarray:
@@ -304,6 +355,37 @@ def _triangles(indices: np.ndarray, mode: int) -> np.ndarray | None:
     return None  # points and lines
 
 
+def _draco_attributes(reader: _GltfReader, prim, where: str) -> dict[str, np.ndarray] | None:
+    """``KHR_draco_mesh_compression``: the primitive's attributes (glTF name -> array) and
+    ``"_indices"`` decoded by DracoPy; None without the extension."""
+    ext = (prim.extensions or {}).get("KHR_draco_mesh_compression")
+    if ext is None:
+        return None
+    try:
+        import DracoPy
+    except ImportError:  # pragma: no cover - DracoPy is a declared dependency
+        raise InputError("uses KHR_draco_mesh_compression but DracoPy is not installed "
+                         "(pip install DracoPy)", where=reader.path) from None
+    if not isinstance(ext, dict) or "bufferView" not in ext or "attributes" not in ext:
+        raise InputError(f"{where}: KHR_draco_mesh_compression lacks bufferView or attributes",
+                         where=reader.path)
+    try:
+        decoded = DracoPy.decode(reader.view_bytes(int(ext["bufferView"])))
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(f"{where}: corrupt Draco data ({type(exc).__name__})",
+                         where=reader.path) from None
+    out = {"_indices": np.asarray(decoded.faces, np.uint32).reshape(-1)}
+    for name, unique_id in ext["attributes"].items():
+        attr = decoded.get_attribute_by_unique_id(int(unique_id))
+        if attr is None:
+            raise InputError(f"{where}: Draco attribute {name} (id {unique_id}) is missing",
+                             where=reader.path)
+        out[name] = np.asarray(attr["data"])
+    return out
+
+
 def _load_gltf(path: Path) -> list[Mesh]:
     reader = _GltfReader(path)
     g = reader.gltf
@@ -312,38 +394,59 @@ def _load_gltf(path: Path) -> list[Mesh]:
     for mesh_index, world in reader.node_matrices():
         gmesh = g.meshes[mesh_index]
         for prim_index, prim in enumerate(gmesh.primitives):
+            where = f"mesh {mesh_index} primitive {prim_index}"
             mode = 4 if prim.mode is None else prim.mode
             attrs = prim.attributes
             if attrs.POSITION is None:
                 skipped += 1
                 continue
-            positions = reader.accessor(attrs.POSITION).astype(np.float32)
-            indices = (reader.accessor(prim.indices) if prim.indices is not None
-                       else np.arange(len(positions), dtype=np.uint32))
+            draco = _draco_attributes(reader, prim, where)
+
+            def attribute(name: str):
+                index = getattr(attrs, name, None)
+                if index is None:
+                    return None
+                return reader.accessor(index, raw=None if draco is None else draco.get(name))
+
+            positions = attribute("POSITION").astype(np.float32)
+            if draco is not None:
+                indices = draco["_indices"]
+            elif prim.indices is not None:
+                indices = reader.accessor(prim.indices)
+            else:
+                indices = np.arange(len(positions), dtype=np.uint32)
             tris = _triangles(indices, mode)
             if tris is None or len(tris) == 0:
                 skipped += 1
                 continue
             if int(tris.max()) >= len(positions):
-                raise InputError(f"mesh {mesh_index} primitive {prim_index} has an index out of "
-                                 f"range", where=path)
-            normals = (reader.accessor(attrs.NORMAL).astype(np.float32)
-                       if attrs.NORMAL is not None else smooth_normals(positions, tris))
-            tangents = (reader.accessor(attrs.TANGENT).astype(np.float32)
-                        if attrs.TANGENT is not None else None)
-            material, textures, scales, texcoord = _gltf_material(reader, prim.material)
-            uv_attr = getattr(attrs, f"TEXCOORD_{texcoord}", None)
-            uvs = reader.accessor(uv_attr).astype(np.float32) if uv_attr is not None else None
-            if uvs is None and textures:
-                log.warning("%s: mesh %d has textures but no TEXCOORD_%d; textures ignored",
-                            path, mesh_index, texcoord)
-                textures = {}
+                raise InputError(f"{where} has an index out of range", where=path)
+            normals = attribute("NORMAL")
+            normals = (normals.astype(np.float32) if normals is not None
+                       else smooth_normals(positions, tris))
+            tangents = attribute("TANGENT")
+            if tangents is not None:
+                tangents = tangents.astype(np.float32)
+            uv_sets = [attribute(f"TEXCOORD_{k}") for k in (0, 1)]
+            uv_sets = [None if uv is None else uv.astype(np.float32) for uv in uv_sets]
+            colors = attribute("COLOR_0")
+            if colors is not None:
+                colors = colors.astype(np.float32)
+                if colors.shape[1] == 3:
+                    colors = np.concatenate([colors, np.ones_like(colors[:, :1])], axis=1)
+            fields = _gltf_material(reader, prim.material)
+            for key, sampling in list(fields["sampling"].items()):
+                if uv_sets[sampling.texcoord] is None:
+                    warnings.warn(f"{path}: {where}: the {key} texture reads TEXCOORD_"
+                                  f"{sampling.texcoord}, which the primitive lacks; texture "
+                                  f"ignored", stacklevel=3)
+                    del fields["textures"][key], fields["sampling"][key]
             name = gmesh.name or f"mesh{mesh_index}"
             if len(gmesh.primitives) > 1:
                 name += f".{prim_index}"
-            mesh = Mesh(positions=positions, normals=_normalize(normals), uvs=uvs,
-                        tangents=tangents, indices=tris, material=material, textures=textures,
-                        normal_scale=scales[0], occlusion_strength=scales[1], name=name)
+            mesh = Mesh(positions=positions, normals=_normalize(normals), uvs=uv_sets[0],
+                        uvs1=uv_sets[1], colors=colors, tangents=tangents, indices=tris,
+                        name=name, **fields)
             out.append(mesh.transformed(world) if not np.allclose(world, np.eye(4)) else mesh)
     if skipped:
         log.info("%s: skipped %d non-triangle primitives", path, skipped)
@@ -392,8 +495,6 @@ def _ignored_items(reader: "_GltfReader") -> list[str]:
                 items.add("morph targets")
     for index, material in enumerate(g.materials or []):
         items.update(f"{what} (material {index})" for what in _ignored_material_features(material))
-    if g.samplers and _SAMPLERS_IGNORED:
-        items.add("texture sampler wrap/filter modes")
     if g.skins:
         items.add("skins")
     if g.animations:
@@ -403,17 +504,10 @@ def _ignored_items(reader: "_GltfReader") -> list[str]:
     return sorted(items)
 
 
-_SAMPLERS_IGNORED = True
-
-
 def _ignored_material_features(m) -> list[str]:
     out = []
-    if (m.alphaMode or "OPAQUE") != "OPAQUE":
-        out.append(f"alphaMode {m.alphaMode}")
-    if not m.doubleSided:
-        out.append("doubleSided false (drawn double-sided)")
-    if m.emissiveTexture is not None or any(float(c) != 0.0 for c in (m.emissiveFactor or [])):
-        out.append("emission")
+    if m.alphaMode == "BLEND":
+        out.append("alphaMode BLEND (drawn opaque: no transparency pass)")
     return out
 
 
@@ -433,10 +527,53 @@ def _warn_ignored(reader: "_GltfReader") -> None:
                       stacklevel=2)
 
 
-def _gltf_material(reader: _GltfReader, index: int | None):
-    """(Material, textures, (normal_scale, occlusion_strength), texcoord set) of a glTF material."""
-    if index is None:
-        return Material(), {}, (1.0, 1.0), 0
+_WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
+_MAG = {9728: "nearest", 9729: "linear"}
+_MIN = {9728: "nearest", 9729: "linear", 9984: "nearest_mipmap_nearest",
+        9985: "linear_mipmap_nearest", 9986: "nearest_mipmap_linear",
+        9987: "linear_mipmap_linear"}
+
+
+def _texture_sampling(reader: _GltfReader, info, what: str) -> TextureSampling:
+    """The sampler, texCoord and ``KHR_texture_transform`` of a glTF textureInfo."""
+    g = reader.gltf
+    texcoord = int(info.texCoord or 0)
+    kw = {}
+    transform = (info.extensions or {}).get("KHR_texture_transform")
+    if transform is not None:
+        try:
+            kw["offset"] = tuple(float(x) for x in transform.get("offset", (0.0, 0.0)))
+            kw["rotation"] = float(transform.get("rotation", 0.0))
+            kw["scale"] = tuple(float(x) for x in transform.get("scale", (1.0, 1.0)))
+            texcoord = int(transform.get("texCoord", texcoord))
+        except (TypeError, ValueError, AttributeError):
+            raise InputError(f"{what} texture: malformed KHR_texture_transform {transform!r}",
+                             where=reader.path) from None
+        if len(kw["offset"]) != 2 or len(kw["scale"]) != 2:
+            raise InputError(f"{what} texture: KHR_texture_transform offset and scale need 2 "
+                             f"numbers", where=reader.path)
+    if texcoord not in (0, 1):
+        raise InputError(f"{what} texture reads TEXCOORD_{texcoord}; only sets 0 and 1 are "
+                         f"supported", where=reader.path)
+    tex = g.textures[info.index]
+    if tex.sampler is not None:
+        sampler = g.samplers[tex.sampler]
+        kw["wrap"] = (_WRAP.get(sampler.wrapS or 10497), _WRAP.get(sampler.wrapT or 10497))
+        kw["mag_filter"] = _MAG.get(sampler.magFilter or 9729)
+        kw["min_filter"] = _MIN.get(sampler.minFilter or 9987)
+        if None in kw["wrap"] or kw["mag_filter"] is None or kw["min_filter"] is None:
+            raise InputError(f"sampler {tex.sampler} has an unknown wrap or filter mode "
+                             f"({sampler.wrapS}, {sampler.wrapT}, {sampler.magFilter}, "
+                             f"{sampler.minFilter})", where=reader.path)
+    return TextureSampling(texcoord=texcoord, **kw).validated(f"{reader.path} ({what} texture)")
+
+
+def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
+    """The :class:`Mesh` fields of glTF material ``index``: material, textures, sampling, normal
+    scale, occlusion strength, double-sidedness, alpha mode, cutoff and factor, emission."""
+    if index is None:  # the spec's default material: opaque, single-sided, white, rough metal
+        return {"material": Material(albedo=(1.0, 1.0, 1.0), roughness=1.0, metallic=1.0),
+                "textures": {}, "sampling": {}, "double_sided": False}
     gm = reader.gltf.materials[index]
     pbr = gm.pbrMetallicRoughness
     base = list(pbr.baseColorFactor) if pbr is not None and pbr.baseColorFactor else [1, 1, 1, 1]
@@ -446,25 +583,37 @@ def _gltf_material(reader: _GltfReader, index: int | None):
                         roughness=float(np.clip(rough, 0.0, 1.0)),
                         metallic=float(np.clip(metallic, 0.0, 1.0)))
     textures: dict[str, np.ndarray] = {}
-    texcoords = []
+    sampling: dict[str, TextureSampling] = {}
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
-             ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture)]
+             ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
+             ("emissive", gm.emissiveTexture)]
     for key, info in slots:
         if info is None or info.index is None:
             continue
-        img = reader.image(info.index, key.replace("_", " "))
-        textures[key] = _color_texture(img) if key == "base_color" else img
-        texcoords.append(info.texCoord or 0)
-    if len(set(texcoords)) > 1:
-        warnings.warn(f"{reader.path}: material {index} mixes texture coordinate sets "
-                      f"{sorted(set(texcoords))}; using TEXCOORD_{texcoords[0]} for all")
+        what = key.replace("_", " ")
+        img = reader.image(info.index, what)
+        textures[key] = _color_texture(img) if key in ("base_color", "emissive") else img
+        sampling[key] = _texture_sampling(reader, info, what)
     nt = gm.normalTexture
     normal_scale = 1.0 if nt is None or getattr(nt, "scale", None) is None else float(nt.scale)
     occ = gm.occlusionTexture
     strength = getattr(occ, "strength", None) if occ is not None else None
-    return material, textures, (normal_scale, 1.0 if strength is None else float(strength)), \
-        (texcoords[0] if texcoords else 0)
+    emissive = np.asarray(gm.emissiveFactor if gm.emissiveFactor else [0, 0, 0], np.float64)
+    ext = gm.extensions or {}
+    if "KHR_materials_emissive_strength" in ext:
+        emissive = emissive * float(ext["KHR_materials_emissive_strength"].get(
+            "emissiveStrength", 1.0))
+    if emissive.shape != (3,) or not np.isfinite(emissive).all() or emissive.min() < 0:
+        raise InputError(f"material {index}: emissive {emissive.tolist()} must be 3 finite "
+                         f"numbers >= 0", where=reader.path)
+    cutoff = 0.5 if gm.alphaCutoff is None else float(gm.alphaCutoff)
+    return {"material": material, "textures": textures, "sampling": sampling,
+            "normal_scale": normal_scale,
+            "occlusion_strength": 1.0 if strength is None else float(strength),
+            "double_sided": bool(gm.doubleSided), "alpha_mode": gm.alphaMode or "OPAQUE",
+            "alpha_cutoff": cutoff, "base_alpha": float(np.clip(base[3], 0.0, 1.0)),
+            "emissive": tuple(float(c) for c in emissive)}
 
 
 # ---- trimesh (OBJ, PLY, STL, OFF) --------------------------------------------------------------

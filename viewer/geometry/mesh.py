@@ -11,10 +11,16 @@ base_color          3/4   linear RGB(A), float32 (already sRGB-decoded); multipl
 metallic_roughness  3/4   linear; G = roughness, B = metallic (glTF), multiply the factors
 normal              3/4   tangent-space normal encoded n * 0.5 + 0.5, linear; +Y = towards -v
 occlusion           1..4  linear; R = ambient occlusion
+emissive            3/4   linear RGB (already sRGB-decoded); multiplies ``Mesh.emissive``
 =================== ===== =====================================================================
+
+How each map is sampled (texture coordinate set, ``KHR_texture_transform``, wrap and filter modes)
+is a :class:`TextureSampling` in ``Mesh.sampling`` (absent: set 0, identity, repeat, trilinear).
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,7 +28,51 @@ import numpy as np
 from ..errors import InputError
 from ..material import Material
 
-TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion")
+TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive")
+WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
+MIN_FILTERS = ("nearest", "linear", "nearest_mipmap_nearest", "linear_mipmap_nearest",
+               "nearest_mipmap_linear", "linear_mipmap_linear")
+ALPHA_MODES = ("OPAQUE", "MASK", "BLEND")
+
+
+@dataclass(frozen=True)
+class TextureSampling:
+    """How one texture map is read: glTF ``textureInfo.texCoord``, its sampler and the
+    ``KHR_texture_transform`` of the textureInfo (whose ``texCoord``, if any, is already in
+    ``texcoord``)."""
+
+    texcoord: int = 0  # 0: Mesh.uvs (TEXCOORD_0), 1: Mesh.uvs1 (TEXCOORD_1)
+    offset: tuple[float, float] = (0.0, 0.0)
+    rotation: float = 0.0  # radians
+    scale: tuple[float, float] = (1.0, 1.0)
+    wrap: tuple[str, str] = ("repeat", "repeat")  # (s = u, t = v), from WRAP_MODES
+    mag_filter: str = "linear"  # "linear" | "nearest"
+    min_filter: str = "linear_mipmap_linear"  # from MIN_FILTERS
+
+    def uv_matrix(self) -> np.ndarray:
+        """The ``[3, 3]`` affine map uv -> (M @ [u, v, 1])[:2] of ``KHR_texture_transform``:
+        M = T(offset) R(rotation) S(scale), with R = [[cos, sin], [-sin, cos]] (rows).
+
+        The rotation's sign is the one of the extension's JSON example ("offset [0, 1], rotation
+        pi/2, scale 0.5 uses the lower left quadrant of the image, rotated clockwise 90 degrees":
+        (u, v) in [0, 1]^2 -> (v/2, 1 - u/2)) and of three.js (``Matrix3.setUvTransform``) and the
+        Khronos sample viewer; the spec's draft GLSL, ``mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)``,
+        read as GLSL's column-major constructor, would rotate the other way.
+        """
+        c, s = math.cos(self.rotation), math.sin(self.rotation)
+        t = np.array([[1.0, 0.0, self.offset[0]], [0.0, 1.0, self.offset[1]], [0.0, 0.0, 1.0]])
+        r = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        sc = np.diag([self.scale[0], self.scale[1], 1.0])
+        return t @ r @ sc
+
+    def validated(self, where: str) -> "TextureSampling":
+        ok = (self.texcoord in (0, 1) and all(w in WRAP_MODES for w in self.wrap)
+              and len(self.wrap) == 2 and self.mag_filter in ("linear", "nearest")
+              and self.min_filter in MIN_FILTERS
+              and np.isfinite([*self.offset, self.rotation, *self.scale]).all())
+        if not ok:
+            raise InputError(f"invalid texture sampling {self}", where=where)
+        return self
 
 
 @dataclass(kw_only=True)
@@ -38,6 +88,15 @@ class Mesh:
     textures: dict[str, np.ndarray] = field(default_factory=dict)  # keys from TEXTURE_KEYS
     normal_scale: float = 1.0  # glTF normalTexture.scale: scales the tangent-space x and y
     occlusion_strength: float = 1.0  # glTF occlusionTexture.strength
+    uvs1: np.ndarray | None = None  # [N, 2] float32: the second texture coordinate set
+    colors: np.ndarray | None = None  # [N, 4] float32 linear RGBA (glTF COLOR_0): x base colour
+    sampling: dict[str, TextureSampling] = field(default_factory=dict)  # texture key -> sampling
+    # glTF: false culls back faces; true (primitives, OBJ) draws them with the normal flipped
+    double_sided: bool = True
+    alpha_mode: str = "OPAQUE"  # ALPHA_MODES: MASK discards below alpha_cutoff
+    alpha_cutoff: float = 0.5
+    base_alpha: float = 1.0  # glTF baseColorFactor[3]
+    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)  # linear radiance (factor x strength)
     name: str = ""
     source: str | None = None  # the file it came from, for messages
 
@@ -96,7 +155,33 @@ class Mesh:
             if key not in TEXTURE_KEYS:
                 raise InputError(f"unknown texture {key!r} (known: {', '.join(TEXTURE_KEYS)})",
                                  where=where)
+        if self.uvs1 is not None:
+            self.uvs1 = np.ascontiguousarray(self.uvs1, np.float32)
+            if self.uvs1.shape != (n, 2) or not np.isfinite(self.uvs1).all():
+                raise InputError(f"texture coordinates 1 have shape {self.uvs1.shape} or NaN/Inf "
+                                 f"values, expected finite [{n}, 2]", where=where)
+        if self.colors is not None:
+            self.colors = np.ascontiguousarray(self.colors, np.float32)
+            if self.colors.shape != (n, 4) or not np.isfinite(self.colors).all():
+                raise InputError(f"vertex colours have shape {self.colors.shape} or NaN/Inf "
+                                 f"values, expected finite [{n}, 4]", where=where)
+        for key, sampling in self.sampling.items():
+            sampling.validated(f"{where} ({key} texture)")
+        if self.alpha_mode not in ALPHA_MODES:
+            raise InputError(f"alpha mode {self.alpha_mode!r} is not one of "
+                             f"{', '.join(ALPHA_MODES)}", where=where)
+        if not (np.isfinite(self.emissive).all() and min(self.emissive) >= 0.0):
+            raise InputError(f"emissive {list(self.emissive)} must be finite and >= 0",
+                             where=where)
         return self
+
+    @property
+    def has_emission(self) -> bool:
+        """Whether any point of the surface emits light."""
+        if max(self.emissive) <= 0.0:
+            return False
+        tex = self.textures.get("emissive")
+        return tex is None or float(np.max(tex[..., :3])) > 0.0
 
     def transformed(self, matrix: np.ndarray) -> "Mesh":
         """A copy with positions, normals and tangents transformed by the ``[4, 4]`` ``matrix``.
@@ -117,11 +202,9 @@ class Mesh:
             w = t[:, 3:4] * (1.0 if det >= 0 else -1.0)
             tangents = np.concatenate([txyz, w], axis=1).astype(np.float32)
         indices = self.indices if det >= 0 else self.indices[:, ::-1]
-        return Mesh(positions=p.astype(np.float32), normals=nrm.astype(np.float32),
-                    uvs=self.uvs, tangents=tangents, indices=np.ascontiguousarray(indices),
-                    material=self.material, textures=self.textures,
-                    normal_scale=self.normal_scale, occlusion_strength=self.occlusion_strength,
-                    name=self.name, source=self.source)
+        return dataclasses.replace(self, positions=p.astype(np.float32),
+                                   normals=nrm.astype(np.float32), tangents=tangents,
+                                   indices=np.ascontiguousarray(indices))
 
 
 def smooth_normals(positions: np.ndarray, indices: np.ndarray) -> np.ndarray:

@@ -6,8 +6,19 @@ combination of texture maps) and image stacks (``passes/fullscreen.vert`` + ``gb
 into them. Both write through ``gbuffer_store`` of the generated ``generated/gbuffer.glsl``.
 
 Mesh pass variants (prepended defines): ``USE_BASE_COLOR_MAP``, ``USE_METALLIC_ROUGHNESS_MAP``,
-``USE_NORMAL_MAP``, ``USE_OCCLUSION_MAP``; ``USE_UV`` with any of them; ``HAS_TANGENTS`` when a
-normal-mapped mesh has vertex tangents (otherwise a cotangent frame from screen derivatives).
+``USE_NORMAL_MAP``, ``USE_OCCLUSION_MAP``, ``USE_EMISSIVE_MAP``; ``USE_UV0`` / ``USE_UV1`` when a
+map reads that texture coordinate set; ``HAS_TANGENTS`` when a normal-mapped mesh has vertex
+tangents (otherwise a cotangent frame from screen derivatives); ``USE_VERTEX_COLOR`` (COLOR_0);
+``ALPHA_MASK`` (alpha mode MASK). Single-sided meshes are drawn with back-face culling.
+
+Texture maps: each image is uploaded once (RGBA16F, mipmapped); its glTF sampler becomes a
+moderngl sampler object (REPEAT / CLAMP_TO_EDGE per axis, the filters, 8x anisotropy with
+mipmapped linear filtering), MIRRORED_REPEAT is applied in the shader (moderngl has no such wrap
+mode). Why anisotropy matters for speed on llvmpipe: its anisotropic filter's cost grows with the
+footprint once that exceeds the coarsest mip level - a 128^2 sphere whose uvs span 0..4279 (the
+quantised Duck's integer texture coordinates without their KHR_texture_transform) took 0.6 s per
+draw against 0.014 s at uv 0..1 and 0.009 s without anisotropy. The time showed up in whatever GL
+call next waited for the queued draw (the environment's mipmap building), not in the draw call.
 """
 from __future__ import annotations
 
@@ -19,12 +30,15 @@ from ..camera import Camera, gl_bytes
 from ..errors import InputError
 from ..gbuffer import CHANNELS, GBufferLayout
 from ..geometry.imagespace import ImageGBuffer
-from ..geometry.mesh import Mesh
+from ..geometry.mesh import Mesh, TextureSampling
 from . import set_uniform as _set
 
 _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "metallic_roughness": "USE_METALLIC_ROUGHNESS_MAP",
-                "normal": "USE_NORMAL_MAP", "occlusion": "USE_OCCLUSION_MAP"}
+                "normal": "USE_NORMAL_MAP", "occlusion": "USE_OCCLUSION_MAP",
+                "emissive": "USE_EMISSIVE_MAP"}
+_DEFAULT_SAMPLING = TextureSampling()
+ANISOTROPY = 8.0  # for mipmapped linear filtering
 
 
 @dataclass
@@ -73,7 +87,9 @@ class GBufferTargets:
         channels = self.layout.channels
         w, h = self.size
         # channels the layout omits read back as their background value, as gbuffer_load does
-        omitted = {c.name: c for c in CHANNELS if not c.optional and c.name in self.layout.omit}
+        # (so does emission where the scene has none; a mesh's colour is made by the renderer)
+        allocated = {c.name for c in channels}
+        omitted = {c.name: c for c in CHANNELS if c.name not in allocated and c.name != "color"}
         if names is not None:
             wanted = set(names)
             unknown = wanted - {c.name for c in channels} - set(omitted)
@@ -117,7 +133,8 @@ class _Uploaded:
     mesh: Mesh  # held so id(mesh) cannot be reused while the entry lives
     vao: object
     buffers: list
-    textures: dict[str, object]  # map key -> texture (shared through GBufferPass._textures)
+    # map key -> (texture, sampler object, TextureSampling); textures and samplers are shared
+    textures: dict[str, tuple]
     defines: dict[str, int]
 
 
@@ -130,19 +147,30 @@ class GBufferPass:
         self.layout = layout
         self._meshes: dict[int, _Uploaded] = {}
         self._textures: dict[int, tuple[np.ndarray, object]] = {}  # id(array) -> (array, texture)
+        self._samplers: dict[tuple, object] = {}  # (wrap, mag, min filter) -> sampler object
         self._empty_vao = None
         self._stacks: dict[int, tuple[object, list]] = {}  # id(image) -> (image, textures)
 
     # ---- meshes ----------------------------------------------------------------------------------
     def mesh_defines(self, mesh: Mesh) -> dict[str, int]:
-        """The program variant for ``mesh``: one define per texture map it has (and can use)."""
-        if mesh.uvs is None:
-            return {}
-        defines = {_MAP_DEFINES[k]: 1 for k in mesh.textures if k in _MAP_DEFINES}
-        if defines:
-            defines["USE_UV"] = 1
+        """The program variant for ``mesh``: one define per texture map it has (and can use),
+        the texture coordinate sets they read, vertex colours, the alpha mask."""
+        defines = {}
+        uv_sets = (mesh.uvs, mesh.uvs1)
+        for key in mesh.textures:
+            if key not in _MAP_DEFINES:
+                continue
+            texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
+            if uv_sets[texcoord] is None:
+                continue
+            defines[_MAP_DEFINES[key]] = 1
+            defines[f"USE_UV{texcoord}"] = 1
         if "USE_NORMAL_MAP" in defines and mesh.tangents is not None:
             defines["HAS_TANGENTS"] = 1
+        if mesh.colors is not None:
+            defines["USE_VERTEX_COLOR"] = 1
+        if mesh.alpha_mode == "MASK":
+            defines["ALPHA_MASK"] = 1
         return defines
 
     def _program(self, defines: dict[str, int]):
@@ -165,10 +193,25 @@ class GBufferPass:
             # samples: no flip.
             tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes(), dtype="f2")
             tex.build_mipmaps()
-            tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
-            tex.anisotropy = 8.0
             self._textures[key] = (image, tex)
         return self._textures[key][1]
+
+    def _sampler(self, sampling: TextureSampling):
+        """A sampler object for ``sampling``'s wrap and filter modes (shared by equal ones)."""
+        ctx = self.ctx
+        key = (sampling.wrap, sampling.mag_filter, sampling.min_filter)
+        if key not in self._samplers:
+            min_filter = {"nearest": ctx.NEAREST, "linear": ctx.LINEAR,
+                          "nearest_mipmap_nearest": ctx.NEAREST_MIPMAP_NEAREST,
+                          "linear_mipmap_nearest": ctx.LINEAR_MIPMAP_NEAREST,
+                          "nearest_mipmap_linear": ctx.NEAREST_MIPMAP_LINEAR,
+                          "linear_mipmap_linear": ctx.LINEAR_MIPMAP_LINEAR}[sampling.min_filter]
+            mag_filter = ctx.LINEAR if sampling.mag_filter == "linear" else ctx.NEAREST
+            aniso = ANISOTROPY if sampling.min_filter.startswith("linear_mipmap") else 1.0
+            self._samplers[key] = ctx.sampler(
+                repeat_x=sampling.wrap[0] == "repeat", repeat_y=sampling.wrap[1] == "repeat",
+                filter=(min_filter, mag_filter), anisotropy=aniso)
+        return self._samplers[key]
 
     def _upload(self, mesh: Mesh) -> _Uploaded:
         entry = self._meshes.get(id(mesh))
@@ -178,10 +221,14 @@ class GBufferPass:
         defines = self.mesh_defines(mesh)
         prog = self._program(defines)
         arrays = {"in_position": (mesh.positions, "3f"), "in_normal": (mesh.normals, "3f")}
-        if "USE_UV" in defines:
-            arrays["in_uv"] = (mesh.uvs, "2f")
+        if "USE_UV0" in defines:
+            arrays["in_uv0"] = (mesh.uvs, "2f")
+        if "USE_UV1" in defines:
+            arrays["in_uv1"] = (mesh.uvs1, "2f")
         if "HAS_TANGENTS" in defines:
             arrays["in_tangent"] = (mesh.tangents, "4f")
+        if "USE_VERTEX_COLOR" in defines:
+            arrays["in_color"] = (mesh.colors, "4f")
         buffers, content = [], []
         for name, (arr, fmt) in arrays.items():
             buf = self.ctx.buffer(np.ascontiguousarray(arr, np.float32).tobytes())
@@ -191,8 +238,10 @@ class GBufferPass:
         ibo = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
         buffers.append(ibo)
         vao = self.ctx.vertex_array(prog, content, index_buffer=ibo, index_element_size=4)
-        textures = {k: self._texture(mesh.textures[k]) for k in mesh.textures
-                    if _MAP_DEFINES.get(k) in defines}
+        textures = {k: (self._texture(mesh.textures[k]),
+                        self._sampler(mesh.sampling.get(k, _DEFAULT_SAMPLING)),
+                        mesh.sampling.get(k, _DEFAULT_SAMPLING))
+                    for k in mesh.textures if _MAP_DEFINES.get(k) in defines}
         entry = _Uploaded(mesh=mesh, vao=vao, buffers=buffers, textures=textures, defines=defines)
         self._meshes[id(mesh)] = entry
         return entry
@@ -211,6 +260,8 @@ class GBufferPass:
         ctx.viewport = (0, 0, *targets.size)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.front_face = "ccw"
+        ctx.cull_face = "back"
         try:
             for mesh in meshes:
                 entry = self._upload(mesh)
@@ -219,18 +270,33 @@ class GBufferPass:
                 _set(prog, "u_projection", proj)
                 m = mesh.material
                 _set(prog, "u_albedo", tuple(float(c) for c in m.albedo))
+                _set(prog, "u_base_alpha", float(mesh.base_alpha))
                 _set(prog, "u_roughness", float(m.roughness))
                 _set(prog, "u_metallic", float(m.metallic))
                 _set(prog, "u_specular", float(m.specular))
                 _set(prog, "u_ao", float(m.ao))
                 _set(prog, "u_normal_scale", float(mesh.normal_scale))
                 _set(prog, "u_occlusion_strength", float(mesh.occlusion_strength))
-                for unit, (key, tex) in enumerate(entry.textures.items()):
+                _set(prog, "u_emissive", tuple(float(c) for c in mesh.emissive))
+                _set(prog, "u_alpha_cutoff", float(mesh.alpha_cutoff))
+                for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items()):
                     tex.use(unit)
+                    sampler.use(unit)
                     _set(prog, f"u_{key}_map", unit)
+                    _set(prog, f"u_{key}_set", int(sampling.texcoord))
+                    _set(prog, f"u_{key}_uv",
+                         np.ascontiguousarray(sampling.uv_matrix().T, np.float32).tobytes())
+                    _set(prog, f"u_{key}_mirror",
+                         tuple(float(w == "mirror") for w in sampling.wrap))
+                if mesh.double_sided:
+                    ctx.disable(ctx.CULL_FACE)
+                else:
+                    ctx.enable(ctx.CULL_FACE)
                 entry.vao.render(ctx.TRIANGLES)
+                for unit, (_, sampler, _) in enumerate(entry.textures.values()):
+                    sampler.clear(unit)
         finally:
-            ctx.disable(ctx.DEPTH_TEST)
+            ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
 
     # ---- image stacks ----------------------------------------------------------------------------
     def draw_image(self, targets: GBufferTargets, image: ImageGBuffer,
@@ -297,6 +363,9 @@ class GBufferPass:
         for _, tex in self._textures.values():
             tex.release()
         self._textures.clear()
+        for sampler in self._samplers.values():
+            sampler.release()
+        self._samplers.clear()
         for _, textures in self._stacks.values():
             for _, tex in textures:
                 tex.release()

@@ -25,6 +25,7 @@ from .commands import (
     cmd_eval,
     cmd_info,
     cmd_parity,
+    cmd_reference,
     cmd_render,
     cmd_train,
     cmd_view,
@@ -47,6 +48,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("reference", help="path-traced ground truth with Mitsuba 3 and our BSDF",
+                       description="Path-trace scenes with Mitsuba 3 (our BSDF as a Mitsuba "
+                       "plugin, the rasteriser's per-pixel rays): <out>.exr (mean radiance, "
+                       "alpha = coverage), <out>.stderr.exr (per-pixel standard error), "
+                       "<out>.json. Several scenes shard over torchrun ranks "
+                       "(torchrun --nproc_per_node=N -m relight reference A.toml B.toml "
+                       "--out-dir DIR); finished scenes are skipped and interrupted ones resume.")
+    p.add_argument("scenes", nargs="+", help="scene TOML files")
+    p.add_argument("--out", help="output .exr (one scene)")
+    p.add_argument("--out-dir", help="output folder, <scene stem>.exr each (several scenes)")
+    p.add_argument("--spp", type=_positive_int, default=1024, help="samples per pixel (1024)")
+    p.add_argument("--depth", type=_positive_int, default=6,
+                   help="Mitsuba path depth (2 = direct light only; default 6)")
+    p.add_argument("--antialias", action="store_true",
+                   help="rays jittered over each pixel (default: pixel-centre rays, comparable "
+                        "pixel by pixel with the rasteriser)")
+    p.add_argument("--aov", help="comma-separated first-hit AOVs: normal, depth")
+    p.add_argument("--size", help="WxH (overrides [camera] size)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb, else scalar_rgb)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_reference)
 
     p = sub.add_parser("parity", help="compare every GLSL function and pass with its torch twin")
     p.add_argument("--model", help="only this shading model's passes")

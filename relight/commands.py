@@ -145,6 +145,68 @@ def cmd_decompose(args) -> int:
     return 0
 
 
+def cmd_reference(args) -> int:
+    """Path-traced references (module :mod:`relight.reference`): one scene to ``--out``, or several
+    to ``--out-dir``, this process taking every ``WORLD_SIZE``-th scene from ``RANK`` (torchrun).
+    A scene whose finished reference has the same configuration and at least ``--spp`` samples
+    is skipped; an interrupted one resumes from ``<out>.partial.npz``."""
+    import os
+
+    from viewer.scene import load_scene
+
+    from .reference import ReferenceOptions, check_traceable, render_reference, write_reference
+    from .reference.render import config_key
+
+    if (args.out is None) == (args.out_dir is None):
+        raise SceneError("give either --out (one scene) or --out-dir (one or more scenes)",
+                         where="--out")
+    if args.out is not None and len(args.scenes) != 1:
+        raise SceneError(f"--out takes one scene, got {len(args.scenes)}: use --out-dir",
+                         where="--out")
+    aovs = tuple(a.strip() for a in args.aov.split(",") if a.strip()) if args.aov else ()
+    size = _parse_size(args.size) if args.size else None
+    options = ReferenceOptions(spp=args.spp, max_depth=args.depth, antialias=args.antialias,
+                               seed=args.seed, variant=args.variant)
+    jobs = []
+    for path in args.scenes:  # every scene is checked before any is rendered
+        scene = load_scene(path)
+        if size is not None:
+            scene = scene.with_camera(size=size)
+        check_traceable(scene)
+        if args.out is not None:
+            out = Path(args.out)
+            if out.suffix.lower() != ".exr":
+                raise SceneError("--out must end in .exr", where=out)
+        else:
+            out = Path(args.out_dir) / (Path(path).stem + ".exr")
+        jobs.append((scene, out))
+    rank = int(os.environ.get("RANK", "0"))
+    world = max(1, int(os.environ.get("WORLD_SIZE", "1")))
+    for scene, out in jobs[rank::world]:
+        if not out.resolve().parent.is_dir():
+            out.resolve().parent.mkdir(parents=True, exist_ok=True)
+        meta = out.with_suffix(".json")
+        if meta.is_file():
+            try:
+                done = json.loads(meta.read_text())
+            except ValueError:
+                done = {}
+            if done.get("key") == config_key(scene, options) and done.get("spp", 0) >= args.spp:
+                if not args.quiet:
+                    print(f"{out}: up to date ({done['spp']} spp)")
+                continue
+        ref = render_reference(scene, options, checkpoint=out.with_name(out.name + ".partial.npz"),
+                               progress=not args.quiet, aovs=aovs)
+        files = write_reference(ref, out)
+        if not args.quiet:
+            se = float(ref.stderr.mean())
+            print(f"{out}: {ref.meta['spp']} spp, depth {ref.meta['max_depth']}, "
+                  f"{ref.meta['rays']} rays, mean standard error {se:.3g}, "
+                  f"{ref.meta['seconds']:.1f} s ({ref.meta['variant']}); "
+                  f"{', '.join(p.name for p in files[1:])}")
+    return 0
+
+
 def cmd_info(args) -> int:
     from viewer.gl import create_context, gl_info
 

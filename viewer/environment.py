@@ -30,6 +30,7 @@ class EnvironmentSpec:
     width: int = 512               # width of procedural environments (rounded to a power of two)
     sun_elevation_deg: float = 35.0  # "sky": sun height above the horizon
     sun_azimuth_deg: float = 30.0    # "sky": from -Z towards +X (0 = straight ahead, 90 = +X)
+    sun_radiance: float = 2000.0     # "sky": the sun disc's radiance (the zenith sky is ~0.45)
 
 
 def load_environment(spec: EnvironmentSpec) -> np.ndarray:
@@ -51,7 +52,8 @@ def load_environment(spec: EnvironmentSpec) -> np.ndarray:
     if name == "white":
         return white_environment(width)
     if name == "sky":
-        return sky_environment(width, spec.sun_elevation_deg, spec.sun_azimuth_deg)
+        return sky_environment(width, spec.sun_elevation_deg, spec.sun_azimuth_deg,
+                               spec.sun_radiance)
     if name == "studio":
         return studio_environment(width)
     raise SceneError(f"unknown procedural environment {spec.procedural!r} "
@@ -138,9 +140,10 @@ def white_environment(width: int = 512) -> np.ndarray:
 
 
 def sky_environment(width: int = 512, sun_elevation_deg: float = 35.0,
-                    sun_azimuth_deg: float = 30.0) -> np.ndarray:
+                    sun_azimuth_deg: float = 30.0, sun_radiance: float = 2000.0) -> np.ndarray:
     """Gradient sky over a dark ground, with a sun disc of 2 degrees angular radius whose
-    radiance (2000 x the horizon) makes a visible highlight on glossy surfaces."""
+    radiance (``sun_radiance``; 2000 is ~2000 x the horizon and ~4400 x the zenith, 2e4 a
+    real clear sky's 1e4+ sun-to-sky ratio) makes a visible highlight on glossy surfaces."""
     d = texel_directions(width)
     y = d[..., 1:2]
     zenith = np.array([0.25, 0.45, 1.0])
@@ -159,7 +162,7 @@ def sky_environment(width: int = 512, sun_elevation_deg: float = 35.0,
     nearest = np.unravel_index(np.argmax(cos_sun), cos_sun.shape)
     disc[nearest] = max(disc[nearest], 1.0)
     glow = np.exp((np.clip(cos_sun, -1, 1) - 1.0) * 40.0) * 2.0
-    env = env + (disc[..., None] * 2000.0 + glow[..., None]) * np.array([1.0, 0.92, 0.8])
+    env = env + (disc[..., None] * float(sun_radiance) + glow[..., None]) * np.array([1.0, 0.92, 0.8])
     return env.astype(np.float32)
 
 

@@ -254,3 +254,188 @@ def test_alpha_mask_discards_below_the_cutoff(tmp_path, gbuffer_of):
     # the cutoff is the file's: 0.1 keeps both columns
     assert (gbuffer_of(_masked_quad(tmp_path, "MASK", cutoff=0.1))["alpha"][..., 0] > 0).sum() \
         == opaque.sum()
+
+
+# ---- samplers, texture coordinate sets, KHR_texture_transform, COLOR_0 ------------------------
+def _textured_quad(tmp_path, name, img, sampler=None, info_extra=None, uv=QUAD_UV,
+                   extra_attrs=None, **material):
+    b = GltfBuilder()
+    tex = b.image(img, sampler=sampler)
+    info = {"index": tex, **(info_extra or {})}
+    m = b.material(pbrMetallicRoughness={"baseColorTexture": info}, doubleSided=True, **material)
+    attrs = {k: b.accessor(v) for k, v in (extra_attrs or {}).items()}
+    quad(b, m, uv=uv, extra_attrs=attrs)
+    return b.save(tmp_path / f"{name}.gltf")
+
+
+def test_texture_transform_rotates_as_the_spec_example(tmp_path, gbuffer_of):
+    # The extension's JSON example: offset [0, 1], rotation pi/2, scale [0.5, 0.5] "utilizes only
+    # the lower left quadrant of the source image, rotated clockwise 90 degrees". That quadrant
+    # here is [[red, green], [blue, white]] (rows top to bottom); rotated clockwise it reads
+    # [[blue, red], [white, green]]. By hand: uv -> (v / 2, 1 - u / 2), so the quad's top right
+    # (u ~ 0.75, v ~ 0.25) reads texel (0.125, 0.625) -> column 0, row 2: red.
+    k = (0, 0, 0, 255)
+    img = image([[k, k, k, k], [k, k, k, k], [RED, GREEN, k, k], [BLUE, WHITE, k, k]])
+    transform = {"KHR_texture_transform": {"offset": [0, 1], "rotation": math.pi / 2,
+                                           "scale": [0.5, 0.5]}}
+    path = _textured_quad(tmp_path, "rotated", img, sampler={**NEAREST, "wrapS": 33071,
+                                                              "wrapT": 33071},
+                          info_extra={"extensions": transform})
+    g = gbuffer_of(path)
+    np.testing.assert_allclose(color_at(g, 0.5, 0.5), [1, 0, 0], atol=1e-3)  # top right: red
+    np.testing.assert_allclose(color_at(g, 0.5, -0.5), [0, 1, 0], atol=1e-3)  # bottom right
+    np.testing.assert_allclose(color_at(g, -0.5, 0.5), [0, 0, 1], atol=1e-3)  # top left: blue
+    np.testing.assert_allclose(color_at(g, -0.5, -0.5), [1, 1, 1], atol=1e-3)
+
+
+@pytest.mark.parametrize("wrap, want", [(10497, "RGRG"), (33648, "RGGR"), (33071, "RGGG")],
+                         ids=["repeat", "mirrored_repeat", "clamp_to_edge"])
+def test_wrap_modes(tmp_path, gbuffer_of, wrap, want):
+    img = image([[RED, GREEN]])
+    uv = QUAD_UV * np.float32([2.0, 1.0])  # u from 0 to 2 across the quad
+    path = _textured_quad(tmp_path, f"wrap{wrap}", img,
+                          sampler={**NEAREST, "wrapS": wrap, "wrapT": 33071}, uv=uv)
+    g = gbuffer_of(path)
+    colors = {"R": [1, 0, 0], "G": [0, 1, 0]}
+    for x, letter in zip((-0.75, -0.25, 0.25, 0.75), want):
+        np.testing.assert_allclose(color_at(g, x, 0.0), colors[letter], atol=1e-3,
+                                   err_msg=f"u = {x + 1:.2f}")
+
+
+def test_linear_filter_and_mipmaps_by_sampler(tmp_path, gbuffer_of):
+    img = image([[RED, GREEN]])
+    nearest = gbuffer_of(_textured_quad(tmp_path, "nearest", img, sampler=NEAREST))
+    linear = gbuffer_of(_textured_quad(tmp_path, "linear", img,
+                                       sampler={"magFilter": 9729, "minFilter": 9729}))
+    centre = px(0.0, 0.0)  # u = 0.5: the boundary of the two texels
+    assert set(np.round(nearest["albedo"][centre], 3)) <= {0.0, 1.0}
+    np.testing.assert_allclose(linear["albedo"][px(0.02, 0.0)][:2], [0.5, 0.5], atol=0.05)
+
+
+def test_texcoord_sets_and_the_transform_override(tmp_path, gbuffer_of):
+    img = image([[RED, GREEN]])
+    uv0 = np.tile(np.float32([0.25, 0.5]), (4, 1))  # the red texel
+    uv1 = np.tile(np.float32([0.75, 0.5]), (4, 1))  # the green texel
+    for name, info, want in (("set0", {"texCoord": 0}, [1, 0, 0]),
+                             ("set1", {"texCoord": 1}, [0, 1, 0]),
+                             ("override", {"texCoord": 0, "extensions": {
+                                 "KHR_texture_transform": {"texCoord": 1}}}, [0, 1, 0])):
+        path = _textured_quad(tmp_path, name, img, sampler=NEAREST, info_extra=info, uv=uv0,
+                              extra_attrs={"TEXCOORD_1": uv1})
+        np.testing.assert_allclose(color_at(gbuffer_of(path), 0.3, 0.2), want, atol=1e-3,
+                                   err_msg=name)
+
+
+@pytest.mark.parametrize("encoding", ["float", "unorm8", "rgb_unorm16"])
+def test_vertex_colour_multiplies_the_base_colour(tmp_path, gbuffer_of, encoding):
+    rgba = np.float32([0.4, 0.2, 1.0, 1.0])
+    if encoding == "float":
+        colors = np.tile(rgba, (4, 1))
+    elif encoding == "unorm8":
+        colors = np.tile(np.round(rgba * 255).astype(np.uint8), (4, 1))
+    else:
+        colors = np.tile(np.round(rgba[:3] * 65535).astype(np.uint16), (4, 1))
+    b = GltfBuilder()
+    m = b.material(pbrMetallicRoughness={"baseColorFactor": [0.5, 1.0, 0.5, 1.0]},
+                   doubleSided=True)
+    quad(b, m, uv=None, extra_attrs={"COLOR_0": b.accessor(colors,
+                                                           normalized=encoding != "float")})
+    g = gbuffer_of(b.save(tmp_path / f"color_{encoding}.gltf"))
+    np.testing.assert_allclose(color_at(g, 0.1, 0.1), [0.2, 0.2, 0.5], atol=2e-3)
+
+
+# ---- KHR_mesh_quantization, sparse accessors, Draco -------------------------------------------
+def _float_reference(tmp_path):
+    b = GltfBuilder()
+    quad(b, b.material(doubleSided=True), node={"translation": [0.1, 0.2, 0.0]})
+    (mesh,) = load_mesh(b.save(tmp_path / "float.gltf"))
+    return mesh
+
+
+def test_quantised_attributes_give_the_float_positions(tmp_path, gbuffer_of):
+    """KHR_mesh_quantization as gltfpack writes it (the quantised Duck): int16 positions rescaled
+    by the node, int8 normalised normals, uint16 texture coordinates that the material's
+    KHR_texture_transform maps back to [0, 1]."""
+    ref = _float_reference(tmp_path)
+    b = GltfBuilder()
+    img = image([[RED, GREEN], [BLUE, WHITE]])
+    tex = b.image(img, sampler=NEAREST)
+    scale = 1.0 / 4000.0
+    transform = {"KHR_texture_transform": {"scale": [scale, scale]}}
+    m = b.material(pbrMetallicRoughness={"baseColorTexture": {"index": tex,
+                                                              "extensions": transform}},
+                   doubleSided=True)
+    pos_q = np.round(QUAD_POS * 1000).astype(np.int16)  # positions x 1000, node scale 1e-3
+    nrm_q = np.tile(np.int8([0, 0, 127]), (4, 1))
+    uv_q = np.round(QUAD_UV * 4000).astype(np.uint16)
+    attrs = {"POSITION": b.accessor(pos_q, minmax=True),
+             "NORMAL": b.accessor(nrm_q, normalized=True),
+             "TEXCOORD_0": b.accessor(uv_q)}
+    b.mesh(attrs, b.accessor(QUAD_IDX), m,
+           node={"translation": [0.1, 0.2, 0.0], "scale": [1e-3, 1e-3, 1e-3]})
+    b.doc["extensionsUsed"] = ["KHR_mesh_quantization", "KHR_texture_transform"]
+    b.doc["extensionsRequired"] = ["KHR_mesh_quantization"]
+    path = b.save(tmp_path / "quantised.gltf")
+    (mesh,), messages = _load_warnings(path)
+    assert messages == []
+    np.testing.assert_allclose(mesh.positions, ref.positions, atol=1e-6)
+    np.testing.assert_allclose(mesh.normals, ref.normals, atol=1e-6)
+    g = gbuffer_of([mesh])
+    np.testing.assert_allclose(color_at(g, -0.4, 0.3), [1, 0, 0], atol=1e-3)  # not one colour
+    np.testing.assert_allclose(color_at(g, 0.3, -0.4), [1, 1, 1], atol=1e-3)
+
+
+def test_sparse_accessors(tmp_path):
+    ref = _float_reference(tmp_path)
+    b = GltfBuilder()
+    wrong = QUAD_POS.copy()
+    wrong[[1, 3]] = 9.0  # overridden by the sparse block
+    which = np.uint16([1, 3])
+    values = QUAD_POS[[1, 3]]
+    sparse = {"count": 2, "indices": {"bufferView": b.view(which.tobytes()), "componentType": 5123},
+              "values": {"bufferView": b.view(values.tobytes())}}
+    pos = b.accessor(wrong, minmax=True, sparse=sparse)
+    # a sparse accessor without a bufferView: zeros, then the substitutions (all 4 normals)
+    nrm_values = np.tile(np.float32([0, 0, 1]), (4, 1))
+    nrm = b.accessor(np.zeros((0, 3), np.float32), sparse={
+        "count": 4, "indices": {"bufferView": b.view(np.uint8([0, 1, 2, 3]).tobytes()),
+                                "componentType": 5121},
+        "values": {"bufferView": b.view(nrm_values.tobytes())}})
+    b.doc["accessors"][nrm]["count"] = 4
+    b.mesh({"POSITION": pos, "NORMAL": nrm}, b.accessor(QUAD_IDX), b.material(doubleSided=True),
+           node={"translation": [0.1, 0.2, 0.0]})
+    (mesh,) = load_mesh(b.save(tmp_path / "sparse.gltf"))
+    np.testing.assert_allclose(mesh.positions, ref.positions, atol=1e-6)
+    np.testing.assert_allclose(mesh.normals, ref.normals, atol=1e-6)
+
+
+def test_draco_compressed_primitive(tmp_path):
+    DracoPy = pytest.importorskip("DracoPy", reason="KHR_draco_mesh_compression needs DracoPy")
+    ref = _float_reference(tmp_path)
+    data = DracoPy.encode(QUAD_POS.astype(np.float64), QUAD_IDX.reshape(-1, 3).astype(np.uint32),
+                          quantization_bits=16, preserve_order=True,
+                          normals=np.tile([0.0, 0.0, 1.0], (4, 1)))
+    decoded = DracoPy.decode(data)
+    ids = {a["attribute_type"]: a["unique_id"] for a in decoded.attributes}
+    b = GltfBuilder()
+    view = b.view(data)
+    pos = b.accessor(np.zeros((0, 3), np.float32))
+    b.doc["accessors"][pos].update(count=4, min=[-1, -1, 0], max=[1, 1, 0])
+    nrm = b.accessor(np.zeros((0, 3), np.float32))
+    b.doc["accessors"][nrm]["count"] = 4
+    idx = b.accessor(np.zeros(0, np.uint16))
+    b.doc["accessors"][idx]["count"] = 6
+    b.mesh({"POSITION": pos, "NORMAL": nrm}, idx, b.material(doubleSided=True),
+           node={"translation": [0.1, 0.2, 0.0]},
+           extensions={"KHR_draco_mesh_compression": {
+               "bufferView": view, "attributes": {"POSITION": ids[0], "NORMAL": ids[1]}}})
+    b.doc["extensionsUsed"] = ["KHR_draco_mesh_compression"]
+    b.doc["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+    (mesh,), messages = _load_warnings(b.save(tmp_path / "draco.gltf"))
+    assert messages == []
+    # the same triangles (Draco may reorder vertices): compare corner positions per triangle
+    got = np.sort(mesh.positions[mesh.indices].reshape(-1, 9), axis=0)
+    want = np.sort(ref.positions[ref.indices].reshape(-1, 9), axis=0)
+    np.testing.assert_allclose(got, want, atol=1e-4)  # 16-bit quantisation of a 2-unit box
+    np.testing.assert_allclose(mesh.normals, np.tile([0, 0, 1], (len(mesh.normals), 1)),
+                               atol=1e-3)

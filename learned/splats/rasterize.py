@@ -146,7 +146,7 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
     """Mirror of ``splat_resolve.frag``. acc [P, 12] = sums of T a (colour, albedo, normal,
     roughness, metallic, depth); coverage [P]."""
     h, w = size_hw
-    layout = GBufferLayout(with_color=True)
+    layout = GBufferLayout(with_color=True, with_emission=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
     base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
                                      for k in bg}
@@ -167,6 +167,7 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
         "ao": (coverage[:, None] + wu * base["ao"]) / safe,
         "depth": (acc[:, 11:12] + wu * base["depth"]) / safe,
         "color": acc[:, 0:3] + wu * base["albedo"],
+        "emission": wu * base["emission"] / safe,  # splats emit nothing; they hide what does
     }
     return {k: torch.where(hit[:, None], v, base[k]).reshape(h, w, -1) for k, v in out.items()}
 

@@ -171,3 +171,39 @@ def splat_sh_basis(index: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
 def splat_face_forward(n: torch.Tensor, to_camera: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 splat_face_forward(vec3 n, vec3 to_camera)``."""
     return torch.where(((n * to_camera).sum(-1) < 0.0)[..., None], -n, n)
+
+
+# ---- median depth --------------------------------------------------------------------------------
+MEDIAN_SPLITS = 16  # thresholds per search level (SPLAT_MEDIAN_SPLITS)
+_INV17 = torch.tensor(0.058823529411764705, dtype=torch.float32)  # the GLSL literal, in float32
+
+
+def splat_median_target(coverage: torch.Tensor, under_alpha: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float splat_median_target(float coverage, float under_alpha)``: half the pixel's
+    total coverage, 0.5 (A + (1 - A) under_alpha)."""
+    return 0.5 * (coverage + (1.0 - coverage) * under_alpha)
+
+
+def splat_depth_threshold(range_: torch.Tensor, k: torch.Tensor | int) -> torch.Tensor:
+    """GLSL ``float splat_depth_threshold(vec2 range, int k)``: range [..., 2] (lo, hi), k [...]
+    (0..17) -> lo + (hi - lo) (k * float32(1 / 17)), the same float32 operations in the same
+    order (bit-identical); k >= 17 gives hi."""
+    lo, hi = range_[..., 0].to(torch.float32), range_[..., 1].to(torch.float32)
+    k = torch.as_tensor(k)
+    kf = (k.round() if k.is_floating_point() else k).to(torch.float32)
+    t = kf * _INV17
+    d = lo + (hi - lo) * t
+    return torch.where(kf >= 17, hi, d)
+
+
+def splat_depth_refine(range_: torch.Tensor, t_target: torch.Tensor, t0: torch.Tensor,
+                       t1: torch.Tensor, t2: torch.Tensor, t3: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec2 splat_depth_refine(vec2 range, float t_target, vec4 t0, ..., vec4 t3)``:
+    (threshold k - 1, threshold k) for the first k in 1..16 whose transmittance (t0.x, ...,
+    t3.w) is <= t_target, k = 17 if none."""
+    t = torch.cat([t0, t1, t2, t3], -1)  # [..., 16]
+    hit = t <= t_target[..., None]
+    first = torch.where(hit.any(-1), hit.to(torch.int64).argmax(-1) + 1, torch.full_like(
+        hit[..., 0], 17, dtype=torch.int64))
+    return torch.stack([splat_depth_threshold(range_, first - 1),
+                        splat_depth_threshold(range_, first)], -1)

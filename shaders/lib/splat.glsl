@@ -165,3 +165,45 @@ float splat_sh_basis(int index, vec3 d) {
 vec3 splat_face_forward(vec3 n, vec3 to_camera) {
     return dot(n, to_camera) < 0.0 ? -n : n;
 }
+
+// ---- median depth (the `splat_depth = "median"` option) ------------------------------------------
+// The depth where the accumulated opacity of the splats, front to back, reaches half of the
+// pixel's total coverage (splats plus what lies under them): the weighted median of the blending
+// weights T_i alpha_i whose mean is eq. 6.10's expected depth. Floaters in front of a surface
+// pull the mean towards the camera; the median stays on the surface unless they cover more than
+// half. Found per pixel by a search over the splats' view depths: the range [min, max] of the
+// contributing depths is split at SPLAT_MEDIAN_SPLITS thresholds, one pass multiplies the
+// transmittance prod (1 - alpha_i) of the splats at or in front of each threshold, and the first
+// threshold whose transmittance is at or below 1 - target narrows the range; after the last
+// level, the nearest splat depth in the range is the answer (passes/splat_median.frag).
+
+// The accumulated-opacity level the median crosses: half of the total coverage of splats (A) and
+// what lies under them ((1 - A) under_alpha). Above A the median is the surface underneath.
+float splat_median_target(float coverage, float under_alpha) {
+    return 0.5 * (coverage + (1.0 - coverage) * under_alpha);
+}
+
+// Threshold k (0..17) of the depth range (lo, hi): lo + (hi - lo) k / 17, with `precise`
+// products and sums in a fixed order, so the torch twin reproduces it bit for bit (a splat's
+// "at or in front of the threshold" test must agree exactly).
+float splat_depth_threshold(vec2 range, int k) {
+    precise float t = float(k) * 0.058823529411764705;  // 1 / 17 (SPLAT_MEDIAN_SPLITS + 1)
+    precise float d = range.x + (range.y - range.x) * t;
+    return k >= 17 ? range.y : d;
+}
+
+// One search level: the transmittances t0..t3 (16 values, threshold k = 1..16 in order x, y, z,
+// w of t0, then t1, ...) at the thresholds of `range`; returns the sub-range (threshold k - 1,
+// threshold k) around the first k whose transmittance is <= t_target (k = 17, the range's end,
+// if none is).
+vec2 splat_depth_refine(vec2 range, float t_target, vec4 t0, vec4 t1, vec4 t2, vec4 t3) {
+    float t[16] = float[16](t0.x, t0.y, t0.z, t0.w, t1.x, t1.y, t1.z, t1.w,
+                            t2.x, t2.y, t2.z, t2.w, t3.x, t3.y, t3.z, t3.w);
+    int k = 17;
+    for (int i = 15; i >= 0; --i) {
+        if (t[i] <= t_target) {
+            k = i + 1;
+        }
+    }
+    return vec2(splat_depth_threshold(range, k - 1), splat_depth_threshold(range, k));
+}

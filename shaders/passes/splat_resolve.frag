@@ -3,7 +3,8 @@
 //   w_under = (1 - A) alpha_under,  alpha = A + w_under,
 //   x = (sum_i T_i alpha_i x_i + w_under x_under) / alpha    (albedo, roughness, metallic, depth =
 //       thesis eq. 6.10, specular and ao with the splats' 0.5 and 1), normal normalised,
-//   color = sum_i T_i alpha_i c_i + w_under albedo_under     (premultiplied, no background).
+//   color = sum_i T_i alpha_i c_i + w_under albedo_under     (premultiplied, no background),
+//   emission = w_under emission_under / alpha                 (splats emit nothing).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
@@ -38,5 +39,6 @@ void main() {
     g.specular = (coverage * 0.5 + w_under * under.specular) / total;
     g.ao = (coverage + w_under * under.ao) / total;
     g.color = a0.rgb + w_under * under.albedo;
+    g.emission = w_under * under.emission / total;  // splats emit nothing and hide what does
     gbuffer_store(g);
 }

@@ -151,3 +151,37 @@ PARITY_CASES = [
                envelope="exact: a negation; the sign of n.c could differ only within ~3 x "
                         "2^-24 |c| of 0 (p ~ 2e-3 over 4096 draws)"),
 ]
+
+
+def _depth_ranges(args):
+    """(lo, hi) depth ranges with lo <= hi, as the min/max pass makes them."""
+    r = args[0].copy()
+    r.sort(axis=1)
+    return [r, *args[1:]]
+
+
+PARITY_CASES += [
+    ParityCase("splat_median_target", (Arg(lo=0, hi=1, adversarial=(0.0, 1.0, 0.5)),
+                                       Arg(lo=0, hi=1, adversarial=(0.0, 1.0))),
+               atol=1e-7, rtol=1e-6, measured="exact on llvmpipe",
+               envelope="0.5 (A + (1 - A) u): 4 correctly rounded operations on values in [0, 1] "
+                        "(an FMA may fuse one): <= 2 ulp of 1 = 1.2e-7"),
+    # bit-exact by construction, as splat_view_depth: a splat's depth is compared against these
+    # thresholds in GLSL and in the twin, and the comparison must agree
+    ParityCase("splat_depth_threshold", (Arg(lo=0.05, hi=50.0, components=2,
+                                             adversarial=((1.0, 1.0), (0.1, 100.0))),
+                                         Arg(kind="int", lo=0, hi=17,
+                                             adversarial=(0.0, 1.0, 16.0, 17.0))),
+               atol=0.0, rtol=0.0, prepare=_depth_ranges, measured="exact (0 abs)",
+               envelope="exact: `precise` fixes k * float32(1/17), hi - lo, the product and the "
+                        "sum, each correctly rounded in GLSL and in the twin"),
+    ParityCase("splat_depth_refine", (Arg(lo=0.05, hi=50.0, components=2),
+                                      Arg(lo=0, hi=1, adversarial=(0.0, 0.5, 1.0)),
+                                      Arg(lo=0, hi=1, components=4, adversarial=((1, 1, 1, 1),)),
+                                      Arg(lo=0, hi=1, components=4, adversarial=((0.5,) * 4,)),
+                                      Arg(lo=0, hi=1, components=4),
+                                      Arg(lo=0, hi=1, components=4, adversarial=((0, 0, 0, 0),))),
+               atol=0.0, rtol=0.0, prepare=_depth_ranges, measured="exact (0 abs)",
+               envelope="exact: comparisons of the inputs pick k, then two "
+                        "splat_depth_threshold values (bit-exact)"),
+]

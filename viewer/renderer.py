@@ -164,7 +164,8 @@ class Renderer:
             gpass.draw_meshes(gb, camera, meshes)
         if clouds:  # after meshes: depth-tested against them, composited over them
             self._pass_begin("splats")
-            self.resources.layout_pass("splats", spec.layout).draw_clouds(gb, camera, clouds)
+            self.resources.layout_pass("splats", spec.layout).draw_clouds(
+                gb, camera, clouds, depth=scene.render.splat_depth)
         return gb
 
     def _lighting(self, scene: Scene, model: ShadingModel, spec: Specialization,

@@ -38,6 +38,7 @@ Example::
     multiscatter = true
     tonemap = "aces"                 # none | aces | reinhard
     exposure = 0.0                   # EV stops, applied before tone mapping
+    splat_depth = "expected"         # splat depth: expected (eq. 6.10) | median (robust to floaters)
 """
 from __future__ import annotations
 
@@ -53,7 +54,7 @@ from .errors import SceneError
 from .material import Material
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import RENDER_KEYS, RenderSettings
+from .settings import RENDER_KEYS, SPLAT_DEPTHS, RenderSettings
 
 try:
     import tomllib
@@ -369,6 +370,8 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     for k in ("ssao_radius", "ssao_thickness"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
+    if "splat_depth" in t:
+        kw["splat_depth"] = _str(t["splat_depth"], "render.splat_depth", file, SPLAT_DEPTHS)
     if "neural_storage" in t:
         kw["neural_storage"] = _str(t["neural_storage"], "render.neural_storage", file,
                                     WEIGHT_STORAGES)

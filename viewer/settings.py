@@ -52,6 +52,9 @@ class DisplaySettings:
     background: str = "environment"  # "environment" | "transparent"
 
 
+SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
+
+
 @dataclass(frozen=True)
 class RenderSettings:
     """The ``[render]`` table, grouped by the part of the renderer each setting steers. The TOML
@@ -63,6 +66,9 @@ class RenderSettings:
     ao: bool = True  # apply the G-buffer's ambient occlusion to diffuse light
     precision: str = "fp32"  # G-buffer render targets: "fp32" | "fp16" (radiance stays fp32)
     specialize: bool = True  # build only the channels and shader variants the scene needs
+    # splat G-buffer depth: "expected" (eq. 6.10, the blending-weighted mean) | "median" (where
+    # the accumulated opacity reaches half the coverage: robust to floaters)
+    splat_depth: str = "expected"
     mc: MonteCarloSettings = MonteCarloSettings()
     ssao: SSAOSettings = SSAOSettings()
     neural: NeuralSettings = NeuralSettings()
@@ -114,4 +120,5 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "neural_storage": ("neural", "storage"),
+    "splat_depth": (None, "splat_depth"),
 }

@@ -8,7 +8,9 @@ attribute (geometry through the conic and centre, materials, SH, opacity).
 Compositing: with splats sorted front to back, T_i = prod_{j<i} (1 - alpha_i) and
 ``x = sum_i T_i alpha_i x_i`` for the colour (premultiplied) and, divided by the coverage
 A = 1 - prod(1 - alpha_i), for albedo, normal (then normalised), roughness, metallic and depth
-(thesis eq. 6.10). The GLSL pass blends back to front - the same sums.
+(thesis eq. 6.10), or, with ``depth="median"``, the median depth of the same weights
+(:func:`median_depth`, the search of ``splat_median.frag``). The GLSL pass blends back to front -
+the same sums.
 
 Memory: pixels x splats-per-chunk floats per intermediate; every pixel is evaluated against every
 splat (no tiling), so this is for tests, parity and small training renders, not for 1M splats.
@@ -20,9 +22,11 @@ from typing import Iterator
 import numpy as np
 import torch
 
-from learned.twins.splat import (splat_alpha, splat_conic, splat_cov2d, splat_cov2d_det,
-                                 splat_face_forward, splat_mahalanobis2, splat_min_axis,
-                                 splat_rotation, splat_sh_basis_all, splat_view_depth)
+from learned.twins.splat import (MEDIAN_SPLITS, splat_alpha, splat_conic, splat_cov2d,
+                                 splat_cov2d_det, splat_depth_refine, splat_depth_threshold,
+                                 splat_face_forward, splat_mahalanobis2, splat_median_target,
+                                 splat_min_axis, splat_rotation, splat_sh_basis_all,
+                                 splat_view_depth)
 from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
 from viewer.splats.data import Splats
@@ -87,21 +91,19 @@ def _pixel_centres(camera: Camera) -> torch.Tensor:
     return torch.stack([gx, gy], -1).reshape(-1, 2)
 
 
-def weight_chunks(t: dict[str, torch.Tensor], camera: Camera, p: dict | None = None,
-                  under_depth: torch.Tensor | None = None, order: np.ndarray | None = None,
-                  chunk: int = 256) -> Iterator[tuple[torch.Tensor, torch.Tensor]]:
-    """Yield ``(index [S], weight [S, H*W])`` front to back, weight = T_i alpha_i per pixel.
-
-    ``under_depth`` [H*W] (view depth of meshes, 0 = none) rejects splats behind it, as the GL
-    depth test does. ``order`` defaults to :func:`viewer.splats.sort.depth_order` (reversed).
-    """
+def alpha_chunks(t: dict[str, torch.Tensor], camera: Camera, p: dict | None = None,
+                 under_depth: torch.Tensor | None = None, order: np.ndarray | None = None,
+                 chunk: int = 256) -> Iterator[tuple[torch.Tensor, torch.Tensor]]:
+    """Yield ``(index [S], alpha [S, H*W])`` front to back: each splat's alpha at every pixel
+    centre (``splat_raster.frag``), 0 where ``under_depth`` [H*W] (view depth of meshes, 0 =
+    none) rejects it as the GL depth test does. ``order`` defaults to
+    :func:`viewer.splats.sort.depth_order` (reversed)."""
     p = p if p is not None else project(t, camera)
     if order is None:
         order = depth_order(t["means"].detach().numpy(), camera.view_matrix())
     front = torch.from_numpy(np.ascontiguousarray(order[::-1]).astype(np.int64))
     front = front[p["valid"][front]]
     pix = _pixel_centres(camera)
-    transmittance = torch.ones(pix.shape[0])
     for s in range(0, len(front), chunk):
         idx = front[s:s + chunk]
         d = pix[None, :, :] - p["centre"][idx][:, None, :]
@@ -110,6 +112,18 @@ def weight_chunks(t: dict[str, torch.Tensor], camera: Camera, p: dict | None = N
         if under_depth is not None:
             blocked = (under_depth[None, :] > 0) & (p["depth"][idx][:, None] >= under_depth[None, :])
             alpha = torch.where(blocked, torch.zeros_like(alpha), alpha)
+        yield idx, alpha
+
+
+def weight_chunks(t: dict[str, torch.Tensor], camera: Camera, p: dict | None = None,
+                  under_depth: torch.Tensor | None = None, order: np.ndarray | None = None,
+                  chunk: int = 256) -> Iterator[tuple[torch.Tensor, torch.Tensor]]:
+    """Yield ``(index [S], weight [S, H*W])`` front to back, weight = T_i alpha_i per pixel
+    (arguments as :func:`alpha_chunks`)."""
+    transmittance = None
+    for idx, alpha in alpha_chunks(t, camera, p, under_depth, order, chunk):
+        if transmittance is None:
+            transmittance = torch.ones(alpha.shape[1])
         one_minus = 1.0 - alpha
         excl = torch.cumprod(torch.cat([torch.ones_like(one_minus[:1]), one_minus[:-1]], 0), 0)
         tr = transmittance[None, :] * excl
@@ -117,13 +131,58 @@ def weight_chunks(t: dict[str, torch.Tensor], camera: Camera, p: dict | None = N
         transmittance = tr[-1] * one_minus[-1]
 
 
+MEDIAN_LEVELS = 3  # as viewer.passes.splats.MEDIAN_LEVELS
+_FAR = 3.0e38
+
+
+def median_depth(t: dict[str, torch.Tensor], camera: Camera, coverage: torch.Tensor,
+                 under_alpha: torch.Tensor, p: dict | None = None,
+                 under_depth: torch.Tensor | None = None, order: np.ndarray | None = None,
+                 chunk: int = 256) -> torch.Tensor:
+    """Mirror of the median-depth passes (``splat_median.frag``, ``splat_median_update.frag``):
+    [H*W] the nearest splat depth in the range the search narrows to (3e38 where no splat
+    contributes). ``coverage`` [H*W] the splats' A, ``under_alpha`` [H*W] the alpha under them.
+    Not differentiable (a selection). The transmittance at a threshold is read from the running
+    front-to-back product (GL multiplies back to front: the same factors, rounded in another
+    order). Memory: splats x pixels floats, a few times."""
+    p = p if p is not None else project(t, camera)
+    n_pix = camera.width * camera.height
+    with torch.no_grad():
+        parts = list(alpha_chunks(t, camera, p, under_depth, order, chunk))
+        if not parts:
+            return torch.full((n_pix,), _FAR)
+        idx = torch.cat([i for i, _ in parts])
+        alpha = torch.cat([a.detach() for _, a in parts])  # [N, P], front to back
+        d = p["depth"].detach()[idx]  # [N], non-decreasing (the sort key)
+        hit = alpha > 0
+        dd = d[:, None].expand_as(alpha)
+        lo = torch.where(hit, dd, torch.full_like(dd, _FAR)).amin(0)
+        hi = torch.where(hit, dd, torch.zeros_like(dd)).amax(0)
+        # transmittance after each splat; at a threshold: after the last splat at or before it
+        after = torch.cumprod(1.0 - alpha, 0).T.contiguous()  # [P, N]
+        t_target = 1.0 - splat_median_target(coverage, under_alpha)
+        rng = torch.stack([lo, hi], -1)
+        for _ in range(MEDIAN_LEVELS):
+            thr = torch.stack([splat_depth_threshold(rng, k) for k in range(1, MEDIAN_SPLITS + 1)],
+                              -1)  # [P, 16]
+            j = torch.searchsorted(d.contiguous(), thr.reshape(-1).contiguous(), right=True)
+            j = j.reshape(n_pix, MEDIAN_SPLITS) - 1
+            trans = torch.where(j >= 0, torch.gather(after, 1, j.clamp_min(0)), 1.0)
+            rng = splat_depth_refine(rng, t_target, *trans.split(4, dim=-1))
+        pick = hit & (dd >= rng[None, :, 0]) & (dd <= rng[None, :, 1])
+        answer = torch.where(pick, dd, torch.full_like(dd, _FAR)).amin(0)
+    return answer
+
+
 def rasterize(t: dict[str, torch.Tensor], camera: Camera,
               under: dict[str, torch.Tensor] | None = None, order: np.ndarray | None = None,
-              chunk: int = 256) -> dict[str, torch.Tensor]:
+              chunk: int = 256, depth: str = "expected") -> dict[str, torch.Tensor]:
     """The splat G-buffer: channel -> [H, W, C] float32 (row 0 at the top), every channel of
     ``GBufferLayout(with_color=True)``. ``under``: the G-buffer already drawn (meshes; channel ->
     [H, W, C]); splats behind its depth are rejected and the result is composited over it as in
-    ``splat_resolve.frag``. Without ``under``, uncovered pixels hold background values."""
+    ``splat_resolve.frag``. Without ``under``, uncovered pixels hold background values.
+    ``depth``: "expected" (eq. 6.10) or "median" (:func:`median_depth`), as ``[render]
+    splat_depth``."""
     h, w = camera.height, camera.width
     p = project(t, camera)
     attrs = torch.cat([p["color"], t["albedo"], p["normal"], t["roughness"][:, None],
@@ -138,13 +197,21 @@ def rasterize(t: dict[str, torch.Tensor], camera: Camera,
         acc = acc + wgt.T @ attrs[idx]
         coverage = coverage + wgt.sum(0)
     # coverage as GL accumulates it: 1 - prod(1 - alpha) equals sum T_i alpha_i
-    return resolve(acc, coverage, (h, w), under)
+    median = None
+    if depth == "median":
+        ua = torch.zeros(h * w) if under is None else under["alpha"].reshape(-1)
+        median = median_depth(t, camera, coverage.detach(), ua, p, under_depth, order)
+    elif depth != "expected":
+        raise ValueError(f"depth must be 'expected' or 'median', not {depth!r}")
+    return resolve(acc, coverage, (h, w), under, median)
 
 
 def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
-            under: dict[str, torch.Tensor] | None = None) -> dict[str, torch.Tensor]:
+            under: dict[str, torch.Tensor] | None = None,
+            median: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
     """Mirror of ``splat_resolve.frag``. acc [P, 12] = sums of T a (colour, albedo, normal,
-    roughness, metallic, depth); coverage [P]."""
+    roughness, metallic, depth); coverage [P]; ``median`` [P] (:func:`median_depth`) replaces the
+    expected depth as with ``SPLAT_DEPTH_MEDIAN``."""
     h, w = size_hw
     layout = GBufferLayout(with_color=True, with_emission=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
@@ -169,6 +236,9 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
         "color": acc[:, 0:3] + wu * base["albedo"],
         "emission": wu * base["emission"] / safe,  # splats emit nothing; they hide what does
     }
+    if median is not None:
+        on_splat = (coverage >= splat_median_target(coverage, base["alpha"][:, 0])) & (median < 1e30)
+        out["depth"] = torch.where(on_splat, median, base["depth"][:, 0])[:, None]
     return {k: torch.where(hit[:, None], v, base[k]).reshape(h, w, -1) for k, v in out.items()}
 
 

@@ -2,18 +2,24 @@
 // G-buffer held before (meshes, image stacks: bound as u_gbuffer<i>, a copy), premultiplied:
 //   w_under = (1 - A) alpha_under,  alpha = A + w_under,
 //   x = (sum_i T_i alpha_i x_i + w_under x_under) / alpha    (albedo, roughness, metallic, depth =
-//       thesis eq. 6.10, specular and ao with the splats' 0.5 and 1), normal normalised,
+//       thesis eq. 6.10, specular and ao with the splats' 0.5 and 1), normal normalised (the
+//       blended sum of unit normals, renormalised: a weighted mean direction),
+//   depth with SPLAT_DEPTH_MEDIAN: the median depth instead (lib/splat.glsl, splat_median.frag),
 //   color = sum_i T_i alpha_i c_i + w_under albedo_under     (premultiplied, no background),
 //   emission = w_under emission_under / alpha                 (splats emit nothing).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
 #include "generated/gbuffer.glsl"
+#include "lib/splat.glsl"
 
 uniform sampler2D u_accum0;  // (sum T a c, A)
 uniform sampler2D u_accum1;  // (sum T a albedo, A)
 uniform sampler2D u_accum2;  // (sum T a normal, A)
 uniform sampler2D u_accum3;  // (sum T a roughness, sum T a metallic, sum T a depth, A)
+#if SPLAT_DEPTH_MEDIAN
+uniform sampler2D u_median;  // r: the median splat depth (splat_median.frag pass 2), else 3e38
+#endif
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -35,7 +41,15 @@ void main() {
     g.normal = dot(n, n) > 0.0 ? normalize(n) : vec3(0.0);
     g.roughness = (a3.r + w_under * under.roughness) / total;
     g.metallic = (a3.g + w_under * under.metallic) / total;
+#if SPLAT_DEPTH_MEDIAN
+    // the median of the splats and what lies under them: a splat's depth where the splats'
+    // coverage reaches half the total, else the depth underneath
+    float median = texelFetch(u_median, px, 0).r;
+    bool on_splat = coverage >= splat_median_target(coverage, under.alpha) && median < 1e30;
+    g.depth = on_splat ? median : under.depth;
+#else
     g.depth = (a3.b + w_under * under.depth) / total;
+#endif
     g.specular = (coverage * 0.5 + w_under * under.specular) / total;
     g.ao = (coverage + w_under * under.ao) / total;
     g.color = a0.rgb + w_under * under.albedo;

@@ -13,6 +13,13 @@ Four steps per frame (``shaders/passes/splat_*``):
 4. ``splat_resolve.frag`` - normalises by coverage and composites over the G-buffer's previous
    content (a copy), writing through ``gbuffer_store``.
 
+Depth (``[render] splat_depth``): ``"expected"`` is eq. 6.10, the blending-weighted mean of the
+splat depths (one more channel of step 3). ``"median"`` is the depth where the accumulated opacity
+reaches half the pixel's coverage (lib/splat.glsl): between steps 3 and 4, ``splat_median.frag``
+redraws the splats 2 + :data:`MEDIAN_LEVELS` times (the depth range, one pass per search level,
+the final pick) and ``splat_median_update.frag`` narrows the per-pixel range after each level,
+so the median costs about five splat rasterisations more than the expected depth.
+
 The torch twin is :func:`learned.splats.rasterize.rasterize`; ``relight parity --model splats``
 compares the two.
 """
@@ -24,6 +31,7 @@ import numpy as np
 
 from ..camera import Camera, gl_bytes
 from ..gbuffer import GBufferLayout
+from ..settings import SPLAT_DEPTHS
 from ..splats.data import Splats, concat
 from ..splats.sort import depth_order
 from . import FullscreenDraw
@@ -32,6 +40,9 @@ from . import set_uniform as _set
 RECORD = 24  # floats per projected splat (see splat_project.comp)
 CHUNK = 1 << 18  # splats per projection dispatch (keeps each bound range under SSBO limits)
 SORTS = ("cpu", "gpu")
+DEPTHS = SPLAT_DEPTHS  # [render] splat_depth
+MEDIAN_LEVELS = 3  # search levels: the range shrinks 17x per level, then the nearest splat in it
+_FAR = 3.0e38  # clear value of the min-blended targets ("no splat")
 
 
 def camera_constants(camera: Camera) -> dict:
@@ -77,8 +88,11 @@ class SplatPass:
         self._sort = programs.compute("passes/splat_sort.comp")
         self._raster = programs.graphics("passes/splat_raster.vert", "passes/splat_raster.frag",
                                          defines=defines)
-        self._resolve = programs.graphics("passes/fullscreen.vert", "passes/splat_resolve.frag",
-                                          virtual=layout.virtual_files())
+        self._resolve = {
+            mode: programs.graphics("passes/fullscreen.vert", "passes/splat_resolve.frag",
+                                    defines={"SPLAT_DEPTH_MEDIAN": int(mode == "median")},
+                                    virtual=layout.virtual_files()) for mode in DEPTHS}
+        self._median = None  # the median-depth programs, built on first use
 
     # ---- resources ---------------------------------------------------------------------------
     def upload(self, splats: Splats) -> _Uploaded:
@@ -199,9 +213,12 @@ class SplatPass:
                 j >>= 1
             k <<= 1
 
-    def draw(self, targets, camera: Camera, splats: Splats, sort: str = "cpu") -> None:
+    def draw(self, targets, camera: Camera, splats: Splats, sort: str = "cpu",
+             depth: str = "expected") -> None:
         """Composite ``splats`` into ``targets`` (after meshes and image stacks were drawn there).
-        The camera is used at the targets' size."""
+        The camera is used at the targets' size; ``depth``: one of :data:`DEPTHS`."""
+        if depth not in DEPTHS:
+            raise ValueError(f"depth must be one of {DEPTHS}")
         ctx = self.ctx
         camera = camera.with_size(*targets.size)
         entry = self.prepare(splats, camera, sort)
@@ -226,7 +243,9 @@ class SplatPass:
                 ctx.blend_func = ctx.DEFAULT_BLENDING
                 fbo.depth_mask = True
         ctx.copy_framebuffer(acc["scratch_fbo"], targets.fbo)
-        prog = self._resolve
+        if depth == "median":
+            self._run_median(entry, acc, camera)
+        prog = self._resolve[depth]
         unit = 0
         for a, tex in acc["scratch"].items():
             tex.use(unit)
@@ -236,11 +255,109 @@ class SplatPass:
             tex.use(unit)
             _set(prog, f"u_accum{i}", unit)
             unit += 1
+        if depth == "median":
+            acc["median"]["answer"].use(unit)
+            _set(prog, "u_median", unit)
         targets.fbo.use()
         ctx.viewport = (0, 0, *targets.size)
         self._fullscreen(prog)
 
-    def draw_clouds(self, targets, camera: Camera, clouds: list[Splats]) -> None:
+    # ---- median depth ----------------------------------------------------------------------------
+    def _median_programs(self) -> dict:
+        if self._median is None:
+            p = self.programs
+            raster = {i: p.graphics("passes/splat_raster.vert", "passes/splat_median.frag",
+                                    defines={"SPLAT_RECORD": f"{RECORD}u", "SPLAT_MEDIAN_PASS": i})
+                      for i in range(3)}
+            self._median = {
+                "raster": raster,
+                "vaos": {i: self.ctx.vertex_array(prog, []) for i, prog in raster.items()},
+                "init": p.graphics("passes/fullscreen.vert", "passes/splat_median_update.frag",
+                                   defines={"SPLAT_MEDIAN_INIT": 1},
+                                   virtual=self.layout.virtual_files()),
+                "refine": p.graphics("passes/fullscreen.vert", "passes/splat_median_update.frag",
+                                     defines={"SPLAT_MEDIAN_INIT": 0},
+                                     virtual=self.layout.virtual_files()),
+            }
+        return self._median
+
+    def _median_targets(self, acc: dict) -> dict:
+        if "median" not in acc:
+            ctx, targets = self.ctx, acc["targets"]
+
+            def tex():
+                t = ctx.texture(targets.size, 4, dtype="f4")
+                t.filter = (ctx.NEAREST, ctx.NEAREST)
+                return t
+            m = {"range": tex(), "state": [tex(), tex()], "t": [tex() for _ in range(4)],
+                 "answer": tex()}
+            m["range_fbo"] = ctx.framebuffer([m["range"]], depth_attachment=targets.depth)
+            m["search_fbo"] = ctx.framebuffer(m["t"], depth_attachment=targets.depth)
+            m["answer_fbo"] = ctx.framebuffer([m["answer"]], depth_attachment=targets.depth)
+            m["state_fbo"] = [ctx.framebuffer([t]) for t in m["state"]]
+            acc["median"] = m
+        return acc["median"]
+
+    def _run_median(self, entry: _Uploaded, acc: dict, camera: Camera) -> None:
+        """The median-depth search (module docstring): leaves the answer in
+        ``acc["median"]["answer"]`` (r; 3e38 where no splat contributes)."""
+        ctx = self.ctx
+        progs = self._median_programs()
+        m = self._median_targets(acc)
+        size = acc["targets"].size
+        m["range_fbo"].clear(_FAR, _FAR, _FAR, 0.0)
+        m["answer_fbo"].clear(_FAR, _FAR, _FAR, _FAR)
+        order = entry.order if entry.sort == "gpu" else entry.cpu_order
+
+        def splats(i, fbo, state=None):
+            if not entry.count:
+                return
+            prog = progs["raster"][i]
+            fbo.use()
+            fbo.depth_mask = False
+            ctx.viewport = (0, 0, *size)
+            ctx.enable(ctx.DEPTH_TEST | ctx.BLEND)
+            ctx.depth_func = "<"
+            try:
+                entry.projected.bind_to_storage_buffer(0)
+                order.bind_to_storage_buffer(1)
+                _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
+                if state is not None:
+                    state.use(0)
+                    _set(prog, "u_state", 0)
+                progs["vaos"][i].render(ctx.TRIANGLE_STRIP, vertices=4, instances=entry.count)
+            finally:
+                ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
+                ctx.blend_func = ctx.DEFAULT_BLENDING
+                ctx.blend_equation = ctx.FUNC_ADD
+                fbo.depth_mask = True
+
+        def fullscreen(prog, fbo, textures):
+            for unit, (name, tex) in enumerate(textures.items()):
+                tex.use(unit)
+                _set(prog, name, unit)
+            fbo.use()
+            ctx.viewport = (0, 0, *size)
+            self._fullscreen(prog)
+
+        ctx.blend_equation = (ctx.MIN, ctx.MAX)
+        splats(0, m["range_fbo"])
+        under = {f"u_gbuffer{a}": t for a, t in acc["scratch"].items()}
+        fullscreen(progs["init"], m["state_fbo"][0],
+                   {**under, "u_range": m["range"], "u_accum0": acc["textures"][0]})
+        cur = 0
+        for _ in range(MEDIAN_LEVELS):
+            m["search_fbo"].clear(1.0, 1.0, 1.0, 1.0)
+            ctx.blend_func = (ctx.ZERO, ctx.SRC_COLOR)  # dst *= 1 - alpha: transmittance
+            splats(1, m["search_fbo"], m["state"][cur])
+            fullscreen(progs["refine"], m["state_fbo"][1 - cur],
+                       {"u_state": m["state"][cur], **{f"u_t{i}": t for i, t in enumerate(m["t"])}})
+            cur = 1 - cur
+        ctx.blend_equation = ctx.MIN
+        splats(2, m["answer_fbo"], m["state"][cur])
+
+    def draw_clouds(self, targets, camera: Camera, clouds: list[Splats],
+                    depth: str = "expected") -> None:
         """:meth:`draw` for several clouds of one scene, concatenated (once) so they sort
         together."""
 
@@ -250,7 +367,7 @@ class SplatPass:
                 self._forget(old)
             self._clouds.clear()
             self._clouds[key] = (list(clouds), concat(list(clouds)))
-        self.draw(targets, camera, self._clouds[key][1], sort=self.sort)
+        self.draw(targets, camera, self._clouds[key][1], sort=self.sort, depth=depth)
 
     def _forget(self, splats: Splats) -> None:
         e = self._uploads.pop(id(splats), None)
@@ -272,5 +389,15 @@ class SplatPass:
                 acc[key].release()
             for t in acc["textures"] + list(acc["scratch"].values()):
                 t.release()
+            m = acc.get("median")
+            if m is not None:
+                for f in [m["range_fbo"], m["search_fbo"], m["answer_fbo"], *m["state_fbo"]]:
+                    f.release()
+                for t in [m["range"], m["answer"], *m["state"], *m["t"]]:
+                    t.release()
         self._accum.clear()
+        if self._median is not None:
+            for vao in self._median["vaos"].values():
+                vao.release()
+            self._median = None
         self._fullscreen.release()

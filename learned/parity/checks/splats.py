@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from learned.splats.rasterize import _pixel_centres, project, rasterize, splat_tensors
-from learned.twins.splat import splat_mahalanobis2
+from learned.splats.rasterize import (_pixel_centres, alpha_chunks, project, rasterize,
+                                      splat_tensors)
+from learned.twins.splat import splat_mahalanobis2, splat_median_target
 from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
 from viewer.geometry import primitives
@@ -65,7 +66,8 @@ def parity_camera(size=(96, 80)) -> Camera:
                   near=0.05)
 
 
-def render_gl(programs, splats: Splats, camera: Camera, meshes=(), sort: str = "cpu"):
+def render_gl(programs, splats: Splats, camera: Camera, meshes=(), sort: str = "cpu",
+              depth: str = "expected"):
     """(before, after): G-buffer channel dicts read back before and after the splat pass."""
 
     layout = GBufferLayout(with_color=True)
@@ -76,7 +78,7 @@ def render_gl(programs, splats: Splats, camera: Camera, meshes=(), sort: str = "
         if meshes:
             gpass.draw_meshes(targets, camera, list(meshes))
         before = targets.read()
-        spass.draw(targets, camera, splats, sort=sort)
+        spass.draw(targets, camera, splats, sort=sort, depth=depth)
         after = targets.read()
     finally:
         gpass.release()
@@ -112,6 +114,24 @@ def ambiguous_pixels(t: dict[str, torch.Tensor], camera: Camera,
     return amb.reshape(camera.height, camera.width)
 
 
+def median_ambiguous_pixels(t: dict[str, torch.Tensor], camera: Camera, coverage: torch.Tensor,
+                            under_alpha: torch.Tensor, under_depth: torch.Tensor | None = None,
+                            band: float = 2e-5) -> torch.Tensor:
+    """[H, W] bool: pixels where the median's choice can flip on rounding - the accumulated
+    opacity after some splat (front to back), or the coverage itself, lies within ``band`` of the
+    target (GL multiplies the transmittances back to front, the twin in chunks: ~100 factors x
+    1 ulp apart, ~6e-6)."""
+    target = splat_median_target(coverage, under_alpha)
+    amb = (coverage - target).abs() < band
+    trans = torch.ones_like(coverage)
+    with torch.no_grad():
+        for _, alpha in alpha_chunks(t, camera, under_depth=under_depth):
+            after = trans[None] * torch.cumprod(1.0 - alpha, 0)
+            amb |= (((1.0 - after) - target[None]).abs() < band).any(0)
+            trans = after[-1]
+    return amb.reshape(camera.height, camera.width)
+
+
 def parity_check(programs, seeds=(0, 1), n: int = 1500):
     """ParityResults per G-buffer channel: random scenes without and with a mesh plane cutting
     through the cloud (depth test + compositing over the mesh G-buffer). Pixels on a
@@ -139,4 +159,33 @@ def parity_check(programs, seeds=(0, 1), n: int = 1500):
                                    PARITY_ATOL, 0.0, kind="pass",
                                    envelope="~100 blended layers x 35 ulp, x 2 for the resolve "
                                             "(see PARITY_ATOL); discontinuities excluded"))
+        # splat_depth = "median": the search picks one splat's depth, bit-identical in both
+        # (splat_view_depth, splat_depth_threshold exact) unless a rounding flips the choice
+        _, gl_med = render_gl(programs, splats, camera, meshes, depth="median")
+        with torch.no_grad():
+            ref_med = rasterize(tensors, camera, under=under, depth="median")
+        ua = (torch.zeros(keep.size) if under is None else under["alpha"].reshape(-1))
+        keep_med = keep & ~median_ambiguous_pixels(
+            tensors, camera, ref["alpha"].reshape(-1) if under is None else
+            _splat_coverage(tensors, camera, under_depth), ua, under_depth).numpy()
+        results.append(compare(
+            f"splats:{n}{'+mesh' if meshes else ''}:seed{seed}:median_depth"
+            f"({int((~keep_med).sum())}/{keep.size}px excluded)", gl_med["depth"][keep_med],
+            ref_med["depth"].numpy()[keep_med], MEDIAN_ATOL, 0.0, kind="pass",
+            envelope="exact: the nearest splat depth in the searched range, the same float32 "
+                      "value on both sides; pixels where an accumulated opacity is within 2e-5 "
+                      "of the target (the transmittance products' rounding) are excluded"))
     return results
+
+
+MEDIAN_ATOL = 0.0  # measured: 0 on llvmpipe (seeds 0, 1)
+
+
+def _splat_coverage(t, camera, under_depth) -> torch.Tensor:
+    """[H*W] the splats' coverage A = 1 - prod(1 - alpha) with the depth test."""
+    trans = None
+    for _, alpha in alpha_chunks(t, camera, under_depth=under_depth):
+        prod = torch.prod(1.0 - alpha, 0)
+        trans = prod if trans is None else trans * prod
+    n = camera.width * camera.height
+    return torch.zeros(n) if trans is None else 1.0 - trans

@@ -11,7 +11,7 @@ from viewer.splats.data import make_splats
 
 def test_parity_with_glsl_on_1500_splat_scenes(programs):
     results = parity_check(programs, seeds=(0, 1), n=1500)
-    assert len(results) == 18
+    assert len(results) == 22  # 2 scenes x (10 channels + the median depth)
     for r in results:
         assert r.passed, (r.name, r.max_abs)
         assert r.max_abs < PARITY_ATOL
@@ -82,3 +82,28 @@ def test_empty_cloud_gives_background():
     s = make_splats(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(0))
     g = rasterize(splat_tensors(s), parity_camera((8, 8)))
     assert float(g["alpha"].abs().sum()) == 0 and torch.isfinite(g["depth"]).all()
+
+
+def test_median_depth_search_finds_the_half_coverage_splat():
+    """The twin's search (3 levels of 16 thresholds, then the nearest splat in the range) against
+    the definition, per pixel by brute force: the depth of the first splat, front to back, after
+    which the accumulated opacity reaches half the pixel's coverage."""
+    from learned.splats.rasterize import alpha_chunks, median_depth
+
+    s = random_scene(80, 4, sh_degree=0)
+    cam = Camera(position=(0.3, 0.2, 3.0), target=(0, 0, 0), fov_y=50.0, size=(24, 20))
+    t = splat_tensors(s)
+    with torch.no_grad():
+        parts = list(alpha_chunks(t, cam))
+        idx = torch.cat([i for i, _ in parts])
+        alpha = torch.cat([a for _, a in parts]).double()  # [N, P] front to back
+        from learned.splats.rasterize import project
+        depth = project(t, cam)["depth"][idx].double()
+        acc = 1.0 - torch.cumprod(1.0 - alpha, 0)
+        coverage = acc[-1]
+        got = median_depth(t, cam, coverage.float(), torch.zeros_like(coverage).float())
+    covered = coverage > 0
+    first = ((acc >= 0.5 * coverage[None]) & (alpha > 0)).double().argmax(0)
+    want = depth[first]
+    agree = (got.double() == want) | ~covered
+    assert covered.sum() > 200 and agree.float().mean() > 0.99

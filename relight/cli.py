@@ -69,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", help="WxH (overrides [camera] size)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb, else scalar_rgb)")
+    p.add_argument("--geometry", default="mesh", choices=("mesh", "analytic"),
+                   help="mesh (default): the rasteriser's own triangles, so a difference is "
+                        "shading alone; analytic: exact spheres")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_reference)
 

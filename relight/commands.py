@@ -154,7 +154,12 @@ def cmd_reference(args) -> int:
 
     from viewer.scene import load_scene
 
-    from .reference import ReferenceOptions, check_traceable, render_reference, write_reference
+    from .reference import (
+        ReferenceOptions,
+        check_traceable,
+        render_reference,
+        write_reference,
+    )
     from .reference.render import config_key
 
     if (args.out is None) == (args.out_dir is None):
@@ -166,7 +171,8 @@ def cmd_reference(args) -> int:
     aovs = tuple(a.strip() for a in args.aov.split(",") if a.strip()) if args.aov else ()
     size = _parse_size(args.size) if args.size else None
     options = ReferenceOptions(spp=args.spp, max_depth=args.depth, antialias=args.antialias,
-                               seed=args.seed, variant=args.variant)
+                               seed=args.seed, variant=args.variant,
+                               geometry=args.geometry)
     jobs = []
     for path in args.scenes:  # every scene is checked before any is rendered
         scene = load_scene(path)

@@ -5,8 +5,16 @@ grid, glTF/OBJ meshes; the environment and the directional light) with the raste
 rays and returns the mean radiance with its per-pixel standard error; :func:`write_reference` /
 :func:`read_reference` store it beside its metadata. :mod:`relight.reference.compare` scores a
 render against it (per-pixel z-test, bias, median relative error)."""
-from .render import (AOVS, Reference, ReferenceOptions, camera_rays, load_mitsuba, read_reference,
-                     render_reference, write_reference)
+from .render import (
+                     AOVS,
+                     Reference,
+                     ReferenceOptions,
+                     camera_rays,
+                     load_mitsuba,
+                     read_reference,
+                     render_reference,
+                     write_reference,
+)
 from .scene import ReferenceError, check_traceable
 
 __all__ = ["AOVS", "Reference", "ReferenceError", "ReferenceOptions", "camera_rays",

@@ -57,10 +57,12 @@ class ZTest:
 
 def z_test(image: np.ndarray, ref: Reference, image_stderr: np.ndarray | None = None,
            alpha: float = 0.01, mask: np.ndarray | None = None,
-           floor: float = 0.0) -> ZTest:
+           floor: float = 0.0, quantile=None) -> ZTest:
     """Per pixel channel z = (image - ref) / sqrt(se_ref^2 + se_img^2 + floor^2) over ``mask``
     (default: :func:`coverage_mask`). ``floor`` is an absolute error the caller can justify that
-    is not sampling noise (e.g. the float32 accumulation of the image); 0 by default."""
+    is not sampling noise (e.g. the float32 accumulation of the image); 0 by default.
+    ``quantile(p)``: the two-sided threshold's distribution, the normal by default; pass a
+    Student-t quantile when ``image_stderr`` is estimated from few independent renders."""
     m = coverage_mask(image, ref) if mask is None else mask
     a = np.asarray(image[..., :3], np.float64)[m]
     b = np.asarray(ref.radiance[..., :3], np.float64)[m]
@@ -69,7 +71,7 @@ def z_test(image: np.ndarray, ref: Reference, image_stderr: np.ndarray | None = 
         var = var + np.asarray(image_stderr, np.float64)[m] ** 2
     z = np.abs(a - b) / np.sqrt(np.maximum(var, 1e-30))
     count = int(z.size)
-    thr = normal_quantile(alpha / (2.0 * max(count, 1)))
+    thr = (quantile or normal_quantile)(alpha / (2.0 * max(count, 1)))
     return ZTest(max_abs_z=float(z.max()) if count else 0.0, threshold=thr, count=count,
                  failing=int((z > thr).sum()))
 

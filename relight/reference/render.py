@@ -43,6 +43,7 @@ class ReferenceOptions:
     seed: int = 0
     variant: str | None = None  # None: llvm_ad_rgb when libLLVM is found, else scalar_rgb
     batch_spp: int | None = None  # samples per pixel per batch (None: as many as fit)
+    geometry: str = "mesh"     # "mesh": the rasteriser's triangles; "analytic": exact spheres
 
 
 @dataclass
@@ -161,7 +162,7 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
     mi, dr, variant = load_mitsuba(options.variant)
     t0 = time.perf_counter()
     try:
-        mscene = mi.load_dict(to_mitsuba(scene, mi, dr, options.max_depth))
+        mscene = mi.load_dict(to_mitsuba(scene, mi, dr, options.max_depth, options.geometry))
     except ReferenceError:
         raise
     except Exception as exc:  # noqa: BLE001 - Mitsuba's own message, on one line
@@ -225,7 +226,7 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
                     stderr=np.sqrt(var / n).reshape(h, w, 3).astype(np.float32),
                     meta={"spp": int(n), "max_depth": int(options.max_depth),
                           "rays": "jittered over the pixel" if options.antialias
-                          else "pixel centre", "seed": int(options.seed), "variant": variant,
+                          else "pixel centre", "geometry": options.geometry, "seed": int(options.seed), "variant": variant,
                           "mitsuba": mi.__version__, "seconds": round(time.perf_counter() - t0, 3),
                           "size": [w, h], "scene": scene.source, "key": key})
     if aovs:

@@ -13,13 +13,14 @@ import numpy as np
 from viewer.environment import load_environment
 from viewer.errors import RelightError
 from viewer.geometry import primitives
-from viewer.geometry.loaders import load_mesh
+from viewer.geometry.cache import GeometryCache
 from viewer.material import Material
 from viewer.scene import Scene
 
 from .bsdf import bsdf_class
 
 TRACEABLE = ("sphere", "plane", "material_grid", "mesh")
+GEOMETRIES = ("mesh", "analytic")
 
 
 class ReferenceError(RelightError):
@@ -39,16 +40,36 @@ def check_traceable(scene: Scene) -> None:
 
 
 def environment_bitmap(scene: Scene) -> np.ndarray:
-    """The scene's environment texels in Mitsuba's ``envmap`` convention: Mitsuba looks up
-    u = atan2(x, -z) / 2pi (wrapped to [0, 1)), ours u = that + 0.5 (``equirect.glsl``); both have
-    v = acos(y) / pi with row 0 at the zenith. So the columns are rolled by half the width."""
-    env = load_environment(scene.environment)
-    return np.ascontiguousarray(np.roll(env, -env.shape[1] // 2, axis=1))
+    """The scene's environment as a bitmap for Mitsuba's ``envmap`` that reproduces the
+    rasteriser's lookup *exactly*.
+
+    The rasteriser reads texel centres bilinearly, u = (j + 0.5) / W (wrapping) and
+    v = (i + 0.5) / H (clamped), with u = atan2(x, -z) / 2pi + 0.5. Mitsuba's ``envmap``
+    (measured: tests/reference) also puts column j at u = (j + 0.5) / W, but with
+    u = atan2(x, -z) / 2pi, so the columns are rolled by half the width; its rows, however, sit
+    at v = i / (H - 1), first and last on the poles. Our lookup is piecewise bilinear in v with
+    knots on the row-centre lines; sampled at v = i / 2H, a grid that contains every knot line,
+    Mitsuba's linear interpolation of the samples gives back the same function. So the bitmap is
+    ``[2H + 1, W]``, equal to our lookup wherever it is evaluated, up to float rounding."""
+    env = load_environment(scene.environment).astype(np.float64)
+    h, w = env.shape[:2]
+    env = np.roll(env, -(w // 2), axis=1)
+    v = np.arange(2 * h + 1) / (2 * h)
+    y = np.clip(v * h - 0.5, 0.0, h - 1.0)
+    y0 = np.minimum(np.floor(y).astype(np.int64), h - 2)
+    fy = (y - y0)[:, None, None]
+    return np.ascontiguousarray(env[y0] * (1 - fy) + env[y0 + 1] * fy, dtype=np.float32)
 
 
-def to_mitsuba(scene: Scene, mi, dr, max_depth: int) -> dict:
+def to_mitsuba(scene: Scene, mi, dr, max_depth: int, geometry: str = "mesh") -> dict:
     """The ``mi.load_dict`` dictionary of ``scene`` (integrator ``path`` with ``max_depth``,
-    Russian roulette off so the standard error is the plain sample variance's)."""
+    Russian roulette off so the standard error is the plain sample variance's). ``geometry``:
+    ``"mesh"`` traces the rasteriser's own triangles (tessellated spheres: the reference then
+    differs from a render by shading alone, the default); ``"analytic"`` traces Mitsuba's exact
+    spheres (what a tessellated silhouette costs, visible at near-mirror roughness)."""
+    if geometry not in GEOMETRIES:
+        raise ReferenceError(f"geometry {geometry!r} is not one of {', '.join(GEOMETRIES)}",
+                             where="--geometry")
     check_traceable(scene)
     bsdf_type = bsdf_class(mi, dr)
     multiscatter = bool(scene.render.multiscatter)
@@ -69,7 +90,7 @@ def to_mitsuba(scene: Scene, mi, dr, max_depth: int) -> dict:
                       "irradiance": {"type": "rgb", "value": [float(c) for c in irr]}}
     count = 0
     for obj in scene.objects:
-        for shape in _shapes(obj, mi, dr, bsdf_type, multiscatter):
+        for shape in _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
             d[f"shape_{count}"] = shape
             count += 1
     return d
@@ -79,36 +100,31 @@ def _bsdf(bsdf_type, material: Material, textures: dict, multiscatter: bool):
     return bsdf_type().configure(material, textures, multiscatter)
 
 
-def _shapes(obj, mi, dr, bsdf_type, multiscatter):
-    if obj.type == "sphere":
-        yield _sphere(mi, obj.center, obj.radius, _bsdf(bsdf_type, obj.material, {}, multiscatter))
-    elif obj.type == "material_grid":
-        for ball in primitives.material_ball_grid(rows=obj.rows, cols=obj.cols,
-                                                  spacing=obj.spacing, radius=obj.radius,
-                                                  albedo=obj.material.albedo, center=obj.center,
-                                                  segments=4, rings=2):
-            lo, hi = ball.bounds()
-            yield _sphere(mi, tuple((lo + hi) / 2.0), obj.radius,
-                          _bsdf(bsdf_type, ball.material, {}, multiscatter))
-    elif obj.type == "plane":
-        mesh = primitives.plane(center=obj.center, size=obj.size, normal=obj.normal,
-                                material=obj.material)
-        yield _mesh(mi, dr, mesh, _bsdf(bsdf_type, obj.material, {}, multiscatter))
-    elif obj.type == "mesh":
-        transform = None if obj.transform is None else np.asarray(obj.transform, np.float64)
-        for mesh in load_mesh(obj.path, transform=transform, material_override=obj.material):
-            textures = {}
-            for key in ("base_color", "metallic_roughness"):
-                if key in mesh.textures:
-                    textures[key] = _texture(mi, mesh.textures[key])
-            ignored = [k for k in ("normal", "occlusion") if k in mesh.textures]
-            if ignored:
-                warnings.warn(f"{obj.path}: {mesh.name or 'a mesh'}: the reference does not use "
-                              f"its {' and '.join(ignored)} map"
-                              f"{'s' if len(ignored) > 1 else ''} (occlusion is baked visibility, "
-                              "which the path tracer computes; normal maps are not traced)",
-                              stacklevel=2)
-            yield _mesh(mi, dr, mesh, _bsdf(bsdf_type, mesh.material, textures, multiscatter))
+def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
+    if geometry == "analytic" and obj.type in ("sphere", "material_grid"):
+        balls = ([(obj.center, obj.material)] if obj.type == "sphere" else
+                 [(tuple((b.bounds()[0] + b.bounds()[1]) / 2.0), b.material)
+                  for b in primitives.material_ball_grid(
+                      rows=obj.rows, cols=obj.cols, spacing=obj.spacing, radius=obj.radius,
+                      albedo=obj.material.albedo, center=obj.center, segments=4, rings=2)])
+        for center, material in balls:
+            yield _sphere(mi, center, obj.radius, _bsdf(bsdf_type, material, {}, multiscatter))
+        return
+    # the rasteriser's own triangles (GeometryCache: tessellated primitives, loaded meshes with
+    # the object's material override), so a difference is shading, never geometry
+    for mesh in GeometryCache().get(obj):
+        textures = {}
+        for key in ("base_color", "metallic_roughness"):
+            if key in mesh.textures:
+                textures[key] = _texture(mi, mesh.textures[key])
+        ignored = [k for k in ("normal", "occlusion") if k in mesh.textures]
+        if ignored:
+            warnings.warn(f"{obj.path or obj.type}: {mesh.name or 'a mesh'}: the reference does "
+                          f"not use its {' and '.join(ignored)} map"
+                          f"{'s' if len(ignored) > 1 else ''} (occlusion is baked visibility, "
+                          "which the path tracer computes; normal maps are not traced)",
+                          stacklevel=2)
+        yield _mesh(mi, dr, mesh, _bsdf(bsdf_type, mesh.material, textures, multiscatter))
 
 
 def _sphere(mi, center, radius, bsdf):
@@ -130,13 +146,13 @@ def _mesh(mi, dr, mesh, bsdf):
     m = mi.Mesh(mesh.name or "mesh", mesh.vertex_count, mesh.triangle_count, props, True, has_uv)
     params = mi.traverse(m)
 
-    def cols(a, dtype=np.float32):
-        return np.ascontiguousarray(np.asarray(a, dtype).T)
+    def flat(key, a, dtype=np.float32):  # the buffer's own type: llvm and scalar variants
+        params[key] = type(params[key])(np.ascontiguousarray(np.asarray(a, dtype).ravel()))
 
-    params["vertex_positions"] = dr.ravel(mi.Point3f(cols(mesh.positions)))
-    params["vertex_normals"] = dr.ravel(mi.Vector3f(cols(mesh.normals)))
+    flat("vertex_positions", mesh.positions)
+    flat("vertex_normals", mesh.normals)
     if has_uv:
-        params["vertex_texcoords"] = dr.ravel(mi.Point2f(cols(mesh.uvs)))
-    params["faces"] = dr.ravel(mi.Vector3u(cols(mesh.indices, np.uint32)))
+        flat("vertex_texcoords", mesh.uvs)
+    flat("faces", mesh.indices, np.uint32)
     params.update()
     return m

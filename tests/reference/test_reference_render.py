@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from relight.cli import main
 from relight.reference import ReferenceOptions, read_reference, render_reference
@@ -134,7 +135,9 @@ def test_scalar_backend_agrees_with_llvm(mitsuba_llvm):
                          progress=False)
     assert b.meta["variant"] == "scalar_rgb"
     render_module.load_mitsuba("llvm_ad_rgb")  # leave the session on the fast backend
-    result = z_test(b.radiance, a, image_stderr=b.stderr)
+    # b's variance is estimated from 16 samples: Student-t, 15 degrees of freedom
+    result = z_test(b.radiance, a, image_stderr=b.stderr,
+                    quantile=lambda p: float(stats.t.isf(p, 15)))
     assert result.passed, result
 
 
@@ -210,3 +213,31 @@ def _env(name):
     from assets import ASSET_ROOT
 
     return str(ASSET_ROOT / "environments" / f"{name}.exr")
+
+
+def test_mitsuba_environment_equals_the_rasterisers_lookup(mitsuba_llvm):
+    """Mitsuba's envmap, fed :func:`environment_bitmap`, returns the rasteriser's bilinear
+    texel-centre lookup (u wraps, v clamps; ``equirect.glsl``) in every direction: float rounding
+    only (1e-4 relative at the 99th percentile; the first, naive conversion erred by 26 %)."""
+    mi, dr, _ = mitsuba_llvm
+    from relight.reference.scene import environment_bitmap
+    from viewer.environment import load_environment
+
+    scene = _scene({"procedural": "sky", "width": 64, "sun_radiance": 2e4}, {})
+    env = load_environment(scene.environment).astype(np.float64)
+    h, w = env.shape[:2]
+    emitter = mi.load_dict({"type": "envmap", "bitmap": mi.Bitmap(environment_bitmap(scene))})
+    d = np.random.default_rng(5).normal(size=(4096, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    si = dr.zeros(mi.SurfaceInteraction3f, len(d))
+    si.wi = mi.Vector3f(np.ascontiguousarray(-d.T, np.float32))
+    got = np.array(emitter.eval(si)).T
+    x = (np.arctan2(d[:, 0], -d[:, 2]) / (2 * np.pi) + 0.5) * w - 0.5
+    y = np.clip(np.arctan2(np.hypot(d[:, 0], d[:, 2]), d[:, 1]) / np.pi * h - 0.5, 0, h - 1)
+    x0, y0 = np.floor(x).astype(int), np.minimum(np.floor(y).astype(int), h - 2)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    xa, xb = x0 % w, (x0 + 1) % w
+    want = ((env[y0, xa] * (1 - fx) + env[y0, xb] * fx) * (1 - fy)
+            + (env[y0 + 1, xa] * (1 - fx) + env[y0 + 1, xb] * fx) * fy)
+    rel = np.abs(got - want).sum(1) / (want.sum(1) + 1e-6)
+    assert np.percentile(rel, 99) < 1e-4 and rel.max() < 1e-2, (np.percentile(rel, 99), rel.max())

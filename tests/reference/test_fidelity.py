@@ -69,25 +69,42 @@ def test_every_reference_scene_has_a_reference():
         assert ref.radiance.shape[:2] == (scene.camera.height, scene.camera.width)
 
 
-# Known and not yet explained (left open in the issue note): on the procedural sky (a 2-degree
-# sun of radiance 2e4 with a glow), 3 to 10 of ~2,600 pixels of the rough conductor differ by up
-# to 50 % (z up to 30) in the interior of the sphere, while the energy agrees to 0.03 % and every
-# real HDRI passes. The per-pixel test stays strict for them: it starts failing (XPASS) when the
-# cause is found and fixed.
-_PER_PIXEL_KNOWN = {"procsky_conductor_r03", "procsky_conductor_r08"}
+# The references trace the rasteriser's own triangles (a 192 x 96 sphere), so the path tracer
+# also sees the facets: a shadow ray towards a light that the interpolated shading normal faces
+# (n.l > 0) but the flat facet does not starts below the facet and hits the sphere itself. That
+# self-shadowing of the tessellation exists only where n.l is within the facet's normal deviation
+# (at most half a 1.875-degree facet diagonal, 1.33 degrees) plus the sun's angular radius (2
+# degrees for the procedural sky, under one texel, 0.7 degrees, for the HDRIs) of zero: a 5-degree
+# band around the sun's terminator. Measured: there 3 to 10 pixels of the rough conductors under
+# the procedural sky differed by up to 50 %, and the same scene traced with --geometry analytic
+# agreed with ggx_mc at those pixels (0.547 vs 0.556). The per-pixel test leaves that band out.
+TERMINATOR_BAND_DEG = 5.0
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=pytest.mark.xfail(strict=True, reason="a few procedural-sky pixels "
-                                            "differ; see _PER_PIXEL_KNOWN"))
-    if n in _PER_PIXEL_KNOWN else n for n in CONVEX])
+def _sun_direction(scene) -> np.ndarray:
+    """World direction of the environment's brightest texel (rotation 0 in these scenes)."""
+    from viewer.environment import load_environment, texel_directions
+
+    env = load_environment(scene.environment)
+    lum = env.sum(axis=-1)
+    i, j = np.unravel_index(np.argmax(lum), lum.shape)
+    assert scene.environment.rotation_deg == 0.0
+    return texel_directions(env.shape[1])[i, j]
+
+
+@pytest.mark.parametrize("name", CONVEX)
 def test_ggx_mc_equals_path_traced_truth_per_pixel(renderer, name):
-    """Same integrand, same triangles, no visibility: equal in expectation, pixel by pixel. The
-    image's variance is estimated from 16 renders, so the threshold is Student-t with 15 degrees
-    of freedom (conservative for the combined variance's effective degrees of freedom)."""
+    """Same integrand, same triangles, no visibility: equal in expectation, pixel by pixel, away
+    from the sun's terminator band (above). The image's variance is estimated from 16 renders,
+    so the threshold is Student-t with 15 degrees of freedom (conservative for the combined
+    variance's effective degrees of freedom)."""
     scene, ref = _load(name)
     mean, se, _ = _mc(renderer, scene)
-    result = z_test(mean, ref, image_stderr=se, alpha=1e-3,
+    normal = renderer.render(scene, aovs=("normal",)).aovs["normal"][..., :3]
+    n_dot_sun = normal @ _sun_direction(scene)
+    band = np.abs(n_dot_sun) < math.sin(math.radians(TERMINATOR_BAND_DEG))
+    mask = coverage_mask(mean, ref) & ~band
+    result = z_test(mean, ref, image_stderr=se, alpha=1e-3, mask=mask,
                     quantile=lambda p: float(stats.t.isf(p, GROUPS - 1)))
     assert result.passed, result
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gbuffer import CHANNEL_NAMES, GBufferLayout
+from .gbuffer import CHANNEL_NAMES, CHANNELS, GBufferLayout
 from .models import ShadeVariant, model_info
 
 
@@ -28,6 +28,7 @@ class SceneFeatures:
     ao: bool = True  # some surface has ambient occlusion < 1
     constant_environment: bool = False  # every environment texel is the same colour
     single_object: bool = False  # the scene has exactly one object
+    emission: bool = False  # some mesh emits light (glTF emissive): the emission channel
 
 
 @dataclass(frozen=True)
@@ -63,7 +64,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
 def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
-    specular = ao = False
+    specular = ao = emission = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -85,15 +86,18 @@ def analyse(renderer, scene) -> SceneFeatures:
             for mesh in content:
                 s, a = _mesh_features(mesh)
                 specular, ao = specular or s, ao or a
+                emission = emission or mesh.has_emission
     constant = False
     spec = scene.environment
     if spec.path is None and spec.procedural == "white":
         constant = True
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
-                         constant_environment=constant, single_object=len(scene.objects) == 1)
+                         constant_environment=constant, single_object=len(scene.objects) == 1,
+                         emission=emission)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
+_OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission
 
 
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
@@ -107,7 +111,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     dtype = "f2" if settings.precision == "fp16" else "f4"
     model = model_info(settings.model)
     if not enabled or features is None:
-        return Specialization(GBufferLayout(with_color=True, dtype=dtype),
+        return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True),
                               model.variant(settings, light, specular=True))
     # models that do not say what they read get every channel (sampling, neural, future ones)
     needed = set(CHANNEL_NAMES if model.reads is None else model.reads)
@@ -120,10 +124,11 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     if features.stacks and (features.meshes or features.splats):
         needed.add("depth")  # meshes and splats depth-test against the stack's stored depth
     needed |= set(aovs) | {"albedo", "alpha"}
-    needed.discard("color")
-    omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c != "color")
+    needed -= _OPTIONAL  # allocated by the layout's flags, never omitted
+    omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c not in _OPTIONAL)
     direct = features.stacks and not (features.meshes or features.splats) and \
         features.single_object and dtype == "f4"
-    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit),
+    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
+                                        with_emission=features.emission),
                           model.variant(settings, light, specular=features.specular),
                           direct_stack=direct)

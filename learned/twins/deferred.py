@@ -23,6 +23,14 @@ def env_dir(d_ws: torch.Tensor, rotation: float) -> torch.Tensor:
     return rotate_y(d_ws, torch.full(d_ws.shape[:-1], -rotation, dtype=d_ws.dtype))
 
 
+def emitted_radiance(g: dict[str, torch.Tensor]) -> torch.Tensor:
+    """GLSL ``vec3 emitted_radiance(GBuffer g)``: the G-buffer's emission channel ([..., 3]), zero
+    where the layout has none (as ``gbuffer_background``)."""
+    if "emission" in g:
+        return g["emission"]
+    return torch.zeros(*g["alpha"].shape[:-1], 3, dtype=g["alpha"].dtype)
+
+
 def reflect(i: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
     """GLSL built-in ``reflect(I, N)`` = I - 2 dot(N, I) N."""
     return i - 2.0 * (n * i).sum(-1, keepdim=True) * n

@@ -20,7 +20,7 @@ from __future__ import annotations
 import torch
 
 from learned.neural.lighting import STRATEGIES, env_radiance, student_features, surface
-from learned.twins.deferred import env_dir, reflect, view_ray_ws
+from learned.twins.deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from learned.twins.mc import mc_sample_2d
 
 from .brdf import clamp_perceptual_roughness
@@ -124,6 +124,7 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
         u = mc_sample_2d(px, py, idx, seed, 0)  # [N, S, 2]
         strategy = {v_: k for k, v_ in STRATEGIES.items()}[defines["SAMPLING"]]
         c = net_model(flat, v, lighting, u, strategy)
+    c = c + emitted_radiance(flat)  # write_radiance(c + emitted_radiance(g), ...)
     alpha = flat["alpha"][:, 0]
     covered = (alpha > 0.0)[:, None]
     out = torch.where(covered, background + (c - background) * alpha[:, None], background)

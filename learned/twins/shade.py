@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import torch
 
 from .brdf import clamp_perceptual_roughness, compute_f0
-from .deferred import env_dir, reflect, view_ray_ws
+from .deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from .equirect import equirect_uv
 from .ibl import (
     DIRECTION_ABS_ERROR,
@@ -116,6 +116,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     c = PASS_TWINS[model](g, surf, defines, env=env, intensity=intensity,
                           rotation_rad=rotation_rad, mc=mc or {}, light=light,
                           envelope=mc_envelope)
+    c = c + emitted_radiance(g)  # write_radiance(c + emitted_radiance(g), ...) in every pass
     if mc_envelope is not None and "bound" in mc_envelope:  # Monte-Carlo lookups, in radiance
         lookups["mc"] = (None, mc_envelope["bound"] * alpha[..., None])
     covered = alpha > 0.0

@@ -1,6 +1,6 @@
 // deferred.glsl - the shared part of every lighting pass (shade_*.frag): G-buffer access, the
-// per-pixel view ray, the environment's rotation and intensity, the background, ambient occlusion
-// and the optional directional light's uniforms.
+// per-pixel view ray, the environment's rotation and intensity, the background, ambient occlusion,
+// the optional directional light's uniforms and the surface's own emission.
 // Pass-level chunk (has uniforms); the shading maths lives in shaders/lib.
 #define GBUFFER_READ
 #ifndef SPECULAR_LOBE
@@ -69,6 +69,13 @@ float ambient_occlusion(ivec2 pixel, GBuffer g) {
 uniform vec3 u_light_direction;   // unit, towards the light, world space (not u_env_rotation'd)
 uniform vec3 u_light_irradiance;  // linear RGB irradiance on a surface facing it: color * intensity
 #endif
+
+// ---- emission (glTF emissive; the G-buffer's optional channel, 0 where a scene has none) --------
+// Radiance the surface emits towards the viewer, added to every model's reflected radiance. It
+// lights nothing else: the rasteriser has no paths from one surface to another.
+vec3 emitted_radiance(GBuffer g) {
+    return g.emission;
+}
 
 // Composite a shaded surface of coverage alpha over the background and write it.
 void write_radiance(vec3 shaded, vec3 background, float alpha) {

@@ -156,5 +156,5 @@ void main() {
                                    u_light_irradiance);
     }
 #endif
-    write_radiance(c, background, g.alpha);
+    write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

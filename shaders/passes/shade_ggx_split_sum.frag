@@ -50,5 +50,5 @@ void main() {
                                u_light_direction, u_light_irradiance);
 #endif
 #endif
-    write_radiance(c, background, g.alpha);
+    write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

@@ -53,5 +53,5 @@ void main() {
 #else
     vec3 c = neural_student_radiance(k_0, k_1, g.albedo, irradiance, prefiltered);
 #endif
-    write_radiance(c, background, g.alpha);
+    write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

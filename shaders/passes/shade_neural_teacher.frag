@@ -53,5 +53,5 @@ void main() {
         }
     }
     vec3 c = sum / float(max(u_sample_count, 1u));
-    write_radiance(c, background, g.alpha);
+    write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

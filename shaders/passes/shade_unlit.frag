@@ -12,5 +12,5 @@ void main() {
 #else
     vec3 c = g.albedo;
 #endif
-    write_radiance(c, background, g.alpha);
+    write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

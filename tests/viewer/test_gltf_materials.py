@@ -439,3 +439,61 @@ def test_draco_compressed_primitive(tmp_path):
     np.testing.assert_allclose(got, want, atol=1e-4)  # 16-bit quantisation of a 2-unit box
     np.testing.assert_allclose(mesh.normals, np.tile([0, 0, 1], (len(mesh.normals), 1)),
                                atol=1e-3)
+
+
+# ---- emission -------------------------------------------------------------------------------------
+def _emissive_file(tmp_path, strength=None, texture=True):
+    b = GltfBuilder()
+    m = {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1]}, "doubleSided": True,
+         "emissiveFactor": [1.0, 0.5, 0.25]}
+    if texture:  # sRGB 255 / 128: linear 1 and 0.2158605
+        tex = b.image(image([[(255, 255, 255, 255), (128, 128, 128, 255)]]), sampler=NEAREST)
+        m["emissiveTexture"] = {"index": tex}
+    if strength is not None:
+        m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": strength}}
+        b.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+    quad(b, b.material(**m))
+    return b.save(tmp_path / "emissive.gltf")
+
+
+@pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum", "ggx_mc", "neural"])
+def test_emitted_radiance_under_a_black_environment(tmp_path, ctx, model):
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    path = _emissive_file(tmp_path, strength=4.0)
+    scene = scene_from_dict({
+        "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "fov_y": 40, "size": [SIZE, SIZE]},
+        "environment": {"procedural": "sky", "intensity": 0.0},
+        "objects": [{"type": "mesh", "path": str(path)}],
+        "render": {"model": model, "samples": 2, "tonemap": "none"}})
+    renderer = Renderer(ctx=ctx)
+    try:
+        frame = renderer.render(scene, aovs=("emission",))
+        assert renderer.specialization(scene).layout.with_emission
+    finally:
+        renderer.release()
+    lit = np.float32([1.0, 0.5, 0.25]) * 4.0  # factor x strength
+    left, right = frame.radiance[px(-0.5, 0.0)][:3], frame.radiance[px(0.5, 0.0)][:3]
+    # unlit shows the albedo too; every lit model reflects nothing of a black environment
+    base = np.float32([0.8] * 3) if model == "unlit" else 0.0
+    np.testing.assert_allclose(left, base + lit * 1.0, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(right, base + lit * 0.2158605, rtol=1e-3, atol=1e-6)
+    np.testing.assert_allclose(frame.aovs["emission"][px(-0.5, 0.0)], lit, rtol=1e-6)
+    assert frame.radiance[0, 0, :3].max() == 0.0  # background: the black environment
+
+
+def test_emission_channel_only_where_a_scene_emits(tmp_path, ctx):
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    b = GltfBuilder()
+    quad(b, b.material(doubleSided=True))
+    plain = b.save(tmp_path / "plain.gltf")
+    renderer = Renderer(ctx=ctx)
+    try:
+        for path, want in ((plain, False), (_emissive_file(tmp_path, texture=False), True)):
+            scene = scene_from_dict({"objects": [{"type": "mesh", "path": str(path)}]})
+            assert renderer.specialization(scene).layout.with_emission == want
+    finally:
+        renderer.release()

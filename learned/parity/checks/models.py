@@ -102,7 +102,29 @@ def checks() -> dict:
                 for model in ("blinn_phong", "ggx_split_sum")]
 
     register_pass_check("model:ssao_applied")(check_ssao_applied)
+
+    def check_emission(programs):
+        """An emissive, textured quad (glTF emission: the optional G-buffer channel) in the
+        parity scene: every lighting pass adds it (``emitted_radiance``) as the twin does."""
+        variants = [("unlit", {}), ("blinn_phong", {}), ("ggx_split_sum", {}),
+                    ("ggx_mc", {"samples": 2, "sampling": "mis"})]
+        return [_check_model(programs, model, variant, emissive=True)
+                for model, variant in variants]
+
+    register_pass_check("model:emission")(check_emission)
     return found
+
+
+def emissive_quad():
+    """A 1.2 x 0.8 quad in front of the parity scene's spheres, emitting (3, 1.5, 0.5) times a
+    4 x 4 checker of 1 and 0.25 (linear), sampled with the default (trilinear) sampler."""
+    from viewer.geometry.primitives import plane
+
+    quad = plane(center=(0.0, 0.3, 0.9), size=(1.2, 0.8), normal=(0.0, 0.2, 1.0))
+    checker = np.where((np.arange(4)[:, None] + np.arange(4)[None, :]) % 2 == 0, 1.0, 0.25)
+    quad.textures = {"emissive": np.repeat(checker[..., None], 3, -1).astype(np.float32)}
+    quad.emissive = (3.0, 1.5, 0.5)
+    return quad
 
 
 # ggx_mc renders few samples in one batch; every strategy, both heuristics, the toggles.
@@ -126,13 +148,20 @@ MC_LIGHT_VARIANTS = ({"samples": 2, "sampling": "mis"},
                      {"samples": 2, "sampling": "brdf", "multiscatter": False, "ao": False})
 
 
-def _check_model(programs, model: str, variant: dict, light: dict | None = None):
+def _check_model(programs, model: str, variant: dict, light: dict | None = None,
+                 emissive: bool = False):
     doc = PARITY_SCENE if light is None else {**PARITY_SCENE, "light": light}
+    if emissive:  # + an in-memory mesh object (emissive_quad)
+        doc = {**doc, "objects": doc["objects"] + [{"type": "mesh", "path": "emissive.glb"}]}
     scene = scene_from_dict(doc).with_render(model=model, **variant)
     renderer = Renderer(ctx=programs.ctx)
+    if emissive:
+        renderer.add_geometry(scene.objects[-1], [emissive_quad()])
     try:
         targets = renderer.draw(scene)
         gb = gl_gbuffer(targets)
+        if emissive and not float(gb["emission"].max()) > 0.0:
+            raise AssertionError("the emissive quad left no emission in the G-buffer")
         glsl = gl_texture(targets.radiance)
         env = env_from_ibl(renderer.ibl(scene))
         if model == "ggx_mc":
@@ -151,7 +180,8 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None)
     finally:
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(
-        f"{k}={v}" for k, v in variant.items())) + (":light" if light is not None else "")
+        f"{k}={v}" for k, v in variant.items())) + (":light" if light is not None else "") \
+        + (":emission" if emissive else "")
     if model == "ggx_mc":
         atol, rtol = MC_ATOL, MC_RTOL
         measured = "max abs 0.028 (uniform sampling, sun texels), max rel 9e-4 elsewhere"

@@ -113,18 +113,41 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
     # the rasteriser's own triangles (GeometryCache: tessellated primitives, loaded meshes with
     # the object's material override), so a difference is shading, never geometry
     for mesh in GeometryCache().get(obj):
+        where = obj.path or obj.type
         textures = {}
         for key in ("base_color", "metallic_roughness"):
             if key in mesh.textures:
-                textures[key] = _texture(mi, mesh.textures[key])
-        ignored = [k for k in ("normal", "occlusion") if k in mesh.textures]
+                textures[key] = _texture(mi, mesh.textures[key], mesh.sampling.get(key), where)
+        ignored = [k + " map" for k in ("normal", "occlusion") if k in mesh.textures]
+        if any(sm.texcoord != 0 for sm in mesh.sampling.values()):
+            ignored.append("TEXCOORD_1 (read as TEXCOORD_0)")
+        if mesh.colors is not None:
+            ignored.append("COLOR_0")
+        if mesh.alpha_mode != "OPAQUE":
+            ignored.append(f"alphaMode {mesh.alpha_mode} (traced opaque)")
+        if not mesh.double_sided:
+            ignored.append("single-sided culling (back faces are black, not see-through)")
         if ignored:
-            warnings.warn(f"{obj.path or obj.type}: {mesh.name or 'a mesh'}: the reference does "
-                          f"not use its {' and '.join(ignored)} map"
-                          f"{'s' if len(ignored) > 1 else ''} (occlusion is baked visibility, "
-                          "which the path tracer computes; normal maps are not traced)",
-                          stacklevel=2)
-        yield _mesh(mi, dr, mesh, _bsdf(bsdf_type, mesh.material, textures, multiscatter))
+            warnings.warn(f"{where}: {mesh.name or 'a mesh'}: the reference does not trace "
+                          f"{', '.join(ignored)} (occlusion is baked visibility, which the path "
+                          "tracer computes itself)", stacklevel=2)
+        bsdf = _bsdf(bsdf_type, mesh.material, textures, multiscatter)
+        if mesh.double_sided:  # back faces shade with the normal flipped, as the G-buffer does
+            bsdf = mi.load_dict({"type": "twosided", "bsdf": bsdf})
+        emitter = _emitter(mi, mesh, where) if mesh.has_emission else None
+        yield _mesh(mi, dr, mesh, bsdf, emitter)
+
+
+def _emitter(mi, mesh, where):
+    """glTF emission (emissiveFactor x strength x emissiveTexture) as an area light: in the
+    reference, unlike the rasteriser, emissive surfaces light the rest of the scene."""
+    factor = np.asarray(mesh.emissive, np.float32)
+    if "emissive" in mesh.textures:
+        img = np.asarray(mesh.textures["emissive"][..., :3], np.float32) * factor
+        radiance = _texture(mi, img, mesh.sampling.get("emissive"), where)
+    else:
+        radiance = {"type": "rgb", "value": [float(c) for c in factor]}
+    return mi.load_dict({"type": "area", "radiance": radiance})
 
 
 def _sphere(mi, center, radius, bsdf):
@@ -132,16 +155,37 @@ def _sphere(mi, center, radius, bsdf):
             "bsdf": bsdf}
 
 
-def _texture(mi, image: np.ndarray):
+_WRAP = {"repeat": "repeat", "clamp": "clamp", "mirror": "mirror"}  # ours -> Mitsuba
+
+
+def _texture(mi, image: np.ndarray, sampling=None, where: str = "mesh"):
+    """A Mitsuba bitmap texture read as the G-buffer pass reads ``image``: raw (linear) values,
+    the ``KHR_texture_transform`` as ``to_uv``, the wrap mode, nearest or bilinear magnification.
+    Mitsuba has one wrap mode for both axes (u's is used, with a warning when v's differs) and no
+    mip-mapping: at a pixel centre the path tracer sees the texture unfiltered, the rasteriser a
+    mip-mapped footprint (a minification blur the reference does not have)."""
     img = np.ascontiguousarray(image[..., :3] if image.shape[-1] >= 3 else
                                np.repeat(image[..., :1], 3, axis=-1), dtype=np.float32)
-    return mi.load_dict({"type": "bitmap", "bitmap": mi.Bitmap(img), "raw": True,
-                         "filter_type": "bilinear", "wrap_mode": "repeat"})
+    d = {"type": "bitmap", "bitmap": mi.Bitmap(img), "raw": True,
+         "filter_type": "bilinear", "wrap_mode": "repeat"}
+    if sampling is not None:
+        d["filter_type"] = "nearest" if sampling.mag_filter == "nearest" else "bilinear"
+        wrap_u, wrap_v = (_WRAP.get(w, "repeat") for w in sampling.wrap)
+        if wrap_u != wrap_v:
+            warnings.warn(f"{where}: a texture wraps u ({wrap_u}) and v ({wrap_v}) differently; "
+                          f"the reference wraps both as u", stacklevel=3)
+        d["wrap_mode"] = wrap_u
+        m = sampling.uv_matrix()
+        if not np.allclose(m, np.eye(3)):
+            d["to_uv"] = mi.ScalarTransform3f(m.astype(np.float64).tolist())
+    return mi.load_dict(d)
 
 
-def _mesh(mi, dr, mesh, bsdf):
+def _mesh(mi, dr, mesh, bsdf, emitter=None):
     props = mi.Properties()
     props["bsdf"] = bsdf
+    if emitter is not None:
+        props["emitter"] = emitter
     has_uv = mesh.uvs is not None
     m = mi.Mesh(mesh.name or "mesh", mesh.vertex_count, mesh.triangle_count, props, True, has_uv)
     params = mi.traverse(m)

@@ -269,3 +269,53 @@ def test_textured_mesh_reads_its_texture_the_right_way_up(mitsuba_llvm, renderer
     for i, j in ((4, 4), (4, 11), (11, 4), (11, 11)):
         assert np.argmax(ref.radiance[i, j, :3]) == np.argmax(ours[i, j, :3])
         np.testing.assert_allclose(ref.radiance[i, j, :3], ours[i, j, :3], rtol=0.15, atol=0.05)
+
+
+def _emissive_quad_gltf(path, emissive=(1.0, 0.5, 0.25)):
+    """A 1 x 1 quad at z = 0 facing +Z with emissiveFactor ``emissive`` and a black base colour."""
+    import base64
+
+    pos = np.float32([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
+    nrm = np.float32([[0, 0, 1]] * 4)
+    idx = np.uint16([0, 1, 2, 0, 2, 3])
+    blob = pos.tobytes() + nrm.tobytes() + idx.tobytes()
+    doc = {
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                     + base64.b64encode(blob).decode()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                       "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                      {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1],
+                                                "metallicFactor": 0.0},
+                       "emissiveFactor": list(emissive), "doubleSided": True}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2,
+                                    "material": 0}]}]}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_emissive_surfaces_emit_and_light_the_scene(mitsuba_llvm, renderer, tmp_path):
+    """glTF emission in the reference: seen directly it is the emitted radiance, as in the
+    rasteriser; unlike the rasteriser it lights a white floor below it (an area light)."""
+    quad = _emissive_quad_gltf(tmp_path / "lamp.gltf")
+    scene = _scene({"procedural": "sky", "intensity": 0.0, "width": 32}, {}, size=16, objects=[
+        {"type": "mesh", "path": str(quad),
+         "transform": [[1, 0, 0, 0], [0, 1, 0, 0.4], [0, 0, 1, 0], [0, 0, 0, 1]]},
+        {"type": "plane", "center": [0, -0.6, 0], "size": [4, 4],
+         "material": {"albedo": [1, 1, 1], "specular": 0.0}}])
+    scene = scene.with_camera(position=(0.0, 0.2, 3.0), target=(0.0, 0.0, 0.0))
+    ref = render_reference(scene, ReferenceOptions(spp=64, max_depth=3), progress=False)
+    ours = renderer.render(scene.with_render(model="ggx_split_sum")).radiance
+    lamp = np.all(np.isclose(ours[..., :3], [1.0, 0.5, 0.25], rtol=1e-4), axis=-1)
+    assert lamp.sum() > 4
+    # + what the lamp's dielectric coat (f0 = 0.04) reflects of the floor it lights: ~1e-4
+    np.testing.assert_allclose(ref.radiance[lamp][:, :3], ours[lamp][:, :3], rtol=2e-3)
+    floor = (ours[..., 3] > 0.99) & ~lamp & (np.arange(16)[:, None] > 11)
+    assert floor.any() and np.all(ours[floor][:, :3] == 0.0)  # black sky, no light in raster
+    assert np.all(ref.radiance[floor][:, 0] > 0.0)  # lit by the quad in the path tracer

@@ -7,6 +7,13 @@ splat renderer is present), the benchmark records the median time per frame and 
 :mod:`viewer.gl.timing`) and the error against a converged Monte-Carlo ``ggx_mc`` reference of the
 same scene (PSNR and SSIM on the display image, RMSE and HDR-FLIP on linear radiance).
 
+Against truth (:mod:`relight.bench.truth`): on every reference scene with a stored path-traced
+reference (``assets/scenes/reference``; ``--quick``: four of them), every mesh case is also timed
+at the reference's size and scored against the path-traced reference (visibility and
+inter-reflection included) and against a converged ``ggx_mc`` of the same scene (the same
+integrand, no visibility): energy bias, median relative error, PSNR. These rows carry
+``kind = "truth"``; the tables get their columns and ``pareto.png`` a panel for each reference.
+
 Outputs in ``DIR``: ``bench.json`` (``{"machine", "results", "specialization"}``), ``bench.csv``,
 ``bench.md`` and ``pareto.png`` (error vs time). Rows are appended to ``rows.jsonl`` as they are
 measured, so an interrupted run resumes where it stopped (``--fresh`` starts over).
@@ -23,9 +30,9 @@ import os
 import platform
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -45,8 +52,18 @@ from .mc import mc_convergence
 from .scenes import bench_scene, demo_scene, with_object
 from .specialize import measure_specialization
 from .timing import time_frames
+from .truth import (
+    TRUTH_KEYS,
+    converged_mc,
+    truth_cases,
+    truth_front,
+    truth_row,
+    truth_scenes,
+    truth_summary,
+)
 
 RESULT_KEYS = ("scene", "model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip")
+CSV_KEYS = RESULT_KEYS + ("kind", "group") + TRUTH_KEYS
 
 
 @dataclass(frozen=True)
@@ -55,6 +72,8 @@ class BenchConfig:
     frames: int = 10  # timed frames per case (after warm-up)
     warmup: int = 2
     reference_spp: int = 1024  # samples per pixel of the converged ggx_mc reference
+    truth_spp: int = 4096  # samples per pixel of the converged ggx_mc on the reference scenes
+    truth: bool = True  # measure against the path-traced references (relight.bench.truth)
 
     @property
     def sizes(self) -> list[tuple[int, int]]:
@@ -237,6 +256,9 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
     rows_path = out / "rows.jsonl"
     if fresh and rows_path.exists():
         rows_path.unlink()
+    if fresh:  # the converged ggx_mc of the reference scenes too (cheap; other caches persist)
+        for p in cache.glob("truth_*"):
+            p.unlink()
     done: dict[tuple, dict] = {}
     if rows_path.exists():
         for line in rows_path.read_text().splitlines():
@@ -279,6 +301,7 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
                 rows.append(row)
                 log.write(json.dumps(row) + "\n")
                 log.flush()
+            rows += _truth_rows(renderer, cases, config, cache, done, log, progress)
         sections = {}
         for name, suite in SUITES.items():
             path = out / f"{name}.json"
@@ -299,6 +322,40 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
     return report
 
 
+def _truth_rows(renderer, cases, config: BenchConfig, cache: Path, done: dict, log,
+                progress: bool) -> list[dict]:
+    """Every mesh case on every reference scene (:mod:`relight.bench.truth`); rows already in
+    ``done`` are reused, new ones appended to ``log``. The path-traced reference is read and the
+    converged ``ggx_mc`` rendered (or read from ``cache``) only for a scene with rows to measure."""
+    from tqdm import tqdm
+
+    from relight.reference import read_reference
+
+    if not config.truth:
+        return []
+    tcases = truth_cases(cases, quick=config.quick)
+    rows = []
+    for ts in tqdm(truth_scenes(config.quick), desc="bench vs truth", unit="scene",
+                   disable=not progress):
+        truth = mc = scene = None
+        for model, variant, changes in tcases:
+            if truth is None:
+                truth = read_reference(ts.reference)
+            h, w = truth.radiance.shape[:2]
+            key = (ts.name, model, variant, int(changes.get("samples", 1)), (w, h))
+            if key in done:
+                rows.append(done[key])
+                continue
+            if mc is None:
+                scene = ts.scene
+                mc = converged_mc(renderer, ts, cache, config.truth_spp)
+            row = truth_row(renderer, ts, (model, variant, changes), truth, mc, config, scene)
+            rows.append(row)
+            log.write(json.dumps(row) + "\n")
+            log.flush()
+    return rows
+
+
 # ---- reports ------------------------------------------------------------------------------
 
 def pareto_front(rows: list[dict]) -> list[dict]:
@@ -306,6 +363,8 @@ def pareto_front(rows: list[dict]) -> list[dict]:
     front = []
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
+        if r.get("kind") == "truth":  # their fronts: relight.bench.truth.truth_front
+            continue
         if math.isfinite(r.get("ms", float("nan"))) and math.isfinite(r.get("psnr", float("nan"))):
             groups.setdefault((r["scene"], tuple(r["size"])), []).append(r)
     for group in groups.values():
@@ -329,20 +388,80 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _pct(v, signed: bool = False) -> str:
+    if not isinstance(v, (int, float)) or not math.isfinite(v):
+        return "–"
+    return f"{100 * v:+.1f}" if signed else f"{100 * v:.1f}"
+
+
+def _truth_tables(rows: list[dict]) -> list[str]:
+    """bench.md's section against truth: per-case summaries (all reference scenes, then each
+    group) with the Pareto fronts marked, then every row."""
+    truth = [r for r in rows if r.get("kind") == "truth"]
+    if not truth:
+        return []
+    intro = ("Every mesh case on the reference scenes (`assets/scenes/reference`, at the "
+             "references' size), scored with `relight.reference.compare.score` against the "
+             "path-traced reference (**truth**: Mitsuba 3, our BSDF, visibility and "
+             "inter-reflection) and against a converged `ggx_mc` of the same scene (**mc**: the "
+             "same integrand, no visibility). Median relative error and |bias| in %, means over "
+             "scenes; worst bias signed; PSNR in dB (peak = the reference's 99.9th percentile); "
+             "time ratio = median over scenes of ms / `ggx_split_sum` single-scatter's ms. "
+             "★ / ☆: Pareto front in (time, median error) against truth / against mc.")
+    lines = ["", "### against truth", "", intro]
+    groups = [("all reference scenes", None)] + [
+        (f"{g} scenes", g) for g in sorted({r.get("group") for r in truth if r.get("group")})]
+    for title, group in groups:
+        summary = truth_summary(rows, group)
+        scenes = sorted({r["scene"] for r in truth if group is None or r.get("group") == group})
+        ft = {(e["model"], e["variant"]) for e in truth_front(summary, "truth")}
+        fm = {(e["model"], e["variant"]) for e in truth_front(summary, "mc")}
+        head = ("| model | variant | ms | time ratio | truth: median rel % | truth: abs bias % "
+                "| truth: worst bias % | truth: PSNR | mc: median rel % | mc: abs bias % "
+                "| mc: PSNR | pareto |")
+        lines += ["", f"**{title}** ({', '.join(scenes)})", "", head, "|" + "---|" * 12]
+        for e in summary:
+            k = (e["model"], e["variant"])
+            lines.append(
+                f"| {e['model']} | {e['variant']} | {_fmt(e['ms'])} | {_fmt(e['ms_ratio'])} "
+                f"| {_pct(e['median_rel_truth'])} | {_pct(e['abs_bias_truth'])} "
+                f"| {_pct(e['worst_bias_truth'], True)} | {_fmt(e['psnr_truth'])} "
+                f"| {_pct(e['median_rel_mc'])} | {_pct(e['abs_bias_mc'])} | {_fmt(e['psnr_mc'])} "
+                f"| {'★' if k in ft else ''}{'☆' if k in fm else ''} |")
+    head = ("| scene | model | variant | samples | size | ms | truth: median rel % "
+            "| truth: bias % | truth: PSNR | mc: median rel % | mc: bias % | mc: PSNR |")
+    lines += ["", "Every row:", "", head, "|" + "---|" * 12]
+    for r in truth:
+        lines.append(
+            f"| {r['scene']} | {r['model']} | {r['variant']} | {r['samples']} | {_fmt(r['size'])} "
+            f"| {_fmt(r.get('ms', math.nan))} | {_pct(r.get('median_rel_truth'))} "
+            f"| {_pct(r.get('bias_truth'), True)} | {_fmt(r.get('psnr_truth', math.nan))} "
+            f"| {_pct(r.get('median_rel_mc'))} | {_pct(r.get('bias_mc'), True)} "
+            f"| {_fmt(r.get('psnr_mc', math.nan))} |")
+    return lines
+
+
 def write_reports(out: Path, report: dict) -> None:
     rows = report["results"]
+    if any(r.get("kind") == "truth" for r in rows):
+        groups = sorted({r.get("group") for r in rows if r.get("kind") == "truth"} - {None})
+        report = {**report, "truth_summary": {g or "all": truth_summary(rows, g)
+                                              for g in [None, *groups]}}
     (out / "bench.json").write_text(json.dumps(report, indent=1, allow_nan=True))
     with open(out / "bench.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(RESULT_KEYS)
+        w.writerow(CSV_KEYS)
         for r in rows:
-            w.writerow([_fmt(r.get(k, float("nan"))) for k in RESULT_KEYS])
+            w.writerow([_fmt(r.get(k, "")) for k in CSV_KEYS])
     front = {id(r) for r in pareto_front(rows)}
     lines = ["| " + " | ".join(RESULT_KEYS) + " | pareto |",
              "|" + "---|" * (len(RESULT_KEYS) + 1)]
     for r in rows:
+        if r.get("kind") == "truth":
+            continue
         lines.append("| " + " | ".join(_fmt(r.get(k, float("nan"))) for k in RESULT_KEYS)
                      + f" | {'★' if id(r) in front else ''} |")
+    lines += _truth_tables(rows)
     if report.get("specialization"):
         lines += ["", "| scene | ms general | ms specialized | speed-up | max abs diff |",
                   "|---|---|---|---|---|"]
@@ -368,6 +487,9 @@ def write_reports(out: Path, report: dict) -> None:
 
 
 def _plot(path: Path, rows: list[dict]) -> None:
+    """pareto.png: a panel per bench scene (PSNR vs converged ``ggx_mc`` against time) and, with
+    truth rows, a second row of two panels over the reference scenes: mean median relative error
+    against the path-traced reference and against converged ``ggx_mc``, against time."""
     try:
         import matplotlib
 
@@ -375,13 +497,16 @@ def _plot(path: Path, rows: list[dict]) -> None:
         import matplotlib.pyplot as plt
     except ImportError:  # the bench extra is not installed: tables only
         return
-    pts = [r for r in rows if math.isfinite(r.get("ms", math.nan))
+    pts = [r for r in rows if r.get("kind") != "truth" and math.isfinite(r.get("ms", math.nan))
            and math.isfinite(r.get("psnr", math.nan))]
-    if not pts:
+    summary = [e for e in truth_summary(rows) if math.isfinite(e["ms"])]
+    if not pts and not summary:
         return
     scenes = sorted({(r["scene"], tuple(r["size"])) for r in pts})
-    fig, axes = plt.subplots(1, len(scenes), figsize=(5.5 * len(scenes), 4.5), squeeze=False)
-    models = sorted({r["model"] for r in pts})
+    ncols = max(len(scenes), 2 if summary else 1)
+    nrows = int(bool(scenes)) + int(bool(summary))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.5 * ncols, 4.5 * nrows), squeeze=False)
+    models = sorted({r["model"] for r in pts} | {e["model"] for e in summary})
     colours = {m: plt.cm.tab10(i % 10) for i, m in enumerate(models)}
     front = {id(r) for r in pareto_front(rows)}
     for ax, (sname, size) in zip(axes[0], scenes):
@@ -399,6 +524,37 @@ def _plot(path: Path, rows: list[dict]) -> None:
         ax.set_title(f"{sname} {size[0]}x{size[1]}")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
+    if summary:
+        n = len({r["scene"] for r in rows if r.get("kind") == "truth"})
+        titles = {"truth": f"vs path-traced reference (visibility), mean of {n} scenes",
+                  "mc": f"vs converged ggx_mc (same integrand), mean of {n} scenes"}
+        for ax, ref in zip(axes[-1], ("truth", "mc")):
+            good = [e for e in summary if math.isfinite(e[f"median_rel_{ref}"])
+                    and e[f"median_rel_{ref}"] > 0]
+            for m in models:
+                g = [e for e in good if e["model"] == m]
+                if g:
+                    ax.scatter([e["ms"] for e in g], [100 * e[f"median_rel_{ref}"] for e in g],
+                               color=colours[m], label=m, s=22)
+            f = [e for e in truth_front(good, ref)]
+            ax.plot([e["ms"] for e in f], [100 * e[f"median_rel_{ref}"] for e in f], "k--",
+                    lw=0.8, label="Pareto front")
+            for e in f:
+                label = e["model"] + ("" if e["variant"] == "default" else f" {e['variant']}")
+                ax.annotate(label,
+                            (e["ms"], 100 * e[f"median_rel_{ref}"]), fontsize=6,
+                            xytext=(3, 3), textcoords="offset points")
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel("ms per frame (log), median over scenes")
+            ax.set_ylabel("median relative error (%, log)")
+            ax.set_title(titles[ref], fontsize=10)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+        for ax in axes[-1][2:]:
+            ax.axis("off")
+    for ax in axes[0][len(scenes):] if scenes else []:
+        ax.axis("off")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -291,6 +291,17 @@ def cmd_bench(args) -> int:
     for s in report["specialization"]:
         print(f"specialised {s['scene']}: {s['ms_general']:.2f} -> {s['ms_specialized']:.2f} ms "
               f"({s['ms_general'] / s['ms_specialized']:.2f}x), max abs diff {s['max_abs_diff']:.2g}")
+    from .bench.truth import truth_front, truth_summary
+
+    summary = truth_summary(report["results"])
+    if summary:
+        print("Against the path-traced references (mean over scenes; time relative to split-sum):")
+        for ref, label in (("truth", "path-traced truth"), ("mc", "converged ggx_mc")):
+            print(f"  Pareto front vs {label}:")
+            for e in truth_front(summary, ref):
+                print(f"    {e['model']:<14} {e['variant']:<24} {e['ms_ratio']:6.2f}x  median rel. "
+                      f"error {100 * e[f'median_rel_{ref}']:5.1f} %  |bias| "
+                      f"{100 * e[f'abs_bias_{ref}']:5.1f} %")
     return 0
 
 

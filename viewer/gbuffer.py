@@ -117,12 +117,14 @@ class GBufferLayout:
         raise KeyError(name)
 
     # ---- GLSL -------------------------------------------------------------------------------
-    def glsl(self) -> str:
+    def glsl(self, load_name: str = "gbuffer_load") -> str:
         """The generated ``generated/gbuffer.glsl``: struct, defaults, store and load functions.
 
         ``#define GBUFFER_WRITE`` before including it declares the fragment outputs and
         ``gbuffer_store``; ``#define GBUFFER_READ`` declares samplers ``u_gbuffer<i>`` and
-        ``gbuffer_load(ivec2 pixel)``. Channels not in this layout keep their background value.
+        ``gbuffer_load(ivec2 pixel)`` (named ``load_name``: the forward pass renames it and puts
+        its own ``gbuffer_load`` in its place). Channels not in this layout keep their background
+        value.
         """
         lines = ["// generated from viewer/gbuffer.py (GBufferLayout); do not edit",
                  f"#define GBUFFER_HAS_COLOR {int(self.with_color)}",
@@ -152,7 +154,7 @@ class GBufferLayout:
         lines.append("#ifdef GBUFFER_READ")
         for a in self.attachments:
             lines.append(f"uniform sampler2D u_gbuffer{a};")
-        lines.append("GBuffer gbuffer_load(ivec2 pixel) {")
+        lines.append(f"GBuffer {load_name}(ivec2 pixel) {{")
         lines.append("    GBuffer g = gbuffer_background();")
         for a in self.attachments:
             lines.append(f"    vec4 t{a} = texelFetch(u_gbuffer{a}, pixel, 0);")

@@ -1,4 +1,5 @@
-"""The headless deferred renderer: scene -> G-buffer -> lighting -> tone mapping.
+"""The headless deferred renderer: scene -> G-buffer -> lighting -> forward (transparent
+surfaces) -> tone mapping.
 
     from viewer import Renderer, load_scene
     renderer = Renderer()                       # headless EGL (llvmpipe without a GPU)
@@ -131,6 +132,12 @@ class Renderer:
         ibl = self.ibl(scene)
         samples = self._lighting(scene, model, spec, targets, gbuffer, camera, ibl, progressive,
                                  samples_per_frame)
+        blended = [] if spec.direct_stack else self._blended(scene)
+        if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
+            self._pass_begin("forward")
+            self.resources.layout_pass("forward", spec.layout).run(
+                blended, gbuffer.textures, targets.radiance_fbo, camera, ibl, scene.environment,
+                settings, light=scene.light)
         self._pass_begin("tonemap")
         self.resources.tonemap().run(targets.radiance, targets.display_fbo,
                                      settings.display.exposure, settings.display.tonemap)
@@ -158,8 +165,8 @@ class Renderer:
                 gpass.draw_image(gb, content)
             elif obj.type == "splats":
                 clouds.append(content)
-            else:
-                meshes.extend(content)
+            else:  # alphaMode BLEND: the forward pass after lighting
+                meshes.extend(m for m in content if m.alpha_mode != "BLEND")
         if meshes:
             gpass.draw_meshes(gb, camera, meshes)
         if clouds:  # after meshes: depth-tested against them, composited over them
@@ -167,6 +174,11 @@ class Renderer:
             self.resources.layout_pass("splats", spec.layout).draw_clouds(
                 gb, camera, clouds, depth=scene.render.splat_depth)
         return gb
+
+    def _blended(self, scene: Scene) -> list:
+        """The scene's transparent meshes (glTF ``alphaMode: BLEND``), in file order."""
+        return [m for obj in scene.objects if obj.type not in ("gbuffer", "splats")
+                for m in self.geometry(obj) if m.alpha_mode == "BLEND"]
 
     def _lighting(self, scene: Scene, model: ShadingModel, spec: Specialization,
                   targets: TargetSet, gbuffer, camera: Camera, ibl, progressive: bool,

@@ -12,6 +12,7 @@ from .envsampling import build_env_sampling
 from .gbuffer import GBufferLayout
 from .ibl import IBLOptions, build_ibl
 from .passes.accumulate import Accumulator
+from .passes.forward import ForwardPass
 from .passes.gbuffer import GBufferPass, GBufferTargets
 from .passes.shade import ShadePass
 from .passes.splats import SplatPass
@@ -20,7 +21,7 @@ from .passes.tonemap import TonemapPass
 
 # the passes that are built per G-buffer layout
 LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
-                 "shade": ShadePass}
+                 "shade": ShadePass, "forward": ForwardPass}
 
 
 @dataclass

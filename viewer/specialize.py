@@ -29,6 +29,9 @@ class SceneFeatures:
     constant_environment: bool = False  # every environment texel is the same colour
     single_object: bool = False  # the scene has exactly one object
     emission: bool = False  # some mesh emits light (glTF emissive): the emission channel
+    # some mesh is transparent (glTF alphaMode BLEND): the forward pass depth-tests against the
+    # G-buffer's depth channel; blended meshes count for nothing else (they are not in it)
+    blend: bool = False
 
 
 @dataclass(frozen=True)
@@ -64,7 +67,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
 def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
-    specular = ao = emission = False
+    specular = ao = emission = blend = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -84,6 +87,9 @@ def analyse(renderer, scene) -> SceneFeatures:
         else:
             meshes = True
             for mesh in content:
+                if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
+                    blend = True
+                    continue
                 s, a = _mesh_features(mesh)
                 specular, ao = specular or s, ao or a
                 emission = emission or mesh.has_emission
@@ -93,7 +99,7 @@ def analyse(renderer, scene) -> SceneFeatures:
         constant = True
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
-                         emission=emission)
+                         emission=emission, blend=blend)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
@@ -123,6 +129,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         needed |= {"depth", "normal"}
     if features.stacks and (features.meshes or features.splats):
         needed.add("depth")  # meshes and splats depth-test against the stack's stored depth
+    if features.blend:
+        needed.add("depth")  # blended meshes depth-test against it (viewer/passes/forward.py)
     needed |= set(aovs) | {"albedo", "alpha"}
     needed -= _OPTIONAL  # allocated by the layout's flags, never omitted
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c not in _OPTIONAL)

@@ -11,7 +11,9 @@ Each frame: input -> UI (writes :class:`ViewerState`) -> if ``scene_from_state(s
 ``Renderer.draw`` (the same graph as ``relight render``) -> the view pass into the window ->
 ImGui. Nothing is re-rendered, allocated or read back while nothing changes. A change that fails
 (a corrupt dropped file, a bad scene, a model without weights) leaves the previous state and image
-and shows the one-line message. GPU time per pass comes from timer queries read one frame late.
+and shows the one-line message. Python warnings raised while a scene loads or renders (a glTF
+feature the loader does not use, a model that ignores the light, ...) go to stderr as always and
+to the message line as well. GPU time per pass comes from timer queries read one frame late.
 
 Mouse over the image: left drag orbits, right or middle drag (or shift + left) pans, the wheel
 zooms; R resets the camera, H hides the panels. Files dropped on the window: ``.toml`` opens a
@@ -19,7 +21,9 @@ scene, an image (``.hdr``, ``.exr``, ...) becomes the environment.
 """
 from __future__ import annotations
 
+import sys
 import time
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -38,7 +42,7 @@ from .state import ViewerState, load_into, reset_camera, scene_from_state, state
 
 SCENE_SUFFIXES = (".toml",)
 IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
-PASS_NAMES = ("gbuffer", "ibl", "shade", "tonemap", "view", "ui")
+PASS_NAMES = ("gbuffer", "ibl", "shade", "forward", "tonemap", "view", "ui")
 MAX_WINDOW = (1600, 1000)
 
 
@@ -153,18 +157,22 @@ class Viewer:
         if scene == self._scene and aovs == self._aovs and not accumulating:
             return  # nothing changed: no GPU work beyond presenting
         try:
-            self._targets = self.renderer.draw(scene, progressive=True,
-                                               samples_per_frame=self.samples_per_frame,
-                                               aovs=aovs)
+            # geometry loads on the first draw of a scene: its warnings reach the message line
+            with warnings.catch_warnings(record=True) as caught:
+                self._targets = self.renderer.draw(scene, progressive=True,
+                                                   samples_per_frame=self.samples_per_frame,
+                                                   aovs=aovs)
         except RelightError as exc:
             self.timers.begin(None)
             self.reject(str(exc))
+            self.show_warnings(caught, after_message=True)
             # a failed draw may have cleared the targets: draw the last good scene again
             if self._scene is not None:
                 self._targets = self.renderer.draw(self._scene, progressive=True,
                                                    samples_per_frame=self.samples_per_frame,
                                                    aovs=self._aovs)
             return
+        self.show_warnings(caught)
         self._scene = scene
         self._aovs = aovs
         self._good = self.state.copy()
@@ -178,6 +186,20 @@ class Viewer:
                              object_materials=good.object_materials,
                              material_override=good.material_override, light=good.light,
                              message=message)
+
+    def show_warnings(self, caught: list, after_message: bool = False) -> None:
+        """Warnings recorded while loading or drawing (``warnings.catch_warnings(record=True)``):
+        each printed to stderr as Python prints it, and shown in the message line, one line each
+        (in place of the last message, or after it with ``after_message``: an error)."""
+        lines = []
+        for w in caught:  # as warnings.showwarning prints them (whoever replaced it: pytest)
+            sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno))
+            lines.append(f"warning: {w.message}")
+        if not lines:
+            return
+        text = "\n".join(dict.fromkeys(lines))  # unique, in order
+        message = self.state.message
+        self.state.message = f"{message}\n{text}" if after_message and message else text
 
     def _view_rect(self) -> tuple[int, int, int, int, float]:
         """(x, y, w, h, scale): where the render is shown in the window (letterboxed)."""
@@ -250,12 +272,14 @@ class Viewer:
 
     def open_scene(self, path: str) -> bool:
         try:
-            scene = load_scene(path)
+            with warnings.catch_warnings(record=True) as caught:
+                scene = load_scene(path)
         except RelightError as exc:
             self.state.message = str(exc)
             return False
         self.state = load_into(self.state, scene)
         self.state.message = None
+        self.show_warnings(caught)
         return True
 
     def set_environment_file(self, path: str) -> None:

@@ -1,186 +1,25 @@
-// gbuffer_mesh.frag - G-buffer fill for triangle meshes: glTF 2.0 metallic-roughness material
-// factors times optional maps, vertex colours, alpha mask, emission.
-// Defines: USE_BASE_COLOR_MAP, USE_METALLIC_ROUGHNESS_MAP (G = roughness, B = metallic),
-// USE_NORMAL_MAP (+ HAS_TANGENTS, else a cotangent frame from derivatives), USE_OCCLUSION_MAP,
-// USE_EMISSIVE_MAP; USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
-// USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha); ALPHA_MASK (glTF alphaMode
-// MASK: fragments whose base colour alpha is below u_alpha_cutoff are discarded).
-// Every map is read through sample_map: its coordinate set (u_<map>_set), KHR_texture_transform
-// (u_<map>_uv, a 3x3 affine matrix made by viewer.geometry.mesh.TextureSampling.uv_matrix) and,
-// per axis, MIRRORED_REPEAT (u_<map>_mirror; REPEAT and CLAMP_TO_EDGE are the sampler's own).
+// gbuffer_mesh.frag - G-buffer fill for triangle meshes: the glTF surface of mesh_surface.glsl
+// (alphaMode OPAQUE and MASK; BLEND surfaces are shaded by the forward pass after lighting:
+// viewer/passes/forward.py).
+// Defines: those of mesh_surface.glsl, and ALPHA_MASK (glTF alphaMode MASK: fragments whose alpha
+// is below u_alpha_cutoff are discarded).
 #define GBUFFER_WRITE
 #include "generated/gbuffer.glsl"
+#include "passes/mesh_surface.glsl"
 
-uniform vec3 u_albedo;              // linear base colour factor
-uniform float u_base_alpha;         // glTF baseColorFactor alpha
-uniform float u_roughness;          // perceptual
-uniform float u_metallic;
-uniform float u_specular;           // f0 = 0.16 s^2
-uniform float u_ao;
-uniform float u_normal_scale;       // glTF normalTexture.scale
-uniform float u_occlusion_strength; // glTF occlusionTexture.strength
-uniform vec3 u_emissive;            // linear emitted radiance (emissiveFactor x strength)
 #ifdef ALPHA_MASK
 uniform float u_alpha_cutoff;       // glTF alphaCutoff
 #endif
 
-#ifdef USE_BASE_COLOR_MAP
-uniform sampler2D u_base_color_map;          // linear RGB(A)
-uniform int u_base_color_set;
-uniform mat3 u_base_color_uv;
-uniform vec2 u_base_color_mirror;
-#endif
-#ifdef USE_METALLIC_ROUGHNESS_MAP
-uniform sampler2D u_metallic_roughness_map;  // G = roughness, B = metallic
-uniform int u_metallic_roughness_set;
-uniform mat3 u_metallic_roughness_uv;
-uniform vec2 u_metallic_roughness_mirror;
-#endif
-#ifdef USE_NORMAL_MAP
-uniform sampler2D u_normal_map;              // tangent space, n * 0.5 + 0.5
-uniform int u_normal_set;
-uniform mat3 u_normal_uv;
-uniform vec2 u_normal_mirror;
-#endif
-#ifdef USE_OCCLUSION_MAP
-uniform sampler2D u_occlusion_map;           // R = occlusion
-uniform int u_occlusion_set;
-uniform mat3 u_occlusion_uv;
-uniform vec2 u_occlusion_mirror;
-#endif
-#ifdef USE_EMISSIVE_MAP
-uniform sampler2D u_emissive_map;            // linear RGB
-uniform int u_emissive_set;
-uniform mat3 u_emissive_uv;
-uniform vec2 u_emissive_mirror;
-#endif
-
-in vec3 v_position_ws;
-in vec3 v_normal_ws;
-in float v_depth_vs;
-#ifdef USE_UV0
-in vec2 v_uv0;
-#endif
-#ifdef USE_UV1
-in vec2 v_uv1;
-#endif
-#ifdef HAS_TANGENTS
-in vec4 v_tangent_ws;
-#endif
-#ifdef USE_VERTEX_COLOR
-in vec4 v_color;
-#endif
-
-// Texture coordinate set `set` (0 or 1) of this fragment.
-vec2 texcoord(int set) {
-#if defined(USE_UV0) && defined(USE_UV1)
-    return set == 1 ? v_uv1 : v_uv0;
-#elif defined(USE_UV1)
-    return v_uv1;
-#elif defined(USE_UV0)
-    return v_uv0;
-#else
-    return vec2(0.0);
-#endif
-}
-
-// The coordinates a map is sampled at: set `set` through the KHR_texture_transform matrix.
-vec2 map_uv(int set, mat3 uv_transform) {
-    return (uv_transform * vec3(texcoord(set), 1.0)).xy;
-}
-
-// glTF sampler wrap MIRRORED_REPEAT on the axes where mirror = 1 (the sampler clamps to the edge
-// there, so the edge texel repeats at each mirror seam as GL's own mode does); the derivatives of
-// the unwrapped coordinates choose the mip level, so the seams get no spurious coarse lookups.
-vec4 sample_map(sampler2D map, vec2 uv, vec2 mirror) {
-    vec2 mirrored = 1.0 - abs(mod(uv, 2.0) - 1.0);
-    return textureGrad(map, mix(uv, mirrored, mirror), dFdx(uv), dFdy(uv));
-}
-
-#ifdef USE_NORMAL_MAP
-// Normal Mapping Without Precomputed Tangents - Schueler 2013 (cotangent frame from derivatives).
-// n_face must face the viewer so the frame's handedness is the surface's own. Returns the
-// gradients of u and of -v (glTF: the normal map's +Y points towards decreasing v), each scaled
-// by the same factor, and n_face.
-mat3 cotangent_frame(vec3 n_face, vec3 p, vec2 uv) {
-    vec3 dp1 = dFdx(p);
-    vec3 dp2 = dFdy(p);
-    vec2 duv1 = dFdx(uv);
-    vec2 duv2 = dFdy(uv);
-    vec3 dp2perp = cross(dp2, n_face);
-    vec3 dp1perp = cross(n_face, dp1);
-    vec3 t = dp2perp * duv1.x + dp1perp * duv2.x;
-    vec3 b = dp2perp * duv1.y + dp1perp * duv2.y;
-    float invmax = inversesqrt(max(max(dot(t, t), dot(b, b)), 1e-30));
-    return mat3(t * invmax, -b * invmax, n_face);
-}
-#endif
-
 void main() {
-    vec3 n = normalize(v_normal_ws);
-    // back faces of double-sided materials: the normal is flipped towards the viewer (single-sided
-    // ones never get here: viewer/passes/gbuffer.py culls them)
-    float facing = gl_FrontFacing ? 1.0 : -1.0;
-
-    GBuffer g = gbuffer_background();
-    g.albedo = u_albedo;
-    float alpha = u_base_alpha;
-    g.roughness = u_roughness;
-    g.metallic = u_metallic;
-    g.specular = u_specular;
-    g.ao = u_ao;
-#ifdef USE_BASE_COLOR_MAP
-    vec4 base = sample_map(u_base_color_map, map_uv(u_base_color_set, u_base_color_uv),
-                           u_base_color_mirror);
-    g.albedo *= base.rgb;
-    alpha *= base.a;
-#endif
-#ifdef USE_VERTEX_COLOR
-    g.albedo *= v_color.rgb;
-    alpha *= v_color.a;
-#endif
-#ifdef USE_METALLIC_ROUGHNESS_MAP
-    vec4 mr = sample_map(u_metallic_roughness_map,
-                         map_uv(u_metallic_roughness_set, u_metallic_roughness_uv),
-                         u_metallic_roughness_mirror);
-    g.roughness *= mr.g;
-    g.metallic *= mr.b;
-#endif
-#ifdef USE_OCCLUSION_MAP
-    float occlusion = sample_map(u_occlusion_map, map_uv(u_occlusion_set, u_occlusion_uv),
-                                 u_occlusion_mirror).r;
-    g.ao *= 1.0 + u_occlusion_strength * (occlusion - 1.0);
-#endif
-#ifdef USE_NORMAL_MAP
-    vec2 normal_uv = map_uv(u_normal_set, u_normal_uv);
-    vec3 n_ts = sample_map(u_normal_map, normal_uv, u_normal_mirror).xyz * 2.0 - 1.0;
-    n_ts.xy *= u_normal_scale;
-#ifdef HAS_TANGENTS
-    vec3 t = v_tangent_ws.xyz - n * dot(n, v_tangent_ws.xyz);
-    t = dot(t, t) > 1e-20 ? normalize(t) : vec3(0.0);
-    vec3 b = cross(n, t) * (v_tangent_ws.w < 0.0 ? -1.0 : 1.0);
-    n = normalize(t * n_ts.x + b * n_ts.y + n * n_ts.z);
-#else
-    // The frame is intrinsic (it depends on the uv layout, not on the facing); the perturbed
-    // normal is flipped below for back faces like the unmapped one.
-    mat3 tbn = cotangent_frame(n * facing, v_position_ws, normal_uv);
-    n = normalize(tbn[0] * n_ts.x + tbn[1] * n_ts.y + n * n_ts.z);
-#endif
-#endif
-    g.emission = u_emissive;
-#ifdef USE_EMISSIVE_MAP
-    g.emission *= sample_map(u_emissive_map, map_uv(u_emissive_set, u_emissive_uv),
-                             u_emissive_mirror).rgb;
-#endif
+    float alpha;
+    GBuffer g = mesh_surface(alpha);
 #ifdef ALPHA_MASK
-    // after every lookup: derivatives are only defined while all fragments of a quad run
+    // after every lookup (mesh_surface): derivatives are only defined while all fragments of a
+    // quad run
     if (alpha < u_alpha_cutoff) {
         discard;
     }
 #endif
-    g.normal = n * facing;  // back faces: flip towards the viewer
-    g.alpha = 1.0;
-    g.depth = v_depth_vs;
-    g.color = g.albedo;  // a mesh's unlit colour is its albedo (premultiplied by alpha = 1)
     gbuffer_store(g);
 }

@@ -1,6 +1,7 @@
 // gbuffer_mesh.vert - G-buffer fill for triangle meshes whose vertices are already in world space.
 // Defines: USE_UV0 / USE_UV1 (a texture map reads texture coordinate set 0 / 1), HAS_TANGENTS
-// (vertex tangents for the normal map), USE_VERTEX_COLOR (glTF COLOR_0).
+// (vertex tangents for the normal map), USE_VERTEX_COLOR (glTF COLOR_0); FORWARD (the forward pass
+// for alphaMode BLEND, whose fragment stage is a lighting pass: it also writes deferred.glsl's v_uv).
 uniform mat4 u_view;        // world -> view
 uniform mat4 u_projection;  // view -> clip
 
@@ -21,6 +22,10 @@ out vec4 v_tangent_ws;
 #ifdef USE_VERTEX_COLOR
 in vec4 in_color;     // linear RGBA
 out vec4 v_color;
+#endif
+
+#ifdef FORWARD
+out vec2 v_uv;  // deferred.glsl declares the fullscreen pass's uv; no lighting pass reads it
 #endif
 
 out vec3 v_position_ws;
@@ -45,4 +50,7 @@ void main() {
     v_color = in_color;
 #endif
     gl_Position = u_projection * p_vs;
+#ifdef FORWARD
+    v_uv = gl_Position.xy / gl_Position.w * 0.5 + 0.5;
+#endif
 }

@@ -10,7 +10,8 @@ glTF: the default scene's node hierarchy is flattened (node matrices or TRS appl
 Draco-compressed (``KHR_draco_mesh_compression``, decoded by DracoPy); baseColorFactor/Texture,
 metallicFactor, roughnessFactor, metallicRoughnessTexture, normalTexture (+ scale),
 occlusionTexture (+ strength), emissiveFactor/Texture (+ ``KHR_materials_emissive_strength``),
-alphaMode/alphaCutoff, doubleSided; per texture its sampler (wrap, filters), texCoord and
+alphaMode (OPAQUE; MASK with alphaCutoff; BLEND, drawn by the forward pass
+:mod:`viewer.passes.forward`), doubleSided; per texture its sampler (wrap, filters), texCoord and
 ``KHR_texture_transform``. Textures decode to float32 in [0, 1]; base colour and emission are
 sRGB-decoded. Everything else in a file (extensions, material features, attributes,
 skins, animations, cameras) is named in one warning per file (``warnings.warn``): nothing is
@@ -493,8 +494,6 @@ def _ignored_items(reader: "_GltfReader") -> list[str]:
                 items.add(f"attribute {name}")
             if prim.targets:
                 items.add("morph targets")
-    for index, material in enumerate(g.materials or []):
-        items.update(f"{what} (material {index})" for what in _ignored_material_features(material))
     if g.skins:
         items.add("skins")
     if g.animations:
@@ -502,13 +501,6 @@ def _ignored_items(reader: "_GltfReader") -> list[str]:
     if g.cameras:
         items.add("cameras (the scene file's camera is used)")
     return sorted(items)
-
-
-def _ignored_material_features(m) -> list[str]:
-    out = []
-    if m.alphaMode == "BLEND":
-        out.append("alphaMode BLEND (drawn opaque: no transparency pass)")
-    return out
 
 
 def _texture_infos(m) -> list:

@@ -1,5 +1,6 @@
 """Render passes, one module per ``shaders/passes`` entry point: G-buffer fill (:mod:`.gbuffer`),
-lighting (:mod:`.shade`), tone mapping (:mod:`.tonemap`)."""
+lighting (:mod:`.shade`), transparent surfaces after lighting (:mod:`.forward`), tone mapping
+(:mod:`.tonemap`)."""
 
 
 def set_uniform(prog, name: str, value) -> None:

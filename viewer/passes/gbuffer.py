@@ -138,44 +138,41 @@ class _Uploaded:
     defines: dict[str, int]
 
 
-class GBufferPass:
-    """Fills a :class:`GBufferTargets` from meshes and image-space stacks."""
+def mesh_defines(mesh: Mesh) -> dict[str, int]:
+    """The mesh program variant for ``mesh``: one define per texture map it has (and can use),
+    the texture coordinate sets they read, vertex colours, the alpha mask."""
+    defines = {}
+    uv_sets = (mesh.uvs, mesh.uvs1)
+    for key in mesh.textures:
+        if key not in _MAP_DEFINES:
+            continue
+        texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
+        if uv_sets[texcoord] is None:
+            continue
+        defines[_MAP_DEFINES[key]] = 1
+        defines[f"USE_UV{texcoord}"] = 1
+    if "USE_NORMAL_MAP" in defines and mesh.tangents is not None:
+        defines["HAS_TANGENTS"] = 1
+    if mesh.colors is not None:
+        defines["USE_VERTEX_COLOR"] = 1
+    if mesh.alpha_mode == "MASK":
+        defines["ALPHA_MASK"] = 1
+    return defines
 
-    def __init__(self, programs, layout: GBufferLayout):
-        self.programs = programs
-        self.ctx = programs.ctx
-        self.layout = layout
-        self._meshes: dict[int, _Uploaded] = {}
+
+class MeshUploads:
+    """GPU copies of meshes for the programs of one pass (``program(defines, variant)``: the
+    G-buffer fill, or the forward pass with its lighting variant): vertex buffers and a vertex
+    array per mesh and variant, each image once (RGBA16F, mipmapped), one sampler object per
+    distinct wrap/filter combination. Cached by mesh identity: after editing a mesh's arrays in
+    place, :meth:`release` (or draw a new :class:`Mesh`)."""
+
+    def __init__(self, ctx, program):
+        self.ctx = ctx
+        self._program = program  # (mesh defines, variant) -> program
+        self._meshes: dict[tuple, _Uploaded] = {}  # (id(mesh), variant) -> upload
         self._textures: dict[int, tuple[np.ndarray, object]] = {}  # id(array) -> (array, texture)
         self._samplers: dict[tuple, object] = {}  # (wrap, mag, min filter) -> sampler object
-        self._empty_vao = None
-        self._stacks: dict[int, tuple[object, list]] = {}  # id(image) -> (image, textures)
-
-    # ---- meshes ----------------------------------------------------------------------------------
-    def mesh_defines(self, mesh: Mesh) -> dict[str, int]:
-        """The program variant for ``mesh``: one define per texture map it has (and can use),
-        the texture coordinate sets they read, vertex colours, the alpha mask."""
-        defines = {}
-        uv_sets = (mesh.uvs, mesh.uvs1)
-        for key in mesh.textures:
-            if key not in _MAP_DEFINES:
-                continue
-            texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
-            if uv_sets[texcoord] is None:
-                continue
-            defines[_MAP_DEFINES[key]] = 1
-            defines[f"USE_UV{texcoord}"] = 1
-        if "USE_NORMAL_MAP" in defines and mesh.tangents is not None:
-            defines["HAS_TANGENTS"] = 1
-        if mesh.colors is not None:
-            defines["USE_VERTEX_COLOR"] = 1
-        if mesh.alpha_mode == "MASK":
-            defines["ALPHA_MASK"] = 1
-        return defines
-
-    def _program(self, defines: dict[str, int]):
-        return self.programs.graphics("passes/gbuffer_mesh.vert", "passes/gbuffer_mesh.frag",
-                                      defines=defines, virtual=self.layout.virtual_files())
 
     def _texture(self, image: np.ndarray):
         key = id(image)
@@ -213,13 +210,15 @@ class GBufferPass:
                 filter=(min_filter, mag_filter), anisotropy=aniso)
         return self._samplers[key]
 
-    def _upload(self, mesh: Mesh) -> _Uploaded:
-        entry = self._meshes.get(id(mesh))
+    def upload(self, mesh: Mesh, variant=None) -> _Uploaded:
+        """The mesh's vertex array (with its program for ``variant``, any hashable the program
+        callback understands) and textures, uploaded on first use."""
+        entry = self._meshes.get((id(mesh), variant))
         if entry is not None and entry.mesh is mesh:
             return entry
         mesh.validated()
-        defines = self.mesh_defines(mesh)
-        prog = self._program(defines)
+        defines = mesh_defines(mesh)
+        prog = self._program(defines, variant)
         arrays = {"in_position": (mesh.positions, "3f"), "in_normal": (mesh.normals, "3f")}
         if "USE_UV0" in defines:
             arrays["in_uv0"] = (mesh.uvs, "2f")
@@ -243,18 +242,94 @@ class GBufferPass:
                         mesh.sampling.get(k, _DEFAULT_SAMPLING))
                     for k in mesh.textures if _MAP_DEFINES.get(k) in defines}
         entry = _Uploaded(mesh=mesh, vao=vao, buffers=buffers, textures=textures, defines=defines)
-        self._meshes[id(mesh)] = entry
+        self._meshes[(id(mesh), variant)] = entry
         return entry
+
+    @staticmethod
+    def set_camera(prog, camera: Camera) -> None:
+        _set(prog, "u_view", gl_bytes(camera.view_matrix()))
+        _set(prog, "u_projection", gl_bytes(camera.projection_matrix()))
+
+    @staticmethod
+    def bind_material(prog, entry: _Uploaded, first_unit: int = 0) -> list[int]:
+        """Set the uniforms of ``mesh_surface.glsl`` for ``entry``'s mesh and bind its maps from
+        texture unit ``first_unit`` on; returns the units used (for :meth:`unbind`)."""
+        mesh = entry.mesh
+        m = mesh.material
+        _set(prog, "u_albedo", tuple(float(c) for c in m.albedo))
+        _set(prog, "u_base_alpha", float(mesh.base_alpha))
+        _set(prog, "u_roughness", float(m.roughness))
+        _set(prog, "u_metallic", float(m.metallic))
+        _set(prog, "u_specular", float(m.specular))
+        _set(prog, "u_ao", float(m.ao))
+        _set(prog, "u_normal_scale", float(mesh.normal_scale))
+        _set(prog, "u_occlusion_strength", float(mesh.occlusion_strength))
+        _set(prog, "u_emissive", tuple(float(c) for c in mesh.emissive))
+        _set(prog, "u_alpha_cutoff", float(mesh.alpha_cutoff))
+        units = []
+        for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
+                                                                 start=first_unit):
+            tex.use(unit)
+            sampler.use(unit)
+            _set(prog, f"u_{key}_map", unit)
+            _set(prog, f"u_{key}_set", int(sampling.texcoord))
+            _set(prog, f"u_{key}_uv",
+                 np.ascontiguousarray(sampling.uv_matrix().T, np.float32).tobytes())
+            _set(prog, f"u_{key}_mirror", tuple(float(w == "mirror") for w in sampling.wrap))
+            units.append(unit)
+        return units
+
+    @staticmethod
+    def unbind(entry: _Uploaded, units: list[int]) -> None:
+        """Unbind the sampler objects :meth:`bind_material` bound (plain textures keep their own
+        filtering again)."""
+        for unit, (_, sampler, _) in zip(units, entry.textures.values()):
+            sampler.clear(unit)
+
+    def release(self) -> None:
+        for entry in self._meshes.values():
+            entry.vao.release()
+            for buf in entry.buffers:
+                buf.release()
+        self._meshes.clear()
+        for _, tex in self._textures.values():
+            tex.release()
+        self._textures.clear()
+        for sampler in self._samplers.values():
+            sampler.release()
+        self._samplers.clear()
+
+
+class GBufferPass:
+    """Fills a :class:`GBufferTargets` from meshes and image-space stacks."""
+
+    def __init__(self, programs, layout: GBufferLayout):
+        self.programs = programs
+        self.ctx = programs.ctx
+        self.layout = layout
+        self.uploads = MeshUploads(self.ctx, self._program)
+        self._empty_vao = None
+        self._stacks: dict[int, tuple[object, list]] = {}  # id(image) -> (image, textures)
+
+    # ---- meshes ----------------------------------------------------------------------------------
+    def mesh_defines(self, mesh: Mesh) -> dict[str, int]:
+        """The program variant for ``mesh`` (:func:`mesh_defines`)."""
+        return mesh_defines(mesh)
+
+    def _program(self, defines: dict[str, int], variant=None):
+        return self.programs.graphics("passes/gbuffer_mesh.vert", "passes/gbuffer_mesh.frag",
+                                      defines=defines, virtual=self.layout.virtual_files())
 
     def draw_meshes(self, targets: GBufferTargets, camera: Camera, meshes: list[Mesh]) -> None:
         """Rasterise ``meshes`` into ``targets``, depth-tested (call ``targets.clear()`` first).
 
+        Every mesh given is drawn as a surface of the G-buffer, alphaMode BLEND ones too (the
+        renderer routes those to the forward pass, :mod:`viewer.passes.forward`, instead).
         The camera is used at the targets' size; its own ``size`` is ignored. Each mesh is
         uploaded on first use and cached by identity: after editing a mesh's arrays in place,
         :meth:`release` (or draw a new :class:`Mesh`).
         """
         camera = camera.with_size(*targets.size)
-        view, proj = gl_bytes(camera.view_matrix()), gl_bytes(camera.projection_matrix())
         ctx = self.ctx
         targets.fbo.use()
         ctx.viewport = (0, 0, *targets.size)
@@ -264,37 +339,16 @@ class GBufferPass:
         ctx.cull_face = "back"
         try:
             for mesh in meshes:
-                entry = self._upload(mesh)
+                entry = self.uploads.upload(mesh)
                 prog = entry.vao.program
-                _set(prog, "u_view", view)
-                _set(prog, "u_projection", proj)
-                m = mesh.material
-                _set(prog, "u_albedo", tuple(float(c) for c in m.albedo))
-                _set(prog, "u_base_alpha", float(mesh.base_alpha))
-                _set(prog, "u_roughness", float(m.roughness))
-                _set(prog, "u_metallic", float(m.metallic))
-                _set(prog, "u_specular", float(m.specular))
-                _set(prog, "u_ao", float(m.ao))
-                _set(prog, "u_normal_scale", float(mesh.normal_scale))
-                _set(prog, "u_occlusion_strength", float(mesh.occlusion_strength))
-                _set(prog, "u_emissive", tuple(float(c) for c in mesh.emissive))
-                _set(prog, "u_alpha_cutoff", float(mesh.alpha_cutoff))
-                for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items()):
-                    tex.use(unit)
-                    sampler.use(unit)
-                    _set(prog, f"u_{key}_map", unit)
-                    _set(prog, f"u_{key}_set", int(sampling.texcoord))
-                    _set(prog, f"u_{key}_uv",
-                         np.ascontiguousarray(sampling.uv_matrix().T, np.float32).tobytes())
-                    _set(prog, f"u_{key}_mirror",
-                         tuple(float(w == "mirror") for w in sampling.wrap))
+                self.uploads.set_camera(prog, camera)
+                units = self.uploads.bind_material(prog, entry)
                 if mesh.double_sided:
                     ctx.disable(ctx.CULL_FACE)
                 else:
                     ctx.enable(ctx.CULL_FACE)
                 entry.vao.render(ctx.TRIANGLES)
-                for unit, (_, sampler, _) in enumerate(entry.textures.values()):
-                    sampler.clear(unit)
+                self.uploads.unbind(entry, units)
         finally:
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
 
@@ -355,17 +409,7 @@ class GBufferPass:
 
     def release(self) -> None:
         """Free every uploaded mesh and texture."""
-        for entry in self._meshes.values():
-            entry.vao.release()
-            for buf in entry.buffers:
-                buf.release()
-        self._meshes.clear()
-        for _, tex in self._textures.values():
-            tex.release()
-        self._textures.clear()
-        for sampler in self._samplers.values():
-            sampler.release()
-        self._samplers.clear()
+        self.uploads.release()
         for _, textures in self._stacks.values():
             for _, tex in textures:
                 tex.release()

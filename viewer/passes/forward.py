@@ -1,0 +1,174 @@
+"""The forward pass: transparent surfaces (glTF ``alphaMode: BLEND``) over the shaded radiance.
+
+A deferred renderer's standard answer to transparency. The G-buffer holds one surface per pixel, so
+blended meshes are left out of it (:meth:`viewer.renderer.Renderer.draw`) and drawn after the
+lighting (and screen-space indirect) passes, straight into the radiance target:
+
+- **Shading**: each blended mesh is drawn with the model's *own* lighting pass
+  (``shaders/passes/shade_<model>.frag``, unchanged) as its fragment stage, compiled with
+  ``passes/forward_surface.glsl`` in place of the generated ``gbuffer_load``: the surface comes
+  from the mesh at this fragment (``passes/mesh_surface.glsl``, the code the G-buffer fill uses)
+  instead of the G-buffer, so blended surfaces are shaded by the same code as opaque ones,
+  including the directional light and emission. Models whose lighting pass is not one evaluation
+  per fragment - the Monte-Carlo ones that accumulate samples over batches (``ggx_mc``,
+  ``neural_teacher``) and the network ones (``neural``) - shade blended surfaces with
+  :data:`FALLBACK_MODEL` (``ggx_split_sum``, the split-sum of the same GGX BRDF), with one
+  warning per model; the neural ones keep ignoring the ``[light]`` there too.
+- **Blending**: a fragment writes premultiplied ``(c alpha, alpha)`` (the pass's
+  ``write_radiance`` with ``BACKGROUND_ENVIRONMENT 0``) and the blend state (ONE,
+  ONE_MINUS_SRC_ALPHA) puts it "over" what is there: ``dst = src + (1 - alpha) dst``, so the
+  radiance's alpha becomes the coverage ``alpha + (1 - alpha) coverage``. alpha = glTF
+  baseColorFactor.a x base colour texture alpha x COLOR_0 alpha, clamped to [0, 1]; emission is
+  weighted by it like the reflected light (as the Khronos sample viewer does).
+- **Order**: meshes (glTF primitives) back to front by the view depth of their bounding-box
+  centres (:func:`forward_order`, a stable sort: equal depths keep file order). Not per
+  triangle: meshes that intersect, or a mesh that overlaps itself on screen, blend in whatever
+  order their triangles come - there is no order-independent transparency. A double-sided mesh
+  is drawn twice, back faces first, so a closed convex one composites correctly.
+- **Depth**: tested in the fragment shader against the opaque G-buffer's depth channel (meshes,
+  image stacks and splats alike) and never written: blended surfaces never hide one another or
+  anything drawn later, and SSAO, screen-space indirect light, the G-buffer AOVs and a
+  Monte-Carlo model's samples see only the opaque surfaces. SSAO does not darken blended
+  surfaces (``USE_SSAO 0``); their own ambient occlusion (``u_ao``, occlusion maps) does.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from ..camera import Camera
+from ..gbuffer import GBufferLayout
+from ..geometry.mesh import Mesh
+from ..models import ShadeVariant, model_info
+from ..scene import DirectionalLight
+from ..settings import RenderSettings
+from . import bind_gbuffer
+from . import set_uniform as _set
+from .gbuffer import MeshUploads
+
+FALLBACK_MODEL = "ggx_split_sum"  # shades blended surfaces for models that cannot run forward
+
+
+def forward_model(model: str) -> str:
+    """The model whose lighting pass shades blended surfaces when ``model`` renders the scene:
+    itself when its pass is one evaluation per fragment (no accumulated samples, no network),
+    else :data:`FALLBACK_MODEL`."""
+    info = model_info(model)
+    return model if not info.accumulates and info.network is None else FALLBACK_MODEL
+
+
+def forward_variant(settings: RenderSettings, light: DirectionalLight | None) -> ShadeVariant:
+    """The lighting-pass variant that shades blended surfaces for ``settings.model``: the forward
+    model's own variant (every lobe: blended surfaces are not specialised), without SSAO and
+    without the background (the destination already holds it), and without the light when the
+    scene's model ignores it."""
+    info = model_info(settings.model)
+    shaded = light if info.directional_light == "shaded" else None
+    defines = model_info(forward_model(settings.model)).variant(settings, shaded,
+                                                                specular=True).defines
+    defines["BACKGROUND_ENVIRONMENT"] = 0
+    if "USE_SSAO" in defines:
+        defines["USE_SSAO"] = 0
+    return ShadeVariant(forward_model(settings.model), tuple(sorted(defines.items())))
+
+
+def forward_order(meshes: list[Mesh], camera: Camera) -> list[int]:
+    """Indices of ``meshes`` back to front: by the view depth (-z_vs) of each bounding-box centre,
+    farthest first; a stable sort, so equal depths keep their order."""
+    view = camera.view_matrix()
+    depths = []
+    for mesh in meshes:
+        lo, hi = mesh.bounds()
+        centre = (lo + hi) * 0.5
+        depths.append(-(view[2, :3] @ centre + view[2, 3]))
+    return [int(i) for i in np.argsort(-np.asarray(depths, np.float64), kind="stable")]
+
+
+class ForwardPass:
+    """Draws blended meshes over the radiance target, depth-tested against one G-buffer layout."""
+
+    def __init__(self, programs, layout: GBufferLayout):
+        self.programs = programs
+        self.ctx = programs.ctx
+        self.layout = layout
+        self.uploads = MeshUploads(self.ctx, self._program)
+        # the layout's loader renamed, then forward_surface.glsl's gbuffer_load in its place
+        self._virtual = {"generated/gbuffer.glsl": layout.glsl(load_name="gbuffer_load_opaque")
+                         + '#include "passes/forward_surface.glsl"\n'}
+
+    def _program(self, mesh_defines: dict[str, int], variant: ShadeVariant):
+        defines = {**variant.defines, **mesh_defines, "FORWARD": 1}
+        return self.programs.graphics("passes/gbuffer_mesh.vert", model_info(variant.model).pass_file,
+                                      defines=defines, virtual=self._virtual)
+
+    def run(self, meshes: list[Mesh], gbuffer_textures: dict, out_fbo, camera: Camera, ibl,
+            environment, settings: RenderSettings, light: DirectionalLight | None = None) -> None:
+        """Blend ``meshes`` over ``out_fbo`` (the RGBA32F radiance target of the camera's size),
+        sorted back to front, depth-tested against ``gbuffer_textures`` (this layout's
+        attachments: the opaque G-buffer, which must hold the depth channel)."""
+        if not meshes:
+            return
+        if "depth" in self.layout.omit:
+            raise ValueError("the forward pass depth-tests against the G-buffer's depth channel, "
+                             "which this layout omits")
+        _warn_fallback(settings.model)
+        variant = forward_variant(settings, light)
+        ctx = self.ctx
+        out_fbo.use()
+        ctx.viewport = (0, 0, camera.width, camera.height)
+        ctx.disable(ctx.DEPTH_TEST)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
+        ctx.blend_equation = ctx.FUNC_ADD
+        ctx.front_face = "ccw"
+        try:
+            for index in forward_order(meshes, camera):
+                mesh = meshes[index]
+                entry = self.uploads.upload(mesh, variant)
+                prog = entry.vao.program
+                unit = bind_gbuffer(prog, gbuffer_textures)
+                unit = ibl.bind(prog, unit)
+                self._set_lighting(prog, camera, environment, light)
+                self.uploads.set_camera(prog, camera)
+                units = self.uploads.bind_material(prog, entry, unit)
+                ctx.enable(ctx.CULL_FACE)
+                if mesh.double_sided:  # back faces first: a closed convex mesh composites right
+                    ctx.cull_face = "front"
+                    entry.vao.render(ctx.TRIANGLES)
+                ctx.cull_face = "back"
+                entry.vao.render(ctx.TRIANGLES)
+                self.uploads.unbind(entry, units)
+        finally:
+            ctx.disable(ctx.BLEND | ctx.CULL_FACE)
+            ctx.cull_face = "back"
+            ctx.blend_func = ctx.DEFAULT_BLENDING
+
+    @staticmethod
+    def _set_lighting(prog, camera: Camera, environment, light) -> None:
+        """The uniforms of ``deferred.glsl`` (as :class:`~viewer.passes.shade.ShadePass` sets
+        them)."""
+        basis = camera.basis()  # rows: right, up, back
+        _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
+        _set(prog, "u_tan_half_fov", camera.tan_half_fov())
+        _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
+        _set(prog, "u_env_intensity", float(environment.intensity))
+        _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
+        if light is not None:
+            _set(prog, "u_light_direction", tuple(float(x) for x in light.direction))
+            _set(prog, "u_light_irradiance", tuple(float(x) for x in light.irradiance))
+
+    def release(self) -> None:
+        self.uploads.release()
+
+
+_FALLBACK_WARNED: set[str] = set()
+
+
+def _warn_fallback(model: str) -> None:
+    """Once per model and process: blended surfaces are shaded by :data:`FALLBACK_MODEL`."""
+    if forward_model(model) != model and model not in _FALLBACK_WARNED:
+        _FALLBACK_WARNED.add(model)
+        warnings.warn(f"model {model!r} cannot shade transparent (alphaMode BLEND) surfaces in a "
+                      f"forward pass; they are shaded with {FALLBACK_MODEL}", stacklevel=4)

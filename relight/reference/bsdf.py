@@ -5,7 +5,8 @@ and SH approximations), never by the material model.
 The BSDF is the one ``ggx_mc`` integrates and ``ggx_split_sum`` approximates
 (``shaders/lib/shading.glsl``, ``ggx_directional_light``), evaluated exactly:
 
-    f cos = [diffuse (1 - E_spec(n.v)) / pi + D_GGX(h) V_SmithGGXCorrelated(v, l) F_Schlick(v.h) c_ms] n.l
+    f cos = [diffuse (1 - E_spec(n.v)) / pi
+             + D_GGX(h) V_SmithGGXCorrelated(v, l) F_Schlick(v.h) c_ms] n.l
 
 with perceptual roughness clamped to 0.045 (alpha = r^2), f0 = mix(0.16 specular^2, albedo,
 metallic), f90 = saturate(16.5 (f0.r + f0.g + f0.b)), diffuse = albedo (1 - metallic), the
@@ -17,7 +18,7 @@ integral the renderer's LUT estimates with 4096 Hammersley samples (the two agre
 Not modelled here, on purpose: the material's ``ao`` and glTF occlusion maps (baked visibility:
 the path tracer computes visibility itself), and the rasteriser's bending of back-facing shading
 normals towards the viewer (``shading_normal``): a path tracer sees no such normals on the
-primitives the fidelity tests use. Normal maps are handled by :mod:`relight.reference.scene`.
+primitives the fidelity tests use. Normal maps perturb the shading frame (``_frame``).
 """
 from __future__ import annotations
 
@@ -87,7 +88,8 @@ def brdf_cos_numpy(albedo, roughness, metallic, specular, n_dot_v, wo, multiscat
     f = noh * noh * a2 + (1 - noh) * (1 + noh)
     d = a2 / (math.pi * f * f)
     nl = np.clip(nol, 0, 1)
-    v = 0.5 / (nl * math.sqrt(n_dot_v ** 2 * (1 - a2) + a2) + n_dot_v * np.sqrt(nl ** 2 * (1 - a2) + a2))
+    v = 0.5 / (nl * math.sqrt(n_dot_v ** 2 * (1 - a2) + a2)
+               + n_dot_v * np.sqrt(nl ** 2 * (1 - a2) + a2))
     fr = f0[None] + (f90 - f0[None]) * ((1 - voh) ** 5)[:, None]
     val = (kd[None] / math.pi + (d * v)[:, None] * fr * c_ms[None]) * nl[:, None]
     return np.where((nol > 0)[:, None], val, 0.0)
@@ -117,7 +119,8 @@ def _bsdf_class(mi, dr, variant: str):
     class WorkbenchBSDF(mi.BSDF):
         """Lambert + height-correlated GGX with our energy split (module docstring). Constant
         parameters, optionally times texture maps evaluated at the hit's UV (glTF conventions:
-        ``base_color`` linear RGB; ``metallic_roughness`` G = roughness, B = metallic)."""
+        ``base_color`` linear RGB; ``metallic_roughness`` G = roughness, B = metallic;
+        ``normal`` tangent space n/2 + 1/2)."""
 
         def __init__(self, props=None):
             mi.BSDF.__init__(self, props if props is not None else mi.Properties())
@@ -132,9 +135,12 @@ def _bsdf_class(mi, dr, variant: str):
             self.multiscatter = False
             self.base_color_texture = None
             self.metallic_roughness_texture = None
+            self.normal_texture = None
+            self.normal_scale = 1.0
             self.dfg = None
 
-        def configure(self, material, textures: dict, multiscatter: bool):
+        def configure(self, material, textures: dict, multiscatter: bool,
+                      normal_scale: float = 1.0):
             self.albedo = tuple(float(c) for c in material.albedo)
             self.roughness = float(material.roughness)
             self.metallic = float(material.metallic)
@@ -142,6 +148,8 @@ def _bsdf_class(mi, dr, variant: str):
             self.multiscatter = bool(multiscatter)
             self.base_color_texture = textures.get("base_color")
             self.metallic_roughness_texture = textures.get("metallic_roughness")
+            self.normal_texture = textures.get("normal")
+            self.normal_scale = float(normal_scale)
             table = directional_albedo_table()
             self.dfg = mi.Texture2f(mi.TensorXf(table), use_accel=False,
                                     filter_mode=dr.FilterMode.Linear,
@@ -149,6 +157,26 @@ def _bsdf_class(mi, dr, variant: str):
             return self
 
         # ---- the material at a hit --------------------------------------------------------
+        def _frame(self, si):
+            """The normal-mapped shading frame in the local coordinates of ``si.sh_frame``
+            (glTF tangent space: x along du, y along -dv, the map's xy scaled by
+            ``normal_scale``), built from the UV derivatives as the G-buffer pass's cotangent
+            frame is (Schueler 2013); None without a normal map."""
+            if self.normal_texture is None:
+                return None
+            c = self.normal_texture.eval(si)
+            x = (2.0 * c.x - 1.0) * self.normal_scale
+            y = (2.0 * c.y - 1.0) * self.normal_scale
+            z = 2.0 * c.z - 1.0
+            du = si.sh_frame.to_local(si.dp_du)
+            dv = si.sh_frame.to_local(si.dp_dv)
+            t = mi.Vector3f(du.x, du.y, 0.0)
+            b = -mi.Vector3f(dv.x, dv.y, 0.0)
+            scale = dr.rsqrt(dr.maximum(dr.maximum(dr.squared_norm(t), dr.squared_norm(b)),
+                                        1e-30))
+            n = dr.normalize(t * (x * scale) + b * (y * scale) + mi.Vector3f(0.0, 0.0, 1.0) * z)
+            return mi.Frame3f(n)
+
         def _surface(self, si):
             albedo = mi.Color3f(*self.albedo)
             if self.base_color_texture is not None:
@@ -165,7 +193,9 @@ def _bsdf_class(mi, dr, variant: str):
             f0d = 0.16 * self.specular * self.specular
             f0 = dr.lerp(mi.Color3f(f0d), albedo, metal)
             f90 = dr.clip((f0.x + f0.y + f0.z) * (50.0 * 0.33), 0.0, 1.0)
-            nov = mi.Frame3f.cos_theta(si.wi)
+            frame = self._frame(si)
+            wi = si.wi if frame is None else frame.to_local(si.wi)
+            nov = mi.Frame3f.cos_theta(wi)
             n = DFG_TABLE_SIZE
             uv = mi.Point2f((dr.clip(nov, 0.0, 1.0) * (n - 1) + 0.5) / n, (r * (n - 1) + 0.5) / n)
             x, y = self.dfg.eval(uv)
@@ -181,10 +211,20 @@ def _bsdf_class(mi, dr, variant: str):
             p_spec = dr.select(ls + ld > 0.0, ls / dr.maximum(ls + ld, 1e-12), 1.0)
             # keep both lobes reachable when both carry energy (unbiased either way)
             p_spec = dr.select((ld > 0.0) & (ls > 0.0), dr.clip(p_spec, 0.05, 0.95), p_spec)
-            return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov)
+            return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
+                        frame=frame)
+
+        @staticmethod
+        def _to_mapped(s, wo):
+            return wo if s["frame"] is None else s["frame"].to_local(wo)
+
+        @staticmethod
+        def _from_mapped(s, wo):
+            return wo if s["frame"] is None else s["frame"].to_world(wo)
 
         def _eval(self, s, si, wo):
-            wi = si.wi
+            """f cos for ``wo`` in the mapped frame (``s["wi"]`` too)."""
+            wi = s["wi"]
             nol = mi.Frame3f.cos_theta(wo)
             nov = s["nov"]
             h = dr.normalize(wi + wo)
@@ -204,46 +244,58 @@ def _bsdf_class(mi, dr, variant: str):
             return dr.select(ok, value, 0.0)
 
         def _pdf(self, s, si, wo, distr):
+            """Density of ``wo`` (mapped frame) under :meth:`sample`."""
+            wi = s["wi"]
             nol = mi.Frame3f.cos_theta(wo)
-            h = dr.normalize(si.wi + wo)
-            p_spec_dir = distr.pdf(si.wi, h) / dr.maximum(4.0 * dr.dot(wo, h), 1e-12)
+            h = dr.normalize(wi + wo)
+            p_spec_dir = distr.pdf(wi, h) / dr.maximum(4.0 * dr.dot(wo, h), 1e-12)
             p_diff = mi.warp.square_to_cosine_hemisphere_pdf(wo)
             p = s["p_spec"] * p_spec_dir + (1.0 - s["p_spec"]) * p_diff
-            ok = (nol > 0.0) & (mi.Frame3f.cos_theta(si.wi) > 0.0)
+            ok = (nol > 0.0) & (mi.Frame3f.cos_theta(wi) > 0.0)
             return dr.select(ok, p, 0.0)
 
         # ---- the mi.BSDF interface ---------------------------------------------------------
+        # Directions arrive and leave in si.sh_frame's coordinates; with a normal map they are
+        # turned into the mapped frame. A direction below the interpolated surface but above the
+        # mapped one is *not* rejected (Mitsuba's normalmap adapter rejects it): the rasteriser's
+        # models take light from the whole mapped hemisphere, and whether such light is blocked
+        # is left to the traced geometry (a closed mesh blocks it, a thin sheet does not).
         def sample(self, ctx, si, sample1, sample2, active=True):
             s = self._surface(si)
+            wi = s["wi"]
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
             spec = sample1 < s["p_spec"]
-            m, _ = distr.sample(si.wi, sample2)
-            wo_spec = mi.reflect(si.wi, m)
+            m, _ = distr.sample(wi, sample2)
+            wo_spec = mi.reflect(wi, m)
             wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
+            wo = dr.select(spec, wo_spec, wo_diff)
+            pdf = self._pdf(s, si, wo, distr)
+            value = self._eval(s, si, wo)
             bs = mi.BSDFSample3f()
-            bs.wo = dr.select(spec, wo_spec, wo_diff)
-            bs.pdf = self._pdf(s, si, bs.wo, distr)
+            bs.wo = self._from_mapped(s, wo)
+            bs.pdf = pdf
             bs.eta = 1.0
             bs.sampled_type = dr.select(spec, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
                                         mi.UInt32(+mi.BSDFFlags.DiffuseReflection))
             bs.sampled_component = dr.select(spec, mi.UInt32(1), mi.UInt32(0))
-            value = self._eval(s, si, bs.wo)
-            ok = active & (bs.pdf > 0.0)
-            return bs, dr.select(ok, value / dr.maximum(bs.pdf, 1e-20), 0.0)
+            ok = active & (pdf > 0.0)
+            return bs, dr.select(ok, value / dr.maximum(pdf, 1e-20), 0.0)
 
         def eval(self, ctx, si, wo, active=True):
-            return dr.select(active, self._eval(self._surface(si), si, wo), 0.0)
+            s = self._surface(si)
+            return dr.select(active, self._eval(s, si, self._to_mapped(s, wo)), 0.0)
 
         def pdf(self, ctx, si, wo, active=True):
             s = self._surface(si)
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
-            return dr.select(active, self._pdf(s, si, wo, distr), 0.0)
+            return dr.select(active, self._pdf(s, si, self._to_mapped(s, wo), distr), 0.0)
 
         def eval_pdf(self, ctx, si, wo, active=True):
             s = self._surface(si)
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
-            return (dr.select(active, self._eval(s, si, wo), 0.0),
-                    dr.select(active, self._pdf(s, si, wo, distr), 0.0))
+            w = self._to_mapped(s, wo)
+            return (dr.select(active, self._eval(s, si, w), 0.0),
+                    dr.select(active, self._pdf(s, si, w, distr), 0.0))
 
         def traverse(self, callback):
             pass

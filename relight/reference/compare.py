@@ -85,7 +85,8 @@ class Score:
     pixels: int
 
     def row(self) -> dict:
-        return {"bias_%": round(100 * self.bias, 2), "median_rel_%": round(100 * self.median_rel, 2),
+        return {"bias_%": round(100 * self.bias, 2),
+                "median_rel_%": round(100 * self.median_rel, 2),
                 "psnr_db": round(self.psnr, 2), "pixels": self.pixels}
 
 

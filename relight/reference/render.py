@@ -226,7 +226,8 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
                     stderr=np.sqrt(var / n).reshape(h, w, 3).astype(np.float32),
                     meta={"spp": int(n), "max_depth": int(options.max_depth),
                           "rays": "jittered over the pixel" if options.antialias
-                          else "pixel centre", "geometry": options.geometry, "seed": int(options.seed), "variant": variant,
+                          else "pixel centre", "geometry": options.geometry,
+                          "seed": int(options.seed), "variant": variant,
                           "mitsuba": mi.__version__, "seconds": round(time.perf_counter() - t0, 3),
                           "size": [w, h], "scene": scene.source, "key": key})
     if aovs:

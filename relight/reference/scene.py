@@ -36,7 +36,9 @@ def check_traceable(scene: Scene) -> None:
                 f"(relight reference renders {', '.join(TRACEABLE)})",
                 where=scene.source or "scene")
     if not scene.objects:
-        raise ReferenceError("the scene has no objects to path-trace", where=scene.source or "scene")
+        raise ReferenceError("the scene has no objects to path-trace (splats and image-space "
+                             "stacks added in memory have no geometry either)",
+                             where=scene.source or "scene")
 
 
 def environment_bitmap(scene: Scene) -> np.ndarray:
@@ -96,8 +98,9 @@ def to_mitsuba(scene: Scene, mi, dr, max_depth: int, geometry: str = "mesh") -> 
     return d
 
 
-def _bsdf(bsdf_type, material: Material, textures: dict, multiscatter: bool):
-    return bsdf_type().configure(material, textures, multiscatter)
+def _bsdf(bsdf_type, material: Material, textures: dict, multiscatter: bool,
+          normal_scale: float = 1.0):
+    return bsdf_type().configure(material, textures, multiscatter, normal_scale)
 
 
 def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
@@ -115,10 +118,10 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
     for mesh in GeometryCache().get(obj):
         where = obj.path or obj.type
         textures = {}
-        for key in ("base_color", "metallic_roughness"):
+        for key in ("base_color", "metallic_roughness", "normal"):
             if key in mesh.textures:
                 textures[key] = _texture(mi, mesh.textures[key], mesh.sampling.get(key), where)
-        ignored = [k + " map" for k in ("normal", "occlusion") if k in mesh.textures]
+        ignored = ["occlusion map"] if "occlusion" in mesh.textures else []
         if any(sm.texcoord != 0 for sm in mesh.sampling.values()):
             ignored.append("TEXCOORD_1 (read as TEXCOORD_0)")
         if mesh.colors is not None:
@@ -131,7 +134,7 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
             warnings.warn(f"{where}: {mesh.name or 'a mesh'}: the reference does not trace "
                           f"{', '.join(ignored)} (occlusion is baked visibility, which the path "
                           "tracer computes itself)", stacklevel=2)
-        bsdf = _bsdf(bsdf_type, mesh.material, textures, multiscatter)
+        bsdf = _bsdf(bsdf_type, mesh.material, textures, multiscatter, mesh.normal_scale)
         if mesh.double_sided:  # back faces shade with the normal flipped, as the G-buffer does
             bsdf = mi.load_dict({"type": "twosided", "bsdf": bsdf})
         emitter = _emitter(mi, mesh, where) if mesh.has_emission else None

@@ -71,7 +71,8 @@ def test_bsdf_plugin_matches_independent_numpy_evaluation(mitsuba_llvm):
         si = dr.zeros(mi.SurfaceInteraction3f, 512)
         si.wi = mi.Vector3f(float(np.sqrt(1 - nov * nov)), 0.0, nov)
         si.sh_frame = mi.Frame3f(mi.Vector3f(0.0, 0.0, 1.0))
-        got = np.array(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(np.ascontiguousarray(wo.T, np.float32)))).T
+        wo_mi = mi.Vector3f(np.ascontiguousarray(wo.T, np.float32))
+        got = np.array(bsdf.eval(mi.BSDFContext(), si, wo_mi)).T
         want = brdf_cos_numpy(mat.albedo, mat.roughness, mat.metallic, mat.specular, nov, wo,
                               multiscatter=True)
         np.testing.assert_allclose(got, want, rtol=2e-3, atol=1e-5)

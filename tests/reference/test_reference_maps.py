@@ -1,0 +1,95 @@
+"""Texture maps in the path-traced reference: normal maps tilt the shading frame with the
+G-buffer's tangent-space convention (the reference equals the rasteriser's Monte-Carlo model on a
+thin quad, where neither has visibility to add)."""
+import base64
+import io
+import json
+import math
+
+import numpy as np
+from scipy import stats
+
+from relight.reference import ReferenceOptions, render_reference
+from relight.reference.compare import z_test
+from viewer.scene import scene_from_dict
+
+# a metal: its reflection follows the mapped normal up into the sky or down to the ground
+MATERIAL = {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1],
+                                     "metallicFactor": 1.0, "roughnessFactor": 0.4}}
+
+
+def quad_gltf(path, material: dict, normal_map_rgb=None):
+    """A 1 x 1 quad at z = 0 facing +Z (u along +x, v down along -y, glTF conventions) with
+    ``material``; ``normal_map_rgb`` (8-bit RGB) becomes a 2 x 2 constant normal texture."""
+    from PIL import Image
+
+    pos = np.float32([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
+    nrm = np.float32([[0, 0, 1]] * 4)
+    uv = np.float32([[0, 1], [1, 1], [1, 0], [0, 0]])
+    idx = np.uint16([0, 1, 2, 0, 2, 3])
+    blob = pos.tobytes() + nrm.tobytes() + uv.tobytes() + idx.tobytes()
+    material = json.loads(json.dumps(material))
+    doc = {
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                     + base64.b64encode(blob).decode()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 96, "byteLength": 32},
+                        {"buffer": 0, "byteOffset": 128, "byteLength": 12}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                       "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                      {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+                      {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+        "materials": [material],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
+                                    "indices": 3, "material": 0}]}]}
+    if normal_map_rgb is not None:
+        png = io.BytesIO()
+        Image.fromarray(np.full((2, 2, 3), normal_map_rgb, np.uint8)).save(png, format="PNG")
+        doc["images"] = [{"uri": "data:image/png;base64,"
+                          + base64.b64encode(png.getvalue()).decode()}]
+        doc["textures"] = [{"source": 0}]
+        material["normalTexture"] = {"index": 0}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def _scene(path):
+    return scene_from_dict({
+        "camera": {"position": [0.0, 0.0, 2.0], "target": [0.0, 0.0, 0.0], "fov_y": 25,
+                   "size": [12, 12]},
+        "environment": {"procedural": "sky", "width": 128, "sun_azimuth_deg": 60.0},
+        "render": {"multiscatter": False, "ao": False, "tonemap": "none",
+                   "background": "transparent"},
+        "objects": [{"type": "mesh", "path": str(path)}]})
+
+
+def _encode(n):
+    return [int(round((c * 0.5 + 0.5) * 255)) for c in n]
+
+
+def test_normal_maps_tilt_the_shading_frame_as_the_gbuffer_does(mitsuba_llvm, renderer,
+                                                                tmp_path):
+    """A constant normal map tilting the normal 30 degrees towards +u (+x here) and one tilting
+    it towards -v (+y): the reference equals the rasteriser's ggx_mc (same BSDF, a thin quad, so
+    no visibility either way) by a z-test, and rejects the mirrored tilt, so the map is applied
+    with the G-buffer's tangent-space convention (x along du, y along -dv), not merely read."""
+    s30, c30 = 0.5, math.cos(math.radians(30.0))
+    quantile = lambda p: float(stats.t.isf(p, 15))  # noqa: E731 - 16 renders' variance
+    for k, tilt in enumerate(((s30, 0.0, c30), (0.0, s30, c30))):
+        scene = _scene(quad_gltf(tmp_path / f"tilt{k}.gltf", MATERIAL, _encode(tilt)))
+        ref = render_reference(scene, ReferenceOptions(spp=1024, max_depth=2), progress=False)
+        runs = np.asarray([renderer.render(scene.with_render(
+            model="ggx_mc", samples=256, sampling="mis", seed=s)).radiance for s in range(16)])
+        mean = runs.mean(axis=0)
+        se = runs[..., :3].std(axis=0, ddof=1) / 4.0
+        result = z_test(mean, ref, image_stderr=se, quantile=quantile)
+        assert result.passed, (tilt, result)
+        mirrored = (-tilt[0], -tilt[1], tilt[2])  # the map read with a flipped tangent frame
+        wrong = renderer.render(_scene(quad_gltf(tmp_path / f"mirror{k}.gltf", MATERIAL,
+                                                 _encode(mirrored))).with_render(
+            model="ggx_mc", samples=1024, sampling="mis")).radiance
+        assert not z_test(wrong, ref, image_stderr=se, quantile=quantile).passed

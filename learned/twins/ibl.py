@@ -187,8 +187,14 @@ def ibl_specular_radiance(prefiltered: list[torch.Tensor], r_ws: torch.Tensor,
 
 
 def prefilter_lod(perceptual_roughness: torch.Tensor, levels: torch.Tensor) -> torch.Tensor:
-    """GLSL ``float prefilter_lod(float r, float levels)`` = sqrt(r) (levels - 1)."""
-    return torch.sqrt(perceptual_roughness.clamp(0.0, 1.0)) * (levels - 1.0).clamp_min(0.0)
+    """GLSL ``float prefilter_lod(float r, float levels)``: with alpha = r^2 and alpha_1 =
+    2^(1 - (levels - 1)), alpha / alpha_1 min(levels - 1, 1) below alpha_1, else
+    (levels - 1) + log2(alpha)."""
+    last = (levels - 1.0).clamp_min(0.0)
+    r = perceptual_roughness.clamp(0.0, 1.0)
+    a = r * r
+    a1 = torch.exp2(1.0 - last)
+    return torch.where(a < a1, a / a1 * last.clamp_max(1.0), last + torch.log2(a))
 
 
 def ibl_dfg(dfg: torch.Tensor, NoV: torch.Tensor, perceptual_roughness: torch.Tensor
@@ -198,6 +204,24 @@ def ibl_dfg(dfg: torch.Tensor, NoV: torch.Tensor, perceptual_roughness: torch.Te
     x = torch.stack([NoV.clamp(0.0, 1.0), perceptual_roughness.clamp(0.0, 1.0)], dim=-1)
     uv = (x * (n - 1.0) + 0.5) / n  # texel centres on the end points (see dfg_lut)
     return sample_bilinear(dfg, uv, repeat_u=False)[..., :2]
+
+
+def ibl_dominant_factor(dominant: torch.Tensor, NoV: torch.Tensor,
+                        perceptual_roughness: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float ibl_dominant_factor(sampler2D dominant, float NoV, float r)``: LUT
+    ``[n, n, 1]`` -> ``[...]``."""
+    n = torch.tensor([float(dominant.shape[1]), float(dominant.shape[0])], dtype=torch.float32)
+    x = torch.stack([NoV.clamp(0.0, 1.0), perceptual_roughness.clamp(0.0, 1.0)], dim=-1)
+    uv = (x * (n - 1.0) + 0.5) / n
+    return sample_bilinear(dominant, uv, repeat_u=False)[..., 0]
+
+
+def specular_dominant_direction(n: torch.Tensor, r: torch.Tensor, t: torch.Tensor
+                                ) -> torch.Tensor:
+    """GLSL ``vec3 specular_dominant_direction(vec3 n, vec3 r, float t)`` =
+    normalize(mix(n, r, t)): n, r ``[..., 3]``, t ``[...]`` -> ``[..., 3]``."""
+    d = n + (r - n) * t[..., None]
+    return d * torch.rsqrt((d * d).sum(-1, keepdim=True))
 
 
 def ibl_specular_dfg(dfg: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor) -> torch.Tensor:
@@ -217,7 +241,9 @@ def ibl_energy_compensation(dfg: torch.Tensor, f0: torch.Tensor) -> torch.Tensor
 # ---------------------------------------------------------------------------------------------
 
 def downsample_box(src: torch.Tensor) -> torch.Tensor:
-    """Twin of ``passes/ibl_downsample.comp``: ``[h, w, C]`` -> ``[max(h/2,1), max(w/2,1), C]``."""
+    """Twin of ``passes/ibl_downsample.comp``: ``[h, w, C]`` -> ``[max(h/2,1), max(w/2,1), C]``,
+    the 2x2 mean with each source row weighted by its texel solid angle (sin of the row centre's
+    polar angle)."""
     h, w = src.shape[:2]
     ho, wo = max(1, h // 2), max(1, w // 2)
     ys = torch.arange(ho)
@@ -228,7 +254,10 @@ def downsample_box(src: torch.Tensor) -> torch.Tensor:
     b = src[y0][:, x1]
     c = src[y1][:, x0]
     d = src[y1][:, x1]
-    return ((a + b) + (c + d)) * 0.25
+    inv_h = torch.tensor(1.0, dtype=torch.float32) / float(h)
+    w0 = torch.sin(math.pi * ((y0.to(torch.float32) + 0.5) * inv_h))[:, None, None]
+    w1 = torch.sin(math.pi * ((y1.to(torch.float32) + 0.5) * inv_h))[:, None, None]
+    return ((a + b) * w0 + (c + d) * w1) * (0.5 / (w0 + w1))
 
 
 def radiance_chain(env: torch.Tensor) -> list[torch.Tensor]:
@@ -315,14 +344,15 @@ def prefilter_level_envelope(chain: list[torch.Tensor], size: tuple[int, int],
     return (err * wgt[..., None]).sum(dim=2) / total + 2.0 * samples * 2.0 ** -24 * mean.abs()
 
 
-def prefilter_environment(chain: list[torch.Tensor], roughness: list[float], samples: int
-                          ) -> list[torch.Tensor]:
+def prefilter_environment(chain: list[torch.Tensor], roughness: list[float],
+                          samples: list[int]) -> list[torch.Tensor]:
     """Twin of the prefiltered chain of ``build_ibl``: level 0 = ``chain[0]``, level k >= 1 = GGX
-    prefiltered at perceptual roughness ``roughness[k]`` (the pass's uniform: the renderer uses
-    ``viewer.ibl.prefilter_roughness(k, levels)``) with ``samples`` Hammersley points."""
+    prefiltered at perceptual roughness ``roughness[k]`` with ``samples[k]`` Hammersley points
+    (the pass's uniforms: the renderer uses ``viewer.ibl.prefilter_roughness(k, levels)`` and
+    ``viewer.ibl.prefilter_samples(k, options.prefilter_samples)``)."""
     out = [chain[0]]
     for k in range(1, len(roughness)):
-        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]), roughness[k], samples))
+        out.append(prefilter_level(chain, tuple(chain[k].shape[:2]), roughness[k], samples[k]))
     return out
 
 
@@ -364,6 +394,31 @@ def dfg_lut(size: int, samples: int) -> torch.Tensor:
     gx = gx / float(max(samples, 1))
     gy = (gy / float(max(samples, 1))).clamp_max(1.0)
     return torch.stack([torch.minimum(gx, gy), gy], dim=-1)
+
+
+def dominant_lut(size: int, samples: int) -> torch.Tensor:
+    """Twin of ``passes/ibl_dfg.comp``'s second output: ``[size (roughness), size (n.v), 1]``
+    float32, the lerp factor t of the f (n.l) lobe's mean direction m = sum G l (see the pass):
+    t = m.x / (m.x (1 - n.v) - sin(theta_v) m.z) at n.v <= 0.999, clamped to [0, 1]."""
+    c = torch.arange(size, dtype=torch.float32) / float(size - 1)
+    r, NoV = torch.meshgrid(c, c.clamp_min(1e-4).clamp_max(0.999), indexing="ij")
+    a = (r * r)[..., None]
+    NoV = NoV[..., None]
+    sin_t = torch.sqrt(1.0 - NoV * NoV)
+    v = torch.stack([sin_t, torch.zeros_like(NoV), NoV], dim=-1)  # [size, size, 1, 3]
+    xi = hammersley_sequence(samples)
+    hv = importance_sample_ggx(xi, a)  # [size, size, S, 3]
+    VoH = _dot(v, hv)
+    l = 2.0 * VoH[..., None] * hv - v
+    NoL = l[..., 2]
+    g = v_smith_ggx_correlated(NoV, NoL, a) * 4.0 * VoH.clamp_min(0.0) * NoL \
+        / hv[..., 2].clamp_min(1e-30)
+    keep = NoL > 0.0
+    mx = torch.where(keep, g * l[..., 0], 0.0).sum(dim=-1)
+    mz = torch.where(keep, g * l[..., 2], 0.0).sum(dim=-1)
+    NoV, sin_t = NoV[..., 0], sin_t[..., 0]
+    t = mx / torch.clamp_max(mx * (1.0 - NoV) - sin_t * mz, -1e-30)
+    return t.clamp(0.0, 1.0)[..., None]
 
 
 # ---------------------------------------------------------------------------------------------

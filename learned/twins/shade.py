@@ -13,13 +13,16 @@ from .brdf import clamp_perceptual_roughness, compute_f0
 from .deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from .equirect import equirect_uv
 from .ibl import (
+    ATAN_ABS_ERROR,
     DIRECTION_ABS_ERROR,
     equirect_uv_error,
     ibl_dfg,
+    ibl_dominant_factor,
     ibl_specular_radiance,
     prefilter_lod,
     sample_bilinear,
     sample_trilinear_envelope,
+    specular_dominant_direction,
 )
 from .sh import sh_irradiance
 from .shade_ggx_mc import shade_ggx_mc
@@ -91,12 +94,27 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         n = shading_normal(g["normal"], v)
         r = clamp_perceptual_roughness(g["roughness"][..., 0])
         irradiance = sh_irradiance(env_dir(n, rotation_rad), env["sh"]) * intensity
-        r_env = env_dir(reflect(-v, n), rotation_rad)
+        reflected = reflect(-v, n)
+        direction_error = torch.full_like(r, 2.0 * DIRECTION_ABS_ERROR)
+        if model == "ggx_split_sum":  # shade_ggx_split_sum.frag looks up the dominant direction
+            nov_d = (n * v).sum(-1).clamp(0.0, 1.0)
+            t = ibl_dominant_factor(env["dominant"], nov_d, r)
+            reflected = specular_dominant_direction(n, reflected, t)
+            # a GPU's filtered t may differ by its lookup envelope: the direction moves by up to
+            # |dt| |r - n| / |mix(n, r, t)| <= 2 |dt| (|mix| >= 1/sqrt(2) for n.r >= 0)
+            size = torch.tensor([float(env["dominant"].shape[1]),
+                                 float(env["dominant"].shape[0])])
+            uv_t = (torch.stack([nov_d, r.clamp(0.0, 1.0)], -1) * (size - 1.0) + 0.5) / size
+            dt = sample_trilinear_envelope([env["dominant"]], uv_t, torch.zeros_like(r),
+                                           torch.full_like(uv_t, 1e-6), repeat_u=False,
+                                           weight_bits=bits)[..., 0]
+            direction_error = direction_error + 2.0 * dt + 1e-6
+        r_env = env_dir(reflected, rotation_rad)
         prefiltered = ibl_specular_radiance(env["prefiltered"], r_env, r, env["levels"])
         prefiltered = traced("prefiltered", prefiltered, lambda: sample_trilinear_envelope(
             env["prefiltered"], equirect_uv(r_env),
             prefilter_lod(r, torch.full_like(r, float(env["levels"]))),
-            equirect_uv_error(r_env, 2.0 * DIRECTION_ABS_ERROR), weight_bits=bits)[..., :3])
+            _uv_error(r_env, direction_error), weight_bits=bits)[..., :3])
         ao = g["ao"][..., 0] if defines.get("USE_AO", 1) else torch.ones_like(r)
         if defines.get("USE_SSAO", 0):
             ao = ao * ssao  # deferred.glsl ambient_occlusion()
@@ -138,6 +156,15 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         envelope["bound"] = bound.detach()
         out = out.detach()
     return torch.cat([out, alpha[..., None]], dim=-1)
+
+
+def _uv_error(d: torch.Tensor, direction_error: torch.Tensor) -> torch.Tensor:
+    """:func:`~learned.twins.ibl.equirect_uv_error` with a per-pixel direction error ``[...]``."""
+    rho = torch.sqrt(d[..., 0] * d[..., 0] + d[..., 2] * d[..., 2])
+    e = direction_error
+    du = (e / torch.maximum(rho, e) + ATAN_ABS_ERROR) / (2.0 * torch.pi)
+    dv = (e + ATAN_ABS_ERROR) / torch.pi
+    return torch.stack([du, dv], dim=-1)
 
 
 @dataclass

@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
+from viewer.ibl import prefilter_lod
 from viewer.scene import ObjectSpec, Scene, scene_from_dict
 
 from . import metrics
@@ -129,11 +130,11 @@ def _roughness_rows(renderer, env: str, size) -> list[dict]:
                          f"{label}: relative RMSE linear vs mirror",
                          np.sqrt(np.mean(err ** 2)) / np.sqrt(np.mean(ref[mask] ** 2)),
                          "includes the split-sum mip blend between the prefiltered levels "
-                         "around lod = sqrt(0.045) (levels - 1)"))
+                         "around prefilter_lod(0.045)"))
     # where the error comes from: the split sum reads the prefiltered chain at
-    # lod = sqrt(0.045) (levels - 1) (shaders/lib/ibl.glsl: prefilter_lod), a blend of two levels
+    # viewer.ibl.prefilter_lod(0.045, levels) (shaders/lib/ibl.glsl's), a blend of two levels
     ibl = renderer.ibl(scene)
-    lod = math.sqrt(0.045) * (ibl.levels - 1)
+    lod = prefilter_lod(0.045, ibl.levels)
     lo, frac = int(math.floor(lod)), lod - math.floor(lod)
     d = frames[0.0].camera.view_rays_ws().astype(np.float64)
     n = frames[0.0].aovs["normal"].astype(np.float64)

@@ -10,6 +10,7 @@
 
 uniform sampler2D u_env_prefiltered;
 uniform sampler2D u_env_dfg;
+uniform sampler2D u_env_dominant;
 uniform float u_env_levels;
 uniform vec3 u_sh[9];
 
@@ -29,7 +30,8 @@ void main() {
 #if SPECULAR_LOBE
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
-    vec3 reflected = reflect(-v, n);
+    vec3 reflected = specular_dominant_direction(n, reflect(-v, n),
+                                                 ibl_dominant_factor(u_env_dominant, NoV, r));
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
                        * u_env_intensity;
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);

@@ -13,8 +13,8 @@ from viewer.errors import InputError
 from viewer.ibl import IBLOptions, build_ibl, mip_sizes
 
 SMALL = IBLOptions(prefilter_levels=4, prefilter_samples=16, dfg_size=16, dfg_samples=64)
-OUR_CHECKS = ["ibl_downsample", "ibl_prefilter", "ibl_sh", "ibl_dfg_lut", "ibl_lookups",
-              "sh_irradiance"]
+OUR_CHECKS = ["ibl_downsample", "ibl_prefilter", "ibl_sh", "ibl_dfg_lut", "ibl_dominant_lut",
+              "ibl_lookups", "sh_irradiance"]
 
 
 def test_ibl_pass_checks_are_registered():
@@ -83,8 +83,10 @@ def test_constant_environment_stays_constant(white_ibl):
         level = white_ibl.read_level("radiance", k)
         assert level.shape == (h, w, 4)
         np.testing.assert_allclose(level[..., :3], 2.5, rtol=1e-6)
+    # sum(L n.l) / sum(n.l) over up to 65536 samples a texel (prefilter_samples), each sum a
+    # sequential float32 one: measured 2.5e-5 relative; the bound 2 S ulp would be 8e-3
     for k in range(white_ibl.levels):
-        np.testing.assert_allclose(white_ibl.read_level("prefiltered", k)[..., :3], 2.5, rtol=1e-5)
+        np.testing.assert_allclose(white_ibl.read_level("prefiltered", k)[..., :3], 2.5, rtol=1e-4)
 
 
 def test_constant_environment_sh_irradiance_is_pi_l(programs, white_ibl):

@@ -9,8 +9,10 @@ import torch
 from learned.twins.equirect import equirect_uv
 from learned.twins.ibl import (
     dfg_lut,
+    dominant_lut,
     equirect_uv_error,
     ibl_dfg,
+    ibl_dominant_factor,
     ibl_specular_radiance,
     prefilter_environment,
     prefilter_level_envelope,
@@ -21,7 +23,7 @@ from learned.twins.ibl import (
 )
 from learned.twins.sh import sh_irradiance
 from viewer.gl.kernels import run_kernel
-from viewer.ibl import IBLOptions, build_ibl, prefilter_roughness
+from viewer.ibl import IBLOptions, build_ibl, prefilter_roughness, prefilter_samples
 
 from ..results import compare, compare_envelope, device_filter_bits
 from . import collector
@@ -64,23 +66,27 @@ def checks() -> dict:
         gl = np.concatenate([ibl.read_level("radiance", k)[..., :3].ravel()
                              for k in range(len(chain))])
         ref = np.concatenate([c.numpy().ravel() for c in chain])
-        return [compare("ibl_downsample", gl, ref, atol=0.0, rtol=1e-6, kind="pass",
-                        measured="exact (0 abs), all 7 levels of a 64x32 env",
-                        envelope="(a + b) + (c + d) then * 0.25 (exact), the same order on both "
-                                 "sides, every op correctly rounded: identical; rtol 8 ulp")]
+        bound = np.concatenate([b.ravel() for b in _downsample_envelope(chain)])
+        return [compare_envelope(
+            "ibl_downsample", gl, ref, bound,
+            measured="max rel 3e-7 (sin of the row weights), all 7 levels of a 64x32 env",
+            envelope="per texel: the row weights' sin (1e-6 abs each, no GLSL requirement) "
+                     "moves (top w0 + bottom w1) / (w0 + w1) by |top - bottom| 1e-6 / "
+                     "(w0 + w1); 8 ulp of the result for the arithmetic; plus the largest "
+                     "bound of the four source texels (level k reads the GPU's level k - 1)")]
 
     @register_pass_check("ibl_prefilter")
     def check_prefilter(programs):
         env, opts, ibl, bits = built(programs)
         chain = radiance_chain(torch.from_numpy(env))
         with torch.no_grad():
+            samples = [prefilter_samples(k, opts.prefilter_samples) for k in range(ibl.levels)]
             ref = prefilter_environment(
-                chain, [prefilter_roughness(k, ibl.levels) for k in range(ibl.levels)],
-                opts.prefilter_samples)
+                chain, [prefilter_roughness(k, ibl.levels) for k in range(ibl.levels)], samples)
             bound = [torch.zeros_like(chain[0])] + [
                 prefilter_level_envelope(chain, tuple(chain[k].shape[:2]),
                                          prefilter_roughness(k, ibl.levels),
-                                         opts.prefilter_samples, weight_bits=bits)
+                                         samples[k], weight_bits=bits)
                 for k in range(1, ibl.levels)]
         gl = np.concatenate([ibl.read_level("prefiltered", k)[..., :3].ravel()
                              for k in range(ibl.levels)])
@@ -117,6 +123,17 @@ def checks() -> dict:
                                  "each = 3.6e-6 rel, sequential float32 sum <= 128 x 2^-24 = "
                                  "7.6e-6 rel: 1.1e-5 at values ~1")]
 
+    @register_pass_check("ibl_dominant_lut")
+    def check_dominant(programs):
+        env, opts, ibl, bits = built(programs)
+        with torch.no_grad():
+            ref = dominant_lut(opts.dfg_size, opts.dfg_samples).numpy()
+        return [compare("ibl_dominant_lut", ibl.read_level("dominant"), ref, atol=2e-5, rtol=0.0,
+                        kind="pass", measured="max abs 2.1e-6 (roughness 0 row)",
+                        envelope="t (<= 1) is the ratio of two float32 sums of 128 terms of ~30 "
+                                 "ops each (30 ulp) with cancellation between terms of either "
+                                 "sign in m.x: 2 x (30 + 128) ulp = 1.9e-5")]
+
     @register_pass_check("ibl_lookups")
     def check_lookups(programs):
         env, opts, ibl, bits = built(programs)
@@ -128,10 +145,13 @@ def checks() -> dict:
         rough[:8] = (0.0, 1.0, 0.25, 0.5, 0.75, 0.045, 1e-3, 0.999)
         nov = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
         nov[:4] = (0.0, 1.0, 1e-4, 0.5)
-        spec_gl, dfg_gl = _eval_lookups(programs, ibl, dirs, rough, nov)
+        spec_gl, dfg_gl, dom_gl = _eval_lookups(programs, ibl, dirs, rough, nov)
         pre = [torch.from_numpy(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)]
         lut = torch.from_numpy(ibl.read_level("dfg"))
+        dom_lut = torch.from_numpy(ibl.read_level("dominant"))
         with torch.no_grad():
+            dom = ibl_dominant_factor(dom_lut, torch.from_numpy(nov), torch.from_numpy(rough))
+            dom = dom.numpy()
             spec = ibl_specular_radiance(pre, torch.from_numpy(dirs), torch.from_numpy(rough),
                                          float(ibl.levels)).numpy()
             dfg = ibl_dfg(lut, torch.from_numpy(nov), torch.from_numpy(rough)).numpy()
@@ -148,6 +168,9 @@ def checks() -> dict:
             dfg_bound = (sample_trilinear_envelope(
                 [lut], uv_lut, torch.zeros(n), torch.full_like(uv_lut, 1e-6), repeat_u=False,
                 weight_bits=bits)[..., :2] + 1e-5 + 1e-4 * torch.from_numpy(dfg).abs()).numpy()
+            dom_bound = (sample_trilinear_envelope(
+                [dom_lut], uv_lut, torch.zeros(n), torch.full_like(uv_lut, 1e-6),
+                repeat_u=False, weight_bits=bits)[..., 0] + 1e-5).numpy()
         return [compare_envelope(
                     "ibl_specular_radiance", spec_gl, spec, bound,
                     measured="max abs 4.7e-4 (values to 40), uv (atan) differences times "
@@ -157,7 +180,11 @@ def checks() -> dict:
                 compare_envelope(
                     "ibl_dfg", dfg_gl, dfg, dfg_bound, measured="max abs 6e-8",
                     envelope="per lookup: sample_trilinear_envelope of the LUT (measured filter "
-                             "bits, uv from clamps and one fma: 1e-6) + 1e-5 + 1e-4 rel")]
+                             "bits, uv from clamps and one fma: 1e-6) + 1e-5 + 1e-4 rel"),
+                compare_envelope(
+                    "ibl_dominant_factor", dom_gl, dom, dom_bound, measured="max abs 6e-8",
+                    envelope="per lookup: sample_trilinear_envelope of the LUT (as ibl_dfg) "
+                             "+ 1e-5")]
 
     @register_pass_check("sh_irradiance")
     def check_sh_irradiance(programs):
@@ -178,18 +205,45 @@ def checks() -> dict:
     return found
 
 
+def _downsample_envelope(chain: list[torch.Tensor]) -> list[np.ndarray]:
+    """Per-texel bound ``[h, w, 3]`` on |GPU - twin| for every level of the radiance chain (see
+    check_downsample)."""
+    out = [np.zeros(chain[0][..., :3].shape, np.float32)]
+    for k in range(1, len(chain)):
+        src, dst = chain[k - 1][..., :3].numpy(), chain[k][..., :3].numpy()
+        h, w = src.shape[:2]
+        ho, wo = dst.shape[:2]
+        y0 = np.minimum(2 * np.arange(ho), h - 1)
+        y1 = np.minimum(2 * np.arange(ho) + 1, h - 1)
+        x0 = np.minimum(2 * np.arange(wo), w - 1)
+        x1 = np.minimum(2 * np.arange(wo) + 1, w - 1)
+        top = src[y0][:, x0] + src[y0][:, x1]
+        bottom = src[y1][:, x0] + src[y1][:, x1]
+        w0 = np.sin(np.pi * (y0 + 0.5) / h)[:, None, None]
+        w1 = np.sin(np.pi * (y1 + 0.5) / h)[:, None, None]
+        prev = out[-1]
+        children = np.maximum(np.maximum(prev[y0][:, x0], prev[y0][:, x1]),
+                              np.maximum(prev[y1][:, x0], prev[y1][:, x1]))
+        out.append((0.5 * np.abs(top - bottom) * 1e-6 / (w0 + w1) + 8.0 * 2.0 ** -24
+                    * np.abs(dst) + children).astype(np.float32))
+    return out
+
+
 def _eval_lookups(programs, ibl, dirs, rough, nov):
-    """GL ``ibl_specular_radiance`` and ``ibl_dfg`` on the textures of ``ibl``."""
+    """GL ``ibl_specular_radiance``, ``ibl_dfg`` and ``ibl_dominant_factor`` on the textures of
+    ``ibl``."""
     def setup(prog):
         ibl.prefiltered.use(location=0)
         ibl.dfg.use(location=1)
+        ibl.dominant.use(location=2)
         prog["u_pre"].value = 0
         prog["u_lut"].value = 1
+        prog["u_dominant"].value = 2
         prog["u_levels"].value = float(ibl.levels)
 
     inputs = np.concatenate([dirs, rough[:, None], nov[:, None]], axis=1)
-    out = run_kernel(programs, "passes/parity_ibl_lookups.comp", inputs, 5, setup)
-    return out[:, :3], out[:, 3:]
+    out = run_kernel(programs, "passes/parity_ibl_lookups.comp", inputs, 6, setup)
+    return out[:, :3], out[:, 3:5], out[:, 5]
 
 
 def eval_sh_irradiance(programs, normals: np.ndarray, sh: np.ndarray) -> np.ndarray:

@@ -36,6 +36,7 @@ def env_from_ibl(ibl) -> dict:
             "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
                             for k in range(ibl.levels)],
             "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
+            "dominant": torch.from_numpy(ibl.read_level("dominant", 0)),
             "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)),
             "levels": float(ibl.levels)}
 

@@ -137,3 +137,50 @@ def test_missing_visibility_overestimates_and_ssao_moves_towards_truth(renderer,
     ssao = score(renderer.render(scene.with_render(model="ggx_split_sum", ssao=True)).radiance,
                  ref)
     assert plain.bias > ssao.bias > -0.05, (plain, ssao)
+
+
+# ---- split-sum against truth (issue 12's goals) ----------------------------------------------------
+# Goals with multiscatter off: |total bias| <= 3 % at roughness <= 0.3 and 8 % at 0.8; median
+# per-pixel relative error <= 5 % at 0.05 and 8 % at 0.3. Each score is compared after adding 3
+# standard errors of the reference's own noise (Score.bias_noise) to the bound.
+SPLIT_SUM_BIAS_GOAL = {"005": 3.0, "03": 3.0, "08": 8.0}
+SPLIT_SUM_MEDIAN_GOAL = {"005": 5.0, "03": 8.0}
+# Not reached (measured here against these references, in %), held to the measured value + 1
+# percentage point so a regression still fails; the README lists them as open. park: the low sun
+# behind the sphere reflects at the grazing rim, where one lookup of a round pre-blurred lobe
+# cannot follow the stretched, horizon-clipped lobe. procsky: the 2-degree, 2e4 sun at r = 0.3.
+SPLIT_SUM_SHORT = {
+    ("park_conductor_r03", "bias"): -7.4,
+    ("procsky_conductor_r03", "bias"): -3.8,
+    ("procsky_conductor_r03", "median"): 12.7,
+    ("sky_conductor_r03", "bias"): 3.5,
+}
+
+
+@pytest.mark.parametrize("name", [n for n in CONVEX if "conductor" in n])
+def test_split_sum_against_truth_meets_the_goals(renderer, name):
+    scene, ref = _load(name)
+    s = score(renderer.render(scene.with_render(model="ggx_split_sum")).radiance, ref)
+    r = name.rsplit("_r", 1)[1]
+    noise = 300.0 * s.bias_noise  # 3 standard errors, in %
+    if (name, "bias") in SPLIT_SUM_SHORT:
+        bias_bound = abs(SPLIT_SUM_SHORT[(name, "bias")]) + 1.0
+    else:
+        bias_bound = SPLIT_SUM_BIAS_GOAL[r]
+    assert abs(100 * s.bias) <= bias_bound + noise, s
+    if r in SPLIT_SUM_MEDIAN_GOAL:
+        if (name, "median") in SPLIT_SUM_SHORT:
+            med_bound = SPLIT_SUM_SHORT[(name, "median")] + 1.0
+        else:
+            med_bound = SPLIT_SUM_MEDIAN_GOAL[r]
+        assert 100 * s.median_rel <= med_bound, s
+
+
+def test_sh9_diffuse_against_truth(renderer):
+    """A Lambert sphere under a real HDRI: nine SH coefficients of the irradiance (Ramamoorthi &
+    Hanrahan 2001) lose little energy over the sphere but ring and blur at the sun's terminator:
+    bias within 1 % (measured -0.3 %); median per-pixel error measured 10.2 %, held to 11.5 %."""
+    scene, ref = _load("park_diffuse")
+    s = score(renderer.render(scene.with_render(model="ggx_split_sum")).radiance, ref)
+    assert abs(s.bias) <= 0.01 + 3.0 * s.bias_noise, s
+    assert s.median_rel <= 0.115, s

@@ -139,7 +139,7 @@ def test_missing_visibility_overestimates_and_ssao_moves_towards_truth(renderer,
     assert plain.bias > ssao.bias > -0.05, (plain, ssao)
 
 
-# ---- split-sum against truth (issue 12's goals) ----------------------------------------------------
+# ---- split-sum against truth (issue 12's goals) ------------------------------------------
 # Goals with multiscatter off: |total bias| <= 3 % at roughness <= 0.3 and 8 % at 0.8; median
 # per-pixel relative error <= 5 % at 0.05 and 8 % at 0.3. Each score is compared after adding 3
 # standard errors of the reference's own noise (Score.bias_noise) to the bound.

@@ -9,6 +9,10 @@ one of ``env_paths``, at a random intensity and rotation (baked into the written
 The target ``rgb.exr`` is the Monte-Carlo reference ``ggx_mc`` (``samples`` per pixel, MIS) with
 the G-buffer AO, SSAO and one-bounce indirect light when the renderer has them (see
 :func:`target_settings`) - so the shadow stage has occlusion to learn; otherwise ``ggx_split_sum``.
+``rgb_unoccluded.exr`` is the same render without any occlusion (no AO, SSAO or indirect light:
+for convex objects the exact single-bounce integral): the unshadowed image I_unshadow of thesis
+eq. 4.3, the teacher's target in phase 1 (issue 14: trained on ``rgb``, the teacher learned the
+training set's mean occlusion as part of the BRDF, and every distilled student inherited it).
 
 Image G-buffers as geometry: a ``gbuffer_fraction`` of the samples (drawn per sample from its own
 stream ``default_rng([seed, i, 1])``, so datasets made without them are unchanged) takes its
@@ -79,6 +83,16 @@ def target_settings(samples: int) -> dict:
         if k in names:
             kw[k] = True
     kw.update({"background": "environment", "tonemap": "none"})
+    return kw
+
+
+def unoccluded_settings(samples: int) -> dict:
+    """Render settings of the unoccluded targets: :func:`target_settings` without AO, SSAO or
+    indirect light."""
+    kw = target_settings(samples) | {"ao": False}
+    for k in ("ssao", "indirect"):
+        if k in kw:
+            kw[k] = False
     return kw
 
 
@@ -170,7 +184,8 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
 
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
-    info = {"format": FORMAT, "config": asdict(config), "targets": target_settings(config.samples)}
+    info = {"format": FORMAT, "config": asdict(config), "targets": target_settings(config.samples),
+            "unoccluded_targets": unoccluded_settings(config.samples)}
     info_path = root / "dataset.json"
     if info_path.is_file():
         old = json.loads(info_path.read_text())
@@ -322,6 +337,8 @@ def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, me
     scene = scene_from_dict(scene_dict, file=str(tmp / "scene"))
     frame = renderer.render(scene, aovs=_AOVS)
     write_exr(tmp / "rgb.exr", frame.radiance[..., :3], ["R", "G", "B"])
+    unoccluded = renderer.render(scene.with_render(**unoccluded_settings(config.samples)))
+    write_exr(tmp / "rgb_unoccluded.exr", unoccluded.radiance[..., :3], ["R", "G", "B"])
     _write_gbuffer(tmp, frame.aovs, float(scene_dict["camera"]["fov_y"]), write_exr)
     meta = {"index": index, "seed": config.seed, "environment": env_info, "geometry": geometry,
             "objects": [{k: v for k, v in o.items() if k != "path"} | (

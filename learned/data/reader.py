@@ -4,8 +4,10 @@ A dataset is a folder with one sub-folder per split (``train``, ``val``, ``test`
 folder per sample; a sample folder is exactly what :func:`viewer.geometry.imagespace.load_ffhq_pbr`
 reads (its docstring table is the layout: rgb, albedo, normal, roughness, specular, metallic, depth,
 ao, mask images as PNG/EXR, ``env.exr|hdr``, ``camera.json``). For training a sample must also
-have its target ``rgb`` and its environment ``env``. ``dataset.json`` at the root (written by the
-generator, optional for user data) summarises how it was made.
+have its target ``rgb`` and its environment ``env``; ``rgb_unoccluded.exr`` (optional, written by
+the generator) is the same target without occlusion, the teacher's phase-1 target.
+``dataset.json`` at the root (written by the generator, optional for user data) summarises how it
+was made.
 
 Every problem is a one-line :class:`DatasetError` naming the file or folder.
 """
@@ -20,8 +22,10 @@ import numpy as np
 
 from viewer.errors import InputError
 from viewer.geometry.imagespace import load_ffhq_pbr, view_dirs_cs
+from viewer.imageio import read_image
 
 SPLITS = ("train", "val", "test")
+UNOCCLUDED_FILE = "rgb_unoccluded.exr"  # the target without occlusion (learned.data.generator)
 
 
 class DatasetError(InputError):
@@ -36,6 +40,7 @@ class Sample:
     target: np.ndarray  # [H, W, 3] linear RGB
     environment: Path  # the HDR environment that lit the target
     fov_y: float  # degrees
+    unoccluded: np.ndarray | None = None  # [H, W, 3] linear RGB without AO/SSAO/indirect, if any
 
     @property
     def size(self) -> tuple[int, int]:
@@ -61,8 +66,15 @@ def load_sample(folder: str | os.PathLike, require_target: bool = True) -> Sampl
     if gb.environment is None:
         raise DatasetError("missing the environment env (exr/hdr)", where=folder)
     target = gb.target[..., :3] if gb.target is not None else None
+    unoccluded = None
+    if (folder / UNOCCLUDED_FILE).is_file():
+        unoccluded, _ = read_image(folder / UNOCCLUDED_FILE, (3, 4))
+        if target is not None and unoccluded.shape[:2] != target.shape[:2]:
+            raise DatasetError(f"{UNOCCLUDED_FILE} is {unoccluded.shape[1]}x{unoccluded.shape[0]}, "
+                               f"rgb {target.shape[1]}x{target.shape[0]}", where=folder)
+        unoccluded = np.ascontiguousarray(unoccluded[..., :3])
     return Sample(name=folder.name, folder=folder, channels=gb.channels, target=target,
-                  environment=Path(gb.environment), fov_y=float(gb.fov_y))
+                  environment=Path(gb.environment), fov_y=float(gb.fov_y), unoccluded=unoccluded)
 
 
 def list_samples(root: str | os.PathLike, split: str) -> list[Path]:

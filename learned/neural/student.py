@@ -11,6 +11,8 @@ material and n.v predicts how much of each the surface reflects. Two output form
     free6: k = sigmoid(MLP(x)) [6]    L_o = S k_d * albedo * E / pi + S k_s * P      (per channel)
     pbr3:  k = sigmoid(MLP(x)) [3]    L_o = S k_d diffuse * E / pi + S (k_a f0 + k_b f90) P
 
+    occlusion "factor" (:data:`OCCLUSIONS`): k_d = ao sigmoid(...), AO applied outside the MLP
+
 with S = :data:`OUTPUT_SCALE` = 2 (room for the indirect light the teacher learned), diffuse =
 ``diffuse_color(albedo, metallic)``, f0 = ``compute_f0(albedo, metallic, specular)`` and f90 =
 ``f90_from_f0(f0)``. Both are exactly linear in the environment (any intensity, any HDR range)
@@ -40,6 +42,11 @@ FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b")}
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3}
+# how the ao input enters (architecture "occlusion"; twin: viewer.neural.format.STUDENT_OCCLUSION):
+# "factor" (new students) multiplies the diffuse factor(s) by ao outside the MLP, as every classical
+# model applies AO; "input" (files written before) leaves the product to the MLP, which learned the
+# training set's mean occlusion as a constant instead (issue 14: white furnace 0.42 for 0.8)
+OCCLUSIONS = ("input", "factor")
 
 # Candidate designs of the measured comparison (relight.bench.students.compare_students):
 # name -> Student keyword arguments
@@ -63,7 +70,7 @@ class Student(nn.Module):
     kind = "student"
 
     def __init__(self, hidden: tuple[int, ...] = (32, 32), num_freqs: int = 0,
-                 features: str = "base", output: str = "free6"):
+                 features: str = "base", output: str = "free6", occlusion: str = "factor"):
         super().__init__()
         if features not in FEATURE_INPUTS:
             raise ValueError(f"unknown student features {features!r} "
@@ -71,6 +78,10 @@ class Student(nn.Module):
         if output not in OUTPUTS:
             raise ValueError(f"unknown student output form {output!r} "
                              f"(known: {', '.join(OUTPUTS)})")
+        if occlusion not in OCCLUSIONS:
+            raise ValueError(f"unknown student occlusion {occlusion!r} "
+                             f"(known: {', '.join(OCCLUSIONS)})")
+        self.occlusion = occlusion
         self.hidden = tuple(int(h) for h in hidden)
         self.num_freqs = int(num_freqs)
         self.features = features
@@ -85,7 +96,7 @@ class Student(nn.Module):
     @property
     def config(self) -> dict:
         return {"hidden": list(self.hidden), "num_freqs": self.num_freqs,
-                "features": self.features, "output": self.output}
+                "features": self.features, "output": self.output, "occlusion": self.occlusion}
 
     def activations(self) -> list[str]:
         return ["relu"] * len(self.hidden) + ["sigmoid"]
@@ -93,11 +104,15 @@ class Student(nn.Module):
     def weights(self, x: torch.Tensor) -> torch.Tensor:
         """``x [N, len(inputs)]`` (``inputs`` order; wider x is cut) -> the factors ``k [N, 6]``
         (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
-        [0, 1]."""
+        [0, 1]; with ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6]."""
         h = fourier_encode(x[:, :len(self.inputs)], self.num_freqs)
         for layer in self.layers[:-1]:
             h = torch.relu(layer(h))
-        return torch.sigmoid(self.layers[-1](h))
+        k = torch.sigmoid(self.layers[-1](h))
+        if self.occlusion == "input":
+            return k
+        n_diffuse = 1 if self.output == "pbr3" else 3
+        return torch.cat([k[:, :n_diffuse] * x[:, 6:7], k[:, n_diffuse:]], dim=-1)
 
     def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor
                 ) -> torch.Tensor:

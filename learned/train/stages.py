@@ -1,7 +1,8 @@
 """The training data and the three stages (thesis sec. 4.3.3-4.3.4).
 
-Phase 1, :func:`train_teacher`: L1 over random foreground pixels (``batch_pixels``, 8192 in the
-thesis) of one random training image per step, ``light_samples`` light directions per pixel
+Phase 1, :func:`train_teacher`: L1 against the unoccluded target (``rgb_unoccluded``: the
+unshadowed image of eq. 4.3; ``rgb`` for data without it) over random foreground pixels
+(``batch_pixels``, 8192 in the thesis) of one random training image per step, ``light_samples`` light directions per pixel
 (``strategy`` uniform, cosine or env importance sampling). Phase 2, :func:`train_shadow`: the UNet
 of eq. 4.3 on whole images, L1 over all foreground pixels (eq. 4.6), the teacher frozen.
 Distillation, :func:`distill_student`: the student matches the frozen two-stage teacher (teacher x
@@ -34,6 +35,7 @@ class TrainImage:
     gb: dict  # channel -> [P, C] foreground pixels
     v: torch.Tensor  # [P, 3] towards the viewer
     target: torch.Tensor  # [P, 3]
+    unshadowed: torch.Tensor  # [P, 3] the teacher's target: rgb_unoccluded, else rgb
     target_image: torch.Tensor  # [3, H, W]
     normal_image: torch.Tensor  # [3, H, W]
     ao_image: torch.Tensor  # [1, H, W]
@@ -51,9 +53,10 @@ def load_images(root: str, split: str, renderer) -> list[TrainImage]:
         v = -torch.from_numpy(s.view_dirs())
         lighting = lighting_from_gl(renderer, EnvironmentSpec(path=str(s.environment)))
         target = torch.from_numpy(np.ascontiguousarray(s.target))
+        unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
         out.append(TrainImage(
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],
-            target=target[fg], target_image=target.permute(2, 0, 1),
+            target=target[fg], unshadowed=unshadowed[fg], target_image=target.permute(2, 0, 1),
             normal_image=ch["normal"].permute(2, 0, 1), ao_image=ch["ao"].permute(2, 0, 1),
             lighting=lighting))
     if not out:
@@ -81,7 +84,9 @@ def train_teacher(run: Run, images: list[TrainImage]) -> tuple[Teacher, list[flo
         gb = {k: t[idx] for k, t in img.gb.items()}
         u = torch.rand(len(idx), cfg.light_samples, 2)
         pred = ddp(gb, img.v[idx], img.lighting, u, cfg.strategy)
-        return (pred - img.target[idx]).abs().mean()
+        # the teacher is the unshadowed shader of eq. 4.3: trained on the occluded targets (AO,
+        # SSAO, shadows), it learned their mean occlusion as reflectance (issue 14)
+        return (pred - img.unshadowed[idx]).abs().mean()
 
     losses = _loop(run, "teacher", model, cfg.teacher_steps, cfg.lr, step)
     return model.eval(), losses

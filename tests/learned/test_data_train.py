@@ -37,6 +37,17 @@ def test_generator_layout_splits_and_targets(dataset):
     assert np.allclose(np.linalg.norm(n, axis=-1), 1.0, atol=1e-4)
 
 
+def test_generator_writes_the_unoccluded_teacher_target(dataset):
+    """rgb_unoccluded (the teacher's phase-1 target, issue 14): the same render without AO, SSAO
+    and indirect light, so it is never darker than rgb by more than MC noise and strictly brighter
+    where the material AO (0.6-1.0 on every primitive) darkens the diffuse term."""
+    for folder in list_samples(dataset, "train"):
+        s = load_sample(folder)
+        assert s.unoccluded is not None and s.unoccluded.shape == s.target.shape
+        fg = s.foreground()
+        assert s.unoccluded[fg].mean() > s.target[fg].mean(), folder.name
+
+
 def test_generator_is_deterministic_and_resumable(dataset, tmp_path, ctx):
     from viewer.renderer import Renderer
 

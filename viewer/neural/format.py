@@ -16,7 +16,9 @@ architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [..
                 "output": "free6" | "pbr3"}`` (students; no ``features`` = ``base``: the 8 inputs of
                 :data:`STUDENT_INPUTS`, ``dfg`` adds the split-sum LUT; no ``output`` = ``free6``:
                 six per-channel factors, ``pbr3`` three achromatic ones of the split-sum form,
-                :data:`STUDENT_OUTPUTS`)
+                :data:`STUDENT_OUTPUTS`; ``"occlusion": "input" | "factor"``, no key = ``input``:
+                ``factor`` multiplies the diffuse factor(s) by the ``ao`` input, as every classical
+                model applies AO, :data:`STUDENT_OCCLUSION`)
 encoding        JSON (:func:`encoding`): ``{"type": "fourier", "num_freqs": L, "frequencies":
                 "pi * 2^k", "order": ...}``
 checkpoint      sha256 (hex) of the tensors (:func:`checkpoint_hash`); verified on load
@@ -56,6 +58,11 @@ STUDENT_OUTPUTS = {"free6": 6, "pbr3": 3}
 # what a student file without "features" / "output" (written before they existed) holds
 DEFAULT_FEATURES = "base"
 DEFAULT_OUTPUT = "free6"
+# how a student uses its ao input (architecture "occlusion"): "input" only as an MLP input (files
+# written before the key existed: the network had to learn the product, and learned the training
+# set's mean occlusion instead, issue 14), "factor" also multiplies the diffuse factor(s) by it
+STUDENT_OCCLUSION = ("input", "factor")
+DEFAULT_OCCLUSION = "input"
 TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
                   "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
 TENSOR_PARTS = ("weight", "bias")  # the tensors of one layer, in file order per layer
@@ -96,6 +103,12 @@ class NetworkFile:
     def output(self) -> str:
         """Student output form (``free6`` | ``pbr3``, :data:`STUDENT_OUTPUTS`)."""
         return str(self.architecture.get("output", DEFAULT_OUTPUT))
+
+    @property
+    def occlusion(self) -> str:
+        """How the student applies its ao input (``input`` | ``factor``,
+        :data:`STUDENT_OCCLUSION`)."""
+        return str(self.architecture.get("occlusion", DEFAULT_OCCLUSION))
 
     def layers(self, network: str) -> list[tuple[np.ndarray, np.ndarray, str]]:
         """``[(weight [out, in], bias [out], activation)]`` of ``network``."""
@@ -148,10 +161,10 @@ def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT
 
 
 def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
-                 output: str | None = None) -> dict:
-    """The ``architecture`` metadata of a ``kind`` network (students record ``features`` and
-    ``output``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT`; teachers have
-    neither)."""
+                 output: str | None = None, occlusion: str | None = None) -> dict:
+    """The ``architecture`` metadata of a ``kind`` network (students record ``features``,
+    ``output`` and ``occlusion``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT` /
+    :data:`DEFAULT_OCCLUSION`; teachers have none of them)."""
     features = features or DEFAULT_FEATURES
     output = output or DEFAULT_OUTPUT
     arch = {"networks": expected_networks(kind, num_freqs, hidden, features, output),
@@ -160,6 +173,7 @@ def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
     if kind == "student":
         arch["features"] = features
         arch["output"] = output
+        arch["occlusion"] = occlusion or DEFAULT_OCCLUSION
     return arch
 
 
@@ -195,6 +209,9 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
     output = arch.get("output", DEFAULT_OUTPUT) if kind == "student" else DEFAULT_OUTPUT
     if output not in STUDENT_OUTPUTS:
         raise ValueError(f"student output form {output!r} (known: {', '.join(STUDENT_OUTPUTS)})")
+    if kind == "student" and arch.get("occlusion", DEFAULT_OCCLUSION) not in STUDENT_OCCLUSION:
+        raise ValueError(f"student occlusion {arch['occlusion']!r} "
+                         f"(known: {', '.join(STUDENT_OCCLUSION)})")
     return expected_networks(kind, num_freqs, hidden, features, output)
 
 

@@ -235,9 +235,12 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         mlp_lines, y = _mlp(net.layers("mlp"), "m", x, source)
         lines += enc_lines + pack_lines + mlp_lines
         if pbr:
-            lines += [f"    k_0 = {y[0]}.xyz;", "    k_1 = vec3(0.0);", "}"]
+            lines += [f"    k_0 = {y[0]}.xyz;", "    k_1 = vec3(0.0);"]
         else:
-            lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({y[0]}.w, {y[1]}.xy);", "}"]
+            lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({y[0]}.w, {y[1]}.xy);"]
+        if net.occlusion == "factor":  # occlusion "factor": AO scales the diffuse factor(s)
+            lines += ["    k_0.x *= ao;" if pbr else "    k_0 *= ao;"]
+        lines += ["}"]
     else:
         lines += ["",
                   "// rho * L_in of one light sample (learned.neural.teacher.Teacher.contribution)",

@@ -126,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="light directions per pixel while training the teacher")
     p.add_argument("--strategy", choices=("uniform", "cosine", "env"),
                    help="how the teacher samples light directions (default env)")
+    p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
+                   help="where the generated dataset's targets come from: the rasteriser's "
+                        "ggx_mc (default) or path-traced truth (relight reference; needs the "
+                        "'reference' extra and libLLVM >= 19; OUT/data-truth, shards by rank)")
+    p.add_argument("--reference-spp", type=_positive_int, metavar="N", default=256,
+                   help="path-traced samples per pixel of --targets reference (default 256)")
     p.add_argument("--install", action="store_true",
                    help="copy the exported weights to assets/weights (the shipped defaults)")
     p.add_argument("--compare-students", action="store_true",

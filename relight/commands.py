@@ -344,13 +344,64 @@ def cmd_train(args) -> int:
         print(students.compare_table(res))
         return 0
     train = _learned("learned.train")
-    res = train.pipeline(args.out, data=args.data, quick=args.quick, install=args.install,
+    data = args.data
+    if getattr(args, "targets", "rasteriser") == "reference":
+        data = _truth_data(args)
+    res = train.pipeline(args.out, data=data, quick=args.quick, install=args.install,
                          quiet=args.quiet, stages=args.stage, **over)
     if not args.quiet:
         for k in ("teacher", "student", "installed_student", "installed_teacher"):
             if k in res:
                 print(f"{k}: {res[k]}")
     return 0
+
+
+def _truth_data(args) -> str:
+    """``relight train --targets reference``: the quick dataset's recipe with path-traced targets
+    and contact scenes, generated under OUT/data-truth by every torchrun rank (sample i by rank
+    i % WORLD_SIZE), resumable; returns its folder."""
+    if args.data is not None:
+        raise RelightError("--targets makes the generated dataset; drop --data (a given dataset "
+                           "brings its own targets)", where="--targets")
+    if args.compare_students:
+        raise RelightError("--compare-students generates its own data; drop --targets",
+                           where="--targets")
+    config = _learned("learned.train.config")
+    generator = _learned("learned.data.generator")
+    recipe = dict(config.QUICK_DATA) | {
+        "gbuffer_fraction": 0.0, "targets": "reference", "reference_spp": args.reference_spp,
+        "scene_kinds": generator.TRUTH_KINDS}
+    data = str(Path(args.out) / "data-truth")
+    generator.generate(data, generator.GeneratorConfig(**recipe), progress=not args.quiet,
+                       shard=True, tracer=reference_tracer())
+    return data
+
+
+def reference_tracer():
+    """The path tracer the dataset generator takes its targets from (``learned`` may not import
+    ``relight``, so it is handed in): ``trace(scene, spp, max_depth, seed, checkpoint)`` ->
+    :class:`relight.reference.Reference`, pixel-centre rays, Mitsuba's ``llvm_ad_rgb`` backend.
+    A one-line error naming what to install when Mitsuba or a libLLVM >= 19 is missing (the
+    scalar backend would take hours for a dataset)."""
+    import importlib.util
+
+    if importlib.util.find_spec("mitsuba") is None:
+        raise RelightError("path-traced targets need Mitsuba 3: pip install -e '.[reference]'",
+                           where="--targets")
+    from relight.reference import render
+
+    if render.find_libllvm() is None:
+        raise RelightError(f"path-traced targets need libLLVM >= {render.MIN_LLVM} for "
+                           "Mitsuba's llvm_ad_rgb backend (apt-get install libllvm19, or set "
+                           "DRJIT_LIBLLVM_PATH)", where="--targets")
+    render.load_mitsuba("llvm_ad_rgb")  # ReferenceError (one line) if the backend fails
+
+    def trace(scene, spp: int, max_depth: int, seed: int = 0, checkpoint=None):
+        options = render.ReferenceOptions(spp=spp, max_depth=max_depth, seed=seed,
+                                          variant="llvm_ad_rgb")
+        return render.render_reference(scene, options, checkpoint=checkpoint, progress=False)
+
+    return trace
 
 
 def cmd_eval(args) -> int:

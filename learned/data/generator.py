@@ -23,6 +23,20 @@ given, the G-buffer of a freshly rendered random scene. Its materials are pertur
 spatially varying materials that the primitives cannot produce), it is written as an FFHQ256-PBR
 folder and rendered as a ``gbuffer`` object with the same target settings.
 
+Targets from truth (issue 14): with ``targets = "reference"`` the target ``rgb.exr`` is
+path-traced by ``relight reference`` (Mitsuba 3, our BSDF, visibility and inter-reflection;
+pixel-centre rays, so pixels align with the G-buffer; ``reference_depth``, ``reference_spp``),
+with its per-pixel standard error in ``rgb_stderr.exr``; the G-buffer inputs and
+``rgb_unoccluded.exr`` come from one rasteriser render as before, and ``meta.json``'s ``target``
+records the source (``rasteriser`` | ``reference``, with spp, depth, seed, backend, seconds).
+Material AO is set to 1 there (the path tracer computes visibility itself). ``learned`` does not
+import ``relight``: the caller passes the tracer (``relight.commands.reference_tracer()``).
+``scene_kinds`` adds scenes where visibility matters (:data:`SCENE_KINDS`: a sphere resting on a
+floor, two touching spheres on a floor, and a lone sphere as the convex control), sample i of
+kind ``scene_kinds[i % len]``; the default ``("random",)`` leaves datasets unchanged. With
+``shard=True`` every torchrun rank writes the samples i with i % WORLD_SIZE == RANK and then waits
+for the others' (a file-system barrier).
+
 Deterministic for a seed (sample i draws from ``default_rng([seed, i])``; its split is fixed by i),
 resumable (a finished sample is a folder; one being written is ``<name>.tmp`` and is redone), and
 shows a tqdm progress bar.
@@ -48,7 +62,7 @@ from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 from viewer.settings import RenderSettings
 
-from .reader import DatasetError
+from .reader import STDERR_FILE, DatasetError
 
 SPLIT_PATTERN = ("train",) * 8 + ("val", "test")  # sample i -> SPLIT_PATTERN[i % 10]
 FORMAT = "relight-ffhq-pbr-synthetic/1"
@@ -65,6 +79,20 @@ class GeneratorConfig:
     meshes: bool = True
     gbuffer_fraction: float = 0.0  # share of samples whose geometry is an image G-buffer
     gbuffers: tuple[str, ...] = ()  # FFHQ256-PBR folders / 12-channel stack EXRs to draw from
+    # sample i's scene: scene_kinds[i % len] (SCENE_KINDS; "random" = random_scene, as before)
+    scene_kinds: tuple[str, ...] = ("random",)
+    targets: str = "rasteriser"  # TARGETS: where rgb.exr comes from
+    reference_spp: int = 256  # path-traced samples per pixel (targets = "reference")
+    reference_depth: int = 4  # Mitsuba path depth (targets = "reference")
+
+
+TARGETS = ("rasteriser", "reference")
+# "convex": one sphere alone (truth = the unoccluded target: a control); "sphere_on_plane": a
+# sphere resting on a floor (contact shadow); "touching_spheres": two spheres touching, resting on
+# a floor (occlusion and inter-reflection between them)
+SCENE_KINDS = ("random", "convex", "sphere_on_plane", "touching_spheres")
+# the kinds of `relight train --targets reference`: half random scenes, half contact scenes
+TRUTH_KINDS = ("random", "sphere_on_plane", "random", "touching_spheres")
 
 
 def split_of(index: int) -> str:
@@ -96,7 +124,7 @@ def unoccluded_settings(samples: int) -> dict:
     return kw
 
 
-def _mesh_files(cache: Path) -> dict[str, Path]:
+def _mesh_files(cache: Path, rank: int = 0) -> dict[str, Path]:
     cache.mkdir(parents=True, exist_ok=True)
     makers = {"torus": lambda: trimesh.creation.torus(0.6, 0.25, 48, 24),
               "box": lambda: trimesh.creation.box((0.9, 0.9, 0.9)),
@@ -105,7 +133,7 @@ def _mesh_files(cache: Path) -> dict[str, Path]:
     for name, make in makers.items():
         p = cache / f"{name}.obj"
         if not p.is_file():
-            tmp = cache / f"{name}.tmp.obj"
+            tmp = cache / f"{name}.tmp{rank}.obj"  # one per rank: ranks may race here
             make().export(tmp)
             os.replace(tmp, p)
         out[name] = p
@@ -156,6 +184,44 @@ def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
             "objects": objects}
 
 
+def kind_scene(kind: str, rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
+    """The scene dict of sample kind ``kind`` (:data:`SCENE_KINDS`), without its environment."""
+    if kind == "random":
+        return random_scene(rng, config, meshes)
+    fov = float(rng.uniform(30.0, 45.0))
+    camera = {"position": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov_y": fov,
+              "size": [config.size, config.size]}
+    if kind == "convex":
+        objects = [{"type": "sphere", "center": [float(rng.uniform(-0.3, 0.3)),
+                                                 float(rng.uniform(-0.3, 0.3)),
+                                                 float(rng.uniform(-4.0, -3.0))],
+                    "radius": float(rng.uniform(0.5, 0.8)), "material": _material(rng)}]
+        return {"camera": camera, "objects": objects}
+    floor_y = float(rng.uniform(-1.0, -0.6))
+    z = float(rng.uniform(-4.0, -3.2))
+    if kind == "sphere_on_plane":
+        r = float(rng.uniform(0.4, 0.7))
+        spheres = [([float(rng.uniform(-0.5, 0.5)), floor_y + r, z], r)]
+    elif kind == "touching_spheres":
+        r1, r2 = (float(x) for x in rng.uniform(0.3, 0.6, 2))
+        a = float(rng.uniform(-0.6, 0.6))  # the second sphere's direction in the floor plane
+        d = r1 + r2
+        dx, dz = math.cos(a), math.sin(a)
+        c1 = [-0.5 * d * dx, floor_y + r1, z - 0.5 * d * dz]
+        # touching: centres d apart, both on the floor (offset in y by r2 - r1)
+        h = math.sqrt(max(d * d - (r2 - r1) ** 2, 0.0))
+        c2 = [c1[0] + h * dx, floor_y + r2, c1[2] + h * dz]
+        spheres = [(c1, r1), (c2, r2)]
+    else:
+        raise DatasetError(f"unknown scene kind {kind!r} (known: {', '.join(SCENE_KINDS)})",
+                           where="scene_kinds")
+    objects = [{"type": "sphere", "center": c, "radius": r, "material": _material(rng)}
+               for c, r in spheres]
+    objects.append({"type": "plane", "center": [0.0, floor_y, -4.0], "size": [12.0, 12.0],
+                    "material": _material(rng)})
+    return {"camera": camera, "objects": objects}
+
+
 def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
     """An equirect ``[H, W, 3]`` radiance image (intensity and rotation baked) and its recipe."""
     choices = ["sky", "sky", "studio"] + list(config.env_paths)
@@ -177,15 +243,66 @@ def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
                                     "rotation_texels": shift}
 
 
+def check_config(config: GeneratorConfig, tracer=None) -> None:
+    """One-line :class:`DatasetError` for a configuration that cannot be generated (before any
+    sample is written). ``targets = "reference"`` needs ``tracer``: ``learned`` does not import
+    ``relight``, so the caller hands the path tracer in (``relight.commands.reference_tracer()``,
+    which names what to install when Mitsuba or a libLLVM >= 19 is missing)."""
+    if config.targets not in TARGETS:
+        raise DatasetError(f"targets {config.targets!r} is not one of {', '.join(TARGETS)}",
+                           where="targets")
+    if not config.scene_kinds:
+        raise DatasetError("scene_kinds is empty (use ('random',))", where="scene_kinds")
+    for kind in config.scene_kinds:
+        if kind not in SCENE_KINDS:
+            raise DatasetError(f"unknown scene kind {kind!r} (known: {', '.join(SCENE_KINDS)})",
+                               where="scene_kinds")
+    if config.targets == "reference":
+        if config.gbuffer_fraction > 0:
+            raise DatasetError("image G-buffers have no geometry to path-trace: use "
+                               "gbuffer_fraction = 0 with targets = 'reference'",
+                               where="gbuffer_fraction")
+        if config.reference_spp < 2 or config.reference_depth < 2:
+            raise DatasetError("reference_spp and reference_depth must be at least 2 (the "
+                               "standard error needs 2 samples; depth 2 = direct light)",
+                               where="reference_spp")
+        if tracer is None:
+            raise DatasetError("targets = 'reference' needs a path tracer: generate(..., "
+                               "tracer=relight.commands.reference_tracer()) or relight train "
+                               "--targets reference", where="targets")
+
+
+def shard_of(index: int, rank: int, world: int) -> bool:
+    """Whether sample ``index`` belongs to ``rank`` of ``world`` (round robin: i % world)."""
+    return index % world == rank
+
+
+def _rank_world() -> tuple[int, int]:
+    return int(os.environ.get("RANK", "0")), max(1, int(os.environ.get("WORLD_SIZE", "1")))
+
+
 def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(),
-             renderer=None, progress: bool = True) -> dict:
-    """Write ``config.count`` samples under ``root/<split>/<name>``; finished ones are kept."""
+             renderer=None, progress: bool = True, shard: bool = False,
+             wait_s: float = 7 * 24 * 3600.0, tracer=None) -> dict:
+    """Write ``config.count`` samples under ``root/<split>/<name>``; finished ones are kept.
 
+    ``shard``: this process writes only the samples of its torchrun rank (``RANK`` /
+    ``WORLD_SIZE``: sample i belongs to rank i % WORLD_SIZE), then waits (up to ``wait_s``) until
+    the other ranks' samples exist, so every rank returns with the whole dataset (a file-system
+    barrier: no process group needed). ``tracer`` (``targets = "reference"``):
+    ``tracer(scene, spp=, max_depth=, seed=, checkpoint=)`` -> an object with ``radiance``
+    ``[H, W, >=3]``, ``stderr`` ``[H, W, 3]`` and ``meta`` (a ``relight.reference.Reference``)."""
+    import time
 
+    check_config(config, tracer)
+    rank, world = _rank_world() if shard else (0, 1)
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     info = {"format": FORMAT, "config": asdict(config), "targets": target_settings(config.samples),
             "unoccluded_targets": unoccluded_settings(config.samples)}
+    if config.targets == "reference":
+        info["targets"] = {"source": "reference", "spp": config.reference_spp,
+                           "max_depth": config.reference_depth, "rays": "pixel centre"}
     info_path = root / "dataset.json"
     if info_path.is_file():
         old = json.loads(info_path.read_text())
@@ -196,27 +313,43 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
 
             raise DatasetError("was generated with another configuration; use a new folder "
                                "(nothing was overwritten)", where=info_path)
-    tmp_info = root / "dataset.json.tmp"
+    tmp_info = root / f"dataset.json.tmp{rank}"
     tmp_info.write_text(json.dumps(info, indent=1))
     os.replace(tmp_info, info_path)
-    meshes = _mesh_files(root / "_meshes") if config.meshes else {}
+    meshes = _mesh_files(root / "_meshes", rank) if config.meshes else {}
+    mine = [i for i in range(config.count) if shard_of(i, rank, world)]
     own = renderer is None
     renderer = renderer or Renderer()
     done = skipped = 0
     try:
-        bar = tqdm(range(config.count), desc="generate", unit="sample", disable=not progress)
+        bar = tqdm(mine, desc="generate" + (f" [rank {rank}/{world}]" if world > 1 else ""),
+                   unit="sample", disable=not progress)
         for i in bar:
             name = f"{i:06d}"
             final = root / split_of(i) / name
             if final.is_dir():
                 skipped += 1
                 continue
-            _write_sample(renderer, final, i, config, meshes, write_exr, scene_from_dict)
+            _write_sample(renderer, final, i, config, meshes, write_exr, scene_from_dict, tracer)
             done += 1
     finally:
         if own:
             renderer.release()
-    return {"written": done, "kept": skipped, "root": str(root)}
+    out = {"written": done, "kept": skipped, "root": str(root)}
+    if world > 1:
+        out["rank"], out["world_size"] = rank, world
+        deadline = time.monotonic() + wait_s
+        while True:
+            missing = [i for i in range(config.count)
+                       if not (root / split_of(i) / f"{i:06d}").is_dir()]
+            if not missing:
+                break
+            if time.monotonic() > deadline:
+                raise DatasetError(f"rank {rank}: {len(missing)} samples of other ranks still "
+                                   f"missing after {wait_s:.0f} s (first: {missing[0]:06d})",
+                                   where=root)
+            time.sleep(1.0)
+    return out
 
 
 def _smooth_field(rng, size: int, cells: int) -> np.ndarray:
@@ -318,16 +451,21 @@ def _gbuffer_geometry(renderer, tmp: Path, index: int, config: GeneratorConfig, 
 
 
 def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, meshes, write_exr,
-                  scene_from_dict) -> None:
+                  scene_from_dict, tracer=None) -> None:
     rng = np.random.default_rng([config.seed, index])
     tmp = final.with_name(final.name + ".tmp")
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)
-    scene_dict = random_scene(rng, config, meshes)
+    kind = config.scene_kinds[index % len(config.scene_kinds)]
+    scene_dict = kind_scene(kind, rng, config, meshes)
+    truth = config.targets == "reference"
+    if truth:  # the path tracer computes visibility itself: no baked AO in the inputs either
+        for o in scene_dict["objects"]:
+            o["material"]["ao"] = 1.0
     env, env_info = random_environment(rng, config)
     image = _gbuffer_geometry(renderer, tmp, index, config, meshes, scene_from_dict, write_exr)
-    geometry = {"kind": "primitives"}
+    geometry = {"kind": "primitives" if kind == "random" else kind}
     if image is not None:  # the image G-buffer replaces the objects; it sets its own camera
         parts, geometry = image
         scene_dict = {"objects": parts["objects"], "camera": scene_dict["camera"] | parts["camera"]}
@@ -335,17 +473,39 @@ def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, me
     scene_dict["environment"] = {"path": str(tmp / "env.exr")}
     scene_dict["render"] = target_settings(config.samples) | {"seed": int(rng.integers(0, 1 << 30))}
     scene = scene_from_dict(scene_dict, file=str(tmp / "scene"))
-    frame = renderer.render(scene, aovs=_AOVS)
-    write_exr(tmp / "rgb.exr", frame.radiance[..., :3], ["R", "G", "B"])
-    unoccluded = renderer.render(scene.with_render(**unoccluded_settings(config.samples)))
+    unoccluded_scene = scene.with_render(**unoccluded_settings(config.samples))
+    if truth:
+        # inputs and the unoccluded target from one rasteriser render; rgb from the path tracer
+        frame = renderer.render(unoccluded_scene, aovs=_AOVS)
+        unoccluded = frame
+        target = _reference_target(tracer, scene, config, int(rng.integers(0, 1 << 30)), final)
+        write_exr(tmp / "rgb.exr", target.radiance[..., :3], ["R", "G", "B"])
+        write_exr(tmp / STDERR_FILE, target.stderr, ["R", "G", "B"])
+        source = {"source": "reference"} | {k: target.meta[k] for k in (
+            "spp", "max_depth", "rays", "geometry", "seed", "variant", "mitsuba", "seconds")}
+    else:
+        frame = renderer.render(scene, aovs=_AOVS)
+        write_exr(tmp / "rgb.exr", frame.radiance[..., :3], ["R", "G", "B"])
+        unoccluded = renderer.render(unoccluded_scene)
+        source = {"source": "rasteriser", "model": scene_dict["render"]["model"]}
     write_exr(tmp / "rgb_unoccluded.exr", unoccluded.radiance[..., :3], ["R", "G", "B"])
     _write_gbuffer(tmp, frame.aovs, float(scene_dict["camera"]["fov_y"]), write_exr)
     meta = {"index": index, "seed": config.seed, "environment": env_info, "geometry": geometry,
             "objects": [{k: v for k, v in o.items() if k != "path"} | (
                 {"mesh": Path(o["path"]).stem} if o["type"] == "mesh" else {})
                 for o in scene_dict["objects"]],
-            "render": scene_dict["render"]}
+            "render": scene_dict["render"], "target": source}
     (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
     if (tmp / "_source").exists():
         shutil.rmtree(tmp / "_source")
     os.replace(tmp, final)
+
+
+def _reference_target(tracer, scene, config: GeneratorConfig, seed: int, final: Path):
+    """The path-traced target of ``scene`` (``reference_depth``, ``reference_spp``; the tracer
+    shoots pixel-centre rays), checkpointed beside the sample (``<root>/_checkpoints/<name>.npz``:
+    an interrupted render resumes there) and removed when it completes."""
+    ckpt = final.parent.parent / "_checkpoints" / f"{final.name}.npz"
+    ckpt.parent.mkdir(parents=True, exist_ok=True)
+    return tracer(scene, spp=int(config.reference_spp), max_depth=int(config.reference_depth),
+                  seed=seed, checkpoint=ckpt)

@@ -5,7 +5,10 @@ folder per sample; a sample folder is exactly what :func:`viewer.geometry.images
 reads (its docstring table is the layout: rgb, albedo, normal, roughness, specular, metallic, depth,
 ao, mask images as PNG/EXR, ``env.exr|hdr``, ``camera.json``). For training a sample must also
 have its target ``rgb`` and its environment ``env``; ``rgb_unoccluded.exr`` (optional, written by
-the generator) is the same target without occlusion, the teacher's phase-1 target.
+the generator) is the same target without occlusion, the teacher's phase-1 target;
+``rgb_stderr.exr`` (optional) the per-pixel standard error of a path-traced target (``relight
+reference``), and ``meta.json``'s ``target.source`` says what made the target (``rasteriser`` or
+``reference``).
 ``dataset.json`` at the root (written by the generator, optional for user data) summarises how it
 was made.
 
@@ -26,6 +29,7 @@ from viewer.imageio import read_image
 
 SPLITS = ("train", "val", "test")
 UNOCCLUDED_FILE = "rgb_unoccluded.exr"  # the target without occlusion (learned.data.generator)
+STDERR_FILE = "rgb_stderr.exr"  # the standard error of a path-traced target, per pixel
 
 
 class DatasetError(InputError):
@@ -41,6 +45,8 @@ class Sample:
     environment: Path  # the HDR environment that lit the target
     fov_y: float  # degrees
     unoccluded: np.ndarray | None = None  # [H, W, 3] linear RGB without AO/SSAO/indirect, if any
+    target_stderr: np.ndarray | None = None  # [H, W, 3] standard error of a path-traced target
+    target_source: str | None = None  # meta.json target.source: "rasteriser" | "reference"
 
     @property
     def size(self) -> tuple[int, int]:
@@ -66,15 +72,25 @@ def load_sample(folder: str | os.PathLike, require_target: bool = True) -> Sampl
     if gb.environment is None:
         raise DatasetError("missing the environment env (exr/hdr)", where=folder)
     target = gb.target[..., :3] if gb.target is not None else None
-    unoccluded = None
-    if (folder / UNOCCLUDED_FILE).is_file():
-        unoccluded, _ = read_image(folder / UNOCCLUDED_FILE, (3, 4))
-        if target is not None and unoccluded.shape[:2] != target.shape[:2]:
-            raise DatasetError(f"{UNOCCLUDED_FILE} is {unoccluded.shape[1]}x{unoccluded.shape[0]}, "
+    extra = {}
+    for key, file in (("unoccluded", UNOCCLUDED_FILE), ("target_stderr", STDERR_FILE)):
+        if not (folder / file).is_file():
+            continue
+        image, _ = read_image(folder / file, (3, 4))
+        if target is not None and image.shape[:2] != target.shape[:2]:
+            raise DatasetError(f"{file} is {image.shape[1]}x{image.shape[0]}, "
                                f"rgb {target.shape[1]}x{target.shape[0]}", where=folder)
-        unoccluded = np.ascontiguousarray(unoccluded[..., :3])
+        extra[key] = np.ascontiguousarray(image[..., :3])
+    meta = folder / "meta.json"
+    if meta.is_file():
+        try:
+            target_info = json.loads(meta.read_text()).get("target", {})
+        except (ValueError, AttributeError) as exc:
+            raise DatasetError(f"not valid JSON ({exc})", where=meta) from None
+        # samples generated before path-traced targets came from the rasteriser
+        extra["target_source"] = str(target_info.get("source", "rasteriser"))
     return Sample(name=folder.name, folder=folder, channels=gb.channels, target=target,
-                  environment=Path(gb.environment), fov_y=float(gb.fov_y), unoccluded=unoccluded)
+                  environment=Path(gb.environment), fov_y=float(gb.fov_y), **extra)
 
 
 def list_samples(root: str | os.PathLike, split: str) -> list[Path]:

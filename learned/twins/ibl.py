@@ -372,14 +372,17 @@ def sh_project(env: torch.Tensor) -> torch.Tensor:
     return (weighted[:, :, None, :] * basis[..., None]).to(torch.float64).sum(dim=(0, 1))
 
 
-def dfg_lut(size: int, samples: int) -> torch.Tensor:
-    """Twin of ``passes/ibl_dfg.comp``: ``[size (roughness), size (n.v), 2]`` float32."""
+def _lut_lobe_samples(size: int, samples: int, max_NoV: float = 1.0):
+    """The GGX samples both outputs of ``passes/ibl_dfg.comp`` integrate over, per texel of a
+    ``[size (roughness), size (n.v)]`` grid (n.v clamped to [1e-4, ``max_NoV``]): NoV and
+    sin(theta_v) ``[size, size]``, the reflected directions l ``[size, size, S, 3]``, their
+    weights G = V 4 (v.h) (n.l) / (n.h) and v.h ``[size, size, S]``, and where n.l > 0."""
     c = torch.arange(size, dtype=torch.float32) / float(size - 1)
-    r, NoV = torch.meshgrid(c, c.clamp_min(1e-4), indexing="ij")
+    r, NoV = torch.meshgrid(c, c.clamp_min(1e-4).clamp_max(max_NoV), indexing="ij")
     a = (r * r)[..., None]
     NoV = NoV[..., None]
-    v = torch.stack([torch.sqrt((1.0 - NoV * NoV).clamp_min(0.0)), torch.zeros_like(NoV), NoV],
-                    dim=-1)  # [size, size, 1, 3]
+    sin_t = torch.sqrt((1.0 - NoV * NoV).clamp_min(0.0))
+    v = torch.stack([sin_t, torch.zeros_like(NoV), NoV], dim=-1)  # [size, size, 1, 3]
     xi = hammersley_sequence(samples)
     hv = importance_sample_ggx(xi, a)  # [size, size, S, 3]
     VoH = _dot(v, hv)
@@ -387,8 +390,13 @@ def dfg_lut(size: int, samples: int) -> torch.Tensor:
     NoL = l[..., 2]
     g = v_smith_ggx_correlated(NoV, NoL, a) * 4.0 * VoH.clamp_min(0.0) * NoL \
         / hv[..., 2].clamp_min(1e-30)
+    return NoV[..., 0], sin_t[..., 0], l, g, VoH, NoL > 0.0
+
+
+def dfg_lut(size: int, samples: int) -> torch.Tensor:
+    """Twin of ``passes/ibl_dfg.comp``: ``[size (roughness), size (n.v), 2]`` float32."""
+    _, _, _, g, VoH, keep = _lut_lobe_samples(size, samples)
     fc = f_schlick(torch.zeros(1, dtype=torch.float32), torch.ones_like(VoH), VoH)[..., 0]
-    keep = NoL > 0.0
     gx = torch.where(keep, g * fc, 0.0).sum(dim=-1)
     gy = torch.where(keep, g, 0.0).sum(dim=-1)
     gx = gx / float(max(samples, 1))
@@ -400,23 +408,9 @@ def dominant_lut(size: int, samples: int) -> torch.Tensor:
     """Twin of ``passes/ibl_dfg.comp``'s second output: ``[size (roughness), size (n.v), 1]``
     float32, the lerp factor t of the f (n.l) lobe's mean direction m = sum G l (see the pass):
     t = m.x / (m.x (1 - n.v) - sin(theta_v) m.z) at n.v <= 0.999, clamped to [0, 1]."""
-    c = torch.arange(size, dtype=torch.float32) / float(size - 1)
-    r, NoV = torch.meshgrid(c, c.clamp_min(1e-4).clamp_max(0.999), indexing="ij")
-    a = (r * r)[..., None]
-    NoV = NoV[..., None]
-    sin_t = torch.sqrt(1.0 - NoV * NoV)
-    v = torch.stack([sin_t, torch.zeros_like(NoV), NoV], dim=-1)  # [size, size, 1, 3]
-    xi = hammersley_sequence(samples)
-    hv = importance_sample_ggx(xi, a)  # [size, size, S, 3]
-    VoH = _dot(v, hv)
-    l = 2.0 * VoH[..., None] * hv - v
-    NoL = l[..., 2]
-    g = v_smith_ggx_correlated(NoV, NoL, a) * 4.0 * VoH.clamp_min(0.0) * NoL \
-        / hv[..., 2].clamp_min(1e-30)
-    keep = NoL > 0.0
+    NoV, sin_t, l, g, _, keep = _lut_lobe_samples(size, samples, max_NoV=0.999)
     mx = torch.where(keep, g * l[..., 0], 0.0).sum(dim=-1)
     mz = torch.where(keep, g * l[..., 2], 0.0).sum(dim=-1)
-    NoV, sin_t = NoV[..., 0], sin_t[..., 0]
     t = mx / torch.clamp_max(mx * (1.0 - NoV) - sin_t * mz, -1e-30)
     return t.clamp(0.0, 1.0)[..., None]
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -23,15 +24,8 @@ from .render import Reference
 
 
 def normal_quantile(p: float) -> float:
-    """The standard normal quantile z with P(Z > z) = p (0 < p < 0.5), by bisection on erfc."""
-    lo, hi = 0.0, 40.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if 0.5 * math.erfc(mid / math.sqrt(2.0)) > p:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
+    """The standard normal quantile z with P(Z > z) = p."""
+    return NormalDist().inv_cdf(1.0 - p)
 
 
 def coverage_mask(image: np.ndarray, ref: Reference) -> np.ndarray:

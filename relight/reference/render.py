@@ -20,7 +20,7 @@ import os
 import sys
 import time
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -135,16 +135,10 @@ def camera_rays(camera, jitter: np.ndarray | None = None) -> np.ndarray:
 
 def config_key(scene: Scene, options: ReferenceOptions) -> str:
     """A digest of everything a checkpoint's samples depend on."""
-    text = json.dumps({"scene": repr(scene.__class__) + repr(_scene_identity(scene)),
+    text = json.dumps({"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
                        "options": {k: v for k, v in asdict(options).items()
                                    if k not in ("spp", "batch_spp")}}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _scene_identity(scene: Scene):
-    from dataclasses import replace
-
-    return replace(scene, source=None)
 
 
 def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(),
@@ -192,7 +186,6 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
 
     bar = _progress(n_batches, state["batch"], progress, scene.source)
     centre_dirs = camera_rays(cam).reshape(n_pix, 3)
-    rng = np.random.default_rng([options.seed, 7])
     for b in range(state["batch"], n_batches):
         count = min(batch, options.spp - b * batch)
         if options.antialias:
@@ -217,7 +210,6 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
             np.savez(tmp, key=np.array(key), **{k: np.asarray(v) for k, v in state.items()})
             os.replace(tmp, ckpt)
         bar(b + 1)
-    del rng
     n = state["n"]
     mean = state["sum"] / n
     var = np.maximum(state["sumsq"] / n - mean * mean, 0.0) * (n / max(n - 1, 1))

@@ -19,18 +19,6 @@ TRUTH = GeneratorConfig(count=2, size=16, samples=1024, seed=1, env_width=32,
                         reference_spp=64, reference_depth=4)
 
 
-@pytest.fixture(scope="module")
-def mitsuba_llvm():
-    try:
-        import mitsuba  # noqa: F401
-    except ImportError:
-        pytest.skip("Mitsuba 3 is not installed (pip install -e '.[reference]')")
-    from relight.reference.render import MIN_LLVM, find_libllvm
-
-    if find_libllvm() is None:
-        pytest.skip(f"no libLLVM >= {MIN_LLVM} (apt-get install libllvm19)")
-
-
 def _generate(root, cfg, ctx, **kw):
     from viewer.renderer import Renderer
 

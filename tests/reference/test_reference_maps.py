@@ -1,6 +1,6 @@
-"""Texture maps in the path-traced reference: normal maps tilt the shading frame with the
+"""glTF materials in the path-traced reference: normal maps tilt the shading frame with the
 G-buffer's tangent-space convention (the reference equals the rasteriser's Monte-Carlo model on a
-thin quad, where neither has visibility to add)."""
+thin quad, where neither has visibility to add), and emission lights the scene."""
 import base64
 import io
 import json
@@ -93,3 +93,31 @@ def test_normal_maps_tilt_the_shading_frame_as_the_gbuffer_does(mitsuba_llvm, re
                                                  _encode(mirrored))).with_render(
             model="ggx_mc", samples=1024, sampling="mis")).radiance
         assert not z_test(wrong, ref, image_stderr=se, quantile=quantile).passed
+
+
+def test_emissive_surfaces_emit_and_light_the_scene(mitsuba_llvm, renderer, tmp_path):
+    """glTF emission in the reference: seen directly it is the emitted radiance, as in the
+    rasteriser; unlike the rasteriser it lights a white floor below it (an area light)."""
+    quad = quad_gltf(tmp_path / "lamp.gltf", {
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+        "emissiveFactor": [1.0, 0.5, 0.25], "doubleSided": True})
+    scene = scene_from_dict({
+        "camera": {"position": [0.0, 0.2, 3.0], "target": [0.0, 0.0, 0.0], "fov_y": 40,
+                   "size": [16, 16]},
+        "environment": {"procedural": "sky", "intensity": 0.0, "width": 32},
+        "render": {"multiscatter": False, "ao": False, "tonemap": "none",
+                   "background": "transparent"},
+        "objects": [
+            {"type": "mesh", "path": str(quad),
+             "transform": [[1, 0, 0, 0], [0, 1, 0, 0.4], [0, 0, 1, 0], [0, 0, 0, 1]]},
+            {"type": "plane", "center": [0, -0.6, 0], "size": [4, 4],
+             "material": {"albedo": [1, 1, 1], "specular": 0.0}}]})
+    ref = render_reference(scene, ReferenceOptions(spp=64, max_depth=3), progress=False)
+    ours = renderer.render(scene.with_render(model="ggx_split_sum")).radiance
+    lamp = np.all(np.isclose(ours[..., :3], [1.0, 0.5, 0.25], rtol=1e-4), axis=-1)
+    assert lamp.sum() > 4
+    # + what the lamp's dielectric coat (f0 = 0.04) reflects of the floor it lights: ~1e-4
+    np.testing.assert_allclose(ref.radiance[lamp][:, :3], ours[lamp][:, :3], rtol=2e-3)
+    floor = (ours[..., 3] > 0.99) & ~lamp & (np.arange(16)[:, None] > 11)
+    assert floor.any() and np.all(ours[floor][:, :3] == 0.0)  # black sky, no light in raster
+    assert np.all(ref.radiance[floor][:, 0] > 0.0)  # lit by the quad in the path tracer

@@ -139,6 +139,10 @@ def _evaluate(programs, name: str, *args: np.ndarray, signatures: dict | None = 
         out.bind_to_storage_buffer(len(buffers))
         prog["u_count"].value = count
         prog.run(group_x=max(1, (count + 63) // 64))
+        # shader-storage writes are incoherent: without the barrier the read-back may see the
+        # buffer before the dispatch lands (env_row_sin_theta failed 1 run in 6 with a stale
+        # 1.5e-4; none in 12 runs with it)
+        ctx.memory_barrier()
         result = np.frombuffer(out.read(), dtype=np.float32)[: n_out * count].copy()
     finally:
         for buf in buffers:

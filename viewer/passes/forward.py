@@ -33,7 +33,6 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
 """
 from __future__ import annotations
 
-import math
 import warnings
 
 import numpy as np
@@ -45,8 +44,8 @@ from ..models import ShadeVariant, model_info
 from ..scene import DirectionalLight
 from ..settings import RenderSettings
 from . import bind_gbuffer
-from . import set_uniform as _set
 from .gbuffer import MeshUploads
+from .shade import set_view_and_lighting
 
 FALLBACK_MODEL = "ggx_split_sum"  # shades blended surfaces for models that cannot run forward
 
@@ -130,7 +129,7 @@ class ForwardPass:
                 prog = entry.vao.program
                 unit = bind_gbuffer(prog, gbuffer_textures)
                 unit = ibl.bind(prog, unit)
-                self._set_lighting(prog, camera, environment, light)
+                set_view_and_lighting(prog, camera, environment, light)
                 self.uploads.set_camera(prog, camera)
                 units = self.uploads.bind_material(prog, entry, unit)
                 ctx.enable(ctx.CULL_FACE)
@@ -144,20 +143,6 @@ class ForwardPass:
             ctx.disable(ctx.BLEND | ctx.CULL_FACE)
             ctx.cull_face = "back"
             ctx.blend_func = ctx.DEFAULT_BLENDING
-
-    @staticmethod
-    def _set_lighting(prog, camera: Camera, environment, light) -> None:
-        """The uniforms of ``deferred.glsl`` (as :class:`~viewer.passes.shade.ShadePass` sets
-        them)."""
-        basis = camera.basis()  # rows: right, up, back
-        _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
-        _set(prog, "u_tan_half_fov", camera.tan_half_fov())
-        _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
-        _set(prog, "u_env_intensity", float(environment.intensity))
-        _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
-        if light is not None:
-            _set(prog, "u_light_direction", tuple(float(x) for x in light.direction))
-            _set(prog, "u_light_irradiance", tuple(float(x) for x in light.irradiance))
 
     def release(self) -> None:
         self.uploads.release()

@@ -27,6 +27,21 @@ def shade_defines(model: str, settings: RenderSettings,
     return model_info(model).variant(settings, light).defines
 
 
+def set_view_and_lighting(prog, camera, environment, light) -> None:
+    """The view and lighting uniforms of ``passes/deferred.glsl`` (camera frame, resolution,
+    environment intensity and rotation, the directional light), for every pass that includes it:
+    the lighting passes and the forward pass of transparent surfaces."""
+    basis = camera.basis()  # rows: right, up, back
+    _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
+    _set(prog, "u_tan_half_fov", camera.tan_half_fov())
+    _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
+    _set(prog, "u_env_intensity", float(environment.intensity))
+    _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
+    if light is not None:  # world space: the environment's rotation does not turn it
+        _set(prog, "u_light_direction", tuple(float(x) for x in light.direction))
+        _set(prog, "u_light_irradiance", tuple(float(x) for x in light.irradiance))
+
+
 class ShadePass:
     def __init__(self, programs, layout: GBufferLayout):
         self.programs = programs
@@ -78,15 +93,7 @@ class ShadePass:
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))
-        basis = camera.basis()  # rows: right, up, back
-        _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
-        _set(prog, "u_tan_half_fov", camera.tan_half_fov())
-        _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
-        _set(prog, "u_env_intensity", float(environment.intensity))
-        _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
-        if light is not None:  # world space: the environment's rotation does not turn it
-            _set(prog, "u_light_direction", tuple(float(x) for x in light.direction))
-            _set(prog, "u_light_irradiance", tuple(float(x) for x in light.irradiance))
+        set_view_and_lighting(prog, camera, environment, light)
         out_fbo.use()
         self._draw(prog)
 

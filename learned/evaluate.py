@@ -174,7 +174,7 @@ def torch_mlp_times(layers, x: np.ndarray, repeats: int = 7) -> list[float]:
 
 def torch_student_times(weights, x: np.ndarray, repeats: int = 7) -> list[float]:
     """Seconds of each of ``repeats`` ``Student.weights`` evaluations (after a warm-up) of the
-    exported student ``weights`` on ``x [n, 10]`` (torch, CPU, float32)."""
+    exported student ``weights`` on ``x [n, 11]`` (torch, CPU, float32)."""
     model = load_model(weights, "student")
     xt = torch.from_numpy(np.ascontiguousarray(x, np.float32))
     return _run_times(lambda: model.weights(xt), repeats)

@@ -106,3 +106,31 @@ def build_env_sampling(programs, radiance) -> EnvSampling:
         rows.release()
         stats.release()
     return EnvSampling(marginal, conditional, func, fallback)
+
+
+def power_directions(env: np.ndarray, count: int = 8) -> np.ndarray:
+    """``count`` unit directions (environment frame ``[count, 3]`` float32) that split the
+    environment's power into equal parts: the texel at each stratified quantile (k + 0.5) / count
+    of the luminance x sin(theta) distribution (rows in order, columns within a row), at the texel
+    centre (``lib/equirect.glsl``'s convention). Under a sky with a small bright sun most of them
+    land on the sun, under an overcast one they spread over the sky: each stands for 1 / count of
+    the light. The screen-space visibility towards them (``passes/ssao.frag``, ``SSAO_ENV_VIS``)
+    is an input of the students that see visibility. An all-black environment gives the
+    quantiles of sin(theta) alone (directions spread over the sphere). ``env [H, W, >=3]``."""
+    env = np.asarray(env, np.float64)
+    h, w = env.shape[:2]
+    lum = np.clip(env[..., 0] * 0.2126 + env[..., 1] * 0.7152 + env[..., 2] * 0.0722, 0.0, None)
+    lum = np.where(np.isfinite(lum), lum, 0.0)
+    sin_t = np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None]
+    f = (lum * sin_t).ravel()
+    if not f.sum() > 0.0:
+        f = np.broadcast_to(sin_t, (h, w)).ravel().copy()
+    cdf = np.cumsum(f)
+    cdf /= cdf[-1]
+    q = (np.arange(count) + 0.5) / count
+    idx = np.minimum(np.searchsorted(cdf, q, side="right"), f.size - 1)
+    u = (idx % w + 0.5) / w
+    v = (idx // w + 0.5) / h
+    phi, theta = 2.0 * np.pi * (u - 0.5), np.pi * v
+    d = np.stack([np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], -1)
+    return d.astype(np.float32)

@@ -26,6 +26,7 @@ from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .models import ShadingModel, model_info
+from .neural import reads_visibility, required_settings
 from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
 from .specialize import Specialization, analyse, specialise
@@ -121,8 +122,10 @@ class Renderer:
         in one process.
         """
         make_current(self.ctx)
-        settings = scene.render
-        model = model_info(settings.model)  # unknown model -> SceneError before any GPU work
+        model = model_info(scene.render.model)  # unknown model -> SceneError before any GPU work
+        settings = required_settings(scene.render)  # SSAO for a student that reads visibility
+        if settings is not scene.render:
+            scene = dataclasses.replace(scene, render=settings)
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
         targets = self.resources.targets(spec.layout, camera.size)
@@ -196,7 +199,11 @@ class Renderer:
         if settings.ssao.enabled:
             self._pass_begin("ssao")
             ssao, ssao_fbo = targets.extra(self.ctx, "ssao")
-            sspass.occlusion(gbt, ssao_fbo, camera, settings)
+            vis_dirs = None
+            if reads_visibility(settings):  # + the environment's visibility, g channel
+                vis_dirs = self.resources.power_directions(scene.environment)
+            sspass.occlusion(gbt, ssao_fbo, camera, settings, vis_dirs=vis_dirs,
+                             env_rotation_deg=scene.environment.rotation_deg)
         if settings.ssao.indirect:
             out_tex, out_fbo = targets.extra(self.ctx, "direct")
         else:

@@ -7,8 +7,10 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .environment import EnvironmentSpec, load_environment
-from .envsampling import build_env_sampling
+from .envsampling import build_env_sampling, power_directions
 from .gbuffer import GBufferLayout
 from .ibl import IBLOptions, build_ibl
 from .passes.accumulate import Accumulator
@@ -75,6 +77,7 @@ class GPUResources:
         self._accumulators: dict[tuple, Accumulator] = {}
         self._ibl: dict[tuple, object] = {}
         self._env_sampling: dict[tuple, object] = {}
+        self._power_directions: dict[tuple, np.ndarray] = {}
 
     def targets(self, layout: GBufferLayout, size: tuple[int, int]) -> TargetSet:
         key = (layout, tuple(size))
@@ -119,6 +122,14 @@ class GPUResources:
             self._env_sampling[key] = build_env_sampling(self.programs, self.ibl(spec).radiance)
         return self._env_sampling[key]
 
+    def power_directions(self, spec: EnvironmentSpec) -> np.ndarray:
+        """The environment's equal-power directions (:func:`viewer.envsampling.power_directions`,
+        environment frame), computed once on the CPU from the loaded image."""
+        key = self._environment_key(spec)
+        if key not in self._power_directions:
+            self._power_directions[key] = power_directions(load_environment(key[0]))
+        return self._power_directions[key]
+
     @property
     def environments(self) -> int:
         """How many environments have an IBL precomputation cached."""
@@ -130,6 +141,7 @@ class GPUResources:
                     + list(self._passes.values())
                     + ([self._tonemap] if self._tonemap is not None else [])):
             obj.release()
-        for d in (self._ibl, self._targets, self._env_sampling, self._accumulators, self._passes):
+        for d in (self._ibl, self._targets, self._env_sampling, self._accumulators, self._passes,
+                  self._power_directions):
             d.clear()
         self._tonemap = None

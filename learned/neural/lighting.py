@@ -77,16 +77,18 @@ def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return n, (n * v).sum(-1).clamp(0.0, 1.0)
 
 
-def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor
+def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor,
+                     vis: torch.Tensor | None = None
                      ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
 
-    Returns ``x [N, 10]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b: every
-    input of :data:`learned.neural.student.FEATURE_INPUTS`; a student reads its first ones),
+    Returns ``x [N, 11]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis:
+    :data:`learned.neural.student.ALL_INPUTS`; a student selects its own),
     ``irradiance [N, 3]`` (SH, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
     radiance along the mirror direction at the pixel's roughness, times intensity). ``ao [N]`` is
-    the occlusion the pass uses. ``dfg`` is the split-sum LUT at (n.v, clamped roughness), zeros
-    when ``lighting`` has no LUT.
+    the occlusion the pass uses, ``vis [N]`` the screen-space visibility of the environment's light
+    (the g channel of the SSAO pass with ``SSAO_ENV_VIS``; 1 when None). ``dfg`` is the split-sum
+    LUT at (n.v, clamped roughness), zeros when ``lighting`` has no LUT.
     """
     n, nov = surface(gb, v)
     r = clamp_perceptual_roughness(gb["roughness"][..., 0])
@@ -98,8 +100,10 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
         dfg = ibl_dfg(lighting.dfg, nov, r)
     else:
         dfg = torch.zeros(*nov.shape, 2)
+    if vis is None:
+        vis = torch.ones_like(nov)
     x = torch.cat([gb["albedo"], gb["roughness"], gb["metallic"], gb["specular"], ao[..., None],
-                   nov[..., None], dfg], dim=-1)
+                   nov[..., None], dfg, vis[..., None]], dim=-1)
     return x, irradiance, prefiltered
 
 

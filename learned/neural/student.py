@@ -38,7 +38,11 @@ from .encoding import encoded_size, fourier_encode
 
 # input sets (feature name -> inputs); the generated GLSL and viewer/neural/ share these
 INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao", "NoV")
-FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b")}
+# every input in the order :func:`learned.neural.lighting.student_features` returns them (twin:
+# viewer.neural.STUDENT_ALL_INPUTS); "vis": the screen-space visibility of the environment's light
+ALL_INPUTS = INPUTS + ("dfg.a", "dfg.b", "vis")
+FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"), "vis": INPUTS + ("vis",),
+                  "dfg-vis": ALL_INPUTS}
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3}
@@ -101,11 +105,23 @@ class Student(nn.Module):
     def activations(self) -> list[str]:
         return ["relu"] * len(self.hidden) + ["sigmoid"]
 
+    @property
+    def reads_visibility(self) -> bool:
+        return "vis" in self.inputs
+
+    def select(self, x: torch.Tensor) -> torch.Tensor:
+        """This student's inputs of ``x [N, k]`` in :data:`ALL_INPUTS` order (``k`` >= the last
+        input it reads: ``[N, 8]`` serves a base student)."""
+        cols = [ALL_INPUTS.index(name) for name in self.inputs]
+        if cols == list(range(len(cols))):
+            return x[:, :len(cols)]
+        return x[:, cols]
+
     def weights(self, x: torch.Tensor) -> torch.Tensor:
-        """``x [N, len(inputs)]`` (``inputs`` order; wider x is cut) -> the factors ``k [N, 6]``
+        """``x [N, k]`` (:data:`ALL_INPUTS` order, :meth:`select`) -> the factors ``k [N, 6]``
         (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
         [0, 1]; with ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6]."""
-        h = fourier_encode(x[:, :len(self.inputs)], self.num_freqs)
+        h = fourier_encode(self.select(x), self.num_freqs)
         for layer in self.layers[:-1]:
             h = torch.relu(layer(h))
         k = torch.sigmoid(self.layers[-1](h))

@@ -85,9 +85,11 @@ def neural_student_radiance_pbr(k: torch.Tensor, diffuse: torch.Tensor, f0: torc
 
 def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dict,
                  sample_range: tuple[int, int] = (0, 1), seed: int = 0,
-                 envelope: dict | None = None) -> torch.Tensor:
+                 envelope: dict | None = None, ssao: torch.Tensor | None = None) -> torch.Tensor:
     """Torch twin of ``shade_neural.frag`` / ``shade_neural_teacher.frag`` on a G-buffer read back
-    from GL (channel -> ``[H, W, C]``, GL row order). Returns ``[H, W, 4]``.
+    from GL (channel -> ``[H, W, C]``, GL row order). Returns ``[H, W, 4]``. ``ssao``: the SSAO
+    pass's output ``[H, W, 4]`` when ``USE_SSAO`` (r: occlusion; g: the environment's visibility,
+    read by students with ``vis`` features).
 
     ``envelope`` (a dict, filled in; the student only): ``"bound"`` ``[H, W, 3]``, how far a
     conforming GPU may land from this result through its texture lookups - the background, the
@@ -112,7 +114,12 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
         background = background.detach().requires_grad_(True)
     if model == "neural":
         ao = flat["ao"][:, 0] if defines.get("USE_AO", 1) else torch.ones(h * w)
-        x, irr, pre = student_features(flat, v, lighting, ao)
+        vis = None
+        if defines.get("USE_SSAO", 0):  # deferred.glsl ambient_occlusion(); shade_neural.frag
+            ao = ao * ssao[..., 0].reshape(-1)
+            if getattr(net_model, "reads_visibility", False):
+                vis = ssao[..., 1].reshape(-1)
+        x, irr, pre = student_features(flat, v, lighting, ao, vis)
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre)

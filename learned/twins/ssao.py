@@ -9,6 +9,7 @@ from __future__ import annotations
 import torch
 
 from .deferred import view_ray_ws
+from .equirect import rotate_y
 from .mc import mc_sample_2d, sample_cosine_hemisphere
 from .sampling import tangent_to_world
 from .shading import shading_normal
@@ -45,10 +46,53 @@ def ssao_occluded(z, z_d, thickness) -> torch.Tensor:
     return hit.to(torch.float32)
 
 
+class MarchTarget:
+    """What :func:`ssao_march` reads of a G-buffer (GL order): alpha and depth ``[H, W]``, the
+    view-space unit normals ``hn_vs [H, W, 3]`` (0 where the normal is 0), and the camera."""
+
+    def __init__(self, alpha, depth, hn_vs, resolution, tan_half_fov, thickness: float):
+        self.alpha, self.depth, self.hn_vs = alpha, depth, hn_vs
+        self.resolution, self.tan_half_fov, self.thickness = resolution, tan_half_fov, thickness
+
+
+def ssao_march(p_vs, w, radius: float, steps: int, jitter, target: MarchTarget, alive
+               ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """GLSL ``bool ssao_march(vec3 p_vs, vec3 w, float radius, int steps, float jitter,
+    out ivec2 hit)`` of ``passes/ssao.frag`` for every pixel at once (``alive [H, W]``: the pixels
+    that march) -> (hit ``[H, W]`` bool, hit pixel x, y ``[H, W]`` int64)."""
+    h, w_px = target.alpha.shape
+    hit = torch.zeros(h, w_px, dtype=torch.bool)
+    hit_x = torch.zeros(h, w_px, dtype=torch.int64)
+    hit_y = torch.zeros(h, w_px, dtype=torch.int64)
+    alive = alive.clone()
+    for j in range(steps):
+        q = p_vs + w * (radius * (float(j) + jitter) / float(steps))[..., None]
+        f = view_to_frag(q, target.resolution, target.tan_half_fov)
+        inside = (f[..., 2] > 0.0) & (f[..., :2] >= 0.0).all(-1) & (f[..., 0] < w_px) \
+            & (f[..., 1] < h)
+        alive = alive & inside
+        hx = torch.floor(f[..., 0]).to(torch.int64).clamp(0, w_px - 1)
+        hy = torch.floor(f[..., 1]).to(torch.int64).clamp(0, h - 1)
+        h_alpha, h_depth = target.alpha[hy, hx], target.depth[hy, hx]
+        hp_frag = torch.stack([hx, hy], dim=-1).to(torch.float32) + 0.5
+        hp_vs = view_position(hp_frag, target.resolution, h_depth, target.tan_half_fov)
+        z_d = surface_depth_at(q, hp_vs, target.hn_vs[hy, hx], h_depth)
+        now = alive & (h_alpha > 0.0) & (ssao_occluded(f[..., 2], z_d, target.thickness) > 0.5)
+        hit_x = torch.where(now, hx, hit_x)
+        hit_y = torch.where(now, hy, hit_y)
+        hit = hit | now
+        alive = alive & ~now
+    return hit, hit_x, hit_y
+
+
 def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thickness: float,
-              seed: int, direct: torch.Tensor | None = None) -> torch.Tensor:
+              seed: int, direct: torch.Tensor | None = None, vis_dirs: torch.Tensor | None = None,
+              vis_steps: int = 16, vis_radius: float = 2.0, env_rotation: float = 0.0
+              ) -> torch.Tensor:
     """Twin of ``passes/ssao.frag``: G-buffer channels ``[H, W, C]`` (GL order) -> ``[H, W, 4]``:
-    O(x) in every channel, or (with ``direct`` [H, W, 4]) direct + L_ind (eq. 6.22)."""
+    O(x) in every channel, or (with ``direct`` [H, W, 4]) direct + L_ind (eq. 6.22). With
+    ``vis_dirs`` (``[8, 3]``, environment frame: ``SSAO_ENV_VIS``) the g channel holds the
+    environment's screen-space visibility S(x) instead (``env_rotation`` in radians)."""
     g = gbuffer
     h, w = g["alpha"].shape[:2]
     ys, xs = torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")
@@ -67,37 +111,49 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
     hn_ok = hn_len2 > 1e-12
     hn_vs = torch.where(hn_ok, (hn * torch.rsqrt(torch.where(hn_ok, hn_len2, 1.0))) @ c2w,
                         torch.zeros_like(hn))
+    target = MarchTarget(alpha, depth, hn_vs, res, tan, thickness)
     hits = torch.zeros(h, w)
     gathered = torch.zeros(h, w, 3)
     for k in range(rays):
         u = mc_sample_2d(xs, ys, torch.full_like(xs, k), seed, 2)
         jitter = 1.0 - mc_sample_2d(xs, ys, torch.full_like(xs, k), seed, 3)[..., 0]
         wdir = tangent_to_world(sample_cosine_hemisphere(u), n_vs)
-        alive = active.clone()
-        for j in range(steps):
-            q = p_vs + wdir * (radius * (float(j) + jitter) / float(steps))[..., None]
-            f = view_to_frag(q, res, tan)
-            inside = (f[..., 2] > 0.0) & (f[..., :2] >= 0.0).all(-1) & (f[..., 0] < w) \
-                & (f[..., 1] < h)
-            alive = alive & inside
-            hx = torch.floor(f[..., 0]).to(torch.int64).clamp(0, w - 1)
-            hy = torch.floor(f[..., 1]).to(torch.int64).clamp(0, h - 1)
-            h_alpha, h_depth = alpha[hy, hx], depth[hy, hx]
-            hp_frag = torch.stack([hx, hy], dim=-1).to(torch.float32) + 0.5
-            hp_vs = view_position(hp_frag, res, h_depth, tan)
-            z_d = surface_depth_at(q, hp_vs, hn_vs[hy, hx], h_depth)
-            hit = alive & (h_alpha > 0.0) & (ssao_occluded(f[..., 2], z_d, thickness) > 0.5)
-            hits = hits + hit.to(torch.float32)
-            if direct is not None:
-                gathered = gathered + torch.where(hit[..., None], direct[hy, hx, :3],
-                                                  torch.zeros(3))
-            alive = alive & ~hit
+        hit, hx, hy = ssao_march(p_vs, wdir, radius, steps, jitter, target, active)
+        hits = hits + hit.to(torch.float32)
+        if direct is not None:
+            gathered = gathered + torch.where(hit[..., None], direct[hy, hx, :3], torch.zeros(3))
     n_rays = float(max(rays, 1))
     if direct is None:
         o = torch.where(active, 1.0 - hits / n_rays, torch.ones_like(hits))
-        return o[..., None].expand(h, w, 4).clone()
+        out = o[..., None].expand(h, w, 4).clone()
+        if vis_dirs is not None:
+            out[..., 1] = torch.where(active, env_visibility(
+                p_vs, n_vs, vis_dirs, c2w, env_rotation, vis_steps, vis_radius, seed, xs, ys,
+                target, active), torch.ones_like(hits))
+        return out
     indirect = (1.0 - g["metallic"].clamp(0.0, 1.0)) * g["albedo"] * gathered / n_rays
     indirect = torch.where(torch.isfinite(indirect).all(-1, keepdim=True),
                            indirect * alpha[..., None], torch.zeros_like(indirect))
     out = torch.where(active[..., None], direct[..., :3] + indirect, direct[..., :3])
     return torch.cat([out, direct[..., 3:]], dim=-1)
+
+
+def env_visibility(p_vs, n_vs, vis_dirs, c2w, env_rotation: float, steps: int, radius: float,
+                   seed: int, xs, ys, target: MarchTarget, active) -> torch.Tensor:
+    """The ``SSAO_ENV_VIS`` block of ``passes/ssao.frag``: S(x) = sum_k V_k max(n.l_k, 0) /
+    sum_k max(n.l_k, 0) over the environment's power directions ``vis_dirs [K, 3]``, 1 where none
+    is above the horizon -> ``[H, W]``."""
+    lit = torch.zeros(p_vs.shape[:-1])
+    total = torch.zeros(p_vs.shape[:-1])
+    angle = torch.tensor(float(env_rotation))
+    for k in range(vis_dirs.shape[0]):
+        l_ws = rotate_y(vis_dirs[k].to(torch.float32), angle)
+        l_vs = (l_ws @ c2w).expand_as(n_vs)  # transpose(M) * l
+        c = (n_vs * l_vs).sum(-1).clamp_min(0.0)
+        up = active & (c > 0.0)
+        jitter = 1.0 - mc_sample_2d(xs, ys, torch.full_like(xs, k), seed, 4)[..., 0]
+        hit, _, _ = ssao_march(p_vs, l_vs, radius, steps, jitter, target, up)
+        total = total + torch.where(up, c, torch.zeros_like(c))
+        lit = lit + torch.where(up & ~hit, c, torch.zeros_like(c))
+    return torch.where(total > 0.0, lit / torch.where(total > 0.0, total, 1.0),
+                       torch.ones_like(total))

@@ -5,7 +5,9 @@
 // "generated/neural_student.glsl": weights baked as constants, or read from the uniform/storage
 // block or texture it declares, per [render] neural_storage; it defines NEURAL_STUDENT_DFG and
 // NEURAL_STUDENT_PBR, the output form: 1 = pbr3, three achromatic factors of the split-sum form,
-// colour from the material; 0 = free6, six per-channel factors; lib/neural.glsl).
+// colour from the material; 0 = free6, six per-channel factors; lib/neural.glsl; and
+// NEURAL_STUDENT_VIS: the student reads the screen-space visibility of the environment's light,
+// the g channel of u_ssao, which the renderer then computes: passes/ssao.frag, SSAO_ENV_VIS).
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -43,9 +45,15 @@ void main() {
     vec2 dfg = vec2(0.0);
 #endif
     float ao = ambient_occlusion(pixel, g);
+#if NEURAL_STUDENT_VIS && USE_SSAO
+    float vis = texelFetch(u_ssao, pixel, 0).g;
+#else
+    float vis = 1.0;
+#endif
     vec3 k_0;
     vec3 k_1;
-    neural_student_weights(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg, k_0, k_1);
+    neural_student_weights(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg, vis, k_0,
+                           k_1);
 #if NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = neural_student_radiance_pbr(k_0, diffuse_color(g.albedo, g.metallic), f0,

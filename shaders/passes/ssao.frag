@@ -10,7 +10,14 @@
 // pixel p is approximated by the direct radiance stored at p (eq. 6.21; exact for diffuse hit
 // points), so L_ind = (1 - m) a (1/R) sum_k V_k L_dir(p_k).
 // Directions and step offsets come from lib/mc.glsl's sequence (dimension pairs 2, 3) for u_seed.
-// Defines: SSAO_INDIRECT (0/1). Twin: learned.twins.ssao.ssao_pass.
+// SSAO_ENV_VIS = 1 (occlusion mode) also writes, to the g channel, the screen-space visibility
+// of the environment's light: S(x) = sum_k V_k max(n.l_k, 0) / sum_k max(n.l_k, 0) over the
+// ENV_VIS_DIRS directions u_vis_dirs (environment frame; viewer.envsampling.power_directions: each
+// carries an equal share of the environment's power, so a small bright sun gets most of them),
+// each marched u_vis_steps steps up to u_vis_radius; 1 where no direction is above the horizon.
+// It is the cast-shadow evidence (a sun shadow on a floor) that cosine-weighted SSAO averages away;
+// the students with "vis" features read it (shade_neural.frag).
+// Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1). Twin: learned.twins.ssao.ssao_pass.
 #include "passes/deferred.glsl"
 #include "lib/shading.glsl"
 #include "lib/sampling.glsl"
@@ -25,9 +32,45 @@ uniform uint u_seed;
 #if SSAO_INDIRECT
 uniform sampler2D u_direct;
 #endif
+#ifndef SSAO_ENV_VIS
+#define SSAO_ENV_VIS 0
+#endif
+#if SSAO_ENV_VIS
+#define ENV_VIS_DIRS 8
+uniform vec3 u_vis_dirs[ENV_VIS_DIRS];  // environment frame, unit
+uniform int u_vis_steps;
+uniform float u_vis_radius;  // world units
+#endif
 
 vec3 to_view(vec3 w) {
     return transpose(u_camera_to_world) * w;
+}
+
+// March from p_vs along the unit view-space direction w in `steps` steps up to `radius`, the
+// first at jitter * radius / steps; true at the first step that lies behind the stored surface
+// (eq. 6.20), with its pixel in hit. Stops (false) behind the camera or off screen: nothing known
+// occludes there.
+bool ssao_march(vec3 p_vs, vec3 w, float radius, int steps, float jitter, out ivec2 hit) {
+    hit = ivec2(0);
+    for (int j = 0; j < steps; ++j) {
+        vec3 q = p_vs + w * (radius * (float(j) + jitter) / float(steps));
+        vec3 f = view_to_frag(q, u_resolution, u_tan_half_fov);
+        if (!(f.z > 0.0) || any(lessThan(f.xy, vec2(0.0))) || any(greaterThanEqual(f.xy, u_resolution))) {
+            return false;
+        }
+        ivec2 hp = ivec2(floor(f.xy));
+        GBuffer h = gbuffer_load(hp);
+        if (h.alpha <= 0.0) continue;
+        vec3 hp_vs = view_position(vec2(hp) + 0.5, u_resolution, h.depth, u_tan_half_fov);
+        vec3 hn = h.normal;
+        vec3 hn_vs = dot(hn, hn) > 1e-12 ? to_view(normalize(hn)) : vec3(0.0);
+        float z_d = surface_depth_at(q, hp_vs, hn_vs, h.depth);
+        if (ssao_occluded(f.z, z_d, u_thickness) > 0.5) {
+            hit = hp;
+            return true;
+        }
+    }
+    return false;
 }
 
 void main() {
@@ -53,26 +96,12 @@ void main() {
         vec2 u = mc_sample_2d(uint(pixel.x), uint(pixel.y), uint(k), u_seed, 2u);
         float jitter = 1.0 - mc_sample_2d(uint(pixel.x), uint(pixel.y), uint(k), u_seed, 3u).x;
         vec3 w = tangent_to_world(sample_cosine_hemisphere(u), n_vs);
-        for (int j = 0; j < u_steps; ++j) {
-            vec3 q = p_vs + w * (u_radius * (float(j) + jitter) / float(u_steps));
-            vec3 f = view_to_frag(q, u_resolution, u_tan_half_fov);
-            if (!(f.z > 0.0) || any(lessThan(f.xy, vec2(0.0))) || any(greaterThanEqual(f.xy, u_resolution))) {
-                break;  // behind the camera or off screen: nothing known occludes
-            }
-            ivec2 hp = ivec2(floor(f.xy));
-            GBuffer h = gbuffer_load(hp);
-            if (h.alpha <= 0.0) continue;
-            vec3 hp_vs = view_position(vec2(hp) + 0.5, u_resolution, h.depth, u_tan_half_fov);
-            vec3 hn = h.normal;
-            vec3 hn_vs = dot(hn, hn) > 1e-12 ? to_view(normalize(hn)) : vec3(0.0);
-            float z_d = surface_depth_at(q, hp_vs, hn_vs, h.depth);
-            if (ssao_occluded(f.z, z_d, u_thickness) > 0.5) {
-                hits += 1.0;
+        ivec2 hp;
+        if (ssao_march(p_vs, w, u_radius, u_steps, jitter, hp)) {
+            hits += 1.0;
 #if SSAO_INDIRECT
-                gathered += texelFetch(u_direct, hp, 0).rgb;
+            gathered += texelFetch(u_direct, hp, 0).rgb;
 #endif
-                break;
-            }
         }
     }
     float rays = float(max(u_rays, 1));
@@ -81,6 +110,23 @@ void main() {
     bool finite = !any(isnan(indirect)) && !any(isinf(indirect));
     o_radiance = vec4(direct.rgb + (finite ? indirect * g.alpha : vec3(0.0)), direct.a);
 #else
-    o_radiance = vec4(1.0 - hits / rays);
+    float visible = 1.0 - hits / rays;
+#if SSAO_ENV_VIS
+    float lit = 0.0;
+    float total = 0.0;
+    for (int k = 0; k < ENV_VIS_DIRS; ++k) {
+        vec3 l_vs = to_view(rotate_y(u_vis_dirs[k], u_env_rotation));
+        float c = max(dot(n_vs, l_vs), 0.0);
+        if (c > 0.0) {
+            float jitter = 1.0 - mc_sample_2d(uint(pixel.x), uint(pixel.y), uint(k), u_seed, 4u).x;
+            ivec2 hp;
+            total += c;
+            lit += ssao_march(p_vs, l_vs, u_vis_radius, u_vis_steps, jitter, hp) ? 0.0 : c;
+        }
+    }
+    o_radiance = vec4(visible, total > 0.0 ? lit / total : 1.0, visible, visible);
+#else
+    o_radiance = vec4(visible);
+#endif
 #endif
 }

@@ -12,9 +12,10 @@ format          ``relight-neural-shader``
 version         ``1`` (:data:`FORMAT_VERSION`)
 kind            ``student`` (model ``neural``) or ``teacher`` (model ``neural_teacher``)
 architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [...], "activations":
-                [...]}}, "hidden": ..., "num_freqs": L, "inputs": [...], "features": "base" | "dfg",
+                [...]}}, "hidden": ..., "num_freqs": L, "inputs": [...], "features": "base" | "dfg" | "vis" | "dfg-vis",
                 "output": "free6" | "pbr3"}`` (students; no ``features`` = ``base``: the 8 inputs of
-                :data:`STUDENT_INPUTS`, ``dfg`` adds the split-sum LUT; no ``output`` = ``free6``:
+                :data:`STUDENT_INPUTS`, ``dfg`` adds the split-sum LUT, ``vis`` the screen-space visibility of the environment's
+                light (the renderer then runs SSAO with ``SSAO_ENV_VIS``); no ``output`` = ``free6``:
                 six per-channel factors, ``pbr3`` three achromatic ones of the split-sum form,
                 :data:`STUDENT_OUTPUTS`; ``"occlusion": "input" | "factor"``, no key = ``input``:
                 ``factor`` multiplies the diffuse factor(s) by the ``ao`` input, as every classical
@@ -49,8 +50,15 @@ KINDS = ("student", "teacher")
 MODEL_KINDS = {"neural": "student", "neural_teacher": "teacher"}  # model -> network kind
 STUDENT_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao",
                   "NoV")
-# student input sets (architecture "features"; twin: learned.neural.student.FEATURE_INPUTS)
-STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "dfg.b")}
+# every student input, in the order of the generated code's arguments and of the parity kernel's
+# planar rows; "vis" is the screen-space visibility of the environment's light (the g channel of
+# passes/ssao.frag with SSAO_ENV_VIS), read by students that see visibility
+STUDENT_ALL_INPUTS = STUDENT_INPUTS + ("dfg.a", "dfg.b", "vis")
+# student input sets (architecture "features"; twin: learned.neural.student.FEATURE_INPUTS), each
+# a subsequence of STUDENT_ALL_INPUTS
+STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "dfg.b"),
+                    "vis": STUDENT_INPUTS + ("vis",),
+                    "dfg-vis": STUDENT_ALL_INPUTS}
 # student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
 # outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag
 # combines the factors with the lighting by lib/neural.glsl's neural_student_radiance[_pbr].
@@ -96,7 +104,7 @@ class NetworkFile:
 
     @property
     def features(self) -> str:
-        """Student input set (``base`` | ``dfg``, :data:`STUDENT_FEATURES`)."""
+        """Student input set (``base`` | ``dfg`` | ``vis`` | ``dfg-vis``, :data:`STUDENT_FEATURES`)."""
         return str(self.architecture.get("features", DEFAULT_FEATURES))
 
     @property

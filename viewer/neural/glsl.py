@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .format import NetworkFile, WeightsError
+from .format import STUDENT_FEATURES, NetworkFile, WeightsError
 
 WEIGHT_STORAGES = ("const", "ubo", "texture")  # where generated code reads weights (module doc)
 UBO_MIN_MAX_BYTES = 16384  # GL 4.3's minimum GL_MAX_UNIFORM_BLOCK_SIZE: larger blocks become SSBOs
@@ -215,21 +215,26 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
     source = _Source(storage, net.kind)
     lines = []
     if net.kind == "student":
-        dfg = net.features == "dfg"
+        inputs = STUDENT_FEATURES[net.features]
+        dfg = "dfg.a" in inputs
+        vis = "vis" in inputs
         pbr = net.output == "pbr3"
         lines += [f"#define NEURAL_STUDENT_DFG {int(dfg)}  // 1: the network reads the DFG LUT",
+                  f"#define NEURAL_STUDENT_VIS {int(vis)}  // 1: it reads the environment's "
+                  "screen-space visibility",
                   f"#define NEURAL_STUDENT_PBR {int(pbr)}  // output form: 0 free6, 1 pbr3",
                   "",
                   "// k [0, 1]^6 (free6: k_0 = k_diffuse rgb, k_1 = k_specular rgb) or [0, 1]^3",
                   "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0): the factors that",
                   "// neural_student_radiance[_pbr] (lib/neural.glsl) combine with the lighting;",
-                  "// dfg: split-sum LUT at (NoV, roughness), read only when NEURAL_STUDENT_DFG.",
+                  "// dfg: split-sum LUT at (NoV, roughness), read only when NEURAL_STUDENT_DFG;",
+                  "// vis: S(x) of passes/ssao.frag (SSAO_ENV_VIS), read only when NEURAL_STUDENT_VIS.",
                   "// twin: learned.neural.student.Student.weights",
                   "void neural_student_weights(vec3 albedo, float roughness, float metallic,",
                   "                            float specular, float ao, float NoV, vec2 dfg,",
-                  "                            out vec3 k_0, out vec3 k_1) {"]
-        raw = ["albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao", "NoV"]
-        raw += ["dfg.x", "dfg.y"] if dfg else []
+                  "                            float vis, out vec3 k_0, out vec3 k_1) {"]
+        glsl_names = {"dfg.a": "dfg.x", "dfg.b": "dfg.y"}
+        raw = [glsl_names.get(name, name) for name in inputs]
         enc_lines, enc = _encode(raw, net.num_freqs)
         pack_lines, x = _pack("x", enc)
         mlp_lines, y = _mlp(net.layers("mlp"), "m", x, source)

@@ -6,7 +6,8 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .format import MODEL_KINDS, NetworkFile, WeightsError, default_weights, read_weights
+from .format import (MODEL_KINDS, STUDENT_FEATURES, NetworkFile, WeightsError, default_weights,
+                     read_weights)
 from .glsl import WEIGHT_STORAGES, NetworkCode, generate_glsl
 
 
@@ -73,3 +74,21 @@ def virtual_files(found: tuple[Network, NetworkCode] | None) -> dict[str, str]:
         return {}
     net, code = found
     return {net.include_name: code.glsl}
+
+
+def reads_visibility(settings) -> bool:
+    """Whether the lighting pass of ``settings.model`` reads the screen-space visibility of the
+    environment's light (a student with ``vis`` features): it then needs the SSAO pass with
+    ``SSAO_ENV_VIS``, whatever ``[render] ssao`` says."""
+    found = model_network(settings.model, settings)
+    return found is not None and found[0].kind == "student" and \
+        "vis" in STUDENT_FEATURES.get(found[0].features, ())
+
+
+def required_settings(settings):
+    """``settings`` with what the model's network needs switched on: SSAO for a student that reads
+    its occlusion and visibility inputs from it (it was trained on them; without the pass its ao
+    input would be the material's alone and its vis input 1). Unchanged for every other model."""
+    if reads_visibility(settings) and not settings.ssao.enabled:
+        return settings.with_flat(ssao=True)
+    return settings

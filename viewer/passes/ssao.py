@@ -4,9 +4,16 @@ eqs. 6.19-6.22).
 :meth:`SSAOPass.occlusion` writes the visibility O(x) of every pixel to an RGBA32F texture that the
 lighting passes multiply into their diffuse term (``USE_SSAO``); :meth:`SSAOPass.indirect` marches
 the same rays again and adds the diffuse one-bounce light gathered from the direct-lighting buffer
-(the lighting pass's output for this frame) at each ray's hit pixel.
+(the lighting pass's output for this frame) at each ray's hit pixel. With ``vis_dirs`` (the
+environment's :func:`~viewer.envsampling.power_directions`) the occlusion pass also writes the
+screen-space visibility of the environment's light to the g channel (``SSAO_ENV_VIS``), the input
+of the students that see visibility; it marches :data:`ENV_VIS_STEPS` steps up to
+:data:`ENV_VIS_RADIUS` towards each of the :data:`ENV_VIS_DIRECTIONS` directions. These are
+constants, not settings: a student is trained on what they produce.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -15,6 +22,10 @@ from ..gbuffer import GBufferLayout
 from ..settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
+
+ENV_VIS_DIRECTIONS = 8  # ENV_VIS_DIRS of passes/ssao.frag
+ENV_VIS_STEPS = 16  # steps per direction
+ENV_VIS_RADIUS = 2.0  # world units: long enough for a sun shadow of a unit-sized object
 
 
 class SSAOPass:
@@ -25,9 +36,12 @@ class SSAOPass:
         self._draw = FullscreenDraw(self.ctx)
 
     def _run(self, indirect: bool, gbuffer_textures: dict, out_fbo, camera: Camera,
-             settings: RenderSettings, direct=None) -> None:
+             settings: RenderSettings, direct=None, vis_dirs=None, env_rotation_deg=0.0
+             ) -> None:
+        env_vis = vis_dirs is not None
         prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao.frag",
                                       defines={"SSAO_INDIRECT": int(indirect),
+                                               "SSAO_ENV_VIS": int(env_vis),
                                                "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
         unit = bind_gbuffer(prog, gbuffer_textures)
@@ -44,14 +58,22 @@ class SSAOPass:
         _set(prog, "u_radius", float(settings.ssao.radius))
         _set(prog, "u_thickness", float(settings.ssao.thickness))
         _set(prog, "u_seed", int(settings.mc.seed))
+        if env_vis:
+            dirs = np.ascontiguousarray(vis_dirs, np.float32).reshape(ENV_VIS_DIRECTIONS, 3)
+            prog["u_vis_dirs"].write(dirs.tobytes())
+            _set(prog, "u_vis_steps", ENV_VIS_STEPS)
+            _set(prog, "u_vis_radius", ENV_VIS_RADIUS)
+            _set(prog, "u_env_rotation", math.radians(env_rotation_deg))
         out_fbo.use()
         self.ctx.viewport = (0, 0, camera.width, camera.height)
         self._draw(prog)
 
     def occlusion(self, gbuffer_textures: dict, out_fbo, camera: Camera,
-                  settings: RenderSettings) -> None:
-        """O(x) (eq. 6.19) into all four channels of ``out_fbo`` (1 on the background)."""
-        self._run(False, gbuffer_textures, out_fbo, camera, settings)
+                  settings: RenderSettings, vis_dirs=None, env_rotation_deg: float = 0.0) -> None:
+        """O(x) (eq. 6.19) into all four channels of ``out_fbo`` (1 on the background); with
+        ``vis_dirs`` (``[8, 3]``, environment frame) S(x) in the g channel instead."""
+        self._run(False, gbuffer_textures, out_fbo, camera, settings, vis_dirs=vis_dirs,
+                  env_rotation_deg=env_rotation_deg)
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
                  settings: RenderSettings) -> None:

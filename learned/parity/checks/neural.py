@@ -2,6 +2,8 @@
 (every weight storage) and the ``neural`` / ``neural_teacher`` lighting passes."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import torch
 
@@ -17,6 +19,7 @@ from viewer.neural import (
     NeuralWeights,
     default_weights,
     load_network,
+    required_settings,
 )
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
@@ -48,7 +51,7 @@ TEACHER_RTOL = 2e-3
 
 def eval_student_weights(programs, net, x: np.ndarray, storage: str = "const") -> np.ndarray:
     """GL ``neural_student_weights`` of the generated code of ``net`` for weight ``storage``
-    (``viewer.neural.WEIGHT_STORAGES``) at ``x [n, 10]`` (every student input,
+    (``viewer.neural.WEIGHT_STORAGES``) at ``x [n, 11]`` (every student input,
     :func:`student_inputs`) -> ``[n, 6]`` (``k_0``, ``k_1``; a ``pbr3`` student's ``k_1`` is 0)."""
     code = net.code(storage)
     name = f"<kernel:neural_student:{net.checkpoint[:12]}>"
@@ -64,11 +67,11 @@ def eval_student_weights(programs, net, x: np.ndarray, storage: str = "const") -
 
 
 def student_inputs(n: int, seed: int = 0) -> np.ndarray:
-    """Random student inputs ``[n, 10]`` (every input of the ``dfg`` set) over the whole domain,
-    plus the corners of [0, 1]^8 (dfg inputs 0 and 1 alternating)."""
+    """Random student inputs ``[n, 11]`` (every input, ``viewer.neural.STUDENT_ALL_INPUTS``)
+    over the whole domain, plus the corners of [0, 1]^8 (dfg and vis inputs 0 and 1 alternating)."""
     rng = np.random.default_rng(seed)
-    x = rng.uniform(0.0, 1.0, size=(n, 10))
-    corners = np.array([[(k >> b) & 1 for b in range(8)] + [k & 1, (k >> 1) & 1]
+    x = rng.uniform(0.0, 1.0, size=(n, 11))
+    corners = np.array([[(k >> b) & 1 for b in range(8)] + [k & 1, (k >> 1) & 1, (k >> 2) & 1]
                         for k in range(256)], np.float64)
     return np.concatenate([x, corners]).astype(np.float32)
 
@@ -100,6 +103,7 @@ def check_model(programs, model: str, variant: dict, weights=None):
     path = weights or default_weights(kind)
     key = "weights" if kind == "student" else "teacher_weights"
     scene = scene_from_dict(PARITY_SCENE).with_render(model=model, **{key: str(path)}, **variant)
+    scene = dataclasses.replace(scene, render=required_settings(scene.render))
     net_model = load_model(path, kind)
     renderer = Renderer(ctx=programs.ctx)
     try:
@@ -107,13 +111,16 @@ def check_model(programs, model: str, variant: dict, weights=None):
         gb = gl_gbuffer(targets)
         glsl = gl_texture(targets.radiance)
         lighting = lighting_from_gl(renderer, scene.environment)
+        ssao = None
+        if scene.render.ssao.enabled:
+            ssao = torch.from_numpy(gl_texture(targets.ssao).copy())
         envelope = {"weight_bits": device_filter_bits(programs)}
         grad = torch.enable_grad() if model == "neural" else torch.no_grad()
         with grad:  # the student's envelope differentiates through the network to its lookups
             ref = shade_neural(model, net_model, gb, targets.camera, lighting,
                                shade_defines(model, scene.render),
                                (0, scene.render.mc.samples), scene.render.mc.seed,
-                               envelope=envelope).detach().numpy()
+                               envelope=envelope, ssao=ssao).detach().numpy()
     finally:
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(

@@ -1,10 +1,13 @@
 """The SSAO and indirect-light pass (``passes/ssao.frag``) against :func:`learned.twins.ssao.ssao_pass`."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import torch
 
 from learned.twins.ssao import ssao_pass
+from viewer.passes.ssao import ENV_VIS_RADIUS, ENV_VIS_STEPS
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
@@ -33,15 +36,32 @@ def checks() -> dict:
 
             ao_gl, direct, final_gl = read("ssao"), read("direct"), read("radiance")
             s = scene.render
+            # the occlusion pass again with the environment's visibility (SSAO_ENV_VIS), as a
+            # student with "vis" features runs it
+            layout = renderer.specialization(scene).layout
+            vis_dirs = renderer.resources.power_directions(scene.environment)
+            tex, fbo = renderer.resources.targets(layout, targets.camera.size).extra(
+                programs.ctx, "ssao")
+            renderer.resources.layout_pass("ssao", layout).occlusion(
+                targets.gbuffer.textures, fbo, targets.camera, s, vis_dirs=vis_dirs,
+                env_rotation_deg=scene.environment.rotation_deg)
+            vis_gl = gl_texture(tex)
             with torch.no_grad():
                 ao = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
                                s.ssao.thickness, s.mc.seed).numpy()
                 final = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps,
                                   s.ssao.radius, s.ssao.thickness, s.mc.seed,
                                   direct=torch.from_numpy(direct)).numpy()
+                vis = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
+                                s.ssao.thickness, s.mc.seed, vis_dirs=torch.from_numpy(vis_dirs),
+                                vis_steps=ENV_VIS_STEPS, vis_radius=ENV_VIS_RADIUS,
+                                env_rotation=math.radians(scene.environment.rotation_deg)).numpy()
         finally:
             renderer.release()
+        # the visibility's share per direction is max(n.l_k, 0) / sum: a flipped hit moves it by
+        # at most 1 (one direction carrying all the light); the robust test bounds the count
         return [_robust("ssao:occlusion", ao_gl, ao, 1.0 / 6.0),
+                _robust("ssao:env_visibility", vis_gl, vis, 1.0),
                 _robust("ssao:indirect", final_gl, final, float(np.abs(final).max()))]
 
     def _robust(name, gl, ref, step):

@@ -8,7 +8,8 @@ background set to 0 in both (foreground only):
   radiance x / (1 + x) in [0, 1];
 * HDR-FLIP (``flip_evaluator``, mean over pixels) on linear radiance.
 
-Rows: ``{"model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip", "count"}``.
+Rows: ``{"model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip", "bias", "count"}``
+(``bias``: total foreground radiance of the model over the target's, minus 1).
 """
 from __future__ import annotations
 
@@ -28,13 +29,23 @@ from .export import load_model
 from .parity.checks.neural import student_inputs
 
 
-def models_to_evaluate(teacher_samples: int) -> list[tuple[str, str, dict]]:
-    out = [("blinn_phong", "", {}), ("ggx_split_sum", "", {})]
+def models_to_evaluate(teacher_samples: int, students: dict | None = None
+                       ) -> list[tuple[str, str, dict]]:
+    """(model, variant, render settings) of every row: the classical models alone and with the
+    screen-space passes (SSAO; SSAO + one-bounce indirect light), Monte Carlo, the shipped
+    student (and ``students``: variant name -> weights file), the teacher."""
+    out = [("blinn_phong", "", {}), ("ggx_split_sum", "", {}),
+           ("ggx_split_sum", "+ SSAO", {"ssao": True}),
+           ("ggx_split_sum", "+ SSAO + indirect", {"ssao": True, "indirect": True})]
     if "ggx_mc" in MODELS:
-        out.append(("ggx_mc", "16 spp", {"samples": 16, "sampling": "mis"}))
-    out += [("neural", "student", {}),
-            ("neural_teacher", f"{teacher_samples} spp env",
-             {"samples": int(teacher_samples), "sampling": "env"})]
+        out += [("ggx_mc", "16 spp", {"samples": 16, "sampling": "mis"}),
+                ("ggx_mc", "256 spp + SSAO + indirect",
+                 {"samples": 256, "sampling": "mis", "ssao": True, "indirect": True})]
+    out.append(("neural", "student", {}))
+    for name, path in (students or {}).items():
+        out.append(("neural", name, {"weights": str(path)}))
+    out.append(("neural_teacher", f"{teacher_samples} spp env",
+                {"samples": int(teacher_samples), "sampling": "env"}))
     return out
 
 
@@ -100,10 +111,10 @@ def sample_scene(sample, **render):
 
 
 def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: int | None = None,
-             renderer=None) -> list[dict]:
-
-
-
+             renderer=None, students: dict | None = None) -> list[dict]:
+    """Every model of :func:`models_to_evaluate` on every sample of ``split`` (at most ``limit``):
+    one row per (model, variant) with the means over samples. ``students``: more student weights
+    files to score (variant name -> path)."""
     folders = list_samples(root, split)[:limit]
     own = renderer is None
     renderer = renderer or Renderer()
@@ -112,13 +123,16 @@ def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: 
         for folder in tqdm(folders, desc="eval", unit="sample"):
             sample = load_sample(folder)
             fg = sample.foreground()
-            for model, variant, render in models_to_evaluate(teacher_samples):
+            for model, variant, render in models_to_evaluate(teacher_samples, students):
                 scene = sample_scene(sample, model=model, **render)
                 renderer.render(scene)  # warm: programs, IBL
                 t0 = time.perf_counter()
                 frame = renderer.render(scene)
                 ms = 1e3 * (time.perf_counter() - t0)
-                row = metrics(frame.radiance[..., :3], sample.target, fg) | {"ms": ms}
+                pred = frame.radiance[..., :3]
+                bias = float(np.clip(pred, 0, None)[fg].sum() / max(sample.target[fg].sum(), 1e-12)
+                             - 1.0)
+                row = metrics(pred, sample.target, fg) | {"ms": ms, "bias": bias}
                 acc.setdefault((model, variant, render.get("samples", 1)), []).append(row)
     finally:
         if own:
@@ -128,16 +142,17 @@ def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: 
     for (model, variant, samples), rs in acc.items():
         rows.append({"model": model, "variant": variant, "samples": samples, "size": size,
                      "count": len(rs), **{k: float(np.mean([r[k] for r in rs]))
-                                          for k in ("ms", "psnr", "ssim", "flip")}})
+                                          for k in ("ms", "psnr", "ssim", "flip", "bias")}})
     return rows
 
 
 def format_table(rows: list[dict]) -> str:
-    lines = [f"{'model':<16} {'variant':<14} {'spp':>5} {'ms':>9} {'PSNR dB':>8} {'SSIM':>7} "
-             f"{'HDR-FLIP':>9}  n"]
+    lines = [f"{'model':<16} {'variant':<26} {'spp':>5} {'ms':>9} {'PSNR dB':>8} {'SSIM':>7} "
+             f"{'HDR-FLIP':>9} {'bias %':>7}  n"]
     for r in rows:
-        lines.append(f"{r['model']:<16} {r['variant']:<14} {r['samples']:>5} {r['ms']:>9.2f} "
-                     f"{r['psnr']:>8.2f} {r['ssim']:>7.4f} {r['flip']:>9.4f}  {r['count']}")
+        lines.append(f"{r['model']:<16} {r['variant']:<26} {r['samples']:>5} {r['ms']:>9.2f} "
+                     f"{r['psnr']:>8.2f} {r['ssim']:>7.4f} {r['flip']:>9.4f} "
+                     f"{100 * r.get('bias', float('nan')):>7.1f}  {r['count']}")
     return "\n".join(lines)
 
 

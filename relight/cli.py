@@ -126,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="light directions per pixel while training the teacher")
     p.add_argument("--strategy", choices=("uniform", "cosine", "env"),
                    help="how the teacher samples light directions (default env)")
+    p.add_argument("--student-target", choices=("teacher", "target"),
+                   help="what the student learns from: the teacher x shadow map (default, the "
+                        "thesis's distillation) or the dataset's targets (truth for traced data)")
+    p.add_argument("--student-features", choices=("base", "dfg", "vis", "dfg-vis"),
+                   help="the student's inputs (default base; vis: + the SSAO pass's visibility "
+                        "of the environment's light, with which the renderer runs SSAO)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "
@@ -146,6 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--split", default="test")
     p.add_argument("--teacher-samples", type=int, default=128)
     p.add_argument("--limit", type=int, help="at most this many samples")
+    p.add_argument("--weights", action="append", default=[], metavar="NAME=FILE",
+                   help="also score this student weights file as row 'neural NAME' (repeatable)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_eval)
 

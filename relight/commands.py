@@ -317,7 +317,7 @@ def _learned(what: str):
 
 # ``relight train`` options that override a field of learned.train.TrainConfig
 TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
-                   "light_samples", "strategy")
+                   "light_samples", "strategy", "student_target", "student_features")
 
 
 def _positive_int(text: str) -> int:
@@ -407,8 +407,16 @@ def reference_tracer():
 def cmd_eval(args) -> int:
     """PSNR, SSIM and HDR-FLIP of every model against the Monte-Carlo targets of a split."""
     ev = _learned("learned.evaluate")
+    students = {}
+    for item in args.weights:
+        name, sep, path = item.partition("=")
+        if not sep or not name or not path:
+            raise RelightError(f"--weights {item!r}: expected NAME=FILE", where="--weights")
+        if not Path(path).is_file():
+            raise RelightError("weights file not found", where=path)
+        students[name] = path
     rows = ev.evaluate(args.data, split=args.split, teacher_samples=args.teacher_samples,
-                       limit=args.limit)
+                       limit=args.limit, students=students)
     if args.json:
         print(json.dumps(rows, indent=1))
     else:

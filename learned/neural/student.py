@@ -66,6 +66,9 @@ DESIGNS: dict[str, dict] = {
     "w16x2-pbr": {"hidden": (16, 16), "output": "pbr3"},
     "w16x2-dfg-pbr": {"hidden": (16, 16), "features": "dfg", "output": "pbr3"},
     "w32x2-dfg-pbr": {"hidden": (32, 32), "features": "dfg", "output": "pbr3"},
+    # students that see visibility (issue 14, part 3): + S(x) of the SSAO pass, ao = AO x SSAO
+    "w16x2-vis-pbr": {"hidden": (16, 16), "features": "vis", "output": "pbr3"},
+    "w32x2-vis-pbr": {"hidden": (32, 32), "features": "vis", "output": "pbr3"},
 }
 SHIPPED_DESIGN = "w16x2-pbr"  # assets/weights/neural_student.safetensors (README "Neural shader")
 

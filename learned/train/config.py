@@ -24,6 +24,9 @@ class TrainConfig:
     student_features: str = "base"  # "base" | "dfg" (learned.neural.student.FEATURE_INPUTS)
     student_output: str = "pbr3"  # "free6" | "pbr3" (learned.neural.student.OUTPUTS)
     distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
+    # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
+    # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)
+    student_target: str = "teacher"
     shadow_width: int = 16
     distill_samples: int = 128
     seed: int = 0
@@ -38,6 +41,8 @@ class TrainConfig:
                     distill_samples=64, log_every=100)
         return cls(data=data, out=out, **(base | kw))
 
+
+STUDENT_TARGETS = ("teacher", "target")
 
 # the synthetic dataset ``relight train`` generates when it is given no data (OUT/data)
 QUICK_DATA = {"count": 40, "size": 64, "samples": 256, "seed": 0, "gbuffer_fraction": 0.25}

@@ -17,7 +17,7 @@ from viewer.renderer import Renderer
 from ..data.generator import GeneratorConfig, generate
 from ..data.reader import summary as data_summary
 from ..export import export, network_tensors
-from .config import QUICK_DATA, TrainConfig
+from .config import QUICK_DATA, STUDENT_TARGETS, TrainConfig
 from .runner import Run, _close_dist, _dist
 from .stages import (distill_student, distillation_targets, load_images, teacher_images,
                      train_shadow, train_teacher)
@@ -30,6 +30,9 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     files, sizes)."""
     if stages not in STAGES:
         raise ValueError(f"unknown stages {stages!r} ({' | '.join(STAGES)})")
+    if cfg.student_target not in STUDENT_TARGETS:
+        raise ValueError(f"unknown student target {cfg.student_target!r} "
+                         f"({' | '.join(STUDENT_TARGETS)})")
     rank, world = _dist()
     run = Run(cfg, rank, quiet)
     run.log(f"config {json.dumps(asdict(cfg))} world {world}")
@@ -52,15 +55,20 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     unshadowed = teacher_images(teacher, images, cfg.distill_samples, cfg.strategy, cfg.seed)
     shadow, sl = train_shadow(run, images, unshadowed)
     result["shadow_loss"] = sl
-    targets = distillation_targets(images, unshadowed, shadow)
+    if cfg.student_target == "target":  # the dataset's own targets (truth, for traced data)
+        targets = [img.target for img in images]
+    else:
+        targets = distillation_targets(images, unshadowed, shadow)
     student, stl = distill_student(run, images, targets)
     result["student_loss"] = stl
     if rank == 0:
         result["student"] = str(run.out / "neural_student.safetensors")
         result["student_checkpoint"] = export(
             student, result["student"],
-            training | {"stage": "student", "distilled_from": result["teacher_checkpoint"],
-                        "final_loss": stl[-1]})
+            training | {"stage": "student", "final_loss": stl[-1],
+                        "distilled_from": (result["teacher_checkpoint"]
+                                           if cfg.student_target == "teacher" else
+                                           "the dataset's targets")})
         torch.save(shadow.state_dict(), run.out / "shadow_final.pt")
         run.log(f"student: {student.parameter_count()} parameters, {student.macs_per_pixel()} "
                 f"multiply-adds per pixel; teacher: {teacher.parameter_count()} parameters, "

@@ -40,6 +40,32 @@ class TrainImage:
     normal_image: torch.Tensor  # [3, H, W]
     ao_image: torch.Tensor  # [1, H, W]
     lighting: Lighting
+    ssao: torch.Tensor  # [P] the SSAO pass's occlusion O(x) (eq. 6.19)
+    vis: torch.Tensor  # [P] its screen-space visibility of the environment's light (SSAO_ENV_VIS)
+
+
+def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
+    """The SSAO pass's occlusion O(x) and the environment's screen-space visibility S(x) on the
+    sample's own G-buffer, ``[H, W]`` each (row 0 at the top): computed by the renderer's GL pass
+    (``passes/ssao.frag`` with ``SSAO_ENV_VIS``, default SSAO settings) exactly as a student with
+    ``vis`` inputs gets them at run time; the pass's torch twin (``learned.twins.ssao``) is held
+    to it by the ``ssao:env_visibility`` parity check."""
+    from viewer.gl import make_current
+
+    from ..evaluate import sample_scene
+    from ..parity.checks.models import gl_texture
+
+    make_current(renderer.ctx)
+    scene = sample_scene(sample, model="ggx_split_sum", ssao=True)
+    targets = renderer.draw(scene)
+    layout = renderer.specialization(scene).layout
+    tex, fbo = renderer.resources.targets(layout, targets.camera.size).extra(renderer.ctx, "ssao")
+    renderer.resources.layout_pass("ssao", layout).occlusion(
+        targets.gbuffer.textures, fbo, targets.camera, scene.render,
+        vis_dirs=renderer.resources.power_directions(scene.environment),
+        env_rotation_deg=scene.environment.rotation_deg)
+    img = gl_texture(tex)[::-1]
+    return np.ascontiguousarray(img[..., 0]), np.ascontiguousarray(img[..., 1])
 
 
 def load_images(root: str, split: str, renderer) -> list[TrainImage]:
@@ -54,11 +80,12 @@ def load_images(root: str, split: str, renderer) -> list[TrainImage]:
         lighting = lighting_from_gl(renderer, EnvironmentSpec(path=str(s.environment)))
         target = torch.from_numpy(np.ascontiguousarray(s.target))
         unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
+        ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s))
         out.append(TrainImage(
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],
             target=target[fg], unshadowed=unshadowed[fg], target_image=target.permute(2, 0, 1),
             normal_image=ch["normal"].permute(2, 0, 1), ao_image=ch["ao"].permute(2, 0, 1),
-            lighting=lighting))
+            lighting=lighting, ssao=ssao[fg], vis=vis[fg]))
     if not out:
         raise DatasetError(f"no usable samples in the {split!r} split", where=root)
     return out
@@ -144,6 +171,18 @@ def distillation_targets(images, unshadowed, shadow: ShadowUNet | None) -> list[
     return out
 
 
+@torch.no_grad()
+def design_features(model: Student, images: list[TrainImage]) -> list[tuple]:
+    """:func:`student_features` of every image as ``model`` sees them at run time: a student with
+    ``vis`` inputs runs with SSAO (``viewer.neural.required_settings``), so its ao input is the
+    material AO times the SSAO pass's O(x) and its vis input the pass's S(x); any other student
+    gets the material AO (the renderer multiplies SSAO in only when the user turns it on)."""
+    if model.reads_visibility:
+        return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0] * img.ssao,
+                                 img.vis) for img in images]
+    return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0]) for img in images]
+
+
 def distill_loss(pred: torch.Tensor, target: torch.Tensor, kind: str) -> torch.Tensor:
     """Distillation loss of ``pred`` against ``target`` (radiance ``[N, 3]``): ``l1`` on radiance,
     or ``log_l1`` on log(1 + radiance), which weighs dark and bright pixels alike, like the
@@ -162,7 +201,7 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
                     ) -> tuple[Student, list[float]]:
     """Distil a :class:`Student` (``design``: its keyword arguments, default the config's) from
     the per-pixel ``targets``; every design starts from the same seed and draws the same batches.
-    ``feats``: :func:`student_features` per image, when the caller already has them."""
+    ``feats``: :func:`design_features` per image, when the caller already has them."""
     cfg = run.cfg
     torch.manual_seed(cfg.seed + 3)
     design = design if design is not None else {
@@ -171,9 +210,7 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
     model = Student(**design)
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
     if feats is None:
-        with torch.no_grad():
-            feats = [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0])
-                     for img in images]
+        feats = design_features(model, images)
 
     def step(ddp, _):
         k = int(rng.integers(0, len(images)))

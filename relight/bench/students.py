@@ -19,7 +19,6 @@ from learned.data.generator import GeneratorConfig, generate
 from learned.data.reader import list_samples, load_sample
 from learned.evaluate import achromatic_error, chroma_error, metrics, sample_scene
 from learned.export import export
-from learned.neural.lighting import student_features
 from learned.neural.student import DESIGNS, SHIPPED_DESIGN
 from learned.train import (COMPARE_SPLITS, QUICK_DATA, Run, TrainConfig, TrainImage,
                            checkpoint_of, distill_student, distillation_targets, load_images,
@@ -76,9 +75,6 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
         unshadowed = teacher_images(teacher, images, cfg.distill_samples, cfg.strategy, cfg.seed)
         shadow, _ = train_shadow(run, images, unshadowed)
         targets = distillation_targets(images, unshadowed, shadow)
-        with torch.no_grad():
-            feats = [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0])
-                     for img in images]
         held = _held_out(cfg.data, renderer, splits)
         h_images = [img for img, _ in held]
         with torch.no_grad():  # teacher x shadow map, whole images [H, W, 3]
@@ -108,7 +104,7 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
         rows = []
         for name in sorted(designs):
             student, losses = distill_student(run, images, targets, designs[name],
-                                              stage=f"student_{name}", feats=feats)
+                                              stage=f"student_{name}")
             path = folder / f"{name}.safetensors"
             export(student, path, training | {"stage": "student", "design": name,
                                               "final_loss": losses[-1]})

@@ -293,3 +293,50 @@ def test_parity_cli_neural_passes(capsys):
     assert {"neural:network", "model:neural"} <= names
     net = next(r for r in rows if r["name"] == "neural:network")
     assert net["passed"] and net["max_abs"] <= 1e-4
+
+
+@pytest.fixture(scope="module")
+def vis_weights(tmp_path_factory):
+    d = tmp_path_factory.mktemp("vis")
+    torch.manual_seed(4)
+    s = Student(hidden=(8, 12), num_freqs=1, features="vis", output="pbr3")
+    with torch.no_grad():
+        s.layers[-1].weight.mul_(3.0)
+    export(s, d / "s.safetensors")
+    return d / "s.safetensors"
+
+
+def test_vis_student_round_trip_parity_and_its_ssao_pass(programs, vis_weights):
+    """A student with the environment's screen-space visibility among its inputs: the generated
+    code reads it, torch and GLSL agree on the network and on whole frames (where the renderer
+    runs SSAO with SSAO_ENV_VIS for it although the scene did not ask for SSAO), and the input
+    changes the output (a vis of 0 and of 1 give different factors)."""
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    net = load_network(vis_weights, "student")
+    assert net.features == "vis" and "mlp 27-8-12-3" in net.glsl  # 9 inputs x (1 + 2)
+    assert "#define NEURAL_STUDENT_VIS 1" in net.glsl
+    model = load_model(vis_weights)
+    assert model.reads_visibility
+    x = torch.from_numpy(tn.student_inputs(64))
+    x0, x1 = x.clone(), x.clone()
+    x0[:, 10], x1[:, 10] = 0.0, 1.0
+    with torch.no_grad():
+        assert (model.weights(x0) - model.weights(x1)).abs().max() > 1e-3
+    r = tn.check_network(programs, vis_weights)
+    assert r.passed and r.max_abs <= 1e-4, r
+    r = tn.check_model(programs, "neural", {}, vis_weights)
+    assert r.passed, r
+    scene = scene_from_dict(tn.PARITY_SCENE).with_render(model="neural", weights=str(vis_weights))
+    assert not scene.render.ssao.enabled
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        t = renderer.draw(scene)
+        assert t.ssao is not None  # the student's required pass ran
+        w, h = t.ssao.size
+        import numpy as np
+        img = np.frombuffer(t.ssao.read(), np.float32).reshape(h, w, 4)
+        assert img[..., 1].min() < 0.5 < img[..., 1].max()  # the sun's shadow on the floor
+    finally:
+        renderer.release()

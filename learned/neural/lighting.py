@@ -19,7 +19,8 @@ from learned.twins.brdf import clamp_perceptual_roughness
 from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
 from learned.twins.equirect import equirect_uv, rotate_y
-from learned.twins.ibl import ibl_dfg, ibl_specular_radiance, sample_bilinear
+from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radiance,
+                               sample_bilinear, specular_dominant_direction)
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
 from learned.twins.sh import sh_irradiance
@@ -43,6 +44,7 @@ class Lighting:
     intensity: float = 1.0
     rotation: float = 0.0  # radians about +Y
     dfg: torch.Tensor | None = None  # [n, n, 2] split-sum LUT (x = n.v, y = perceptual roughness)
+    dominant: torch.Tensor | None = None  # [n, n, 1] the dominant direction's lerp factor LUT
 
     def with_light(self, intensity: float, rotation: float) -> "Lighting":
         return dataclasses.replace(self, intensity=float(intensity), rotation=float(rotation))
@@ -62,7 +64,8 @@ def lighting_from_gl(renderer, environment) -> Lighting:
         levels=float(ibl.levels), sh=t(np.asarray(ibl.sh, np.float32)),
         marginal=t(tables["marginal"]), conditional=t(tables["conditional"]), pdf=t(tables["pdf"]),
         intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg),
-        dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()))
+        dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()),
+        dominant=t(ibl.read_level("dominant", 0)) if ibl.dominant is not None else None)
 
 
 def env_radiance(lighting: Lighting, l_ws: torch.Tensor) -> torch.Tensor:
@@ -78,7 +81,7 @@ def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor,
-                     vis: torch.Tensor | None = None
+                     vis: torch.Tensor | None = None, dominant: bool = False
                      ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
 
@@ -88,13 +91,19 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     radiance along the mirror direction at the pixel's roughness, times intensity). ``ao [N]`` is
     the occlusion the pass uses, ``vis [N]`` the screen-space visibility of the environment's light
     (the g channel of the SSAO pass with ``SSAO_ENV_VIS``; 1 when None). ``dfg`` is the split-sum
-    LUT at (n.v, clamped roughness), zeros when ``lighting`` has no LUT.
+    LUT at (n.v, clamped roughness), zeros when ``lighting`` has no LUT. ``dominant``: read the
+    prefiltered radiance along the split-sum model's dominant direction (``split3`` students, as
+    ``ggx_split_sum``) instead of the mirror direction.
     """
     n, nov = surface(gb, v)
     r = clamp_perceptual_roughness(gb["roughness"][..., 0])
     irradiance = sh_irradiance(env_dir(n, lighting.rotation), lighting.sh) * lighting.intensity
+    reflected = reflect(-v, n)
+    if dominant:
+        reflected = specular_dominant_direction(
+            n, reflected, ibl_dominant_factor(lighting.dominant, nov, r))
     prefiltered = ibl_specular_radiance(lighting.prefiltered,
-                                        env_dir(reflect(-v, n), lighting.rotation), r,
+                                        env_dir(reflected, lighting.rotation), r,
                                         lighting.levels) * lighting.intensity
     if lighting.dfg is not None:
         dfg = ibl_dfg(lighting.dfg, nov, r)

@@ -10,6 +10,9 @@ material and n.v predicts how much of each the surface reflects. Two output form
     x = enc(albedo, roughness, metallic, specular, ao, n.v [, dfg.a, dfg.b])
     free6: k = sigmoid(MLP(x)) [6]    L_o = S k_d * albedo * E / pi + S k_s * P      (per channel)
     pbr3:  k = sigmoid(MLP(x)) [3]    L_o = S k_d diffuse * E / pi + S (k_a f0 + k_b f90) P
+    split3: k = sigmoid(MLP(x)) [3]   L_o = S k_d diffuse E / pi (1 - e_spec)
+                                            + S (k_a f0 (dfg.y - dfg.x) + k_b f90 dfg.x) P
+            (P along the dominant direction: k = 0.5 is ggx_split_sum, where it starts)
 
     occlusion "factor" (:data:`OCCLUSIONS`): k_d = ao sigmoid(...), AO applied outside the MLP
 
@@ -31,7 +34,7 @@ from torch import nn
 
 from learned.twins.brdf import compute_f0, f90_from_f0
 from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_student_radiance,
-                                  neural_student_radiance_pbr)
+                                  neural_student_radiance_pbr, neural_student_radiance_split)
 from learned.twins.shading import diffuse_color
 
 from .encoding import encoded_size, fourier_encode
@@ -45,7 +48,7 @@ FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"), "vis": INP
                   "dfg-vis": ALL_INPUTS}
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
-OUTPUTS = {"free6": 6, "pbr3": 3}
+OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
 # how the ao input enters (architecture "occlusion"; twin: viewer.neural.format.STUDENT_OCCLUSION):
 # "factor" (new students) multiplies the diffuse factor(s) by ao outside the MLP, as every classical
 # model applies AO; "input" (files written before) leaves the product to the MLP, which learned the
@@ -66,9 +69,13 @@ DESIGNS: dict[str, dict] = {
     "w16x2-pbr": {"hidden": (16, 16), "output": "pbr3"},
     "w16x2-dfg-pbr": {"hidden": (16, 16), "features": "dfg", "output": "pbr3"},
     "w32x2-dfg-pbr": {"hidden": (32, 32), "features": "dfg", "output": "pbr3"},
-    # students that see visibility (issue 14, part 3): + S(x) of the SSAO pass, ao = AO x SSAO
+    # students that see visibility (issue 14, part 3): + S(x) of the SSAO pass, ao = AO x SSAO;
+    # split3: corrections of the split-sum model (k = 0.5 is ggx_split_sum)
     "w16x2-vis-pbr": {"hidden": (16, 16), "features": "vis", "output": "pbr3"},
     "w32x2-vis-pbr": {"hidden": (32, 32), "features": "vis", "output": "pbr3"},
+    "w16x2-split": {"hidden": (16, 16), "output": "split3"},
+    "w16x2-vis-split": {"hidden": (16, 16), "features": "vis", "output": "split3"},
+    "w32x2-vis-split": {"hidden": (32, 32), "features": "vis", "output": "split3"},
 }
 SHIPPED_DESIGN = "w16x2-pbr"  # assets/weights/neural_student.safetensors (README "Neural shader")
 
@@ -95,6 +102,9 @@ class Student(nn.Module):
         self.output = output
         sizes = [encoded_size(len(self.inputs), self.num_freqs), *self.hidden, OUTPUTS[output]]
         self.layers = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
+        if output == "split3":  # start at the classical model: k = sigmoid(0) = 0.5 everywhere
+            nn.init.zeros_(self.layers[-1].weight)
+            nn.init.zeros_(self.layers[-1].bias)
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -111,6 +121,11 @@ class Student(nn.Module):
     @property
     def reads_visibility(self) -> bool:
         return "vis" in self.inputs
+
+    @property
+    def dominant(self) -> bool:
+        """Whether its prefiltered input is read along the dominant direction (``split3``)."""
+        return self.output == "split3"
 
     def select(self, x: torch.Tensor) -> torch.Tensor:
         """This student's inputs of ``x [N, k]`` in :data:`ALL_INPUTS` order (``k`` >= the last
@@ -130,7 +145,7 @@ class Student(nn.Module):
         k = torch.sigmoid(self.layers[-1](h))
         if self.occlusion == "input":
             return k
-        n_diffuse = 1 if self.output == "pbr3" else 3
+        n_diffuse = 3 if self.output == "free6" else 1
         return torch.cat([k[:, :n_diffuse] * x[:, 6:7], k[:, n_diffuse:]], dim=-1)
 
     def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor
@@ -143,6 +158,10 @@ class Student(nn.Module):
             return neural_student_radiance(k[:, :3], k[:, 3:], albedo, irradiance, prefiltered)
         metallic, specular = x[:, 4], x[:, 5]
         f0 = compute_f0(albedo, metallic, specular)
+        if self.output == "split3":  # x[:, 8:10]: the DFG LUT (ALL_INPUTS order)
+            return neural_student_radiance_split(k, diffuse_color(albedo, metallic), f0,
+                                                 f90_from_f0(f0), x[:, 8:10], irradiance,
+                                                 prefiltered)
         return neural_student_radiance_pbr(k, diffuse_color(albedo, metallic), f0,
                                            f90_from_f0(f0), irradiance, prefiltered)
 

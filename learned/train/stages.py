@@ -179,8 +179,9 @@ def design_features(model: Student, images: list[TrainImage]) -> list[tuple]:
     gets the material AO (the renderer multiplies SSAO in only when the user turns it on)."""
     if model.reads_visibility:
         return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0] * img.ssao,
-                                 img.vis) for img in images]
-    return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0]) for img in images]
+                                 img.vis, dominant=model.dominant) for img in images]
+    return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0],
+                             dominant=model.dominant) for img in images]
 
 
 def distill_loss(pred: torch.Tensor, target: torch.Tensor, kind: str) -> torch.Tensor:

@@ -25,7 +25,8 @@ from learned.twins.mc import mc_sample_2d
 
 from .brdf import clamp_perceptual_roughness
 from .equirect import equirect_uv
-from .ibl import DIRECTION_ABS_ERROR, equirect_uv_error, prefilter_lod, sample_trilinear_envelope
+from .ibl import (DIRECTION_ABS_ERROR, equirect_uv_error, ibl_specular_dfg, prefilter_lod,
+                  sample_trilinear_envelope)
 
 from .common import INV_PI
 
@@ -78,6 +79,20 @@ def neural_student_radiance_pbr(k: torch.Tensor, diffuse: torch.Tensor, f0: torc
     return s[..., 0:1] * diffuse * irradiance * INV_PI + spec * prefiltered
 
 
+def neural_student_radiance_split(k: torch.Tensor, diffuse: torch.Tensor, f0: torch.Tensor,
+                                  f90: torch.Tensor, dfg: torch.Tensor, irradiance: torch.Tensor,
+                                  prefiltered: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 neural_student_radiance_split(...)`` (output form ``split3``): ``k`` = (k_d,
+    k_a, k_b) ``[..., 3]``, dfg ``[..., 2]``, f90 ``[...]``; the split-sum model with learned
+    corrections S k (k = 0.5: ``ggx_split_sum`` without multiple scattering)."""
+    s = NEURAL_OUTPUT_SCALE * k
+    e_spec = ibl_specular_dfg(dfg, f0, f90)
+    spec = s[..., 1:2] * f0 * (dfg[..., 1:2] - dfg[..., 0:1]) \
+        + (s[..., 2] * f90 * dfg[..., 0])[..., None]
+    return s[..., 0:1] * diffuse * irradiance * INV_PI * (1.0 - e_spec).clamp_min(0.0) \
+        + spec * prefiltered
+
+
 # ---------------------------------------------------------------------------------------------
 # pass checks
 # ---------------------------------------------------------------------------------------------
@@ -119,7 +134,8 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
             ao = ao * ssao[..., 0].reshape(-1)
             if getattr(net_model, "reads_visibility", False):
                 vis = ssao[..., 1].reshape(-1)
-        x, irr, pre = student_features(flat, v, lighting, ao, vis)
+        x, irr, pre = student_features(flat, v, lighting, ao, vis,
+                                       dominant=getattr(net_model, "dominant", False))
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre)

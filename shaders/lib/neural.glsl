@@ -2,6 +2,7 @@
 // "generated/neural_student.glsl" / "generated/neural_teacher.glsl" from exported weights, which
 // call these). Pure functions, no uniforms. Twins: learned/twins/neural.py.
 #include "lib/common.glsl"
+#include "lib/ibl.glsl"
 
 // Scale of the student's sigmoid outputs (learned.neural.student.OUTPUT_SCALE): factors in [0, 2]
 // leave room for the indirect light the teacher learned.
@@ -54,4 +55,18 @@ vec3 neural_student_radiance_pbr(vec3 k, vec3 diffuse, vec3 f0, float f90, vec3 
                                  vec3 prefiltered) {
     vec3 s = NEURAL_OUTPUT_SCALE * k;
     return s.x * diffuse * irradiance * INV_PI + (s.y * f0 + vec3(s.z * f90)) * prefiltered;
+}
+
+// Student radiance, output form "split3": the classical split-sum model (lib/shading.glsl
+// ggx_split_sum, single scattering) with learned achromatic corrections, c = S k in [0, 2]^3:
+// L_o = c_d diffuse E / pi (1 - e_spec) + (c_a f0 (dfg.y - dfg.x) + c_b f90 dfg.x) P, where
+// e_spec = ibl_specular_dfg(dfg, f0, f90) and P is read along the dominant direction as
+// ggx_split_sum's pass reads it. k = 0.5 is ggx_split_sum exactly, so the network learns only
+// what the classical model misses (shadowing, occlusion, inter-reflection, its own bias).
+vec3 neural_student_radiance_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec2 dfg,
+                                   vec3 irradiance, vec3 prefiltered) {
+    vec3 s = NEURAL_OUTPUT_SCALE * k;
+    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90);
+    vec3 spec = s.y * f0 * (dfg.y - dfg.x) + vec3(s.z * f90 * dfg.x);
+    return s.x * diffuse * irradiance * INV_PI * max(1.0 - e_spec, 0.0) + spec * prefiltered;
 }

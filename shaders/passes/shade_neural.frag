@@ -19,8 +19,11 @@
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
 uniform vec3 u_sh[9];
-#if NEURAL_STUDENT_DFG
+#if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
 uniform sampler2D u_env_dfg;
+#endif
+#if NEURAL_STUDENT_SPLIT
+uniform sampler2D u_env_dominant;
 #endif
 
 void main() {
@@ -37,9 +40,15 @@ void main() {
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
     vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
-    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflect(-v, n)), r,
+#if NEURAL_STUDENT_SPLIT  // the split-sum model's lookup direction (shade_ggx_split_sum.frag)
+    vec3 reflected = specular_dominant_direction(n, reflect(-v, n),
+                                                 ibl_dominant_factor(u_env_dominant, NoV, r));
+#else
+    vec3 reflected = reflect(-v, n);
+#endif
+    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r,
                                              u_env_levels) * u_env_intensity;
-#if NEURAL_STUDENT_DFG
+#if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
 #else
     vec2 dfg = vec2(0.0);
@@ -54,7 +63,11 @@ void main() {
     vec3 k_1;
     neural_student_weights(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg, vis, k_0,
                            k_1);
-#if NEURAL_STUDENT_PBR
+#if NEURAL_STUDENT_SPLIT
+    vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
+    vec3 c = neural_student_radiance_split(k_0, diffuse_color(g.albedo, g.metallic), f0,
+                                           f90_from_f0(f0), dfg, irradiance, prefiltered);
+#elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = neural_student_radiance_pbr(k_0, diffuse_color(g.albedo, g.metallic), f0,
                                          f90_from_f0(f0), irradiance, prefiltered);

@@ -2,6 +2,7 @@
 import json
 import struct
 
+import numpy as np
 import pytest
 import torch
 
@@ -340,3 +341,31 @@ def test_vis_student_round_trip_parity_and_its_ssao_pass(programs, vis_weights):
         assert img[..., 1].min() < 0.5 < img[..., 1].max()  # the sun's shadow on the floor
     finally:
         renderer.release()
+
+
+def test_split3_student_starts_at_the_split_sum_model(programs, tmp_path):
+    """A ``split3`` student is initialised to k = 0.5 everywhere, which is ``ggx_split_sum``
+    (single scattering) by construction: its GLSL frame equals the classical model's to float
+    rounding (an identity between two independent passes, not a twin), with and without SSAO in
+    its inputs; then torch and GLSL agree on a perturbed one."""
+    from viewer.renderer import Renderer
+    from viewer.scene import scene_from_dict
+
+    torch.manual_seed(5)
+    s = Student(hidden=(8, 8), features="vis", output="split3")
+    path = tmp_path / "split.safetensors"
+    export(s, path)
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        base = scene_from_dict(tn.PARITY_SCENE).with_render(multiscatter=False, tonemap="none",
+                                                             ssao=True)
+        neural = renderer.render(base.with_render(model="neural", weights=str(path))).radiance
+        classical = renderer.render(base.with_render(model="ggx_split_sum")).radiance
+    finally:
+        renderer.release()
+    np.testing.assert_allclose(neural, classical, rtol=2e-6, atol=2e-6)
+    with torch.no_grad():
+        s.layers[-1].weight.normal_(0.0, 2.0)
+    export(s, path)
+    r = tn.check_model(programs, "neural", {}, path)
+    assert r.passed, r

@@ -62,7 +62,7 @@ STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "d
 # student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
 # outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag
 # combines the factors with the lighting by lib/neural.glsl's neural_student_radiance[_pbr].
-STUDENT_OUTPUTS = {"free6": 6, "pbr3": 3}
+STUDENT_OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
 # what a student file without "features" / "output" (written before they existed) holds
 DEFAULT_FEATURES = "base"
 DEFAULT_OUTPUT = "free6"

@@ -218,11 +218,15 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         inputs = STUDENT_FEATURES[net.features]
         dfg = "dfg.a" in inputs
         vis = "vis" in inputs
-        pbr = net.output == "pbr3"
+        pbr = net.output in ("pbr3", "split3")  # three achromatic factors
+        split = net.output == "split3"
         lines += [f"#define NEURAL_STUDENT_DFG {int(dfg)}  // 1: the network reads the DFG LUT",
                   f"#define NEURAL_STUDENT_VIS {int(vis)}  // 1: it reads the environment's "
                   "screen-space visibility",
-                  f"#define NEURAL_STUDENT_PBR {int(pbr)}  // output form: 0 free6, 1 pbr3",
+                  f"#define NEURAL_STUDENT_PBR {int(pbr)}  // output form: 0 free6, 1 pbr3 "
+                  "or split3",
+                  f"#define NEURAL_STUDENT_SPLIT {int(split)}  // 1: split3, corrections of "
+                  "the split-sum model",
                   "",
                   "// k [0, 1]^6 (free6: k_0 = k_diffuse rgb, k_1 = k_specular rgb) or [0, 1]^3",
                   "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0): the factors that",

@@ -54,4 +54,14 @@ PARITY_CASES = [
                atol=1e-6, rtol=1e-6, measured="max rel 2.0e-7 (max abs 1.5e-5 at ~2000)",
                envelope="s_d diffuse E / pi + (s_a f0 + s_b f90) P: 6 products + 2 adds of "
                         "terms >= 0 per side -> 4.8e-7 rel"),
+    ParityCase("neural_student_radiance_split",
+               (Arg(components=3), Arg(components=3), Arg(components=3), Arg(),
+                Arg(components=2, adversarial=((0, 0), (1, 1), (0.3, 0.3))),
+                Arg(lo=0.0, hi=50.0, components=3), Arg(lo=0.0, hi=50.0, components=3,
+                                                        adversarial=((0, 0, 0), (2000, 1, 0)))),
+               atol=2e-5, rtol=1e-6, measured="max abs 3.8e-6 (seed 0)",
+               envelope="terms to 2 x 50 / pi x 1 ~ 32 (diffuse) and 2 x 2000 (specular at the "
+                        "adversarial P): the differences dfg.y - dfg.x and 1 - e_spec cancel, so "
+                        "their rounding (u on values <= 1) is absolute: 3 u x 32 = 5.7e-6 on the "
+                        "diffuse term; products and the add 4.8e-7 rel"),
 ]

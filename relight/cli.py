@@ -19,6 +19,7 @@ import sys
 from viewer.errors import RelightError
 
 from .commands import (
+    _hidden,
     _positive_int,
     cmd_bench,
     cmd_decompose,
@@ -129,6 +130,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--student-target", choices=("teacher", "target"),
                    help="what the student learns from: the teacher x shadow map (default, the "
                         "thesis's distillation) or the dataset's targets (truth for traced data)")
+    p.add_argument("--student-output", choices=("free6", "pbr3", "split3"),
+                   help="the student's output form (default pbr3; split3: corrections of the "
+                        "split-sum model, which it starts from)")
+    p.add_argument("--student-hidden", type=_hidden, metavar="W,W",
+                   help="the student's hidden layer widths (default 16,16)")
     p.add_argument("--student-features", choices=("base", "dfg", "vis", "dfg-vis"),
                    help="the student's inputs (default base; vis: + the SSAO pass's visibility "
                         "of the environment's light, with which the renderer runs SSAO)")

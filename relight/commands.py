@@ -317,7 +317,8 @@ def _learned(what: str):
 
 # ``relight train`` options that override a field of learned.train.TrainConfig
 TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
-                   "light_samples", "strategy", "student_target", "student_features")
+                   "light_samples", "strategy", "student_target", "student_features",
+                   "student_output", "student_hidden")
 
 
 def _positive_int(text: str) -> int:
@@ -328,6 +329,17 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
+
+
+def _hidden(text: str) -> tuple[int, ...]:
+    """``--student-hidden 32,32`` -> (32, 32)."""
+    try:
+        widths = tuple(int(w) for w in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not comma-separated integers: {text!r}") from None
+    if not widths or any(w < 1 or w > 256 for w in widths):
+        raise argparse.ArgumentTypeError(f"widths must be 1..256, got {text!r}")
+    return widths
 
 
 def cmd_train(args) -> int:

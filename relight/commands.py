@@ -369,9 +369,11 @@ def cmd_train(args) -> int:
 
 
 def _truth_data(args) -> str:
-    """``relight train --targets reference``: the quick dataset's recipe with path-traced targets
-    and contact scenes, generated under OUT/data-truth by every torchrun rank (sample i by rank
-    i % WORLD_SIZE), resumable; returns its folder."""
+    """``relight train --targets reference``: the quick dataset's recipe with path-traced targets,
+    the truth scene kinds (contact, clusters, concave meshes, glTF models) and the real HDRIs sky
+    and park beside the procedural environments (esplanade and the nested kinds stay held out:
+    ``generator.held_out_config``), generated under OUT/data-truth by every torchrun rank (sample
+    i by rank i % WORLD_SIZE), resumable; returns its folder."""
     if args.data is not None:
         raise RelightError("--targets makes the generated dataset; drop --data (a given dataset "
                            "brings its own targets)", where="--targets")
@@ -382,7 +384,7 @@ def _truth_data(args) -> str:
     generator = _learned("learned.data.generator")
     recipe = dict(config.QUICK_DATA) | {
         "gbuffer_fraction": 0.0, "targets": "reference", "reference_spp": args.reference_spp,
-        "scene_kinds": generator.TRUTH_KINDS}
+        "scene_kinds": generator.TRUTH_KINDS, "env_paths": generator.TRUTH_ENV_PATHS}
     data = str(Path(args.out) / "data-truth")
     generator.generate(data, generator.GeneratorConfig(**recipe), progress=not args.quiet,
                        shard=True, tracer=reference_tracer())

@@ -32,10 +32,29 @@ records the source (``rasteriser`` | ``reference``, with spp, depth, seed, backe
 Material AO is set to 1 there (the path tracer computes visibility itself). ``learned`` does not
 import ``relight``: the caller passes the tracer (``relight.commands.reference_tracer()``).
 ``scene_kinds`` adds scenes where visibility matters (:data:`SCENE_KINDS`: a sphere resting on a
-floor, two touching spheres on a floor, and a lone sphere as the convex control), sample i of
-kind ``scene_kinds[i % len]``; the default ``("random",)`` leaves datasets unchanged. With
-``shard=True`` every torchrun rank writes the samples i with i % WORLD_SIZE == RANK and then waits
-for the others' (a file-system barrier).
+floor, two touching spheres on a floor, clusters of 3-6 spheres and meshes touching or close to
+each other, concave meshes (a bowl, an open box, a room corner of two walls, a torus lying flat),
+textured glTF models, a sphere nested inside a concave mesh, and a lone sphere as the convex
+control), sample i of kind ``scene_kinds[i % len]``; the default ``("random",)`` leaves datasets
+unchanged. Every object of these kinds rests on the floor: its lowest point, after its transform,
+on the plane. The concave shapes (OBJ: double-sided, made of closed parts) and the glTF models
+(``.glb``, base-colour and metallic-roughness textures, double-sided) are written once into the
+dataset's ``_meshes`` cache; a glTF object keeps its file's material, so its textures go through
+the rasteriser and the path tracer alike.
+
+Environments: ``env_procedural`` (default sky, sky, studio) and the files ``env_paths`` (the real
+HDRIs :data:`ENVIRONMENTS`, small very bright suns; repository-relative paths resolve against the
+repository). :func:`held_out_config` turns a training configuration into an evaluation one that
+shares no environment and no scene kind with it (default: esplanade alone, :data:`HELD_OUT_KINDS`;
+the training truth of ``relight train --targets reference`` draws sky and park,
+:data:`TRUTH_ENV_PATHS`, and :data:`TRUTH_KINDS`).
+
+Degraded inputs: ``degrade`` > 0 writes G-buffer inputs that are wrong the way inverse rendering's
+estimates are (:func:`degrade_inputs`: noisy normals, shading baked into albedo, biased
+roughness; drawn from the sample's stream ``default_rng([seed, i, 2])``, the recipe in
+``meta.json``'s ``degrade``), while ``rgb.exr`` and ``rgb_unoccluded.exr`` stay those of the true
+scene (thesis ch. 4's setting). With ``shard=True`` every torchrun rank writes the samples i with
+i % WORLD_SIZE == RANK and then waits for the others' (a file-system barrier).
 
 Deterministic for a seed (sample i draws from ``default_rng([seed, i])``; its split is fixed by i),
 resumable (a finished sample is a folder; one being written is ``<name>.tmp`` and is redone), and
@@ -43,6 +62,7 @@ shows a tqdm progress bar.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -54,8 +74,10 @@ import numpy as np
 import trimesh
 from tqdm import tqdm
 
+from assets import ASSET_ROOT
 from viewer.environment import EnvironmentSpec, load_environment, resample
 from viewer.geometry.imagespace import load_ffhq_pbr, load_stack_exr
+from viewer.geometry.loaders import load_mesh
 from viewer.imageio import write_exr
 from viewer.models import MODELS
 from viewer.renderer import Renderer
@@ -84,15 +106,41 @@ class GeneratorConfig:
     targets: str = "rasteriser"  # TARGETS: where rgb.exr comes from
     reference_spp: int = 256  # path-traced samples per pixel (targets = "reference")
     reference_depth: int = 4  # Mitsuba path depth (targets = "reference")
+    # the procedural environments drawn from beside env_paths (repeats weight the draw; () = the
+    # files alone, e.g. a held-out set of real HDRIs)
+    env_procedural: tuple[str, ...] = ("sky", "sky", "studio")
+    # degraded inputs (0 = off): the written G-buffer is wrong the way inverse-rendering estimates
+    # are (noisy normals, shading baked into albedo, biased roughness) at this strength (<= 1);
+    # the targets stay those of the true scene (degrade_inputs)
+    degrade: float = 0.0
 
 
 TARGETS = ("rasteriser", "reference")
 # "convex": one sphere alone (truth = the unoccluded target: a control); "sphere_on_plane": a
 # sphere resting on a floor (contact shadow); "touching_spheres": two spheres touching, resting on
-# a floor (occlusion and inter-reflection between them)
-SCENE_KINDS = ("random", "convex", "sphere_on_plane", "touching_spheres")
-# the kinds of `relight train --targets reference`: half random scenes, half contact scenes
-TRUTH_KINDS = ("random", "sphere_on_plane", "random", "touching_spheres")
+# a floor (occlusion and inter-reflection between them); "cluster": 3-6 spheres and meshes
+# resting on a floor, touching or close to each other; "concave": one concave mesh on a floor
+# (CONCAVE_SHAPES: a bowl, an open box, a room corner of two walls, a torus lying flat: self-
+# occlusion and inter-reflection); "gltf": 1-3 textured glTF models (GLTF_MODELS) and spheres on a
+# floor (textures through both the rasteriser and the tracer); "nested": a concave mesh with a
+# sphere resting inside it (in the bowl, the box, the corner, the torus's hole)
+SCENE_KINDS = ("random", "convex", "sphere_on_plane", "touching_spheres", "cluster", "concave",
+               "gltf", "nested")
+# the kinds of `relight train --targets reference`: a third random scenes, the rest scenes where
+# visibility and inter-reflection matter
+TRUTH_KINDS = ("random", "sphere_on_plane", "cluster", "random", "touching_spheres", "concave",
+               "random", "cluster", "gltf")
+# kinds no training sample of TRUTH_KINDS sees (held_out_config): the convex control and the
+# nested scenes (a sphere inside a concave mesh)
+HELD_OUT_KINDS = ("nested", "convex")
+CONCAVE_SHAPES = ("bowl", "open_box", "corner", "ring")
+GLTF_MODELS = ("vase", "crate")
+# the real HDRIs (assets/environments: small, very bright suns), repository-relative; the
+# training truth sees sky and park, the held-out sets esplanade
+ENVIRONMENTS = {name: f"assets/environments/{name}.exr" for name in ("sky", "park", "esplanade")}
+TRUTH_ENV_PATHS = (ENVIRONMENTS["sky"], ENVIRONMENTS["park"])
+HELD_OUT_ENV_PATHS = (ENVIRONMENTS["esplanade"],)
+PROCEDURAL_ENVIRONMENTS = ("sky", "studio")
 
 
 def split_of(index: int) -> str:
@@ -140,6 +188,196 @@ def _mesh_files(cache: Path, rank: int = 0) -> dict[str, Path]:
     return out
 
 
+def _cached_file(cache: Path, name: str, make, rank: int) -> Path:
+    """``cache/name``, written once by ``make(path)`` (through a per-rank temporary file)."""
+    p = cache / name
+    if not p.is_file():
+        stem, dot, suffix = name.rpartition(".")
+        tmp = cache / f"{stem}.tmp{rank}.{suffix}"  # one per rank: ranks may race here
+        make(tmp)
+        os.replace(tmp, p)
+    return p
+
+
+# concave shapes, in local coordinates: y up, resting on y = 0, about the y axis
+_BOWL_R, _BOWL_T = 0.6, 0.08  # outer radius, wall thickness
+_BOX_W, _BOX_H, _BOX_T = 1.1, 0.4, 0.06  # open box: width, wall height, wall/base thickness
+_CORNER_L, _CORNER_H, _CORNER_T = 1.3, 0.9, 0.06  # corner: wall length, height, thickness
+_RING_M, _RING_T = 0.5, 0.18  # torus lying flat: major radius, tube radius
+_Y_UP = trimesh.transformations.rotation_matrix(-math.pi / 2, [1, 0, 0])  # +Z -> +Y
+
+
+def _bowl() -> trimesh.Trimesh:
+    """A hemispherical shell (outer radius _BOWL_R, open at the top), closed: revolved profile."""
+    r, ri = _BOWL_R, _BOWL_R - _BOWL_T
+    a = np.linspace(0.0, math.pi / 2, 24)
+    outer = np.stack([r * np.sin(a), r - r * np.cos(a)], -1)  # from the bottom pole to the rim
+    inner = np.stack([ri * np.sin(a), r - ri * np.cos(a)], -1)[::-1]  # rim back to the bottom
+    profile = np.concatenate([outer, inner])
+    m = trimesh.creation.revolve(profile, sections=48)
+    m.apply_transform(_Y_UP)
+    return m
+
+
+def _boxes(parts) -> trimesh.Trimesh:
+    """Closed boxes ``(extents, centre)`` side by side (each watertight; none overlaps)."""
+    return trimesh.util.concatenate([trimesh.creation.box(e, trimesh.transformations
+                                                          .translation_matrix(c))
+                                     for e, c in parts])
+
+
+def _open_box() -> trimesh.Trimesh:
+    w, h, t = _BOX_W, _BOX_H, _BOX_T
+    y = t + (h - t) / 2  # walls stand on the base
+    inner = w - 2 * t
+    return _boxes([((w, t, w), (0, t / 2, 0)),
+                   ((w, h - t, t), (0, y, (w - t) / 2)), ((w, h - t, t), (0, y, -(w - t) / 2)),
+                   ((t, h - t, inner), ((w - t) / 2, y, 0)), ((t, h - t, inner), (-(w - t) / 2, y, 0))])
+
+
+def _corner() -> trimesh.Trimesh:
+    """Two walls meeting at a right angle (an L), standing on the floor: along x at the back
+    (z = -L/2 .. -L/2 + t) and along z on the left (x = -L/2 .. -L/2 + t); open towards +x+z."""
+    L, h, t = _CORNER_L, _CORNER_H, _CORNER_T
+    return _boxes([((L, h, t), (0, h / 2, -(L - t) / 2)),
+                   ((t, h, L - t), (-(L - t) / 2, h / 2, t / 2))])
+
+
+def _ring() -> trimesh.Trimesh:
+    m = trimesh.creation.torus(_RING_M, _RING_T, 48, 24)
+    m.apply_transform(_Y_UP)
+    m.apply_translation([0, _RING_T, 0])
+    return m
+
+
+_CONCAVE_MAKERS = {"bowl": _bowl, "open_box": _open_box, "corner": _corner, "ring": _ring}
+
+
+def _nested_spot(shape: str, rng) -> tuple[np.ndarray, float]:
+    """A sphere resting inside concave ``shape`` (local coordinates): ``(centre, radius)``. In the
+    bowl: touching its inner bottom; in the box: on its base; in the corner: touching both walls
+    and the floor; in the ring's hole: on the floor, touching the tube all round."""
+    if shape == "bowl":
+        ri = _BOWL_R - _BOWL_T
+        rs = float(rng.uniform(0.3, 0.7)) * ri
+        return np.array([0.0, _BOWL_R - ri + rs, 0.0]), rs
+    if shape == "open_box":
+        rs = float(rng.uniform(0.12, 0.25))
+        room = _BOX_W / 2 - _BOX_T - rs
+        x, z = (float(v) for v in rng.uniform(-room, room, 2))
+        return np.array([x, _BOX_T + rs, z]), rs
+    if shape == "corner":
+        rs = float(rng.uniform(0.15, 0.35))
+        c = -_CORNER_L / 2 + _CORNER_T + rs
+        return np.array([c, rs, c]), rs
+    if shape == "ring":  # |(M, T) - (0, rs)| = rs + T  <=>  rs = M^2 / 4T
+        rs = _RING_M ** 2 / (4 * _RING_T)
+        return np.array([0.0, rs, 0.0]), rs
+    raise ValueError(shape)
+
+
+def _revolved(profile: np.ndarray, sections: int):
+    """A surface of revolution about y with a texture seam (the first column repeated with u = 1):
+    positions, normals (from the profile's tangent), uvs and faces. ``profile`` ``[K, 2]`` (radius,
+    height) from the bottom's axis point to the top's."""
+    k = len(profile)
+    ang = np.linspace(0.0, 2 * math.pi, sections + 1)
+    r, y = profile[:, 0], profile[:, 1]
+    d = np.gradient(profile, axis=0)
+    nr, ny = d[:, 1], -d[:, 0]  # the tangent turned outwards
+    nn = np.hypot(nr, ny)
+    nr, ny = nr / nn, ny / nn
+    nr[0], ny[0], nr[-1], ny[-1] = 0.0, -1.0, 0.0, 1.0  # the poles
+    c, s = np.cos(ang)[None, :], np.sin(ang)[None, :]
+    pos = np.stack([r[:, None] * c, np.repeat(y[:, None], sections + 1, 1), r[:, None] * s], -1)
+    nrm = np.stack([nr[:, None] * c, np.repeat(ny[:, None], sections + 1, 1), nr[:, None] * s], -1)
+    uv = np.stack(np.meshgrid(ang / (2 * math.pi), np.linspace(0.0, 1.0, k)), -1)
+    idx = np.arange(k * (sections + 1)).reshape(k, sections + 1)
+    a, b, cc, dd = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
+    faces = np.concatenate([np.stack([a, cc, b], -1).reshape(-1, 3),
+                            np.stack([b, cc, dd], -1).reshape(-1, 3)])
+    pos = pos.reshape(-1, 3)
+    tri = pos[faces]
+    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=-1)
+    faces = faces[area > 1e-12]  # the poles' fans are half degenerate
+    return pos, nrm.reshape(-1, 3), uv.reshape(-1, 2), faces
+
+
+def _texture_images(kind: str):
+    """The glTF models' fixed textures (PIL RGB images, 64 x 64): base colour and metallic-
+    roughness (G roughness, B metallic)."""
+    from PIL import Image
+
+    yy, xx = np.mgrid[0:64, 0:64]
+    if kind == "vase":  # bands and a checker of terracotta and cream; glossy cream bands
+        band = (yy // 8) % 2
+        check = ((yy // 8) + (xx // 8)) % 2
+        c0, c1 = np.array([200, 90, 50]), np.array([235, 225, 200])
+        base = np.where((band * check)[..., None] > 0, c1, c0)
+        rough = np.where(band > 0, 60, 200)
+        metal = np.zeros_like(rough)
+    else:  # crate: planks with dark gaps, one metal band
+        plank = (yy // 16) % 2
+        gap = (yy % 16) < 2
+        base = np.where(plank[..., None] > 0, np.array([150, 100, 55]), np.array([120, 80, 45]))
+        base = np.where(gap[..., None], np.array([30, 20, 10]), base)
+        band = (xx >= 28) & (xx < 36)
+        base = np.where(band[..., None], np.array([180, 180, 185]), base)
+        rough = np.where(band, 90, 230)
+        metal = np.where(band, 255, 0)
+    mr = np.stack([np.zeros_like(rough), rough, metal], -1)
+    return (Image.fromarray(base.astype(np.uint8), "RGB"),
+            Image.fromarray(mr.astype(np.uint8), "RGB"))
+
+
+def _gltf_model(kind: str, path: Path) -> None:
+    """Write textured glTF model ``kind`` (GLTF_MODELS; y up, resting on y = 0; double-sided, as
+    the reference traces it) to ``path`` (.glb)."""
+    from trimesh.visual import TextureVisuals
+    from trimesh.visual.material import PBRMaterial
+
+    if kind == "vase":  # a closed vase: foot, belly, neck (concave), lip; ~0.9 tall
+        prof = np.array([[0.0, 0.0], [0.22, 0.0], [0.3, 0.05], [0.38, 0.2], [0.41, 0.35],
+                         [0.36, 0.52], [0.22, 0.66], [0.16, 0.74], [0.19, 0.84], [0.22, 0.9],
+                         [0.12, 0.9], [0.0, 0.9]])
+        pos, nrm, uv, faces = _revolved(prof, 48)
+    else:  # a crate: a box 0.8 x 0.6 x 0.6 whose faces each map the whole texture
+        box = trimesh.creation.box((0.8, 0.6, 0.6))
+        box.apply_translation([0, 0.3, 0])
+        tri = box.vertices[box.faces]  # unshared vertices: one normal and uv frame per face
+        pos = tri.reshape(-1, 3)
+        nrm = np.repeat(box.face_normals, 3, axis=0)
+        uv = np.zeros((len(pos), 2))
+        for f in range(len(box.faces)):
+            n = np.abs(box.face_normals[f])
+            ax = [i for i in range(3) if i != int(np.argmax(n))]
+            p = tri[f][:, ax]
+            lo, hi = box.bounds[0][ax], box.bounds[1][ax]
+            uv[3 * f:3 * f + 3] = (p - lo) / (hi - lo)
+        faces = np.arange(len(pos)).reshape(-1, 3)
+    base, mr = _texture_images(kind)
+    material = PBRMaterial(name=kind, baseColorTexture=base, metallicRoughnessTexture=mr,
+                           baseColorFactor=[255, 255, 255, 255], metallicFactor=1.0,
+                           roughnessFactor=1.0, doubleSided=True)
+    mesh = trimesh.Trimesh(pos, faces, vertex_normals=nrm, process=False,
+                           visual=TextureVisuals(uv=uv, material=material))
+    mesh.export(path)
+
+
+def _shape_files(cache: Path, rank: int = 0) -> dict[str, Path]:
+    """The concave shapes (``concave_<name>.obj``, OBJ: double-sided) and the textured glTF
+    models (``gltf_<name>.glb``) of the new scene kinds, written once into the mesh cache."""
+    cache.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for name, make in _CONCAVE_MAKERS.items():
+        out[name] = _cached_file(cache, f"concave_{name}.obj",
+                                 lambda p, make=make: make().export(p), rank)
+    for name in GLTF_MODELS:
+        out[name] = _cached_file(cache, f"gltf_{name}.glb",
+                                 lambda p, name=name: _gltf_model(name, p), rank)
+    return out
+
+
 def _material(rng) -> dict:
     metal = rng.random() < 0.25
     return {"albedo": [float(x) for x in rng.uniform(0.05, 0.95, 3)],
@@ -155,6 +393,161 @@ def _rotation(rng) -> list[list[float]]:
     ry = np.array([[ca, 0, sa], [0, 1, 0], [-sa, 0, ca]])
     rx = np.array([[1, 0, 0], [0, cb, -sb], [0, sb, cb]])
     return (ry @ rx).tolist()
+
+
+def _yaw(a: float) -> np.ndarray:
+    """Rotation about +Y by ``a`` radians."""
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _pitch(a: float) -> np.ndarray:
+    """Rotation about +X by ``a`` radians."""
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+# resting poses of the random scenes' trimesh meshes, as pitches (about x) before a yaw: the box
+# on a face; the torus (axis z) lying flat or standing on its rim; the capsule (axis z) standing
+# or lying
+_POSES = {"box": (0.0,), "torus": (-math.pi / 2, 0.0), "capsule": (-math.pi / 2, 0.0)}
+
+
+@functools.lru_cache(maxsize=32)
+def _vertices(path: str) -> np.ndarray:
+    """The positions of mesh file ``path`` as the renderer loads them (float64 ``[N, 3]``)."""
+    return np.concatenate([m.positions for m in load_mesh(path)]).astype(np.float64)
+
+
+def _footprint(body: dict) -> tuple[float, float, float, float]:
+    """``(cx, cz, radius, lowest y)`` of a body (``{"radius"}``: a sphere about the origin;
+    ``{"path", "linear"}``: a mesh file under a 3 x 3 map): the centre and radius of the circle
+    bounding its floor-plane projection, and its lowest point."""
+    if "radius" in body:
+        return 0.0, 0.0, float(body["radius"]), -float(body["radius"])
+    v = _vertices(str(body["path"])) @ np.asarray(body["linear"]).T
+    lo, hi = v.min(0), v.max(0)
+    cx, cz = (lo[0] + hi[0]) / 2, (lo[2] + hi[2]) / 2
+    return float(cx), float(cz), float(np.hypot(v[:, 0] - cx, v[:, 2] - cz).max()), float(lo[1])
+
+
+def _resting(body: dict, x: float, z: float, floor_y: float, material: dict | None) -> dict:
+    """The scene object of ``body`` resting on the floor ``y = floor_y`` (its lowest point on
+    it), its footprint centred on ``(x, z)``; a mesh without ``material`` keeps its file's own
+    materials (glTF textures)."""
+    if "radius" in body:
+        r = float(body["radius"])
+        return {"type": "sphere", "center": [float(x), floor_y + r, float(z)], "radius": r,
+                "material": material}
+    cx, cz, _, low = _footprint(body)
+    m = np.eye(4)
+    m[:3, :3] = body["linear"]
+    m[:3, 3] = [x - cx, floor_y - low, z - cz]
+    obj = {"type": "mesh", "path": str(body["path"]), "transform": m.tolist()}
+    if material is not None:
+        obj["material"] = material
+    return obj
+
+
+def _touching_distance(a: dict, b: dict) -> float:
+    """The horizontal centre distance at which two resting bodies touch: two spheres on one floor
+    (radii r, s) at 2 sqrt(r s); otherwise where their bounding footprint circles touch."""
+    if "radius" in a and "radius" in b:
+        return 2.0 * math.sqrt(a["radius"] * b["radius"])
+    return _footprint(a)[2] + _footprint(b)[2]
+
+
+def _place(rng, bodies: list[dict], cx: float, cz: float) -> list[tuple[float, float] | None]:
+    """Floor positions for ``bodies``: the first at ``(cx, cz)``, each next one beside a placed
+    one, touching it (half the time) or a little apart, overlapping none, within 1.3 of the first
+    (up to 64 tries; a body that finds no room is left out: None)."""
+    placed: list[tuple[int, float, float]] = []
+    out: list[tuple[float, float] | None] = [None] * len(bodies)
+    for k, b in enumerate(bodies):
+        if not placed:
+            x, z = cx, cz
+        else:
+            rho = _footprint(b)[2]
+            for _ in range(64):
+                j, xj, zj = placed[int(rng.integers(0, len(placed)))]
+                a = float(rng.uniform(0.0, 2 * math.pi))
+                gap = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.02, 0.3)) * rho
+                d = _touching_distance(bodies[j], b) + gap
+                x, z = xj + d * math.cos(a), zj + d * math.sin(a)
+                if z < -2.6 and math.hypot(x - cx, z - cz) < 1.3 and all(math.hypot(x - xi, z - zi) >= _touching_distance(bodies[i], b)
+                                    - 1e-9 for i, xi, zi in placed):
+                    break
+            else:
+                continue
+        placed.append((k, x, z))
+        out[k] = (x, z)
+    return out
+
+
+def _camera(fov: float, size: int) -> dict:
+    return {"position": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov_y": fov,
+            "size": [size, size]}
+
+
+def _floor(y: float, material: dict) -> dict:
+    return {"type": "plane", "center": [0.0, y, -4.0], "size": [12.0, 12.0], "material": material}
+
+
+def _cluster_scene(kind: str, rng, config: GeneratorConfig, meshes: dict[str, Path],
+                   shapes: dict[str, Path]) -> dict:
+    """"cluster": 3-6 spheres and meshes; "gltf": 1-3 bodies, the first a glTF model, the others
+    glTF models or spheres; all resting on a floor, touching or close to each other."""
+    floor_y = float(rng.uniform(-1.1, -0.7))
+    cx, cz = float(rng.uniform(-0.4, 0.4)), float(rng.uniform(-4.4, -3.6))
+    fov = float(rng.uniform(35.0, 50.0))
+    names = sorted(meshes) if config.meshes else []
+    bodies, materials = [], []
+    n = int(rng.integers(3, 7)) if kind == "cluster" else int(rng.integers(1, 4))
+    for k in range(n):
+        if kind == "gltf" and (k == 0 or rng.random() < 0.5):
+            name = GLTF_MODELS[int(rng.integers(0, len(GLTF_MODELS)))]
+            linear = _yaw(float(rng.uniform(0, 2 * math.pi))) * float(rng.uniform(0.8, 1.3))
+            bodies.append({"path": shapes[name], "linear": linear})
+            materials.append(None)  # the file's textured material
+            continue
+        if kind == "cluster" and names and rng.random() < 0.45:
+            name = names[int(rng.integers(0, len(names)))]
+            poses = _POSES.get(name, (0.0,))
+            pitch = poses[int(rng.integers(0, len(poses)))]
+            linear = (_yaw(float(rng.uniform(0, 2 * math.pi))) @ _pitch(pitch)
+                      * float(rng.uniform(0.4, 0.7)))
+            bodies.append({"path": meshes[name], "linear": linear})
+        else:
+            bodies.append({"radius": float(rng.uniform(0.2, 0.45))})
+        materials.append(_material(rng))
+    where = _place(rng, bodies, cx, cz)
+    objects = [_resting(b, *xz, floor_y, m) for b, xz, m in zip(bodies, where, materials)
+               if xz is not None]
+    objects.append(_floor(floor_y, _material(rng)))
+    return {"camera": _camera(fov, config.size), "objects": objects}
+
+
+def _concave_scene(kind: str, rng, config: GeneratorConfig, shapes: dict[str, Path]) -> dict:
+    """"concave": one concave shape (CONCAVE_SHAPES) resting on a floor; "nested": the same with a
+    sphere resting inside it (:func:`_nested_spot`). A corner opens towards the camera."""
+    shape = CONCAVE_SHAPES[int(rng.integers(0, len(CONCAVE_SHAPES)))]
+    scale = float(rng.uniform(0.8, 1.15))
+    yaw = (-math.pi / 4 + float(rng.uniform(-0.5, 0.5)) if shape == "corner"
+           else float(rng.uniform(0, 2 * math.pi)))
+    floor_y = float(rng.uniform(-1.35, -1.0))  # seen from above: the inside shows
+    x, z = float(rng.uniform(-0.3, 0.3)), float(rng.uniform(-3.4, -2.8))
+    fov = float(rng.uniform(50.0, 60.0))
+    mesh = _resting({"path": shapes[shape], "linear": _yaw(yaw) * scale}, x, z, floor_y,
+                    _material(rng))
+    objects = [mesh]
+    if kind == "nested":
+        local, rs = _nested_spot(shape, rng)
+        t = np.asarray(mesh["transform"])
+        c = t[:3, :3] @ local + t[:3, 3]
+        objects.append({"type": "sphere", "center": [float(v) for v in c],
+                        "radius": rs * scale, "material": _material(rng)})
+    objects.append(_floor(floor_y, _material(rng)))
+    return {"camera": _camera(fov, config.size), "objects": objects}
 
 
 def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
@@ -184,10 +577,20 @@ def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
             "objects": objects}
 
 
-def kind_scene(kind: str, rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
-    """The scene dict of sample kind ``kind`` (:data:`SCENE_KINDS`), without its environment."""
+def kind_scene(kind: str, rng, config: GeneratorConfig, meshes: dict[str, Path],
+               shapes: dict[str, Path] | None = None) -> dict:
+    """The scene dict of sample kind ``kind`` (:data:`SCENE_KINDS`), without its environment.
+    ``shapes``: the concave shapes and glTF models (:func:`_shape_files`) the kinds cluster,
+    concave, gltf and nested draw from."""
     if kind == "random":
         return random_scene(rng, config, meshes)
+    if kind in ("cluster", "gltf", "concave", "nested"):
+        if kind != "cluster" and not shapes:
+            raise DatasetError(f"scene kind {kind!r} needs the generator's shape files "
+                               "(_shape_files)", where="scene_kinds")
+        if kind in ("cluster", "gltf"):
+            return _cluster_scene(kind, rng, config, meshes, shapes or {})
+        return _concave_scene(kind, rng, config, shapes)
     fov = float(rng.uniform(30.0, 45.0))
     camera = {"position": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov_y": fov,
               "size": [config.size, config.size]}
@@ -224,15 +627,15 @@ def kind_scene(kind: str, rng, config: GeneratorConfig, meshes: dict[str, Path])
 
 def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
     """An equirect ``[H, W, 3]`` radiance image (intensity and rotation baked) and its recipe."""
-    choices = ["sky", "sky", "studio"] + list(config.env_paths)
+    choices = list(config.env_procedural) + list(config.env_paths)
     pick = choices[int(rng.integers(0, len(choices)))]
-    if pick in ("sky", "studio"):
+    if pick in PROCEDURAL_ENVIRONMENTS:
         spec = EnvironmentSpec(procedural=pick, width=config.env_width,
                                sun_elevation_deg=float(rng.uniform(10.0, 70.0)),
                                sun_azimuth_deg=float(rng.uniform(-180.0, 180.0)))
-    else:
-        spec = EnvironmentSpec(path=pick, width=config.env_width)
-    env = load_environment(spec)
+        env = load_environment(spec)
+    else:  # a file: loaded (and its texel warnings given) once per process
+        env = _file_environment(str(env_file(pick)), config.env_width)
     if env.shape[1] != config.env_width:
 
         env = resample(env, config.env_width, config.env_width // 2)
@@ -241,6 +644,57 @@ def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
     env = np.roll(env, shift, axis=1) * intensity
     return env.astype(np.float32), {"source": pick, "intensity": intensity,
                                     "rotation_texels": shift}
+
+
+@functools.lru_cache(maxsize=8)
+def _file_environment(path: str, width: int) -> np.ndarray:
+    env = load_environment(EnvironmentSpec(path=path, width=width))
+    env.setflags(write=False)
+    return env
+
+
+def env_file(path: str) -> Path:
+    """An environment file of ``env_paths``: as given, or (the repository-relative
+    :data:`ENVIRONMENTS`) under the repository root, so datasets do not depend on the working
+    directory and ``dataset.json`` holds no absolute path."""
+    p = Path(path)
+    if not p.is_file() and not p.is_absolute() and (ASSET_ROOT.parent / p).is_file():
+        return ASSET_ROOT.parent / p
+    return p
+
+
+def _env_identity(pick: str) -> str:
+    return pick if pick in PROCEDURAL_ENVIRONMENTS else str(env_file(pick).resolve())
+
+
+def held_out_config(config: GeneratorConfig, env_paths: tuple[str, ...] = HELD_OUT_ENV_PATHS,
+                    scene_kinds: tuple[str, ...] = HELD_OUT_KINDS, seed: int | None = None,
+                    **changes) -> GeneratorConfig:
+    """The configuration of an evaluation dataset that no training sample of ``config`` shares an
+    environment or a scene kind with: ``env_paths`` (default the esplanade HDRI) with no
+    procedural environment, ``scene_kinds`` (default :data:`HELD_OUT_KINDS`), another seed
+    (default ``config.seed + 1``), the rest of ``config`` (``changes`` override fields: count,
+    size...). A one-line :class:`DatasetError` when an environment file or a kind is shared.
+
+        train = GeneratorConfig(targets="reference", env_paths=TRUTH_ENV_PATHS,
+                                scene_kinds=TRUTH_KINDS)
+        test = held_out_config(train, count=20)   # esplanade; nested and convex scenes"""
+    from dataclasses import replace
+
+    out = replace(config, env_paths=tuple(env_paths), env_procedural=(),
+                  scene_kinds=tuple(scene_kinds),
+                  seed=config.seed + 1 if seed is None else int(seed), **changes)
+    train_envs = {_env_identity(e) for e in (*config.env_procedural, *config.env_paths)}
+    shared = [e for e in out.env_paths if _env_identity(e) in train_envs]
+    if shared:
+        raise DatasetError(f"held-out environment {shared[0]!r} is one the training "
+                           "configuration draws from", where="env_paths")
+    kinds = sorted(set(out.scene_kinds) & set(config.scene_kinds))
+    if kinds:
+        raise DatasetError(f"held-out scene kind {kinds[0]!r} is one the training configuration "
+                           "draws from", where="scene_kinds")
+    check_config(replace(out, targets="rasteriser"))
+    return out
 
 
 def check_config(config: GeneratorConfig, tracer=None) -> None:
@@ -257,6 +711,18 @@ def check_config(config: GeneratorConfig, tracer=None) -> None:
         if kind not in SCENE_KINDS:
             raise DatasetError(f"unknown scene kind {kind!r} (known: {', '.join(SCENE_KINDS)})",
                                where="scene_kinds")
+    for name in config.env_procedural:
+        if name not in PROCEDURAL_ENVIRONMENTS:
+            raise DatasetError(f"env_procedural {name!r} is not one of "
+                               f"{', '.join(PROCEDURAL_ENVIRONMENTS)}", where="env_procedural")
+    if not config.env_procedural and not config.env_paths:
+        raise DatasetError("no environment to draw from: give env_paths or env_procedural",
+                           where="env_paths")
+    for path in config.env_paths:
+        if not env_file(path).is_file():
+            raise DatasetError("environment file not found", where=path)
+    if not 0.0 <= config.degrade <= 1.0:
+        raise DatasetError(f"degrade {config.degrade} is not in [0, 1]", where="degrade")
     if config.targets == "reference":
         if config.gbuffer_fraction > 0:
             raise DatasetError("image G-buffers have no geometry to path-trace: use "
@@ -317,6 +783,8 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
     tmp_info.write_text(json.dumps(info, indent=1))
     os.replace(tmp_info, info_path)
     meshes = _mesh_files(root / "_meshes", rank) if config.meshes else {}
+    shapes = (_shape_files(root / "_meshes", rank)
+              if set(config.scene_kinds) & {"cluster", "concave", "gltf", "nested"} else {})
     mine = [i for i in range(config.count) if shard_of(i, rank, world)]
     own = renderer is None
     renderer = renderer or Renderer()
@@ -330,7 +798,8 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
             if final.is_dir():
                 skipped += 1
                 continue
-            _write_sample(renderer, final, i, config, meshes, write_exr, scene_from_dict, tracer)
+            _write_sample(renderer, final, i, config, meshes, write_exr, scene_from_dict, tracer,
+                          shapes)
             done += 1
     finally:
         if own:
@@ -388,6 +857,67 @@ def perturb_materials(channels: dict, rng) -> tuple[dict, dict]:
         out[k] = np.where(fg, out[k], channels[k]).astype(np.float32)
     recipe = {"cells": cells, "tint": [float(x) for x in tint], "mix": mix,
               "metal_threshold": metal_threshold}
+    return out, recipe
+
+
+def _masked_blur(img: np.ndarray, mask: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian blur (``sigma`` pixels) of ``img`` ``[H, W, C]`` over the pixels of ``mask``
+    ``[H, W]`` alone (normalised by the blurred mask: the background does not bleed in)."""
+    def kernel(n):
+        x = np.arange(n, dtype=np.float64)
+        k = np.exp(-0.5 * ((x[:, None] - x[None, :]) / max(sigma, 1e-3)) ** 2)
+        return k / k.sum(1, keepdims=True)
+
+    gy, gx = kernel(img.shape[0]), kernel(img.shape[1])
+    m = mask.astype(np.float64)[..., None]
+    num = np.einsum("ij,jkc,lk->ilc", gy, img.astype(np.float64) * m, gx)
+    den = np.einsum("ij,jkc,lk->ilc", gy, m, gx)
+    return num / np.maximum(den, 1e-12)
+
+
+def degrade_inputs(channels: dict, radiance: np.ndarray, rng,
+                   strength: float = 1.0) -> tuple[dict, dict]:
+    """G-buffer inputs wrong the way inverse rendering's estimates are (thesis ch. 4's setting),
+    on the foreground pixels; ``strength`` in [0, 1] scales every error:
+
+    - normals: plus a smooth random field (amplitude ~0.15-0.35) and per-pixel Gaussian noise
+      (~0.03-0.12), renormalised;
+    - albedo: shading baked in: times ``S ** bake`` (bake ~0.3-0.8), S the luminance of
+      ``radiance`` (the unoccluded render) blurred over the foreground (sigma 2-6 % of the
+      width), relative to its foreground median (clipped to [0.1, 10]), albedo clipped to [0, 1];
+    - roughness: biased, ``r * scale + offset`` (scale 1 +- 0.4, offset -0.1..0.15), clipped to
+      [0.02, 1].
+
+    Returns the new channels (the others shared) and the recipe (for ``meta.json``)."""
+    s = float(strength)
+    fg2 = channels["alpha"][..., 0] > 0.0
+    fg = fg2[..., None]
+    size = channels["normal"].shape[0]
+    cells = int(rng.integers(3, 9))
+    smooth_amp = s * float(rng.uniform(0.15, 0.35))
+    pixel_amp = s * float(rng.uniform(0.03, 0.12))
+    field = np.concatenate([_smooth_field(rng, size, cells) for _ in range(3)], -1) * 2 - 1
+    noise = rng.standard_normal(channels["normal"].shape).astype(np.float32)
+    n = channels["normal"] + smooth_amp * field + pixel_amp * noise
+    n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-8)
+    bake = s * float(rng.uniform(0.3, 0.8))
+    sigma = size * float(rng.uniform(0.02, 0.06))
+    lum = (radiance[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]))[..., None]
+    shade = _masked_blur(lum, fg2, sigma)
+    med = float(np.median(shade[fg2])) if fg2.any() else 1.0
+    shade = np.clip(shade / max(med, 1e-8), 0.1, 10.0)
+    albedo = np.clip(channels["albedo"] * shade ** bake, 0.0, 1.0)
+    scale = 1.0 + s * float(rng.uniform(-0.4, 0.4))
+    offset = s * float(rng.uniform(-0.1, 0.15))
+    rough = np.clip(channels["roughness"] * scale + offset, 0.02, 1.0)
+    out = dict(channels)
+    out["normal"] = np.where(fg, n, channels["normal"]).astype(np.float32)
+    out["albedo"] = np.where(fg, albedo, channels["albedo"]).astype(np.float32)
+    out["roughness"] = np.where(fg, rough, channels["roughness"]).astype(np.float32)
+    recipe = {"strength": s,
+              "normal": {"cells": cells, "smooth": smooth_amp, "pixel": pixel_amp},
+              "albedo": {"bake": bake, "sigma_px": sigma, "shading": "unoccluded render"},
+              "roughness": {"scale": scale, "offset": offset}}
     return out, recipe
 
 
@@ -451,18 +981,19 @@ def _gbuffer_geometry(renderer, tmp: Path, index: int, config: GeneratorConfig, 
 
 
 def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, meshes, write_exr,
-                  scene_from_dict, tracer=None) -> None:
+                  scene_from_dict, tracer=None, shapes=None) -> None:
     rng = np.random.default_rng([config.seed, index])
     tmp = final.with_name(final.name + ".tmp")
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)
     kind = config.scene_kinds[index % len(config.scene_kinds)]
-    scene_dict = kind_scene(kind, rng, config, meshes)
+    scene_dict = kind_scene(kind, rng, config, meshes, shapes)
     truth = config.targets == "reference"
     if truth:  # the path tracer computes visibility itself: no baked AO in the inputs either
         for o in scene_dict["objects"]:
-            o["material"]["ao"] = 1.0
+            if "material" in o:  # (a glTF model without one has no occlusion map)
+                o["material"]["ao"] = 1.0
     env, env_info = random_environment(rng, config)
     image = _gbuffer_geometry(renderer, tmp, index, config, meshes, scene_from_dict, write_exr)
     geometry = {"kind": "primitives" if kind == "random" else kind}
@@ -489,12 +1020,20 @@ def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, me
         unoccluded = renderer.render(unoccluded_scene)
         source = {"source": "rasteriser", "model": scene_dict["render"]["model"]}
     write_exr(tmp / "rgb_unoccluded.exr", unoccluded.radiance[..., :3], ["R", "G", "B"])
-    _write_gbuffer(tmp, frame.aovs, float(scene_dict["camera"]["fov_y"]), write_exr)
+    inputs = frame.aovs
+    degraded = None
+    if config.degrade > 0:  # the written inputs only: the targets are the true scene's
+        inputs, degraded = degrade_inputs(frame.aovs, unoccluded.radiance[..., :3],
+                                          np.random.default_rng([config.seed, index, 2]),
+                                          config.degrade)
+    _write_gbuffer(tmp, inputs, float(scene_dict["camera"]["fov_y"]), write_exr)
     meta = {"index": index, "seed": config.seed, "environment": env_info, "geometry": geometry,
             "objects": [{k: v for k, v in o.items() if k != "path"} | (
                 {"mesh": Path(o["path"]).stem} if o["type"] == "mesh" else {})
                 for o in scene_dict["objects"]],
             "render": scene_dict["render"], "target": source}
+    if degraded is not None:
+        meta["degrade"] = degraded
     (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
     if (tmp / "_source").exists():
         shutil.rmtree(tmp / "_source")

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -113,9 +114,12 @@ def sample_scene(sample, **render):
 def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: int | None = None,
              renderer=None, students: dict | None = None) -> list[dict]:
     """Every model of :func:`models_to_evaluate` on every sample of ``split`` (at most ``limit``):
-    one row per (model, variant) with the means over samples. ``students``: more student weights
+    one row per (model, variant) with the means over samples. ``split = "all"``: every split (a
+    held-out dataset, no sample of which was trained on). ``students``: more student weights
     files to score (variant name -> path)."""
-    folders = list_samples(root, split)[:limit]
+    splits = (split,) if split != "all" else tuple(
+        s for s in ("train", "val", "test") if (Path(root) / s).is_dir()) or ("test",)
+    folders = [f for s in splits for f in list_samples(root, s)][:limit]
     own = renderer is None
     renderer = renderer or Renderer()
     acc: dict[tuple, list] = {}

@@ -155,7 +155,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("eval", help="PSNR / SSIM / HDR-FLIP of every model on held-out samples")
     p.add_argument("data", help="dataset root (FFHQ256-PBR layout with targets)")
-    p.add_argument("--split", default="test")
+    p.add_argument("--split", default="test",
+                   help="train | val | test (default) | all (a held-out dataset: every sample)")
     p.add_argument("--teacher-samples", type=int, default=128)
     p.add_argument("--limit", type=int, help="at most this many samples")
     p.add_argument("--weights", action="append", default=[], metavar="NAME=FILE",

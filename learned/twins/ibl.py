@@ -304,7 +304,7 @@ def prefilter_level(chain: list[torch.Tensor], size: tuple[int, int], perceptual
     keep = NoL > 0.0
     pdf = ggx_sample_d(xi, a) * 0.25  # [S], from xi as the pass (not from NoH)
     omega_s = inv_samples / pdf.clamp_min(1e-30)
-    lod = (0.5 * torch.log2(omega_s / omega_p) + 1.0).clamp(0.0, max_lod)
+    lod = (0.5 * torch.log2(omega_s / omega_p)).clamp(0.0, max_lod)  # no +1 bias (the pass)
     uv = equirect_uv(l) if uv_offset is None else equirect_uv(l) + uv_offset
     rad = sample_trilinear(chain, uv, lod, weight_bits=weight_bits)  # [h, w, S, C]
     wgt = torch.where(keep, NoL, 0.0)
@@ -332,7 +332,7 @@ def prefilter_level_envelope(chain: list[torch.Tensor], size: tuple[int, int],
     NoL = _dot(n, l)
     pdf = ggx_sample_d(xi, a) * 0.25
     omega_s = (1.0 / float(samples)) / pdf.clamp_min(1e-30)
-    lod = (0.5 * torch.log2(omega_s / omega_p) + 1.0).clamp(0.0, float(len(chain) - 1))
+    lod = (0.5 * torch.log2(omega_s / omega_p)).clamp(0.0, float(len(chain) - 1))
     # l = 2 (n.h) h - n: direction errors of n and h (sin/cos) add up to ~3x theirs
     err = sample_trilinear_envelope(chain, equirect_uv(l), lod,
                                     equirect_uv_error(l, 3.0 * DIRECTION_ABS_ERROR),

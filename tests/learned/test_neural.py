@@ -81,15 +81,21 @@ def test_unknown_weight_storage_is_a_scene_error():
         scene_from_dict({"render": {"model": "neural", "neural_storage": "ssbo"}})
 
 
-@pytest.fixture(scope="module")
-def dfg_weights(tmp_path_factory):
-    d = tmp_path_factory.mktemp("dfg")
-    torch.manual_seed(2)
-    s = Student(hidden=(8, 12), num_freqs=1, features="dfg")
+def _student_file(tmp_path_factory, name: str, seed: int, **design):
+    """A random student with ``design`` exported to a temporary weights file; its last layer is
+    scaled by 3 to move the outputs away from the sigmoid's flat ends."""
+    d = tmp_path_factory.mktemp(name)
+    torch.manual_seed(seed)
+    s = Student(hidden=(8, 12), num_freqs=1, **design)
     with torch.no_grad():
         s.layers[-1].weight.mul_(3.0)
     export(s, d / "s.safetensors")
     return d / "s.safetensors"
+
+
+@pytest.fixture(scope="module")
+def dfg_weights(tmp_path_factory):
+    return _student_file(tmp_path_factory, "dfg", 2, features="dfg")
 
 
 def test_dfg_student_round_trip_and_parity(programs, dfg_weights):
@@ -105,13 +111,7 @@ def test_dfg_student_round_trip_and_parity(programs, dfg_weights):
 
 @pytest.fixture(scope="module")
 def pbr_weights(tmp_path_factory):
-    d = tmp_path_factory.mktemp("pbr")
-    torch.manual_seed(3)
-    s = Student(hidden=(8, 12), num_freqs=1, features="dfg", output="pbr3")
-    with torch.no_grad():
-        s.layers[-1].weight.mul_(3.0)
-    export(s, d / "s.safetensors")
-    return d / "s.safetensors"
+    return _student_file(tmp_path_factory, "pbr", 3, features="dfg", output="pbr3")
 
 
 def test_pbr_student_round_trip_and_parity(programs, pbr_weights):
@@ -346,13 +346,7 @@ def test_parity_cli_neural_passes(capsys):
 
 @pytest.fixture(scope="module")
 def vis_weights(tmp_path_factory):
-    d = tmp_path_factory.mktemp("vis")
-    torch.manual_seed(4)
-    s = Student(hidden=(8, 12), num_freqs=1, features="vis", output="pbr3")
-    with torch.no_grad():
-        s.layers[-1].weight.mul_(3.0)
-    export(s, d / "s.safetensors")
-    return d / "s.safetensors"
+    return _student_file(tmp_path_factory, "vis", 4, features="vis", output="pbr3")
 
 
 def test_vis_student_round_trip_parity_and_its_ssao_pass(programs, vis_weights):

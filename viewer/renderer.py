@@ -106,6 +106,26 @@ class Renderer:
         """The environment's importance-sampling distribution, cached like the IBL."""
         return self.resources.env_sampling(scene.environment)
 
+    def environment_visibility(self, scene: Scene, frame: FrameTargets):
+        """The SSAO pass with the environment's screen-space visibility (``SSAO_ENV_VIS``) on the
+        G-buffer of ``frame`` (what :meth:`draw` left for ``scene``, drawn with SSAO so depth and
+        normals are allocated), into the frame's SSAO target: r = O(x), g = S(x), as a student
+        with ``vis`` inputs reads them. For training data, tests and parity checks."""
+        make_current(self.ctx)
+        layout = self.specialization(scene).layout
+        tex, fbo = self.resources.targets(layout, frame.camera.size).extra(self.ctx, "ssao")
+        self._occlusion(self.resources.layout_pass("ssao", layout), scene,
+                        frame.gbuffer.textures, fbo, frame.camera, True)
+        return tex
+
+    def _occlusion(self, sspass, scene: Scene, gbuffer_textures, fbo, camera: Camera,
+                   visibility: bool) -> None:
+        """SSAO's occlusion O(x); with ``visibility`` also S(x) towards the environment's
+        equal-power directions (``viewer.envsampling.power_directions``)."""
+        vis_dirs = self.resources.power_directions(scene.environment) if visibility else None
+        sspass.occlusion(gbuffer_textures, fbo, camera, scene.render, vis_dirs=vis_dirs,
+                         env_rotation_deg=scene.environment.rotation_deg)
+
     # ---- the render graph ---------------------------------------------------------------------
     def draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
              samples_per_frame: int = 1, aovs=()) -> FrameTargets:
@@ -199,11 +219,8 @@ class Renderer:
         if settings.ssao.enabled:
             self._pass_begin("ssao")
             ssao, ssao_fbo = targets.extra(self.ctx, "ssao")
-            vis_dirs = None
-            if reads_visibility(settings):  # + the environment's visibility, g channel
-                vis_dirs = self.resources.power_directions(scene.environment)
-            sspass.occlusion(gbt, ssao_fbo, camera, settings, vis_dirs=vis_dirs,
-                             env_rotation_deg=scene.environment.rotation_deg)
+            # + the environment's visibility (g channel) for a student that reads it
+            self._occlusion(sspass, scene, gbt, ssao_fbo, camera, reads_visibility(settings))
         if settings.ssao.indirect:
             out_tex, out_fbo = targets.extra(self.ctx, "direct")
         else:

@@ -50,21 +50,11 @@ def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
     (``passes/ssao.frag`` with ``SSAO_ENV_VIS``, default SSAO settings) exactly as a student with
     ``vis`` inputs gets them at run time; the pass's torch twin (``learned.twins.ssao``) is held
     to it by the ``ssao:env_visibility`` parity check."""
-    from viewer.gl import make_current
-
     from ..evaluate import sample_scene
     from ..parity.checks.models import gl_texture
 
-    make_current(renderer.ctx)
     scene = sample_scene(sample, model="ggx_split_sum", ssao=True)
-    targets = renderer.draw(scene)
-    layout = renderer.specialization(scene).layout
-    tex, fbo = renderer.resources.targets(layout, targets.camera.size).extra(renderer.ctx, "ssao")
-    renderer.resources.layout_pass("ssao", layout).occlusion(
-        targets.gbuffer.textures, fbo, targets.camera, scene.render,
-        vis_dirs=renderer.resources.power_directions(scene.environment),
-        env_rotation_deg=scene.environment.rotation_deg)
-    img = gl_texture(tex)[::-1]
+    img = gl_texture(renderer.environment_visibility(scene, renderer.draw(scene)))[::-1]
     return np.ascontiguousarray(img[..., 0]), np.ascontiguousarray(img[..., 1])
 
 

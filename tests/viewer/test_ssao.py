@@ -174,13 +174,10 @@ def test_environment_visibility_matches_the_analytic_sun_shadow(renderer, tmp_pa
         "camera": {"position": list(cam), "target": [0, 0, -1], "fov_y": 50, "size": SIZE},
         "environment": {"path": str(env)}, "objects": [FLOOR, sphere],
         "render": {"tonemap": "none", "ssao": True}})
-    layout = renderer.specialization(sc).layout
     t = renderer.draw(sc)
-    tex, fbo = renderer.resources.targets(layout, t.camera.size).extra(renderer.ctx, "ssao")
     dirs = renderer.resources.power_directions(sc.environment)
     assert np.allclose(dirs @ SUN, 1.0, atol=0.01)  # every direction on the sun
-    renderer.resources.layout_pass("ssao", layout).occlusion(t.gbuffer.textures, fbo, t.camera,
-                                                             sc.render, vis_dirs=dirs)
+    tex = renderer.environment_visibility(sc, t)
     w, h = tex.size
     vis = np.frombuffer(tex.read(), np.float32).reshape(h, w, 4)[::-1, :, 1]
     normal = t.gbuffer.read(["normal"])["normal"]

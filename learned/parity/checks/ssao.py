@@ -38,14 +38,8 @@ def checks() -> dict:
             s = scene.render
             # the occlusion pass again with the environment's visibility (SSAO_ENV_VIS), as a
             # student with "vis" features runs it
-            layout = renderer.specialization(scene).layout
             vis_dirs = renderer.resources.power_directions(scene.environment)
-            tex, fbo = renderer.resources.targets(layout, targets.camera.size).extra(
-                programs.ctx, "ssao")
-            renderer.resources.layout_pass("ssao", layout).occlusion(
-                targets.gbuffer.textures, fbo, targets.camera, s, vis_dirs=vis_dirs,
-                env_rotation_deg=scene.environment.rotation_deg)
-            vis_gl = gl_texture(tex)
+            vis_gl = gl_texture(renderer.environment_visibility(scene, targets))
             with torch.no_grad():
                 ao = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
                                s.ssao.thickness, s.mc.seed).numpy()

@@ -35,6 +35,8 @@ class FrameTargets:
     samples: int = 1  # Monte-Carlo samples averaged in `radiance` (1 for single-sample models)
     ssao: object | None = None  # RGBA32F occlusion (r), when render.ssao
     direct: object | None = None  # RGBA32F direct light before the indirect pass (render.indirect)
+    # R32F: a neural student's learned factor on the indirect light (lighting pass, 2nd output)
+    indirect_factor: object | None = None
 
 
 def read_texture(texture, dtype: str) -> np.ndarray:

@@ -26,7 +26,7 @@ from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .models import ShadingModel, model_info
-from .neural import reads_visibility, required_settings
+from .neural import learns_indirect, reads_visibility, required_settings
 from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
 from .specialize import Specialization, analyse, specialise
@@ -169,7 +169,9 @@ class Renderer:
         return FrameTargets(radiance=targets.radiance, display=targets.display, gbuffer=gbuffer,
                             camera=camera, variant=spec.variant, samples=samples,
                             ssao=extra.get("ssao") if settings.ssao.enabled else None,
-                            direct=extra.get("direct") if settings.ssao.indirect else None)
+                            direct=extra.get("direct") if settings.ssao.indirect else None,
+                            indirect_factor=(extra.get("indirect_factor")
+                                             if learns_indirect(settings) else None))
 
     def _gbuffer(self, scene: Scene, spec: Specialization, targets: TargetSet, camera: Camera):
         """G-buffer pass (image stacks, meshes) then splats; returns the G-buffer to shade."""
@@ -208,7 +210,9 @@ class Renderer:
                   samples_per_frame: int) -> int:
         """SSAO -> lighting (accumulated for Monte-Carlo models) -> indirect, into ``radiance``.
         Returns the samples averaged. With ``indirect`` the lighting pass writes the direct-light
-        target of this frame, and the indirect pass adds eq. 6.22 gathered from it."""
+        target of this frame, and the indirect pass adds eq. 6.22 gathered from it; a neural
+        student with a learned indirect factor also writes that factor (a second output, an R32F
+        target made only for it) and the indirect pass scales its light by it."""
         settings = scene.render
         if scene.light is not None and model.directional_light == "ignored":
             _warn_light_ignored(settings.model)
@@ -221,8 +225,12 @@ class Renderer:
             ssao, ssao_fbo = targets.extra(self.ctx, "ssao")
             # + the environment's visibility (g channel) for a student that reads it
             self._occlusion(sspass, scene, gbt, ssao_fbo, camera, reads_visibility(settings))
+        factor = None
         if settings.ssao.indirect:
             out_tex, out_fbo = targets.extra(self.ctx, "direct")
+            if learns_indirect(settings):  # the student's 2nd output: its indirect factor
+                factor, _ = targets.extra(self.ctx, "indirect_factor", components=1)
+                out_fbo = targets.extras_fbo(self.ctx, ("direct", "indirect_factor"))
         else:
             out_tex, out_fbo = targets.radiance, targets.radiance_fbo
         env_sampling = self.env_sampling(scene) if "cdf" in model.needs else None
@@ -242,7 +250,7 @@ class Renderer:
             shade(out_fbo)
         if settings.ssao.indirect:
             self._pass_begin("indirect")
-            sspass.indirect(gbt, out_tex, targets.radiance_fbo, camera, settings)
+            sspass.indirect(gbt, out_tex, targets.radiance_fbo, camera, settings, factor=factor)
         return samples
 
     def _accumulate(self, scene: Scene, camera: Camera, shade, out_fbo, progressive: bool,

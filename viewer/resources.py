@@ -37,6 +37,8 @@ class TargetSet:
     display: object
     display_fbo: object
     extras: dict[str, tuple[object, object]] = field(default_factory=dict)  # name -> (tex, fbo)
+    # attachment names -> a framebuffer drawing to several extras at once (multiple render targets)
+    multi: dict[tuple, object] = field(default_factory=dict)
 
     @classmethod
     def create(cls, ctx, layout: GBufferLayout, size: tuple[int, int]) -> "TargetSet":
@@ -48,18 +50,30 @@ class TargetSet:
                    ctx.framebuffer(color_attachments=[radiance]), display,
                    ctx.framebuffer(color_attachments=[display]))
 
-    def extra(self, ctx, name: str) -> tuple[object, object]:
-        """``(texture, framebuffer)`` of the RGBA32F target ``name`` (made on first use)."""
+    def extra(self, ctx, name: str, components: int = 4) -> tuple[object, object]:
+        """``(texture, framebuffer)`` of the float32 target ``name`` with ``components`` channels
+        (RGBA32F by default; made on first use)."""
         if name not in self.extras:
-            tex = ctx.texture(self.radiance.size, 4, dtype="f4")
+            tex = ctx.texture(self.radiance.size, components, dtype="f4")
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
             self.extras[name] = (tex, ctx.framebuffer(color_attachments=[tex]))
         return self.extras[name]
+
+    def extras_fbo(self, ctx, names: tuple[str, ...]):
+        """A framebuffer with the extras ``names`` (made first with :meth:`extra`) as colour
+        attachments 0, 1, ...: a pass with several outputs draws to them at once."""
+        if names not in self.multi:
+            self.multi[names] = ctx.framebuffer(
+                color_attachments=[self.extras[n][0] for n in names])
+        return self.multi[names]
 
     def release(self) -> None:
         self.gbuffer.release()
         for obj in (self.radiance, self.radiance_fbo, self.display, self.display_fbo):
             obj.release()
+        for fbo in self.multi.values():
+            fbo.release()
+        self.multi.clear()
         for tex, fbo in self.extras.values():
             tex.release()
             fbo.release()

@@ -15,6 +15,9 @@ material and n.v predicts how much of each the surface reflects. Two output form
             (P along the dominant direction: k = 0.5 is ggx_split_sum, where it starts)
 
     occlusion "factor" (:data:`OCCLUSIONS`): k_d = ao sigmoid(...), AO applied outside the MLP
+    indirect "factor" (:data:`INDIRECTS`): a 4th output k_i = sigmoid(...) of the same network,
+            L = L_o + S k_i L_ind with L_ind the screen-space one-bounce light of
+            passes/ssao.frag (k_i = 0.5: the classical indirect term, where it starts)
 
 with S = :data:`OUTPUT_SCALE` = 2 (room for the indirect light the teacher learned), diffuse =
 ``diffuse_color(albedo, metallic)``, f0 = ``compute_f0(albedo, metallic, specular)`` and f90 =
@@ -33,8 +36,9 @@ import torch
 from torch import nn
 
 from learned.twins.brdf import compute_f0, f90_from_f0
-from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_student_radiance,
-                                  neural_student_radiance_pbr, neural_student_radiance_split)
+from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_indirect_factor,
+                                  neural_student_radiance, neural_student_radiance_pbr,
+                                  neural_student_radiance_split)
 from learned.twins.shading import diffuse_color
 
 from .encoding import encoded_size, fourier_encode
@@ -54,6 +58,9 @@ OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
 # model applies AO; "input" (files written before) leaves the product to the MLP, which learned the
 # training set's mean occlusion as a constant instead (issue 14: white furnace 0.42 for 0.8)
 OCCLUSIONS = ("input", "factor")
+# whether the student learns a factor on the screen-space indirect light (architecture "indirect";
+# twin: viewer.neural.format.STUDENT_INDIRECT) -> the outputs it adds to its output form's
+INDIRECTS = {"none": 0, "factor": 1}
 
 # Candidate designs of the measured comparison (relight.bench.students.compare_students):
 # name -> Student keyword arguments
@@ -84,7 +91,8 @@ class Student(nn.Module):
     kind = "student"
 
     def __init__(self, hidden: tuple[int, ...] = (32, 32), num_freqs: int = 0,
-                 features: str = "base", output: str = "free6", occlusion: str = "factor"):
+                 features: str = "base", output: str = "free6", occlusion: str = "factor",
+                 indirect: str = "none"):
         super().__init__()
         if features not in FEATURE_INPUTS:
             raise ValueError(f"unknown student features {features!r} "
@@ -95,14 +103,24 @@ class Student(nn.Module):
         if occlusion not in OCCLUSIONS:
             raise ValueError(f"unknown student occlusion {occlusion!r} "
                              f"(known: {', '.join(OCCLUSIONS)})")
+        if indirect not in INDIRECTS:
+            raise ValueError(f"unknown student indirect {indirect!r} "
+                             f"(known: {', '.join(INDIRECTS)})")
+        if indirect != "none" and OUTPUTS[output] != 3:
+            raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
+                             f"(pbr3 or split3), not {output!r}")
         self.occlusion = occlusion
+        self.indirect = indirect
         self.hidden = tuple(int(h) for h in hidden)
         self.num_freqs = int(num_freqs)
         self.features = features
         self.output = output
-        sizes = [encoded_size(len(self.inputs), self.num_freqs), *self.hidden, OUTPUTS[output]]
+        sizes = [encoded_size(len(self.inputs), self.num_freqs), *self.hidden,
+                 OUTPUTS[output] + INDIRECTS[indirect]]
         self.layers = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
-        if output == "split3":  # start at the classical model: k = sigmoid(0) = 0.5 everywhere
+        if output == "split3" or indirect != "none":
+            # start at the classical model: k = sigmoid(0) = 0.5 everywhere (split3: ggx_split_sum;
+            # the indirect factor: S k = 1, the classical one-bounce term)
             nn.init.zeros_(self.layers[-1].weight)
             nn.init.zeros_(self.layers[-1].bias)
 
@@ -113,7 +131,8 @@ class Student(nn.Module):
     @property
     def config(self) -> dict:
         return {"hidden": list(self.hidden), "num_freqs": self.num_freqs,
-                "features": self.features, "output": self.output, "occlusion": self.occlusion}
+                "features": self.features, "output": self.output, "occlusion": self.occlusion,
+                "indirect": self.indirect}
 
     def activations(self) -> list[str]:
         return ["relu"] * len(self.hidden) + ["sigmoid"]
@@ -121,6 +140,11 @@ class Student(nn.Module):
     @property
     def reads_visibility(self) -> bool:
         return "vis" in self.inputs
+
+    @property
+    def learns_indirect(self) -> bool:
+        """Whether it learns a factor on the screen-space indirect light (a 4th output)."""
+        return self.indirect != "none"
 
     @property
     def dominant(self) -> bool:
@@ -138,7 +162,8 @@ class Student(nn.Module):
     def weights(self, x: torch.Tensor) -> torch.Tensor:
         """``x [N, k]`` (:data:`ALL_INPUTS` order, :meth:`select`) -> the factors ``k [N, 6]``
         (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
-        [0, 1]; with ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6]."""
+        [0, 1], ``[N, 4]`` with the indirect light's k_i last (:attr:`learns_indirect`); with
+        ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6]."""
         h = fourier_encode(self.select(x), self.num_freqs)
         for layer in self.layers[:-1]:
             h = torch.relu(layer(h))
@@ -148,11 +173,29 @@ class Student(nn.Module):
         n_diffuse = 3 if self.output == "free6" else 1
         return torch.cat([k[:, :n_diffuse] * x[:, 6:7], k[:, n_diffuse:]], dim=-1)
 
-    def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor
-                ) -> torch.Tensor:
+    def indirect_factor(self, x: torch.Tensor) -> torch.Tensor:
+        """The factor ``[N]`` on the screen-space indirect light (lighting pass's second output,
+        ``neural_indirect_factor``): S k_i, 1 for a student without one."""
+        if not self.learns_indirect:
+            return torch.ones(x.shape[0], dtype=x.dtype)
+        return neural_indirect_factor(self.weights(x)[:, 3])
+
+    def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor,
+                indirect: torch.Tensor | None = None) -> torch.Tensor:
         """Radiance ``[N, 3]`` from :func:`learned.neural.lighting.student_features` (``x`` holds
-        albedo, roughness, metallic, specular first: the material of the ``pbr3`` form)."""
+        albedo, roughness, metallic, specular first: the material of the ``pbr3`` form): the
+        lighting pass's direct light, plus ``indirect`` (``[N, 3]``, the indirect pass's
+        one-bounce light L_ind) times :meth:`indirect_factor` when given."""
         k = self.weights(x)
+        out = self._radiance(k[:, :6 if self.output == "free6" else 3], x, irradiance,
+                             prefiltered)
+        if indirect is None:
+            return out
+        if self.learns_indirect:
+            return out + neural_indirect_factor(k[:, 3:4]) * indirect
+        return out + indirect
+
+    def _radiance(self, k, x, irradiance, prefiltered):
         albedo = x[:, :3]
         if self.output == "free6":
             return neural_student_radiance(k[:, :3], k[:, 3:], albedo, irradiance, prefiltered)

@@ -23,6 +23,9 @@ class TrainConfig:
     student_freqs: int = 0
     student_features: str = "base"  # "base" | "dfg" (learned.neural.student.FEATURE_INPUTS)
     student_output: str = "pbr3"  # "free6" | "pbr3" (learned.neural.student.OUTPUTS)
+    # "none" | "factor": a learned factor on the screen-space indirect light
+    # (learned.neural.student.INDIRECTS; trained on TrainImage.indirect)
+    student_indirect: str = "none"
     distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
     # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
     # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)

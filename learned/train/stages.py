@@ -42,6 +42,8 @@ class TrainImage:
     lighting: Lighting
     ssao: torch.Tensor  # [P] the SSAO pass's occlusion O(x) (eq. 6.19)
     vis: torch.Tensor  # [P] its screen-space visibility of the environment's light (SSAO_ENV_VIS)
+    # [P, 3] the indirect pass's one-bounce light L_ind (screen_space_indirect); None: not computed
+    indirect: torch.Tensor | None = None
 
 
 def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
@@ -58,6 +60,24 @@ def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(img[..., 0]), np.ascontiguousarray(img[..., 1])
 
 
+def screen_space_indirect(renderer, sample) -> np.ndarray:
+    """The indirect pass's one-bounce light L_ind (eq. 6.22, ``passes/ssao.frag`` with
+    ``SSAO_INDIRECT``, default settings) on the sample's own G-buffer, ``[H, W, 3]`` (row 0 at the
+    top): the frame of ``ggx_split_sum`` + SSAO + indirect minus its direct target, computed by the
+    renderer's GL pass. It gathers ``ggx_split_sum`` + SSAO's direct light, which is what a
+    ``split3`` student with ``vis`` inputs and an untrained indirect factor renders as its own;
+    a trained student's direct light differs a little, so at run time the pass gathers a slightly
+    different L_ind than the student was trained with."""
+    from ..evaluate import sample_scene
+    from ..parity.checks.models import gl_texture
+
+    scene = sample_scene(sample, model="ggx_split_sum", ssao=True, indirect=True,
+                         multiscatter=False)  # the single scattering of split3's start
+    targets = renderer.draw(scene)
+    out = gl_texture(targets.radiance)[..., :3] - gl_texture(targets.direct)[..., :3]
+    return np.ascontiguousarray(out[::-1])
+
+
 def load_images(root: str, split: str, renderer) -> list[TrainImage]:
     out = []
     for folder in list_samples(root, split):
@@ -71,11 +91,12 @@ def load_images(root: str, split: str, renderer) -> list[TrainImage]:
         target = torch.from_numpy(np.ascontiguousarray(s.target))
         unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
         ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s))
+        indirect = torch.from_numpy(screen_space_indirect(renderer, s))
         out.append(TrainImage(
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],
             target=target[fg], unshadowed=unshadowed[fg], target_image=target.permute(2, 0, 1),
             normal_image=ch["normal"].permute(2, 0, 1), ao_image=ch["ao"].permute(2, 0, 1),
-            lighting=lighting, ssao=ssao[fg], vis=vis[fg]))
+            lighting=lighting, ssao=ssao[fg], vis=vis[fg], indirect=indirect[fg]))
     if not out:
         raise DatasetError(f"no usable samples in the {split!r} split", where=root)
     return out
@@ -197,7 +218,8 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
     torch.manual_seed(cfg.seed + 3)
     design = design if design is not None else {
         "hidden": cfg.student_hidden, "num_freqs": cfg.student_freqs,
-        "features": cfg.student_features, "output": cfg.student_output}
+        "features": cfg.student_features, "output": cfg.student_output,
+        "indirect": cfg.student_indirect}
     model = Student(**design)
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
     if feats is None:
@@ -208,7 +230,11 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
         p = targets[k].shape[0]
         idx = torch.from_numpy(rng.choice(p, size=min(cfg.batch_pixels, p), replace=False))
         x, irr, pre = (t[idx] for t in feats[k])
-        return distill_loss(ddp(x, irr, pre), targets[k][idx], cfg.distill_loss)
+        if model.learns_indirect:  # direct + the learned factor x the indirect pass's L_ind
+            pred = ddp(x, irr, pre, images[k].indirect[idx])
+        else:
+            pred = ddp(x, irr, pre)
+        return distill_loss(pred, targets[k][idx], cfg.distill_loss)
 
     losses = _loop(run, stage, model, cfg.student_steps, cfg.lr, step)
     return model.eval(), losses

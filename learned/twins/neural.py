@@ -93,6 +93,12 @@ def neural_student_radiance_split(k: torch.Tensor, diffuse: torch.Tensor, f0: to
         + spec * prefiltered
 
 
+def neural_indirect_factor(k: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float neural_indirect_factor(float k)``: S k, the factor on the screen-space
+    indirect light of a student with architecture ``"indirect": "factor"``."""
+    return NEURAL_OUTPUT_SCALE * k
+
+
 # ---------------------------------------------------------------------------------------------
 # pass checks
 # ---------------------------------------------------------------------------------------------
@@ -100,7 +106,8 @@ def neural_student_radiance_split(k: torch.Tensor, diffuse: torch.Tensor, f0: to
 
 def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dict,
                  sample_range: tuple[int, int] = (0, 1), seed: int = 0,
-                 envelope: dict | None = None, ssao: torch.Tensor | None = None) -> torch.Tensor:
+                 envelope: dict | None = None, ssao: torch.Tensor | None = None,
+                 outputs: dict | None = None) -> torch.Tensor:
     """Torch twin of ``shade_neural.frag`` / ``shade_neural_teacher.frag`` on a G-buffer read back
     from GL (channel -> ``[H, W, C]``, GL row order). Returns ``[H, W, 4]``. ``ssao``: the SSAO
     pass's output ``[H, W, 4]`` when ``USE_SSAO`` (r: occlusion; g: the environment's visibility,
@@ -110,7 +117,10 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
     conforming GPU may land from this result through its texture lookups - the background, the
     prefiltered radiance and the DFG inputs, each lookup's
     :func:`~learned.twins.ibl.sample_trilinear_envelope` (``envelope["weight_bits"]``) times
-    |d radiance / d lookup| through the network by autograd."""
+    |d radiance / d lookup| through the network by autograd.
+
+    ``outputs`` (a dict, filled in): ``"indirect_factor"`` ``[H, W]``, the pass's second output
+    ``o_indirect_factor`` for a student with a learned indirect factor (1 on the background)."""
     h, w = gb["alpha"].shape[:2]
     ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32) + 0.5,
                             torch.arange(w, dtype=torch.float32) + 0.5, indexing="ij")
@@ -139,6 +149,11 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre)
+        if outputs is not None and getattr(net_model, "learns_indirect", False):
+            with torch.no_grad():
+                f = net_model.indirect_factor(x.detach())
+            covered = flat["alpha"][:, 0] > 0.0
+            outputs["indirect_factor"] = torch.where(covered, f, torch.ones_like(f)).reshape(h, w)
     else:
         start, count = sample_range
         px = xs.reshape(-1).floor().to(torch.int64)[:, None]

@@ -87,12 +87,13 @@ def ssao_march(p_vs, w, radius: float, steps: int, jitter, target: MarchTarget, 
 
 def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thickness: float,
               seed: int, direct: torch.Tensor | None = None, vis_dirs: torch.Tensor | None = None,
-              vis_steps: int = 16, vis_radius: float = 2.0, env_rotation: float = 0.0
-              ) -> torch.Tensor:
+              vis_steps: int = 16, vis_radius: float = 2.0, env_rotation: float = 0.0,
+              factor: torch.Tensor | None = None) -> torch.Tensor:
     """Twin of ``passes/ssao.frag``: G-buffer channels ``[H, W, C]`` (GL order) -> ``[H, W, 4]``:
     O(x) in every channel, or (with ``direct`` [H, W, 4]) direct + L_ind (eq. 6.22). With
     ``vis_dirs`` (``[8, 3]``, environment frame: ``SSAO_ENV_VIS``) the g channel holds the
-    environment's screen-space visibility S(x) instead (``env_rotation`` in radians)."""
+    environment's screen-space visibility S(x) instead (``env_rotation`` in radians). ``factor``
+    ``[H, W]`` (``SSAO_INDIRECT_FACTOR``): a neural student's learned factor on L_ind."""
     g = gbuffer
     h, w = g["alpha"].shape[:2]
     ys, xs = torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")
@@ -132,6 +133,8 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
                 target, active), torch.ones_like(hits))
         return out
     indirect = (1.0 - g["metallic"].clamp(0.0, 1.0)) * g["albedo"] * gathered / n_rays
+    if factor is not None:
+        indirect = indirect * factor[..., None]
     indirect = torch.where(torch.isfinite(indirect).all(-1, keepdim=True),
                            indirect * alpha[..., None], torch.zeros_like(indirect))
     out = torch.where(active[..., None], direct[..., :3] + indirect, direct[..., :3])

@@ -70,3 +70,12 @@ vec3 neural_student_radiance_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec
     vec3 spec = s.y * f0 * (dfg.y - dfg.x) + vec3(s.z * f90 * dfg.x);
     return s.x * diffuse * irradiance * INV_PI * max(1.0 - e_spec, 0.0) + spec * prefiltered;
 }
+
+// The learned factor on the screen-space indirect light (students with NEURAL_STUDENT_INDIRECT,
+// architecture "indirect": "factor"): f = S k in [0, 2] from the network's 4th sigmoid output k.
+// The lighting pass writes it to a second target and passes/ssao.frag (SSAO_INDIRECT_FACTOR)
+// scales its one-bounce light by it, L = L_dir + f L_ind; k = 0.5 (the zero-initialised last
+// layer) is the classical indirect term, f = 1.
+float neural_indirect_factor(float k) {
+    return NEURAL_OUTPUT_SCALE * k;
+}

@@ -8,6 +8,10 @@
 // colour from the material; 0 = free6, six per-channel factors; lib/neural.glsl; and
 // NEURAL_STUDENT_VIS: the student reads the screen-space visibility of the environment's light,
 // the g channel of u_ssao, which the renderer then computes: passes/ssao.frag, SSAO_ENV_VIS).
+// NEURAL_STUDENT_INDIRECT: the student learned a factor on the screen-space indirect light; the
+// pass writes it (lib/neural.glsl neural_indirect_factor, 1 on the background) to the second
+// target o_indirect_factor, which the renderer allocates for it and passes/ssao.frag
+// (SSAO_INDIRECT_FACTOR) multiplies into its one-bounce light.
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -25,6 +29,9 @@ uniform sampler2D u_env_dfg;
 #if NEURAL_STUDENT_SPLIT
 uniform sampler2D u_env_dominant;
 #endif
+#if NEURAL_STUDENT_INDIRECT
+layout(location = 1) out vec4 o_indirect_factor;  // r: the factor on L_ind (all four channels)
+#endif
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
@@ -32,6 +39,9 @@ void main() {
     vec3 d = view_ray_ws(gl_FragCoord.xy);
     vec3 background = background_radiance(d);
     if (g.alpha <= 0.0) {
+#if NEURAL_STUDENT_INDIRECT
+        o_indirect_factor = vec4(1.0);
+#endif
         write_radiance(vec3(0.0), background, 0.0);
         return;
     }
@@ -73,6 +83,9 @@ void main() {
                                          f90_from_f0(f0), irradiance, prefiltered);
 #else
     vec3 c = neural_student_radiance(k_0, k_1, g.albedo, irradiance, prefiltered);
+#endif
+#if NEURAL_STUDENT_INDIRECT
+    o_indirect_factor = vec4(neural_indirect_factor(k_1.x));
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

@@ -17,7 +17,10 @@
 // each marched u_vis_steps steps up to u_vis_radius; 1 where no direction is above the horizon.
 // It is the cast-shadow evidence (a sun shadow on a floor) that cosine-weighted SSAO averages away;
 // the students with "vis" features read it (shade_neural.frag).
-// Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1). Twin: learned.twins.ssao.ssao_pass.
+// SSAO_INDIRECT_FACTOR = 1 (indirect mode) scales L_ind by the r channel of u_indirect_factor, the
+// factor a neural student with a learned indirect term wrote in the lighting pass
+// (shade_neural.frag, NEURAL_STUDENT_INDIRECT): L = L_dir + f L_ind.
+// Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1), SSAO_INDIRECT_FACTOR (0/1). Twin: learned.twins.ssao.ssao_pass.
 #include "passes/deferred.glsl"
 #include "lib/shading.glsl"
 #include "lib/sampling.glsl"
@@ -31,6 +34,12 @@ uniform float u_thickness;  // delta of eq. 6.20, world units
 uniform uint u_seed;
 #if SSAO_INDIRECT
 uniform sampler2D u_direct;
+#endif
+#ifndef SSAO_INDIRECT_FACTOR
+#define SSAO_INDIRECT_FACTOR 0
+#endif
+#if SSAO_INDIRECT_FACTOR
+uniform sampler2D u_indirect_factor;
 #endif
 #ifndef SSAO_ENV_VIS
 #define SSAO_ENV_VIS 0
@@ -107,6 +116,9 @@ void main() {
     float rays = float(max(u_rays, 1));
 #if SSAO_INDIRECT
     vec3 indirect = (1.0 - saturate(g.metallic)) * g.albedo * gathered / rays;
+#if SSAO_INDIRECT_FACTOR
+    indirect *= texelFetch(u_indirect_factor, pixel, 0).r;
+#endif
     bool finite = !any(isnan(indirect)) && !any(isinf(indirect));
     o_radiance = vec4(direct.rgb + (finite ? indirect * g.alpha : vec3(0.0)), direct.a);
 #else

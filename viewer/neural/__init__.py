@@ -20,20 +20,21 @@ module       job
 Every name below is importable from ``viewer.neural`` itself.
 """
 from .format import (DEFAULT_FEATURES, DEFAULT_OUTPUT, FORMAT, FORMAT_VERSION, KINDS, MODEL_KINDS,
-                     STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INPUTS, STUDENT_OUTPUTS, TEACHER_INPUTS,
+                     STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS, STUDENT_OUTPUTS,
+                     TEACHER_INPUTS,
                      TENSOR_PARTS, NetworkFile, WeightsError, checkpoint_hash, default_weights,
                      expected_networks, read_weights, tensor_name)
 from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_TEXTURE_WIDTH,
                    NetworkCode, generate_glsl)
 from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
-from .network import (Network, load_network, model_network, reads_visibility, required_settings,
-                      virtual_files)
+from .network import (Network, learns_indirect, load_network, model_network, reads_visibility,
+                      required_settings, virtual_files)
 from .upload import NeuralWeights
 
 __all__ = [
     # format
     "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "KINDS", "MODEL_KINDS",
-    "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
+    "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INDIRECT", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
     "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights", "expected_networks",
     "read_weights", "tensor_name",
     # glsl
@@ -42,7 +43,7 @@ __all__ = [
     # kernels
     "STUDENT_KERNEL", "STUDENT_KERNEL_ENTRY", "STUDENT_KERNEL_GROUP", "mlp_kernel",
     # network
-    "Network", "load_network", "model_network", "reads_visibility", "required_settings",
+    "Network", "learns_indirect", "load_network", "model_network", "reads_visibility", "required_settings",
     "virtual_files",
     # upload
     "NeuralWeights",

@@ -19,7 +19,10 @@ architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [..
                 six per-channel factors, ``pbr3`` three achromatic ones of the split-sum form,
                 :data:`STUDENT_OUTPUTS`; ``"occlusion": "input" | "factor"``, no key = ``input``:
                 ``factor`` multiplies the diffuse factor(s) by the ``ao`` input, as every classical
-                model applies AO, :data:`STUDENT_OCCLUSION`)
+                model applies AO, :data:`STUDENT_OCCLUSION`); ``"indirect": "none" | "factor"``, no
+                key = ``none``: ``factor`` adds one network output, a learned factor 2 k on the
+                screen-space indirect light (the renderer then runs the indirect pass and the
+                lighting pass writes the factor for it, :data:`STUDENT_INDIRECT`)
 encoding        JSON (:func:`encoding`): ``{"type": "fourier", "num_freqs": L, "frequencies":
                 "pi * 2^k", "order": ...}``
 checkpoint      sha256 (hex) of the tensors (:func:`checkpoint_hash`); verified on load
@@ -71,6 +74,12 @@ DEFAULT_OUTPUT = "free6"
 # set's mean occlusion instead, issue 14), "factor" also multiplies the diffuse factor(s) by it
 STUDENT_OCCLUSION = ("input", "factor")
 DEFAULT_OCCLUSION = "input"
+# whether a student learns a factor on the screen-space indirect light (architecture "indirect";
+# twin: learned.neural.student.INDIRECTS) -> the network outputs it adds after those of its output
+# form: "factor" = one sigmoid output k, L = L_dir + 2 k L_ind (passes/ssao.frag), k = 0.5 the
+# classical one-bounce term; files without the key (written before) have none
+STUDENT_INDIRECT = {"none": 0, "factor": 1}
+DEFAULT_INDIRECT = "none"
 TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
                   "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
 TENSOR_PARTS = ("weight", "bias")  # the tensors of one layer, in file order per layer
@@ -113,6 +122,12 @@ class NetworkFile:
         return str(self.architecture.get("output", DEFAULT_OUTPUT))
 
     @property
+    def indirect(self) -> str:
+        """Whether the student learns a factor on the indirect light (``none`` | ``factor``,
+        :data:`STUDENT_INDIRECT`)."""
+        return str(self.architecture.get("indirect", DEFAULT_INDIRECT))
+
+    @property
     def occlusion(self) -> str:
         """How the student applies its ao input (``input`` | ``factor``,
         :data:`STUDENT_OCCLUSION`)."""
@@ -151,13 +166,14 @@ def checkpoint_hash(tensors: dict) -> str:
 
 
 def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT_FEATURES,
-                      output: str = DEFAULT_OUTPUT) -> dict[str, dict]:
+                      output: str = DEFAULT_OUTPUT, indirect: str = DEFAULT_INDIRECT
+                      ) -> dict[str, dict]:
     """The architecture every file of ``kind`` must have (sizes from its hidden widths and, for a
-    student, its input ``features`` and ``output`` form)."""
+    student, its input ``features``, ``output`` form and ``indirect`` factor)."""
     enc = lambda d: d * (1 + 2 * num_freqs)  # noqa: E731
     if kind == "student":
         sizes = [enc(len(STUDENT_FEATURES[features])), *[int(h) for h in hidden],
-                 STUDENT_OUTPUTS[output]]
+                 STUDENT_OUTPUTS[output] + STUDENT_INDIRECT[indirect]]
         return {"mlp": {"sizes": sizes,
                         "activations": ["relu"] * (len(sizes) - 2) + ["sigmoid"]}}
     if kind == "teacher":
@@ -169,19 +185,25 @@ def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT
 
 
 def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
-                 output: str | None = None, occlusion: str | None = None) -> dict:
+                 output: str | None = None, occlusion: str | None = None,
+                 indirect: str | None = None) -> dict:
     """The ``architecture`` metadata of a ``kind`` network (students record ``features``,
     ``output`` and ``occlusion``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT` /
-    :data:`DEFAULT_OCCLUSION`; teachers have none of them)."""
+    :data:`DEFAULT_OCCLUSION`, and ``indirect`` when it is not ``none``, so files of students
+    without the factor stay as they were written before it existed; teachers have none of
+    them)."""
     features = features or DEFAULT_FEATURES
     output = output or DEFAULT_OUTPUT
-    arch = {"networks": expected_networks(kind, num_freqs, hidden, features, output),
+    indirect = indirect or DEFAULT_INDIRECT
+    arch = {"networks": expected_networks(kind, num_freqs, hidden, features, output, indirect),
             "hidden": hidden, "num_freqs": num_freqs,
             "inputs": list(STUDENT_FEATURES[features] if kind == "student" else TEACHER_INPUTS)}
     if kind == "student":
         arch["features"] = features
         arch["output"] = output
         arch["occlusion"] = occlusion or DEFAULT_OCCLUSION
+        if indirect != DEFAULT_INDIRECT:
+            arch["indirect"] = indirect
     return arch
 
 
@@ -220,7 +242,13 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
     if kind == "student" and arch.get("occlusion", DEFAULT_OCCLUSION) not in STUDENT_OCCLUSION:
         raise ValueError(f"student occlusion {arch['occlusion']!r} "
                          f"(known: {', '.join(STUDENT_OCCLUSION)})")
-    return expected_networks(kind, num_freqs, hidden, features, output)
+    indirect = arch.get("indirect", DEFAULT_INDIRECT) if kind == "student" else DEFAULT_INDIRECT
+    if indirect not in STUDENT_INDIRECT:
+        raise ValueError(f"student indirect {indirect!r} (known: {', '.join(STUDENT_INDIRECT)})")
+    if indirect != DEFAULT_INDIRECT and STUDENT_OUTPUTS[output] != 3:
+        raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
+                         f"(pbr3 or split3), not {output!r}")
+    return expected_networks(kind, num_freqs, hidden, features, output, indirect)
 
 
 def _check_tensors(path: Path, want: dict[str, dict], tensors: dict) -> None:

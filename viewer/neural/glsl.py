@@ -220,6 +220,7 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         vis = "vis" in inputs
         pbr = net.output in ("pbr3", "split3")  # three achromatic factors
         split = net.output == "split3"
+        indirect = net.indirect != "none"  # a 4th output: the factor on the indirect light
         lines += [f"#define NEURAL_STUDENT_DFG {int(dfg)}  // 1: the network reads the DFG LUT",
                   f"#define NEURAL_STUDENT_VIS {int(vis)}  // 1: it reads the environment's "
                   "screen-space visibility",
@@ -227,9 +228,12 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
                   "or split3",
                   f"#define NEURAL_STUDENT_SPLIT {int(split)}  // 1: split3, corrections of "
                   "the split-sum model",
+                  f"#define NEURAL_STUDENT_INDIRECT {int(indirect)}  // 1: k_1.x is the factor "
+                  "on the indirect light",
                   "",
                   "// k [0, 1]^6 (free6: k_0 = k_diffuse rgb, k_1 = k_specular rgb) or [0, 1]^3",
-                  "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0): the factors that",
+                  "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0; with NEURAL_STUDENT_INDIRECT k_1.x is",
+                  "// the indirect light's k, lib/neural.glsl neural_indirect_factor): the factors that",
                   "// neural_student_radiance[_pbr] (lib/neural.glsl) combine with the lighting;",
                   "// dfg: split-sum LUT at (NoV, roughness), read only when NEURAL_STUDENT_DFG;",
                   "// vis: S(x) of passes/ssao.frag (SSAO_ENV_VIS), read only when NEURAL_STUDENT_VIS.",
@@ -243,7 +247,9 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         pack_lines, x = _pack("x", enc)
         mlp_lines, y = _mlp(net.layers("mlp"), "m", x, source)
         lines += enc_lines + pack_lines + mlp_lines
-        if pbr:
+        if pbr and indirect:
+            lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({y[0]}.w, 0.0, 0.0);"]
+        elif pbr:
             lines += [f"    k_0 = {y[0]}.xyz;", "    k_1 = vec3(0.0);"]
         else:
             lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({y[0]}.w, {y[1]}.xy);"]

@@ -85,10 +85,24 @@ def reads_visibility(settings) -> bool:
         "vis" in STUDENT_FEATURES.get(found[0].features, ())
 
 
+def learns_indirect(settings) -> bool:
+    """Whether the lighting pass of ``settings.model`` is a student with a learned factor on the
+    screen-space indirect light (architecture ``"indirect": "factor"``): it writes the factor to a
+    second target, and the indirect pass (``passes/ssao.frag``, ``SSAO_INDIRECT_FACTOR``) scales
+    its one-bounce light by it, whatever ``[render] indirect`` says."""
+    found = model_network(settings.model, settings)
+    return found is not None and found[0].kind == "student" and found[0].indirect != "none"
+
+
 def required_settings(settings):
     """``settings`` with what the model's network needs switched on: SSAO for a student that reads
     its occlusion and visibility inputs from it (it was trained on them; without the pass its ao
-    input would be the material's alone and its vis input 1). Unchanged for every other model."""
+    input would be the material's alone and its vis input 1), the indirect pass for a student that
+    learned a factor on its light (trained on direct + factor x indirect). Unchanged for every
+    other model."""
+    flat = {}
     if reads_visibility(settings) and not settings.ssao.enabled:
-        return settings.with_flat(ssao=True)
-    return settings
+        flat["ssao"] = True
+    if learns_indirect(settings) and not settings.ssao.indirect:
+        flat["indirect"] = True
+    return settings.with_flat(**flat) if flat else settings

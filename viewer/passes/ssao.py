@@ -4,7 +4,8 @@ eqs. 6.19-6.22).
 :meth:`SSAOPass.occlusion` writes the visibility O(x) of every pixel to an RGBA32F texture that the
 lighting passes multiply into their diffuse term (``USE_SSAO``); :meth:`SSAOPass.indirect` marches
 the same rays again and adds the diffuse one-bounce light gathered from the direct-lighting buffer
-(the lighting pass's output for this frame) at each ray's hit pixel. With ``vis_dirs`` (the
+(the lighting pass's output for this frame) at each ray's hit pixel, scaled per pixel by a factor
+texture when a neural student learned one (``SSAO_INDIRECT_FACTOR``). With ``vis_dirs`` (the
 environment's :func:`~viewer.envsampling.power_directions`) the occlusion pass also writes the
 screen-space visibility of the environment's light to the g channel (``SSAO_ENV_VIS``), the input
 of the students that see visibility; it marches :data:`ENV_VIS_STEPS` steps up to
@@ -36,18 +37,23 @@ class SSAOPass:
         self._draw = FullscreenDraw(self.ctx)
 
     def _run(self, indirect: bool, gbuffer_textures: dict, out_fbo, camera: Camera,
-             settings: RenderSettings, direct=None, vis_dirs=None, env_rotation_deg=0.0
-             ) -> None:
+             settings: RenderSettings, direct=None, vis_dirs=None, env_rotation_deg=0.0,
+             factor=None) -> None:
         env_vis = vis_dirs is not None
         prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao.frag",
                                       defines={"SSAO_INDIRECT": int(indirect),
                                                "SSAO_ENV_VIS": int(env_vis),
+                                               "SSAO_INDIRECT_FACTOR": int(factor is not None),
                                                "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
         unit = bind_gbuffer(prog, gbuffer_textures)
         if direct is not None and "u_direct" in prog:
             direct.use(unit)
             prog["u_direct"].value = unit
+            unit += 1
+        if factor is not None:
+            factor.use(unit)
+            prog["u_indirect_factor"].value = unit
             unit += 1
         basis = camera.basis()
         _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
@@ -76,9 +82,10 @@ class SSAOPass:
                   env_rotation_deg=env_rotation_deg)
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
-                 settings: RenderSettings) -> None:
-        """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``."""
-        self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct)
+                 settings: RenderSettings, factor=None) -> None:
+        """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``; with
+        ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind."""
+        self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct, factor=factor)
 
     def release(self) -> None:
         self._draw.release()

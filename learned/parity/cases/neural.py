@@ -64,4 +64,7 @@ PARITY_CASES = [
                         "adversarial P): the differences dfg.y - dfg.x and 1 - e_spec cancel, so "
                         "their rounding (u on values <= 1) is absolute: 3 u x 32 = 5.7e-6 on the "
                         "diffuse term; products and the add 4.8e-7 rel"),
+    ParityCase("neural_indirect_factor", (Arg(adversarial=(0.0, 0.5, 1.0)),),
+               atol=0.0, rtol=0.0, measured="exact",
+               envelope="exact: S k with S = 2, a power of two"),
 ]

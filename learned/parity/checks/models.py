@@ -24,9 +24,11 @@ def gl_gbuffer(targets: dict) -> dict[str, torch.Tensor]:
 
 
 def gl_texture(texture) -> np.ndarray:
-    """An RGBA32F target read back as [H, W, 4] float32 in GL row order."""
+    """A float32 target (RGBA32F, or fewer channels) read back as [H, W, C] float32 in GL row
+    order."""
     w, h = texture.size
-    return np.frombuffer(texture.read(), dtype=np.float32).reshape(h, w, 4).copy()
+    return np.frombuffer(texture.read(), dtype=np.float32).reshape(
+        h, w, texture.components).copy()
 
 
 def env_from_ibl(ibl) -> dict:

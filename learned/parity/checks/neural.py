@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -109,7 +110,10 @@ def check_model(programs, model: str, variant: dict, weights=None):
     try:
         targets = renderer.draw(scene)
         gb = gl_gbuffer(targets)
-        glsl = gl_texture(targets.radiance)
+        # a student with a learned indirect factor runs the indirect pass after its lighting
+        # pass: the lighting pass's output is the direct target (check_indirect_factor: the rest)
+        glsl = gl_texture(targets.direct if targets.indirect_factor is not None
+                          else targets.radiance)
         lighting = lighting_from_gl(renderer, scene.environment)
         ssao = None
         if scene.render.ssao.enabled:
@@ -144,6 +148,76 @@ def check_model(programs, model: str, variant: dict, weights=None):
                  "radiance / d lookup| through the network by autograd")
 
 
+# the factor is S k = 2 sigmoid: twice the network's bound
+FACTOR_ATOL = 2 * NETWORK_ATOL
+
+
+def indirect_student(programs, weights=None):
+    """``weights`` (default: the shipped student) when they learn an indirect factor, else a
+    random ``split3`` student with the factor and a perturbed last layer (seed 7), exported to a
+    temporary file: the path."""
+    import tempfile
+
+    from learned.export import export
+    from learned.neural.student import Student
+
+    path = weights or default_weights("student")
+    if load_network(path, "student").indirect != "none":
+        return path
+    torch.manual_seed(7)
+    s = Student(hidden=(8, 8), features="vis", output="split3", indirect="factor")
+    with torch.no_grad():
+        s.layers[-1].weight.normal_(0.0, 2.0)
+        s.layers[-1].bias.normal_(0.0, 0.5)
+    path = Path(tempfile.mkdtemp(prefix="relight-parity-")) / "indirect.safetensors"
+    export(s, path)
+    return path
+
+
+def check_indirect_factor(programs, weights=None) -> list:
+    """A student with a learned indirect factor, past its lighting pass (``model:neural``
+    compares that): the pass's second output, the factor, against ``Student.indirect_factor``
+    (``neural:indirect_factor``), and the indirect pass scaling its one-bounce light by it
+    (``model:neural:indirect``: GL frame vs :func:`learned.twins.ssao.ssao_pass` with the GL
+    direct light and factor, the robust comparison of ``ssao:indirect``)."""
+    from learned.twins.ssao import ssao_pass
+
+    from .ssao import robust_compare
+
+    path = indirect_student(programs, weights)
+    scene = scene_from_dict(PARITY_SCENE).with_render(model="neural", weights=str(path))
+    scene = dataclasses.replace(scene, render=required_settings(scene.render))
+    assert scene.render.ssao.indirect, "the student's indirect pass is not forced on"
+    net_model = load_model(path, "student")
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        targets = renderer.draw(scene)
+        gb = gl_gbuffer(targets)
+        factor_gl = gl_texture(targets.indirect_factor)[..., 0]
+        direct_gl = gl_texture(targets.direct)
+        final_gl = gl_texture(targets.radiance)
+        lighting = lighting_from_gl(renderer, scene.environment)
+        ssao = torch.from_numpy(gl_texture(targets.ssao).copy())
+        outputs = {}
+        with torch.no_grad():
+            shade_neural("neural", net_model, gb, targets.camera, lighting,
+                         shade_defines("neural", scene.render), ssao=ssao, outputs=outputs)
+            s = scene.render
+            final = ssao_pass(gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
+                              s.ssao.thickness, s.mc.seed, direct=torch.from_numpy(direct_gl),
+                              factor=torch.from_numpy(factor_gl)).numpy()
+    finally:
+        renderer.release()
+    factor = compare("neural:indirect_factor", factor_gl, outputs["indirect_factor"].numpy(),
+                     FACTOR_ATOL, 0.0, kind="pass",
+                     measured="max abs 2.4e-7 (random split3 student with the factor)",
+                     envelope="2 x the network's (NETWORK_ATOL: the issue's float32 bound on "
+                              "outputs in [0, 1]); S = 2 is exact; the ao and vis inputs come "
+                              "from the same GL SSAO target on both sides")
+    return [factor, robust_compare("model:neural:indirect", final_gl, final,
+                                   float(np.abs(final).max()))]
+
+
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
     found, register_pass_check = collector()
@@ -155,7 +229,8 @@ def checks() -> dict:
     register_pass_check("model:neural", model="neural")(
         lambda programs: [check_model(programs, "neural", v)
                           for v in ({}, {"ao": False, "background": "transparent"},
-                                    {"neural_storage": "ubo"}, {"neural_storage": "texture"})])
+                                    {"neural_storage": "ubo"}, {"neural_storage": "texture"})]
+        + check_indirect_factor(programs))
     register_pass_check("model:neural_teacher", model="neural_teacher")(
         lambda programs: [check_model(programs, "neural_teacher", v)
                           for v in ({"samples": 8, "sampling": "env"},

@@ -54,23 +54,25 @@ def checks() -> dict:
             renderer.release()
         # the visibility's share per direction is max(n.l_k, 0) / sum: a flipped hit moves it by
         # at most 1 (one direction carrying all the light); the robust test bounds the count
-        return [_robust("ssao:occlusion", ao_gl, ao, 1.0 / 6.0),
-                _robust("ssao:env_visibility", vis_gl, vis, 1.0),
-                _robust("ssao:indirect", final_gl, final, float(np.abs(final).max()))]
+        return [robust_compare("ssao:occlusion", ao_gl, ao, 1.0 / 6.0),
+                robust_compare("ssao:env_visibility", vis_gl, vis, 1.0),
+                robust_compare("ssao:indirect", final_gl, final, float(np.abs(final).max()))]
 
-    def _robust(name, gl, ref, step):
-        # A hit test is a threshold: float32 rounding may flip one ray's step in rare pixels.
-        # Pass: >= 99% of pixels within 1e-5 (abs + rel), none off by more than one ray's share.
-        diff = np.abs(gl - ref).max(axis=-1)
-        close = diff <= 1e-5 + 1e-5 * np.abs(ref).max(axis=-1)
-        frac = float(close.mean())
-        ok = frac >= 0.99 and float(diff.max()) <= step + 1e-5
-        rel = float((diff / np.maximum(np.abs(ref).max(axis=-1), 1e-6)).max())
-        return ParityResult(name, float(diff.max()), rel,
-                            f"99% of pixels within 1e-5, rest within one ray ({frac:.2%} close)",
-                            ok, "pass", "100% of pixels exact to 1e-5 on llvmpipe",
-                            "not a rounding bound: the march's hit tests are thresholds, so "
-                            "float32 differences (view_to_frag, surface_depth_at envelopes) "
-                            "flip whole rays in rare pixels; elsewhere both sides take the same "
-                            "hits and agree to ~1e-6")
     return found
+
+
+def robust_compare(name, gl, ref, step):
+    # A hit test is a threshold: float32 rounding may flip one ray's step in rare pixels.
+    # Pass: >= 99% of pixels within 1e-5 (abs + rel), none off by more than one ray's share.
+    diff = np.abs(gl - ref).max(axis=-1)
+    close = diff <= 1e-5 + 1e-5 * np.abs(ref).max(axis=-1)
+    frac = float(close.mean())
+    ok = frac >= 0.99 and float(diff.max()) <= step + 1e-5
+    rel = float((diff / np.maximum(np.abs(ref).max(axis=-1), 1e-6)).max())
+    return ParityResult(name, float(diff.max()), rel,
+                        f"99% of pixels within 1e-5, rest within one ray ({frac:.2%} close)",
+                        ok, "pass", "100% of pixels exact to 1e-5 on llvmpipe",
+                        "not a rounding bound: the march's hit tests are thresholds, so "
+                        "float32 differences (view_to_frag, surface_depth_at envelopes) "
+                        "flip whole rays in rare pixels; elsewhere both sides take the same "
+                        "hits and agree to ~1e-6")

@@ -140,8 +140,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "of the environment's light, with which the renderer runs SSAO)")
     p.add_argument("--student-indirect", choices=("none", "factor"),
                    help="whether the student learns a factor on the screen-space indirect light "
-                        "(default none; factor: a 4th output of its network, starting at the "
-                        "classical one-bounce term; the renderer then runs the indirect pass)")
+                        "(default none; factor: a second small network on the same inputs, "
+                        "starting at the classical one-bounce term; the renderer then runs the "
+                        "indirect pass)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "

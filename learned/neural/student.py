@@ -15,9 +15,10 @@ material and n.v predicts how much of each the surface reflects. Two output form
             (P along the dominant direction: k = 0.5 is ggx_split_sum, where it starts)
 
     occlusion "factor" (:data:`OCCLUSIONS`): k_d = ao sigmoid(...), AO applied outside the MLP
-    indirect "factor" (:data:`INDIRECTS`): a 4th output k_i = sigmoid(...) of the same network,
-            L = L_o + S k_i L_ind with L_ind the screen-space one-bounce light of
-            passes/ssao.frag (k_i = 0.5: the classical indirect term, where it starts)
+    indirect "factor" (:data:`INDIRECTS`): k_i = sigmoid(MLP_i(x)), a second network of
+            :data:`INDIRECT_HIDDEN` relu units on the same inputs, L = L_o + S k_i L_ind with
+            L_ind the screen-space one-bounce light of passes/ssao.frag (k_i = 0.5: the
+            classical indirect term, where it starts)
 
 with S = :data:`OUTPUT_SCALE` = 2 (room for the indirect light the teacher learned), diffuse =
 ``diffuse_color(albedo, metallic)``, f0 = ``compute_f0(albedo, metallic, specular)`` and f90 =
@@ -59,8 +60,10 @@ OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
 # training set's mean occlusion as a constant instead (issue 14: white furnace 0.42 for 0.8)
 OCCLUSIONS = ("input", "factor")
 # whether the student learns a factor on the screen-space indirect light (architecture "indirect";
-# twin: viewer.neural.format.STUDENT_INDIRECT) -> the outputs it adds to its output form's
-INDIRECTS = {"none": 0, "factor": 1}
+# twin: viewer.neural.format.STUDENT_INDIRECT): "factor" = a second network "indirect" of
+# INDIRECT_HIDDEN relu units on the same inputs, one sigmoid output
+INDIRECTS = ("none", "factor")
+INDIRECT_HIDDEN = 16  # twin: viewer.neural.format.INDIRECT_HIDDEN
 
 # Candidate designs of the measured comparison (relight.bench.students.compare_students):
 # name -> Student keyword arguments
@@ -115,14 +118,19 @@ class Student(nn.Module):
         self.num_freqs = int(num_freqs)
         self.features = features
         self.output = output
-        sizes = [encoded_size(len(self.inputs), self.num_freqs), *self.hidden,
-                 OUTPUTS[output] + INDIRECTS[indirect]]
+        n_in = encoded_size(len(self.inputs), self.num_freqs)
+        sizes = [n_in, *self.hidden, OUTPUTS[output]]
         self.layers = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
-        if output == "split3" or indirect != "none":
-            # start at the classical model: k = sigmoid(0) = 0.5 everywhere (split3: ggx_split_sum;
-            # the indirect factor: S k = 1, the classical one-bounce term)
-            nn.init.zeros_(self.layers[-1].weight)
-            nn.init.zeros_(self.layers[-1].bias)
+        # the factor on the indirect light: a second network (empty without one)
+        self.indirect_layers = nn.ModuleList(
+            [nn.Linear(n_in, INDIRECT_HIDDEN), nn.Linear(INDIRECT_HIDDEN, 1)]
+            if indirect != "none" else [])
+        # start at the classical model: k = sigmoid(0) = 0.5 everywhere (split3: ggx_split_sum;
+        # the indirect factor: S k = 1, the classical one-bounce term)
+        for last in ([self.layers[-1]] if output == "split3" else []) + list(
+                self.indirect_layers[-1:]):
+            nn.init.zeros_(last.weight)
+            nn.init.zeros_(last.bias)
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -143,7 +151,7 @@ class Student(nn.Module):
 
     @property
     def learns_indirect(self) -> bool:
-        """Whether it learns a factor on the screen-space indirect light (a 4th output)."""
+        """Whether it learns a factor on the screen-space indirect light (a second network)."""
         return self.indirect != "none"
 
     @property
@@ -164,10 +172,14 @@ class Student(nn.Module):
         (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
         [0, 1], ``[N, 4]`` with the indirect light's k_i last (:attr:`learns_indirect`); with
         ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6]."""
-        h = fourier_encode(self.select(x), self.num_freqs)
+        x_enc = fourier_encode(self.select(x), self.num_freqs)
+        h = x_enc
         for layer in self.layers[:-1]:
             h = torch.relu(layer(h))
         k = torch.sigmoid(self.layers[-1](h))
+        if self.learns_indirect:
+            k_i = torch.sigmoid(self.indirect_layers[1](torch.relu(self.indirect_layers[0](x_enc))))
+            k = torch.cat([k, k_i], dim=-1)
         if self.occlusion == "input":
             return k
         n_diffuse = 3 if self.output == "free6" else 1
@@ -210,10 +222,15 @@ class Student(nn.Module):
 
     def networks(self) -> dict[str, list[tuple[torch.Tensor, torch.Tensor, str]]]:
         """name -> [(weight [out, in], bias [out], activation)] as exported."""
-        return {"mlp": [(l.weight, l.bias, a) for l, a in zip(self.layers, self.activations())]}
+        nets = {"mlp": [(l.weight, l.bias, a) for l, a in zip(self.layers, self.activations())]}
+        if self.learns_indirect:
+            nets["indirect"] = [(l.weight, l.bias, a)
+                                for l, a in zip(self.indirect_layers, ("relu", "sigmoid"))]
+        return nets
 
     def macs_per_pixel(self) -> int:
-        return sum(l.in_features * l.out_features for l in self.layers)
+        return sum(l.in_features * l.out_features
+                   for l in (*self.layers, *self.indirect_layers))
 
     def parameter_count(self) -> int:
         return sum(p.numel() for p in self.parameters())

@@ -72,7 +72,8 @@ vec3 neural_student_radiance_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec
 }
 
 // The learned factor on the screen-space indirect light (students with NEURAL_STUDENT_INDIRECT,
-// architecture "indirect": "factor"): f = S k in [0, 2] from the network's 4th sigmoid output k.
+// architecture "indirect": "factor"): f = S k in [0, 2] from the sigmoid output k of the
+// student's second network ("indirect", generated into neural_student_weights' k_1.x).
 // The lighting pass writes it to a second target and passes/ssao.frag (SSAO_INDIRECT_FACTOR)
 // scales its one-bounce light by it, L = L_dir + f L_ind; k = 0.5 (the zero-initialised last
 // layer) is the classical indirect term, f = 1.

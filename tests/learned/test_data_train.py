@@ -117,6 +117,34 @@ def test_training_losses_decrease_and_export(dataset, tmp_path):
     assert "train.log" in os.listdir(tmp_path / "run")
 
 
+def test_training_a_student_with_the_indirect_factor(dataset, tmp_path, ctx):
+    """``student_indirect="factor"``: the training images carry the indirect pass's L_ind from the
+    renderer's GL pass (zero where nothing is gathered, never negative), the student trains
+    direct + factor x L_ind on the dataset's targets and exports the ``indirect`` network, which
+    moved off its zero start (factor 1)."""
+    from learned.export import load_model
+    from learned.train import load_images, train
+    from viewer.neural import load_network
+    from viewer.renderer import Renderer
+
+    r = Renderer(ctx=ctx)
+    try:
+        images = load_images(str(dataset), "train", r)
+    finally:
+        r.release()
+    ind = torch.cat([img.indirect for img in images])
+    assert ind.shape[1] == 3 and ind.min() >= 0.0 and ind.max() > 0.0
+    res = train(_cfg(dataset, tmp_path / "run", student_target="target", student_features="vis",
+                     student_output="split3", student_indirect="factor", teacher_steps=5,
+                     shadow_steps=3, student_steps=60), quiet=True)
+    losses = res["student_loss"]
+    assert np.mean(losses[-8:]) < np.mean(losses[:8])
+    net = load_network(res["student"], "student")
+    assert net.indirect == "factor" and "indirect" in net.architecture["networks"]
+    assert np.abs(net.tensors["indirect.1.weight"]).max() > 0.0
+    assert load_model(res["student"]).learns_indirect
+
+
 def test_training_resumes_from_checkpoint(dataset, tmp_path):
     from learned.train import train
 

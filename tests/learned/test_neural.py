@@ -416,8 +416,8 @@ def test_split3_student_starts_at_the_split_sum_model(programs, tmp_path):
 # ---- the learned indirect factor (architecture "indirect": "factor", issue 14) --------------------
 
 def test_indirect_student_starts_at_split_sum_with_ssao_and_indirect(programs, tmp_path):
-    """An untrained student with the indirect factor (zero-initialised last layer: split3's k = 0.5
-    and the factor 2 k_i = 1) renders ``ggx_split_sum`` (single scattering) + SSAO + the classical
+    """An untrained student with the indirect factor (zero-initialised last layers: split3's k = 0.5
+    and the indirect network's factor 2 k_i = 1) renders ``ggx_split_sum`` (single scattering) + SSAO + the classical
     indirect pass exactly, although the scene asks for neither SSAO nor indirect light: the renderer
     forces both on for it, and allocates the factor's target only for such a student."""
     from viewer.neural import learns_indirect, required_settings
@@ -429,7 +429,8 @@ def test_indirect_student_starts_at_split_sum_with_ssao_and_indirect(programs, t
     path = tmp_path / "ind.safetensors"
     export(s, path)
     net = load_network(path, "student")
-    assert net.indirect == "factor" and "mlp 9-8-8-4" in net.glsl
+    assert net.indirect == "factor" and "mlp 9-8-8-3" in net.glsl
+    assert "indirect 9-16-1 (relu, sigmoid)" in net.glsl
     assert "#define NEURAL_STUDENT_INDIRECT 1" in net.glsl
     base = scene_from_dict(tn.PARITY_SCENE).with_render(multiscatter=False, tonemap="none")
     scene = base.with_render(model="neural", weights=str(path))
@@ -460,14 +461,16 @@ def test_indirect_student_starts_at_split_sum_with_ssao_and_indirect(programs, t
 
 
 def test_indirect_student_parity_glsl_vs_torch(programs):
-    """A perturbed student with the factor: the network (4 outputs), its lighting pass (the direct
+    """A perturbed student with the factor: the networks (the student's and the indirect one, every
+    weight storage), its lighting pass (the direct
     target), its second output (the factor, which varies over the frame) and the indirect pass
     scaled by it, GL against the torch twins."""
     path = tn.indirect_student(programs, tn.indirect_student(programs))  # a random one
     net = load_network(path, "student")
     assert net.indirect == "factor"
-    r = tn.check_network(programs, path)
-    assert r.passed and r.max_abs <= 1e-4, r
+    for storage in WEIGHT_STORAGES:  # both networks read from every weight storage
+        r = tn.check_network(programs, path, storage)
+        assert r.passed and r.max_abs <= 1e-4, r
     r = tn.check_model(programs, "neural", {}, path)
     assert r.passed, r
     factor, frame = tn.check_indirect_factor(programs, path)
@@ -493,7 +496,7 @@ def test_indirect_factor_trains_in_the_forward_pass():
     with torch.no_grad():
         direct = s(x, irr, pre)
         np.testing.assert_allclose(s(x, irr, pre, ind), direct + ind, rtol=1e-6, atol=1e-6)
-        s.layers[-1].bias[3] = 1.0
+        s.indirect_layers[-1].bias[0] = 1.0
         f = 2.0 * torch.sigmoid(torch.tensor(1.0))
         np.testing.assert_allclose(s(x, irr, pre, ind), direct + f * ind, rtol=1e-6, atol=1e-6)
         np.testing.assert_allclose(s(x, irr, pre), direct, rtol=0, atol=0)

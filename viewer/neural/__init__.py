@@ -19,7 +19,8 @@ module       job
 
 Every name below is importable from ``viewer.neural`` itself.
 """
-from .format import (DEFAULT_FEATURES, DEFAULT_OUTPUT, FORMAT, FORMAT_VERSION, KINDS, MODEL_KINDS,
+from .format import (DEFAULT_FEATURES, DEFAULT_OUTPUT, FORMAT, FORMAT_VERSION, INDIRECT_HIDDEN,
+                     KINDS, MODEL_KINDS,
                      STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS, STUDENT_OUTPUTS,
                      TEACHER_INPUTS,
                      TENSOR_PARTS, NetworkFile, WeightsError, checkpoint_hash, default_weights,
@@ -33,7 +34,7 @@ from .upload import NeuralWeights
 
 __all__ = [
     # format
-    "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "KINDS", "MODEL_KINDS",
+    "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "INDIRECT_HIDDEN", "KINDS", "MODEL_KINDS",
     "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INDIRECT", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
     "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights", "expected_networks",
     "read_weights", "tensor_name",

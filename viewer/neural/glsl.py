@@ -220,7 +220,7 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         vis = "vis" in inputs
         pbr = net.output in ("pbr3", "split3")  # three achromatic factors
         split = net.output == "split3"
-        indirect = net.indirect != "none"  # a 4th output: the factor on the indirect light
+        indirect = net.indirect != "none"  # a 2nd network: the factor on the indirect light
         lines += [f"#define NEURAL_STUDENT_DFG {int(dfg)}  // 1: the network reads the DFG LUT",
                   f"#define NEURAL_STUDENT_VIS {int(vis)}  // 1: it reads the environment's "
                   "screen-space visibility",
@@ -247,8 +247,10 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         pack_lines, x = _pack("x", enc)
         mlp_lines, y = _mlp(net.layers("mlp"), "m", x, source)
         lines += enc_lines + pack_lines + mlp_lines
-        if pbr and indirect:
-            lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({y[0]}.w, 0.0, 0.0);"]
+        if pbr and indirect:  # the "indirect" network on the same inputs
+            ind_lines, yi = _mlp(net.layers("indirect"), "i", x, source)
+            lines += ind_lines
+            lines += [f"    k_0 = {y[0]}.xyz;", f"    k_1 = vec3({yi[0]}.x, 0.0, 0.0);"]
         elif pbr:
             lines += [f"    k_0 = {y[0]}.xyz;", "    k_1 = vec3(0.0);"]
         else:

@@ -167,8 +167,9 @@ def indirect_student(programs, weights=None):
     torch.manual_seed(7)
     s = Student(hidden=(8, 8), features="vis", output="split3", indirect="factor")
     with torch.no_grad():
-        s.layers[-1].weight.normal_(0.0, 2.0)
-        s.layers[-1].bias.normal_(0.0, 0.5)
+        for last in (s.layers[-1], s.indirect_layers[-1]):
+            last.weight.normal_(0.0, 2.0)
+            last.bias.normal_(0.0, 0.5)
     path = Path(tempfile.mkdtemp(prefix="relight-parity-")) / "indirect.safetensors"
     export(s, path)
     return path

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -161,7 +162,7 @@ def indirect_student(programs, weights=None):
     from learned.export import export
     from learned.neural.student import Student
 
-    path = weights or default_weights("student")
+    path = Path(weights or default_weights("student"))
     if load_network(path, "student").indirect != "none":
         return path
     torch.manual_seed(7)
@@ -181,11 +182,19 @@ def check_indirect_factor(programs, weights=None) -> list:
     (``neural:indirect_factor``), and the indirect pass scaling its one-bounce light by it
     (``model:neural:indirect``: GL frame vs :func:`learned.twins.ssao.ssao_pass` with the GL
     direct light and factor, the robust comparison of ``ssao:indirect``)."""
+    path = indirect_student(programs, weights)
+    try:
+        return _check_indirect_factor(programs, path)
+    finally:
+        if path != Path(weights or default_weights("student")):  # a temporary random student
+            shutil.rmtree(path.parent, ignore_errors=True)
+
+
+def _check_indirect_factor(programs, path) -> list:
     from learned.twins.ssao import ssao_pass
 
     from .ssao import robust_compare
 
-    path = indirect_student(programs, weights)
     scene = scene_from_dict(PARITY_SCENE).with_render(model="neural", weights=str(path))
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
     assert scene.render.ssao.indirect, "the student's indirect pass is not forced on"

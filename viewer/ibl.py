@@ -81,7 +81,7 @@ def mip_sizes(width: int, height: int) -> list[tuple[int, int]]:
 class IBL:
     """GPU resources of one environment: textures, SH coefficients and the options used."""
     def __init__(self, radiance, prefiltered, dfg, sh: np.ndarray, levels: int,
-                 options: IBLOptions, dominant=None):
+                 options: IBLOptions, dominant=None, sun=None):
         self.radiance = radiance        # moderngl.Texture, RGBA32F, full box mip chain
         self.prefiltered = prefiltered  # moderngl.Texture, RGBA32F, `levels` mips
         self.dfg = dfg                  # moderngl.Texture, RG32F, [dfg_size, dfg_size]
@@ -89,6 +89,12 @@ class IBL:
         self.sh = sh                    # [9, 3] float32 radiance SH coefficients
         self.levels = levels            # mips in `prefiltered`
         self.options = options
+        # viewer.sun.Sun: taken out of the prefiltered chain and the SH (the radiance chain keeps
+        # it), shaded analytically by passes with SUN_LIGHT; None: not taken out
+        self.sun = sun
+        # with a sun: the prefiltered chain of the whole environment (the plain IBL's, not owned),
+        # which SUN_LIGHT passes read where the lobe is narrower than the sun
+        self.full_prefiltered = None
 
     def bind(self, program, first_unit: int = 0) -> int:
         """Bind to the uniforms ``program`` has among ``u_env_radiance``, ``u_env_prefiltered``,
@@ -107,6 +113,18 @@ class IBL:
             program["u_env_levels"].value = float(self.levels)
         if "u_sh" in program:
             program["u_sh"].write(np.ascontiguousarray(self.sh, dtype=np.float32).tobytes())
+        if self.sun is not None:  # SUN_LIGHT (a pass without a specular lobe reads no chain)
+            for name, value in (("u_sun_direction", self.sun.direction),
+                                ("u_sun_irradiance", self.sun.irradiance),
+                                ("u_sun_radius", float(self.sun.angular_radius))):
+                if name in program:
+                    program[name].value = value
+            if "u_env_prefiltered_full" in program:
+                if self.full_prefiltered is None:
+                    raise RuntimeError("an IBL without its sun needs full_prefiltered to bind")
+                self.full_prefiltered.use(location=unit)
+                program["u_env_prefiltered_full"].value = unit
+                unit += 1
         return unit
 
     def read_level(self, texture: str, level: int = 0) -> np.ndarray:
@@ -157,9 +175,25 @@ def _validate(env: np.ndarray) -> np.ndarray:
     return env[:, :, :3]
 
 
-def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions()) -> IBL:
+def _downsample_chain(programs, texture, sizes) -> None:
+    """Fill mips 1.. of ``texture`` from mip 0 (``passes/ibl_downsample.comp``)."""
+    down = programs.compute("passes/ibl_downsample.comp")
+    for k in range(1, len(sizes)):
+        texture.bind_to_image(0, read=True, write=False, level=k - 1)
+        texture.bind_to_image(1, read=False, write=True, level=k)
+        down.run(_groups(sizes[k][0]), _groups(sizes[k][1]))
+        programs.ctx.memory_barrier()
+
+
+def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions(),
+              sun=None, residual: np.ndarray | None = None) -> IBL:
     """Precompute the IBL resources of ``env`` (``[H, W, 3]`` float32 linear radiance, H = W / 2,
-    W a power of two) on the GPU of ``programs.ctx``."""
+    W a power of two) on the GPU of ``programs.ctx``.
+
+    With ``sun`` and ``residual`` (:func:`viewer.sun.extract_sun` of ``env``), the prefiltered
+    chain and the SH are computed from ``residual``, the environment without its sun, which the
+    passes then shade analytically; the radiance chain (background, Monte-Carlo models) keeps
+    ``env``."""
     ctx = programs.ctx
     env = _validate(env)
     h, w = env.shape[:2]
@@ -167,22 +201,28 @@ def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions()) -> 
     levels = max(1, min(int(options.prefilter_levels), len(sizes)))
     rgba = np.concatenate([env, np.ones((h, w, 1), np.float32)], axis=2)
 
+    res_rgba = None
+    if residual is not None:
+        res = _validate(residual)
+        if res.shape != env.shape:
+            raise ValueError(f"residual {res.shape} differs from the environment {env.shape}")
+        res_rgba = np.concatenate([res, rgba[..., 3:]], axis=2)
     radiance = _env_texture(ctx, rgba, len(sizes) - 1)
-    prefiltered = _env_texture(ctx, rgba, levels - 1)
+    prefiltered = _env_texture(ctx, rgba if res_rgba is None else res_rgba, levels - 1)
+    source = None  # the radiance chain the prefilter and the SH read: env's, or residual's
     dfg = None
     dominant = None
     try:
         # (a) box mip chain of the radiance, level by level
-        down = programs.compute("passes/ibl_downsample.comp")
-        for k in range(1, len(sizes)):
-            radiance.bind_to_image(0, read=True, write=False, level=k - 1)
-            radiance.bind_to_image(1, read=False, write=True, level=k)
-            down.run(_groups(sizes[k][0]), _groups(sizes[k][1]))
-            ctx.memory_barrier()
+        _downsample_chain(programs, radiance, sizes)
+        source = radiance
+        if res_rgba is not None:
+            source = _env_texture(ctx, res_rgba, len(sizes) - 1)
+            _downsample_chain(programs, source, sizes)
 
         # (b) GGX-prefiltered chain; level 0 already holds the radiance
         pre = programs.compute("passes/ibl_prefilter.comp")
-        radiance.use(location=0)
+        source.use(location=0)
         pre["u_radiance"].value = 0
         pre["u_omega_p"].value = 4.0 * math.pi / (w * h)
         pre["u_max_lod"].value = float(len(sizes) - 1)
@@ -198,7 +238,7 @@ def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions()) -> 
         gx, gy = _groups(w), _groups(h)
         partial = ctx.buffer(reserve=gx * gy * 27 * 4)
         try:
-            radiance.bind_to_image(0, read=True, write=False, level=0)
+            source.bind_to_image(0, read=True, write=False, level=0)
             partial.bind_to_storage_buffer(1)
             sh_prog.run(gx, gy)
             ctx.memory_barrier()
@@ -228,4 +268,8 @@ def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions()) -> 
             if tex is not None:
                 tex.release()
         raise
-    return IBL(radiance, prefiltered, dfg, sh, levels, options, dominant)
+    finally:
+        if source is not None and source is not radiance:
+            source.release()
+    return IBL(radiance, prefiltered, dfg, sh, levels, options, dominant,
+               sun=sun if residual is not None else None)

@@ -53,11 +53,16 @@ class ShadingModel:
     # prefix falls back to its last entry: the teacher has no BRDF pdf, brdf and mis use env)
     samplings: tuple[str, ...] = ()
     specular_lobe: bool = False  # SPECULAR_LOBE 0 compiles out its specular lookups (specialise)
+    # SUN_LIGHT: shades the environment's extracted sun analytically (viewer/sun.py) and reads
+    # the IBL of the environment without it (GPUResources.ibl(..., sun=True))
+    analytic_sun: bool = False
 
-    def variant(self, settings, light=None, specular: bool = True) -> ShadeVariant:
+    def variant(self, settings, light=None, specular: bool = True,
+                sun: bool = False) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
-        :class:`~viewer.scene.DirectionalLight` or None) and whether any surface has a specular
-        lobe (:class:`viewer.specialize.SceneFeatures`)."""
+        :class:`~viewer.scene.DirectionalLight` or None), whether any surface has a specular
+        lobe (:class:`viewer.specialize.SceneFeatures`) and whether the environment has a sun
+        (:func:`viewer.sun.extract_sun`; shaded analytically when ``settings.sun``)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.directional_light == "shaded":
             d["LIGHT_DIRECTIONAL"] = int(light is not None)
@@ -72,6 +77,8 @@ class ShadingModel:
                 d["MIS_POWER"] = MIS_POWERS[settings.mc.mis_heuristic]
         if self.specular_lobe:
             d["SPECULAR_LOBE"] = int(specular)
+        if self.analytic_sun:
+            d["SUN_LIGHT"] = int(bool(sun) and settings.sun)
         return ShadeVariant(self.name, tuple(sorted(d.items())))
 
 
@@ -89,10 +96,10 @@ MODELS: dict[str, ShadingModel] = {
                      frozenset({"sh", "prefiltered", "radiance"}), reads=_LIT, specular_lobe=True),
         ShadingModel("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
                      "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
-                     "prefiltered specular + SH diffuse; optional multiple-scattering "
-                     "compensation",
+                     "prefiltered specular + SH diffuse; the environment's sun, when it has one, "
+                     "as an analytic light; optional multiple-scattering compensation",
                      frozenset({"sh", "prefiltered", "dfg", "radiance"}), reads=_LIT,
-                     multiscatter=True, specular_lobe=True),
+                     multiscatter=True, specular_lobe=True, analytic_sun=True),
         ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
                      "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
                      "environment: `samples` per pixel, `sampling` = uniform | cosine | env | "

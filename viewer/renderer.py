@@ -27,6 +27,7 @@ from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .models import ShadingModel, model_info
 from .neural import learns_indirect, reads_visibility, required_settings
+from .passes.forward import forward_model
 from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
 from .specialize import Specialization, analyse, specialise
@@ -87,13 +88,17 @@ class Renderer:
         """The G-buffer layout and lighting-pass defines this scene needs (see
         :mod:`viewer.specialize`; ``render.specialize = false`` gives the all-features path).
         ``aovs``: channels the caller reads back, always allocated."""
+        # a sun to shade analytically (SUN_LIGHT): only looked for where the model can use it
+        sun = (model_info(scene.render.model).analytic_sun and scene.render.sun
+               and self.resources.sun(scene.environment) is not None)
         if not scene.render.specialize:
-            return specialise(None, scene.render, aovs, enabled=False, light=scene.light)
+            return specialise(None, scene.render, aovs, enabled=False, light=scene.light,
+                              sun=sun)
         # the analysis scans materials and texture maps: once per scene content, not per frame
         key = (scene.objects, scene.environment.path, scene.environment.procedural)
         if key not in self._features:
             self._features[key] = analyse(self, scene)
-        return specialise(self._features[key], scene.render, aovs, light=scene.light)
+        return specialise(self._features[key], scene.render, aovs, light=scene.light, sun=sun)
 
     def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
         return self.specialization(scene, aovs).layout
@@ -158,9 +163,12 @@ class Renderer:
         blended = [] if spec.direct_stack else self._blended(scene)
         if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
             self._pass_begin("forward")
+            # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
+            sun = settings.sun and model_info(forward_model(settings.model)).analytic_sun
             self.resources.layout_pass("forward", spec.layout).run(
-                blended, gbuffer.textures, targets.radiance_fbo, camera, ibl, scene.environment,
-                settings, light=scene.light)
+                blended, gbuffer.textures, targets.radiance_fbo, camera,
+                self.resources.ibl(scene.environment, sun=sun), scene.environment, settings,
+                light=scene.light)
         self._pass_begin("tonemap")
         self.resources.tonemap().run(targets.radiance, targets.display_fbo,
                                      settings.display.exposure, settings.display.tonemap)
@@ -236,6 +244,9 @@ class Renderer:
         env_sampling = self.env_sampling(scene) if "cdf" in model.needs else None
         spass = self.resources.layout_pass("shade", spec.layout)
         self._pass_begin("shade")
+
+        if spec.variant.defines.get("SUN_LIGHT"):  # the IBL without the sun it shades itself
+            ibl = self.resources.ibl(scene.environment, sun=True)
 
         def shade(fbo, sample_range=(0, 1)):
             spass.run(gbt, fbo, camera, ibl, scene.environment, settings,

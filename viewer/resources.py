@@ -13,6 +13,7 @@ from .environment import EnvironmentSpec, load_environment
 from .envsampling import build_env_sampling, power_directions
 from .gbuffer import GBufferLayout
 from .ibl import IBLOptions, build_ibl
+from .sun import Sun, extract_sun
 from .passes.accumulate import Accumulator
 from .passes.forward import ForwardPass
 from .passes.gbuffer import GBufferPass, GBufferTargets
@@ -92,6 +93,8 @@ class GPUResources:
         self._ibl: dict[tuple, object] = {}
         self._env_sampling: dict[tuple, object] = {}
         self._power_directions: dict[tuple, np.ndarray] = {}
+        self._suns: dict[tuple, tuple[np.ndarray, Sun | None]] = {}  # (residual, sun) per env
+        self._ibl_sun: dict[tuple, object] = {}  # the IBL without the sun, where there is one
 
     def targets(self, layout: GBufferLayout, size: tuple[int, int]) -> TargetSet:
         key = (layout, tuple(size))
@@ -122,11 +125,30 @@ class GPUResources:
         # intensity and rotation are uniforms: one precomputation serves every value of them
         return (dataclasses.replace(spec, intensity=1.0, rotation_deg=0.0), IBLOptions())
 
-    def ibl(self, spec: EnvironmentSpec):
+    def ibl(self, spec: EnvironmentSpec, sun: bool = False):
+        """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1 and SH
+        leave out the environment's sun (:func:`viewer.sun.extract_sun`), for passes that shade it
+        analytically (``SUN_LIGHT``); the plain IBL when the environment has no sun."""
         key = self._environment_key(spec)
+        if sun and self.sun(spec) is not None:
+            if key not in self._ibl_sun:
+                residual, found = self._suns[key]
+                ibl = build_ibl(self.programs, load_environment(key[0]), key[1], sun=found,
+                                residual=residual)
+                ibl.full_prefiltered = self.ibl(spec).prefiltered  # owned by the plain IBL
+                self._ibl_sun[key] = ibl
+            return self._ibl_sun[key]
         if key not in self._ibl:
             self._ibl[key] = build_ibl(self.programs, load_environment(key[0]), key[1])
         return self._ibl[key]
+
+    def sun(self, spec: EnvironmentSpec) -> Sun | None:
+        """The environment's compact sun (:func:`viewer.sun.extract_sun`), or None; computed once
+        on the CPU from the loaded image."""
+        key = self._environment_key(spec)
+        if key not in self._suns:
+            self._suns[key] = extract_sun(load_environment(key[0]))
+        return self._suns[key][1]
 
     def env_sampling(self, spec: EnvironmentSpec):
         """The environment's importance-sampling distribution, built on the GPU from the IBL's
@@ -150,12 +172,13 @@ class GPUResources:
         return len(self._ibl)
 
     def release(self) -> None:
-        for obj in (list(self._ibl.values()) + list(self._targets.values())
+        for obj in (list(self._ibl.values()) + list(self._ibl_sun.values())
+                    + list(self._targets.values())
                     + list(self._env_sampling.values()) + list(self._accumulators.values())
                     + list(self._passes.values())
                     + ([self._tonemap] if self._tonemap is not None else [])):
             obj.release()
-        for d in (self._ibl, self._targets, self._env_sampling, self._accumulators, self._passes,
-                  self._power_directions):
+        for d in (self._ibl, self._ibl_sun, self._targets, self._env_sampling, self._accumulators,
+                  self._passes, self._power_directions, self._suns):
             d.clear()
         self._tonemap = None

@@ -63,6 +63,9 @@ class RenderSettings:
 
     model: str = "ggx_split_sum"
     multiscatter: bool = True  # GGX multiple-scattering energy compensation
+    # the environment's compact sun as an analytic light (viewer/sun.py) in models that shade it
+    # (ggx_split_sum); false: the split-sum looks it up through the prefiltered chain like the sky
+    sun: bool = True
     ao: bool = True  # apply the G-buffer's ambient occlusion to diffuse light
     precision: str = "fp32"  # G-buffer render targets: "fp32" | "fp16" (radiance stays fp32)
     specialize: bool = True  # build only the channels and shader variants the scene needs
@@ -103,6 +106,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "samples": ("mc", "samples"),
     "sampling": ("mc", "sampling"),
     "multiscatter": (None, "multiscatter"),
+    "sun": (None, "sun"),
     "ao": (None, "ao"),
     "tonemap": ("display", "tonemap"),
     "exposure": ("display", "exposure"),

@@ -107,9 +107,10 @@ _OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission
 
 
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
-               light=None) -> Specialization:
+               light=None, sun: bool = False) -> Specialization:
     """Layout and lighting-pass variant for ``settings.model`` on a scene with ``features`` and
-    ``light`` (the scene's directional light or None).
+    ``light`` (the scene's directional light or None); ``sun``: the environment has a sun
+    (:func:`viewer.sun.extract_sun`) for a model that shades it analytically.
 
     ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
     the all-features path (every channel, every lobe), the baseline ``relight bench`` compares to.
@@ -118,7 +119,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     model = model_info(settings.model)
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True),
-                              model.variant(settings, light, specular=True))
+                              model.variant(settings, light, specular=True, sun=sun))
     # models that do not say what they read get every channel (sampling, neural, future ones)
     needed = set(CHANNEL_NAMES if model.reads is None else model.reads)
     if model.specular_lobe and not features.specular:
@@ -138,5 +139,6 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         features.single_object and dtype == "f4"
     return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
                                         with_emission=features.emission),
-                          model.variant(settings, light, specular=features.specular),
+                          model.variant(settings, light, specular=features.specular,
+                                        sun=sun),
                           direct_stack=direct)

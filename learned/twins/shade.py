@@ -11,7 +11,7 @@ import torch
 
 from .brdf import clamp_perceptual_roughness, compute_f0
 from .deferred import emitted_radiance, env_dir, reflect, view_ray_ws
-from .equirect import equirect_uv
+from .equirect import equirect_uv, rotate_y
 from .ibl import (
     ATAN_ABS_ERROR,
     DIRECTION_ABS_ERROR,
@@ -31,8 +31,10 @@ from .shading import (
     blinn_phong_directional_light,
     diffuse_color,
     ggx_directional_light,
+    ggx_environment_sun,
     ggx_split_sum,
     shading_normal,
+    sun_specular_weight,
 )
 
 
@@ -115,6 +117,17 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
             env["prefiltered"], equirect_uv(r_env),
             prefilter_lod(r, torch.full_like(r, float(env["levels"]))),
             _uv_error(r_env, direction_error), weight_bits=bits)[..., :3])
+        if model == "ggx_split_sum" and defines.get("SUN_LIGHT", 0):
+            # the sun's specular light: analytic for the share w (_shade_ggx_split_sum), looked up
+            # in the chain of the whole environment for the rest
+            full = ibl_specular_radiance(env["prefiltered_full"], r_env, r, env["levels"])
+            full = traced("prefiltered_full", full, lambda: sample_trilinear_envelope(
+                env["prefiltered_full"], equirect_uv(r_env),
+                prefilter_lod(r, torch.full_like(r, float(env["levels"]))),
+                _uv_error(r_env, direction_error), weight_bits=bits)[..., :3])
+            w_sun = sun_specular_weight(r * r, torch.full_like(r, env["sun"].angular_radius))
+            w3 = w_sun[..., None]
+            prefiltered = torch.where(w3 < 1.0, full * (1.0 - w3) + prefiltered * w3, prefiltered)
         ao = g["ao"][..., 0] if defines.get("USE_AO", 1) else torch.ones_like(r)
         if defines.get("USE_SSAO", 0):
             ao = ao * ssao  # deferred.glsl ambient_occlusion()
@@ -216,16 +229,28 @@ def _ggx_light(s: _Surface, f0, a, dfg, ms, light) -> torch.Tensor:
                                  e.expand_as(s.n))
 
 
-def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, **_) -> torch.Tensor:
-    """``shade_ggx_split_sum.frag``: split-sum GGX + SH diffuse, plus the directional light."""
+def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensity=1.0,
+                         rotation_rad=0.0, **_) -> torch.Tensor:
+    """``shade_ggx_split_sum.frag``: split-sum GGX + SH diffuse, plus the directional light and
+    (``SUN_LIGHT``) the environment's sun, ``env["sun"]`` (a :class:`viewer.sun.Sun`)."""
     c = ggx_split_sum(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
+    f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
+    specular = defines.get("SPECULAR_LOBE", 1)
+    if not specular:
+        f0, a = torch.zeros_like(f0), torch.ones_like(a)
+        dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
+        ms = torch.zeros_like(a)
     if defines.get("LIGHT_DIRECTIONAL", 0):
-        f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
-        if not defines.get("SPECULAR_LOBE", 1):
-            f0, a = torch.zeros_like(f0), torch.ones_like(a)
-            dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
-            ms = torch.zeros_like(a)
         c = c + _ggx_light(s, f0, a, dfg, ms, light)
+    if defines.get("SUN_LIGHT", 0):
+        sun = env["sun"]
+        l_env = torch.tensor(sun.direction, dtype=torch.float32).expand_as(s.n)
+        l_ws = rotate_y(l_env, torch.full(s.r.shape, rotation_rad, dtype=torch.float32))
+        e = (torch.tensor(sun.irradiance, dtype=torch.float32) * intensity).expand_as(s.n)
+        w = sun_specular_weight(s.r * s.r, torch.full_like(s.r, sun.angular_radius)) \
+            if specular else torch.ones_like(s.r)
+        diffuse = s.diffuse * s.ao[..., None]
+        c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, l_ws, e, w)
     return c
 
 

@@ -57,13 +57,14 @@ def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return (a * b).sum(-1)
 
 
-def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
-                          dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
-                          v: torch.Tensor, l: torch.Tensor, irradiance: torch.Tensor
-                          ) -> torch.Tensor:
-    """GLSL ``vec3 ggx_directional_light(...)``: f(v, l) E (n.l) for the GGX + Lambert BRDF with
-    ggx_split_sum's energy split. diffuse, f0, n, v, l, irradiance [..., 3]; a, multiscatter [...];
-    dfg [..., 2] -> [..., 3]; 0 where n.l <= 0."""
+def ggx_environment_sun(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+                        dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
+                        v: torch.Tensor, l: torch.Tensor, irradiance: torch.Tensor,
+                        specular_weight: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ggx_environment_sun(...)``: (f_d + w f_s)(v, l) E (n.l) for the GGX + Lambert
+    BRDF with ggx_split_sum's energy split, the specular term weighted by ``specular_weight`` w
+    (the environment's sun, viewer/sun.py). diffuse, f0, n, v, l, irradiance [..., 3]; a,
+    multiscatter, specular_weight [...]; dfg [..., 2] -> [..., 3]; 0 where n.l <= 0."""
     NoL = _dot(n, l)
     h = half_vector(v, l)
     NoV = saturate(_dot(n, v))
@@ -76,8 +77,25 @@ def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tens
     fd = diffuse * INV_PI * (1.0 - e_spec).clamp_min(0.0)
     fs = (d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a))[..., None] \
         * f_schlick(f0, f90, VoH) * spec_scale
-    out = (fd + fs) * irradiance * NoL[..., None]
+    out = (fd + fs * specular_weight[..., None]) * irradiance * NoL[..., None]
     return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
+
+
+def sun_specular_weight(a: torch.Tensor, sun_radius: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float sun_specular_weight(float a, float sun_radius)``: the share of the sun's
+    specular light shaded analytically, saturate(2 a / t - 1) (t floored at 1e-6)."""
+    return saturate(2.0 * a / sun_radius.clamp_min(1e-6) - 1.0)
+
+
+def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+                          dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
+                          v: torch.Tensor, l: torch.Tensor, irradiance: torch.Tensor
+                          ) -> torch.Tensor:
+    """GLSL ``vec3 ggx_directional_light(...)``: f(v, l) E (n.l) for the GGX + Lambert BRDF with
+    ggx_split_sum's energy split (:func:`ggx_environment_sun` with w = 1). diffuse, f0, n, v, l,
+    irradiance [..., 3]; a, multiscatter [...]; dfg [..., 2] -> [..., 3]; 0 where n.l <= 0."""
+    return ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, l, irradiance,
+                               torch.ones_like(a))
 
 
 def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,

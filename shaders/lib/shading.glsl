@@ -62,8 +62,15 @@ vec3 blinn_phong(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefilte
 // E_spec = (f0 (dfg.y - dfg.x) + f90 dfg.x) c_ms and the multiple-scattering compensation
 // c_ms = 1 + f0 (1/dfg.y - 1) (1 without multiscatter) from the DFG terms at (n.v, r): the energy
 // split of ggx_split_sum and of shade_ggx_mc.frag's Surface, so light and environment see one BRDF.
-vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
-                           vec3 v, vec3 l, vec3 irradiance) {
+//
+// ggx_environment_sun: that BRDF under the environment's sun (viewer/sun.py: a compact, very bright
+// region taken out of the environment as a light at infinity, irradiance E from l), its specular
+// term weighted by w = sun_specular_weight (the diffuse term is whole: the SH irradiance leaves the
+// sun out). Shaded as a point, which is right for a lobe wider than the sun: at the grazing angles
+// where the round prefiltered lookup cannot follow the stretched, horizon-clipped lobe, the point
+// evaluates the true BRDF (README "Split-sum accuracy").
+vec3 ggx_environment_sun(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
+                         vec3 v, vec3 l, vec3 irradiance, float specular_weight) {
     float NoL = dot(n, l);
     if (!(NoL > 0.0)) return vec3(0.0);
     vec3 h = half_vector(v, l);
@@ -76,7 +83,22 @@ vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multi
     vec3 fd = diffuse * INV_PI * max(1.0 - e_spec, 0.0);
     vec3 fs = d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a) * f_schlick(f0, f90, VoH)
               * spec_scale;
-    return (fd + fs) * irradiance * NoL;
+    return (fd + fs * specular_weight) * irradiance * NoL;
+}
+
+// The share w of the sun's specular light that ggx_environment_sun shades (shade_ggx_split_sum.frag
+// looks the rest up in the prefiltered chain of the whole environment): 0 while the GGX lobe is
+// narrower than the sun (alpha <= t/2, t the sun's angular radius; the prefiltered chain resolves
+// the sun's texels there, as a pixel-centre path tracer sees them, and a point light would give a
+// spike), 1 once it is as wide as the sun (alpha >= t), linear in alpha between.
+float sun_specular_weight(float a, float sun_radius) {
+    return saturate(2.0 * a / max(sun_radius, 1e-6) - 1.0);
+}
+
+// The scene's [light]: the whole BRDF (w = 1).
+vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
+                           vec3 v, vec3 l, vec3 irradiance) {
+    return ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, l, irradiance, 1.0);
 }
 
 // Blinn-Phong under the light, split like blinn_phong(): Lambert keeping (1 - f0) plus the

@@ -1,7 +1,9 @@
 // shade_ggx_split_sum.frag - Cook-Torrance GGX with split-sum image-based lighting.
 // Defines: MULTISCATTER (0/1), USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1),
 // SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0),
-// LIGHT_DIRECTIONAL (0/1: the [light]'s analytic term, same BRDF, no shadowing).
+// LIGHT_DIRECTIONAL (0/1: the [light]'s analytic term, same BRDF, no shadowing),
+// SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/sun.py; the IBL bound then
+// leaves it out of the prefiltered chain and the SH, and u_env_prefiltered_full keeps it).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
@@ -13,6 +15,12 @@ uniform sampler2D u_env_dfg;
 uniform sampler2D u_env_dominant;
 uniform float u_env_levels;
 uniform vec3 u_sh[9];
+#if SUN_LIGHT
+uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
+uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
+uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
+uniform float u_sun_radius;     // angular radius, radians
+#endif
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
@@ -34,6 +42,15 @@ void main() {
                                                  ibl_dominant_factor(u_env_dominant, NoV, r));
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
                        * u_env_intensity;
+#if SUN_LIGHT
+    // the sun's specular light: analytic for the share w, looked up (with the sun) for the rest
+    float w_sun = sun_specular_weight(r * r, u_sun_radius);
+    if (w_sun < 1.0) {
+        prefiltered = mix(ibl_specular_radiance(u_env_prefiltered_full, env_dir(reflected), r,
+                                                u_env_levels) * u_env_intensity,
+                          prefiltered, w_sun);
+    }
+#endif
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
@@ -41,6 +58,12 @@ void main() {
 #if LIGHT_DIRECTIONAL
     c += ggx_directional_light(diffuse, f0, r * r, dfg, float(MULTISCATTER), n, v,
                                u_light_direction, u_light_irradiance);
+#endif
+#if SUN_LIGHT
+    // ao scales its diffuse part as it scales the rest of the environment's (SH) diffuse light
+    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v,
+                             rotate_y(u_sun_direction, u_env_rotation),
+                             u_sun_irradiance * u_env_intensity, w_sun);
 #endif
 #else
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
@@ -50,6 +73,11 @@ void main() {
 #if LIGHT_DIRECTIONAL
     c += ggx_directional_light(diffuse, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
                                u_light_direction, u_light_irradiance);
+#endif
+#if SUN_LIGHT
+    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
+                               rotate_y(u_sun_direction, u_env_rotation),
+                               u_sun_irradiance * u_env_intensity);
 #endif
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

@@ -58,15 +58,16 @@ def forward_model(model: str) -> str:
     return model if not info.accumulates and info.network is None else FALLBACK_MODEL
 
 
-def forward_variant(settings: RenderSettings, light: DirectionalLight | None) -> ShadeVariant:
+def forward_variant(settings: RenderSettings, light: DirectionalLight | None,
+                    sun: bool = False) -> ShadeVariant:
     """The lighting-pass variant that shades blended surfaces for ``settings.model``: the forward
     model's own variant (every lobe: blended surfaces are not specialised), without SSAO and
     without the background (the destination already holds it), and without the light when the
-    scene's model ignores it."""
+    scene's model ignores it; ``sun``: the IBL bound leaves out a sun to shade (SUN_LIGHT)."""
     info = model_info(settings.model)
     shaded = light if info.directional_light == "shaded" else None
-    defines = model_info(forward_model(settings.model)).variant(settings, shaded,
-                                                                specular=True).defines
+    defines = model_info(forward_model(settings.model)).variant(settings, shaded, specular=True,
+                                                                sun=sun).defines
     defines["BACKGROUND_ENVIRONMENT"] = 0
     if "USE_SSAO" in defines:
         defines["USE_SSAO"] = 0
@@ -113,7 +114,7 @@ class ForwardPass:
             raise ValueError("the forward pass depth-tests against the G-buffer's depth channel, "
                              "which this layout omits")
         _warn_fallback(settings.model)
-        variant = forward_variant(settings, light)
+        variant = forward_variant(settings, light, sun=getattr(ibl, "sun", None) is not None)
         ctx = self.ctx
         out_fbo.use()
         ctx.viewport = (0, 0, camera.width, camera.height)

@@ -76,6 +76,19 @@ PARITY_CASES = [
                         "rel (rtol widened from 2e-4; heavy tail); NOT covered: grid n = v = l "
                         "= +Z, a = 0.002025: NoH = 1 needs inversesqrt(4) = 0.5 exactly (D -35% "
                         "if 2 ulp off)"),
+    # alpha over the whole range, the sun's radius from a point (floored) to 0.2 rad
+    ParityCase("sun_specular_weight", (Arg(lo=0.0, hi=1.0), Arg(lo=0.0, hi=0.2)),
+               atol=1e-6, rtol=1e-6, measured="exact (seeds 0-3)",
+               envelope="one division and one fma before the clamp: 2 ulp of values <= 1"),
+    # the same with the specular weight w in [0, 1] (the environment's sun, viewer/sun.py)
+    ParityCase("ggx_environment_sun",
+               (_nonneg3(), _nonneg3(), _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
+                Arg(kind="int", lo=0, hi=1), _UNIT, _UP, _UNIT, _nonneg3(10.0, ((1e5, 0, 65504),)),
+                Arg(lo=0.0, hi=1.0)),
+               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(3),
+               measured="max rel 7.0e-5 (seeds 0-3), as ggx_directional_light (the same body)",
+               envelope="as ggx_directional_light: D_GGX's sensitivity to n.h at small alpha; "
+                        "w adds one rounding"),
     ParityCase("blinn_phong_directional_light",
                (_nonneg3(), _nonneg3(), _ALPHA_L, _UNIT, _UP, _UNIT,
                 _nonneg3(10.0, ((1e5, 0, 65504),))),

@@ -12,13 +12,14 @@ import numpy as np
 import torch
 
 from learned.twins.forward import ForwardLayer, shade_forward
+from viewer.models import model_info
 from viewer.passes.forward import forward_model, forward_variant
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 
 from ..results import compare_envelope, device_filter_bits
 from . import collector
-from .models import MODEL_ATOL, MODEL_RTOL, PARITY_LIGHT, PARITY_SCENE, env_from_ibl, \
+from .models import MODEL_ATOL, MODEL_RTOL, PARITY_LIGHT, PARITY_SCENE, env_for_pass, \
     gl_gbuffer, gl_texture
 
 # (model, render settings, with the [light]): every model that runs forward, and ggx_mc, whose
@@ -95,13 +96,16 @@ def _check_forward(programs, model: str, settings: dict, light: bool):
             layers.append(ForwardLayer(gbuffer=gl_gbuffer(renderer.draw(alone)), alpha=alpha,
                                        centre_depth=float(-(view[2, :3] @ ((lo + hi) * 0.5)
                                                             + view[2, 3]))))
-        env = env_from_ibl(renderer.ibl(scene))
+        # the forward model shades the environment's sun itself when it can (as the renderer)
+        sun = scene.render.sun and model_info(forward_model(model)).analytic_sun
+        env = env_for_pass(renderer, scene, sun=sun)
         envelope = {"weight_bits": device_filter_bits(programs)}
         with torch.enable_grad():  # the envelope differentiates through the lookups
             ref = shade_forward(forward_model(model), radiance, opaque, layers, camera, env,
                                 scene.environment.intensity,
                                 math.radians(scene.environment.rotation_deg),
-                                forward_variant(scene.render, scene.light).defines,
+                                forward_variant(scene.render, scene.light,
+                                                sun=env["sun"] is not None).defines,
                                 light=scene.light, envelope=envelope).detach().numpy()
     finally:
         renderer.release()

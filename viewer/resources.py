@@ -95,6 +95,7 @@ class GPUResources:
         self._power_directions: dict[tuple, np.ndarray] = {}
         self._suns: dict[tuple, tuple[np.ndarray, Sun | None]] = {}  # (residual, sun) per env
         self._ibl_sun: dict[tuple, object] = {}  # the IBL without the sun, where there is one
+        self._env_arrays: dict[tuple, np.ndarray] = {}  # each environment loaded once
 
     def targets(self, layout: GBufferLayout, size: tuple[int, int]) -> TargetSet:
         key = (layout, tuple(size))
@@ -125,6 +126,12 @@ class GPUResources:
         # intensity and rotation are uniforms: one precomputation serves every value of them
         return (dataclasses.replace(spec, intensity=1.0, rotation_deg=0.0), IBLOptions())
 
+    def _environment(self, key: tuple) -> np.ndarray:
+        """The loaded environment of ``key`` (one file read, one warning, per environment)."""
+        if key not in self._env_arrays:
+            self._env_arrays[key] = load_environment(key[0])
+        return self._env_arrays[key]
+
     def ibl(self, spec: EnvironmentSpec, sun: bool = False):
         """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1 and SH
         leave out the environment's sun (:func:`viewer.sun.extract_sun`), for passes that shade it
@@ -133,13 +140,13 @@ class GPUResources:
         if sun and self.sun(spec) is not None:
             if key not in self._ibl_sun:
                 residual, found = self._suns[key]
-                ibl = build_ibl(self.programs, load_environment(key[0]), key[1], sun=found,
+                ibl = build_ibl(self.programs, self._environment(key), key[1], sun=found,
                                 residual=residual)
                 ibl.full_prefiltered = self.ibl(spec).prefiltered  # owned by the plain IBL
                 self._ibl_sun[key] = ibl
             return self._ibl_sun[key]
         if key not in self._ibl:
-            self._ibl[key] = build_ibl(self.programs, load_environment(key[0]), key[1])
+            self._ibl[key] = build_ibl(self.programs, self._environment(key), key[1])
         return self._ibl[key]
 
     def sun(self, spec: EnvironmentSpec) -> Sun | None:
@@ -147,7 +154,7 @@ class GPUResources:
         on the CPU from the loaded image."""
         key = self._environment_key(spec)
         if key not in self._suns:
-            self._suns[key] = extract_sun(load_environment(key[0]))
+            self._suns[key] = extract_sun(self._environment(key))
         return self._suns[key][1]
 
     def env_sampling(self, spec: EnvironmentSpec):
@@ -163,7 +170,7 @@ class GPUResources:
         environment frame), computed once on the CPU from the loaded image."""
         key = self._environment_key(spec)
         if key not in self._power_directions:
-            self._power_directions[key] = power_directions(load_environment(key[0]))
+            self._power_directions[key] = power_directions(self._environment(key))
         return self._power_directions[key]
 
     @property
@@ -179,6 +186,6 @@ class GPUResources:
                     + ([self._tonemap] if self._tonemap is not None else [])):
             obj.release()
         for d in (self._ibl, self._ibl_sun, self._targets, self._env_sampling, self._accumulators,
-                  self._passes, self._power_directions, self._suns):
+                  self._passes, self._power_directions, self._suns, self._env_arrays):
             d.clear()
         self._tonemap = None

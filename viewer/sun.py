@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .environment import texel_directions
 
 # A sun is a region whose every texel is at least SUN_THRESHOLD times the environment's median
 # luminance, around a peak at least SUN_MIN_PEAK times that median, covering at most
@@ -52,73 +51,79 @@ def texel_solid_angles(height: int, width: int) -> np.ndarray:
     return (2.0 * math.pi / width) * (np.cos(math.pi * v0) - np.cos(math.pi * v1))
 
 
-def _region(mask: np.ndarray, seed: tuple[int, int], limit: int) -> np.ndarray | None:
-    """8-connected flood fill of ``mask`` from ``seed`` (u wraps around); None above ``limit``."""
+def _region(mask: np.ndarray, seed: tuple[int, int], row_solid_angle: np.ndarray,
+            limit: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(rows, columns)`` of the 8-connected flood fill of ``mask`` from ``seed`` (u wraps
+    around); None as soon as its solid angle exceeds ``limit`` (a large bright area is rejected
+    after visiting about ``limit`` of it, whatever the image's size)."""
     h, w = mask.shape
-    seen = np.zeros_like(mask)
+    seen = {seed}
     stack = [seed]
-    seen[seed] = True
     out = []
+    area = 0.0
     while stack:
         y, x = stack.pop()
         out.append((y, x))
-        if len(out) > limit:
+        area += float(row_solid_angle[y])
+        if area > limit:
             return None
         for dy in (-1, 0, 1):
             for dx in (-1, 0, 1):
                 yy, xx = y + dy, (x + dx) % w
-                if 0 <= yy < h and mask[yy, xx] and not seen[yy, xx]:
-                    seen[yy, xx] = True
+                if 0 <= yy < h and (yy, xx) not in seen and mask[yy, xx]:
+                    seen.add((yy, xx))
                     stack.append((yy, xx))
-    region = np.zeros_like(mask)
-    ys, xs = zip(*out)
-    region[list(ys), list(xs)] = True
-    return region
+    ys, xs = (np.array(c, np.int64) for c in zip(*out))
+    return ys, xs
 
 
-def _dilate(region: np.ndarray) -> np.ndarray:
-    out = region.copy()
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            shifted = np.roll(region, dx, axis=1)
-            if dy:
-                shifted = np.roll(shifted, dy, axis=0)
-                if dy > 0:
-                    shifted[:dy] = False
-                else:
-                    shifted[dy:] = False
-            out |= shifted
-    return out
+def _ring(ys: np.ndarray, xs: np.ndarray, h: int, w: int, width: int = 2
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """The texels within ``width`` steps (8-connected, u wraps) of the region, outside it."""
+    d = np.arange(-width, width + 1)
+    yy = (ys[:, None, None] + d[None, :, None]).repeat(len(d), 2).ravel()
+    xx = ((xs[:, None, None] + d[None, None, :]) % w).repeat(len(d), 1).ravel()
+    keep = (yy >= 0) & (yy < h)
+    idx = np.unique(yy[keep] * w + xx[keep])
+    idx = idx[~np.isin(idx, ys * w + xs)]
+    return idx // w, idx % w
+
+
+def _directions(ys: np.ndarray, xs: np.ndarray, h: int, w: int) -> np.ndarray:
+    """Directions of texel centres, as :func:`viewer.environment.texel_directions`."""
+    phi = 2.0 * math.pi * ((xs + 0.5) / w - 0.5)
+    theta = math.pi * (ys + 0.5) / h
+    st = np.sin(theta)
+    return np.stack([st * np.sin(phi), np.cos(theta), -st * np.cos(phi)], axis=-1)
 
 
 def extract_sun(env: np.ndarray) -> tuple[np.ndarray, Sun | None]:
     """``(residual, sun)``: the environment with its sun replaced by the sky around it, and the
     sun as a disc light; ``(env, None)`` when it has no compact sun (see the constants)."""
     h, w = env.shape[:2]
-    rgb = env[..., :3].astype(np.float64)
-    luma = rgb @ _LUMA
-    dw = texel_solid_angles(h, w)[:, None]
+    luma = env[..., :3].astype(np.float64) @ _LUMA
+    dw = texel_solid_angles(h, w)
     median = float(np.median(luma))
     peak_at = np.unravel_index(int(np.argmax(luma)), luma.shape)
     floor = max(median, 1e-12)
     if not (luma[peak_at] >= SUN_MIN_PEAK * floor):
         return env, None
-    limit = int(SUN_MAX_SOLID_ANGLE / float(dw.min())) + 1
-    region = _region(luma >= SUN_THRESHOLD * floor, peak_at, limit)
-    if region is None or float((dw * region).sum()) > SUN_MAX_SOLID_ANGLE:
+    found = _region(luma >= SUN_THRESHOLD * floor, peak_at, dw, SUN_MAX_SOLID_ANGLE)
+    if found is None:
         return env, None
-    ring = _dilate(_dilate(region)) & ~region
-    fill = (rgb[ring] * dw.repeat(w, 1)[ring][:, None]).sum(0) / float(
-        dw.repeat(w, 1)[ring].sum())
-    excess = np.where(region[..., None], np.maximum(rgb - fill, 0.0), 0.0)
-    irradiance = (excess * dw[..., None]).sum((0, 1))
-    total = float(((rgb @ _LUMA) * dw).sum())
+    ys, xs = found
+    ry, rx = _ring(ys, xs, h, w)
+    fill = (env[ry, rx, :3].astype(np.float64) * dw[ry, None]).sum(0) / float(dw[ry].sum())
+    rgb = env[ys, xs, :3].astype(np.float64)
+    excess = np.maximum(rgb - fill, 0.0)
+    irradiance = (excess * dw[ys, None]).sum(0)
+    total = float((luma * dw[:, None]).sum())
     share = float(irradiance @ _LUMA) / max(total, 1e-30)
     if share < SUN_MIN_SHARE:
         return env, None
-    dirs = texel_directions(w).astype(np.float64)  # [H, W, 3], the environment's frame
-    weight = (excess @ _LUMA) * dw
-    centre = (dirs * weight[..., None]).sum((0, 1))
+    dirs = _directions(ys, xs, h, w)  # the environment's frame
+    weight = (excess @ _LUMA) * dw[ys]
+    centre = (dirs * weight[:, None]).sum(0)
     centre /= np.linalg.norm(centre)
     cos = np.clip(dirs @ centre, -1.0, 1.0)
     # a uniform disc of radius t has <theta^2> = t^2 / 2; each texel adds its own extent (a square
@@ -126,8 +131,8 @@ def extract_sun(env: np.ndarray) -> tuple[np.ndarray, Sun | None]:
     spread = float((np.arccos(cos) ** 2 * weight).sum() / weight.sum()) + (math.pi / h) ** 2 / 6.0
     radius = math.sqrt(2.0 * spread)
     residual = env.copy()
-    residual[..., :3] = np.where(region[..., None], np.minimum(rgb, fill), rgb).astype(env.dtype)
+    residual[ys, xs, :3] = (rgb - excess).astype(env.dtype)
     sun = Sun(direction=tuple(float(c) for c in centre),
               irradiance=tuple(float(c) for c in irradiance),
-              angular_radius=radius, texels=int(region.sum()), share=share)
+              angular_radius=radius, texels=int(len(ys)), share=share)
     return residual, sun

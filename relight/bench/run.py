@@ -129,6 +129,9 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
         if name == "ggx_split_sum":
             cases.append((name, "multiscatter", {"multiscatter": True}))
             cases.append((name, "single-scatter", {"multiscatter": False}))
+            # the environment's sun in the prefiltered chain instead of an analytic light
+            cases.append((name, "single-scatter, no sun light", {"multiscatter": False,
+                                                                  "sun": False}))
             cases.append((name, "multiscatter fp16", {"multiscatter": True, "precision": "fp16"}))
         elif name == "ggx_mc":
             # every strategy's convergence is its own table (the mc_convergence suite)

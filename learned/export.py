@@ -41,7 +41,8 @@ def metadata(model, training: dict | None = None,
     :func:`network_tensors` of ``model`` when already computed."""
     cfg = model.config
     arch = architecture(model.kind, cfg["num_freqs"], cfg["hidden"], cfg.get("features"),
-                        cfg.get("output"), cfg.get("occlusion"), cfg.get("indirect"))
+                        cfg.get("output"), cfg.get("occlusion"), cfg.get("indirect"),
+                        bool(cfg.get("sun", False)))
     return file_metadata(model.kind, arch,
                          network_tensors(model) if tensors is None else tensors, training)
 
@@ -71,7 +72,7 @@ def load_model(path: str | os.PathLike, kind: str | None = None):
     if net.kind == "student":
         model = Student(hidden=tuple(cfg["hidden"]), num_freqs=cfg["num_freqs"],
                         features=net.features, output=net.output, occlusion=net.occlusion,
-                        indirect=net.indirect)
+                        indirect=net.indirect, sun=net.sun)
     else:
         model = Teacher(hidden=cfg["hidden"], num_freqs=cfg["num_freqs"])
     with torch.no_grad():

@@ -143,6 +143,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default none; factor: a second small network on the same inputs, "
                         "starting at the classical one-bounce term; the renderer then runs the "
                         "indirect pass)")
+    p.add_argument("--student-sun", action="store_true", default=None,
+                   help="a split3 student whose base shades the environment's sun analytically, "
+                        "as ggx_split_sum does (the IBL without the sun + the sun as a light, "
+                        "with the student's corrections; weights architecture \"sun\": true)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "

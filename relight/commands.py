@@ -318,7 +318,8 @@ def _learned(what: str):
 # ``relight train`` options that override a field of learned.train.TrainConfig
 TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
                    "light_samples", "strategy", "student_target", "student_features",
-                   "student_output", "student_hidden", "student_indirect")
+                   "student_output", "student_hidden", "student_indirect",
+                   "student_sun")
 
 
 def _positive_int(text: str) -> int:

@@ -79,6 +79,11 @@ class ShadingModel:
             d["SPECULAR_LOBE"] = int(specular)
         if self.analytic_sun:
             d["SUN_LIGHT"] = int(bool(sun) and settings.sun)
+        elif self.network == "student" and sun and settings.sun:
+            # a student whose split-sum base shades the sun (weights "sun": true; the caller
+            # decides: viewer.neural.shades_sun); others keep their defines (shade_neural.frag's
+            # SUN_LIGHT defaults to 0)
+            d["SUN_LIGHT"] = 1
         return ShadeVariant(self.name, tuple(sorted(d.items())))
 
 

@@ -26,7 +26,7 @@ from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .models import ShadingModel, model_info
-from .neural import learns_indirect, reads_visibility, required_settings
+from .neural import learns_indirect, reads_visibility, required_settings, shades_sun
 from .passes.forward import forward_model
 from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
@@ -89,8 +89,9 @@ class Renderer:
         :mod:`viewer.specialize`; ``render.specialize = false`` gives the all-features path).
         ``aovs``: channels the caller reads back, always allocated."""
         # a sun to shade analytically (SUN_LIGHT): only looked for where the model can use it
-        sun = (model_info(scene.render.model).analytic_sun and scene.render.sun
-               and self.resources.sun(scene.environment) is not None)
+        # (a classical model that does, or a student whose base does: viewer.neural.shades_sun)
+        sun = ((model_info(scene.render.model).analytic_sun or shades_sun(scene.render))
+               and scene.render.sun and self.resources.sun(scene.environment) is not None)
         if not scene.render.specialize:
             return specialise(None, scene.render, aovs, enabled=False, light=scene.light,
                               sun=sun)

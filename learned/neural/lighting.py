@@ -24,7 +24,7 @@ from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radian
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
 from learned.twins.sh import sh_irradiance
-from learned.twins.shading import shading_normal
+from learned.twins.shading import shading_normal, sun_specular_weight
 from viewer.gl import make_current
 from viewer.scene import Scene
 
@@ -45,17 +45,28 @@ class Lighting:
     rotation: float = 0.0  # radians about +Y
     dfg: torch.Tensor | None = None  # [n, n, 2] split-sum LUT (x = n.v, y = perceptual roughness)
     dominant: torch.Tensor | None = None  # [n, n, 1] the dominant direction's lerp factor LUT
+    # the environment's compact sun (viewer.sun.Sun) when this is the IBL without it (SUN_LIGHT:
+    # prefiltered levels and SH leave it out, lighting_from_gl(..., sun=True)), else None
+    sun: object | None = None
+    prefiltered_full: list | None = None  # with a sun: the whole environment's prefiltered chain
 
     def with_light(self, intensity: float, rotation: float) -> "Lighting":
         return dataclasses.replace(self, intensity=float(intensity), rotation=float(rotation))
 
 
-def lighting_from_gl(renderer, environment) -> Lighting:
+def lighting_from_gl(renderer, environment, sun: bool = False) -> Lighting:
     """Build (or reuse the renderer's cached) IBL and sampling tables of the
-    :class:`~viewer.environment.EnvironmentSpec` ``environment`` on the GPU and read them back."""
+    :class:`~viewer.environment.EnvironmentSpec` ``environment`` on the GPU and read them back.
+    ``sun``: the IBL a ``SUN_LIGHT`` pass binds (``GPUResources.ibl(..., sun=True)``: without the
+    environment's sun, which ``Lighting.sun`` then holds, with the whole environment's chain in
+    ``prefiltered_full``); the plain IBL when the environment has no sun."""
     make_current(renderer.ctx)
     scene = Scene(environment=environment)
-    ibl = renderer.ibl(scene)
+    ibl = renderer.resources.ibl(environment, sun=sun)
+    full = None
+    if ibl.sun is not None:
+        plain = renderer.ibl(scene)
+        full = [torch.from_numpy(plain.read_level("prefiltered", k)) for k in range(plain.levels)]
     tables = renderer.env_sampling(scene).read()
     t = torch.from_numpy
     return Lighting(
@@ -65,7 +76,8 @@ def lighting_from_gl(renderer, environment) -> Lighting:
         marginal=t(tables["marginal"]), conditional=t(tables["conditional"]), pdf=t(tables["pdf"]),
         intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg),
         dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()),
-        dominant=t(ibl.read_level("dominant", 0)) if ibl.dominant is not None else None)
+        dominant=t(ibl.read_level("dominant", 0)) if ibl.dominant is not None else None,
+        sun=ibl.sun, prefiltered_full=full)
 
 
 def env_radiance(lighting: Lighting, l_ws: torch.Tensor) -> torch.Tensor:
@@ -81,8 +93,8 @@ def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor,
-                     vis: torch.Tensor | None = None, dominant: bool = False
-                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+                     vis: torch.Tensor | None = None, dominant: bool = False, sun: bool = False
+                     ) -> tuple[torch.Tensor, ...]:
     """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
 
     Returns ``x [N, 11]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis:
@@ -94,6 +106,13 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     LUT at (n.v, clamped roughness), zeros when ``lighting`` has no LUT. ``dominant``: read the
     prefiltered radiance along the split-sum model's dominant direction (``split3`` students, as
     ``ggx_split_sum``) instead of the mirror direction.
+
+    ``sun`` (a student whose base shades the environment's sun, ``shade_neural.frag`` with
+    ``SUN_LIGHT``): a fourth tensor ``sun [N, 13]`` (n, v, l world space, the sun's irradiance
+    times intensity, its specular weight w = ``sun_specular_weight``: the arguments of
+    ``neural_student_sun_split``), and where w < 1 the prefiltered radiance mixes in the whole
+    environment's chain as the pass does. Without a sun in ``lighting`` (the plain IBL) the
+    irradiance is 0: no sun term.
     """
     n, nov = surface(gb, v)
     r = clamp_perceptual_roughness(gb["roughness"][..., 0])
@@ -113,7 +132,25 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
         vis = torch.ones_like(nov)
     x = torch.cat([gb["albedo"], gb["roughness"], gb["metallic"], gb["specular"], ao[..., None],
                    nov[..., None], dfg, vis[..., None]], dim=-1)
-    return x, irradiance, prefiltered
+    if not sun:
+        return x, irradiance, prefiltered
+    if lighting.sun is None:  # no sun taken out: a zero light
+        l_ws = torch.tensor([0.0, 1.0, 0.0]).expand_as(n)
+        e = torch.zeros_like(n)
+        w = torch.ones_like(r)
+    else:
+        s = lighting.sun
+        w = sun_specular_weight(r * r, torch.full_like(r, float(s.angular_radius)))
+        full = ibl_specular_radiance(lighting.prefiltered_full,
+                                     env_dir(reflected, lighting.rotation), r,
+                                     lighting.levels) * lighting.intensity
+        w3 = w[..., None]  # GLSL mix(full, prefiltered, w) where w < 1
+        prefiltered = torch.where(w3 < 1.0, full * (1.0 - w3) + prefiltered * w3, prefiltered)
+        l_ws = rotate_y(torch.tensor(s.direction, dtype=torch.float32).expand_as(n),
+                        torch.full(r.shape, lighting.rotation, dtype=torch.float32))
+        e = (torch.tensor(s.irradiance, dtype=torch.float32)
+             * torch.tensor(lighting.intensity, dtype=torch.float32)).expand_as(n)
+    return x, irradiance, prefiltered, torch.cat([n, v.expand_as(n), l_ws, e, w[..., None]], -1)
 
 
 def sample_lights(n: torch.Tensor, u: torch.Tensor, strategy: str, lighting: Lighting

@@ -13,6 +13,10 @@ material and n.v predicts how much of each the surface reflects. Two output form
     split3: k = sigmoid(MLP(x)) [3]   L_o = S k_d diffuse E / pi (1 - e_spec)
                                             + S (k_a f0 (dfg.y - dfg.x) + k_b f90 dfg.x) P
             (P along the dominant direction: k = 0.5 is ggx_split_sum, where it starts)
+            sun=True: the base is ggx_split_sum with SUN_LIGHT: E and P without the
+            environment's sun (P mixed with the whole environment's chain where the lobe is
+            narrower than the sun) + the sun as a light with the same k
+            (neural_student_sun_split; k = 0.5: ggx_environment_sun)
 
     occlusion "factor" (:data:`OCCLUSIONS`): k_d = ao sigmoid(...), AO applied outside the MLP
     indirect "factor" (:data:`INDIRECTS`): k_i = sigmoid(MLP_i(x)), a second network of
@@ -36,10 +40,10 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from learned.twins.brdf import compute_f0, f90_from_f0
+from learned.twins.brdf import clamp_perceptual_roughness, compute_f0, f90_from_f0
 from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_indirect_factor,
                                   neural_student_radiance, neural_student_radiance_pbr,
-                                  neural_student_radiance_split)
+                                  neural_student_radiance_split, neural_student_sun_split)
 from learned.twins.shading import diffuse_color
 
 from .encoding import encoded_size, fourier_encode
@@ -95,7 +99,7 @@ class Student(nn.Module):
 
     def __init__(self, hidden: tuple[int, ...] = (32, 32), num_freqs: int = 0,
                  features: str = "base", output: str = "free6", occlusion: str = "factor",
-                 indirect: str = "none"):
+                 indirect: str = "none", sun: bool = False):
         super().__init__()
         if features not in FEATURE_INPUTS:
             raise ValueError(f"unknown student features {features!r} "
@@ -112,8 +116,11 @@ class Student(nn.Module):
         if indirect != "none" and OUTPUTS[output] != 3:
             raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
                              f"(pbr3 or split3), not {output!r}")
+        if sun and output != "split3":
+            raise ValueError(f"a student with the sun needs the split3 output form, not {output!r}")
         self.occlusion = occlusion
         self.indirect = indirect
+        self.sun = bool(sun)
         self.hidden = tuple(int(h) for h in hidden)
         self.num_freqs = int(num_freqs)
         self.features = features
@@ -140,7 +147,7 @@ class Student(nn.Module):
     def config(self) -> dict:
         return {"hidden": list(self.hidden), "num_freqs": self.num_freqs,
                 "features": self.features, "output": self.output, "occlusion": self.occlusion,
-                "indirect": self.indirect}
+                "indirect": self.indirect, "sun": self.sun}
 
     def activations(self) -> list[str]:
         return ["relu"] * len(self.hidden) + ["sigmoid"]
@@ -193,14 +200,19 @@ class Student(nn.Module):
         return neural_indirect_factor(self.weights(x)[:, 3])
 
     def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor,
-                indirect: torch.Tensor | None = None) -> torch.Tensor:
+                indirect: torch.Tensor | None = None, sun: torch.Tensor | None = None
+                ) -> torch.Tensor:
         """Radiance ``[N, 3]`` from :func:`learned.neural.lighting.student_features` (``x`` holds
         albedo, roughness, metallic, specular first: the material of the ``pbr3`` form): the
         lighting pass's direct light, plus ``indirect`` (``[N, 3]``, the indirect pass's
-        one-bounce light L_ind) times :meth:`indirect_factor` when given."""
+        one-bounce light L_ind) times :meth:`indirect_factor` when given. ``sun`` ``[N, 13]``
+        (``student_features(..., sun=True)``; a student with :attr:`sun` only): the
+        environment's sun, shaded with the same factors (``neural_student_sun_split``)."""
         k = self.weights(x)
         out = self._radiance(k[:, :6 if self.output == "free6" else 3], x, irradiance,
                              prefiltered)
+        if self.sun and sun is not None:
+            out = out + self._sun(k[:, :3], x, sun)
         if indirect is None:
             return out
         if self.learns_indirect:
@@ -219,6 +231,14 @@ class Student(nn.Module):
                                                  prefiltered)
         return neural_student_radiance_pbr(k, diffuse_color(albedo, metallic), f0,
                                            f90_from_f0(f0), irradiance, prefiltered)
+
+    def _sun(self, k, x, sun):
+        albedo, metallic, specular = x[:, :3], x[:, 4], x[:, 5]
+        f0 = compute_f0(albedo, metallic, specular)
+        r = clamp_perceptual_roughness(x[:, 3])
+        return neural_student_sun_split(k, diffuse_color(albedo, metallic), f0, f90_from_f0(f0),
+                                        x[:, 8:10], r * r, sun[:, 0:3], sun[:, 3:6], sun[:, 6:9],
+                                        sun[:, 9:12], sun[:, 12])
 
     def networks(self) -> dict[str, list[tuple[torch.Tensor, torch.Tensor, str]]]:
         """name -> [(weight [out, in], bias [out], activation)] as exported."""

@@ -26,6 +26,9 @@ class TrainConfig:
     # "none" | "factor": a learned factor on the screen-space indirect light
     # (learned.neural.student.INDIRECTS; trained on TrainImage.indirect)
     student_indirect: str = "none"
+    # a split3 student whose base shades the environment's sun analytically (architecture "sun":
+    # the IBL without the sun + the sun as a light, as ggx_split_sum with SUN_LIGHT)
+    student_sun: bool = False
     distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
     # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
     # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)

@@ -44,6 +44,9 @@ class TrainImage:
     vis: torch.Tensor  # [P] its screen-space visibility of the environment's light (SSAO_ENV_VIS)
     # [P, 3] the indirect pass's one-bounce light L_ind (screen_space_indirect); None: not computed
     indirect: torch.Tensor | None = None
+    # the IBL without the environment's sun, with the sun (lighting_from_gl(..., sun=True)), for
+    # students whose base shades it; None: not loaded
+    lighting_sun: Lighting | None = None
 
 
 def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
@@ -78,7 +81,9 @@ def screen_space_indirect(renderer, sample) -> np.ndarray:
     return np.ascontiguousarray(out[::-1])
 
 
-def load_images(root: str, split: str, renderer) -> list[TrainImage]:
+def load_images(root: str, split: str, renderer, sun: bool = False) -> list[TrainImage]:
+    """Every usable sample of ``split``; ``sun``: also the lighting of a student whose base
+    shades the environment's sun (``TrainImage.lighting_sun``)."""
     out = []
     for folder in list_samples(root, split):
         s = load_sample(folder)
@@ -87,7 +92,9 @@ def load_images(root: str, split: str, renderer) -> list[TrainImage]:
             continue
         ch = {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in s.channels.items()}
         v = -torch.from_numpy(s.view_dirs())
-        lighting = lighting_from_gl(renderer, EnvironmentSpec(path=str(s.environment)))
+        spec = EnvironmentSpec(path=str(s.environment))
+        lighting = lighting_from_gl(renderer, spec)
+        lighting_sun = lighting_from_gl(renderer, spec, sun=True) if sun else None
         target = torch.from_numpy(np.ascontiguousarray(s.target))
         unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
         ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s))
@@ -96,7 +103,8 @@ def load_images(root: str, split: str, renderer) -> list[TrainImage]:
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],
             target=target[fg], unshadowed=unshadowed[fg], target_image=target.permute(2, 0, 1),
             normal_image=ch["normal"].permute(2, 0, 1), ao_image=ch["ao"].permute(2, 0, 1),
-            lighting=lighting, ssao=ssao[fg], vis=vis[fg], indirect=indirect[fg]))
+            lighting=lighting, ssao=ssao[fg], vis=vis[fg], indirect=indirect[fg],
+            lighting_sun=lighting_sun))
     if not out:
         raise DatasetError(f"no usable samples in the {split!r} split", where=root)
     return out
@@ -187,12 +195,23 @@ def design_features(model: Student, images: list[TrainImage]) -> list[tuple]:
     """:func:`student_features` of every image as ``model`` sees them at run time: a student with
     ``vis`` inputs runs with SSAO (``viewer.neural.required_settings``), so its ao input is the
     material AO times the SSAO pass's O(x) and its vis input the pass's S(x); any other student
-    gets the material AO (the renderer multiplies SSAO in only when the user turns it on)."""
+    gets the material AO (the renderer multiplies SSAO in only when the user turns it on). A
+    student whose base shades the sun (``model.sun``) reads the IBL without it and gets the sun's
+    arguments as a fourth tensor (``TrainImage.lighting_sun``, ``load_images(..., sun=True)``)."""
+    sun = getattr(model, "sun", False)
+
+    def lighting(img):
+        if not sun:
+            return img.lighting
+        if img.lighting_sun is None:
+            raise ValueError("a student with the sun needs load_images(..., sun=True)")
+        return img.lighting_sun
+
     if model.reads_visibility:
-        return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0] * img.ssao,
-                                 img.vis, dominant=model.dominant) for img in images]
-    return [student_features(img.gb, img.v, img.lighting, img.gb["ao"][:, 0],
-                             dominant=model.dominant) for img in images]
+        return [student_features(img.gb, img.v, lighting(img), img.gb["ao"][:, 0] * img.ssao,
+                                 img.vis, dominant=model.dominant, sun=sun) for img in images]
+    return [student_features(img.gb, img.v, lighting(img), img.gb["ao"][:, 0],
+                             dominant=model.dominant, sun=sun) for img in images]
 
 
 def distill_loss(pred: torch.Tensor, target: torch.Tensor, kind: str) -> torch.Tensor:
@@ -219,7 +238,7 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
     design = design if design is not None else {
         "hidden": cfg.student_hidden, "num_freqs": cfg.student_freqs,
         "features": cfg.student_features, "output": cfg.student_output,
-        "indirect": cfg.student_indirect}
+        "indirect": cfg.student_indirect, "sun": cfg.student_sun}
     model = Student(**design)
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
     if feats is None:
@@ -229,9 +248,10 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
         k = int(rng.integers(0, len(images)))
         p = targets[k].shape[0]
         idx = torch.from_numpy(rng.choice(p, size=min(cfg.batch_pixels, p), replace=False))
-        x, irr, pre = (t[idx] for t in feats[k])
-        if model.learns_indirect:  # direct + the learned factor x the indirect pass's L_ind
-            pred = ddp(x, irr, pre, images[k].indirect[idx])
+        x, irr, pre, *sun = (t[idx] for t in feats[k])  # sun: [the sun's arguments] or []
+        ind = images[k].indirect[idx] if model.learns_indirect else None
+        if model.learns_indirect or sun:  # + the learned factor x the indirect pass's L_ind
+            pred = ddp(x, irr, pre, ind, *sun)
         else:
             pred = ddp(x, irr, pre)
         return distill_loss(pred, targets[k][idx], cfg.distill_loss)

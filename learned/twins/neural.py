@@ -23,12 +23,12 @@ from learned.neural.lighting import STRATEGIES, env_radiance, student_features, 
 from learned.twins.deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from learned.twins.mc import mc_sample_2d
 
-from .brdf import clamp_perceptual_roughness
+from .brdf import clamp_perceptual_roughness, d_ggx, v_smith_ggx_correlated
 from .equirect import equirect_uv
 from .ibl import (DIRECTION_ABS_ERROR, equirect_uv_error, ibl_specular_dfg, prefilter_lod,
                   sample_trilinear_envelope)
 
-from .common import INV_PI
+from .common import INV_PI, half_vector, saturate
 
 NEURAL_OUTPUT_SCALE = 2.0  # GLSL NEURAL_OUTPUT_SCALE (lib/neural.glsl)
 
@@ -93,6 +93,34 @@ def neural_student_radiance_split(k: torch.Tensor, diffuse: torch.Tensor, f0: to
         + spec * prefiltered
 
 
+def neural_student_sun_split(k: torch.Tensor, diffuse: torch.Tensor, f0: torch.Tensor,
+                             f90: torch.Tensor, dfg: torch.Tensor, a: torch.Tensor,
+                             n: torch.Tensor, v: torch.Tensor, l: torch.Tensor,
+                             irradiance: torch.Tensor, specular_weight: torch.Tensor
+                             ) -> torch.Tensor:
+    """GLSL ``vec3 neural_student_sun_split(...)``: the environment's sun under a ``split3`` student
+    whose base shades it (architecture ``"sun": true``): ``k`` ``[..., 3]``, diffuse, f0, n, v, l,
+    irradiance ``[..., 3]``, f90, a, specular_weight ``[...]``, dfg ``[..., 2]`` -> ``[..., 3]``;
+    [S k_d diffuse / pi (1 - e_spec) + (S k_a f0 (1 - Fc) + S k_b f90 Fc) D V w] E (n.l), 0 where
+    n.l <= 0 (k = 0.5: ``ggx_environment_sun`` without multiple scattering)."""
+    NoL = (n * l).sum(-1)
+    s = NEURAL_OUTPUT_SCALE * k
+    h = half_vector(v, l)
+    NoV = saturate((n * v).sum(-1))
+    NoH = saturate((n * h).sum(-1))
+    VoH = saturate((v * h).sum(-1))
+    e_spec = ibl_specular_dfg(dfg, f0, f90)
+    fd = s[..., 0:1] * diffuse * INV_PI * (1.0 - e_spec).clamp_min(0.0)
+    x = 1.0 - VoH
+    x2 = x * x
+    fc = (x2 * x2 * x)[..., None]
+    sf0 = s[..., 1:2] * f0
+    fresnel = sf0 + ((s[..., 2] * f90)[..., None] - sf0) * fc
+    fs = (d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a))[..., None] * fresnel
+    out = (fd + fs * specular_weight[..., None]) * irradiance * NoL[..., None]
+    return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
+
+
 def neural_indirect_factor(k: torch.Tensor) -> torch.Tensor:
     """GLSL ``float neural_indirect_factor(float k)``: S k, the factor on the screen-space
     indirect light of a student with architecture ``"indirect": "factor"``."""
@@ -144,11 +172,14 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
             ao = ao * ssao[..., 0].reshape(-1)
             if getattr(net_model, "reads_visibility", False):
                 vis = ssao[..., 1].reshape(-1)
-        x, irr, pre = student_features(flat, v, lighting, ao, vis,
-                                       dominant=getattr(net_model, "dominant", False))
+        # SUN_LIGHT (a student whose base shades the sun): lighting is the IBL without it
+        sun = bool(defines.get("SUN_LIGHT", 0))
+        x, irr, pre, *sun_args = student_features(flat, v, lighting, ao, vis,
+                                                  dominant=getattr(net_model, "dominant", False),
+                                                  sun=sun)
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
-        c = net_model(x, irr, pre)
+        c = net_model(x, irr, pre, None, *sun_args)
         if outputs is not None and getattr(net_model, "learns_indirect", False):
             with torch.no_grad():
                 f = net_model.indirect_factor(x.detach())
@@ -187,10 +218,13 @@ def _student_envelope(out, background, x, pre, flat, d, v, lighting, bits: int) 
         r = clamp_perceptual_roughness(flat["roughness"][..., 0])
         r_env = env_dir(reflect(-v, n), lighting.rotation)
         lod = prefilter_lod(r, torch.full_like(r, float(lighting.levels)))
-        bound = bound + g_pre * sample_trilinear_envelope(
-            lighting.prefiltered, equirect_uv(r_env), lod,
-            equirect_uv_error(r_env, 2.0 * DIRECTION_ABS_ERROR), weight_bits=bits)[..., :3] \
-            * lighting.intensity
+        chains = [lighting.prefiltered]
+        if lighting.prefiltered_full is not None:  # SUN_LIGHT: mixed with the whole chain
+            chains.append(lighting.prefiltered_full)
+        e_pre = torch.stack([sample_trilinear_envelope(
+            chain, equirect_uv(r_env), lod, equirect_uv_error(r_env, 2.0 * DIRECTION_ABS_ERROR),
+            weight_bits=bits)[..., :3] for chain in chains]).amax(0)  # a convex mix: <= the max
+        bound = bound + g_pre * e_pre * lighting.intensity
         if lighting.dfg is not None:  # inputs 8, 9 of x: the DFG lookup
             lut = lighting.dfg
             size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])

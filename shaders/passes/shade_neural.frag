@@ -12,13 +12,24 @@
 // pass writes it (lib/neural.glsl neural_indirect_factor, 1 on the background) to the second
 // target o_indirect_factor, which the renderer allocates for it and passes/ssao.frag
 // (SSAO_INDIRECT_FACTOR) multiplies into its one-bounce light.
-// Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1).
+// Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1), SUN_LIGHT (0/1,
+// 0 when not given: a split3 student with NEURAL_STUDENT_SUN under an environment with a sun; the
+// IBL bound then leaves the sun out of the prefiltered chain and the SH, u_env_prefiltered_full
+// keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it, with the student's
+// corrections: lib/neural.glsl neural_student_sun_split).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "generated/neural_student.glsl"
+
+#ifndef SUN_LIGHT
+#define SUN_LIGHT 0
+#endif
+#if SUN_LIGHT && !(NEURAL_STUDENT_SPLIT && NEURAL_STUDENT_SUN)
+#error "SUN_LIGHT needs a split3 student trained with the sun (architecture \"sun\": true)"
+#endif
 
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
@@ -28,6 +39,12 @@ uniform sampler2D u_env_dfg;
 #endif
 #if NEURAL_STUDENT_SPLIT
 uniform sampler2D u_env_dominant;
+#endif
+#if SUN_LIGHT
+uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
+uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
+uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
+uniform float u_sun_radius;     // angular radius, radians
 #endif
 #if NEURAL_STUDENT_INDIRECT
 layout(location = 1) out vec4 o_indirect_factor;  // r: the factor on L_ind (all four channels)
@@ -58,6 +75,16 @@ void main() {
 #endif
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r,
                                              u_env_levels) * u_env_intensity;
+#if SUN_LIGHT
+    // the sun's specular light: analytic for the share w, looked up (with the sun) for the rest,
+    // as shade_ggx_split_sum.frag
+    float w_sun = sun_specular_weight(r * r, u_sun_radius);
+    if (w_sun < 1.0) {
+        prefiltered = mix(ibl_specular_radiance(u_env_prefiltered_full, env_dir(reflected), r,
+                                                u_env_levels) * u_env_intensity,
+                          prefiltered, w_sun);
+    }
+#endif
 #if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
 #else
@@ -77,6 +104,11 @@ void main() {
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = neural_student_radiance_split(k_0, diffuse_color(g.albedo, g.metallic), f0,
                                            f90_from_f0(f0), dfg, irradiance, prefiltered);
+#if SUN_LIGHT
+    c += neural_student_sun_split(k_0, diffuse_color(g.albedo, g.metallic), f0, f90_from_f0(f0),
+                                  dfg, r * r, n, v, rotate_y(u_sun_direction, u_env_rotation),
+                                  u_sun_irradiance * u_env_intensity, w_sun);
+#endif
 #elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = neural_student_radiance_pbr(k_0, diffuse_color(g.albedo, g.metallic), f0,

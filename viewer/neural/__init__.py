@@ -29,7 +29,7 @@ from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_T
                    NetworkCode, generate_glsl)
 from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
 from .network import (Network, learns_indirect, load_network, model_network, reads_visibility,
-                      required_settings, virtual_files)
+                      required_settings, shades_sun, virtual_files)
 from .upload import NeuralWeights
 
 __all__ = [
@@ -45,7 +45,7 @@ __all__ = [
     "STUDENT_KERNEL", "STUDENT_KERNEL_ENTRY", "STUDENT_KERNEL_GROUP", "mlp_kernel",
     # network
     "Network", "learns_indirect", "load_network", "model_network", "reads_visibility", "required_settings",
-    "virtual_files",
+    "shades_sun", "virtual_files",
     # upload
     "NeuralWeights",
 ]

@@ -23,7 +23,11 @@ architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [..
                 key = ``none``: ``factor`` adds a second network ``indirect`` (same inputs ->
                 :data:`INDIRECT_HIDDEN` -> 1, sigmoid), a learned factor 2 k on the screen-space
                 indirect light (the renderer then runs the indirect pass and the lighting pass
-                writes the factor for it, :data:`STUDENT_INDIRECT`)
+                writes the factor for it, :data:`STUDENT_INDIRECT`); ``"sun": true | false``, no
+                key = false (``split3`` only): the student's split-sum base is the IBL without the
+                environment's compact sun plus that sun as an analytic light, as ``ggx_split_sum``
+                shades it (``SUN_LIGHT``, viewer/sun.py), the sun's light with the same learned
+                corrections (``lib/neural.glsl`` ``neural_student_sun_split``)
 encoding        JSON (:func:`encoding`): ``{"type": "fourier", "num_freqs": L, "frequencies":
                 "pi * 2^k", "order": ...}``
 checkpoint      sha256 (hex) of the tensors (:func:`checkpoint_hash`); verified on load
@@ -85,6 +89,11 @@ DEFAULT_OCCLUSION = "input"
 STUDENT_INDIRECT = ("none", "factor")
 DEFAULT_INDIRECT = "none"
 INDIRECT_HIDDEN = 16  # hidden width of the "indirect" network (twin: learned.neural.student)
+# whether a split3 student's base shades the environment's sun analytically (architecture "sun";
+# twin: learned.neural.student.Student(sun=)): true = the base is ggx_split_sum with SUN_LIGHT (the
+# IBL without the sun + the sun as a light, both with the student's corrections); files without
+# the key (written before) are false, the split-sum of the whole environment
+DEFAULT_SUN = False
 TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
                   "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
 TENSOR_PARTS = ("weight", "bias")  # the tensors of one layer, in file order per layer
@@ -131,6 +140,12 @@ class NetworkFile:
         """Whether the student learns a factor on the indirect light (``none`` | ``factor``,
         :data:`STUDENT_INDIRECT`)."""
         return str(self.architecture.get("indirect", DEFAULT_INDIRECT))
+
+    @property
+    def sun(self) -> bool:
+        """Whether the student's split-sum base shades the environment's sun analytically
+        (architecture ``"sun"``, :data:`DEFAULT_SUN` without the key)."""
+        return bool(self.architecture.get("sun", DEFAULT_SUN))
 
     @property
     def occlusion(self) -> str:
@@ -195,12 +210,12 @@ def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT
 
 def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
                  output: str | None = None, occlusion: str | None = None,
-                 indirect: str | None = None) -> dict:
+                 indirect: str | None = None, sun: bool = False) -> dict:
     """The ``architecture`` metadata of a ``kind`` network (students record ``features``,
     ``output`` and ``occlusion``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT` /
-    :data:`DEFAULT_OCCLUSION`, and ``indirect`` when it is not ``none``, so files of students
-    without the factor stay as they were written before it existed; teachers have none of
-    them)."""
+    :data:`DEFAULT_OCCLUSION`, ``indirect`` when it is not ``none`` and ``sun`` when true, so
+    files of students without them stay as they were written before they existed; teachers have
+    none of them)."""
     features = features or DEFAULT_FEATURES
     output = output or DEFAULT_OUTPUT
     indirect = indirect or DEFAULT_INDIRECT
@@ -213,6 +228,8 @@ def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
         arch["occlusion"] = occlusion or DEFAULT_OCCLUSION
         if indirect != DEFAULT_INDIRECT:
             arch["indirect"] = indirect
+        if sun:
+            arch["sun"] = True
     return arch
 
 
@@ -257,6 +274,11 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
     if indirect != DEFAULT_INDIRECT and STUDENT_OUTPUTS[output] != 3:
         raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
                          f"(pbr3 or split3), not {output!r}")
+    sun = arch.get("sun", DEFAULT_SUN) if kind == "student" else DEFAULT_SUN
+    if not isinstance(sun, bool):
+        raise ValueError(f"student sun {sun!r} (true | false)")
+    if sun and output != "split3":
+        raise ValueError(f"student sun needs the split3 output form, not {output!r}")
     return expected_networks(kind, num_freqs, hidden, features, output, indirect)
 
 

@@ -230,6 +230,8 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
                   "the split-sum model",
                   f"#define NEURAL_STUDENT_INDIRECT {int(indirect)}  // 1: k_1.x is the factor "
                   "on the indirect light",
+                  f"#define NEURAL_STUDENT_SUN {int(net.sun)}  // 1: the split3 base shades "
+                  "the environment's sun analytically (SUN_LIGHT)",
                   "",
                   "// k [0, 1]^6 (free6: k_0 = k_diffuse rgb, k_1 = k_specular rgb) or [0, 1]^3",
                   "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0; with NEURAL_STUDENT_INDIRECT k_1.x is",

@@ -94,15 +94,27 @@ def learns_indirect(settings) -> bool:
     return found is not None and found[0].kind == "student" and found[0].indirect != "none"
 
 
+def shades_sun(settings) -> bool:
+    """Whether the lighting pass of ``settings.model`` is a student whose split-sum base shades the
+    environment's sun analytically (architecture ``"sun": true``): the renderer then compiles
+    ``SUN_LIGHT`` into it and binds the IBL without the sun, exactly as for ``ggx_split_sum``,
+    when the environment has one."""
+    found = model_network(settings.model, settings)
+    return found is not None and found[0].kind == "student" and found[0].sun
+
+
 def required_settings(settings):
     """``settings`` with what the model's network needs switched on: SSAO for a student that reads
     its occlusion and visibility inputs from it (it was trained on them; without the pass its ao
     input would be the material's alone and its vis input 1), the indirect pass for a student that
-    learned a factor on its light (trained on direct + factor x indirect). Unchanged for every
+    learned a factor on its light (trained on direct + factor x indirect), the analytic sun for a
+    student whose base shades it (``render.sun = false`` would leave its sun out). Unchanged for every
     other model."""
     flat = {}
     if reads_visibility(settings) and not settings.ssao.enabled:
         flat["ssao"] = True
     if learns_indirect(settings) and not settings.ssao.indirect:
         flat["indirect"] = True
+    if shades_sun(settings) and not settings.sun:  # its base was trained with the sun's light
+        flat["sun"] = True
     return settings.with_flat(**flat) if flat else settings

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from .base import Arg, ParityCase
+from .shading import _ALPHA_L, _UNIT, _UP, _fix_dfg_at, _nonneg3
 
 PASS_LEVEL = ()
 
@@ -64,6 +65,15 @@ PARITY_CASES = [
                         "adversarial P): the differences dfg.y - dfg.x and 1 - e_spec cancel, so "
                         "their rounding (u on values <= 1) is absolute: 3 u x 32 = 5.7e-6 on the "
                         "diffuse term; products and the add 4.8e-7 rel"),
+    # ggx_environment_sun's body (multiscatter off) with the student's corrections
+    ParityCase("neural_student_sun_split",
+               (Arg(components=3, adversarial=((0.5, 0.5, 0.5), (0, 1, 0))), _nonneg3(),
+                _nonneg3(), Arg(), Arg(lo=0.0, hi=1.0, components=2), _ALPHA_L, _UNIT, _UP,
+                _UNIT, _nonneg3(10.0, ((1e5, 0, 65504),)), Arg(lo=0.0, hi=1.0)),
+               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(4),
+               measured="max rel 2.5e-5 (seeds 0-3; ggx_environment_sun 7.0e-5)",
+               envelope="as ggx_environment_sun: D_GGX's sensitivity to n.h at small alpha; "
+                        "the corrections S k add one rounding per term (S = 2 exact)"),
     ParityCase("neural_indirect_factor", (Arg(adversarial=(0.0, 0.5, 1.0)),),
                atol=0.0, rtol=0.0, measured="exact",
                envelope="exact: S k with S = 2, a power of two"),

@@ -115,15 +115,20 @@ def check_model(programs, model: str, variant: dict, weights=None):
         # pass: the lighting pass's output is the direct target (check_indirect_factor: the rest)
         glsl = gl_texture(targets.direct if targets.indirect_factor is not None
                           else targets.radiance)
-        lighting = lighting_from_gl(renderer, scene.environment)
+        # a student whose base shades the environment's sun: the pass ran with SUN_LIGHT and the
+        # IBL without the sun (Renderer.specialization)
+        defines = dict(shade_defines(model, scene.render))
+        if targets.variant.defines.get("SUN_LIGHT", 0):
+            defines["SUN_LIGHT"] = 1
+        lighting = lighting_from_gl(renderer, scene.environment,
+                                    sun=bool(defines.get("SUN_LIGHT", 0)))
         ssao = None
         if scene.render.ssao.enabled:
             ssao = torch.from_numpy(gl_texture(targets.ssao).copy())
         envelope = {"weight_bits": device_filter_bits(programs)}
         grad = torch.enable_grad() if model == "neural" else torch.no_grad()
         with grad:  # the student's envelope differentiates through the network to its lookups
-            ref = shade_neural(model, net_model, gb, targets.camera, lighting,
-                               shade_defines(model, scene.render),
+            ref = shade_neural(model, net_model, gb, targets.camera, lighting, defines,
                                (0, scene.render.mc.samples), scene.render.mc.seed,
                                envelope=envelope, ssao=ssao).detach().numpy()
     finally:

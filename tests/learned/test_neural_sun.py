@@ -1,0 +1,107 @@
+"""A ``split3`` student whose base shades the environment's sun analytically (architecture
+``"sun": true``): its untrained frame is ``ggx_split_sum`` with ``SUN_LIGHT``, GLSL and torch agree
+on a perturbed one, and files without the key render as before."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from learned.export import export, load_model
+from learned.neural.student import Student
+from learned.parity.checks import neural as tn
+from viewer.neural import WeightsError, load_network, shades_sun
+
+
+def _render(programs, scene):
+    from viewer.renderer import Renderer
+
+    renderer = Renderer(ctx=programs.ctx)
+    try:
+        frame = renderer.render(scene)
+        targets = renderer.draw(scene)
+        return frame.radiance, dict(targets.variant.defines)
+    finally:
+        renderer.release()
+
+
+def test_sun_student_starts_at_the_split_sum_model_with_the_sun(programs, tmp_path):
+    """k = 0.5 everywhere (zero-initialised last layer) is ``ggx_split_sum`` with the analytic
+    sun (single scattering): the two passes agree to float rounding, the neural one compiled
+    with SUN_LIGHT; then torch and GLSL agree on a perturbed student (``model:neural``)."""
+    from viewer.scene import scene_from_dict
+
+    torch.manual_seed(5)
+    s = Student(hidden=(8, 8), features="vis", output="split3", sun=True)
+    path = tmp_path / "sun.safetensors"
+    export(s, path)
+    net = load_network(path, "student")
+    assert net.sun and net.architecture["sun"] is True
+    assert "#define NEURAL_STUDENT_SUN 1" in net.glsl
+    assert load_model(path).sun
+    base = scene_from_dict(tn.PARITY_SCENE).with_render(multiscatter=False, tonemap="none",
+                                                         ssao=True)
+    assert shades_sun(base.with_render(model="neural", weights=str(path)).render)
+    neural, defines = _render(programs, base.with_render(model="neural", weights=str(path)))
+    assert defines.get("SUN_LIGHT") == 1
+    classical, cdef = _render(programs, base.with_render(model="ggx_split_sum"))
+    assert cdef.get("SUN_LIGHT") == 1
+    np.testing.assert_allclose(neural, classical, rtol=2e-6, atol=2e-6)
+    # render.sun = false is overridden for it: its base was trained with the sun's light
+    forced, fdef = _render(programs, base.with_render(model="neural", weights=str(path),
+                                                      sun=False))
+    assert fdef.get("SUN_LIGHT") == 1
+    np.testing.assert_array_equal(forced, neural)
+    with torch.no_grad():
+        s.layers[-1].weight.normal_(0.0, 2.0)
+    export(s, path)
+    r = tn.check_model(programs, "neural", {}, path)
+    assert r.passed, r
+
+
+def test_files_without_the_sun_key_render_as_before(programs, tmp_path):
+    """A split3 student written without ``"sun"`` loads as false, compiles no SUN_LIGHT and
+    renders bit-identically whatever ``render.sun`` says (its base is the plain split-sum)."""
+    from viewer.scene import scene_from_dict
+
+    torch.manual_seed(5)
+    s = Student(hidden=(8, 8), features="vis", output="split3")
+    path = tmp_path / "plain.safetensors"
+    export(s, path)
+    net = load_network(path, "student")
+    assert "sun" not in net.architecture and not net.sun
+    assert "#define NEURAL_STUDENT_SUN 0" in net.glsl
+    base = scene_from_dict(tn.PARITY_SCENE).with_render(model="neural", weights=str(path),
+                                                         tonemap="none")
+    on, d_on = _render(programs, base)
+    off, d_off = _render(programs, base.with_render(sun=False))
+    assert "SUN_LIGHT" not in d_on and d_on == d_off
+    np.testing.assert_array_equal(on, off)
+
+
+def test_sun_needs_split3():
+    with pytest.raises(ValueError, match="split3"):
+        Student(output="pbr3", sun=True)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"sun": "yes"}, "student sun 'yes'"),
+    ({"sun": True, "output": "pbr3"}, "needs the split3 output form"),
+])
+def test_bad_sun_metadata_is_a_one_line_error(tmp_path, change, message):
+    from safetensors import safe_open
+    from safetensors.numpy import save_file
+
+    torch.manual_seed(0)
+    src = tmp_path / "s.safetensors"
+    export(Student(hidden=(4,), output="split3"), src)
+    with safe_open(str(src), framework="numpy") as f:
+        meta = dict(f.metadata())
+        tensors = {k: f.get_tensor(k) for k in f.keys()}
+    meta["architecture"] = json.dumps(json.loads(meta["architecture"]) | change)
+    bad = tmp_path / "bad.safetensors"
+    save_file(tensors, str(bad), metadata=meta)
+    with pytest.raises(WeightsError) as info:
+        load_network(bad, "student")
+    text = str(info.value)
+    assert message in text and str(bad) in text and "\n" not in text

@@ -105,3 +105,36 @@ def test_bad_sun_metadata_is_a_one_line_error(tmp_path, change, message):
         load_network(bad, "student")
     text = str(info.value)
     assert message in text and str(bad) in text and "\n" not in text
+
+
+def test_training_a_sun_student(tmp_path, ctx):
+    """``relight train --student-sun`` reaches the config; the training images carry the IBL
+    without the sun (with the sun) and the student trains on its base and exports ``"sun": true``."""
+    from learned.data.generator import GeneratorConfig, generate
+    from learned.train import TrainConfig, load_images, train
+    from relight.cli import build_parser
+    from viewer.renderer import Renderer
+
+    args = build_parser().parse_args(["train", "--out", str(tmp_path / "x"), "--student-sun"])
+    assert args.student_sun is True
+    assert build_parser().parse_args(["train", "--out", str(tmp_path / "x")]).student_sun is None
+    dataset = tmp_path / "data"
+    r = Renderer(ctx=ctx)
+    try:
+        generate(dataset, GeneratorConfig(count=10, size=16, samples=4, seed=3, env_width=32),
+                 renderer=r, progress=False)
+        images = load_images(str(dataset), "train", r, sun=True)
+    finally:
+        r.release()
+    assert all(img.lighting_sun is not None for img in images)
+    assert any(img.lighting_sun.sun is not None for img in images), "no sun in the test data"
+    cfg = TrainConfig(data=str(dataset), out=str(tmp_path / "run"), teacher_steps=3,
+                      shadow_steps=2, student_steps=40, batch_pixels=128, light_samples=4,
+                      teacher_hidden=8, teacher_freqs=0, student_hidden=(8, 8), shadow_width=4,
+                      distill_samples=4, lr=3e-3, checkpoint_every=10, log_every=10,
+                      student_target="target", student_features="vis", student_output="split3",
+                      student_sun=True)
+    res = train(cfg, quiet=True)
+    net = load_network(res["student"], "student")
+    assert net.sun and load_model(res["student"]).sun
+    assert np.abs(net.tensors["mlp.2.weight"]).max() > 0.0  # moved off the zero start

@@ -114,7 +114,7 @@ class ForwardPass:
             raise ValueError("the forward pass depth-tests against the G-buffer's depth channel, "
                              "which this layout omits")
         _warn_fallback(settings.model)
-        variant = forward_variant(settings, light, sun=getattr(ibl, "sun", None) is not None)
+        variant = forward_variant(settings, light, sun=ibl.sun is not None)
         ctx = self.ctx
         out_fbo.use()
         ctx.viewport = (0, 0, camera.width, camera.height)

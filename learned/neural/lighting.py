@@ -20,6 +20,7 @@ from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
 from learned.twins.equirect import equirect_uv, rotate_y
 from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radiance,
+                                ibl_specular_radiance_sun,
                                sample_bilinear, specular_dominant_direction)
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
@@ -121,9 +122,15 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     if dominant:
         reflected = specular_dominant_direction(
             n, reflected, ibl_dominant_factor(lighting.dominant, nov, r))
-    prefiltered = ibl_specular_radiance(lighting.prefiltered,
-                                        env_dir(reflected, lighting.rotation), r,
-                                        lighting.levels) * lighting.intensity
+    r_env = env_dir(reflected, lighting.rotation)
+    sun_light = sun and lighting.sun is not None
+    if sun_light:  # the sun's specular share w is analytic, the rest is in the whole chain
+        w = sun_specular_weight(r * r, torch.full_like(r, float(lighting.sun.angular_radius)))
+        prefiltered = ibl_specular_radiance_sun(lighting.prefiltered, lighting.prefiltered_full,
+                                                r_env, r, lighting.levels, w) * lighting.intensity
+    else:
+        prefiltered = ibl_specular_radiance(lighting.prefiltered, r_env, r,
+                                            lighting.levels) * lighting.intensity
     if lighting.dfg is not None:
         dfg = ibl_dfg(lighting.dfg, nov, r)
     else:
@@ -134,18 +141,12 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
                    nov[..., None], dfg, vis[..., None]], dim=-1)
     if not sun:
         return x, irradiance, prefiltered
-    if lighting.sun is None:  # no sun taken out: a zero light
+    if not sun_light:  # no sun taken out: a zero light
         l_ws = torch.tensor([0.0, 1.0, 0.0]).expand_as(n)
         e = torch.zeros_like(n)
         w = torch.ones_like(r)
     else:
         s = lighting.sun
-        w = sun_specular_weight(r * r, torch.full_like(r, float(s.angular_radius)))
-        full = ibl_specular_radiance(lighting.prefiltered_full,
-                                     env_dir(reflected, lighting.rotation), r,
-                                     lighting.levels) * lighting.intensity
-        w3 = w[..., None]  # GLSL mix(full, prefiltered, w) where w < 1
-        prefiltered = torch.where(w3 < 1.0, full * (1.0 - w3) + prefiltered * w3, prefiltered)
         l_ws = rotate_y(torch.tensor(s.direction, dtype=torch.float32).expand_as(n),
                         torch.full(r.shape, lighting.rotation, dtype=torch.float32))
         e = (torch.tensor(s.irradiance, dtype=torch.float32)

@@ -186,6 +186,18 @@ def ibl_specular_radiance(prefiltered: list[torch.Tensor], r_ws: torch.Tensor,
     return sample_trilinear(prefiltered, equirect_uv(r_ws), lod)[..., :3]
 
 
+def ibl_specular_radiance_sun(sunless: list[torch.Tensor], full: list[torch.Tensor],
+                              r_ws: torch.Tensor, perceptual_roughness: torch.Tensor,
+                              levels: float, w: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ibl_specular_radiance_sun(sampler2D sunless, sampler2D full, vec3 r_ws, float r,
+    float levels, float w)``: mix(full, sunless, w) of the two chains' lookups where w < 1, the
+    sun-less lookup where w = 1. w ``[...]`` -> ``[..., 3]``."""
+    p = ibl_specular_radiance(sunless, r_ws, perceptual_roughness, levels)
+    f = ibl_specular_radiance(full, r_ws, perceptual_roughness, levels)
+    w3 = w[..., None]
+    return torch.where(w3 < 1.0, f * (1.0 - w3) + p * w3, p)
+
+
 def prefilter_lod(perceptual_roughness: torch.Tensor, levels: torch.Tensor) -> torch.Tensor:
     """GLSL ``float prefilter_lod(float r, float levels)``: with alpha = r^2 and alpha_1 =
     2^(1 - (levels - 1)), alpha / alpha_1 min(levels - 1, 1) below alpha_1, else

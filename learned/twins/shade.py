@@ -19,6 +19,7 @@ from .ibl import (
     ibl_dfg,
     ibl_dominant_factor,
     ibl_specular_radiance,
+    ibl_specular_radiance_sun,
     prefilter_lod,
     sample_bilinear,
     sample_trilinear_envelope,
@@ -112,22 +113,27 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
                                            weight_bits=bits)[..., 0]
             direction_error = direction_error + 2.0 * dt + 1e-6
         r_env = env_dir(reflected, rotation_rad)
-        prefiltered = ibl_specular_radiance(env["prefiltered"], r_env, r, env["levels"])
-        prefiltered = traced("prefiltered", prefiltered, lambda: sample_trilinear_envelope(
-            env["prefiltered"], equirect_uv(r_env),
-            prefilter_lod(r, torch.full_like(r, float(env["levels"]))),
-            _uv_error(r_env, direction_error), weight_bits=bits)[..., :3])
+
+        def lookup_bound(chain):
+            lod = prefilter_lod(r, torch.full_like(r, float(env["levels"])))
+            return sample_trilinear_envelope(chain, equirect_uv(r_env), lod,
+                                             _uv_error(r_env, direction_error),
+                                             weight_bits=bits)[..., :3]
+
         if model == "ggx_split_sum" and defines.get("SUN_LIGHT", 0):
             # the sun's specular light: analytic for the share w (_shade_ggx_split_sum), looked up
-            # in the chain of the whole environment for the rest
-            full = ibl_specular_radiance(env["prefiltered_full"], r_env, r, env["levels"])
-            full = traced("prefiltered_full", full, lambda: sample_trilinear_envelope(
-                env["prefiltered_full"], equirect_uv(r_env),
-                prefilter_lod(r, torch.full_like(r, float(env["levels"]))),
-                _uv_error(r_env, direction_error), weight_bits=bits)[..., :3])
-            w_sun = sun_specular_weight(r * r, torch.full_like(r, env["sun"].angular_radius))
-            w3 = w_sun[..., None]
-            prefiltered = torch.where(w3 < 1.0, full * (1.0 - w3) + prefiltered * w3, prefiltered)
+            # in the chain of the whole environment for the rest; the bound mixes as the lookups
+            w = sun_specular_weight(r * r, torch.full_like(r, env["sun"].angular_radius))
+            w3 = w[..., None]
+            prefiltered = ibl_specular_radiance_sun(env["prefiltered"], env["prefiltered_full"],
+                                                    r_env, r, env["levels"], w)
+            prefiltered = traced("prefiltered", prefiltered, lambda: torch.where(
+                w3 < 1.0, lookup_bound(env["prefiltered_full"]) * (1.0 - w3)
+                + lookup_bound(env["prefiltered"]) * w3, lookup_bound(env["prefiltered"])))
+        else:
+            prefiltered = ibl_specular_radiance(env["prefiltered"], r_env, r, env["levels"])
+            prefiltered = traced("prefiltered", prefiltered,
+                                 lambda: lookup_bound(env["prefiltered"]))
         ao = g["ao"][..., 0] if defines.get("USE_AO", 1) else torch.ones_like(r)
         if defines.get("USE_SSAO", 0):
             ao = ao * ssao  # deferred.glsl ambient_occlusion()

@@ -31,6 +31,17 @@ vec3 ibl_specular_radiance(sampler2D prefiltered, vec3 r_ws, float perceptual_ro
     return textureLod(prefiltered, equirect_uv(r_ws), prefilter_lod(perceptual_roughness, levels)).rgb;
 }
 
+// The split-sum lookup of a pass that shades the environment's sun as a light (SUN_LIGHT,
+// viewer/sun.py): `sunless`, the chain without the sun, and where the light shades only the share
+// w < 1 of the sun's specular light (lib/shading.glsl sun_specular_weight) the whole environment's
+// chain `full` mixed back in for the rest, mix(full, sunless, w); one lookup where w = 1.
+vec3 ibl_specular_radiance_sun(sampler2D sunless, sampler2D full, vec3 r_ws,
+                               float perceptual_roughness, float levels, float w) {
+    vec3 p = ibl_specular_radiance(sunless, r_ws, perceptual_roughness, levels);
+    if (!(w < 1.0)) return p;
+    return mix(ibl_specular_radiance(full, r_ws, perceptual_roughness, levels), p, w);
+}
+
 // Karis 2013, split-sum second term: the DFG LUT at (n.v, perceptual roughness).
 vec2 ibl_dfg(sampler2D dfg, float NoV, float perceptual_roughness) {
     // the LUT's texel centres sit on the end points (passes/ibl_dfg.comp): map [0, 1] onto them

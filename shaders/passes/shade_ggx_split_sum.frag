@@ -40,16 +40,15 @@ void main() {
     float r = clamp_perceptual_roughness(g.roughness);
     vec3 reflected = specular_dominant_direction(n, reflect(-v, n),
                                                  ibl_dominant_factor(u_env_dominant, NoV, r));
-    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
-                       * u_env_intensity;
 #if SUN_LIGHT
     // the sun's specular light: analytic for the share w, looked up (with the sun) for the rest
     float w_sun = sun_specular_weight(r * r, u_sun_radius);
-    if (w_sun < 1.0) {
-        prefiltered = mix(ibl_specular_radiance(u_env_prefiltered_full, env_dir(reflected), r,
-                                                u_env_levels) * u_env_intensity,
-                          prefiltered, w_sun);
-    }
+    vec3 prefiltered = ibl_specular_radiance_sun(u_env_prefiltered, u_env_prefiltered_full,
+                                                 env_dir(reflected), r, u_env_levels, w_sun)
+                       * u_env_intensity;
+#else
+    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
+                       * u_env_intensity;
 #endif
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);

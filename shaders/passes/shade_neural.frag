@@ -73,17 +73,16 @@ void main() {
 #else
     vec3 reflected = reflect(-v, n);
 #endif
-    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r,
-                                             u_env_levels) * u_env_intensity;
 #if SUN_LIGHT
     // the sun's specular light: analytic for the share w, looked up (with the sun) for the rest,
     // as shade_ggx_split_sum.frag
     float w_sun = sun_specular_weight(r * r, u_sun_radius);
-    if (w_sun < 1.0) {
-        prefiltered = mix(ibl_specular_radiance(u_env_prefiltered_full, env_dir(reflected), r,
-                                                u_env_levels) * u_env_intensity,
-                          prefiltered, w_sun);
-    }
+    vec3 prefiltered = ibl_specular_radiance_sun(u_env_prefiltered, u_env_prefiltered_full,
+                                                 env_dir(reflected), r, u_env_levels, w_sun)
+                       * u_env_intensity;
+#else
+    vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r,
+                                             u_env_levels) * u_env_intensity;
 #endif
 #if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);

@@ -14,6 +14,7 @@ from learned.twins.ibl import (
     ibl_dfg,
     ibl_dominant_factor,
     ibl_specular_radiance,
+    ibl_specular_radiance_sun,
     prefilter_environment,
     prefilter_level_envelope,
     prefilter_lod,
@@ -145,8 +146,12 @@ def checks() -> dict:
         rough[:8] = (0.0, 1.0, 0.25, 0.5, 0.75, 0.045, 1e-3, 0.999)
         nov = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
         nov[:4] = (0.0, 1.0, 1e-4, 0.5)
-        spec_gl, dfg_gl, dom_gl = _eval_lookups(programs, ibl, dirs, rough, nov)
+        w = rng.uniform(0.0, 1.0, size=n).astype(np.float32)
+        w[:4] = (0.0, 1.0, 0.5, 0.999)
+        w[4:n // 4] = 1.0  # the one-lookup branch
+        spec_gl, dfg_gl, dom_gl, sun_gl = _eval_lookups(programs, ibl, dirs, rough, nov, w)
         pre = [torch.from_numpy(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)]
+        rad = [torch.from_numpy(ibl.read_level("radiance", k)) for k in range(ibl.levels)]
         lut = torch.from_numpy(ibl.read_level("dfg"))
         dom_lut = torch.from_numpy(ibl.read_level("dominant"))
         with torch.no_grad():
@@ -161,6 +166,16 @@ def checks() -> dict:
             bound = sample_trilinear_envelope(pre, equirect_uv(d), lod,
                                               equirect_uv_error(d, 0.0), weight_bits=bits)[..., :3]
             bound = (bound + 4.0 * 2.0 ** -24 * torch.from_numpy(spec).abs()).numpy()
+            wt = torch.from_numpy(w)
+            sun = ibl_specular_radiance_sun(pre, rad, d, torch.from_numpy(rough),
+                                            float(ibl.levels), wt).numpy()
+            # the mix of the two lookups' envelopes (it is linear in both) + 4 ulp of the mix
+            rad_bound = sample_trilinear_envelope(rad, equirect_uv(d), lod,
+                                                  equirect_uv_error(d, 0.0),
+                                                  weight_bits=bits)[..., :3].numpy()
+            w3 = w[:, None]
+            sun_bound = np.where(w3 < 1.0, w3 * bound + (1.0 - w3) * rad_bound, bound) \
+                + 4.0 * 2.0 ** -24 * np.abs(sun)
             size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])
             x = torch.stack([torch.from_numpy(nov).clamp(0.0, 1.0),
                              torch.from_numpy(rough).clamp(0.0, 1.0)], -1)
@@ -177,6 +192,11 @@ def checks() -> dict:
                              "texel contrast",
                     envelope="per lookup: sample_trilinear_envelope (the device's measured "
                              "filter bits, atan error 8e-6 rad) + 4 ulp"),
+                compare_envelope(
+                    "ibl_specular_radiance_sun", sun_gl, sun, sun_bound,
+                    measured="max abs 5.1e-4 (values to 40), as ibl_specular_radiance",
+                    envelope="per lookup as ibl_specular_radiance, mixed with w as the values "
+                             "are, + 4 ulp of the mix"),
                 compare_envelope(
                     "ibl_dfg", dfg_gl, dfg, dfg_bound, measured="max abs 6e-8",
                     envelope="per lookup: sample_trilinear_envelope of the LUT (measured filter "
@@ -229,21 +249,24 @@ def _downsample_envelope(chain: list[torch.Tensor]) -> list[np.ndarray]:
     return out
 
 
-def _eval_lookups(programs, ibl, dirs, rough, nov):
-    """GL ``ibl_specular_radiance``, ``ibl_dfg`` and ``ibl_dominant_factor`` on the textures of
-    ``ibl``."""
+def _eval_lookups(programs, ibl, dirs, rough, nov, w):
+    """GL ``ibl_specular_radiance``, ``ibl_dfg``, ``ibl_dominant_factor`` and
+    ``ibl_specular_radiance_sun`` (its second chain: the radiance chain, which differs from the
+    prefiltered one wherever the mix matters) on the textures of ``ibl``."""
     def setup(prog):
         ibl.prefiltered.use(location=0)
         ibl.dfg.use(location=1)
         ibl.dominant.use(location=2)
+        ibl.radiance.use(location=3)
         prog["u_pre"].value = 0
         prog["u_lut"].value = 1
         prog["u_dominant"].value = 2
+        prog["u_pre_full"].value = 3
         prog["u_levels"].value = float(ibl.levels)
 
-    inputs = np.concatenate([dirs, rough[:, None], nov[:, None]], axis=1)
-    out = run_kernel(programs, "passes/parity_ibl_lookups.comp", inputs, 6, setup)
-    return out[:, :3], out[:, 3:5], out[:, 5]
+    inputs = np.concatenate([dirs, rough[:, None], nov[:, None], w[:, None]], axis=1)
+    out = run_kernel(programs, "passes/parity_ibl_lookups.comp", inputs, 9, setup)
+    return out[:, :3], out[:, 3:5], out[:, 5], out[:, 6:9]
 
 
 def eval_sh_irradiance(programs, normals: np.ndarray, sh: np.ndarray) -> np.ndarray:

@@ -13,6 +13,7 @@ Rows: ``{"model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip", "b
 """
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -111,12 +112,36 @@ def sample_scene(sample, **render):
         "render": {"tonemap": "none", **render}}, file=str(sample.folder / "scene"))
 
 
+GROUPS = ("kind", "environment")  # what ``evaluate(by=...)`` can break the means down by
+
+
+def sample_group(sample, by: str | None) -> str:
+    """The group of ``sample`` for ``evaluate(by=...)``: its scene kind (``meta.json``
+    geometry.kind; "unrecorded" for samples without one) or its environment file's stem."""
+    if by is None:
+        return ""
+    if by == "kind":
+        return sample.kind or "unrecorded"
+    if by == "environment":
+        meta = sample.folder / "meta.json"
+        try:
+            source = json.loads(meta.read_text()).get("environment", {}).get("source")
+        except (OSError, ValueError, AttributeError):
+            source = None
+        return Path(str(source)).stem if source else "unrecorded"
+    raise ValueError(f"by={by!r}: expected one of {GROUPS}")
+
+
 def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: int | None = None,
-             renderer=None, students: dict | None = None) -> list[dict]:
+             renderer=None, students: dict | None = None, by: str | None = None) -> list[dict]:
     """Every model of :func:`models_to_evaluate` on every sample of ``split`` (at most ``limit``):
     one row per (model, variant) with the means over samples. ``split = "all"``: every split (a
     held-out dataset, no sample of which was trained on). ``students``: more student weights
-    files to score (variant name -> path)."""
+    files to score (variant name -> path). ``by`` ("kind" or "environment", :data:`GROUPS`):
+    one row per (group, model, variant) instead, each row's ``group`` naming it, plus the rows of
+    every sample together (``group`` "all")."""
+    if by is not None and by not in GROUPS:
+        raise ValueError(f"by={by!r}: expected one of {GROUPS}")
     splits = (split,) if split != "all" else tuple(
         s for s in ("train", "val", "test") if (Path(root) / s).is_dir()) or ("test",)
     folders = [f for s in splits for f in list_samples(root, s)][:limit]
@@ -126,6 +151,7 @@ def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: 
     try:
         for folder in tqdm(folders, desc="eval", unit="sample"):
             sample = load_sample(folder)
+            group = sample_group(sample, by)
             fg = sample.foreground()
             for model, variant, render in models_to_evaluate(teacher_samples, students):
                 scene = sample_scene(sample, model=model, **render)
@@ -137,24 +163,32 @@ def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: 
                 bias = float(np.clip(pred, 0, None)[fg].sum() / max(sample.target[fg].sum(), 1e-12)
                              - 1.0)
                 row = metrics(pred, sample.target, fg) | {"ms": ms, "bias": bias}
-                acc.setdefault((model, variant, render.get("samples", 1)), []).append(row)
+                key = (model, variant, render.get("samples", 1))
+                acc.setdefault(("all",) + key, []).append(row)
+                if by is not None:
+                    acc.setdefault((group,) + key, []).append(row)
     finally:
         if own:
             renderer.release()
     size = f"{load_sample(folders[0]).size[0]}x{load_sample(folders[0]).size[1]}" if folders else ""
     rows = []
-    for (model, variant, samples), rs in acc.items():
-        rows.append({"model": model, "variant": variant, "samples": samples, "size": size,
+    for (group, model, variant, samples), rs in sorted(
+            acc.items(), key=lambda item: (by is not None and item[0][0] == "all", item[0][0])):
+        extra = {"group": group} if by is not None else {}
+        rows.append({**extra, "model": model, "variant": variant, "samples": samples, "size": size,
                      "count": len(rs), **{k: float(np.mean([r[k] for r in rs]))
                                           for k in ("ms", "psnr", "ssim", "flip", "bias")}})
     return rows
 
 
 def format_table(rows: list[dict]) -> str:
-    lines = [f"{'model':<16} {'variant':<26} {'spp':>5} {'ms':>9} {'PSNR dB':>8} {'SSIM':>7} "
+    grouped = any("group" in r for r in rows)
+    head = f"{'group':<18} " if grouped else ""
+    lines = [head + f"{'model':<16} {'variant':<26} {'spp':>5} {'ms':>9} {'PSNR dB':>8} {'SSIM':>7} "
              f"{'HDR-FLIP':>9} {'bias %':>7}  n"]
     for r in rows:
-        lines.append(f"{r['model']:<16} {r['variant']:<26} {r['samples']:>5} {r['ms']:>9.2f} "
+        group = f"{r.get('group', ''):<18} " if grouped else ""
+        lines.append(group + f"{r['model']:<16} {r['variant']:<26} {r['samples']:>5} {r['ms']:>9.2f} "
                      f"{r['psnr']:>8.2f} {r['ssim']:>7.4f} {r['flip']:>9.4f} "
                      f"{100 * r.get('bias', float('nan')):>7.1f}  {r['count']}")
     return "\n".join(lines)

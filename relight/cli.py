@@ -5,7 +5,7 @@
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
     relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--install] [--compare-students]
-    relight eval DATA [--split test] [--json]
+    relight eval DATA [--split test] [--by kind|environment] [--json]
     relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
@@ -173,6 +173,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--limit", type=int, help="at most this many samples")
     p.add_argument("--weights", action="append", default=[], metavar="NAME=FILE",
                    help="also score this student weights file as row 'neural NAME' (repeatable)")
+    p.add_argument("--by", choices=("kind", "environment"),
+                   help="also break the means down by the samples' scene kind or environment "
+                        "(meta.json), one row per group and model; group 'all' is every sample")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_eval)
 

@@ -436,7 +436,7 @@ def cmd_eval(args) -> int:
             raise RelightError("weights file not found", where=path)
         students[name] = path
     rows = ev.evaluate(args.data, split=args.split, teacher_samples=args.teacher_samples,
-                       limit=args.limit, students=students)
+                       limit=args.limit, students=students, by=args.by)
     if args.json:
         print(json.dumps(rows, indent=1))
     else:

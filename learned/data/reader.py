@@ -47,6 +47,7 @@ class Sample:
     unoccluded: np.ndarray | None = None  # [H, W, 3] linear RGB without AO/SSAO/indirect, if any
     target_stderr: np.ndarray | None = None  # [H, W, 3] standard error of a path-traced target
     target_source: str | None = None  # meta.json target.source: "rasteriser" | "reference"
+    kind: str | None = None  # meta.json geometry.kind (the generator's scene kind), if recorded
 
     @property
     def size(self) -> tuple[int, int]:
@@ -84,9 +85,13 @@ def load_sample(folder: str | os.PathLike, require_target: bool = True) -> Sampl
     meta = folder / "meta.json"
     if meta.is_file():
         try:
-            target_info = json.loads(meta.read_text()).get("target", {})
+            info = json.loads(meta.read_text())
+            target_info = info.get("target", {})
+            geometry = info.get("geometry", {})
         except (ValueError, AttributeError) as exc:
             raise DatasetError(f"not valid JSON ({exc})", where=meta) from None
+        if isinstance(geometry, dict) and geometry.get("kind") is not None:
+            extra["kind"] = str(geometry["kind"])
         # samples generated before path-traced targets came from the rasteriser
         extra["target_source"] = str(target_info.get("source", "rasteriser"))
     return Sample(name=folder.name, folder=folder, channels=gb.channels, target=target,

@@ -303,3 +303,41 @@ def test_compare_students_writes_the_table_and_bench_rows(dataset, tmp_path, ctx
     assert [b["variant"] for b in bench] == ["a", "b"]
     assert all(b["model"] == "neural" and b["samples"] == 1 and b["size"] == "32x32"
                and b["psnr_test_vs_mc"] == rows[b["variant"]]["psnr_vs_mc"] for b in bench)
+
+
+def test_eval_breaks_the_means_down_by_scene_kind(dataset, tmp_path, ctx):
+    """``relight eval --by kind``: one row per (kind, model), each the mean over that kind's
+    samples; the "all" rows are the plain means, and the count-weighted means of the groups
+    equal them (exact up to float rounding of the means)."""
+    import json as _json
+
+    from learned.evaluate import evaluate, format_table
+    from viewer.renderer import Renderer
+
+    root = tmp_path / "d"
+    shutil.copytree(dataset, root)
+    relabelled = list_samples(root, "train")[:2]
+    for folder in relabelled:  # two of the three samples evaluated become another kind
+        meta = _json.loads((folder / "meta.json").read_text())
+        meta["geometry"]["kind"] = "other"
+        (folder / "meta.json").write_text(_json.dumps(meta))
+    r = Renderer(ctx=ctx)
+    try:
+        plain = evaluate(str(root), split="train", teacher_samples=1, limit=3, renderer=r)
+        rows = evaluate(str(root), split="train", teacher_samples=1, limit=3, renderer=r, by="kind")
+    finally:
+        r.release()
+    assert "group" not in plain[0]
+    groups = {row["group"] for row in rows}
+    assert groups == {"all", "other", load_sample(list_samples(root, "train")[2]).kind}
+    for p in plain:
+        same = [r for r in rows if (r["model"], r["variant"]) == (p["model"], p["variant"])]
+        by_group = {r["group"]: r for r in same}
+        assert by_group["all"]["count"] == 3 and by_group["other"]["count"] == 2
+        assert by_group["all"]["psnr"] == pytest.approx(p["psnr"], rel=1e-9)
+        for key in ("psnr", "ssim", "flip", "bias"):
+            weighted = sum(r[key] * r["count"] for g, r in by_group.items() if g != "all") / 3
+            assert weighted == pytest.approx(by_group["all"][key], rel=1e-6, abs=1e-9)
+    assert "other" in format_table(rows).splitlines()[1]
+    with pytest.raises(ValueError, match="by='shape'"):
+        evaluate(str(root), split="train", by="shape")

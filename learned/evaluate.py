@@ -10,6 +10,11 @@ background set to 0 in both (foreground only):
 
 Rows: ``{"model", "variant", "samples", "size", "ms", "psnr", "ssim", "flip", "bias", "count"}``
 (``bias``: total foreground radiance of the model over the target's, minus 1).
+
+Given a shadow UNet (``shadow_weights``, ``relight eval --shadow-weights RUN/shadow_final.pt``),
+one more row is the thesis's two-stage teacher, which has no GLSL pass: the torch teacher's
+estimate at ``teacher_samples`` environment-importance samples times the UNet's shadow map (eq.
+4.3), ``neural_teacher`` "<N> spp x shadow (torch)" (``ms``: torch on the CPU).
 """
 from __future__ import annotations
 
@@ -31,11 +36,12 @@ from .export import load_model
 from .parity.checks.neural import student_inputs
 
 
-def models_to_evaluate(teacher_samples: int, students: dict | None = None
-                       ) -> list[tuple[str, str, dict]]:
+def models_to_evaluate(teacher_samples: int, students: dict | None = None,
+                       teacher_weights=None) -> list[tuple[str, str, dict]]:
     """(model, variant, render settings) of every row: the classical models alone and with the
     screen-space passes (SSAO; SSAO + one-bounce indirect light), Monte Carlo, the shipped
-    student (and ``students``: variant name -> weights file), the teacher."""
+    student (and ``students``: variant name -> weights file), the teacher (the shipped one, or
+    the file ``teacher_weights``)."""
     out = [("blinn_phong", "", {}), ("ggx_split_sum", "", {}),
            ("ggx_split_sum", "+ SSAO", {"ssao": True}),
            ("ggx_split_sum", "+ SSAO + indirect", {"ssao": True, "indirect": True})]
@@ -46,9 +52,37 @@ def models_to_evaluate(teacher_samples: int, students: dict | None = None
     out.append(("neural", "student", {}))
     for name, path in (students or {}).items():
         out.append(("neural", name, {"weights": str(path)}))
+    teacher = {"teacher_weights": str(teacher_weights)} if teacher_weights else {}
     out.append(("neural_teacher", f"{teacher_samples} spp env",
-                {"samples": int(teacher_samples), "sampling": "env"}))
+                {"samples": int(teacher_samples), "sampling": "env"} | teacher))
     return out
+
+
+SHADOW_VARIANT = "{} spp x shadow (torch)"  # the variant of the teacher x shadow map row
+
+
+@torch.no_grad()
+def teacher_shadow_image(teacher, shadow, sample, lighting, samples: int, seed: int = 0
+                         ) -> np.ndarray:
+    """The two-stage teacher of eq. 4.3 on ``sample`` (``learned.data.reader.Sample``), torch:
+    the ``teacher``'s estimate at ``samples`` environment-importance samples per foreground pixel
+    (uniform pairs from a generator seeded ``seed``, as ``learned.train.teacher_images``) times
+    the ``shadow`` UNet's map of it, the sample's normals and AO -> ``[H, W, 3]`` linear radiance,
+    0 on the background, in the sample's row order (comparable with ``sample.target``)."""
+    fg = torch.from_numpy(sample.foreground())
+    ch = {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in sample.channels.items()}
+    gb = {k: t[fg] for k, t in ch.items()}
+    v = -torch.from_numpy(sample.view_dirs())[fg]
+    gen = torch.Generator().manual_seed(seed)
+    vals = []
+    for chunk in torch.split(torch.arange(v.shape[0]), 1024):
+        u = torch.rand(len(chunk), samples, 2, generator=gen)
+        vals.append(teacher({k: t[chunk] for k, t in gb.items()}, v[chunk], lighting, u, "env"))
+    unshadowed = torch.zeros(*fg.shape, 3)
+    unshadowed[fg] = torch.cat(vals) if vals else torch.zeros(0, 3)
+    out = shadow(unshadowed.permute(2, 0, 1)[None], ch["normal"].permute(2, 0, 1)[None],
+                 ch["ao"].permute(2, 0, 1)[None])[0]
+    return out.permute(1, 2, 0).numpy()
 
 
 def metrics(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> dict:
@@ -133,13 +167,16 @@ def sample_group(sample, by: str | None) -> str:
 
 
 def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: int | None = None,
-             renderer=None, students: dict | None = None, by: str | None = None) -> list[dict]:
+             renderer=None, students: dict | None = None, by: str | None = None,
+             teacher_weights=None, shadow_weights=None) -> list[dict]:
     """Every model of :func:`models_to_evaluate` on every sample of ``split`` (at most ``limit``):
     one row per (model, variant) with the means over samples. ``split = "all"``: every split (a
     held-out dataset, no sample of which was trained on). ``students``: more student weights
     files to score (variant name -> path). ``by`` ("kind" or "environment", :data:`GROUPS`):
     one row per (group, model, variant) instead, each row's ``group`` naming it, plus the rows of
-    every sample together (``group`` "all")."""
+    every sample together (``group`` "all"). ``teacher_weights``: the teacher's weights file
+    (default: the shipped one); ``shadow_weights``: a shadow UNet state dict, which adds the row
+    teacher x shadow map (module docstring)."""
     if by is not None and by not in GROUPS:
         raise ValueError(f"by={by!r}: expected one of {GROUPS}")
     splits = (split,) if split != "all" else tuple(
@@ -148,25 +185,47 @@ def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: 
     own = renderer is None
     renderer = renderer or Renderer()
     acc: dict[tuple, list] = {}
+    two_stage = None
+    if shadow_weights is not None:
+        from viewer.neural import default_weights
+
+        from .neural.shadow import load_shadow
+
+        two_stage = (load_model(teacher_weights or default_weights("teacher"), "teacher"),
+                     load_shadow(shadow_weights))
     try:
         for folder in tqdm(folders, desc="eval", unit="sample"):
             sample = load_sample(folder)
             group = sample_group(sample, by)
             fg = sample.foreground()
-            for model, variant, render in models_to_evaluate(teacher_samples, students):
+
+            def score(key, pred, ms):
+                bias = float(np.clip(pred, 0, None)[fg].sum() / max(sample.target[fg].sum(), 1e-12)
+                             - 1.0)
+                row = metrics(pred, sample.target, fg) | {"ms": ms, "bias": bias}
+                acc.setdefault(("all",) + key, []).append(row)
+                if by is not None:
+                    acc.setdefault((group,) + key, []).append(row)
+
+            for model, variant, render in models_to_evaluate(teacher_samples, students,
+                                                             teacher_weights):
                 scene = sample_scene(sample, model=model, **render)
                 renderer.render(scene)  # warm: programs, IBL
                 t0 = time.perf_counter()
                 frame = renderer.render(scene)
                 ms = 1e3 * (time.perf_counter() - t0)
-                pred = frame.radiance[..., :3]
-                bias = float(np.clip(pred, 0, None)[fg].sum() / max(sample.target[fg].sum(), 1e-12)
-                             - 1.0)
-                row = metrics(pred, sample.target, fg) | {"ms": ms, "bias": bias}
-                key = (model, variant, render.get("samples", 1))
-                acc.setdefault(("all",) + key, []).append(row)
-                if by is not None:
-                    acc.setdefault((group,) + key, []).append(row)
+                score((model, variant, render.get("samples", 1)), frame.radiance[..., :3], ms)
+            if two_stage is not None:
+                from viewer.environment import EnvironmentSpec
+
+                from .neural.lighting import lighting_from_gl
+
+                lighting = lighting_from_gl(renderer, EnvironmentSpec(path=str(sample.environment)))
+                t0 = time.perf_counter()
+                pred = teacher_shadow_image(*two_stage, sample, lighting, teacher_samples)
+                ms = 1e3 * (time.perf_counter() - t0)
+                score(("neural_teacher", SHADOW_VARIANT.format(teacher_samples),
+                       teacher_samples), pred, ms)
     finally:
         if own:
             renderer.release()

@@ -42,7 +42,7 @@ def metadata(model, training: dict | None = None,
     cfg = model.config
     arch = architecture(model.kind, cfg["num_freqs"], cfg["hidden"], cfg.get("features"),
                         cfg.get("output"), cfg.get("occlusion"), cfg.get("indirect"),
-                        bool(cfg.get("sun", False)))
+                        bool(cfg.get("sun", False)), bool(cfg.get("light_input", True)))
     return file_metadata(model.kind, arch,
                          network_tensors(model) if tensors is None else tensors, training)
 
@@ -74,7 +74,8 @@ def load_model(path: str | os.PathLike, kind: str | None = None):
                         features=net.features, output=net.output, occlusion=net.occlusion,
                         indirect=net.indirect, sun=net.sun)
     else:
-        model = Teacher(hidden=cfg["hidden"], num_freqs=cfg["num_freqs"])
+        model = Teacher(hidden=cfg["hidden"], num_freqs=cfg["num_freqs"],
+                        light_input=net.light_input)
     with torch.no_grad():
         for name, layers in model.networks().items():
             for i, (w, b, _) in enumerate(layers):

@@ -5,7 +5,8 @@
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
     relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--install] [--compare-students]
-    relight eval DATA [--split test] [--by kind|environment] [--json]
+    relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
+                 [--shadow-weights FILE] [--json]
     relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
@@ -116,8 +117,9 @@ def build_parser() -> argparse.ArgumentParser:
                                   "synthetic one under OUT/data)")
     p.add_argument("--out", default="runs/quick", help="run folder (checkpoints, logs, weights)")
     p.add_argument("--quick", action="store_true", help="small networks and few steps (minutes)")
-    p.add_argument("--stage", default="all", choices=("all", "teacher"),
-                   help="every stage (default) or the teacher alone")
+    p.add_argument("--stage", default="all", choices=("all", "teacher", "shadow"),
+                   help="every stage (default), the teacher alone, or the teacher and the "
+                        "shadow UNet (OUT/shadow_final.pt; no student)")
     p.add_argument("--teacher-steps", type=_positive_int, metavar="N")
     p.add_argument("--shadow-steps", type=_positive_int, metavar="N")
     p.add_argument("--student-steps", type=_positive_int, metavar="N")
@@ -127,6 +129,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="light directions per pixel while training the teacher")
     p.add_argument("--strategy", choices=("uniform", "cosine", "env"),
                    help="how the teacher samples light directions (default env)")
+    p.add_argument("--teacher-light-input", choices=("on", "off"),
+                   help="whether the teacher sees the light's radiance log(1 + L_in) as an input "
+                        "(default on, the thesis's eq. 4.2; off: rho from material and geometry "
+                        "only, exactly linear in the light; weights architecture "
+                        "\"light_input\": false)")
     p.add_argument("--student-target", choices=("teacher", "target"),
                    help="what the student learns from: the teacher x shadow map (default, the "
                         "thesis's distillation) or the dataset's targets (truth for traced data)")
@@ -173,6 +180,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--limit", type=int, help="at most this many samples")
     p.add_argument("--weights", action="append", default=[], metavar="NAME=FILE",
                    help="also score this student weights file as row 'neural NAME' (repeatable)")
+    p.add_argument("--teacher-weights", metavar="FILE",
+                   help="the teacher's weights file (default: the shipped one)")
+    p.add_argument("--shadow-weights", metavar="FILE",
+                   help="a shadow UNet (relight train's RUN/shadow_final.pt): adds the row "
+                        "teacher x shadow map, in torch ('N spp x shadow (torch)')")
     p.add_argument("--by", choices=("kind", "environment"),
                    help="also break the means down by the samples' scene kind or environment "
                         "(meta.json), one row per group and model; group 'all' is every sample")

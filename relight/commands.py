@@ -319,7 +319,7 @@ def _learned(what: str):
 TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
                    "light_samples", "strategy", "student_target", "student_features",
                    "student_output", "student_hidden", "student_indirect",
-                   "student_sun")
+                   "student_sun", "teacher_light_input")
 
 
 def _positive_int(text: str) -> int:
@@ -347,6 +347,8 @@ def cmd_train(args) -> int:
     """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student, or
     (--compare-students) the measured comparison of the candidate student designs."""
     over = {k: getattr(args, k) for k in TRAIN_OVERRIDES if getattr(args, k) is not None}
+    if "teacher_light_input" in over:  # --teacher-light-input on | off
+        over["teacher_light_input"] = over["teacher_light_input"] == "on"
     if args.compare_students:
         if args.stage != "all":
             raise RelightError("--compare-students trains every stage it needs; drop --stage",
@@ -366,7 +368,7 @@ def cmd_train(args) -> int:
     res = train.pipeline(args.out, data=data, quick=args.quick, install=args.install,
                          quiet=args.quiet, stages=args.stage, **over)
     if not args.quiet:
-        for k in ("teacher", "student", "installed_student", "installed_teacher"):
+        for k in ("teacher", "shadow", "student", "installed_student", "installed_teacher"):
             if k in res:
                 print(f"{k}: {res[k]}")
     return 0
@@ -435,8 +437,12 @@ def cmd_eval(args) -> int:
         if not Path(path).is_file():
             raise RelightError("weights file not found", where=path)
         students[name] = path
+    for path in (args.teacher_weights, args.shadow_weights):
+        if path is not None and not Path(path).is_file():
+            raise RelightError("weights file not found", where=path)
     rows = ev.evaluate(args.data, split=args.split, teacher_samples=args.teacher_samples,
-                       limit=args.limit, students=students, by=args.by)
+                       limit=args.limit, students=students, by=args.by,
+                       teacher_weights=args.teacher_weights, shadow_weights=args.shadow_weights)
     if args.json:
         print(json.dumps(rows, indent=1))
     else:

@@ -56,3 +56,12 @@ class ShadowUNet(nn.Module):
 
     def forward(self, unshadowed, normal, ao):
         return unshadowed * self.shadow_map(unshadowed, normal, ao)
+
+
+def load_shadow(path) -> ShadowUNet:
+    """The UNet of a state dict saved by ``relight train`` (``RUN/shadow_final.pt``; the UNet is
+    not exported to the viewer), its width read from the first convolution."""
+    state = torch.load(path, map_location="cpu", weights_only=True)
+    model = ShadowUNet(width=int(state["enc0.0.weight"].shape[0]))
+    model.load_state_dict(state)
+    return model.eval()

@@ -13,6 +13,12 @@ The thesis feeds L_i(l)<n.l> as an input feature; we feed it too (log-compressed
 multiply it out, so the network's RGB output is a learned reflectance and the average is an
 unbiased Monte-Carlo estimate for any pdf: uniform hemisphere, cosine, or environment importance
 sampling (thesis Table 5.2, appendix B.4) train and evaluate the same network.
+
+``light_input=False`` (architecture ``"light_input": false``) drops the log(1 + L_in) feature:
+rho then depends on the material, n, l, v and h only, a BRDF times the cosine, so L_o is exactly
+linear in the light by construction. With the feature, rho can depend on the light's intensity
+and colour: trained under the HDR suns of path-traced data, such a teacher failed the white
+furnace (blue 0.59 for 0.8) and rendered twice the light as 2.5-2.9 times the radiance.
 """
 from __future__ import annotations
 
@@ -24,25 +30,32 @@ from .encoding import encoded_size, fourier_encode
 from .lighting import Lighting, env_radiance, sample_lights, surface
 from learned.twins.common import half_vector  # GLSL lib/common.glsl (same function)
 
-INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
-          "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
+from viewer.neural.format import teacher_inputs
+
+INPUTS = teacher_inputs(True)  # the thesis's inputs, with log(1 + L_in)
 
 
 class Teacher(nn.Module):
     kind = "teacher"
 
-    def __init__(self, hidden: int = 64, num_freqs: int = 4):
+    def __init__(self, hidden: int = 64, num_freqs: int = 4, light_input: bool = True):
         super().__init__()
         self.hidden_size = int(hidden)
         self.num_freqs = int(num_freqs)
+        self.light_input = bool(light_input)  # log(1 + L_in) among the inputs (module doc)
+        self.inputs = teacher_inputs(self.light_input)
         h = self.hidden_size
-        self.diffuse = nn.ModuleList([nn.Linear(encoded_size(len(INPUTS), self.num_freqs), h),
+        self.diffuse = nn.ModuleList([nn.Linear(encoded_size(len(self.inputs), self.num_freqs),
+                                                h),
                                       nn.Linear(h, h)])
         self.specular = nn.ModuleList([nn.Linear(h + 6, h), nn.Linear(h, 3)])
 
     @property
     def config(self) -> dict:
-        return {"hidden": self.hidden_size, "num_freqs": self.num_freqs}
+        cfg = {"hidden": self.hidden_size, "num_freqs": self.num_freqs}
+        if not self.light_input:  # files of teachers with the input stay as they were
+            cfg["light_input"] = False
+        return cfg
 
     def networks(self) -> dict[str, list[tuple[torch.Tensor, torch.Tensor, str]]]:
         d, s = self.diffuse, self.specular
@@ -61,7 +74,10 @@ class Teacher(nn.Module):
         ``n``, view ``v``, light ``l`` (``[..., 3]`` each) and radiance ``li [..., 3]``."""
         nol = (n * l).sum(-1, keepdim=True)
         lin = li * nol.clamp_min(0.0)
-        raw = torch.cat([mat[..., :3], n, mat[..., 3:6], l, nol, torch.log(1.0 + lin)], dim=-1)
+        parts = [mat[..., :3], n, mat[..., 3:6], l, nol]
+        if self.light_input:
+            parts.append(torch.log(1.0 + lin))
+        raw = torch.cat(parts, dim=-1)
         h = fourier_encode(raw, self.num_freqs)
         for layer in self.diffuse:
             h = torch.relu(layer(h))

@@ -18,6 +18,10 @@ class TrainConfig:
     lr: float = 1e-3
     teacher_hidden: int = 64
     teacher_freqs: int = 4
+    # whether the teacher sees the light's radiance log(1 + L_in) (the thesis's eq. 4.2 input);
+    # False: rho from material and geometry only, exactly linear in the light (architecture
+    # "light_input": false; learned.neural.teacher)
+    teacher_light_input: bool = True
     # the shipped design, learned.neural.student.SHIPPED_DESIGN (chosen by compare_students)
     student_hidden: tuple[int, ...] = (16, 16)
     student_freqs: int = 0

@@ -22,7 +22,9 @@ from .runner import Run, _close_dist, _dist
 from .stages import (distill_student, distillation_targets, load_images, teacher_images,
                      train_shadow, train_teacher)
 
-STAGES = ("all", "teacher")  # every stage, or the teacher alone
+# every stage, the teacher alone, or the teacher and the shadow UNet (eq. 4.3's two phases, no
+# student)
+STAGES = ("all", "teacher", "shadow")
 
 
 def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
@@ -55,6 +57,11 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     unshadowed = teacher_images(teacher, images, cfg.distill_samples, cfg.strategy, cfg.seed)
     shadow, sl = train_shadow(run, images, unshadowed)
     result["shadow_loss"] = sl
+    if rank == 0:  # the UNet is torch only (README "Teacher"): its state dict, width from it
+        result["shadow"] = str(run.out / "shadow_final.pt")
+        torch.save(shadow.state_dict(), result["shadow"])
+    if stages == "shadow":
+        return result
     if cfg.student_target == "target":  # the dataset's own targets (truth, for traced data)
         targets = [img.target for img in images]
     else:
@@ -69,7 +76,6 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
                         "distilled_from": (result["teacher_checkpoint"]
                                            if cfg.student_target == "teacher" else
                                            "the dataset's targets")})
-        torch.save(shadow.state_dict(), run.out / "shadow_final.pt")
         run.log(f"student: {student.parameter_count()} parameters, {student.macs_per_pixel()} "
                 f"multiply-adds per pixel; teacher: {teacher.parameter_count()} parameters, "
                 f"{teacher.macs_per_sample()} per light sample")

@@ -122,7 +122,8 @@ def _pick(images: list[TrainImage], rng: np.random.Generator, count: int):
 def train_teacher(run: Run, images: list[TrainImage]) -> tuple[Teacher, list[float]]:
     cfg = run.cfg
     torch.manual_seed(cfg.seed)
-    model = Teacher(hidden=cfg.teacher_hidden, num_freqs=cfg.teacher_freqs)
+    model = Teacher(hidden=cfg.teacher_hidden, num_freqs=cfg.teacher_freqs,
+                    light_input=cfg.teacher_light_input)
     rng = np.random.default_rng([cfg.seed, run.rank, 1])
 
     def step(ddp, _):

@@ -13,7 +13,10 @@ the generated network code and the two lighting passes, all on the shipped weigh
 * ``model:neural``     render, read the G-buffer back, shade in torch, compare radiance (also
   with ``neural_storage`` ``ubo`` and ``texture``).
 * ``model:neural_teacher``  the same for the teacher pass with 8 samples of ``env`` and ``uniform``
-  sampling (the torch twin draws the same scrambled Sobol' samples, lib/mc.glsl).
+  sampling (the torch twin draws the same scrambled Sobol' samples, lib/mc.glsl), and for a random
+  teacher of the other input form than the shipped one (architecture ``"light_input"``: with or
+  without the log(1 + L_in) inputs), so both forms of the generated
+  ``neural_teacher_contribution`` are compared whichever is shipped.
 """
 from __future__ import annotations
 

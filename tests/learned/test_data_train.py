@@ -177,6 +177,29 @@ def test_relight_train_options_reach_the_config(dataset, tmp_path, capsys):
     assert main(["train", "--compare-students", "--stage", "teacher", "--out", str(out)]) == 2
 
 
+def test_relight_train_teacher_and_shadow_stage_without_the_light_input(dataset, tmp_path,
+                                                                      capsys):
+    """``--stage shadow`` trains eq. 4.3's two phases and no student; ``--teacher-light-input
+    off`` reaches the config and the exported file (``"light_input": false``)."""
+    from learned.export import load_model
+    from learned.neural.shadow import load_shadow
+    from relight.cli import main
+    from viewer.neural import load_network
+
+    out = tmp_path / "shadow"
+    assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
+                 "shadow", "--teacher-steps", "3", "--shadow-steps", "2", "--batch-pixels", "64",
+                 "--light-samples", "2", "--teacher-light-input", "off"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[-1] == f"shadow: {out / 'shadow_final.pt'}"
+    assert torch.load(out / "teacher.pt", weights_only=False)["config"]["teacher_light_input"] \
+        is False
+    assert load_network(out / "neural_teacher.safetensors").architecture["light_input"] is False
+    assert not load_model(out / "neural_teacher.safetensors").light_input
+    assert load_shadow(out / "shadow_final.pt").width == 8  # --quick's UNet
+    assert not (out / "neural_student.safetensors").exists()
+
+
 @pytest.mark.slow
 def test_torchrun_ddp_two_cpu_processes(dataset, tmp_path):
     out = tmp_path / "ddp"
@@ -341,3 +364,36 @@ def test_eval_breaks_the_means_down_by_scene_kind(dataset, tmp_path, ctx):
     assert "other" in format_table(rows).splitlines()[1]
     with pytest.raises(ValueError, match="by='shape'"):
         evaluate(str(root), split="train", by="shape")
+
+
+def test_eval_scores_a_given_teacher_and_the_teacher_times_shadow(dataset, tmp_path, ctx):
+    """``relight eval --teacher-weights FILE --shadow-weights RUN/shadow_final.pt``: the GLSL
+    teacher row renders the given file, and the torch row teacher x shadow map (eq. 4.3) is the
+    same estimator: with a shadow map of 1 (sigmoid(30) = 1 in float32) its energy matches the
+    GLSL teacher's to the Monte-Carlo noise of 64 samples on 16x16 images."""
+    from learned.evaluate import SHADOW_VARIANT, evaluate
+    from learned.export import export
+    from learned.neural.shadow import ShadowUNet
+    from learned.neural.teacher import Teacher
+    from viewer.renderer import Renderer
+
+    torch.manual_seed(3)
+    teacher = tmp_path / "t.safetensors"
+    export(Teacher(hidden=8, num_freqs=1, light_input=False), teacher)
+    shadow = ShadowUNet(width=4)
+    torch.nn.init.constant_(shadow.out.bias, 30.0)
+    torch.save(shadow.state_dict(), tmp_path / "shadow_final.pt")
+    r = Renderer(ctx=ctx)
+    try:
+        shipped = evaluate(str(dataset), split="train", teacher_samples=64, limit=2, renderer=r)
+        rows = evaluate(str(dataset), split="train", teacher_samples=64, limit=2, renderer=r,
+                        teacher_weights=teacher, shadow_weights=tmp_path / "shadow_final.pt")
+    finally:
+        r.release()
+    by = {(row["model"], row["variant"]): row for row in rows}
+    glsl = by[("neural_teacher", "64 spp env")]
+    two = by[("neural_teacher", SHADOW_VARIANT.format(64))]
+    assert two["count"] == 2 and np.isfinite(two["psnr"]) and two["samples"] == 64
+    old = {(row["model"], row["variant"]): row for row in shipped}[("neural_teacher", "64 spp env")]
+    assert old["psnr"] != glsl["psnr"]  # the given file, not the shipped one
+    assert abs((1 + two["bias"]) / (1 + glsl["bias"]) - 1) < 0.05, (two, glsl)

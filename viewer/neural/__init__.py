@@ -22,9 +22,9 @@ Every name below is importable from ``viewer.neural`` itself.
 from .format import (DEFAULT_FEATURES, DEFAULT_OUTPUT, FORMAT, FORMAT_VERSION, INDIRECT_HIDDEN,
                      KINDS, MODEL_KINDS,
                      STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS, STUDENT_OUTPUTS,
-                     TEACHER_INPUTS,
+                     TEACHER_INPUTS, DEFAULT_LIGHT_INPUT,
                      TENSOR_PARTS, NetworkFile, WeightsError, checkpoint_hash, default_weights,
-                     expected_networks, read_weights, tensor_name)
+                     expected_networks, read_weights, teacher_inputs, tensor_name)
 from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_TEXTURE_WIDTH,
                    NetworkCode, generate_glsl)
 from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
@@ -36,8 +36,8 @@ __all__ = [
     # format
     "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "INDIRECT_HIDDEN", "KINDS", "MODEL_KINDS",
     "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INDIRECT", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
-    "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights", "expected_networks",
-    "read_weights", "tensor_name",
+    "DEFAULT_LIGHT_INPUT", "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights",
+    "expected_networks", "read_weights", "teacher_inputs", "tensor_name",
     # glsl
     "UBO_MIN_MAX_BYTES", "WEIGHT_BINDINGS", "WEIGHT_STORAGES", "WEIGHT_TEXTURE_WIDTH",
     "NetworkCode", "generate_glsl",

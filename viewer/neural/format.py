@@ -27,7 +27,10 @@ architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [..
                 key = false (``split3`` only): the student's split-sum base is the IBL without the
                 environment's compact sun plus that sun as an analytic light, as ``ggx_split_sum``
                 shades it (``SUN_LIGHT``, viewer/sun.py), the sun's light with the same learned
-                corrections (``lib/neural.glsl`` ``neural_student_sun_split``)
+                corrections (``lib/neural.glsl`` ``neural_student_sun_split``); teachers:
+                ``"light_input": true | false``, no key = true: false drops the log(1 + L_in)
+                inputs (:func:`teacher_inputs`), so rho cannot depend on the light and the teacher
+                is exactly linear in it
 encoding        JSON (:func:`encoding`): ``{"type": "fourier", "num_freqs": L, "frequencies":
                 "pi * 2^k", "order": ...}``
 checkpoint      sha256 (hex) of the tensors (:func:`checkpoint_hash`); verified on load
@@ -96,6 +99,17 @@ INDIRECT_HIDDEN = 16  # hidden width of the "indirect" network (twin: learned.ne
 DEFAULT_SUN = False
 TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
                   "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
+# whether a teacher sees the light's radiance log(1 + L_i(l) <n.l>) (architecture "light_input";
+# twin: learned.neural.teacher.Teacher(light_input=)): true = the thesis's inputs (eq. 4.2; files
+# written before the key existed), false = the first 13 only, rho independent of the light
+DEFAULT_LIGHT_INPUT = True
+
+
+def teacher_inputs(light_input: bool = DEFAULT_LIGHT_INPUT) -> tuple[str, ...]:
+    """The teacher's inputs in order: :data:`TEACHER_INPUTS`, without the three log(1 + L_in)
+    ones when ``light_input`` is false."""
+    return TEACHER_INPUTS if light_input else TEACHER_INPUTS[:-3]
+
 TENSOR_PARTS = ("weight", "bias")  # the tensors of one layer, in file order per layer
 
 
@@ -148,6 +162,12 @@ class NetworkFile:
         return bool(self.architecture.get("sun", DEFAULT_SUN))
 
     @property
+    def light_input(self) -> bool:
+        """Whether the teacher sees the light's radiance log(1 + L_in) (architecture
+        ``"light_input"``, :data:`DEFAULT_LIGHT_INPUT` without the key)."""
+        return bool(self.architecture.get("light_input", DEFAULT_LIGHT_INPUT))
+
+    @property
     def occlusion(self) -> str:
         """How the student applies its ao input (``input`` | ``factor``,
         :data:`STUDENT_OCCLUSION`)."""
@@ -186,10 +206,11 @@ def checkpoint_hash(tensors: dict) -> str:
 
 
 def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT_FEATURES,
-                      output: str = DEFAULT_OUTPUT, indirect: str = DEFAULT_INDIRECT
-                      ) -> dict[str, dict]:
+                      output: str = DEFAULT_OUTPUT, indirect: str = DEFAULT_INDIRECT,
+                      light_input: bool = DEFAULT_LIGHT_INPUT) -> dict[str, dict]:
     """The architecture every file of ``kind`` must have (sizes from its hidden widths and, for a
-    student, its input ``features``, ``output`` form and ``indirect`` factor)."""
+    student, its input ``features``, ``output`` form and ``indirect`` factor; for a teacher,
+    whether it sees the light, ``light_input``)."""
     enc = lambda d: d * (1 + 2 * num_freqs)  # noqa: E731
     if kind == "student":
         n_in = enc(len(STUDENT_FEATURES[features]))
@@ -202,7 +223,7 @@ def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT
         return nets
     if kind == "teacher":
         h = int(hidden)
-        return {"diffuse": {"sizes": [enc(len(TEACHER_INPUTS)), h, h],
+        return {"diffuse": {"sizes": [enc(len(teacher_inputs(light_input))), h, h],
                             "activations": ["relu", "relu"]},
                 "specular": {"sizes": [h + 6, h, 3], "activations": ["relu", "softplus"]}}
     raise ValueError(kind)
@@ -210,18 +231,22 @@ def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT
 
 def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
                  output: str | None = None, occlusion: str | None = None,
-                 indirect: str | None = None, sun: bool = False) -> dict:
+                 indirect: str | None = None, sun: bool = False,
+                 light_input: bool = DEFAULT_LIGHT_INPUT) -> dict:
     """The ``architecture`` metadata of a ``kind`` network (students record ``features``,
     ``output`` and ``occlusion``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT` /
     :data:`DEFAULT_OCCLUSION`, ``indirect`` when it is not ``none`` and ``sun`` when true, so
-    files of students without them stay as they were written before they existed; teachers have
-    none of them)."""
+    files of students without them stay as they were written before they existed; teachers
+    record ``light_input`` only when it is false, for the same reason)."""
     features = features or DEFAULT_FEATURES
     output = output or DEFAULT_OUTPUT
     indirect = indirect or DEFAULT_INDIRECT
-    arch = {"networks": expected_networks(kind, num_freqs, hidden, features, output, indirect),
+    light_input = bool(light_input) if kind == "teacher" else DEFAULT_LIGHT_INPUT
+    arch = {"networks": expected_networks(kind, num_freqs, hidden, features, output, indirect,
+                                          light_input),
             "hidden": hidden, "num_freqs": num_freqs,
-            "inputs": list(STUDENT_FEATURES[features] if kind == "student" else TEACHER_INPUTS)}
+            "inputs": list(STUDENT_FEATURES[features] if kind == "student"
+                           else teacher_inputs(light_input))}
     if kind == "student":
         arch["features"] = features
         arch["output"] = output
@@ -230,6 +255,8 @@ def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
             arch["indirect"] = indirect
         if sun:
             arch["sun"] = True
+    elif not light_input:
+        arch["light_input"] = False
     return arch
 
 
@@ -279,7 +306,15 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
         raise ValueError(f"student sun {sun!r} (true | false)")
     if sun and output != "split3":
         raise ValueError(f"student sun needs the split3 output form, not {output!r}")
-    return expected_networks(kind, num_freqs, hidden, features, output, indirect)
+    light_input = arch.get("light_input", DEFAULT_LIGHT_INPUT) if kind == "teacher" \
+        else DEFAULT_LIGHT_INPUT
+    if not isinstance(light_input, bool):
+        raise ValueError(f"teacher light_input {light_input!r} (true | false)")
+    if kind == "teacher" and "inputs" in arch and \
+            tuple(arch["inputs"]) != teacher_inputs(light_input):
+        raise ValueError(f"inputs {arch['inputs']} are not the teacher inputs with "
+                         f"light_input {str(light_input).lower()}")
+    return expected_networks(kind, num_freqs, hidden, features, output, indirect, light_input)
 
 
 def _check_tensors(path: Path, want: dict[str, dict], tensors: dict) -> None:

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .format import STUDENT_FEATURES, NetworkFile, WeightsError
+from .format import STUDENT_FEATURES, NetworkFile, WeightsError, teacher_inputs
 
 WEIGHT_STORAGES = ("const", "ubo", "texture")  # where generated code reads weights (module doc)
 UBO_MIN_MAX_BYTES = 16384  # GL 4.3's minimum GL_MAX_UNIFORM_BLOCK_SIZE: larger blocks become SSBOs
@@ -261,16 +261,21 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
             lines += ["    k_0.x *= ao;" if pbr else "    k_0 *= ao;"]
         lines += ["}"]
     else:
+        light = net.light_input  # log(1 + L_in) among the inputs (architecture "light_input")
         lines += ["",
-                  "// rho * L_in of one light sample (learned.neural.teacher.Teacher.contribution)",
+                  "// rho * L_in of one light sample (learned.neural.teacher.Teacher.contribution)"
+                  + ("" if light else ";"),
+                  *([] if light else ["// light_input false: rho sees no radiance, so the "
+                                      "contribution is linear in li"]),
                   "vec3 neural_teacher_contribution(vec3 albedo, vec3 n, float roughness,",
                   "                                 float metallic, float specular, vec3 v, vec3 l,",
                   "                                 vec3 li) {",
                   "    float NoL = dot(n, l);",
-                  "    vec3 lin = li * max(NoL, 0.0);",
-                  "    vec3 log_lin = log(1.0 + lin);"]
-        raw = ["albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
-               "specular", "l.x", "l.y", "l.z", "NoL", "log_lin.r", "log_lin.g", "log_lin.b"]
+                  "    vec3 lin = li * max(NoL, 0.0);"]
+        if light:
+            lines.append("    vec3 log_lin = log(1.0 + lin);")
+        glsl_names = {"log_Lin.r": "log_lin.r", "log_Lin.g": "log_lin.g", "log_Lin.b": "log_lin.b"}
+        raw = [glsl_names.get(name, name) for name in teacher_inputs(light)]
         enc_lines, enc = _encode(raw, net.num_freqs)
         pack_lines, x = _pack("x", enc)
         d_lines, feat = _mlp(net.layers("diffuse"), "d", x, source)

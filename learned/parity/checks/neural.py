@@ -100,7 +100,9 @@ def check_network(programs, weights=None, storage: str = "const"):
                             "const/ubo/texture hold the exact float32 weights")
 
 
-def check_model(programs, model: str, variant: dict, weights=None):
+def check_model(programs, model: str, variant: dict, weights=None, label: str = ""):
+    """GL lighting pass of ``model`` on ``weights`` (default: the shipped file) vs its torch twin
+    :func:`learned.twins.neural.shade_neural`; named ``model:<model>[:<variant>][:<label>]``."""
     kind = MODEL_KINDS[model]
     path = weights or default_weights(kind)
     key = "weights" if kind == "student" else "teacher_weights"
@@ -134,7 +136,7 @@ def check_model(programs, model: str, variant: dict, weights=None):
     finally:
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(
-        f"{k}={v}" for k, v in variant.items()))
+        f"{k}={v}" for k, v in variant.items())) + (f":{label}" if label else "")
     if model == "neural_teacher":
         return compare(name, glsl, ref, TEACHER_ATOL, TEACHER_RTOL, kind="model",
                        measured="max abs 0.023, max rel 8e-4 (uniform sampling, sun texels)",
@@ -235,6 +237,44 @@ def _check_indirect_factor(programs, path) -> list:
                                    float(np.abs(final).max()))]
 
 
+def other_teacher(weights=None) -> Path:
+    """A teacher of the other input form than ``weights`` (default: the shipped teacher): a random
+    one (hidden 8, 1 Fourier frequency, seed 11) with ``light_input`` flipped, exported to a
+    temporary file (the caller removes its folder), so the parity checks generate and compare
+    both forms of ``neural_teacher_contribution`` (with and without the log(1 + L_in) inputs)
+    whichever form is shipped."""
+    import tempfile
+
+    from learned.export import export
+    from learned.neural.teacher import Teacher
+
+    light = load_network(weights or default_weights("teacher"), "teacher").light_input
+    torch.manual_seed(11)
+    t = Teacher(hidden=8, num_freqs=1, light_input=not light)
+    path = Path(tempfile.mkdtemp(prefix="relight-parity-")) / "teacher.safetensors"
+    export(t, path)
+    return path
+
+
+def check_teachers(programs, weights=None) -> list:
+    """``model:neural_teacher`` on ``weights`` (default: the shipped teacher) with 8 samples of
+    ``env`` and of ``uniform`` sampling (the latter over a transparent background from a UBO),
+    and on a random teacher of the other input form (:func:`other_teacher`, labelled
+    ``light_input=true|false``)."""
+    out = [check_model(programs, "neural_teacher", v, weights)
+           for v in ({"samples": 8, "sampling": "env"},
+                     {"samples": 8, "sampling": "uniform", "background": "transparent",
+                      "neural_storage": "ubo"})]
+    other = other_teacher(weights)
+    try:
+        light = load_network(other, "teacher").light_input
+        out.append(check_model(programs, "neural_teacher", {"samples": 8, "sampling": "env"},
+                               other, label=f"light_input={str(light).lower()}"))
+    finally:
+        shutil.rmtree(other.parent, ignore_errors=True)
+    return out
+
+
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
     found, register_pass_check = collector()
@@ -248,9 +288,5 @@ def checks() -> dict:
                           for v in ({}, {"ao": False, "background": "transparent"},
                                     {"neural_storage": "ubo"}, {"neural_storage": "texture"})]
         + check_indirect_factor(programs))
-    register_pass_check("model:neural_teacher", model="neural_teacher")(
-        lambda programs: [check_model(programs, "neural_teacher", v)
-                          for v in ({"samples": 8, "sampling": "env"},
-                                    {"samples": 8, "sampling": "uniform",
-                                     "background": "transparent", "neural_storage": "ubo"})])
+    register_pass_check("model:neural_teacher", model="neural_teacher")(check_teachers)
     return found

@@ -42,7 +42,8 @@ def metadata(model, training: dict | None = None,
     cfg = model.config
     arch = architecture(model.kind, cfg["num_freqs"], cfg["hidden"], cfg.get("features"),
                         cfg.get("output"), cfg.get("occlusion"), cfg.get("indirect"),
-                        bool(cfg.get("sun", False)), bool(cfg.get("light_input", True)))
+                        bool(cfg.get("sun", False)), bool(cfg.get("multiscatter", False)),
+                        bool(cfg.get("light_input", True)))
     return file_metadata(model.kind, arch,
                          network_tensors(model) if tensors is None else tensors, training)
 
@@ -72,7 +73,7 @@ def load_model(path: str | os.PathLike, kind: str | None = None):
     if net.kind == "student":
         model = Student(hidden=tuple(cfg["hidden"]), num_freqs=cfg["num_freqs"],
                         features=net.features, output=net.output, occlusion=net.occlusion,
-                        indirect=net.indirect, sun=net.sun)
+                        indirect=net.indirect, sun=net.sun, multiscatter=net.multiscatter)
     else:
         model = Teacher(hidden=cfg["hidden"], num_freqs=cfg["num_freqs"],
                         light_input=net.light_input)

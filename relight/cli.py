@@ -21,6 +21,7 @@ from viewer.errors import RelightError
 
 from .commands import (
     _hidden,
+    _nonnegative_float,
     _positive_int,
     cmd_bench,
     cmd_decompose,
@@ -154,6 +155,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a split3 student whose base shades the environment's sun analytically, "
                         "as ggx_split_sum does (the IBL without the sun + the sun as a light, "
                         "with the student's corrections; weights architecture \"sun\": true)")
+    p.add_argument("--student-multiscatter", action="store_true", default=None,
+                   help="a split3 student whose base has ggx_split_sum's multiple-scattering "
+                        "compensation, the classical model's default (weights architecture "
+                        "\"multiscatter\": true)")
+    p.add_argument("--student-gain-penalty", type=_nonnegative_float, metavar="W", default=None,
+                   help="add W x how far the student's direct-light corrections brighten its "
+                        "split-sum base to its loss (default 0: off; the shipped student: 1)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "

@@ -319,7 +319,8 @@ def _learned(what: str):
 TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
                    "light_samples", "strategy", "student_target", "student_features",
                    "student_output", "student_hidden", "student_indirect",
-                   "student_sun", "teacher_light_input")
+                   "student_sun", "student_multiscatter", "student_gain_penalty",
+                   "teacher_light_input")
 
 
 def _positive_int(text: str) -> int:
@@ -329,6 +330,16 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _nonnegative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value >= 0.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
 
 

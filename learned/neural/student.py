@@ -17,6 +17,9 @@ material and n.v predicts how much of each the surface reflects. Two output form
             environment's sun (P mixed with the whole environment's chain where the lobe is
             narrower than the sun) + the sun as a light with the same k
             (neural_student_sun_split; k = 0.5: ggx_environment_sun)
+            multiscatter=True: the specular terms times ggx_split_sum's multiple-scattering
+            compensation m = 1 + f0 (1/dfg.y - 1) and e_spec m in the diffuse's (1 - e_spec m):
+            k = 0.5 is ggx_split_sum with multiscatter, the classical model's default
 
     occlusion "factor" (:data:`OCCLUSIONS`): k_d = ao sigmoid(...), AO applied outside the MLP
     indirect "factor" (:data:`INDIRECTS`): k_i = sigmoid(MLP_i(x)), a second network of
@@ -41,6 +44,7 @@ import torch
 from torch import nn
 
 from learned.twins.brdf import clamp_perceptual_roughness, compute_f0, f90_from_f0
+from learned.twins.ibl import ibl_energy_compensation
 from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_indirect_factor,
                                   neural_student_radiance, neural_student_radiance_pbr,
                                   neural_student_radiance_split, neural_student_sun_split)
@@ -99,7 +103,7 @@ class Student(nn.Module):
 
     def __init__(self, hidden: tuple[int, ...] = (32, 32), num_freqs: int = 0,
                  features: str = "base", output: str = "free6", occlusion: str = "factor",
-                 indirect: str = "none", sun: bool = False):
+                 indirect: str = "none", sun: bool = False, multiscatter: bool = False):
         super().__init__()
         if features not in FEATURE_INPUTS:
             raise ValueError(f"unknown student features {features!r} "
@@ -118,6 +122,10 @@ class Student(nn.Module):
                              f"(pbr3 or split3), not {output!r}")
         if sun and output != "split3":
             raise ValueError(f"a student with the sun needs the split3 output form, not {output!r}")
+        if multiscatter and output != "split3":
+            raise ValueError("a student with multiscatter needs the split3 output form, "
+                             f"not {output!r}")
+        self.multiscatter = bool(multiscatter)
         self.occlusion = occlusion
         self.indirect = indirect
         self.sun = bool(sun)
@@ -147,7 +155,7 @@ class Student(nn.Module):
     def config(self) -> dict:
         return {"hidden": list(self.hidden), "num_freqs": self.num_freqs,
                 "features": self.features, "output": self.output, "occlusion": self.occlusion,
-                "indirect": self.indirect, "sun": self.sun}
+                "indirect": self.indirect, "sun": self.sun, "multiscatter": self.multiscatter}
 
     def activations(self) -> list[str]:
         return ["relu"] * len(self.hidden) + ["sigmoid"]
@@ -174,11 +182,9 @@ class Student(nn.Module):
             return x[:, :len(cols)]
         return x[:, cols]
 
-    def weights(self, x: torch.Tensor) -> torch.Tensor:
-        """``x [N, k]`` (:data:`ALL_INPUTS` order, :meth:`select`) -> the factors ``k [N, 6]``
-        (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
-        [0, 1], ``[N, 4]`` with the indirect light's k_i last (:attr:`learns_indirect`); with
-        ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6]."""
+    def network_outputs(self, x: torch.Tensor) -> torch.Tensor:
+        """The networks' sigmoid outputs ``[N, 6 | 3 | 4]`` for ``x`` (:meth:`weights` before the
+        ao input multiplies the diffuse factor): S k is each correction, 1 where k = 0.5."""
         x_enc = fourier_encode(self.select(x), self.num_freqs)
         h = x_enc
         for layer in self.layers[:-1]:
@@ -187,6 +193,25 @@ class Student(nn.Module):
         if self.learns_indirect:
             k_i = torch.sigmoid(self.indirect_layers[1](torch.relu(self.indirect_layers[0](x_enc))))
             k = torch.cat([k, k_i], dim=-1)
+        return k
+
+    def gain(self, outputs: torch.Tensor) -> torch.Tensor:
+        """How far the direct-light corrections of :meth:`network_outputs` ``outputs`` brighten
+        the base: the mean over pixels of the sum over the corrections of max(S k - 1, 0)
+        (:data:`OUTPUT_SCALE` S; the indirect factor excluded), 0 for a student that only darkens
+        its split-sum base. The penalty of ``TrainConfig.student_gain_penalty``: the base's
+        direct light can be occluded, and the light it misses from nearby surfaces is what the
+        indirect term carries."""
+        n = 6 if self.output == "free6" else 3
+        return torch.relu(NEURAL_OUTPUT_SCALE * outputs[:, :n] - 1.0).sum(-1).mean()
+
+    def weights(self, x: torch.Tensor, outputs: torch.Tensor | None = None) -> torch.Tensor:
+        """``x [N, k]`` (:data:`ALL_INPUTS` order, :meth:`select`) -> the factors ``k [N, 6]``
+        (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
+        [0, 1], ``[N, 4]`` with the indirect light's k_i last (:attr:`learns_indirect`); with
+        ``occlusion == "factor"`` the diffuse factor(s) times the ao input x[:, 6].
+        ``outputs``: :meth:`network_outputs` of ``x`` when already computed."""
+        k = self.network_outputs(x) if outputs is None else outputs
         if self.occlusion == "input":
             return k
         n_diffuse = 3 if self.output == "free6" else 1
@@ -200,15 +225,22 @@ class Student(nn.Module):
         return neural_indirect_factor(self.weights(x)[:, 3])
 
     def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor,
-                indirect: torch.Tensor | None = None, sun: torch.Tensor | None = None
-                ) -> torch.Tensor:
+                indirect: torch.Tensor | None = None, sun: torch.Tensor | None = None,
+                with_gain: bool = False):
         """Radiance ``[N, 3]`` from :func:`learned.neural.lighting.student_features` (``x`` holds
         albedo, roughness, metallic, specular first: the material of the ``pbr3`` form): the
         lighting pass's direct light, plus ``indirect`` (``[N, 3]``, the indirect pass's
         one-bounce light L_ind) times :meth:`indirect_factor` when given. ``sun`` ``[N, 13]``
         (``student_features(..., sun=True)``; a student with :attr:`sun` only): the
-        environment's sun, shaded with the same factors (``neural_student_sun_split``)."""
-        k = self.weights(x)
+        environment's sun, shaded with the same factors (``neural_student_sun_split``).
+        ``with_gain``: returns (radiance, :meth:`gain`) from the one evaluation (so that a
+        DistributedDataParallel wrapper sees a single forward)."""
+        outputs = self.network_outputs(x)
+        k = self.weights(x, outputs)
+        out = self._shade(k, x, irradiance, prefiltered, indirect, sun)
+        return (out, self.gain(outputs)) if with_gain else out
+
+    def _shade(self, k, x, irradiance, prefiltered, indirect, sun):
         out = self._radiance(k[:, :6 if self.output == "free6" else 3], x, irradiance,
                              prefiltered)
         if self.sun and sun is not None:
@@ -228,7 +260,7 @@ class Student(nn.Module):
         if self.output == "split3":  # x[:, 8:10]: the DFG LUT (ALL_INPUTS order)
             return neural_student_radiance_split(k, diffuse_color(albedo, metallic), f0,
                                                  f90_from_f0(f0), x[:, 8:10], irradiance,
-                                                 prefiltered)
+                                                 prefiltered, self._spec_scale(x[:, 8:10], f0))
         return neural_student_radiance_pbr(k, diffuse_color(albedo, metallic), f0,
                                            f90_from_f0(f0), irradiance, prefiltered)
 
@@ -238,7 +270,11 @@ class Student(nn.Module):
         r = clamp_perceptual_roughness(x[:, 3])
         return neural_student_sun_split(k, diffuse_color(albedo, metallic), f0, f90_from_f0(f0),
                                         x[:, 8:10], r * r, sun[:, 0:3], sun[:, 3:6], sun[:, 6:9],
-                                        sun[:, 9:12], sun[:, 12])
+                                        sun[:, 9:12], sun[:, 12], self._spec_scale(x[:, 8:10], f0))
+
+    def _spec_scale(self, dfg, f0):
+        """The split3 base's multiple-scattering compensation (``ibl_energy_compensation``) or 1."""
+        return ibl_energy_compensation(dfg, f0) if self.multiscatter else torch.ones_like(f0)
 
     def networks(self) -> dict[str, list[tuple[torch.Tensor, torch.Tensor, str]]]:
         """name -> [(weight [out, in], bias [out], activation)] as exported."""

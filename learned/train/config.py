@@ -33,6 +33,14 @@ class TrainConfig:
     # a split3 student whose base shades the environment's sun analytically (architecture "sun":
     # the IBL without the sun + the sun as a light, as ggx_split_sum with SUN_LIGHT)
     student_sun: bool = False
+    # a split3 student whose base has ggx_split_sum's multiple-scattering compensation
+    # (architecture "multiscatter"): untrained, it renders the classical model's default
+    student_multiscatter: bool = False
+    # weight of Student.gain in the student's loss: how far its direct-light corrections brighten
+    # the split-sum base (0: off). With path-traced targets, light from nearby surfaces that the
+    # base misses (a floor seen in a sphere's lower half) is otherwise learned as a brighter
+    # direct term, which new scenes without those surfaces do not have (README "Against truth")
+    student_gain_penalty: float = 0.0
     distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
     # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
     # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)

@@ -40,7 +40,8 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     run.log(f"config {json.dumps(asdict(cfg))} world {world}")
     renderer = Renderer()
     try:
-        images = load_images(cfg.data, "train", renderer, sun=cfg.student_sun)
+        images = load_images(cfg.data, "train", renderer, sun=cfg.student_sun,
+                             multiscatter=cfg.student_multiscatter)
     finally:
         renderer.release()
     run.log(f"{len(images)} training images, {sum(i.v.shape[0] for i in images)} foreground pixels")

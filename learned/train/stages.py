@@ -63,27 +63,30 @@ def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(img[..., 0]), np.ascontiguousarray(img[..., 1])
 
 
-def screen_space_indirect(renderer, sample) -> np.ndarray:
+def screen_space_indirect(renderer, sample, multiscatter: bool = False) -> np.ndarray:
     """The indirect pass's one-bounce light L_ind (eq. 6.22, ``passes/ssao.frag`` with
     ``SSAO_INDIRECT``, default settings) on the sample's own G-buffer, ``[H, W, 3]`` (row 0 at the
     top): the frame of ``ggx_split_sum`` + SSAO + indirect minus its direct target, computed by the
     renderer's GL pass. It gathers ``ggx_split_sum`` + SSAO's direct light, which is what a
     ``split3`` student with ``vis`` inputs and an untrained indirect factor renders as its own;
     a trained student's direct light differs a little, so at run time the pass gathers a slightly
-    different L_ind than the student was trained with."""
+    different L_ind than the student was trained with. ``multiscatter``: the base of a student
+    with ``"multiscatter": true`` (ggx_split_sum's default)."""
     from ..evaluate import sample_scene
     from ..parity.checks.models import gl_texture
 
     scene = sample_scene(sample, model="ggx_split_sum", ssao=True, indirect=True,
-                         multiscatter=False)  # the single scattering of split3's start
+                         multiscatter=bool(multiscatter))  # split3's start
     targets = renderer.draw(scene)
     out = gl_texture(targets.radiance)[..., :3] - gl_texture(targets.direct)[..., :3]
     return np.ascontiguousarray(out[::-1])
 
 
-def load_images(root: str, split: str, renderer, sun: bool = False) -> list[TrainImage]:
+def load_images(root: str, split: str, renderer, sun: bool = False,
+                multiscatter: bool = False) -> list[TrainImage]:
     """Every usable sample of ``split``; ``sun``: also the lighting of a student whose base
-    shades the environment's sun (``TrainImage.lighting_sun``)."""
+    shades the environment's sun (``TrainImage.lighting_sun``); ``multiscatter``: the indirect
+    light gathered from the direct light of a base with multiple scattering."""
     out = []
     for folder in list_samples(root, split):
         s = load_sample(folder)
@@ -98,7 +101,7 @@ def load_images(root: str, split: str, renderer, sun: bool = False) -> list[Trai
         target = torch.from_numpy(np.ascontiguousarray(s.target))
         unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
         ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s))
-        indirect = torch.from_numpy(screen_space_indirect(renderer, s))
+        indirect = torch.from_numpy(screen_space_indirect(renderer, s, multiscatter))
         out.append(TrainImage(
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],
             target=target[fg], unshadowed=unshadowed[fg], target_image=target.permute(2, 0, 1),
@@ -239,7 +242,8 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
     design = design if design is not None else {
         "hidden": cfg.student_hidden, "num_freqs": cfg.student_freqs,
         "features": cfg.student_features, "output": cfg.student_output,
-        "indirect": cfg.student_indirect, "sun": cfg.student_sun}
+        "indirect": cfg.student_indirect, "sun": cfg.student_sun,
+        "multiscatter": cfg.student_multiscatter}
     model = Student(**design)
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
     if feats is None:
@@ -251,11 +255,12 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
         idx = torch.from_numpy(rng.choice(p, size=min(cfg.batch_pixels, p), replace=False))
         x, irr, pre, *sun = (t[idx] for t in feats[k])  # sun: [the sun's arguments] or []
         ind = images[k].indirect[idx] if model.learns_indirect else None
-        if model.learns_indirect or sun:  # + the learned factor x the indirect pass's L_ind
-            pred = ddp(x, irr, pre, ind, *sun)
-        else:
-            pred = ddp(x, irr, pre)
-        return distill_loss(pred, targets[k][idx], cfg.distill_loss)
+        args = (x, irr, pre, ind, *sun) if model.learns_indirect or sun else (x, irr, pre)
+        if cfg.student_gain_penalty > 0.0:  # + the penalty on brightening the direct light
+            pred, gain = ddp(*args, with_gain=True)
+            return (distill_loss(pred, targets[k][idx], cfg.distill_loss)
+                    + cfg.student_gain_penalty * gain)
+        return distill_loss(ddp(*args), targets[k][idx], cfg.distill_loss)
 
     losses = _loop(run, stage, model, cfg.student_steps, cfg.lr, step)
     return model.eval(), losses

@@ -84,14 +84,17 @@ def neural_student_radiance_pbr(k: torch.Tensor, diffuse: torch.Tensor, f0: torc
 
 def neural_student_radiance_split(k: torch.Tensor, diffuse: torch.Tensor, f0: torch.Tensor,
                                   f90: torch.Tensor, dfg: torch.Tensor, irradiance: torch.Tensor,
-                                  prefiltered: torch.Tensor) -> torch.Tensor:
+                                  prefiltered: torch.Tensor, spec_scale: torch.Tensor
+                                  ) -> torch.Tensor:
     """GLSL ``vec3 neural_student_radiance_split(...)`` (output form ``split3``): ``k`` = (k_d,
-    k_a, k_b) ``[..., 3]``, dfg ``[..., 2]``, f90 ``[...]``; the split-sum model with learned
-    corrections S k (k = 0.5: ``ggx_split_sum`` without multiple scattering)."""
+    k_a, k_b) ``[..., 3]``, dfg ``[..., 2]``, f90 ``[...]``, spec_scale ``[..., 3]`` (the
+    multiple-scattering compensation of a student with ``"multiscatter": true``, else 1); the
+    split-sum model with learned corrections S k (k = 0.5: ``ggx_split_sum``, multiscatter as
+    spec_scale says)."""
     s = NEURAL_OUTPUT_SCALE * k
-    e_spec = ibl_specular_dfg(dfg, f0, f90)
-    spec = s[..., 1:2] * f0 * (dfg[..., 1:2] - dfg[..., 0:1]) \
-        + (s[..., 2] * f90 * dfg[..., 0])[..., None]
+    e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale
+    spec = (s[..., 1:2] * f0 * (dfg[..., 1:2] - dfg[..., 0:1])
+            + (s[..., 2] * f90 * dfg[..., 0])[..., None]) * spec_scale
     return s[..., 0:1] * diffuse * irradiance * INV_PI * (1.0 - e_spec).clamp_min(0.0) \
         + spec * prefiltered
 
@@ -99,27 +102,27 @@ def neural_student_radiance_split(k: torch.Tensor, diffuse: torch.Tensor, f0: to
 def neural_student_sun_split(k: torch.Tensor, diffuse: torch.Tensor, f0: torch.Tensor,
                              f90: torch.Tensor, dfg: torch.Tensor, a: torch.Tensor,
                              n: torch.Tensor, v: torch.Tensor, l: torch.Tensor,
-                             irradiance: torch.Tensor, specular_weight: torch.Tensor
-                             ) -> torch.Tensor:
+                             irradiance: torch.Tensor, specular_weight: torch.Tensor,
+                             spec_scale: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 neural_student_sun_split(...)``: the environment's sun under a ``split3`` student
     whose base shades it (architecture ``"sun": true``): ``k`` ``[..., 3]``, diffuse, f0, n, v, l,
-    irradiance ``[..., 3]``, f90, a, specular_weight ``[...]``, dfg ``[..., 2]`` -> ``[..., 3]``;
-    [S k_d diffuse / pi (1 - e_spec) + (S k_a f0 (1 - Fc) + S k_b f90 Fc) D V w] E (n.l), 0 where
-    n.l <= 0 (k = 0.5: ``ggx_environment_sun`` without multiple scattering)."""
+    irradiance, spec_scale m ``[..., 3]``, f90, a, specular_weight ``[...]``, dfg ``[..., 2]`` ->
+    ``[..., 3]``; [S k_d diffuse / pi (1 - e_spec m) + (S k_a f0 (1 - Fc) + S k_b f90 Fc) D V m w]
+    E (n.l), 0 where n.l <= 0 (k = 0.5: ``ggx_environment_sun``, multiscatter as m says)."""
     NoL = (n * l).sum(-1)
     s = NEURAL_OUTPUT_SCALE * k
     h = half_vector(v, l)
     NoV = saturate((n * v).sum(-1))
     NoH = saturate((n * h).sum(-1))
     VoH = saturate((v * h).sum(-1))
-    e_spec = ibl_specular_dfg(dfg, f0, f90)
+    e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale
     fd = s[..., 0:1] * diffuse * INV_PI * (1.0 - e_spec).clamp_min(0.0)
     x = 1.0 - VoH
     x2 = x * x
     fc = (x2 * x2 * x)[..., None]
     sf0 = s[..., 1:2] * f0
     fresnel = sf0 + ((s[..., 2] * f90)[..., None] - sf0) * fc
-    fs = (d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a))[..., None] * fresnel
+    fs = (d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a))[..., None] * fresnel * spec_scale
     out = (fd + fs * specular_weight[..., None]) * irradiance * NoL[..., None]
     return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
 

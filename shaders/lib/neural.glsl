@@ -59,30 +59,34 @@ vec3 neural_student_radiance_pbr(vec3 k, vec3 diffuse, vec3 f0, float f90, vec3 
 }
 
 // Student radiance, output form "split3": the classical split-sum model (lib/shading.glsl
-// ggx_split_sum, single scattering) with learned achromatic corrections, c = S k in [0, 2]^3:
-// L_o = c_d diffuse E / pi (1 - e_spec) + (c_a f0 (dfg.y - dfg.x) + c_b f90 dfg.x) P, where
-// e_spec = ibl_specular_dfg(dfg, f0, f90) and P is read along the dominant direction as
-// ggx_split_sum's pass reads it. k = 0.5 is ggx_split_sum exactly, so the network learns only
-// what the classical model misses (shadowing, occlusion, inter-reflection, its own bias).
+// ggx_split_sum) with learned achromatic corrections, c = S k in [0, 2]^3:
+// L_o = c_d diffuse E / pi (1 - e_spec m) + (c_a f0 (dfg.y - dfg.x) + c_b f90 dfg.x) m P, where
+// e_spec = ibl_specular_dfg(dfg, f0, f90), P is read along the dominant direction as
+// ggx_split_sum's pass reads it, and m = spec_scale is the multiple-scattering compensation
+// (ibl_energy_compensation) for students with NEURAL_STUDENT_MULTISCATTER, 1 otherwise. k = 0.5 is
+// ggx_split_sum (with / without multiscatter) exactly, so the network learns only what the
+// classical model misses (shadowing, occlusion, inter-reflection, its own bias).
 vec3 neural_student_radiance_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec2 dfg,
-                                   vec3 irradiance, vec3 prefiltered) {
+                                   vec3 irradiance, vec3 prefiltered, vec3 spec_scale) {
     vec3 s = NEURAL_OUTPUT_SCALE * k;
-    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90);
-    vec3 spec = s.y * f0 * (dfg.y - dfg.x) + vec3(s.z * f90 * dfg.x);
+    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale;
+    vec3 spec = (s.y * f0 * (dfg.y - dfg.x) + vec3(s.z * f90 * dfg.x)) * spec_scale;
     return s.x * diffuse * irradiance * INV_PI * max(1.0 - e_spec, 0.0) + spec * prefiltered;
 }
 
 // The environment's sun under a "split3" student whose base shades it (architecture "sun": true,
-// SUN_LIGHT; viewer/sun.py): lib/shading.glsl ggx_environment_sun without multiple scattering,
-// with the student's corrections c = S k on the same terms as neural_student_radiance_split,
+// SUN_LIGHT; viewer/sun.py): lib/shading.glsl ggx_environment_sun (its multiple-scattering
+// compensation as spec_scale, as in neural_student_radiance_split) with the student's corrections c = S k on the same terms as neural_student_radiance_split,
 // F_schlick = f0 (1 - Fc) + f90 Fc split into its f0 and f90 parts:
-// L_sun = [c_d diffuse / pi (1 - e_spec) + (c_a f0 (1 - Fc) + c_b f90 Fc) D V w] E (n.l),
+// L_sun = [c_d diffuse / pi (1 - e_spec m) + (c_a f0 (1 - Fc) + c_b f90 Fc) D V m w] E (n.l),
 // Fc = (1 - v.h)^5, w = sun_specular_weight (the rest of the sun's specular light is in the
 // prefiltered radiance), E the sun's irradiance; 0 where n.l <= 0. k = 0.5 is
-// ggx_environment_sun (multiscatter off) exactly: the diffuse SH irradiance and the sun share the
-// correction c_d, so the visibility input can teach the sun's shadow.
+// ggx_environment_sun exactly (multiscatter on where m is its compensation): the diffuse SH
+// irradiance and the sun share the correction c_d, so the visibility input can teach the sun's
+// shadow.
 vec3 neural_student_sun_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec2 dfg, float a, vec3 n,
-                              vec3 v, vec3 l, vec3 irradiance, float specular_weight) {
+                              vec3 v, vec3 l, vec3 irradiance, float specular_weight,
+                              vec3 spec_scale) {
     float NoL = dot(n, l);
     if (!(NoL > 0.0)) return vec3(0.0);
     vec3 s = NEURAL_OUTPUT_SCALE * k;
@@ -90,13 +94,13 @@ vec3 neural_student_sun_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec2 dfg
     float NoV = saturate(dot(n, v));
     float NoH = saturate(dot(n, h));
     float VoH = saturate(dot(v, h));
-    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90);
+    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale;
     vec3 fd = s.x * diffuse * INV_PI * max(1.0 - e_spec, 0.0);
     float x = 1.0 - VoH;
     float x2 = x * x;
     float fc = x2 * x2 * x;  // f_schlick's explicit product
     vec3 fresnel = s.y * f0 + (vec3(s.z * f90) - s.y * f0) * fc;
-    vec3 fs = d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a) * fresnel;
+    vec3 fs = d_ggx(NoH, a) * v_smith_ggx_correlated(NoV, NoL, a) * fresnel * spec_scale;
     return (fd + fs * specular_weight) * irradiance * NoL;
 }
 

@@ -11,7 +11,9 @@
 // NEURAL_STUDENT_INDIRECT: the student learned a factor on the screen-space indirect light; the
 // pass writes it (lib/neural.glsl neural_indirect_factor, 1 on the background) to the second
 // target o_indirect_factor, which the renderer allocates for it and passes/ssao.frag
-// (SSAO_INDIRECT_FACTOR) multiplies into its one-bounce light.
+// (SSAO_INDIRECT_FACTOR) multiplies into its one-bounce light. NEURAL_STUDENT_MULTISCATTER: the
+// split3 base is ggx_split_sum with its multiple-scattering compensation (architecture
+// "multiscatter": true), so an untrained student renders the classical model's default.
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1), SUN_LIGHT (0/1,
 // 0 when not given: a split3 student with NEURAL_STUDENT_SUN under an environment with a sun; the
 // IBL bound then leaves the sun out of the prefiltered chain and the SH, u_env_prefiltered_full
@@ -26,6 +28,9 @@
 
 #ifndef SUN_LIGHT
 #define SUN_LIGHT 0
+#endif
+#ifndef NEURAL_STUDENT_MULTISCATTER
+#define NEURAL_STUDENT_MULTISCATTER 0
 #endif
 #if SUN_LIGHT && !(NEURAL_STUDENT_SPLIT && NEURAL_STUDENT_SUN)
 #error "SUN_LIGHT needs a split3 student trained with the sun (architecture \"sun\": true)"
@@ -101,12 +106,18 @@ void main() {
                            k_1);
 #if NEURAL_STUDENT_SPLIT
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
+#if NEURAL_STUDENT_MULTISCATTER  // its base: ggx_split_sum with the energy compensation
+    vec3 spec_scale = ibl_energy_compensation(dfg, f0);
+#else
+    vec3 spec_scale = vec3(1.0);
+#endif
     vec3 c = neural_student_radiance_split(k_0, diffuse_color(g.albedo, g.metallic), f0,
-                                           f90_from_f0(f0), dfg, irradiance, prefiltered);
+                                           f90_from_f0(f0), dfg, irradiance, prefiltered,
+                                           spec_scale);
 #if SUN_LIGHT
     c += neural_student_sun_split(k_0, diffuse_color(g.albedo, g.metallic), f0, f90_from_f0(f0),
                                   dfg, r * r, n, v, rotate_y(u_sun_direction, u_env_rotation),
-                                  u_sun_irradiance * u_env_intensity, w_sun);
+                                  u_sun_irradiance * u_env_intensity, w_sun, spec_scale);
 #endif
 #elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);

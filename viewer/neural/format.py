@@ -27,7 +27,10 @@ architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [..
                 key = false (``split3`` only): the student's split-sum base is the IBL without the
                 environment's compact sun plus that sun as an analytic light, as ``ggx_split_sum``
                 shades it (``SUN_LIGHT``, viewer/sun.py), the sun's light with the same learned
-                corrections (``lib/neural.glsl`` ``neural_student_sun_split``); teachers:
+                corrections (``lib/neural.glsl`` ``neural_student_sun_split``);
+                ``"multiscatter": true | false``, no key = false (``split3`` only): the base is
+                ``ggx_split_sum`` with its multiple-scattering compensation (``ibl_energy_
+                compensation``), as the classical model renders by default; teachers:
                 ``"light_input": true | false``, no key = true: false drops the log(1 + L_in)
                 inputs (:func:`teacher_inputs`), so rho cannot depend on the light and the teacher
                 is exactly linear in it
@@ -97,6 +100,9 @@ INDIRECT_HIDDEN = 16  # hidden width of the "indirect" network (twin: learned.ne
 # IBL without the sun + the sun as a light, both with the student's corrections); files without
 # the key (written before) are false, the split-sum of the whole environment
 DEFAULT_SUN = False
+# whether a split3 student's base has ggx_split_sum's multiple-scattering compensation
+# (architecture "multiscatter"; NEURAL_STUDENT_MULTISCATTER); files without the key: single scattering
+DEFAULT_MULTISCATTER = False
 TEACHER_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "n.x", "n.y", "n.z", "roughness", "metallic",
                   "specular", "l.x", "l.y", "l.z", "NoL", "log_Lin.r", "log_Lin.g", "log_Lin.b")
 # whether a teacher sees the light's radiance log(1 + L_i(l) <n.l>) (architecture "light_input";
@@ -160,6 +166,12 @@ class NetworkFile:
         """Whether the student's split-sum base shades the environment's sun analytically
         (architecture ``"sun"``, :data:`DEFAULT_SUN` without the key)."""
         return bool(self.architecture.get("sun", DEFAULT_SUN))
+
+    @property
+    def multiscatter(self) -> bool:
+        """Whether the student's split-sum base has the multiple-scattering compensation
+        (architecture ``"multiscatter"``, :data:`DEFAULT_MULTISCATTER` without the key)."""
+        return bool(self.architecture.get("multiscatter", DEFAULT_MULTISCATTER))
 
     @property
     def light_input(self) -> bool:
@@ -231,11 +243,12 @@ def expected_networks(kind: str, num_freqs: int, hidden, features: str = DEFAULT
 
 def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
                  output: str | None = None, occlusion: str | None = None,
-                 indirect: str | None = None, sun: bool = False,
+                 indirect: str | None = None, sun: bool = False, multiscatter: bool = False,
                  light_input: bool = DEFAULT_LIGHT_INPUT) -> dict:
     """The ``architecture`` metadata of a ``kind`` network (students record ``features``,
     ``output`` and ``occlusion``, ``None`` for :data:`DEFAULT_FEATURES` / :data:`DEFAULT_OUTPUT` /
-    :data:`DEFAULT_OCCLUSION`, ``indirect`` when it is not ``none`` and ``sun`` when true, so
+    :data:`DEFAULT_OCCLUSION`, ``indirect`` when it is not ``none``, ``sun`` and ``multiscatter``
+    when true, so
     files of students without them stay as they were written before they existed; teachers
     record ``light_input`` only when it is false, for the same reason)."""
     features = features or DEFAULT_FEATURES
@@ -255,6 +268,8 @@ def architecture(kind: str, num_freqs: int, hidden, features: str | None = None,
             arch["indirect"] = indirect
         if sun:
             arch["sun"] = True
+        if multiscatter:
+            arch["multiscatter"] = True
     elif not light_input:
         arch["light_input"] = False
     return arch
@@ -306,6 +321,12 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
         raise ValueError(f"student sun {sun!r} (true | false)")
     if sun and output != "split3":
         raise ValueError(f"student sun needs the split3 output form, not {output!r}")
+    multiscatter = arch.get("multiscatter", DEFAULT_MULTISCATTER) if kind == "student" \
+        else DEFAULT_MULTISCATTER
+    if not isinstance(multiscatter, bool):
+        raise ValueError(f"student multiscatter {multiscatter!r} (true | false)")
+    if multiscatter and output != "split3":
+        raise ValueError(f"student multiscatter needs the split3 output form, not {output!r}")
     light_input = arch.get("light_input", DEFAULT_LIGHT_INPUT) if kind == "teacher" \
         else DEFAULT_LIGHT_INPUT
     if not isinstance(light_input, bool):

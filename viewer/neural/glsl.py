@@ -232,6 +232,8 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
                   "on the indirect light",
                   f"#define NEURAL_STUDENT_SUN {int(net.sun)}  // 1: the split3 base shades "
                   "the environment's sun analytically (SUN_LIGHT)",
+                  f"#define NEURAL_STUDENT_MULTISCATTER {int(net.multiscatter)}  // 1: the "
+                  "split3 base has ggx_split_sum's multiple-scattering compensation",
                   "",
                   "// k [0, 1]^6 (free6: k_0 = k_diffuse rgb, k_1 = k_specular rgb) or [0, 1]^3",
                   "// (pbr3: k_0 = (k_d, k_a, k_b), k_1 = 0; with NEURAL_STUDENT_INDIRECT k_1.x is",

@@ -66,17 +66,27 @@ def _students(oracle: str) -> list:
 # Student furnace: 0.735 GLSL (8.2 %: the mean residual occlusion, SSAO and cast shadows, of its
 # distillation targets, which it cannot see; before: 0.424, 47 %).
 STUDENT_FURNACE_TOL = 0.10  # relative
-# Teacher furnace, per channel: (0.809, 0.792, 0.635) GLSL, (0.842, 0.841, 0.701) torch: blue 21 %
-# low (the 1,200-step quick teacher is tinted; before: (0.724, 0.483, 0.709), green 40 % low).
-TEACHER_FURNACE_TOL = 0.25  # relative, per channel
+# Teacher furnace, per channel: (0.820, 0.820, 0.839) GLSL, (0.812, 0.814, 0.837) torch: 4.9 %
+# high (the teacher trained on path-traced truth without the light input, "light_input": false,
+# 64 light samples per pixel; with 16 it measured (0.683, 0.668, 0.709), 17 % low: L1 on a noisy
+# estimate learns its median). The quick teacher shipped before it: (0.809, 0.792, 0.635) GLSL,
+# blue 21 % low; the truth teacher with the light input: blue 0.59, 26 % low; before the energy
+# fix: (0.724, 0.483, 0.709), green 40 % low.
+TEACHER_FURNACE_TOL = 0.10  # relative, per channel
 # Student L(0.8) / L(0.4): 2.017 (0.9 %; k_d depends on the albedo input; before 1.88-2.06).
 # KNOWN_FAILURES lists the candidates beyond these bounds.
 ALBEDO_RATIO_TOL = 0.05  # relative
-# Teacher L(0.8) / L(0.4) per channel: (2.07, 1.77, 1.57) (21.5 %; before (1.93, 1.25, 1.66), 37 %).
-TEACHER_ALBEDO_RATIO_TOL = 0.25  # relative, per channel
-# Teacher x2 intensity per channel: (1.87, 2.00, 2.17) (8.4 %; the log(1 + L_in) input feature;
-# before (1.75, 1.92, 1.87)).
+# Teacher L(0.8) / L(0.4) per channel: (1.91, 1.82, 1.87) torch, (1.93, 1.85, 1.88) GLSL (8.8 %:
+# rho depends on the albedo input; the quick teacher shipped before: (2.07, 1.77, 1.57), 21.5 %;
+# before the fix (1.93, 1.25, 1.66)).
+TEACHER_ALBEDO_RATIO_TOL = 0.15  # relative, per channel
+# Teacher x2 intensity per channel, teachers with the log(1 + L_in) input (thesis eq. 4.2): the
+# quick teacher (1.87, 2.00, 2.17) (8.4 %; before the fix (1.75, 1.92, 1.87)); the truth teacher
+# with the input 2.5-2.9, which is why the shipped one has none.
 TEACHER_LINEARITY_TOL = 0.20  # relative, per channel
+# Teachers without it ("light_input": false): rho never sees the light, so x2 is exact up to
+# float32 (measured: exactly 2 in torch and GLSL, x2 is a power of two).
+LIGHTLESS_TEACHER_LINEARITY_TOL = 1e-5
 STUDENT_LINEARITY_TOL = 1e-5  # exact up to float32: intensity scales E and P outside the MLP
 
 
@@ -195,13 +205,23 @@ def test_teacher_albedo_scaling(white, path):
 
 
 @pytest.mark.parametrize("path", TEACHERS, ids=lambda p: p.stem)
-def test_teacher_is_nearly_linear_in_environment_intensity(white, path):
-    """rho L_in / p with L_in multiplied out, but log(1 + L_in) is also an input (thesis eq. 4.2),
-    so doubling the light is exact only up to how rho depends on that feature."""
+def test_teacher_is_linear_in_environment_intensity(renderer, white, path):
+    """rho L_in / p with L_in multiplied out. With log(1 + L_in) also an input (thesis eq. 4.2,
+    files without ``"light_input": false``) doubling the light is exact only up to how rho depends
+    on that feature (TEACHER_LINEARITY_TOL, torch); without it, exactly (torch and GLSL)."""
+    from viewer.neural import load_network
+
     one = _teacher_torch(path, white)
     two = _teacher_torch(path, white.with_light(2.0, white.rotation))
-    ratio = (two / one).numpy()
-    assert np.all(np.abs(ratio / 2.0 - 1.0) < TEACHER_LINEARITY_TOL), ratio
+    ratios = [(two / one).numpy()]
+    tol = TEACHER_LINEARITY_TOL
+    if not load_network(path, "teacher").light_input:
+        tol = LIGHTLESS_TEACHER_LINEARITY_TOL
+        kw = dict(teacher_weights=str(path), samples=64, sampling="env")
+        ratios.append(_glsl_mean(renderer, "neural_teacher", intensity=2.0, **kw)
+                      / _glsl_mean(renderer, "neural_teacher", **kw))
+    for ratio in ratios:
+        assert np.all(np.abs(ratio / 2.0 - 1.0) < tol), ratios
 
 
 def test_lambertian_estimator_is_unbiased(white):

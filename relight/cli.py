@@ -118,9 +118,10 @@ def build_parser() -> argparse.ArgumentParser:
                                   "synthetic one under OUT/data)")
     p.add_argument("--out", default="runs/quick", help="run folder (checkpoints, logs, weights)")
     p.add_argument("--quick", action="store_true", help="small networks and few steps (minutes)")
-    p.add_argument("--stage", default="all", choices=("all", "teacher", "shadow"),
-                   help="every stage (default), the teacher alone, or the teacher and the "
-                        "shadow UNet (OUT/shadow_final.pt; no student)")
+    p.add_argument("--stage", default="all", choices=("all", "teacher", "shadow", "student"),
+                   help="every stage (default), the teacher alone, the teacher and the "
+                        "shadow UNet (OUT/shadow_final.pt; no student), or the student alone "
+                        "(with --student-target target; --install then installs it alone)")
     p.add_argument("--teacher-steps", type=_positive_int, metavar="N")
     p.add_argument("--shadow-steps", type=_positive_int, metavar="N")
     p.add_argument("--student-steps", type=_positive_int, metavar="N")

@@ -369,6 +369,10 @@ def cmd_train(args) -> int:
                                         quiet=args.quiet, **over)
         print(students.compare_table(res))
         return 0
+    if args.stage == "student" and over.get("student_target") != "target":
+        raise RelightError("the student stage alone learns from the dataset's targets: add "
+                           "--student-target target (a distilled student needs the teacher)",
+                           where="--stage")
     train = _learned("learned.train")
     data = args.data
     if getattr(args, "targets", "rasteriser") == "reference":

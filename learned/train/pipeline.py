@@ -22,9 +22,9 @@ from .runner import Run, _close_dist, _dist
 from .stages import (distill_student, distillation_targets, load_images, teacher_images,
                      train_shadow, train_teacher)
 
-# every stage, the teacher alone, or the teacher and the shadow UNet (eq. 4.3's two phases, no
-# student)
-STAGES = ("all", "teacher", "shadow")
+# every stage, the teacher alone, the teacher and the shadow UNet (eq. 4.3's two phases, no
+# student), or the student alone (on the dataset's own targets: student_target "target")
+STAGES = ("all", "teacher", "shadow", "student")
 
 
 def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
@@ -35,6 +35,9 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     if cfg.student_target not in STUDENT_TARGETS:
         raise ValueError(f"unknown student target {cfg.student_target!r} "
                          f"({' | '.join(STUDENT_TARGETS)})")
+    if stages == "student" and cfg.student_target != "target":
+        raise ValueError("the student stage alone learns from the dataset's targets: it needs "
+                         "student_target 'target' (a distilled student needs the teacher)")
     rank, world = _dist()
     run = Run(cfg, rank, quiet)
     run.log(f"config {json.dumps(asdict(cfg))} world {world}")
@@ -46,9 +49,12 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
         renderer.release()
     run.log(f"{len(images)} training images, {sum(i.v.shape[0] for i in images)} foreground pixels")
     result: dict = {"world": world}
+    training = {"data": data_summary(cfg.data), "config": asdict(cfg), "world": world}
+    if stages == "student":
+        return result | _student(run, cfg, images, [img.target for img in images], training,
+                                 "the dataset's targets")
     teacher, tl = train_teacher(run, images)
     result["teacher_loss"] = tl
-    training = {"data": data_summary(cfg.data), "config": asdict(cfg), "world": world}
     if rank == 0:
         result["teacher"] = str(run.out / "neural_teacher.safetensors")
         result["teacher_checkpoint"] = export(
@@ -67,19 +73,26 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
         targets = [img.target for img in images]
     else:
         targets = distillation_targets(images, unshadowed, shadow)
-    student, stl = distill_student(run, images, targets)
-    result["student_loss"] = stl
+    result |= _student(run, cfg, images, targets, training,
+                       result.get("teacher_checkpoint") if cfg.student_target == "teacher"
+                       else "the dataset's targets")
     if rank == 0:
+        run.log(f"teacher: {teacher.parameter_count()} parameters, "
+                f"{teacher.macs_per_sample()} multiply-adds per light sample")
+    return result
+
+
+def _student(run: Run, cfg: TrainConfig, images, targets, training: dict, source) -> dict:
+    """Train the student on ``targets`` and export it (rank 0): its entries of the summary."""
+    student, stl = distill_student(run, images, targets)
+    result = {"student_loss": stl}
+    if run.rank == 0:
         result["student"] = str(run.out / "neural_student.safetensors")
         result["student_checkpoint"] = export(
             student, result["student"],
-            training | {"stage": "student", "final_loss": stl[-1],
-                        "distilled_from": (result["teacher_checkpoint"]
-                                           if cfg.student_target == "teacher" else
-                                           "the dataset's targets")})
+            training | {"stage": "student", "final_loss": stl[-1], "distilled_from": source})
         run.log(f"student: {student.parameter_count()} parameters, {student.macs_per_pixel()} "
-                f"multiply-adds per pixel; teacher: {teacher.parameter_count()} parameters, "
-                f"{teacher.macs_per_sample()} per light sample")
+                f"multiply-adds per pixel")
     return result
 
 
@@ -102,7 +115,9 @@ def pipeline(out: str, data: str | None = None, quick: bool = True, install: boo
            else TrainConfig(data=data, out=out, **overrides))
     res = train(cfg, stages, quiet=quiet)
     if install and res.get("student"):
-        for kind in ("student", "teacher"):
+        for kind in ("student", "teacher"):  # the student stage alone installs the student
+            if not res.get(kind):
+                continue
             dst = default_weights(kind)
             tmp = dst.with_suffix(".tmp")
             shutil.copyfile(res[kind], tmp)

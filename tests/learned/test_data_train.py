@@ -200,6 +200,30 @@ def test_relight_train_teacher_and_shadow_stage_without_the_light_input(dataset,
     assert not (out / "neural_student.safetensors").exists()
 
 
+def test_relight_train_student_stage_alone(dataset, tmp_path, capsys):
+    """``--stage student`` trains no teacher and no shadow UNet: the student learns the dataset's
+    own targets (it needs ``--student-target target``, else a one-line error before any work),
+    and ``--install`` would install the student alone."""
+    from learned.export import load_model
+    from relight.cli import main
+    from viewer.neural import load_network
+
+    out = tmp_path / "student"
+    assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
+                 "student", "--student-steps", "20"]) == 2
+    assert "--student-target target" in capsys.readouterr().err and not out.exists()
+    assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
+                 "student", "--student-target", "target", "--student-steps", "20",
+                 "--batch-pixels", "64", "--student-features", "vis", "--student-output",
+                 "split3", "--student-multiscatter", "--student-gain-penalty", "1"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[-1] == f"student: {out / 'neural_student.safetensors'}"
+    assert not (out / "teacher.pt").exists() and not (out / "neural_teacher.safetensors").exists()
+    net = load_network(out / "neural_student.safetensors", "student")
+    assert net.multiscatter and load_model(out / "neural_student.safetensors").multiscatter
+    assert net.training["config"]["student_gain_penalty"] == 1.0
+
+
 @pytest.mark.slow
 def test_torchrun_ddp_two_cpu_processes(dataset, tmp_path):
     out = tmp_path / "ddp"

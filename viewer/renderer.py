@@ -28,6 +28,7 @@ from .gl import ContextOptions, Programs, create_context, make_current
 from .models import ShadingModel, model_info
 from .neural import learns_indirect, reads_visibility, required_settings, shades_sun
 from .passes.forward import forward_model
+from .passes.ssao import hit_targets
 from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
 from .specialize import Specialization, analyse, specialise
@@ -125,12 +126,14 @@ class Renderer:
         return tex
 
     def _occlusion(self, sspass, scene: Scene, gbuffer_textures, fbo, camera: Camera,
-                   visibility: bool) -> None:
+                   visibility: bool, record_hits: bool = False) -> None:
         """SSAO's occlusion O(x); with ``visibility`` also S(x) towards the environment's
-        equal-power directions (``viewer.envsampling.power_directions``)."""
+        equal-power directions (``viewer.envsampling.power_directions``); with ``record_hits``
+        each ray's hit pixel into ``fbo``'s hit attachments (:func:`_ssao_hit_targets`)."""
         vis_dirs = self.resources.power_directions(scene.environment) if visibility else None
         sspass.occlusion(gbuffer_textures, fbo, camera, scene.render, vis_dirs=vis_dirs,
-                         env_rotation_deg=scene.environment.rotation_deg)
+                         env_rotation_deg=scene.environment.rotation_deg,
+                         record_hits=record_hits)
 
     # ---- the render graph ---------------------------------------------------------------------
     def draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
@@ -226,14 +229,17 @@ class Renderer:
         if scene.light is not None and model.directional_light == "ignored":
             _warn_light_ignored(settings.model)
         gbt = gbuffer.textures
-        ssao = None
+        ssao = hits = None
         if settings.ssao.enabled or settings.ssao.indirect:
             sspass = self.resources.layout_pass("ssao", spec.layout)
         if settings.ssao.enabled:
             self._pass_begin("ssao")
             ssao, ssao_fbo = targets.extra(self.ctx, "ssao")
+            if settings.ssao.indirect:  # the rays' hit pixels, for the indirect pass to reuse
+                hits, ssao_fbo = _ssao_hit_targets(self.ctx, targets, settings.ssao.rays)
             # + the environment's visibility (g channel) for a student that reads it
-            self._occlusion(sspass, scene, gbt, ssao_fbo, camera, reads_visibility(settings))
+            self._occlusion(sspass, scene, gbt, ssao_fbo, camera, reads_visibility(settings),
+                            record_hits=hits is not None)
         factor = None
         if settings.ssao.indirect:
             out_tex, out_fbo = targets.extra(self.ctx, "direct")
@@ -262,7 +268,9 @@ class Renderer:
             shade(out_fbo)
         if settings.ssao.indirect:
             self._pass_begin("indirect")
-            sspass.indirect(gbt, out_tex, targets.radiance_fbo, camera, settings, factor=factor)
+            # reads the occlusion pass's hits; marches the rays itself without that pass
+            sspass.indirect(gbt, out_tex, targets.radiance_fbo, camera, settings, factor=factor,
+                            hits=hits)
         return samples
 
     def _accumulate(self, scene: Scene, camera: Camera, shade, out_fbo, progressive: bool,
@@ -332,6 +340,14 @@ def check_aovs(aovs) -> None:
     if unknown:
         raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
                          f"(known: {', '.join(AOV_NAMES)})", where="--aov")
+
+
+def _ssao_hit_targets(ctx, targets: TargetSet, rays: int) -> tuple[list, object]:
+    """The RGBA32UI targets of SSAO's ray hits for ``rays`` rays (``ssao_hits<i>``) and the
+    framebuffer the occlusion pass draws to with them: O(x) at attachment 0, the hits after it."""
+    names = tuple(f"ssao_hits{i}" for i in range(hit_targets(rays)))
+    hits = [targets.extra(ctx, name, dtype="u4")[0] for name in names]
+    return hits, targets.extras_fbo(ctx, ("ssao",) + names)
 
 
 _LIGHT_WARNED: set[str] = set()

@@ -30,7 +30,8 @@ LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
 @dataclass
 class TargetSet:
     """The render targets of one layout and size: the G-buffer, linear radiance (RGBA32F) and the
-    display image (RGBA8), plus extra RGBA32F targets made on first use (``ssao``, ``direct``)."""
+    display image (RGBA8), plus extra targets made on first use (``ssao``, ``direct``, SSAO's hit
+    targets ``ssao_hits<i>``)."""
 
     gbuffer: GBufferTargets
     radiance: object
@@ -51,11 +52,13 @@ class TargetSet:
                    ctx.framebuffer(color_attachments=[radiance]), display,
                    ctx.framebuffer(color_attachments=[display]))
 
-    def extra(self, ctx, name: str, components: int = 4) -> tuple[object, object]:
-        """``(texture, framebuffer)`` of the float32 target ``name`` with ``components`` channels
-        (RGBA32F by default; made on first use)."""
+    def extra(self, ctx, name: str, components: int = 4, dtype: str = "f4"
+              ) -> tuple[object, object]:
+        """``(texture, framebuffer)`` of the target ``name`` with ``components`` channels of
+        ``dtype`` (RGBA32F by default; ``"u4"``: unsigned integers, e.g. SSAO's ray hits; made on
+        first use)."""
         if name not in self.extras:
-            tex = ctx.texture(self.radiance.size, components, dtype="f4")
+            tex = ctx.texture(self.radiance.size, components, dtype=dtype)
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
             self.extras[name] = (tex, ctx.framebuffer(color_attachments=[tex]))
         return self.extras[name]

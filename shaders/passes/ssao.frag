@@ -5,11 +5,18 @@
 // (eq. 6.20, lib/ssao.glsl). With cosine sampling, eq. 6.19 is estimated by
 //   O(x) = 1 - (1/R) sum_k V_k.
 // SSAO_INDIRECT = 0 writes O to all four channels (read by passes/deferred.glsl's
-// ambient_occlusion). SSAO_INDIRECT = 1 marches the same rays and adds eq. 6.22 to u_direct
-// (the lighting pass's output, L_dir of eq. 6.18): the radiance arriving along a ray that hits
-// pixel p is approximated by the direct radiance stored at p (eq. 6.21; exact for diffuse hit
-// points), so L_ind = (1 - m) a (1/R) sum_k V_k L_dir(p_k).
-// Directions and step offsets come from lib/mc.glsl's sequence (dimension pairs 2, 3) for u_seed.
+// ambient_occlusion). SSAO_INDIRECT = 1 adds eq. 6.22 to u_direct (the lighting pass's output,
+// L_dir of eq. 6.18): the radiance arriving along a ray that hits pixel p is approximated by the
+// direct radiance stored at p (eq. 6.21; exact for diffuse hit points), so
+// L_ind = (1 - m) a (1/R) sum_k V_k L_dir(p_k).
+// Directions and step offsets come from lib/mc.glsl's sequence (dimension pairs 2, 3) for u_seed,
+// so both modes march the same rays. SSAO_HITS = T > 0 marches them once per frame: the occlusion
+// pass also writes ray k's hit pixel (x | y << 16; SSAO_NO_HIT for a miss, for k >= u_rays and on
+// pixels without a surface) to channel k % 4 of o_hits[k / 4] (RGBA32UI targets 1..T) for
+// k < 4 T, and the indirect pass reads them from u_hits instead of marching: the same pixels of
+// u_direct summed in the same order, so the light is the marching one's bit for bit. With
+// SSAO_MARCH_REST it marches the rays k >= 4 T itself (u_rays beyond what the targets hold,
+// viewer.passes.ssao.HIT_TARGETS_MAX); without SSAO_HITS, all of them.
 // SSAO_ENV_VIS = 1 (occlusion mode) also writes, to the g channel, the screen-space visibility
 // of the environment's light: S(x) = sum_k V_k max(n.l_k, 0) / sum_k max(n.l_k, 0) over the
 // ENV_VIS_DIRS directions u_vis_dirs (environment frame; viewer.envsampling.power_directions: each
@@ -20,7 +27,9 @@
 // SSAO_INDIRECT_FACTOR = 1 (indirect mode) scales L_ind by the r channel of u_indirect_factor, the
 // factor a neural student with a learned indirect term wrote in the lighting pass
 // (shade_neural.frag, NEURAL_STUDENT_INDIRECT): L = L_dir + f L_ind.
-// Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1), SSAO_INDIRECT_FACTOR (0/1). Twin: learned.twins.ssao.ssao_pass.
+// Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1), SSAO_INDIRECT_FACTOR (0/1), SSAO_HITS (0-7),
+// SSAO_MARCH_REST (0/1, indirect mode). Twin: learned.twins.ssao.ssao_pass (it marches in both
+// modes: recorded hits change no result).
 #include "passes/deferred.glsl"
 #include "lib/shading.glsl"
 #include "lib/sampling.glsl"
@@ -43,6 +52,20 @@ uniform sampler2D u_indirect_factor;
 #endif
 #ifndef SSAO_ENV_VIS
 #define SSAO_ENV_VIS 0
+#endif
+#ifndef SSAO_HITS
+#define SSAO_HITS 0
+#endif
+#ifndef SSAO_MARCH_REST
+#define SSAO_MARCH_REST 0
+#endif
+#if SSAO_HITS
+#define SSAO_NO_HIT 0xFFFFFFFFu  // pixel (65535, 65535): beyond any framebuffer
+#if SSAO_INDIRECT
+uniform usampler2D u_hits[SSAO_HITS];  // the occlusion pass's o_hits
+#else
+layout(location = 1) out uvec4 o_hits[SSAO_HITS];  // rays 4 t .. 4 t + 3 in target 1 + t
+#endif
 #endif
 #if SSAO_ENV_VIS
 #define ENV_VIS_DIRS 8
@@ -85,6 +108,9 @@ bool ssao_march(vec3 p_vs, vec3 w, float radius, int steps, float jitter, out iv
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     GBuffer g = gbuffer_load(pixel);
+#if SSAO_HITS && !SSAO_INDIRECT
+    for (int t = 0; t < SSAO_HITS; ++t) o_hits[t] = uvec4(SSAO_NO_HIT);
+#endif
 #if SSAO_INDIRECT
     vec4 direct = texelFetch(u_direct, pixel, 0);
 #endif
@@ -101,7 +127,25 @@ void main() {
     vec3 p_vs = view_position(gl_FragCoord.xy, u_resolution, g.depth, u_tan_half_fov);
     float hits = 0.0;
     vec3 gathered = vec3(0.0);
-    for (int k = 0; k < u_rays; ++k) {
+#if SSAO_HITS && SSAO_INDIRECT
+    // the rays the occlusion pass marched: where each hit, in the order of k
+    for (int t = 0; t < SSAO_HITS; ++t) {
+        uvec4 codes = texelFetch(u_hits[t], pixel, 0);
+        for (int i = 0; i < 4; ++i) {
+            uint code = codes[i];
+            if (4 * t + i < u_rays && code != SSAO_NO_HIT) {
+                hits += 1.0;
+                ivec2 hp = ivec2(int(code & 0xFFFFu), int(code >> 16));
+                gathered += texelFetch(u_direct, hp, 0).rgb;
+            }
+        }
+    }
+#endif
+#if !(SSAO_HITS && SSAO_INDIRECT) || SSAO_MARCH_REST
+    // every ray, or (indirect mode with hits) those beyond the hit targets; compiled only where it
+    // runs: at 512^2 llvmpipe took 17 ms for the pass reading hits with this loop in it, running
+    // no ray, and 9 ms without it
+    for (int k = SSAO_INDIRECT * 4 * SSAO_HITS; k < u_rays; ++k) {
         vec2 u = mc_sample_2d(uint(pixel.x), uint(pixel.y), uint(k), u_seed, 2u);
         float jitter = 1.0 - mc_sample_2d(uint(pixel.x), uint(pixel.y), uint(k), u_seed, 3u).x;
         vec3 w = tangent_to_world(sample_cosine_hemisphere(u), n_vs);
@@ -110,9 +154,12 @@ void main() {
             hits += 1.0;
 #if SSAO_INDIRECT
             gathered += texelFetch(u_direct, hp, 0).rgb;
+#elif SSAO_HITS
+            if (k < 4 * SSAO_HITS) o_hits[k >> 2][k & 3] = uint(hp.x) | (uint(hp.y) << 16);
 #endif
         }
     }
+#endif
     float rays = float(max(u_rays, 1));
 #if SSAO_INDIRECT
     vec3 indirect = (1.0 - saturate(g.metallic)) * g.albedo * gathered / rays;

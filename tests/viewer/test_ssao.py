@@ -109,6 +109,96 @@ def test_indirect_brightens_creases_only(renderer):
     assert g[0] > 1.5 * g[2], g
 
 
+# ---- the indirect pass reuses the occlusion pass's rays (SSAO_HITS) ------------------------------
+
+SPHERES = [FLOOR,
+           {"type": "sphere", "center": [-0.5, 0.5, -1.0], "radius": 0.5,
+            "material": {"albedo": [0.9, 0.2, 0.1], "roughness": 0.7}},
+           {"type": "sphere", "center": [0.6, 0.4, -0.6], "radius": 0.4,
+            "material": {"albedo": [0.1, 0.8, 0.3], "roughness": 0.5, "metallic": 0.3}}]
+
+
+def _hit_counts(renderer, sc, rays):
+    """Rays per pixel the occlusion pass recorded as hits (GL order: row 0 at the bottom)."""
+    from viewer.passes.ssao import hit_targets
+
+    targets = renderer.resources.targets(renderer.specialization(sc).layout, tuple(SIZE))
+    n = hit_targets(rays)
+    assert sorted(k for k in targets.extras if k.startswith("ssao_hits")) == \
+        [f"ssao_hits{i}" for i in range(n)]
+    count = np.zeros(SIZE[::-1], np.int64)
+    for i in range(n):
+        tex = targets.extras[f"ssao_hits{i}"][0]
+        codes = np.frombuffer(tex.read(), np.uint32).reshape(SIZE[1], SIZE[0], 4)
+        count += (codes != 0xFFFFFFFF).sum(-1)
+        x, y = codes & 0xFFFF, codes >> 16
+        ok = codes != 0xFFFFFFFF
+        assert (x[ok] < SIZE[0]).all() and (y[ok] < SIZE[1]).all()
+    return count
+
+
+@pytest.mark.parametrize("rays", [1, 4, 6, 8, 30])
+def test_indirect_reads_the_occlusion_rays_hits(ctx, rays):
+    """With SSAO on, the indirect pass reads where the occlusion pass's rays hit instead of
+    marching them again: the light equals the marching pass's (``hits=None``) on the same G-buffer
+    and direct light. Spheres on a floor (contacts, creases, coloured hits); 6 rays fill half a
+    hit target, 30 exceed the 28 the targets hold (the pass marches rays 28, 29 itself). Bound:
+    1e-6 of the largest value, i.e. float rounding only (no whole ray may differ): both sum the
+    same direct texels in the same order, measured bit-identical (max abs 0) on llvmpipe; the
+    bound leaves room for a driver that contracts the last multiply-adds differently in the two
+    programs. The recorded hits are the rays O(x) counted: rays x (1 - O) per pixel."""
+    from viewer.passes.ssao import HIT_TARGETS_MAX, HITS_PER_TARGET
+
+    renderer = Renderer(ctx=ctx)  # fresh targets: only the hit targets this ray count needs
+    try:
+        sc = scene(SPHERES, target=(0, 0.3, -1), ssao=True, indirect=True, ssao_rays=rays,
+                   ssao_steps=8, ssao_radius=0.6, ssao_thickness=0.5)
+        t = renderer.draw(sc)
+        reused, direct, ao = (_read(t, n) for n in ("radiance", "direct", "ssao"))
+        covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0
+        count = _hit_counts(renderer, sc, rays)[::-1]
+        recorded = min(rays, HIT_TARGETS_MAX * HITS_PER_TARGET)
+        missed = rays * (1.0 - ao[covered, 0])  # every ray's hit, from O(x)
+        assert (count[covered] <= missed + 1e-4).all()
+        assert (count[covered] >= missed - (rays - recorded) - 1e-4).all()
+        sspass = renderer.resources.layout_pass("ssao", renderer.specialization(sc).layout)
+        tex = ctx.texture(tuple(SIZE), 4, dtype="f4")
+        fbo = ctx.framebuffer(color_attachments=[tex])
+        try:
+            sspass.indirect(t.gbuffer.textures, t.direct, fbo, t.camera, sc.render)  # marches
+            marched = np.frombuffer(tex.read(), np.float32).reshape(SIZE[1], SIZE[0], 4)[::-1]
+        finally:
+            fbo.release()
+            tex.release()
+    finally:
+        renderer.release()
+    gain = (marched - direct)[..., :3]
+    assert (gain > 1e-4).any(-1).sum() > 100  # real hits, on many pixels
+    diff = np.abs(reused - marched).max()
+    assert diff <= 1e-6 * np.abs(marched).max(), diff
+
+
+def test_hits_are_recorded_only_for_the_indirect_pass(ctx):
+    """SSAO without indirect light writes no hit targets (its frame must not get slower); indirect
+    light without SSAO marches its rays (no occlusion pass runs to record them)."""
+    renderer = Renderer(ctx=ctx)
+    try:
+        for render in ({"ssao": True}, {"indirect": True}):
+            sc = scene(SPHERES, **SSAO, **render)
+            renderer.draw(sc)
+            targets = renderer.resources.targets(renderer.specialization(sc).layout, tuple(SIZE))
+            assert not [k for k in targets.extras if k.startswith("ssao_hits")], render
+    finally:
+        renderer.release()
+
+
+def test_hit_targets_hold_four_rays_each():
+    from viewer.passes.ssao import HIT_TARGETS_MAX, hit_targets
+
+    assert [hit_targets(r) for r in (1, 4, 5, 8, 28, 29, 1024)] == [1, 1, 2, 2, 7, 7, 7]
+    assert HIT_TARGETS_MAX == 7  # + O(x): the 8 draw buffers GL 4.3 guarantees
+
+
 @pytest.mark.parametrize("key,value", [("ssao_rays", 0), ("ssao_steps", 1.5), ("ssao_radius", 0),
                                        ("ssao_thickness", -1.0), ("ssao", "yes"),
                                        ("mis_heuristic", "max")])

@@ -2,10 +2,14 @@
 eqs. 6.19-6.22).
 
 :meth:`SSAOPass.occlusion` writes the visibility O(x) of every pixel to an RGBA32F texture that the
-lighting passes multiply into their diffuse term (``USE_SSAO``); :meth:`SSAOPass.indirect` marches
-the same rays again and adds the diffuse one-bounce light gathered from the direct-lighting buffer
-(the lighting pass's output for this frame) at each ray's hit pixel, scaled per pixel by a factor
-texture when a neural student learned one (``SSAO_INDIRECT_FACTOR``). With ``vis_dirs`` (the
+lighting passes multiply into their diffuse term (``USE_SSAO``); :meth:`SSAOPass.indirect` adds the
+diffuse one-bounce light gathered from the direct-lighting buffer (the lighting pass's output for
+this frame) at each ray's hit pixel, scaled per pixel by a factor texture when a neural student
+learned one (``SSAO_INDIRECT_FACTOR``). The rays are marched once per frame when both run: with
+``record_hits`` the occlusion pass also writes each ray's hit pixel to :func:`hit_targets` RGBA32UI
+targets (``SSAO_HITS``), and the indirect pass given them reads the hits instead of marching the
+same rays again (the same light, bit for bit; it marches only rays beyond
+:data:`HIT_TARGETS_MAX` targets, and all of them without the occlusion pass). With ``vis_dirs`` (the
 environment's :func:`~viewer.envsampling.power_directions`) the occlusion pass also writes the
 screen-space visibility of the environment's light to the g channel (``SSAO_ENV_VIS``), the input
 of the students that see visibility; it marches :data:`ENV_VIS_STEPS` steps up to
@@ -27,6 +31,15 @@ from . import set_uniform as _set
 ENV_VIS_DIRECTIONS = 8  # ENV_VIS_DIRS of passes/ssao.frag
 ENV_VIS_STEPS = 16  # steps per direction
 ENV_VIS_RADIUS = 2.0  # world units: long enough for a sun shadow of a unit-sized object
+# RGBA32UI hit targets beside O(x) (attachment 0): GL 4.3 guarantees 8 draw buffers; 4 rays each
+HIT_TARGETS_MAX = 7
+HITS_PER_TARGET = 4
+
+
+def hit_targets(rays: int) -> int:
+    """How many RGBA32UI targets hold the hits of ``rays`` rays (``SSAO_HITS``): 4 rays per
+    target, at most :data:`HIT_TARGETS_MAX` (the indirect pass marches the rays beyond)."""
+    return min(-(-max(int(rays), 0) // HITS_PER_TARGET), HIT_TARGETS_MAX)
 
 
 class SSAOPass:
@@ -38,12 +51,17 @@ class SSAOPass:
 
     def _run(self, indirect: bool, gbuffer_textures: dict, out_fbo, camera: Camera,
              settings: RenderSettings, direct=None, vis_dirs=None, env_rotation_deg=0.0,
-             factor=None) -> None:
+             factor=None, n_hits: int = 0, hits=()) -> None:
         env_vis = vis_dirs is not None
         prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao.frag",
                                       defines={"SSAO_INDIRECT": int(indirect),
                                                "SSAO_ENV_VIS": int(env_vis),
                                                "SSAO_INDIRECT_FACTOR": int(factor is not None),
+                                               "SSAO_HITS": n_hits,
+                                               # the indirect pass marches rays beyond the hits
+                                               "SSAO_MARCH_REST": int(
+                                                   indirect and 0 < n_hits * HITS_PER_TARGET
+                                                   < settings.ssao.rays),
                                                "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
         unit = bind_gbuffer(prog, gbuffer_textures)
@@ -55,6 +73,11 @@ class SSAOPass:
             factor.use(unit)
             prog["u_indirect_factor"].value = unit
             unit += 1
+        if hits:
+            for i, tex in enumerate(hits):
+                tex.use(unit + i)
+            _set(prog, "u_hits", np.arange(unit, unit + len(hits), dtype=np.int32).tobytes())
+            unit += len(hits)
         basis = camera.basis()
         _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
         _set(prog, "u_tan_half_fov", camera.tan_half_fov())
@@ -75,17 +98,28 @@ class SSAOPass:
         self._draw(prog)
 
     def occlusion(self, gbuffer_textures: dict, out_fbo, camera: Camera,
-                  settings: RenderSettings, vis_dirs=None, env_rotation_deg: float = 0.0) -> None:
-        """O(x) (eq. 6.19) into all four channels of ``out_fbo`` (1 on the background); with
-        ``vis_dirs`` (``[8, 3]``, environment frame) S(x) in the g channel instead."""
+                  settings: RenderSettings, vis_dirs=None, env_rotation_deg: float = 0.0,
+                  record_hits: bool = False) -> None:
+        """O(x) (eq. 6.19) into all four channels of ``out_fbo``'s first attachment (1 on the
+        background); with ``vis_dirs`` (``[8, 3]``, environment frame) S(x) in the g channel
+        instead. With ``record_hits`` ``out_fbo`` has ``hit_targets(settings.ssao.rays)`` RGBA32UI
+        attachments after it, which receive each ray's hit pixel for :meth:`indirect`."""
         self._run(False, gbuffer_textures, out_fbo, camera, settings, vis_dirs=vis_dirs,
-                  env_rotation_deg=env_rotation_deg)
+                  env_rotation_deg=env_rotation_deg,
+                  n_hits=hit_targets(settings.ssao.rays) if record_hits else 0)
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
-                 settings: RenderSettings, factor=None) -> None:
+                 settings: RenderSettings, factor=None, hits=None) -> None:
         """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``; with
-        ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind."""
-        self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct, factor=factor)
+        ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind. ``hits``:
+        the hit targets :meth:`occlusion` recorded for the same G-buffer, camera and settings
+        (read instead of marching the rays again); ``None`` marches."""
+        hits = tuple(hits or ())
+        if hits and len(hits) != hit_targets(settings.ssao.rays):
+            raise ValueError(f"{len(hits)} hit targets for {settings.ssao.rays} rays: "
+                             f"expected {hit_targets(settings.ssao.rays)}")
+        self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct, factor=factor,
+                  n_hits=len(hits), hits=hits)
 
     def release(self) -> None:
         self._draw.release()

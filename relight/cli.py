@@ -90,6 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="one small size, fewer knobs (minutes)")
     p.add_argument("--frames", type=int, default=10, help="timed frames per case (default 10)")
     p.add_argument("--fresh", action="store_true", help="ignore rows measured by an earlier run")
+    p.add_argument("--heldout", action="append", metavar="DATA",
+                   help="also score every model against path-traced truth on this held-out "
+                        "dataset (relight eval DATA --split all) and mark its Pareto front "
+                        "(repeatable; needs torch)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_bench)
 

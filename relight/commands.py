@@ -279,7 +279,8 @@ def cmd_bench(args) -> int:
     from .bench.run import BenchConfig, pareto_front, run_bench
 
     config = BenchConfig(quick=args.quick, frames=args.frames,
-                         reference_spp=256 if args.quick else 1024)
+                         reference_spp=256 if args.quick else 1024,
+                         heldout=tuple(getattr(args, "heldout", None) or ()))
     report = run_bench(args.out, config, fresh=args.fresh, progress=not args.quiet)
     front = pareto_front(report["results"])
     print(f"wrote {args.out}/bench.json, bench.csv, bench.md, pareto.png "
@@ -302,6 +303,12 @@ def cmd_bench(args) -> int:
                 print(f"    {e['model']:<14} {e['variant']:<24} {e['ms_ratio']:6.2f}x  median rel. "
                       f"error {100 * e[f'median_rel_{ref}']:5.1f} %  |bias| "
                       f"{100 * e[f'abs_bias_{ref}']:5.1f} %")
+    if report.get("heldout"):
+        print("Against path-traced truth on the held-out datasets (Pareto front, fastest first):")
+        for r in report["heldout"]:
+            if r["pareto"]:
+                print(f"  {r['dataset']:<16} {r['model']:<14} {r['variant']:<26} {r['ms']:8.2f} ms "
+                      f"{r['psnr']:6.2f} dB")
     return 0
 
 

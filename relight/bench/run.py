@@ -74,6 +74,9 @@ class BenchConfig:
     reference_spp: int = 1024  # samples per pixel of the converged ggx_mc reference
     truth_spp: int = 4096  # samples per pixel of the converged ggx_mc on the reference scenes
     truth: bool = True  # measure against the path-traced references (relight.bench.truth)
+    # held-out datasets with path-traced targets (relight.bench.heldout): every model's scores and
+    # Pareto front on each
+    heldout: tuple[str, ...] = ()
 
     @property
     def sizes(self) -> list[tuple[int, int]]:
@@ -230,6 +233,16 @@ def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
     return neural_rows(renderer, quick=config.quick)
 
 
+def _suite_heldout(renderer, scenes, config, cache) -> list[dict]:
+    """Every model against path-traced truth on the held-out datasets of ``config.heldout``
+    (:mod:`relight.bench.heldout`), with each dataset's Pareto front marked."""
+    if not config.heldout:
+        return []
+    from .heldout import heldout_rows
+
+    return heldout_rows(renderer, config.heldout)
+
+
 def _suite_clamps(renderer, scenes, config, cache) -> list[dict]:
     """What each shading clamp (roughness, n.v, ACES input, dfg.y) costs against an unclamped
     reference (:mod:`relight.bench.clamps`)."""
@@ -240,7 +253,8 @@ def _suite_clamps(renderer, scenes, config, cache) -> list[dict]:
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
-                               "neural": _suite_neural, "clamps": _suite_clamps}
+                               "neural": _suite_neural, "clamps": _suite_clamps,
+                               "heldout": _suite_heldout}
 
 
 def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: bool = False,
@@ -310,7 +324,8 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
             path = out / f"{name}.json"
             if path.exists() and not fresh:  # resumable: a finished suite is not measured again
                 sections[name] = json.loads(path.read_text())
-                continue
+                if name != "heldout" or _same_heldout(sections[name], config):
+                    continue
             if progress:
                 print(f"bench: {name} ...", file=sys.stderr, flush=True)
             sections[name] = suite(renderer, scenes, config, cache)
@@ -323,6 +338,12 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
         renderer.release()
     write_reports(out, report)
     return report
+
+
+def _same_heldout(rows: list[dict], config: BenchConfig) -> bool:
+    """Whether stored held-out rows are of the datasets asked for now (else measured again)."""
+    return {r.get("dataset_path") for r in rows} == {str(Path(d)) for d in config.heldout} \
+        or (not rows and not config.heldout)
 
 
 def _truth_rows(renderer, cases, config: BenchConfig, cache: Path, done: dict, log,

@@ -1,6 +1,7 @@
 """A ``split3`` student whose base shades the environment's sun analytically (architecture
 ``"sun": true``): its untrained frame is ``ggx_split_sum`` with ``SUN_LIGHT``, GLSL and torch agree
-on a perturbed one, and files without the key render as before."""
+on a perturbed one, and files without the key render as before; malformed sun and multiscatter
+keys (the split3 base's switches) are one-line errors."""
 import json
 
 import numpy as np
@@ -84,11 +85,13 @@ def test_sun_needs_split3():
         Student(output="pbr3", sun=True)
 
 
-@pytest.mark.parametrize("change, message", [
+@pytest.mark.parametrize("change, message", [  # the split3 base's switches: sun, multiscatter
     ({"sun": "yes"}, "student sun 'yes'"),
-    ({"sun": True, "output": "pbr3"}, "needs the split3 output form"),
+    ({"sun": True, "output": "pbr3"}, "student sun needs the split3 output form"),
+    ({"multiscatter": 1}, "student multiscatter 1"),
+    ({"multiscatter": True, "output": "pbr3"}, "student multiscatter needs the split3 output"),
 ])
-def test_bad_sun_metadata_is_a_one_line_error(tmp_path, change, message):
+def test_bad_base_metadata_is_a_one_line_error(tmp_path, change, message):
     from safetensors import safe_open
     from safetensors.numpy import save_file
 

@@ -316,17 +316,13 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
     if indirect != DEFAULT_INDIRECT and STUDENT_OUTPUTS[output] != 3:
         raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
                          f"(pbr3 or split3), not {output!r}")
-    sun = arch.get("sun", DEFAULT_SUN) if kind == "student" else DEFAULT_SUN
-    if not isinstance(sun, bool):
-        raise ValueError(f"student sun {sun!r} (true | false)")
-    if sun and output != "split3":
-        raise ValueError(f"student sun needs the split3 output form, not {output!r}")
-    multiscatter = arch.get("multiscatter", DEFAULT_MULTISCATTER) if kind == "student" \
-        else DEFAULT_MULTISCATTER
-    if not isinstance(multiscatter, bool):
-        raise ValueError(f"student multiscatter {multiscatter!r} (true | false)")
-    if multiscatter and output != "split3":
-        raise ValueError(f"student multiscatter needs the split3 output form, not {output!r}")
+    for key, default in (("sun", DEFAULT_SUN), ("multiscatter", DEFAULT_MULTISCATTER)):
+        # the split3 base's switches: booleans, only for that output form
+        value = arch.get(key, default) if kind == "student" else default
+        if not isinstance(value, bool):
+            raise ValueError(f"student {key} {value!r} (true | false)")
+        if value and output != "split3":
+            raise ValueError(f"student {key} needs the split3 output form, not {output!r}")
     light_input = arch.get("light_input", DEFAULT_LIGHT_INPUT) if kind == "teacher" \
         else DEFAULT_LIGHT_INPUT
     if not isinstance(light_input, bool):

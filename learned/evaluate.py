@@ -18,7 +18,6 @@ estimate at ``teacher_samples`` environment-importance samples times the UNet's 
 """
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -151,18 +150,15 @@ GROUPS = ("kind", "environment")  # what ``evaluate(by=...)`` can break the mean
 
 def sample_group(sample, by: str | None) -> str:
     """The group of ``sample`` for ``evaluate(by=...)``: its scene kind (``meta.json``
-    geometry.kind; "unrecorded" for samples without one) or its environment file's stem."""
+    geometry.kind) or its environment file's stem (environment.source), "unrecorded" for samples
+    without one (both read by ``learned.data.reader.load_sample``)."""
     if by is None:
         return ""
     if by == "kind":
         return sample.kind or "unrecorded"
     if by == "environment":
-        meta = sample.folder / "meta.json"
-        try:
-            source = json.loads(meta.read_text()).get("environment", {}).get("source")
-        except (OSError, ValueError, AttributeError):
-            source = None
-        return Path(str(source)).stem if source else "unrecorded"
+        source = sample.environment_source
+        return Path(source).stem if source else "unrecorded"
     raise ValueError(f"by={by!r}: expected one of {GROUPS}")
 
 

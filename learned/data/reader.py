@@ -48,6 +48,8 @@ class Sample:
     target_stderr: np.ndarray | None = None  # [H, W, 3] standard error of a path-traced target
     target_source: str | None = None  # meta.json target.source: "rasteriser" | "reference"
     kind: str | None = None  # meta.json geometry.kind (the generator's scene kind), if recorded
+    # meta.json environment.source (the HDR file or procedural sky the sample was lit by), if any
+    environment_source: str | None = None
 
     @property
     def size(self) -> tuple[int, int]:
@@ -88,10 +90,13 @@ def load_sample(folder: str | os.PathLike, require_target: bool = True) -> Sampl
             info = json.loads(meta.read_text())
             target_info = info.get("target", {})
             geometry = info.get("geometry", {})
+            environment = info.get("environment", {})
         except (ValueError, AttributeError) as exc:
             raise DatasetError(f"not valid JSON ({exc})", where=meta) from None
         if isinstance(geometry, dict) and geometry.get("kind") is not None:
             extra["kind"] = str(geometry["kind"])
+        if isinstance(environment, dict) and environment.get("source") is not None:
+            extra["environment_source"] = str(environment["source"])
         # samples generated before path-traced targets came from the rasteriser
         extra["target_source"] = str(target_info.get("source", "rasteriser"))
     return Sample(name=folder.name, folder=folder, channels=gb.channels, target=target,

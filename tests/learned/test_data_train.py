@@ -3,6 +3,7 @@ import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -372,8 +373,16 @@ def test_eval_breaks_the_means_down_by_scene_kind(dataset, tmp_path, ctx):
     try:
         plain = evaluate(str(root), split="train", teacher_samples=1, limit=3, renderer=r)
         rows = evaluate(str(root), split="train", teacher_samples=1, limit=3, renderer=r, by="kind")
+        by_env = evaluate(str(root), split="train", teacher_samples=1, limit=3, renderer=r,
+                          by="environment")
     finally:
         r.release()
+    sources = [load_sample(f).environment_source for f in list_samples(root, "train")[:3]]
+    assert all(sources)  # the generator records each sample's environment
+    envs = {Path(src).stem for src in sources}
+    assert {row["group"] for row in by_env} == envs | {"all"}
+    split_rows = [row for row in by_env if row["model"] == "ggx_split_sum" and not row["variant"]]
+    assert sum(row["count"] for row in split_rows if row["group"] != "all") == 3
     assert "group" not in plain[0]
     groups = {row["group"] for row in rows}
     assert groups == {"all", "other", load_sample(list_samples(root, "train")[2]).kind}

@@ -5,6 +5,8 @@
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
     relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--install] [--compare-students]
+    relight data OUT --preset truth-train|heldout-kinds|heldout-env [--count N] [--size S]
+                 [--spp N] [--seed N]
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
     relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
@@ -24,6 +26,7 @@ from .commands import (
     _nonnegative_float,
     _positive_int,
     cmd_bench,
+    cmd_data,
     cmd_decompose,
     cmd_eval,
     cmd_info,
@@ -184,6 +187,36 @@ def build_parser() -> argparse.ArgumentParser:
                         "assets/weights/students, read by relight bench)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("data", help="(re)generate the path-traced training or held-out datasets",
+                       description="Generate a named dataset with path-traced targets (needs the "
+                       "'reference' extra and libLLVM >= 19): the training truth of the shipped "
+                       "student or one of the two held-out sets that relight eval --split all and "
+                       "relight bench --heldout score. A preset reproduces its dataset sample for "
+                       "sample (same seeds). Re-running skips finished samples and resumes an "
+                       "interrupted one; several processes shard the samples (torchrun "
+                       "--nproc_per_node=N -m relight data OUT --preset NAME: sample i by rank "
+                       "i % WORLD_SIZE).")
+    p.add_argument("out", help="dataset folder (created; an existing one of the same "
+                               "configuration is completed)")
+    p.add_argument("--preset", required=True, metavar="NAME",
+                   help="truth-train: the path-traced training truth (480 samples; the shipped "
+                        "student's); heldout-kinds: held-out scene kinds and environment (40 "
+                        "samples); heldout-env: the training scene kinds under a held-out "
+                        "environment (40 samples) - learned/data/presets.py")
+    p.add_argument("--count", type=_positive_int, metavar="N",
+                   help="samples (default the preset's; fewer: its first N samples)")
+    p.add_argument("--size", type=_positive_int, metavar="S",
+                   help="square image size (default the preset's 64; changes every sample: not "
+                        "the preset's dataset any more)")
+    p.add_argument("--spp", type=_positive_int, metavar="N",
+                   help="path-traced samples per pixel of the targets (default the preset's 256; "
+                        "changes the targets' noise: not the preset's dataset any more)")
+    p.add_argument("--seed", type=int, metavar="N",
+                   help="random seed (default the preset's; another seed draws other scenes: "
+                        "not the preset's held-out set any more)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    p.set_defaults(func=cmd_data)
 
     p = sub.add_parser("eval", help="PSNR / SSIM / HDR-FLIP of every model on held-out samples")
     p.add_argument("data", help="dataset root (FFHQ256-PBR layout with targets)")

@@ -397,47 +397,52 @@ def cmd_train(args) -> int:
 
 
 def _truth_data(args) -> str:
-    """``relight train --targets reference``: the quick dataset's recipe with path-traced targets,
-    the truth scene kinds (contact, clusters, concave meshes, glTF models) and the real HDRIs sky
-    and park beside the procedural environments (esplanade and the nested kinds stay held out:
-    ``generator.held_out_config``), generated under OUT/data-truth by every torchrun rank (sample
-    i by rank i % WORLD_SIZE), resumable; returns its folder."""
+    """``relight train --targets reference``: the ``truth-train`` preset (:func:`_truth_config`:
+    path-traced targets, the truth scene kinds (contact, clusters, concave meshes, glTF models)
+    and the real HDRIs sky and park beside the procedural environments; esplanade and the nested
+    kinds stay held out), generated under OUT/data-truth by every torchrun rank (sample i by rank
+    i % WORLD_SIZE), resumable; returns its folder."""
     if args.data is not None:
         raise RelightError("--targets makes the generated dataset; drop --data (a given dataset "
                            "brings its own targets)", where="--targets")
     if args.compare_students:
         raise RelightError("--compare-students generates its own data; drop --targets",
                            where="--targets")
-    config = _learned("learned.train.config")
-    generator = _learned("learned.data.generator")
-    recipe = dict(config.QUICK_DATA) | {
-        "gbuffer_fraction": 0.0, "targets": "reference", "reference_spp": args.reference_spp,
-        "scene_kinds": generator.TRUTH_KINDS, "env_paths": generator.TRUTH_ENV_PATHS}
-    if getattr(args, "count", None) is not None:
-        recipe["count"] = int(args.count)
     data = str(Path(args.out) / "data-truth")
-    generator.generate(data, generator.GeneratorConfig(**recipe), progress=not args.quiet,
-                       shard=True, tracer=reference_tracer())
+    _learned("learned.data.generator").generate(data, _truth_config(args), progress=not args.quiet,
+                                                shard=True, tracer=reference_tracer())
     return data
 
 
-def reference_tracer():
+def _truth_config(args):
+    """The dataset of ``relight train --targets reference``: the ``truth-train`` preset
+    (``relight data --preset truth-train``) with ``--count`` samples (default the quick dataset's
+    40) and ``--reference-spp``."""
+    count = getattr(args, "count", None)
+    if count is None:
+        count = _learned("learned.train.config").QUICK_DATA["count"]
+    return _learned("learned.data.presets").preset_config(
+        "truth-train", count=int(count), reference_spp=args.reference_spp)
+
+
+def reference_tracer(where: str = "--targets"):
     """The path tracer the dataset generator takes its targets from (``learned`` may not import
     ``relight``, so it is handed in): ``trace(scene, spp, max_depth, seed, checkpoint)`` ->
     :class:`relight.reference.Reference`, pixel-centre rays, Mitsuba's ``llvm_ad_rgb`` backend.
     A one-line error naming what to install when Mitsuba or a libLLVM >= 19 is missing (the
-    scalar backend would take hours for a dataset)."""
+    scalar backend would take hours for a dataset). ``where``: what the error names (the option
+    or command that asked for path-traced targets)."""
     import importlib.util
 
     if importlib.util.find_spec("mitsuba") is None:
         raise RelightError("path-traced targets need Mitsuba 3: pip install -e '.[reference]'",
-                           where="--targets")
+                           where=where)
     from relight.reference import render
 
     if render.find_libllvm() is None:
         raise RelightError(f"path-traced targets need libLLVM >= {render.MIN_LLVM} for "
                            "Mitsuba's llvm_ad_rgb backend (apt-get install libllvm19, or set "
-                           "DRJIT_LIBLLVM_PATH)", where="--targets")
+                           "DRJIT_LIBLLVM_PATH)", where=where)
     render.load_mitsuba("llvm_ad_rgb")  # ReferenceError (one line) if the backend fails
 
     def trace(scene, spp: int, max_depth: int, seed: int = 0, checkpoint=None):
@@ -469,4 +474,58 @@ def cmd_eval(args) -> int:
         print(json.dumps(rows, indent=1))
     else:
         print(ev.format_table(rows))
+    return 0
+
+
+def _data_config(args):
+    """``relight data``'s configuration: ``--preset`` with ``--count``, ``--size``, ``--spp`` and
+    ``--seed`` overriding its fields (none given: exactly the preset's dataset)."""
+    try:
+        from learned.data.presets import preset_config
+    except ImportError as exc:
+        raise RelightError(f"relight data needs the 'reference' extra: pip install -e "
+                           f"'.[reference]' ({exc})", where="data") from None
+    return preset_config(args.preset, count=args.count, size=args.size, reference_spp=args.spp,
+                         seed=args.seed)
+
+
+def cmd_data(args) -> int:
+    """(Re)generate a named dataset (:mod:`learned.data.presets`: the path-traced training truth
+    and the two held-out sets) under OUT: resumable (finished samples are kept, an interrupted
+    path-traced target resumes from its checkpoint), sharded over torchrun ranks (sample i by
+    rank i % WORLD_SIZE, every rank returning once all are written)."""
+    from learned.data.generator import generate, split_of
+    from learned.data.presets import PRESETS
+
+    config = _data_config(args)  # checked before Mitsuba loads or anything is written
+    tracer = reference_tracer(where="relight data")
+    out = generate(args.out, config, progress=not args.quiet, shard=True, tracer=tracer)
+    if args.quiet or out.get("rank", 0) != 0:
+        return 0
+    preset = PRESETS[args.preset]()
+    splits = {s: sum(split_of(i) == s for i in range(config.count))
+              for s in ("train", "val", "test")}
+    by = " by rank 0" if "rank" in out else ""
+    print(f"{args.out}: preset {args.preset}, {config.count} samples "
+          f"({', '.join(f'{n} {s}' for s, n in splits.items() if n)}; {out['written']} written, "
+          f"{out['kept']} kept{by}), {config.size}x{config.size}, {config.reference_spp} spp "
+          "path-traced")
+    options = (("size", "size"), ("spp", "reference_spp"), ("seed", "seed"))
+    changed = [f"--{o} {getattr(config, k)}" for o, k in options
+               if getattr(config, k) != getattr(preset, k)]
+    if changed:
+        print(f"  {', '.join(changed)}: not the preset's dataset (its scores are not comparable "
+              "with the README's)")
+    elif config.count < preset.count:
+        print(f"  --count {config.count}: the first {config.count} of the preset's "
+              f"{preset.count} samples")
+    elif config.count > preset.count:
+        print(f"  --count {config.count}: the preset's {preset.count} samples and "
+              f"{config.count - preset.count} more")
+    if args.preset == "truth-train":
+        print(f"next: relight train --data {args.out} --student-target target ... "
+              f"(assets/weights/README.md); relight eval {args.out} --split test")
+    else:
+        print(f"next: relight eval {args.out} --split all")
+        print(f"      relight bench --out runs/bench --heldout {args.out}")
     return 0

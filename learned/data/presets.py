@@ -1,0 +1,70 @@
+"""The named dataset configurations behind the shipped weights and the README's held-out scores,
+in one place (``relight data OUT --preset NAME``; ``relight train --targets reference`` uses
+``truth-train`` too):
+
+- ``truth-train``: the path-traced training truth (480 samples, 64², 256 spp; :data:`TRUTH_KINDS`
+  under the procedural skies and the HDRIs sky and park, :data:`TRUTH_ENV_PATHS`), seed 0 - the
+  data of the shipped student (``runs/truth2``);
+- ``heldout-kinds``: :func:`held_out_config` of it (40 samples, seed 1): scene kinds and
+  environments no training sample has (nested and convex scenes under the esplanade HDRI alone);
+- ``heldout-env``: the training scene kinds under an environment no training sample has (40
+  samples, seed 7, the esplanade HDRI alone).
+
+Samples draw from ``default_rng([seed, i])``, so a preset regenerates its dataset sample for
+sample (a smaller ``count`` gives its first samples); overriding ``size``, ``seed`` or
+``reference_spp`` makes another dataset."""
+from __future__ import annotations
+
+from dataclasses import fields, replace
+
+from .generator import (
+    HELD_OUT_ENV_PATHS,
+    TRUTH_ENV_PATHS,
+    TRUTH_KINDS,
+    GeneratorConfig,
+    check_config,
+    held_out_config,
+)
+from .reader import DatasetError
+
+
+def truth_train() -> GeneratorConfig:
+    return GeneratorConfig(count=480, size=64, samples=256, seed=0, gbuffer_fraction=0.0,
+                           targets="reference", reference_spp=256, scene_kinds=TRUTH_KINDS,
+                           env_paths=TRUTH_ENV_PATHS)
+
+
+def heldout_kinds() -> GeneratorConfig:
+    return held_out_config(truth_train(), count=40)  # esplanade; nested and convex scenes, seed 1
+
+
+def heldout_env() -> GeneratorConfig:
+    return replace(truth_train(), count=40, seed=7, env_paths=HELD_OUT_ENV_PATHS,
+                   env_procedural=())
+
+
+# name -> its configuration (relight data --preset NAME)
+PRESETS = {"truth-train": truth_train, "heldout-kinds": heldout_kinds, "heldout-env": heldout_env}
+# the fields an override may change (relight data's --count, --size, --spp, --seed)
+OVERRIDABLE = ("count", "size", "reference_spp", "seed")
+
+
+def preset_config(name: str, **overrides) -> GeneratorConfig:
+    """The configuration of preset ``name`` with ``overrides`` (fields of :data:`OVERRIDABLE`; a
+    None value keeps the preset's). A one-line :class:`DatasetError` for an unknown name or
+    field, or a configuration that cannot be generated."""
+    if name not in PRESETS:
+        raise DatasetError(f"unknown preset {name!r} (known: {', '.join(PRESETS)})",
+                           where="--preset")
+    known = {f.name for f in fields(GeneratorConfig)}
+    for key in overrides:
+        if key not in OVERRIDABLE:
+            raise DatasetError(f"a preset's {key!r} cannot be overridden (only "
+                               f"{', '.join(OVERRIDABLE)})"
+                               if key in known else f"unknown field {key!r}", where="--preset")
+    config = replace(PRESETS[name](), **{k: v for k, v in overrides.items() if v is not None})
+    if config.count < 1 or config.size < 1:
+        raise DatasetError(f"count and size must be at least 1, got {config.count} and "
+                           f"{config.size}", where="--preset")
+    check_config(config, tracer=True)  # everything but the tracer, which the caller brings
+    return config

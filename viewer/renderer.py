@@ -28,7 +28,7 @@ from .gl import ContextOptions, Programs, create_context, make_current
 from .models import ShadingModel, model_info
 from .neural import learns_indirect, reads_visibility, required_settings, shades_sun
 from .passes.forward import forward_model
-from .passes.ssao import hit_targets
+from .passes.ssao import hit_targets, low_resolution
 from .resources import GPUResources, TargetSet
 from .scene import ObjectSpec, Scene
 from .specialize import Specialization, analyse, specialise
@@ -120,20 +120,38 @@ class Renderer:
         with ``vis`` inputs reads them. For training data, tests and parity checks."""
         make_current(self.ctx)
         layout = self.specialization(scene).layout
-        tex, fbo = self.resources.targets(layout, frame.camera.size).extra(self.ctx, "ssao")
-        self._occlusion(self.resources.layout_pass("ssao", layout), scene,
-                        frame.gbuffer.textures, fbo, frame.camera, True)
+        targets = self.resources.targets(layout, frame.camera.size)
+        tex, _ = self._occlusion(self.resources.layout_pass("ssao", layout), scene, targets,
+                                 frame.gbuffer.textures, frame.camera, True)
         return tex
 
-    def _occlusion(self, sspass, scene: Scene, gbuffer_textures, fbo, camera: Camera,
-                   visibility: bool, record_hits: bool = False) -> None:
-        """SSAO's occlusion O(x); with ``visibility`` also S(x) towards the environment's
-        equal-power directions (``viewer.envsampling.power_directions``); with ``record_hits``
-        each ray's hit pixel into ``fbo``'s hit attachments (:func:`_ssao_hit_targets`)."""
+    def _occlusion(self, sspass, scene: Scene, targets: TargetSet, gbuffer_textures,
+                   camera: Camera, visibility: bool, record_hits: bool = False
+                   ) -> tuple[object, list | None]:
+        """SSAO's occlusion O(x) into the frame's ``ssao`` target; with ``visibility`` also S(x)
+        towards the environment's equal-power directions (``viewer.envsampling.
+        power_directions``); with ``record_hits`` each ray's hit pixel into the hit targets
+        (:func:`_ssao_hit_targets`). At ``ssao.scale`` k > 1 the rays run at low resolution and
+        the upsampling pass (timed as ``ssao_upsample``) fills the full-resolution target.
+        Returns (the ``ssao`` texture, the hit textures or None)."""
+        settings = scene.render
+        k = int(settings.ssao.scale)
         vis_dirs = self.resources.power_directions(scene.environment) if visibility else None
-        sspass.occlusion(gbuffer_textures, fbo, camera, scene.render, vis_dirs=vis_dirs,
+        low_name = "ssao" if k == 1 else f"ssao/{k}"
+        low, fbo = targets.extra(self.ctx, low_name, size=low_resolution(camera.size, k))
+        hits = None
+        if record_hits:
+            hits, fbo = _ssao_hit_targets(self.ctx, targets, settings.ssao.rays, low_name,
+                                          low_resolution(camera.size, k))
+        sspass.occlusion(gbuffer_textures, fbo, camera, settings, vis_dirs=vis_dirs,
                          env_rotation_deg=scene.environment.rotation_deg,
                          record_hits=record_hits)
+        if k == 1:
+            return low, hits
+        self._pass_begin("ssao_upsample")
+        tex, full_fbo = targets.extra(self.ctx, "ssao")
+        sspass.upsample(gbuffer_textures, low, full_fbo, camera, settings)
+        return tex, hits
 
     # ---- the render graph ---------------------------------------------------------------------
     def draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
@@ -234,12 +252,11 @@ class Renderer:
             sspass = self.resources.layout_pass("ssao", spec.layout)
         if settings.ssao.enabled:
             self._pass_begin("ssao")
-            ssao, ssao_fbo = targets.extra(self.ctx, "ssao")
-            if settings.ssao.indirect:  # the rays' hit pixels, for the indirect pass to reuse
-                hits, ssao_fbo = _ssao_hit_targets(self.ctx, targets, settings.ssao.rays)
-            # + the environment's visibility (g channel) for a student that reads it
-            self._occlusion(sspass, scene, gbt, ssao_fbo, camera, reads_visibility(settings),
-                            record_hits=hits is not None)
+            # + the environment's visibility (g channel) for a student that reads it; with the
+            # indirect light, the rays' hit pixels for the indirect pass to reuse
+            ssao, hits = self._occlusion(sspass, scene, targets, gbt, camera,
+                                         reads_visibility(settings),
+                                         record_hits=settings.ssao.indirect)
         factor = None
         if settings.ssao.indirect:
             out_tex, out_fbo = targets.extra(self.ctx, "direct")
@@ -269,8 +286,11 @@ class Renderer:
         if settings.ssao.indirect:
             self._pass_begin("indirect")
             # reads the occlusion pass's hits; marches the rays itself without that pass
+            k = int(settings.ssao.scale)
+            gather_fbo = None if k == 1 else targets.extra(
+                self.ctx, f"gathered/{k}", size=low_resolution(camera.size, k))[1]
             sspass.indirect(gbt, out_tex, targets.radiance_fbo, camera, settings, factor=factor,
-                            hits=hits)
+                            hits=hits, gather_fbo=gather_fbo)
         return samples
 
     def _accumulate(self, scene: Scene, camera: Camera, shade, out_fbo, progressive: bool,
@@ -342,12 +362,14 @@ def check_aovs(aovs) -> None:
                          f"(known: {', '.join(AOV_NAMES)})", where="--aov")
 
 
-def _ssao_hit_targets(ctx, targets: TargetSet, rays: int) -> tuple[list, object]:
-    """The RGBA32UI targets of SSAO's ray hits for ``rays`` rays (``ssao_hits<i>``) and the
-    framebuffer the occlusion pass draws to with them: O(x) at attachment 0, the hits after it."""
-    names = tuple(f"ssao_hits{i}" for i in range(hit_targets(rays)))
-    hits = [targets.extra(ctx, name, dtype="u4")[0] for name in names]
-    return hits, targets.extras_fbo(ctx, ("ssao",) + names)
+def _ssao_hit_targets(ctx, targets: TargetSet, rays: int, occlusion: str = "ssao",
+                      size=None) -> tuple[list, object]:
+    """The RGBA32UI targets of SSAO's ray hits for ``rays`` rays (``<occlusion>_hits<i>``, of
+    ``size``: the occlusion target's) and the framebuffer the occlusion pass draws to with them:
+    the target ``occlusion`` (O(x)) at attachment 0, the hits after it."""
+    names = tuple(f"{occlusion}_hits{i}" for i in range(hit_targets(rays)))
+    hits = [targets.extra(ctx, name, dtype="u4", size=size)[0] for name in names]
+    return hits, targets.extras_fbo(ctx, (occlusion,) + names)
 
 
 _LIGHT_WARNED: set[str] = set()

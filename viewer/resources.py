@@ -52,13 +52,13 @@ class TargetSet:
                    ctx.framebuffer(color_attachments=[radiance]), display,
                    ctx.framebuffer(color_attachments=[display]))
 
-    def extra(self, ctx, name: str, components: int = 4, dtype: str = "f4"
+    def extra(self, ctx, name: str, components: int = 4, dtype: str = "f4", size=None
               ) -> tuple[object, object]:
         """``(texture, framebuffer)`` of the target ``name`` with ``components`` channels of
         ``dtype`` (RGBA32F by default; ``"u4"``: unsigned integers, e.g. SSAO's ray hits; made on
-        first use)."""
+        first use), of ``size`` (default the frame's: SSAO at reduced scale has smaller ones)."""
         if name not in self.extras:
-            tex = ctx.texture(self.radiance.size, components, dtype=dtype)
+            tex = ctx.texture(tuple(size or self.radiance.size), components, dtype=dtype)
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
             self.extras[name] = (tex, ctx.framebuffer(color_attachments=[tex]))
         return self.extras[name]

@@ -54,7 +54,7 @@ from .errors import SceneError
 from .material import Material
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import RENDER_KEYS, SPLAT_DEPTHS, RenderSettings
+from .settings import RENDER_KEYS, SPLAT_DEPTHS, SSAO_SCALE_MAX, RenderSettings
 
 try:
     import tomllib
@@ -367,6 +367,8 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
         kw["ssao_rays"] = _int(t["ssao_rays"], "render.ssao_rays", file, 1, 1024)
     if "ssao_steps" in t:
         kw["ssao_steps"] = _int(t["ssao_steps"], "render.ssao_steps", file, 1, 256)
+    if "ssao_scale" in t:
+        kw["ssao_scale"] = _int(t["ssao_scale"], "render.ssao_scale", file, 1, SSAO_SCALE_MAX)
     for k in ("ssao_radius", "ssao_thickness"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)

@@ -27,6 +27,9 @@ class SSAOSettings:
     steps: int = 8  # ray-marching steps per ray (ssao_steps)
     radius: float = 0.5  # world units a ray marches (ssao_radius)
     thickness: float = 0.2  # world units: delta of eq. 6.20, assumed thickness (ssao_thickness)
+    # 1: every pixel marches; k > 1: one pixel in k x k marches and a joint bilateral filter
+    # fills the rest (viewer/passes/ssao.py; about k^2 x cheaper; TOML: ssao_scale, 1..8)
+    scale: int = 1
 
     def __bool__(self):  # `if settings.ssao:` would always be true: say where the switch is
         raise TypeError("SSAOSettings has no truth value: use settings.ssao.enabled")
@@ -53,6 +56,7 @@ class DisplaySettings:
 
 
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
+SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
 
 
 @dataclass(frozen=True)
@@ -121,6 +125,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ssao_steps": ("ssao", "steps"),
     "ssao_radius": ("ssao", "radius"),
     "ssao_thickness": ("ssao", "thickness"),
+    "ssao_scale": ("ssao", "scale"),
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "neural_storage": ("neural", "storage"),

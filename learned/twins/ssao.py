@@ -40,6 +40,17 @@ def surface_depth_at(q_vs, p_vs, n_vs, depth_center) -> torch.Tensor:
     return torch.where(ok, z, depth_center)
 
 
+def ssao_upsample_weight(bilinear, p_vs, n_vs, q_vs, nq_vs) -> torch.Tensor:
+    """GLSL ``float ssao_upsample_weight(float bilinear, vec3 p_vs, vec3 n_vs, vec3 q_vs,
+    vec3 nq_vs)``: bilinear x plane closeness (0 beyond 2 % of p's depth) x cos^8."""
+    plane = ((p_vs - q_vs) * nq_vs).sum(-1).abs() / (-p_vs[..., 2]).clamp_min(1e-30)
+    w_plane = (1.0 - plane * 50.0).clamp_min(0.0)
+    c = (n_vs * nq_vs).sum(-1).clamp_min(0.0)
+    c2 = c * c
+    c4 = c2 * c2
+    return bilinear * w_plane * (c4 * c4)
+
+
 def ssao_occluded(z, z_d, thickness) -> torch.Tensor:
     """GLSL ``float ssao_occluded(float z, float z_d, float thickness)`` (thesis eq. 6.20)."""
     hit = (z_d > 0.0) & (z > z_d * (1.0 + 1e-4)) & (z < z_d + thickness)
@@ -59,11 +70,12 @@ def ssao_march(p_vs, w, radius: float, steps: int, jitter, target: MarchTarget, 
                ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """GLSL ``bool ssao_march(vec3 p_vs, vec3 w, float radius, int steps, float jitter,
     out ivec2 hit)`` of ``passes/ssao.frag`` for every pixel at once (``alive [H, W]``: the pixels
-    that march) -> (hit ``[H, W]`` bool, hit pixel x, y ``[H, W]`` int64)."""
-    h, w_px = target.alpha.shape
-    hit = torch.zeros(h, w_px, dtype=torch.bool)
-    hit_x = torch.zeros(h, w_px, dtype=torch.int64)
-    hit_y = torch.zeros(h, w_px, dtype=torch.int64)
+    that march; at reduced scale the low-resolution texels') -> (hit, hit pixel x, y: alive's
+    shape, bool / int64 full-resolution pixels)."""
+    h, w_px = target.alpha.shape  # the full-resolution G-buffer; the march's pixels: alive's
+    hit = torch.zeros(alive.shape, dtype=torch.bool)
+    hit_x = torch.zeros(alive.shape, dtype=torch.int64)
+    hit_y = torch.zeros(alive.shape, dtype=torch.int64)
     alive = alive.clone()
     for j in range(steps):
         q = p_vs + w * (radius * (float(j) + jitter) / float(steps))[..., None]
@@ -85,39 +97,112 @@ def ssao_march(p_vs, w, radius: float, steps: int, jitter, target: MarchTarget, 
     return hit, hit_x, hit_y
 
 
+def ssao_sample_pixel(t, scale: int, size) -> torch.Tensor:
+    """GLSL ``ivec2 ssao_sample_pixel(ivec2 t)`` of ``passes/ssao_upsample.glsl``: the
+    full-resolution pixel low-resolution texel ``t [..., 2]`` (x, y; int64) marches from at
+    ``scale`` in a frame of ``size`` (W, H)."""
+    lim = torch.tensor([int(size[0]) - 1, int(size[1]) - 1])
+    return torch.minimum(t * int(scale) + int(scale) // 2, lim)
+
+
+class _View:
+    """The camera of a frame as the SSAO passes use it (GL order, ``[H, W]`` G-buffer)."""
+
+    def __init__(self, gbuffer: dict, camera):
+        self.g = gbuffer
+        self.h, self.w = gbuffer["alpha"].shape[:2]
+        self.c2w = torch.tensor(camera.basis(), dtype=torch.float32).T  # columns right, up, back
+        self.tan = torch.tensor(camera.tan_half_fov(), dtype=torch.float32)
+        self.res = torch.tensor([float(self.w), float(self.h)])
+
+    def at(self, px, py):
+        """(frag, alpha, depth, view-space shading normal, view-space position) at pixels."""
+        frag = torch.stack([px, py], dim=-1).to(torch.float32) + 0.5
+        d = view_ray_ws(frag, self.c2w, self.tan, self.res)
+        alpha, depth = self.g["alpha"][py, px, 0], self.g["depth"][py, px, 0]
+        n_vs = shading_normal(self.g["normal"][py, px], -d) @ self.c2w  # transpose(M) * n
+        return frag, alpha, depth, n_vs, view_position(frag, self.res, depth, self.tan)
+
+
+def ssao_upsample(low: torch.Tensor, gbuffer: dict, camera, scale: int,
+                  fallback: float) -> torch.Tensor:
+    """GLSL ``vec4 ssao_upsample(sampler2D low, ivec2 pixel, GBuffer g, vec4 fallback)`` of
+    ``passes/ssao_upsample.glsl`` at every pixel: ``low [h, w, C]`` (a reduced-scale pass's
+    target, GL order) -> ``[H, W, C]`` (meaningful on surface pixels; the passes write their own
+    value on the background)."""
+    view = _View(gbuffer, camera)
+    k = int(scale)
+    ys, xs = torch.meshgrid(torch.arange(view.h), torch.arange(view.w), indexing="ij")
+    _, _, depth, n, p = view.at(xs, ys)
+    lh, lw = low.shape[:2]
+    c = (torch.stack([xs, ys], dim=-1) - k // 2).to(torch.float32) / float(k)
+    t0 = torch.floor(c).to(torch.int64)
+    f = c - t0.to(torch.float32)
+    total = torch.zeros(view.h, view.w, low.shape[-1])
+    wsum = torch.zeros(view.h, view.w)
+    best = torch.full((view.h, view.w), 3.0e38)
+    nearest = torch.full((view.h, view.w, low.shape[-1]), float(fallback))
+    for i in range(4):
+        ox, oy = i & 1, i >> 1
+        tx = (t0[..., 0] + ox).clamp(0, lw - 1)
+        ty = (t0[..., 1] + oy).clamp(0, lh - 1)
+        q = ssao_sample_pixel(torch.stack([tx, ty], dim=-1), k, (view.w, view.h))
+        _, h_alpha, h_depth, nq, pq = view.at(q[..., 0], q[..., 1])
+        ok = (h_alpha > 0.0) & (h_depth > 0.0)
+        v = low[ty, tx]
+        bil = (f[..., 0] if ox else 1.0 - f[..., 0]) * (f[..., 1] if oy else 1.0 - f[..., 1])
+        w = torch.where(ok, ssao_upsample_weight(bil, p, n, pq, nq), torch.zeros_like(bil))
+        total = total + w[..., None] * torch.where(ok[..., None], v, torch.zeros_like(v))
+        wsum = wsum + w
+        dz = (h_depth - depth).abs()
+        closer = ok & (dz < best)
+        best = torch.where(closer, dz, best)
+        nearest = torch.where(closer[..., None], v, nearest)
+    return torch.where((wsum > 1e-6)[..., None],
+                       total / torch.where(wsum > 1e-6, wsum, 1.0)[..., None], nearest)
+
+
 def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thickness: float,
               seed: int, direct: torch.Tensor | None = None, vis_dirs: torch.Tensor | None = None,
               vis_steps: int = 16, vis_radius: float = 2.0, env_rotation: float = 0.0,
-              factor: torch.Tensor | None = None) -> torch.Tensor:
+              factor: torch.Tensor | None = None, scale: int = 1,
+              gather: bool = False) -> torch.Tensor:
     """Twin of ``passes/ssao.frag``: G-buffer channels ``[H, W, C]`` (GL order) -> ``[H, W, 4]``:
     O(x) in every channel, or (with ``direct`` [H, W, 4]) direct + L_ind (eq. 6.22). With
     ``vis_dirs`` (``[8, 3]``, environment frame: ``SSAO_ENV_VIS``) the g channel holds the
     environment's screen-space visibility S(x) instead (``env_rotation`` in radians). ``factor``
-    ``[H, W]`` (``SSAO_INDIRECT_FACTOR``): a neural student's learned factor on L_ind."""
+    ``[H, W]`` (``SSAO_INDIRECT_FACTOR``): a neural student's learned factor on L_ind.
+    ``scale`` k > 1 (``SSAO_SCALE``): the occlusion mode returns its low-resolution target
+    ``[ceil(H / k), ceil(W / k), 4]`` (:func:`ssao_upsample` brings it to full resolution, as
+    ``passes/ssao_upsample.frag`` does); ``gather`` (with ``direct``, ``SSAO_GATHER``) returns the
+    low-resolution gathered light (E, 1) (0 off surfaces); with ``direct`` and no ``gather`` the
+    gather then the full-resolution composite (direct + (1 - m) a f E with E upsampled)."""
     g = gbuffer
-    h, w = g["alpha"].shape[:2]
-    ys, xs = torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")
-    frag = torch.stack([xs, ys], dim=-1).to(torch.float32) + 0.5
-    basis = torch.tensor(camera.basis(), dtype=torch.float32)  # rows right, up, back
-    c2w = basis.T
-    tan = torch.tensor(camera.tan_half_fov(), dtype=torch.float32)
-    res = torch.tensor([float(w), float(h)])
-    d = view_ray_ws(frag, c2w, tan, res)
-    alpha, depth = g["alpha"][..., 0], g["depth"][..., 0]
+    view = _View(g, camera)
+    h, w = view.h, view.w
+    k = int(scale)
+    if direct is not None and k > 1 and not gather:  # the composite pass
+        e = ssao_pass(g, camera, rays, steps, radius, thickness, seed, direct=direct, scale=k,
+                      gather=True)[..., :3]
+        return _composite(g, direct, ssao_upsample(e, g, camera, k, 0.0), factor)
+    th, tw = -(-h // k), -(-w // k)
+    ty, tx = torch.meshgrid(torch.arange(th), torch.arange(tw), indexing="ij")
+    q = ssao_sample_pixel(torch.stack([tx, ty], dim=-1), k, (w, h))
+    xs, ys = q[..., 0], q[..., 1]  # the pixels the texels march from (= the texels at k = 1)
+    _, alpha, depth, n_vs, p_vs = view.at(xs, ys)
     active = (alpha > 0.0) & (depth > 0.0)
-    n_vs = shading_normal(g["normal"], -d) @ c2w  # transpose(M) * n
-    p_vs = view_position(frag, res, depth, tan)
     hn = g["normal"]
     hn_len2 = (hn * hn).sum(-1, keepdim=True)
     hn_ok = hn_len2 > 1e-12
-    hn_vs = torch.where(hn_ok, (hn * torch.rsqrt(torch.where(hn_ok, hn_len2, 1.0))) @ c2w,
+    hn_vs = torch.where(hn_ok, (hn * torch.rsqrt(torch.where(hn_ok, hn_len2, 1.0))) @ view.c2w,
                         torch.zeros_like(hn))
-    target = MarchTarget(alpha, depth, hn_vs, res, tan, thickness)
-    hits = torch.zeros(h, w)
-    gathered = torch.zeros(h, w, 3)
-    for k in range(rays):
-        u = mc_sample_2d(xs, ys, torch.full_like(xs, k), seed, 2)
-        jitter = 1.0 - mc_sample_2d(xs, ys, torch.full_like(xs, k), seed, 3)[..., 0]
+    target = MarchTarget(g["alpha"][..., 0], g["depth"][..., 0], hn_vs, view.res, view.tan,
+                         thickness)
+    hits = torch.zeros(th, tw)
+    gathered = torch.zeros(th, tw, 3)
+    for r in range(rays):
+        u = mc_sample_2d(xs, ys, torch.full_like(xs, r), seed, 2)
+        jitter = 1.0 - mc_sample_2d(xs, ys, torch.full_like(xs, r), seed, 3)[..., 0]
         wdir = tangent_to_world(sample_cosine_hemisphere(u), n_vs)
         hit, hx, hy = ssao_march(p_vs, wdir, radius, steps, jitter, target, active)
         hits = hits + hit.to(torch.float32)
@@ -126,13 +211,24 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
     n_rays = float(max(rays, 1))
     if direct is None:
         o = torch.where(active, 1.0 - hits / n_rays, torch.ones_like(hits))
-        out = o[..., None].expand(h, w, 4).clone()
+        out = o[..., None].expand(th, tw, 4).clone()
         if vis_dirs is not None:
             out[..., 1] = torch.where(active, env_visibility(
-                p_vs, n_vs, vis_dirs, c2w, env_rotation, vis_steps, vis_radius, seed, xs, ys,
-                target, active), torch.ones_like(hits))
+                p_vs, n_vs, vis_dirs, view.c2w, env_rotation, vis_steps, vis_radius, seed, xs,
+                ys, target, active), torch.ones_like(hits))
         return out
-    indirect = (1.0 - g["metallic"].clamp(0.0, 1.0)) * g["albedo"] * gathered / n_rays
+    if gather:
+        e = torch.cat([gathered / n_rays, torch.ones(th, tw, 1)], dim=-1)
+        return torch.where(active[..., None], e, torch.zeros_like(e))
+    return _composite(g, direct, gathered, factor, n_rays)
+
+
+def _composite(g: dict, direct, e, factor, divisor: float = 1.0) -> torch.Tensor:
+    """direct + (1 - m) a f E / divisor on surface pixels (the indirect pass's last lines, in
+    their order of operations)."""
+    alpha, depth = g["alpha"][..., 0], g["depth"][..., 0]
+    active = (alpha > 0.0) & (depth > 0.0)
+    indirect = (1.0 - g["metallic"].clamp(0.0, 1.0)) * g["albedo"] * e / divisor
     if factor is not None:
         indirect = indirect * factor[..., None]
     indirect = torch.where(torch.isfinite(indirect).all(-1, keepdim=True),

@@ -35,3 +35,19 @@ float surface_depth_at(vec3 q_vs, vec3 p_vs, vec3 n_vs, float depth_center) {
 float ssao_occluded(float z, float z_d, float thickness) {
     return (z_d > 0.0 && z > z_d * (1.0 + 1e-4) && z < z_d + thickness) ? 1.0 : 0.0;
 }
+
+// Joint bilateral weight of a low-resolution sample (view-space point q_vs, unit normal nq_vs)
+// for a full-resolution pixel (p_vs, n_vs) when an SSAO pass ran at reduced scale
+// (passes/ssao_upsample.glsl): the bilinear weight, times how close p lies to the sample's tangent
+// plane (relative to p's depth: 0 beyond 2 %, so a sample on another surface at a depth edge
+// drops out while a plane seen at a grazing angle, whose depth changes fast from pixel to pixel,
+// keeps its weight), times cos^8 of the angle between the normals (a crease or a sphere's
+// silhouette against the floor it rests on). 0 for the weight means "not this sample".
+float ssao_upsample_weight(float bilinear, vec3 p_vs, vec3 n_vs, vec3 q_vs, vec3 nq_vs) {
+    float plane = abs(dot(p_vs - q_vs, nq_vs)) / max(-p_vs.z, 1e-30);
+    float w_plane = max(1.0 - plane * 50.0, 0.0);
+    float c = max(dot(n_vs, nq_vs), 0.0);
+    float c2 = c * c;
+    float c4 = c2 * c2;
+    return bilinear * w_plane * (c4 * c4);
+}

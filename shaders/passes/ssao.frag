@@ -27,14 +27,30 @@
 // SSAO_INDIRECT_FACTOR = 1 (indirect mode) scales L_ind by the r channel of u_indirect_factor, the
 // factor a neural student with a learned indirect term wrote in the lighting pass
 // (shade_neural.frag, NEURAL_STUDENT_INDIRECT): L = L_dir + f L_ind.
+// SSAO_SCALE = k > 1 (render.ssao_scale) runs the marching at reduced scale: the pass draws a
+// target of ceil(W / k) x ceil(H / k) texels, each marching from one full-resolution pixel of its
+// k x k block (passes/ssao_upsample.glsl ssao_sample_pixel) through the full-resolution G-buffer,
+// so rays and hits are those of that pixel at full scale. The occlusion mode's result is brought
+// to full resolution by passes/ssao_upsample.frag. The indirect light is two passes: SSAO_GATHER
+// = 1 (low resolution) writes the gathered mean E = (1/R) sum_k V_k L_dir(p_k), read from the
+// occlusion pass's hits (in texel order) or marched, and the composite (SSAO_INDIRECT without
+// SSAO_GATHER, full resolution) upsamples E jointly bilaterally (u_gathered) and adds
+// (1 - m) a f E at each pixel with its own albedo, metalness and factor.
 // Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1), SSAO_INDIRECT_FACTOR (0/1), SSAO_HITS (0-7),
-// SSAO_MARCH_REST (0/1, indirect mode). Twin: learned.twins.ssao.ssao_pass (it marches in both
+// SSAO_MARCH_REST (0/1, indirect mode), SSAO_SCALE (>= 1), SSAO_GATHER (0/1, indirect mode). Twin: learned.twins.ssao.ssao_pass (it marches in both
 // modes: recorded hits change no result).
 #include "passes/deferred.glsl"
 #include "lib/shading.glsl"
 #include "lib/sampling.glsl"
 #include "lib/mc.glsl"
 #include "lib/ssao.glsl"
+#include "passes/ssao_upsample.glsl"
+
+#ifndef SSAO_GATHER
+#define SSAO_GATHER 0
+#endif
+// the full-resolution half of the indirect light at reduced scale: no rays, E upsampled
+#define SSAO_COMPOSITE (SSAO_INDIRECT != 0 && SSAO_SCALE > 1 && SSAO_GATHER == 0)
 
 uniform int u_rays;
 uniform int u_steps;
@@ -43,6 +59,9 @@ uniform float u_thickness;  // delta of eq. 6.20, world units
 uniform uint u_seed;
 #if SSAO_INDIRECT
 uniform sampler2D u_direct;
+#endif
+#if SSAO_COMPOSITE
+uniform sampler2D u_gathered;  // the SSAO_GATHER pass's E (rgb), low resolution
 #endif
 #ifndef SSAO_INDIRECT_FACTOR
 #define SSAO_INDIRECT_FACTOR 0
@@ -74,10 +93,6 @@ uniform int u_vis_steps;
 uniform float u_vis_radius;  // world units
 #endif
 
-vec3 to_view(vec3 w) {
-    return transpose(u_camera_to_world) * w;
-}
-
 // March from p_vs along the unit view-space direction w in `steps` steps up to `radius`, the
 // first at jitter * radius / steps; true at the first step that lies behind the stored surface
 // (eq. 6.20), with its pixel in hit. Stops (false) behind the camera or off screen: nothing known
@@ -105,32 +120,54 @@ bool ssao_march(vec3 p_vs, vec3 w, float radius, int steps, float jitter, out iv
     return false;
 }
 
+#if SSAO_COMPOSITE
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
+    GBuffer g = gbuffer_load(pixel);
+    vec4 direct = texelFetch(u_direct, pixel, 0);
+    if (g.alpha <= 0.0 || !(g.depth > 0.0)) {
+        o_radiance = direct;
+        return;
+    }
+    vec3 indirect = (1.0 - saturate(g.metallic)) * g.albedo
+                  * ssao_upsample(u_gathered, pixel, g, vec4(0.0)).rgb;
+#if SSAO_INDIRECT_FACTOR
+    indirect *= texelFetch(u_indirect_factor, pixel, 0).r;
+#endif
+    bool finite = !any(isnan(indirect)) && !any(isinf(indirect));
+    o_radiance = vec4(direct.rgb + (finite ? indirect * g.alpha : vec3(0.0)), direct.a);
+}
+#else
+void main() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);  // this pass's own target texel (hits are stored per texel)
+    ivec2 pixel = ssao_sample_pixel(texel);  // the G-buffer pixel it marches from (= texel at k = 1)
+    vec2 frag = vec2(pixel) + 0.5;          // = gl_FragCoord.xy at k = 1
     GBuffer g = gbuffer_load(pixel);
 #if SSAO_HITS && !SSAO_INDIRECT
     for (int t = 0; t < SSAO_HITS; ++t) o_hits[t] = uvec4(SSAO_NO_HIT);
 #endif
-#if SSAO_INDIRECT
+#if SSAO_INDIRECT && !SSAO_GATHER
     vec4 direct = texelFetch(u_direct, pixel, 0);
 #endif
     if (g.alpha <= 0.0 || !(g.depth > 0.0)) {
-#if SSAO_INDIRECT
+#if SSAO_GATHER
+        o_radiance = vec4(0.0);
+#elif SSAO_INDIRECT
         o_radiance = direct;
 #else
         o_radiance = vec4(1.0);
 #endif
         return;
     }
-    vec3 d = view_ray_ws(gl_FragCoord.xy);
+    vec3 d = view_ray_ws(frag);
     vec3 n_vs = to_view(shading_normal(g.normal, -d));
-    vec3 p_vs = view_position(gl_FragCoord.xy, u_resolution, g.depth, u_tan_half_fov);
+    vec3 p_vs = view_position(frag, u_resolution, g.depth, u_tan_half_fov);
     float hits = 0.0;
     vec3 gathered = vec3(0.0);
 #if SSAO_HITS && SSAO_INDIRECT
     // the rays the occlusion pass marched: where each hit, in the order of k
     for (int t = 0; t < SSAO_HITS; ++t) {
-        uvec4 codes = texelFetch(u_hits[t], pixel, 0);
+        uvec4 codes = texelFetch(u_hits[t], texel, 0);
         for (int i = 0; i < 4; ++i) {
             uint code = codes[i];
             if (4 * t + i < u_rays && code != SSAO_NO_HIT) {
@@ -161,7 +198,9 @@ void main() {
     }
 #endif
     float rays = float(max(u_rays, 1));
-#if SSAO_INDIRECT
+#if SSAO_GATHER
+    o_radiance = vec4(gathered / rays, 1.0);
+#elif SSAO_INDIRECT
     vec3 indirect = (1.0 - saturate(g.metallic)) * g.albedo * gathered / rays;
 #if SSAO_INDIRECT_FACTOR
     indirect *= texelFetch(u_indirect_factor, pixel, 0).r;
@@ -189,3 +228,4 @@ void main() {
 #endif
 #endif
 }
+#endif

@@ -15,6 +15,14 @@ screen-space visibility of the environment's light to the g channel (``SSAO_ENV_
 of the students that see visibility; it marches :data:`ENV_VIS_STEPS` steps up to
 :data:`ENV_VIS_RADIUS` towards each of the :data:`ENV_VIS_DIRECTIONS` directions. These are
 constants, not settings: a student is trained on what they produce.
+
+At reduced scale (``settings.ssao.scale`` = k > 1, TOML ``ssao_scale``) the rays are marched for
+one pixel in k x k (:func:`low_resolution` targets, ``SSAO_SCALE``): :meth:`SSAOPass.occlusion`
+draws the low-resolution target and :meth:`SSAOPass.upsample` (``passes/ssao_upsample.frag``)
+brings it to full resolution with a depth- and normal-aware (joint bilateral) filter;
+:meth:`SSAOPass.indirect` gathers the one-bounce light at low resolution (``SSAO_GATHER``) and
+composites it at full resolution with each pixel's own albedo. Cost falls with k^2; the error it
+adds is measured by ``relight bench`` (the ``ssao_scale`` knob).
 """
 from __future__ import annotations
 
@@ -36,6 +44,13 @@ HIT_TARGETS_MAX = 7
 HITS_PER_TARGET = 4
 
 
+def low_resolution(size: tuple[int, int], scale: int) -> tuple[int, int]:
+    """The size of the reduced-scale targets for a frame of ``size`` at ``scale``: ceil(W / k) x
+    ceil(H / k) (the last texels' sample pixels are clamped to the frame)."""
+    k = max(int(scale), 1)
+    return (-(-int(size[0]) // k), -(-int(size[1]) // k))
+
+
 def hit_targets(rays: int) -> int:
     """How many RGBA32UI targets hold the hits of ``rays`` rays (``SSAO_HITS``): 4 rays per
     target, at most :data:`HIT_TARGETS_MAX` (the indirect pass marches the rays beyond)."""
@@ -51,8 +66,11 @@ class SSAOPass:
 
     def _run(self, indirect: bool, gbuffer_textures: dict, out_fbo, camera: Camera,
              settings: RenderSettings, direct=None, vis_dirs=None, env_rotation_deg=0.0,
-             factor=None, n_hits: int = 0, hits=()) -> None:
+             factor=None, n_hits: int = 0, hits=(), gather: bool = False,
+             gathered=None) -> None:
         env_vis = vis_dirs is not None
+        scale = int(settings.ssao.scale)
+        composite = gathered is not None
         prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao.frag",
                                       defines={"SSAO_INDIRECT": int(indirect),
                                                "SSAO_ENV_VIS": int(env_vis),
@@ -60,15 +78,19 @@ class SSAOPass:
                                                "SSAO_HITS": n_hits,
                                                # the indirect pass marches rays beyond the hits
                                                "SSAO_MARCH_REST": int(
-                                                   indirect and 0 < n_hits * HITS_PER_TARGET
+                                                   indirect and not composite
+                                                   and 0 < n_hits * HITS_PER_TARGET
                                                    < settings.ssao.rays),
+                                               "SSAO_SCALE": scale,
+                                               "SSAO_GATHER": int(gather),
                                                "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
         unit = bind_gbuffer(prog, gbuffer_textures)
-        if direct is not None and "u_direct" in prog:
-            direct.use(unit)
-            prog["u_direct"].value = unit
-            unit += 1
+        for name, tex in (("u_direct", direct), ("u_gathered", gathered)):
+            if tex is not None and name in prog:
+                tex.use(unit)
+                prog[name].value = unit
+                unit += 1
         if factor is not None:
             factor.use(unit)
             prog["u_indirect_factor"].value = unit
@@ -78,10 +100,7 @@ class SSAOPass:
                 tex.use(unit + i)
             _set(prog, "u_hits", np.arange(unit, unit + len(hits), dtype=np.int32).tobytes())
             unit += len(hits)
-        basis = camera.basis()
-        _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
-        _set(prog, "u_tan_half_fov", camera.tan_half_fov())
-        _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
+        self._camera_uniforms(prog, camera)
         _set(prog, "u_rays", int(settings.ssao.rays))
         _set(prog, "u_steps", int(settings.ssao.steps))
         _set(prog, "u_radius", float(settings.ssao.radius))
@@ -94,7 +113,7 @@ class SSAOPass:
             _set(prog, "u_vis_radius", ENV_VIS_RADIUS)
             _set(prog, "u_env_rotation", math.radians(env_rotation_deg))
         out_fbo.use()
-        self.ctx.viewport = (0, 0, camera.width, camera.height)
+        self.ctx.viewport = (0, 0) + tuple(out_fbo.size)  # low resolution at reduced scale
         self._draw(prog)
 
     def occlusion(self, gbuffer_textures: dict, out_fbo, camera: Camera,
@@ -103,23 +122,59 @@ class SSAOPass:
         """O(x) (eq. 6.19) into all four channels of ``out_fbo``'s first attachment (1 on the
         background); with ``vis_dirs`` (``[8, 3]``, environment frame) S(x) in the g channel
         instead. With ``record_hits`` ``out_fbo`` has ``hit_targets(settings.ssao.rays)`` RGBA32UI
-        attachments after it, which receive each ray's hit pixel for :meth:`indirect`."""
+        attachments after it, which receive each ray's hit pixel for :meth:`indirect`. At
+        ``settings.ssao.scale`` k > 1 ``out_fbo`` is :func:`low_resolution` (one texel per k x k
+        block of the frame; :meth:`upsample` brings O and S to full resolution)."""
         self._run(False, gbuffer_textures, out_fbo, camera, settings, vis_dirs=vis_dirs,
                   env_rotation_deg=env_rotation_deg,
                   n_hits=hit_targets(settings.ssao.rays) if record_hits else 0)
 
+    def upsample(self, gbuffer_textures: dict, low, out_fbo, camera: Camera,
+                 settings: RenderSettings) -> None:
+        """The occlusion pass's low-resolution result ``low`` (scale k > 1) to full resolution
+        in ``out_fbo`` (``passes/ssao_upsample.frag``: joint bilateral, 1 on the background)."""
+        prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao_upsample.frag",
+                                      defines={"SSAO_SCALE": int(settings.ssao.scale),
+                                               "BACKGROUND_ENVIRONMENT": 0},
+                                      virtual=self.layout.virtual_files())
+        unit = bind_gbuffer(prog, gbuffer_textures)
+        low.use(unit)
+        prog["u_low"].value = unit
+        self._camera_uniforms(prog, camera)
+        out_fbo.use()
+        self.ctx.viewport = (0, 0, camera.width, camera.height)
+        self._draw(prog)
+
+    def _camera_uniforms(self, prog, camera: Camera) -> None:
+        basis = camera.basis()
+        _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
+        _set(prog, "u_tan_half_fov", camera.tan_half_fov())
+        _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
+
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
-                 settings: RenderSettings, factor=None, hits=None) -> None:
+                 settings: RenderSettings, factor=None, hits=None, gather_fbo=None) -> None:
         """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``; with
         ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind. ``hits``:
         the hit targets :meth:`occlusion` recorded for the same G-buffer, camera and settings
-        (read instead of marching the rays again); ``None`` marches."""
+        (read instead of marching the rays again); ``None`` marches. At ``settings.ssao.scale``
+        k > 1, ``gather_fbo`` (one RGBA32F target of :func:`low_resolution`) first receives the
+        gathered light E at low resolution (from ``hits``, which are then low resolution too),
+        and the full-resolution pass adds (1 - m) a f E with E upsampled."""
         hits = tuple(hits or ())
         if hits and len(hits) != hit_targets(settings.ssao.rays):
             raise ValueError(f"{len(hits)} hit targets for {settings.ssao.rays} rays: "
                              f"expected {hit_targets(settings.ssao.rays)}")
-        self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct, factor=factor,
-                  n_hits=len(hits), hits=hits)
+        if int(settings.ssao.scale) == 1:
+            self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
+                      factor=factor, n_hits=len(hits), hits=hits)
+            return
+        if gather_fbo is None:
+            raise ValueError(f"ssao scale {settings.ssao.scale}: the indirect light needs a "
+                             f"low-resolution gather target")
+        self._run(True, gbuffer_textures, gather_fbo, camera, settings, direct=direct,
+                  n_hits=len(hits), hits=hits, gather=True)
+        self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
+                  factor=factor, gathered=gather_fbo.color_attachments[0])
 
     def release(self) -> None:
         self._draw.release()

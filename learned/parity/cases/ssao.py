@@ -2,7 +2,21 @@
 domains, adversarial values and tolerances with the envelope each guards."""
 from __future__ import annotations
 
+import numpy as np
+
 from .base import Arg, ParityCase
+
+
+def _upsample_geometry(args):
+    """Make the drawn points of ssao_upsample_weight a full-resolution pixel and a nearby sample
+    (q = p + offset up to 4 % of p's depth, in front of the camera) with normals near each
+    other, so every term of the weight is exercised (the plane term's 2 % cut, cos^8 > 0)."""
+    bil, p, n, off, nq = (np.array(a, np.float32, copy=True) for a in args)
+    p[:, 2] = -np.abs(p[:, 2]) - 0.5
+    q = (p + off * 0.04 * -p[:, 2:3]).astype(np.float32)
+    nq = (nq + 2.0 * n).astype(np.float32)
+    nq /= np.linalg.norm(nq, axis=1, keepdims=True)
+    return [bil, p, n, q, nq.astype(np.float32)]
 
 # Envelopes: u = 2^-24. "first-order on the draws": per-operation error bounds (GLSL 4.60
 # table on the GL side, correct rounding / 1 ulp libm on the torch side) propagated to first
@@ -42,4 +56,14 @@ PARITY_CASES = [
                envelope="exact: compares of inputs with z_d (1 + 1e-4) and z_d + thickness, "
                         "each one correctly rounded op (x87 may keep it unrounded): a flip needs "
                         "z within 1 ulp of a threshold (p ~ 1e-3 over 4096 draws)"),
+    ParityCase("ssao_upsample_weight", (Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0)),
+                                        Arg(lo=-10.0, hi=10.0, components=3),
+                                        Arg(kind="unit", components=3),
+                                        Arg(lo=-1.0, hi=1.0, components=3),
+                                        Arg(kind="unit", components=3)),
+               atol=2e-5, rtol=1e-5, prepare=_upsample_geometry,
+               measured="max abs 0 on llvmpipe (seeds 0-7)",
+               envelope="1 - 50 |(p - q).n_q| / z_p: (p - q).n_q cancels, a few ulp of |p| <= "
+                        "17 -> ~5e-6 abs, x 50 / z_p (>= 0.5) -> 2e-5 abs on a weight <= 1; "
+                        "cos^8 amplifies the dot's ~3 ulp 8 x -> 1.4e-6 rel"),
 ]

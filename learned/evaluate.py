@@ -38,17 +38,21 @@ from .parity.checks.neural import student_inputs
 def models_to_evaluate(teacher_samples: int, students: dict | None = None,
                        teacher_weights=None) -> list[tuple[str, str, dict]]:
     """(model, variant, render settings) of every row: the classical models alone and with the
-    screen-space passes (SSAO; SSAO + one-bounce indirect light), Monte Carlo, the shipped
-    student (and ``students``: variant name -> weights file), the teacher (the shipped one, or
+    screen-space passes (SSAO; SSAO + one-bounce indirect light, also at half scale), Monte Carlo,
+    the shipped student (also with its screen-space passes at half scale; and ``students``: variant name -> weights file), the teacher (the shipped one, or
     the file ``teacher_weights``)."""
     out = [("blinn_phong", "", {}), ("ggx_split_sum", "", {}),
            ("ggx_split_sum", "+ SSAO", {"ssao": True}),
-           ("ggx_split_sum", "+ SSAO + indirect", {"ssao": True, "indirect": True})]
+           ("ggx_split_sum", "+ SSAO + indirect", {"ssao": True, "indirect": True}),
+           # the screen-space passes at half scale (render.ssao_scale = 2): ~4x fewer rays
+           ("ggx_split_sum", "+ SSAO + indirect, 1/2 scale",
+            {"ssao": True, "indirect": True, "ssao_scale": 2})]
     if "ggx_mc" in MODELS:
         out += [("ggx_mc", "16 spp", {"samples": 16, "sampling": "mis"}),
                 ("ggx_mc", "256 spp + SSAO + indirect",
                  {"samples": 256, "sampling": "mis", "ssao": True, "indirect": True})]
     out.append(("neural", "student", {}))
+    out.append(("neural", "student, SSAO 1/2 scale", {"ssao_scale": 2}))
     for name, path in (students or {}).items():
         out.append(("neural", name, {"weights": str(path)}))
     teacher = {"teacher_weights": str(teacher_weights)} if teacher_weights else {}

@@ -18,6 +18,7 @@ from viewer.material import Material
 from viewer.models import MODELS, SAMPLING_MODELS, SAMPLINGS
 from viewer import scene as scene_module
 from viewer.scene import BACKGROUNDS, TONEMAPS
+from viewer.settings import SSAO_SCALE_MAX
 from .state import DEFAULT_LIGHT, MATERIAL_FIELDS, VIEWS, MaterialOverride, light_angles, \
     light_direction, reset_camera, with_procedural_environment
 
@@ -27,7 +28,9 @@ CHOICES = {"model": lambda: tuple(MODELS), "sampling": lambda: SAMPLINGS,
            "precision": lambda: getattr(scene_module, "PRECISIONS", None),
            "mis_heuristic": lambda: getattr(scene_module, "MIS_HEURISTICS", None)}
 QUICK_FIELDS = ("model", "exposure", "tonemap")  # shown at the top, not again under Shading
-LIMITS = {"exposure": (-10.0, 10.0), "samples": (1, 1 << 16), "seed": (0, (1 << 31) - 1)}
+LIMITS = {"exposure": (-10.0, 10.0), "samples": (1, 1 << 16), "seed": (0, (1 << 31) - 1),
+          # the ranges viewer.scene.validate_render accepts
+          "ssao_rays": (1, 1024), "ssao_steps": (1, 256), "ssao_scale": (1, SSAO_SCALE_MAX)}
 ERROR_COLOUR = (1.0, 0.45, 0.4, 1.0)
 
 

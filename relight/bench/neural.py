@@ -6,7 +6,8 @@
   ``ggx_split_sum`` on one scene, at each size of ``sizes``; the issue's goals are a frame-time
   ratio teacher / student >= 100 and a PSNR difference <= 1 dB. Both ratios are reported: whole
   frames (G-buffer, SSAO, tone map included, which the two models share) and the lighting pass
-  alone.
+  alone; the student also with its screen-space passes at reduced scale (``scales``:
+  ``render.ssao_scale``), with its PSNR against its own full-scale image.
 * :func:`student_designs`: the candidate student designs of the measured comparison
   (``assets/weights/students``, written by ``relight train --compare-students``), each through the
   real ``neural`` pass at 256x256: the MLP-size knob of the bench.
@@ -83,7 +84,7 @@ def _reference(renderer, scene, samples: int) -> tuple[str, np.ndarray]:
 
 
 def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: int = 1024,
-                       repeats: int = 3, scene=None, sizes=(128,)) -> list[dict]:
+                       repeats: int = 3, scene=None, sizes=(128,), scales=(2, 4)) -> list[dict]:
     base = scene or bench_scene("neural")
     rows = []
     for side in sizes:
@@ -91,19 +92,30 @@ def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: 
         size = f"{side}x{side}"
         ref_name, ref = _reference(renderer, scene, reference_samples)
         part = []
-        for model, variant, kw in (("neural", "student", {}),
-                                   ("neural_teacher", "env", {"samples": teacher_samples,
-                                                              "sampling": "env"}),
-                                   ("ggx_split_sum", "", {})):
+        images = []
+        cases = [("neural", "student", {}),
+                 ("neural_teacher", "env", {"samples": teacher_samples, "sampling": "env"}),
+                 ("ggx_split_sum", "", {})]
+        # the student's screen-space passes at reduced scale (render.ssao_scale): its frame is
+        # dominated by them
+        cases += [("neural", f"student, SSAO 1/{k}", {"ssao_scale": k}) for k in scales]
+        for model, variant, kw in cases:
             reps = 1 if model == "neural_teacher" and side > 256 else repeats
             ms, shade_ms, img = time_frame(renderer, scene.with_render(model=model, **kw), reps)
+            images.append(img)
             part.append({"model": model, "variant": variant, "samples": kw.get("samples", 1),
                          "size": size, "ms": ms, "shade_ms": shade_ms,
-                         "psnr": psnr(_tm(ref), _tm(img)), "reference": ref_name})
-        s, t = part[0], part[1]
-        s["frame_time_ratio_teacher_over_student"] = t["ms"] / s["ms"]
-        s["shade_time_ratio_teacher_over_student"] = t["shade_ms"] / s["shade_ms"]
-        s["psnr_minus_teacher"] = s["psnr"] - t["psnr"]
+                         "psnr": psnr(_tm(ref), _tm(img)), "reference": ref_name,
+                         "ssao_scale": kw.get("ssao_scale", 1)})
+        t = part[1]
+        for s, img in zip(part, images):
+            if s["model"] != "neural":
+                continue
+            s["frame_time_ratio_teacher_over_student"] = t["ms"] / s["ms"]
+            s["shade_time_ratio_teacher_over_student"] = t["shade_ms"] / s["shade_ms"]
+            s["psnr_minus_teacher"] = s["psnr"] - t["psnr"]
+            # what the reduced scale changes in the student's own image
+            s["psnr_vs_full_scale_student"] = psnr(_tm(images[0]), _tm(img))
         rows += part
     return rows
 

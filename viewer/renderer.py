@@ -13,11 +13,19 @@ surfaces) -> tone mapping.
 GPU resources are cached by value: geometry per object description, IBL precomputation per
 environment (intensity and rotation are uniforms, so light sliders never recompute), render targets
 per size and layout, programs per variant. Arrays are row 0 at the top.
+
+Passes whose inputs did not change since the last frame at the same size and layout are not drawn
+again (``Renderer.reuse_passes``, on by default): the G-buffer when the objects (materials
+included), camera, layout and splat depth are unchanged, and the SSAO occlusion / visibility pass
+(and its hits and upsampling) when, in addition, the SSAO settings, seed and the environment's
+file, procedural parameters and rotation are unchanged (its intensity does not enter them). A
+light, exposure or environment-intensity slider then re-runs only the lighting passes. ``reuse_passes = False`` draws every pass every frame (the benchmarks' full frames).
 """
 from __future__ import annotations
 
 import dataclasses
 import warnings
+from contextlib import contextmanager
 
 from .camera import Camera
 from .errors import SceneError
@@ -52,6 +60,19 @@ class Renderer:
         self._features: dict[tuple, object] = {}  # (objects, environment) -> SceneFeatures
         # optional per-pass profiler (viewer.gl.timing.PassTimer): .begin(name) between passes
         self.profiler = None
+        # reuse the G-buffer and SSAO targets of the last frame whose inputs were the same (the
+        # module docstring); False: every pass every frame
+        self.reuse_passes = True
+
+    @contextmanager
+    def every_pass(self):
+        """``with renderer.every_pass(): ...`` draws every pass of every frame inside (no reuse of
+        the last frame's G-buffer or SSAO targets): what a benchmark times as a whole frame."""
+        saved, self.reuse_passes = self.reuse_passes, False
+        try:
+            yield self
+        finally:
+            self.reuse_passes = saved
 
     # ---- scene content ------------------------------------------------------------------------
     def geometry(self, obj: ObjectSpec):
@@ -121,6 +142,7 @@ class Renderer:
         make_current(self.ctx)
         layout = self.specialization(scene).layout
         targets = self.resources.targets(layout, frame.camera.size)
+        targets.keys.pop("ssao", None)  # it overwrites what a frame may reuse
         tex, _ = self._occlusion(self.resources.layout_pass("ssao", layout), scene, targets,
                                  frame.gbuffer.textures, frame.camera, True)
         return tex
@@ -137,7 +159,7 @@ class Renderer:
         settings = scene.render
         k = int(settings.ssao.scale)
         vis_dirs = self.resources.power_directions(scene.environment) if visibility else None
-        low_name = "ssao" if k == 1 else f"ssao/{k}"
+        low_name = _occlusion_target(k)
         low, fbo = targets.extra(self.ctx, low_name, size=low_resolution(camera.size, k))
         hits = None
         if record_hits:
@@ -176,8 +198,13 @@ class Renderer:
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
         targets = self.resources.targets(spec.layout, camera.size)
-        self._pass_begin("gbuffer")
-        gbuffer = self._gbuffer(scene, spec, targets, camera)
+        gkey = (scene.objects, camera, settings.splat_depth, self.geometry_cache.version)
+        if spec.direct_stack or not (self.reuse_passes and targets.keys.get("gbuffer") == gkey):
+            self._pass_begin("gbuffer")
+            gbuffer = self._gbuffer(scene, spec, targets, camera)
+        else:  # the same geometry seen from the same camera: last frame's G-buffer
+            gbuffer = targets.gbuffer
+        targets.keys["gbuffer"] = gkey
         self._pass_begin("ibl")  # precomputation, only when the environment is new
         ibl = self.ibl(scene)
         samples = self._lighting(scene, model, spec, targets, gbuffer, camera, ibl, progressive,
@@ -251,12 +278,24 @@ class Renderer:
         if settings.ssao.enabled or settings.ssao.indirect:
             sspass = self.resources.layout_pass("ssao", spec.layout)
         if settings.ssao.enabled:
-            self._pass_begin("ssao")
             # + the environment's visibility (g channel) for a student that reads it; with the
             # indirect light, the rays' hit pixels for the indirect pass to reuse
-            ssao, hits = self._occlusion(sspass, scene, targets, gbt, camera,
-                                         reads_visibility(settings),
-                                         record_hits=settings.ssao.indirect)
+            visibility = reads_visibility(settings)
+            env = scene.environment
+            skey = (targets.keys.get("gbuffer"), settings.ssao, settings.mc.seed, visibility,
+                    settings.ssao.indirect,
+                    dataclasses.replace(env, intensity=1.0) if visibility else None)
+            if self.reuse_passes and skey[0] is not None and targets.keys.get("ssao") == skey:
+                ssao = targets.extras["ssao"][0]  # last frame's occlusion, visibility and hits
+                hits = (_ssao_hit_targets(self.ctx, targets, settings.ssao.rays,
+                                          _occlusion_target(settings.ssao.scale),
+                                          low_resolution(camera.size, settings.ssao.scale))[0]
+                        if settings.ssao.indirect else None)
+            else:
+                self._pass_begin("ssao")
+                ssao, hits = self._occlusion(sspass, scene, targets, gbt, camera, visibility,
+                                             record_hits=settings.ssao.indirect)
+            targets.keys["ssao"] = skey
         factor = None
         if settings.ssao.indirect:
             out_tex, out_fbo = targets.extra(self.ctx, "direct")
@@ -360,6 +399,12 @@ def check_aovs(aovs) -> None:
     if unknown:
         raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
                          f"(known: {', '.join(AOV_NAMES)})", where="--aov")
+
+
+def _occlusion_target(scale: int) -> str:
+    """The extra target the occlusion pass draws to: ``ssao`` at full scale, ``ssao/<k>`` (low
+    resolution, upsampled into ``ssao``) at reduced scale."""
+    return "ssao" if int(scale) == 1 else f"ssao/{int(scale)}"
 
 
 def _ssao_hit_targets(ctx, targets: TargetSet, rays: int, occlusion: str = "ssao",

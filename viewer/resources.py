@@ -41,6 +41,9 @@ class TargetSet:
     extras: dict[str, tuple[object, object]] = field(default_factory=dict)  # name -> (tex, fbo)
     # attachment names -> a framebuffer drawing to several extras at once (multiple render targets)
     multi: dict[tuple, object] = field(default_factory=dict)
+    # what the G-buffer and the SSAO targets were last drawn from (viewer.renderer: a frame whose
+    # key is unchanged reuses them instead of drawing again)
+    keys: dict[str, tuple] = field(default_factory=dict)
 
     @classmethod
     def create(cls, ctx, layout: GBufferLayout, size: tuple[int, int]) -> "TargetSet":

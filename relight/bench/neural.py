@@ -7,7 +7,9 @@
   ratio teacher / student >= 100 and a PSNR difference <= 1 dB. Both ratios are reported: whole
   frames (G-buffer, SSAO, tone map included, which the two models share) and the lighting pass
   alone; the student also with its screen-space passes at reduced scale (``scales``:
-  ``render.ssao_scale``), with its PSNR against its own full-scale image.
+  ``render.ssao_scale``), with its PSNR against its own full-scale image. ``relight_ms``: a frame
+  after a light slider moved, when the renderer reuses the G-buffer and SSAO targets
+  (:func:`time_relight_frame`): what an interactive relighting session pays per frame.
 * :func:`student_designs`: the candidate student designs of the measured comparison
   (``assets/weights/students``, written by ``relight train --compare-students``), each through the
   real ``neural`` pass at 256x256: the MLP-size knob of the bench.
@@ -24,6 +26,7 @@ without it that row is left out.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import statistics
 import time
@@ -47,28 +50,51 @@ def students_dir() -> Path:
 
 def time_frame(renderer, scene, repeats: int = 3) -> tuple[float, float, np.ndarray]:
     """(best wall ms of a whole frame, median ms of the ``shade`` pass, radiance ``[H, W, 3]``) of
-    ``scene``; one warm-up render first (programs, IBL, sampling tables)."""
+    ``scene``; one warm-up render first (programs, IBL, sampling tables). Whole frames: every
+    pass is drawn (``Renderer.every_pass``)."""
     frame = renderer.render(scene)
     best = float("inf")
-    for _ in range(repeats):
-        renderer.ctx.finish()
-        t0 = time.perf_counter()
-        frame = renderer.render(scene)
-        best = min(best, time.perf_counter() - t0)
     saved = renderer.profiler
     timer = saved if isinstance(saved, PassTimer) else PassTimer(renderer.ctx)
-    renderer.profiler = timer
     shade = []
-    try:
+    with renderer.every_pass():
         for _ in range(repeats):
-            timer.enabled = True
-            timer.reset()
-            renderer.draw(scene)
-            shade.append(timer.milliseconds().get("shade", float("nan")))
-    finally:
-        timer.enabled = False
-        renderer.profiler = saved
+            renderer.ctx.finish()
+            t0 = time.perf_counter()
+            frame = renderer.render(scene)
+            best = min(best, time.perf_counter() - t0)
+        renderer.profiler = timer
+        try:
+            for _ in range(repeats):
+                timer.enabled = True
+                timer.reset()
+                renderer.draw(scene)
+                shade.append(timer.milliseconds().get("shade", float("nan")))
+        finally:
+            timer.enabled = False
+            renderer.profiler = saved
     return 1e3 * best, statistics.median(shade), frame.radiance[..., :3]
+
+
+def time_relight_frame(renderer, scene, repeats: int = 3) -> float:
+    """Best wall ms of a frame after a light slider moved (the environment's intensity, 1 and
+    1.001 in turn, so the lighting passes run every time) with everything else unchanged: the
+    G-buffer and SSAO targets of the frame before are reused (``Renderer.reuse_passes``)."""
+    saved, renderer.reuse_passes = renderer.reuse_passes, True
+    env = scene.environment
+    scenes = [dataclasses.replace(scene, environment=dataclasses.replace(
+        env, intensity=env.intensity * f)) for f in (1.0, 1.001)]
+    best = float("inf")
+    try:
+        renderer.render(scenes[1])  # warm: the targets and programs exist
+        for i in range(repeats):
+            renderer.ctx.finish()
+            t0 = time.perf_counter()
+            renderer.render(scenes[i % 2])
+            best = min(best, time.perf_counter() - t0)
+    finally:
+        renderer.reuse_passes = saved
+    return 1e3 * best
 
 
 def _tm(x: np.ndarray) -> np.ndarray:
@@ -101,10 +127,12 @@ def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: 
         cases += [("neural", f"student, SSAO 1/{k}", {"ssao_scale": k}) for k in scales]
         for model, variant, kw in cases:
             reps = 1 if model == "neural_teacher" and side > 256 else repeats
-            ms, shade_ms, img = time_frame(renderer, scene.with_render(model=model, **kw), reps)
+            case = scene.with_render(model=model, **kw)
+            ms, shade_ms, img = time_frame(renderer, case, reps)
             images.append(img)
             part.append({"model": model, "variant": variant, "samples": kw.get("samples", 1),
                          "size": size, "ms": ms, "shade_ms": shade_ms,
+                         "relight_ms": time_relight_frame(renderer, case, reps),
                          "psnr": psnr(_tm(ref), _tm(img)), "reference": ref_name,
                          "ssao_scale": kw.get("ssao_scale", 1)})
         t = part[1]
@@ -112,6 +140,7 @@ def student_vs_teacher(renderer, teacher_samples: int = 128, reference_samples: 
             if s["model"] != "neural":
                 continue
             s["frame_time_ratio_teacher_over_student"] = t["ms"] / s["ms"]
+            s["relight_time_ratio_teacher_over_student"] = t["relight_ms"] / s["relight_ms"]
             s["shade_time_ratio_teacher_over_student"] = t["shade_ms"] / s["shade_ms"]
             s["psnr_minus_teacher"] = s["psnr"] - t["psnr"]
             # what the reduced scale changes in the student's own image

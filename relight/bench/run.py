@@ -284,6 +284,7 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
                 done[_row_key(row)] = row
 
     renderer = Renderer()
+    renderer.reuse_passes = False  # every row times whole frames; relight frames say so
     try:
         scenes = _bench_scenes(cache, config.quick)
         cases = _cases(config)

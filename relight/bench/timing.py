@@ -14,14 +14,15 @@ def time_frames(renderer, scene: Scene, size, config) -> tuple[float, dict]:
     renderer.profiler = timer
     per_pass: dict[str, list[float]] = {}
     totals = []
-    for i in range(config.warmup + config.frames):
-        timer.enabled = True
-        timer.reset()
-        renderer.draw(scene, size)
-        ms = {k: v for k, v in timer.milliseconds().items() if k != "ibl"}
-        if i >= config.warmup:
-            totals.append(sum(ms.values()))
-            for k, v in ms.items():
-                per_pass.setdefault(k, []).append(v)
+    with renderer.every_pass():  # whole frames: nothing reused from the frame before
+        for i in range(config.warmup + config.frames):
+            timer.enabled = True
+            timer.reset()
+            renderer.draw(scene, size)
+            ms = {k: v for k, v in timer.milliseconds().items() if k != "ibl"}
+            if i >= config.warmup:
+                totals.append(sum(ms.values()))
+                for k, v in ms.items():
+                    per_pass.setdefault(k, []).append(v)
     timer.enabled = False
     return statistics.median(totals), {k: statistics.median(v) for k, v in per_pass.items()}

@@ -30,6 +30,7 @@ def test_deferred_queries_report_the_previous_frame(ctx):
     """The interactive loop's timer (the window's): double-buffered queries, read one frame late
     so reading never stalls; wall mode reports the frame just drawn."""
     renderer = Renderer(ctx=ctx)
+    renderer.reuse_passes = False  # both frames draw the G-buffer (the same scene twice)
     scene = scene_from_dict({"camera": {"size": [32, 32]}, "environment": {"procedural": "white"},
                              "objects": [{"type": "sphere"}]})
     for mode in ("query", "wall"):

@@ -24,6 +24,9 @@ class GeometryCache:
 
     def __init__(self):
         self._content: dict[ObjectSpec, object] = {}
+        # bumped whenever content is replaced or forgotten: what a cached G-buffer was drawn from
+        # may have changed (viewer.renderer.Renderer.reuse_passes)
+        self.version = 0
 
     def get(self, obj: ObjectSpec):
         key = _shape_key(obj)
@@ -37,10 +40,12 @@ class GeometryCache:
         """Use ``content`` for ``obj`` instead of loading ``obj.path`` (geometry made in memory:
         tests, benchmarks, generated data). Taken as given: the loaders' validation does not run."""
         self._content[_shape_key(obj)] = content
+        self.version += 1
 
     def remove(self, obj: ObjectSpec) -> None:
         """Forget ``obj``'s content (added or loaded); the next lookup loads it again."""
         self._content.pop(_shape_key(obj), None)
+        self.version += 1
 
     def __len__(self) -> int:
         return len(self._content)

@@ -1014,6 +1014,9 @@ def _write_sample(renderer, final: Path, index: int, config: GeneratorConfig, me
         write_exr(tmp / STDERR_FILE, target.stderr, ["R", "G", "B"])
         source = {"source": "reference"} | {k: target.meta[k] for k in (
             "spp", "max_depth", "rays", "geometry", "seed", "variant", "mitsuba", "seconds")}
+        # the traced BSDF: the scene's render.multiscatter (target_settings leaves it at the
+        # default, on), so a single-scattering model is ~6 % dark on rough metals by construction
+        source["multiscatter"] = bool(scene.render.multiscatter)
     else:
         frame = renderer.render(scene, aovs=_AOVS)
         write_exr(tmp / "rgb.exr", frame.radiance[..., :3], ["R", "G", "B"])

@@ -219,6 +219,9 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
                     meta={"spp": int(n), "max_depth": int(options.max_depth),
                           "rays": "jittered over the pixel" if options.antialias
                           else "pixel centre", "geometry": options.geometry,
+                          # the BSDF traced: with the multiple-scattering compensation c_ms
+                          # (render.multiscatter, on by default) or single scattering
+                          "multiscatter": bool(scene.render.multiscatter),
                           "seed": int(options.seed), "variant": variant,
                           "mitsuba": mi.__version__, "seconds": round(time.perf_counter() - t0, 3),
                           "size": [w, h], "scene": scene.source, "key": key})

@@ -180,6 +180,7 @@ def test_cli_writes_image_stderr_metadata_and_skips_finished(mitsuba_llvm, tmp_p
     ref = read_reference(out)
     meta = json.loads((tmp_path / "ref.json").read_text())
     assert meta["spp"] == 8 and meta["max_depth"] == 3 and meta["rays"] == "pixel centre"
+    assert meta["multiscatter"] is True  # the BSDF traced: the render setting's default
     assert ref.radiance.shape == (6, 6, 4) and np.isfinite(ref.stderr).all()
     assert (tmp_path / "ref.normal.exr").is_file() and (tmp_path / "ref.depth.exr").is_file()
     assert main(["reference", str(scene), "--out", str(out), "--spp", "8", "--depth", "3"]) == 0

@@ -405,11 +405,29 @@ def test_indirect_at_scale_brightens_creases_only(renderer, k):
     assert g[0] > 1.5 * g[2], g  # the red wall's colour, gathered at low resolution
 
 
-def test_scale_one_is_the_full_scale_pass(renderer):
-    a = renderer.render(scene([FLOOR, WALL, HANGING], ssao=True, indirect=True, **SSAO))
-    b = renderer.render(scene([FLOOR, WALL, HANGING], ssao=True, indirect=True, ssao_scale=1,
-                              **SSAO))
-    np.testing.assert_array_equal(a.radiance, b.radiance)
+def test_scale_one_draws_the_full_scale_pass_alone(ctx):
+    """k = 1 marches every pixel into the frame's own targets: no low-resolution target, no
+    upsampling pass; k = 2 has both (a fresh renderer: targets outlive frames)."""
+    from viewer.gl.timing import PassTimer
+
+    r = Renderer(ctx=ctx)
+    r.profiler = timer = PassTimer(ctx)
+    try:
+        drawn = {}
+        for k in (1, 2):
+            sc = scene([FLOOR, WALL, HANGING], ssao=True, indirect=True, ssao_scale=k, **SSAO)
+            timer.enabled = True
+            timer.reset()
+            t = r.draw(sc)
+            drawn[k] = set(timer.milliseconds())
+            timer.enabled = False
+            extras = set(r.resources.targets(r.layout_for(sc), t.camera.size).extras)
+            if k == 1:
+                assert not any("/" in name for name in extras), extras
+        assert "ssao_upsample" not in drawn[1] and "ssao_upsample" in drawn[2], drawn
+        assert {"ssao/2", "gathered/2"} <= extras, extras
+    finally:
+        r.release()
 
 
 @pytest.mark.parametrize("value", [0, 9, 1.5, "2"])

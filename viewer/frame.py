@@ -37,6 +37,10 @@ class FrameTargets:
     direct: object | None = None  # RGBA32F direct light before the indirect pass (render.indirect)
     # R32F: a neural student's learned factor on the indirect light (lighting pass, 2nd output)
     indirect_factor: object | None = None
+    # every kept resource of the frame graph by name (viewer.graph.frame): targets with .texture
+    # and .fbo (SSAO's hit targets ``ssao_hits<i>`` among them), the G-buffer; valid until the
+    # renderer draws again
+    targets: dict = field(default_factory=dict)
 
 
 def read_texture(texture, dtype: str) -> np.ndarray:

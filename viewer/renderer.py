@@ -10,16 +10,16 @@ surfaces) -> tone mapping.
     frame.aovs["normal"]
     frame2 = renderer.render(scene.with_render(exposure=1.0))   # cached: only the last passes rerun
 
-GPU resources are cached by value: geometry per object description, IBL precomputation per
-environment (intensity and rotation are uniforms, so light sliders never recompute), render targets
-per size and layout, programs per variant. Arrays are row 0 at the top.
+A frame is a frame graph (:mod:`viewer.graph`): :meth:`Renderer.draw` declares the passes the
+scene's specialisation needs (:func:`viewer.graph.frame.build_frame`), and the graph culls, reuses
+and allocates. A pass whose declared inputs did not change since the last frame at the same size
+and layout is not drawn again (``Renderer.reuse_passes``, on by default): a light, exposure or
+environment-intensity slider re-runs only what depends on it. ``with renderer.every_pass():``
+draws every pass (the benchmarks' whole frames). ``relight graph SCENE`` prints the graph.
 
-Passes whose inputs did not change since the last frame at the same size and layout are not drawn
-again (``Renderer.reuse_passes``, on by default): the G-buffer when the objects (materials
-included), camera, layout and splat depth are unchanged, and the SSAO occlusion / visibility pass
-(and its hits and upsampling) when, in addition, the SSAO settings, seed and the environment's
-file, procedural parameters and rotation are unchanged (its intensity does not enter them). A
-light, exposure or environment-intensity slider then re-runs only the lighting passes. ``reuse_passes = False`` draws every pass every frame (the benchmarks' full frames).
+Every GPU resource is cached with a bound (:class:`viewer.cache.Budgets`): render targets in a
+pool by bytes and age, programs by count, environments and geometry by bytes.
+:meth:`Renderer.memory` reports each cache. Arrays are row 0 at the top.
 """
 from __future__ import annotations
 
@@ -33,13 +33,15 @@ from .frame import Frame, FrameTargets, read_texture
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
+from .cache import BoundedCache
 from .models import ShadingModel, model_info
-from .neural import learns_indirect, reads_visibility, required_settings, shades_sun
-from .passes.forward import forward_model
-from .passes.ssao import hit_targets, low_resolution
-from .resources import GPUResources, TargetSet
+from .neural import learns_indirect, required_settings, shades_sun
+from .cache import Budgets, CacheStats
+from .graph.frame import FrameRequest, build_frame, visibility_graph
+from .graph.graph import FrameGraph
+from .resources import GPUResources
 from .scene import ObjectSpec, Scene
-from .specialize import Specialization, analyse, specialise
+from .specialize import analyse, specialise
 
 __all__ = ["AOV_NAMES", "Frame", "FrameTargets", "Renderer", "check_aovs", "read_texture"]
 
@@ -49,15 +51,17 @@ AOV_NAMES = CHANNEL_NAMES  # albedo, alpha, normal, roughness, metallic, specula
 class Renderer:
     """Owns one GL context and every GPU resource derived from scenes rendered with it."""
 
-    MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
-
-    def __init__(self, ctx=None, options: ContextOptions = ContextOptions()):
+    def __init__(self, ctx=None, options: ContextOptions = ContextOptions(),
+                 budgets: Budgets = Budgets()):
         self._owns_context = ctx is None
         self.ctx = ctx if ctx is not None else create_context(options)
+        self.budgets = budgets
         self.programs = Programs(self.ctx)
         self.geometry_cache = GeometryCache()  # CPU geometry per object shape
-        self.resources = GPUResources(self.programs)  # targets, passes, IBL, accumulators
-        self._features: dict[tuple, object] = {}  # (objects, environment) -> SceneFeatures
+        self.resources = GPUResources(self.programs, budgets)  # targets, passes, environments
+        # (objects, environment) -> SceneFeatures: the analysis scans materials and texture maps
+        self._features = BoundedCache("features", max_items=64)
+        self.last_graph: FrameGraph | None = None  # the last frame's compiled graph
         # optional per-pass profiler (viewer.gl.timing.PassTimer): .begin(name) between passes
         self.profiler = None
         # reuse the G-buffer and SSAO targets of the last frame whose inputs were the same (the
@@ -119,9 +123,8 @@ class Renderer:
                               sun=sun)
         # the analysis scans materials and texture maps: once per scene content, not per frame
         key = (scene.objects, scene.environment.path, scene.environment.procedural)
-        if key not in self._features:
-            self._features[key] = analyse(self, scene)
-        return specialise(self._features[key], scene.render, aovs, light=scene.light, sun=sun)
+        features = self._features.get_or_create(key, lambda: analyse(self, scene))
+        return specialise(features, scene.render, aovs, light=scene.light, sun=sun)
 
     def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
         return self.specialization(scene, aovs).layout
@@ -137,43 +140,13 @@ class Renderer:
     def environment_visibility(self, scene: Scene, frame: FrameTargets):
         """The SSAO pass with the environment's screen-space visibility (``SSAO_ENV_VIS``) on the
         G-buffer of ``frame`` (what :meth:`draw` left for ``scene``, drawn with SSAO so depth and
-        normals are allocated), into the frame's SSAO target: r = O(x), g = S(x), as a student
-        with ``vis`` inputs reads them. For training data, tests and parity checks."""
+        normals are allocated): r = O(x), g = S(x), as a student with ``vis`` inputs reads them.
+        Drawn into a target of its own (valid until the next call): for training data, tests and
+        parity checks."""
         make_current(self.ctx)
-        layout = self.specialization(scene).layout
-        targets = self.resources.targets(layout, frame.camera.size)
-        targets.keys.pop("ssao", None)  # it overwrites what a frame may reuse
-        tex, _ = self._occlusion(self.resources.layout_pass("ssao", layout), scene, targets,
-                                 frame.gbuffer.textures, frame.camera, True)
-        return tex
-
-    def _occlusion(self, sspass, scene: Scene, targets: TargetSet, gbuffer_textures,
-                   camera: Camera, visibility: bool, record_hits: bool = False
-                   ) -> tuple[object, list | None]:
-        """SSAO's occlusion O(x) into the frame's ``ssao`` target; with ``visibility`` also S(x)
-        towards the environment's equal-power directions (``viewer.envsampling.
-        power_directions``); with ``record_hits`` each ray's hit pixel into the hit targets
-        (:func:`_ssao_hit_targets`). At ``ssao.scale`` k > 1 the rays run at low resolution and
-        the upsampling pass (timed as ``ssao_upsample``) fills the full-resolution target.
-        Returns (the ``ssao`` texture, the hit textures or None)."""
-        settings = scene.render
-        k = int(settings.ssao.scale)
-        vis_dirs = self.resources.power_directions(scene.environment) if visibility else None
-        low_name = _occlusion_target(k)
-        low, fbo = targets.extra(self.ctx, low_name, size=low_resolution(camera.size, k))
-        hits = None
-        if record_hits:
-            hits, fbo = _ssao_hit_targets(self.ctx, targets, settings.ssao.rays, low_name,
-                                          low_resolution(camera.size, k))
-        sspass.occlusion(gbuffer_textures, fbo, camera, settings, vis_dirs=vis_dirs,
-                         env_rotation_deg=scene.environment.rotation_deg,
-                         record_hits=record_hits)
-        if k == 1:
-            return low, hits
-        self._pass_begin("ssao_upsample")
-        tex, full_fbo = targets.extra(self.ctx, "ssao")
-        sspass.upsample(gbuffer_textures, low, full_fbo, camera, settings)
-        return tex, hits
+        spec = self.specialization(scene)
+        graph = visibility_graph(self, scene, spec, frame)
+        return graph.compile().execute()["ssao"].texture
 
     # ---- the render graph ---------------------------------------------------------------------
     def draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
@@ -195,169 +168,49 @@ class Renderer:
         settings = required_settings(scene.render)  # SSAO for a student that reads visibility
         if settings is not scene.render:
             scene = dataclasses.replace(scene, render=settings)
+        if model.accumulates and settings.mc.samples < 1:
+            raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
+                             f"{settings.mc.samples}", where=scene.source or "render.samples")
+        if scene.light is not None and model.directional_light == "ignored":
+            _warn_light_ignored(settings.model)
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
-        targets = self.resources.targets(spec.layout, camera.size)
-        gkey = (scene.objects, camera, settings.splat_depth, self.geometry_cache.version)
-        if spec.direct_stack or not (self.reuse_passes and targets.keys.get("gbuffer") == gkey):
-            self._pass_begin("gbuffer")
-            gbuffer = self._gbuffer(scene, spec, targets, camera)
-        else:  # the same geometry seen from the same camera: last frame's G-buffer
-            gbuffer = targets.gbuffer
-        targets.keys["gbuffer"] = gkey
         self._pass_begin("ibl")  # precomputation, only when the environment is new
-        ibl = self.ibl(scene)
-        samples = self._lighting(scene, model, spec, targets, gbuffer, camera, ibl, progressive,
-                                 samples_per_frame)
-        blended = [] if spec.direct_stack else self._blended(scene)
-        if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
-            self._pass_begin("forward")
-            # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
-            sun = settings.sun and model_info(forward_model(settings.model)).analytic_sun
-            self.resources.layout_pass("forward", spec.layout).run(
-                blended, gbuffer.textures, targets.radiance_fbo, camera,
-                self.resources.ibl(scene.environment, sun=sun), scene.environment, settings,
-                light=scene.light)
-        self._pass_begin("tonemap")
-        self.resources.tonemap().run(targets.radiance, targets.display_fbo,
-                                     settings.display.exposure, settings.display.tonemap)
-        self._pass_begin(None)
-        extra = {name: tex for name, (tex, _) in targets.extras.items()}
-        return FrameTargets(radiance=targets.radiance, display=targets.display, gbuffer=gbuffer,
-                            camera=camera, variant=spec.variant, samples=samples,
-                            ssao=extra.get("ssao") if settings.ssao.enabled else None,
-                            direct=extra.get("direct") if settings.ssao.indirect else None,
-                            indirect_factor=(extra.get("indirect_factor")
-                                             if learns_indirect(settings) else None))
+        request = FrameRequest(scene, model, spec, camera, progressive, samples_per_frame)
+        graph = build_frame(self, request, reuse=self.reuse_passes).compile()
+        frame = graph.execute(on_pass=self._pass_begin)
+        self.last_graph = graph
+        return FrameTargets(
+            radiance=frame["radiance"].texture, display=frame["display"].texture,
+            gbuffer=frame["gbuffer"], camera=camera, variant=spec.variant, samples=frame.samples,
+            ssao=frame["ssao"].texture if settings.ssao.enabled else None,
+            direct=frame["direct"].texture if settings.ssao.indirect else None,
+            indirect_factor=(frame["indirect_factor"].texture
+                             if settings.ssao.indirect and learns_indirect(settings) else None),
+            targets={n: frame[n] for n, r in graph.resources.items() if r.kept})
 
-    def _gbuffer(self, scene: Scene, spec: Specialization, targets: TargetSet, camera: Camera):
-        """G-buffer pass (image stacks, meshes) then splats; returns the G-buffer to shade."""
-        gpass = self.resources.layout_pass("gbuffer", spec.layout)
-        gb = targets.gbuffer
-        if spec.direct_stack:
-            # one image-space stack and nothing else: its uploaded textures already are a
-            # G-buffer in this layout, so the lighting pass reads them and no copy pass runs
-            stack = self.geometry(scene.objects[0])
-            return gb.viewing(dict(gpass._stack_textures(stack)))
-        gb.clear()
-        meshes, clouds = [], []
-        for obj in scene.objects:
-            content = self.geometry(obj)
-            if obj.type == "gbuffer":
-                gpass.draw_image(gb, content)
-            elif obj.type == "splats":
-                clouds.append(content)
-            else:  # alphaMode BLEND: the forward pass after lighting
-                meshes.extend(m for m in content if m.alpha_mode != "BLEND")
-        if meshes:
-            gpass.draw_meshes(gb, camera, meshes)
-        if clouds:  # after meshes: depth-tested against them, composited over them
-            self._pass_begin("splats")
-            self.resources.layout_pass("splats", spec.layout).draw_clouds(
-                gb, camera, clouds, depth=scene.render.splat_depth)
-        return gb
-
-    def _blended(self, scene: Scene) -> list:
+    def blended(self, scene: Scene) -> list:
         """The scene's transparent meshes (glTF ``alphaMode: BLEND``), in file order."""
         return [m for obj in scene.objects if obj.type not in ("gbuffer", "splats")
                 for m in self.geometry(obj) if m.alpha_mode == "BLEND"]
 
-    def _lighting(self, scene: Scene, model: ShadingModel, spec: Specialization,
-                  targets: TargetSet, gbuffer, camera: Camera, ibl, progressive: bool,
-                  samples_per_frame: int) -> int:
-        """SSAO -> lighting (accumulated for Monte-Carlo models) -> indirect, into ``radiance``.
-        Returns the samples averaged. With ``indirect`` the lighting pass writes the direct-light
-        target of this frame, and the indirect pass adds eq. 6.22 gathered from it; a neural
-        student with a learned indirect factor also writes that factor (a second output, an R32F
-        target made only for it) and the indirect pass scales its light by it."""
-        settings = scene.render
-        if scene.light is not None and model.directional_light == "ignored":
-            _warn_light_ignored(settings.model)
-        gbt = gbuffer.textures
-        ssao = hits = None
-        if settings.ssao.enabled or settings.ssao.indirect:
-            sspass = self.resources.layout_pass("ssao", spec.layout)
-        if settings.ssao.enabled:
-            # + the environment's visibility (g channel) for a student that reads it; with the
-            # indirect light, the rays' hit pixels for the indirect pass to reuse
-            visibility = reads_visibility(settings)
-            env = scene.environment
-            skey = (targets.keys.get("gbuffer"), settings.ssao, settings.mc.seed, visibility,
-                    settings.ssao.indirect,
-                    dataclasses.replace(env, intensity=1.0) if visibility else None)
-            if self.reuse_passes and skey[0] is not None and targets.keys.get("ssao") == skey:
-                ssao = targets.extras["ssao"][0]  # last frame's occlusion, visibility and hits
-                hits = (_ssao_hit_targets(self.ctx, targets, settings.ssao.rays,
-                                          _occlusion_target(settings.ssao.scale),
-                                          low_resolution(camera.size, settings.ssao.scale))[0]
-                        if settings.ssao.indirect else None)
-            else:
-                self._pass_begin("ssao")
-                ssao, hits = self._occlusion(sspass, scene, targets, gbt, camera, visibility,
-                                             record_hits=settings.ssao.indirect)
-            targets.keys["ssao"] = skey
-        factor = None
-        if settings.ssao.indirect:
-            out_tex, out_fbo = targets.extra(self.ctx, "direct")
-            if learns_indirect(settings):  # the student's 2nd output: its indirect factor
-                factor, _ = targets.extra(self.ctx, "indirect_factor", components=1)
-                out_fbo = targets.extras_fbo(self.ctx, ("direct", "indirect_factor"))
-        else:
-            out_tex, out_fbo = targets.radiance, targets.radiance_fbo
-        env_sampling = self.env_sampling(scene) if "cdf" in model.needs else None
-        spass = self.resources.layout_pass("shade", spec.layout)
-        self._pass_begin("shade")
+    def graph(self, scene: Scene, size: tuple[int, int] | None = None, aovs=()) -> FrameGraph:
+        """The compiled frame graph :meth:`draw` would run for ``scene`` now (nothing drawn):
+        what each pass reads and writes, whether it would be reused and why, what is culled."""
+        make_current(self.ctx)
+        settings = required_settings(scene.render)
+        if settings is not scene.render:
+            scene = dataclasses.replace(scene, render=settings)
+        request = FrameRequest(scene, model_info(settings.model), self.specialization(scene, aovs),
+                               self.resolve_camera(scene, size))
+        return build_frame(self, request, reuse=self.reuse_passes).compile()
 
-        if spec.variant.defines.get("SUN_LIGHT"):  # the IBL without the sun it shades itself
-            ibl = self.resources.ibl(scene.environment, sun=True)
-
-        def shade(fbo, sample_range=(0, 1)):
-            spass.run(gbt, fbo, camera, ibl, scene.environment, settings,
-                      env_sampling=env_sampling, ssao=ssao, sample_range=sample_range,
-                      variant=spec.variant, light=scene.light)
-
-        samples = 1
-        if model.accumulates:
-            samples = self._accumulate(scene, camera, shade, out_fbo, progressive,
-                                       samples_per_frame)
-        else:
-            shade(out_fbo)
-        if settings.ssao.indirect:
-            self._pass_begin("indirect")
-            # reads the occlusion pass's hits; marches the rays itself without that pass
-            k = int(settings.ssao.scale)
-            gather_fbo = None if k == 1 else targets.extra(
-                self.ctx, f"gathered/{k}", size=low_resolution(camera.size, k))[1]
-            sspass.indirect(gbt, out_tex, targets.radiance_fbo, camera, settings, factor=factor,
-                            hits=hits, gather_fbo=gather_fbo)
-        return samples
-
-    def _accumulate(self, scene: Scene, camera: Camera, shade, out_fbo, progressive: bool,
-                    samples_per_frame: int) -> int:
-        """Monte-Carlo batches into the running mean of this camera size; returns its count."""
-        settings = scene.render
-        if settings.mc.samples < 1:
-            raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
-                             f"{settings.mc.samples}", where=scene.source or "render.samples")
-        acc = self.resources.accumulator(camera.size)
-        # exposure and tone mapping act after the running mean: they do not restart it
-        display = dataclasses.replace(settings.display, exposure=0.0, tonemap="none")
-        key = (dataclasses.replace(scene, render=dataclasses.replace(settings, display=display)),
-               camera)
-        if not progressive or acc.key != key:
-            acc.reset(key)
-        if progressive:
-            todo = min(max(int(samples_per_frame), 1), max(settings.mc.samples - acc.count, 0))
-        else:
-            todo = settings.mc.samples
-        if todo == 0:  # converged: the history holds the mean
-            self.ctx.copy_framebuffer(dst=out_fbo, src=acc.history_fbo)
-        while todo > 0:
-            n = min(todo, self.MC_BATCH)
-            shade(acc.batch_fbo, (acc.count, n))
-            acc.add(n, out_fbo)
-            todo -= n
-        return acc.count
+    def memory(self) -> dict[str, CacheStats]:
+        """Bytes and entries of every cache this renderer keeps (name -> stats)."""
+        out = {"targets": self.resources.pool.stats(), "passes": self.resources.passes_stats(),
+               "programs": self.programs.stats(), "geometry": self.geometry_cache.stats()}
+        out.update(self.resources.environment_stats())
+        return out
 
     def _pass_begin(self, name: str | None) -> None:
         """Profiling hook between passes: ``profiler.begin(name)`` ends the previous pass's timer
@@ -399,22 +252,6 @@ def check_aovs(aovs) -> None:
     if unknown:
         raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
                          f"(known: {', '.join(AOV_NAMES)})", where="--aov")
-
-
-def _occlusion_target(scale: int) -> str:
-    """The extra target the occlusion pass draws to: ``ssao`` at full scale, ``ssao/<k>`` (low
-    resolution, upsampled into ``ssao``) at reduced scale."""
-    return "ssao" if int(scale) == 1 else f"ssao/{int(scale)}"
-
-
-def _ssao_hit_targets(ctx, targets: TargetSet, rays: int, occlusion: str = "ssao",
-                      size=None) -> tuple[list, object]:
-    """The RGBA32UI targets of SSAO's ray hits for ``rays`` rays (``<occlusion>_hits<i>``, of
-    ``size``: the occlusion target's) and the framebuffer the occlusion pass draws to with them:
-    the target ``occlusion`` (O(x)) at attachment 0, the hits after it."""
-    names = tuple(f"{occlusion}_hits{i}" for i in range(hit_targets(rays)))
-    hits = [targets.extra(ctx, name, dtype="u4", size=size)[0] for name in names]
-    return hits, targets.extras_fbo(ctx, (occlusion,) + names)
 
 
 _LIGHT_WARNED: set[str] = set()

@@ -5,8 +5,6 @@ rotation are uniforms, so light sliders never recompute them)."""
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from .environment import EnvironmentSpec, load_environment
@@ -14,9 +12,11 @@ from .envsampling import build_env_sampling, power_directions
 from .gbuffer import GBufferLayout
 from .ibl import IBLOptions, build_ibl
 from .sun import Sun, extract_sun
-from .passes.accumulate import Accumulator
+from .cache import BoundedCache, Budgets
+from .graph.pool import TargetPool
+from .passes.accumulate import AccumulatePass
 from .passes.forward import ForwardPass
-from .passes.gbuffer import GBufferPass, GBufferTargets
+from .passes.gbuffer import GBufferPass
 from .passes.shade import ShadePass
 from .passes.splats import SplatPass
 from .passes.ssao import SSAOPass
@@ -27,75 +27,20 @@ LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
                  "shade": ShadePass, "forward": ForwardPass}
 
 
-@dataclass
-class TargetSet:
-    """The render targets of one layout and size: the G-buffer, linear radiance (RGBA32F) and the
-    display image (RGBA8), plus extra targets made on first use (``ssao``, ``direct``, SSAO's hit
-    targets ``ssao_hits<i>``)."""
-
-    gbuffer: GBufferTargets
-    radiance: object
-    radiance_fbo: object
-    display: object
-    display_fbo: object
-    extras: dict[str, tuple[object, object]] = field(default_factory=dict)  # name -> (tex, fbo)
-    # attachment names -> a framebuffer drawing to several extras at once (multiple render targets)
-    multi: dict[tuple, object] = field(default_factory=dict)
-    # what the G-buffer and the SSAO targets were last drawn from (viewer.renderer: a frame whose
-    # key is unchanged reuses them instead of drawing again)
-    keys: dict[str, tuple] = field(default_factory=dict)
-
-    @classmethod
-    def create(cls, ctx, layout: GBufferLayout, size: tuple[int, int]) -> "TargetSet":
-        radiance = ctx.texture(size, 4, dtype="f4")
-        display = ctx.texture(size, 4, dtype="f1")
-        for t in (radiance, display):
-            t.filter = (ctx.NEAREST, ctx.NEAREST)
-        return cls(GBufferTargets.create(ctx, layout, size), radiance,
-                   ctx.framebuffer(color_attachments=[radiance]), display,
-                   ctx.framebuffer(color_attachments=[display]))
-
-    def extra(self, ctx, name: str, components: int = 4, dtype: str = "f4", size=None
-              ) -> tuple[object, object]:
-        """``(texture, framebuffer)`` of the target ``name`` with ``components`` channels of
-        ``dtype`` (RGBA32F by default; ``"u4"``: unsigned integers, e.g. SSAO's ray hits; made on
-        first use), of ``size`` (default the frame's: SSAO at reduced scale has smaller ones)."""
-        if name not in self.extras:
-            tex = ctx.texture(tuple(size or self.radiance.size), components, dtype=dtype)
-            tex.filter = (ctx.NEAREST, ctx.NEAREST)
-            self.extras[name] = (tex, ctx.framebuffer(color_attachments=[tex]))
-        return self.extras[name]
-
-    def extras_fbo(self, ctx, names: tuple[str, ...]):
-        """A framebuffer with the extras ``names`` (made first with :meth:`extra`) as colour
-        attachments 0, 1, ...: a pass with several outputs draws to them at once."""
-        if names not in self.multi:
-            self.multi[names] = ctx.framebuffer(
-                color_attachments=[self.extras[n][0] for n in names])
-        return self.multi[names]
-
-    def release(self) -> None:
-        self.gbuffer.release()
-        for obj in (self.radiance, self.radiance_fbo, self.display, self.display_fbo):
-            obj.release()
-        for fbo in self.multi.values():
-            fbo.release()
-        self.multi.clear()
-        for tex, fbo in self.extras.values():
-            tex.release()
-            fbo.release()
-        self.extras.clear()
-
-
 class GPUResources:
     """Everything the renderer keeps on the GPU between frames; see the module docstring."""
 
-    def __init__(self, programs):
+    def __init__(self, programs, budgets: Budgets = Budgets()):
         self.programs = programs
-        self._targets: dict[tuple, TargetSet] = {}
-        self._passes: dict[tuple, object] = {}  # (kind, layout) -> pass
+        self.budgets = budgets
+        # every render target of every frame (viewer.graph.pool), bounded by bytes and age
+        self.pool = TargetPool(programs.ctx, max_bytes=budgets.targets_bytes,
+                               max_age=budgets.target_max_age)
+        # (kind, layout) -> pass: a few per layout, each owning vertex arrays and uploads
+        self._passes = BoundedCache("passes", max_items=4 * len(LAYOUT_PASSES),
+                                    release=lambda p: p.release())
         self._tonemap: TonemapPass | None = None
-        self._accumulators: dict[tuple, Accumulator] = {}
+        self._accumulate: AccumulatePass | None = None
         self._ibl: dict[tuple, object] = {}
         self._env_sampling: dict[tuple, object] = {}
         self._power_directions: dict[tuple, np.ndarray] = {}
@@ -103,29 +48,32 @@ class GPUResources:
         self._ibl_sun: dict[tuple, object] = {}  # the IBL without the sun, where there is one
         self._env_arrays: dict[tuple, np.ndarray] = {}  # each environment loaded once
 
-    def targets(self, layout: GBufferLayout, size: tuple[int, int]) -> TargetSet:
-        key = (layout, tuple(size))
-        if key not in self._targets:
-            self._targets[key] = TargetSet.create(self.programs.ctx, layout, size)
-        return self._targets[key]
-
     def layout_pass(self, kind: str, layout: GBufferLayout):
         """The ``kind`` pass (:data:`LAYOUT_PASSES`) built for ``layout``."""
-        key = (kind, layout)
-        if key not in self._passes:
-            self._passes[key] = LAYOUT_PASSES[kind](self.programs, layout)
-        return self._passes[key]
+        return self._passes.get_or_create((kind, layout),
+                                          lambda: LAYOUT_PASSES[kind](self.programs, layout))
+
+    def passes_stats(self):
+        return self._passes.stats()
+
+    def environment_stats(self) -> dict:
+        """name -> :class:`~viewer.cache.CacheStats` of the environment caches."""
+        from .cache import CacheStats, array_bytes, texture_bytes
+        ibls = list(self._ibl.values()) + list(self._ibl_sun.values())
+        nbytes = sum(texture_bytes(t) for i in ibls for t in (i.radiance, i.prefiltered))
+        nbytes += array_bytes(list(self._env_arrays.values()))
+        return {"environments": CacheStats("environments", len(self._ibl), nbytes, None, None,
+                                           0, 0, 0)}
 
     def tonemap(self) -> TonemapPass:
         if self._tonemap is None:
             self._tonemap = TonemapPass(self.programs)
         return self._tonemap
 
-    def accumulator(self, size: tuple[int, int]) -> Accumulator:
-        key = tuple(size)
-        if key not in self._accumulators:
-            self._accumulators[key] = Accumulator(self.programs, key)
-        return self._accumulators[key]
+    def accumulate_pass(self) -> AccumulatePass:
+        if self._accumulate is None:
+            self._accumulate = AccumulatePass(self.programs)
+        return self._accumulate
 
     @staticmethod
     def _environment_key(spec: EnvironmentSpec) -> tuple:
@@ -185,13 +133,13 @@ class GPUResources:
         return len(self._ibl)
 
     def release(self) -> None:
+        self.pool.clear()
+        self._passes.clear()
         for obj in (list(self._ibl.values()) + list(self._ibl_sun.values())
-                    + list(self._targets.values())
-                    + list(self._env_sampling.values()) + list(self._accumulators.values())
-                    + list(self._passes.values())
-                    + ([self._tonemap] if self._tonemap is not None else [])):
+                    + list(self._env_sampling.values())
+                    + [p for p in (self._tonemap, self._accumulate) if p is not None]):
             obj.release()
-        for d in (self._ibl, self._ibl_sun, self._targets, self._env_sampling, self._accumulators,
-                  self._passes, self._power_directions, self._suns, self._env_arrays):
+        for d in (self._ibl, self._ibl_sun, self._env_sampling, self._power_directions,
+                  self._suns, self._env_arrays):
             d.clear()
-        self._tonemap = None
+        self._tonemap = self._accumulate = None

@@ -132,12 +132,17 @@ def test_replaced_geometry_content_redraws(renderer):
 
 
 def test_environment_visibility_between_frames_is_not_reused(renderer):
-    """Renderer.environment_visibility overwrites the SSAO target a frame of plain SSAO reuses."""
+    """Renderer.environment_visibility draws into a target of its own: the frame's SSAO target
+    (O only) is untouched, so the next frame may reuse it and is still the full frame."""
     scene = _scene({"ssao": True})
     targets = renderer.draw(scene)
-    renderer.environment_visibility(scene, targets)
+    plain = np.frombuffer(targets.ssao.read(), np.float32).copy()
+    vis = renderer.environment_visibility(scene, targets)
+    assert vis.glo != targets.ssao.glo
+    assert not np.array_equal(np.frombuffer(vis.read(), np.float32), plain)  # S(x) in g
+    np.testing.assert_array_equal(np.frombuffer(targets.ssao.read(), np.float32), plain)
     img, drawn = _frame(renderer, scene)
-    assert "ssao" in drawn
+    assert "ssao" not in drawn and "shade" not in drawn, drawn
     np.testing.assert_array_equal(img, _full(renderer, scene))
 
 

@@ -119,17 +119,16 @@ SPHERES = [FLOOR,
             "material": {"albedo": [0.1, 0.8, 0.3], "roughness": 0.5, "metallic": 0.3}}]
 
 
-def _hit_counts(renderer, sc, rays):
+def _hit_counts(t, rays):
     """Rays per pixel the occlusion pass recorded as hits (GL order: row 0 at the bottom)."""
     from viewer.passes.ssao import hit_targets
 
-    targets = renderer.resources.targets(renderer.specialization(sc).layout, tuple(SIZE))
     n = hit_targets(rays)
-    assert sorted(k for k in targets.extras if k.startswith("ssao_hits")) == \
+    assert sorted(k for k in t.targets if k.startswith("ssao_hits")) == \
         [f"ssao_hits{i}" for i in range(n)]
     count = np.zeros(SIZE[::-1], np.int64)
     for i in range(n):
-        tex = targets.extras[f"ssao_hits{i}"][0]
+        tex = t.targets[f"ssao_hits{i}"].texture
         codes = np.frombuffer(tex.read(), np.uint32).reshape(SIZE[1], SIZE[0], 4)
         count += (codes != 0xFFFFFFFF).sum(-1)
         x, y = codes & 0xFFFF, codes >> 16
@@ -157,7 +156,7 @@ def test_indirect_reads_the_occlusion_rays_hits(ctx, rays):
         t = renderer.draw(sc)
         reused, direct, ao = (_read(t, n) for n in ("radiance", "direct", "ssao"))
         covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0
-        count = _hit_counts(renderer, sc, rays)[::-1]
+        count = _hit_counts(t, rays)[::-1]
         recorded = min(rays, HIT_TARGETS_MAX * HITS_PER_TARGET)
         missed = rays * (1.0 - ao[covered, 0])  # every ray's hit, from O(x)
         assert (count[covered] <= missed + 1e-4).all()
@@ -186,9 +185,8 @@ def test_hits_are_recorded_only_for_the_indirect_pass(ctx):
     try:
         for render in ({"ssao": True}, {"indirect": True}):
             sc = scene(SPHERES, **SSAO, **render)
-            renderer.draw(sc)
-            targets = renderer.resources.targets(renderer.specialization(sc).layout, tuple(SIZE))
-            assert not [k for k in targets.extras if k.startswith("ssao_hits")], render
+            t = renderer.draw(sc)
+            assert not [k for k in t.targets if "hits" in k], render
     finally:
         renderer.release()
 
@@ -304,8 +302,7 @@ HANGING = {"type": "sphere", "center": [0.0, 1.0, 0.6], "radius": 0.35,
 
 
 def _low(renderer, sc, t, k):
-    extras = renderer.resources.targets(renderer.layout_for(sc), t.camera.size).extras
-    tex = extras[f"ssao/{k}"][0]
+    tex = t.targets[f"ssao/{k}"].texture
     w, h = tex.size
     return np.frombuffer(tex.read(), np.float32).reshape(h, w, 4)[::-1].copy()
 
@@ -421,7 +418,7 @@ def test_scale_one_draws_the_full_scale_pass_alone(ctx):
             t = r.draw(sc)
             drawn[k] = set(timer.milliseconds())
             timer.enabled = False
-            extras = set(r.resources.targets(r.layout_for(sc), t.camera.size).extras)
+            extras = set(t.targets)
             if k == 1:
                 assert not any("/" in name for name in extras), extras
         assert "ssao_upsample" not in drawn[1] and "ssao_upsample" in drawn[2], drawn

@@ -1,56 +1,41 @@
 """Progressive accumulation of Monte-Carlo batches (``passes/accumulate.frag``).
 
-An :class:`Accumulator` keeps the running mean of every batch rendered since the last
-:meth:`~Accumulator.reset` in a float32 history texture, so a still view converges frame after
-frame; the renderer resets it whenever anything that changes the radiance changes.
+The running mean of every batch rendered since the frame graph last restarted it lives in a kept
+float32 history target (``mc_history`` of :mod:`viewer.graph.frame`, with its sample count as the
+target's state), so a still view converges frame after frame; the graph restarts it whenever
+anything that changes the radiance changes.
 """
 from __future__ import annotations
 
 from . import FullscreenDraw
 
 
-class Accumulator:
-    """Running mean of batches for one image size. ``count`` is the samples accumulated so far,
-    ``key`` what they were rendered for (the renderer compares it to restart)."""
+class AccumulatePass:
+    """Folds a batch into the running mean (stateless: the targets and count are the caller's)."""
 
-    def __init__(self, programs, size: tuple[int, int]):
-        ctx = programs.ctx
+    def __init__(self, programs):
         self.programs = programs
-        self.ctx = ctx
-        self.size = tuple(size)
-        self.batch = ctx.texture(self.size, 4, dtype="f4")   # the shading pass renders into this
-        self.history = ctx.texture(self.size, 4, dtype="f4")
-        for t in (self.batch, self.history):
-            t.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.batch_fbo = ctx.framebuffer(color_attachments=[self.batch])
-        self.history_fbo = ctx.framebuffer(color_attachments=[self.history])
-        self._draw = FullscreenDraw(ctx)
-        self.count = 0
-        self.key = None
+        self.ctx = programs.ctx
+        self._draw = FullscreenDraw(self.ctx)
 
-    def reset(self, key=None) -> None:
-        self.count = 0
-        self.key = key
-
-    def add(self, samples: int, out_fbo) -> int:
-        """Fold the batch texture (the mean of ``samples`` samples) into the mean and write the
-        mean to ``out_fbo`` (an RGBA32F target of this size). Returns the new sample count."""
-        total = self.count + int(samples)
+    def add(self, batch, history, count: int, samples: int, out_fbo) -> int:
+        """Fold ``batch`` (a texture: the mean of ``samples`` samples) into the mean of ``count``
+        samples held by ``history`` (a target: ``.texture``, ``.fbo``), write the new mean to
+        ``out_fbo`` (an RGBA32F target of the same size) and into ``history``. Returns the new
+        sample count."""
+        total = int(count) + int(samples)
         prog = self.programs.graphics("passes/fullscreen.vert", "passes/accumulate.frag")
-        self.batch.use(0)
-        self.history.use(1)
+        batch.use(0)
+        history.texture.use(1)
         prog["u_batch"].value = 0
         if "u_history" in prog:
             prog["u_history"].value = 1
-        prog["u_weight"].value = 1.0 if self.count == 0 else float(samples) / float(total)
+        prog["u_weight"].value = 1.0 if count == 0 else float(samples) / float(total)
         out_fbo.use()
-        self.ctx.viewport = (0, 0, *self.size)
+        self.ctx.viewport = (0, 0, *batch.size)
         self._draw(prog)
-        self.ctx.copy_framebuffer(dst=self.history_fbo, src=out_fbo)
-        self.count = total
+        self.ctx.copy_framebuffer(dst=history.fbo, src=out_fbo)
         return total
 
     def release(self) -> None:
         self._draw.release()
-        for obj in (self.batch_fbo, self.history_fbo, self.batch, self.history):
-            obj.release()

@@ -157,13 +157,9 @@ class SSAOPass:
         ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind. ``hits``:
         the hit targets :meth:`occlusion` recorded for the same G-buffer, camera and settings
         (read instead of marching the rays again); ``None`` marches. At ``settings.ssao.scale``
-        k > 1, ``gather_fbo`` (one RGBA32F target of :func:`low_resolution`) first receives the
-        gathered light E at low resolution (from ``hits``, which are then low resolution too),
-        and the full-resolution pass adds (1 - m) a f E with E upsampled."""
-        hits = tuple(hits or ())
-        if hits and len(hits) != hit_targets(settings.ssao.rays):
-            raise ValueError(f"{len(hits)} hit targets for {settings.ssao.rays} rays: "
-                             f"expected {hit_targets(settings.ssao.rays)}")
+        k > 1 this is :meth:`gather` into ``gather_fbo`` (one RGBA32F target of
+        :func:`low_resolution`) then :meth:`composite`."""
+        hits = self._check_hits(hits, settings)
         if int(settings.ssao.scale) == 1:
             self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
                       factor=factor, n_hits=len(hits), hits=hits)
@@ -171,10 +167,32 @@ class SSAOPass:
         if gather_fbo is None:
             raise ValueError(f"ssao scale {settings.ssao.scale}: the indirect light needs a "
                              f"low-resolution gather target")
+        self.gather(gbuffer_textures, direct, gather_fbo, camera, settings, hits=hits)
+        self.composite(gbuffer_textures, direct, out_fbo, camera, settings,
+                       gather_fbo.color_attachments[0], factor=factor)
+
+    def gather(self, gbuffer_textures: dict, direct, gather_fbo, camera: Camera,
+               settings: RenderSettings, hits=None) -> None:
+        """At scale k > 1: the one-bounce light E gathered at low resolution into
+        ``gather_fbo`` (from ``hits``, low resolution too, or marching the rays)."""
+        hits = self._check_hits(hits, settings)
         self._run(True, gbuffer_textures, gather_fbo, camera, settings, direct=direct,
                   n_hits=len(hits), hits=hits, gather=True)
+
+    def composite(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
+                  settings: RenderSettings, gathered, factor=None) -> None:
+        """At scale k > 1: ``direct`` + (1 - m) a f E into ``out_fbo``, with E the
+        :meth:`gather` result ``gathered`` upsampled to full resolution."""
         self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
-                  factor=factor, gathered=gather_fbo.color_attachments[0])
+                  factor=factor, gathered=gathered)
+
+    @staticmethod
+    def _check_hits(hits, settings: RenderSettings) -> tuple:
+        hits = tuple(hits or ())
+        if hits and len(hits) != hit_targets(settings.ssao.rays):
+            raise ValueError(f"{len(hits)} hit targets for {settings.ssao.rays} rays: "
+                             f"expected {hit_targets(settings.ssao.rays)}")
+        return hits
 
     def release(self) -> None:
         self._draw.release()

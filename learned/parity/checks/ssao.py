@@ -72,15 +72,15 @@ def checks() -> dict:
         try:
             targets = renderer.draw(scene)
             gb = gl_gbuffer(targets)
-            extras = renderer.resources.targets(renderer.layout_for(scene),
-                                                targets.camera.size).extras
-            low_gl = gl_texture(extras[f"ssao/{k}"][0])
-            gathered_gl = gl_texture(extras[f"gathered/{k}"][0])
+            low_gl = gl_texture(targets.targets[f"ssao/{k}"].texture)
+            gathered_gl = gl_texture(targets.targets[f"gathered/{k}"].texture)
             full_gl, direct = gl_texture(targets.ssao), gl_texture(targets.direct)
             final_gl = gl_texture(targets.radiance)
             vis_dirs = renderer.resources.power_directions(scene.environment)
             vis_full_gl = gl_texture(renderer.environment_visibility(scene, targets))
-            vis_low_gl = gl_texture(extras[f"ssao/{k}"][0])
+            # the visibility pass's own low-resolution target (its graph's scope)
+            vis_low_gl = gl_texture(renderer.resources.pool.kept("visibility",
+                                                                 f"ssao/{k}").texture)
             s = scene.render
             args = (gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
                     s.ssao.thickness, s.mc.seed)

@@ -1,0 +1,10 @@
+"""The frame graph (Filament's FrameGraph as the model): passes declare what they read and write,
+the graph culls, reuses and allocates (:mod:`.graph`); render targets come from a bounded pool
+(:mod:`.pool`) by descriptor (:mod:`.resources`); the renderer's own frame is declared in
+:mod:`.frame`."""
+from .graph import FrameGraph, FrameResources, PassNode, ResourceNode
+from .pool import TargetPool
+from .resources import GBufferDesc, Target, TextureDesc
+
+__all__ = ["FrameGraph", "FrameResources", "GBufferDesc", "PassNode", "ResourceNode", "Target",
+           "TargetPool", "TextureDesc"]

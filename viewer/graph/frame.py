@@ -1,0 +1,283 @@
+"""The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
+
+    gbuffer -> splats -> ssao -> ssao_upsample -> shade -> indirect_gather -> indirect
+            -> forward -> tonemap
+
+Each pass names what it reads and writes and the scene/settings values its output depends on;
+the graph (:mod:`viewer.graph.graph`) culls, decides reuse from those declarations and allocates
+targets from the renderer's pool. Only the passes the scene's specialisation needs are declared
+(no splats pass without splats, no SSAO without SSAO, ...). The draw calls themselves live in
+:mod:`viewer.passes`.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from ..camera import Camera
+from ..models import ShadingModel, model_info
+from ..neural import learns_indirect, reads_visibility
+from ..passes.forward import forward_model
+from ..passes.gbuffer import GBufferTargets
+from ..passes.ssao import hit_targets, low_resolution
+from ..scene import Scene
+from ..specialize import Specialization
+from .graph import FrameGraph
+from .resources import GBufferDesc, TextureDesc
+
+MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
+
+
+@dataclass
+class FrameRequest:
+    """What one frame is asked for: the scene (its settings already completed by
+    ``viewer.neural.required_settings``), the shading model, the specialisation and camera, and
+    Monte-Carlo progression."""
+
+    scene: Scene
+    model: ShadingModel
+    spec: Specialization
+    camera: Camera
+    progressive: bool = False
+    samples_per_frame: int = 1
+
+
+def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
+    """The frame graph of ``req`` over ``renderer``'s passes and pool (not yet compiled)."""
+    scene, spec, camera = req.scene, req.spec, req.camera
+    settings = scene.render
+    res = renderer.resources
+    g = FrameGraph(res.pool, scope="frame", reuse=reuse)
+    size = tuple(camera.size)
+    g.create("radiance", TextureDesc(size, 4, "f4"), kept=True)
+    g.create("display", TextureDesc(size, 4, "f1"), kept=True)
+
+    _gbuffer_passes(g, renderer, scene, spec, camera)
+    ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
+                        record_hits=settings.ssao.indirect) if settings.ssao.enabled else None
+    _lighting_passes(g, renderer, req, ssao)
+    blended = [] if spec.direct_stack else renderer.blended(scene)
+    if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
+        # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
+        sun = settings.sun and model_info(forward_model(settings.model)).analytic_sun
+
+        def forward(f):
+            res.layout_pass("forward", spec.layout).run(
+                blended, f["gbuffer"].textures, f["radiance"].fbo, camera,
+                res.ibl(scene.environment, sun=sun), scene.environment, settings,
+                light=scene.light)
+        g.add_pass("forward", forward, reads=("gbuffer", "radiance"), writes=("radiance",),
+                   inputs={"objects": scene.objects, "render": _lighting_settings(settings),
+                           "environment": scene.environment, "light": scene.light})
+
+    def tonemap(f):
+        res.tonemap().run(f["radiance"].texture, f["display"].fbo, settings.display.exposure,
+                          settings.display.tonemap)
+    g.add_pass("tonemap", tonemap, reads=("radiance",), writes=("display",),
+               inputs={"exposure": settings.display.exposure,
+                       "tonemap": settings.display.tonemap})
+    return g
+
+
+# ---- G-buffer ---------------------------------------------------------------------------------
+def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
+                    camera: Camera) -> None:
+    """The G-buffer: a lone image stack's own textures (imported), else meshes and image stacks
+    rasterised (``gbuffer``) and splats composited over them (``splats``)."""
+    res = renderer.resources
+    gpass = res.layout_pass("gbuffer", spec.layout)
+    identity = {"objects": scene.objects, "camera": camera, "layout": spec.layout,
+                "geometry": renderer.geometry_cache.version}
+    if spec.direct_stack:
+        # one image-space stack and nothing else: its uploaded textures already are a G-buffer in
+        # this layout, so the lighting pass reads them and no copy pass runs
+        stack = renderer.geometry(scene.objects[0])
+        view = GBufferTargets(ctx=renderer.ctx, layout=spec.layout, size=tuple(camera.size),
+                              textures=dict(gpass.stack_textures(stack)), depth=None, fbo=None)
+        g.import_resource("gbuffer", view, signature=tuple(sorted(identity.items())))
+        return
+    g.create("gbuffer", GBufferDesc(spec.layout, tuple(camera.size)), kept=True)
+    contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
+    clouds = [c for obj, c in contents if obj.type == "splats"]
+
+    def gbuffer(f):
+        gb = f["gbuffer"]
+        gb.clear()
+        meshes = []
+        for obj, content in contents:
+            if obj.type == "gbuffer":
+                gpass.draw_image(gb, content)
+            elif obj.type != "splats":  # alphaMode BLEND: the forward pass after lighting
+                meshes.extend(m for m in content if m.alpha_mode != "BLEND")
+        if meshes:
+            gpass.draw_meshes(gb, camera, meshes)
+    g.add_pass("gbuffer", gbuffer, writes=("gbuffer",), inputs=identity)
+    if clouds:  # after meshes: depth-tested against them, composited over them
+
+        def splats(f):
+            res.layout_pass("splats", spec.layout).draw_clouds(
+                f["gbuffer"], camera, clouds, depth=scene.render.splat_depth)
+        g.add_pass("splats", splats, reads=("gbuffer",), writes=("gbuffer",),
+                   inputs={**identity, "splat_depth": scene.render.splat_depth})
+
+
+# ---- SSAO -------------------------------------------------------------------------------------
+@dataclass
+class SSAOOutputs:
+    occlusion: str          # the full-resolution O(x) / S(x) resource
+    hits: tuple[str, ...]   # the rays' hit targets (empty without record_hits)
+
+
+def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, camera: Camera,
+                 visibility: bool, record_hits: bool) -> SSAOOutputs:
+    """SSAO's occlusion O(x) (``ssao``); with ``visibility`` also S(x) towards the environment's
+    equal-power directions; with ``record_hits`` each ray's hit pixel for the indirect pass. At
+    ``ssao.scale`` k > 1 the rays run at low resolution and ``ssao_upsample`` fills ``ssao``."""
+    res = renderer.resources
+    settings = scene.render
+    k = int(settings.ssao.scale)
+    low_size = low_resolution(camera.size, k)
+    occ = "ssao" if k == 1 else f"ssao/{k}"
+    g.create(occ, TextureDesc(low_size, 4, "f4"), kept=True)
+    hits = tuple(f"{occ}_hits{i}" for i in range(hit_targets(settings.ssao.rays))) \
+        if record_hits else ()
+    for h in hits:
+        g.create(h, TextureDesc(low_size, 4, "u4"), kept=True)
+    env = scene.environment
+    sspass = res.layout_pass("ssao", spec.layout)
+
+    def occlusion(f):
+        vis_dirs = res.power_directions(env) if visibility else None
+        sspass.occlusion(f["gbuffer"].textures, f.fbo(occ, *hits), camera, settings,
+                         vis_dirs=vis_dirs, env_rotation_deg=env.rotation_deg,
+                         record_hits=record_hits)
+    # the environment enters only through the visibility's directions (not its intensity)
+    g.add_pass("ssao", occlusion, reads=("gbuffer",), writes=(occ,) + hits,
+               inputs={"ssao": settings.ssao, "seed": settings.mc.seed, "visibility": visibility,
+                       "environment": (dataclasses.replace(env, intensity=1.0)
+                                       if visibility else None)})
+    if k > 1:
+        g.create("ssao", TextureDesc(tuple(camera.size), 4, "f4"), kept=True)
+
+        def upsample(f):
+            sspass.upsample(f["gbuffer"].textures, f[occ].texture, f["ssao"].fbo, camera, settings)
+        g.add_pass("ssao_upsample", upsample, reads=("gbuffer", occ), writes=("ssao",),
+                   inputs={"scale": k})
+    return SSAOOutputs("ssao", hits)
+
+
+# ---- lighting ---------------------------------------------------------------------------------
+def _lighting_settings(settings):
+    """The settings the lighting passes depend on: all but exposure and tone mapping."""
+    return dataclasses.replace(settings, display=dataclasses.replace(
+        settings.display, exposure=0.0, tonemap="none"))
+
+
+def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None):
+    """``shade`` (accumulated for Monte-Carlo models) into ``radiance``, or, with the indirect
+    light, into ``direct`` (and a student's learned ``indirect_factor``), then ``indirect``."""
+    scene, model, spec, camera = req.scene, req.model, req.spec, req.camera
+    settings = scene.render
+    res = renderer.resources
+    size = tuple(camera.size)
+    indirect = settings.ssao.indirect
+    factor = indirect and learns_indirect(settings)
+    out = "direct" if indirect else "radiance"
+    outs = (out,)
+    if indirect:
+        g.create("direct", TextureDesc(size, 4, "f4"), kept=True)
+        if factor:  # the student's 2nd output: its indirect factor (R32F)
+            g.create("indirect_factor", TextureDesc(size, 1, "f4"), kept=True)
+            outs = ("direct", "indirect_factor")
+    reads = ("gbuffer",) + ((ssao.occlusion,) if ssao else ())
+    env_sampling = renderer.env_sampling(scene) if "cdf" in model.needs else None
+    # the IBL without the sun a SUN_LIGHT pass shades itself
+    ibl = res.ibl(scene.environment, sun=bool(spec.variant.defines.get("SUN_LIGHT")))
+    spass = res.layout_pass("shade", spec.layout)
+
+    def shade_into(f, fbo, sample_range=(0, 1)):
+        spass.run(f["gbuffer"].textures, fbo, camera, ibl, scene.environment, settings,
+                  env_sampling=env_sampling, ssao=f[ssao.occlusion].texture if ssao else None,
+                  sample_range=sample_range, variant=spec.variant, light=scene.light)
+
+    inputs = {"model": settings.model, "render": _lighting_settings(settings),
+              "environment": scene.environment, "light": scene.light, "variant": spec.variant}
+    writes = outs
+    if model.accumulates:
+        g.create("mc_batch", TextureDesc(size, 4, "f4"))
+        g.create("mc_history", TextureDesc(size, 4, "f4"), kept=True)
+        writes = outs + ("mc_batch", "mc_history")
+
+        def shade(f):
+            _accumulate(f, renderer, req, shade_into, f.fbo(*outs))
+    else:
+        def shade(f):
+            shade_into(f, f.fbo(*outs))
+    g.add_pass("shade", shade, reads=reads, writes=writes, inputs=inputs,
+               volatile=model.accumulates)
+
+    if not indirect:
+        return
+    sspass = res.layout_pass("ssao", spec.layout)
+    k = int(settings.ssao.scale)
+    hits = ssao.hits if ssao else ()
+    ind_reads = ("gbuffer", "direct") + hits + (("indirect_factor",) if factor else ())
+    ind_inputs = {"ssao": settings.ssao, "seed": settings.mc.seed}
+    if k > 1:  # gathered at low resolution, composited at full resolution
+        gathered = g.create(f"gathered/{k}", TextureDesc(low_resolution(size, k), 4, "f4"),
+                            kept=True)
+
+        def gather(f):
+            sspass.gather(f["gbuffer"].textures, f["direct"].texture, f[gathered].fbo, camera,
+                          settings, hits=[f[h].texture for h in hits])
+        g.add_pass("indirect_gather", gather, reads=("gbuffer", "direct") + hits,
+                   writes=(gathered,), inputs=ind_inputs)
+        ind_reads += (gathered,)
+
+    def indirect_light(f):
+        fac = f["indirect_factor"].texture if factor else None
+        if k > 1:
+            sspass.composite(f["gbuffer"].textures, f["direct"].texture, f["radiance"].fbo,
+                             camera, settings, f[f"gathered/{k}"].texture, factor=fac)
+        else:  # reads the occlusion pass's hits; marches the rays itself without that pass
+            sspass.indirect(f["gbuffer"].textures, f["direct"].texture, f["radiance"].fbo,
+                            camera, settings, factor=fac, hits=[f[h].texture for h in hits])
+    g.add_pass("indirect", indirect_light, reads=ind_reads, writes=("radiance",),
+               inputs=ind_inputs)
+
+
+def _accumulate(f, renderer, req: FrameRequest, shade_into, out_fbo) -> None:
+    """Monte-Carlo batches into the running mean kept in ``mc_history`` (its state: the sample
+    count and what they were rendered for); any change to the scene but exposure and tone mapping,
+    or a non-progressive frame, restarts it."""
+    scene, camera = req.scene, req.camera
+    settings = scene.render
+    acc = renderer.resources.accumulate_pass()
+    state = f.state("mc_history")
+    key = (dataclasses.replace(scene, render=_lighting_settings(settings)), camera)
+    if not req.progressive or state.get("key") != key:
+        state.update(key=key, count=0)
+    if req.progressive:
+        todo = min(max(int(req.samples_per_frame), 1), max(settings.mc.samples - state["count"],
+                                                           0))
+    else:
+        todo = settings.mc.samples
+    batch, history = f["mc_batch"], f["mc_history"]
+    if todo == 0:  # converged: the history holds the mean
+        renderer.ctx.copy_framebuffer(dst=out_fbo, src=history.fbo)
+    while todo > 0:
+        n = min(todo, MC_BATCH)
+        shade_into(f, batch.fbo, (state["count"], n))
+        state["count"] = acc.add(batch.texture, history, state["count"], n, out_fbo)
+        todo -= n
+    f.samples = state["count"]
+
+
+def visibility_graph(renderer, scene: Scene, spec: Specialization, frame) -> FrameGraph:
+    """SSAO with the environment's visibility S(x) on the G-buffer a frame left (``frame``: its
+    :class:`~viewer.frame.FrameTargets`), in a scope of its own so it never overwrites (nor is
+    mistaken for) the frame's SSAO target."""
+    g = FrameGraph(renderer.resources.pool, scope="visibility", reuse=False)
+    g.import_resource("gbuffer", frame.gbuffer, signature=("frame", id(frame.gbuffer)))
+    _ssao_passes(g, renderer, scene, spec, frame.camera, visibility=True, record_hits=False)
+    return g

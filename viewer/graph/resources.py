@@ -1,0 +1,70 @@
+"""Resource descriptors of the frame graph: what a pass declares it writes (size, format,
+channels), hashable so the target pool can key and reuse targets by them."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..gbuffer import GBufferLayout
+from ..passes.gbuffer import GBufferTargets
+
+_DTYPE_BYTES = {"f1": 1, "f2": 2, "f4": 4, "u4": 4, "i4": 4}
+_DTYPE_NAME = {"f1": "8", "f2": "16F", "f4": "32F", "u4": "32UI", "i4": "32I"}
+_CHANNELS = {1: "R", 2: "RG", 3: "RGB", 4: "RGBA"}
+
+
+@dataclass
+class Target:
+    """One colour texture (NEAREST filtered) and a framebuffer drawing to it."""
+
+    texture: object
+    fbo: object
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return tuple(self.texture.size)
+
+    def release(self) -> None:
+        self.fbo.release()
+        self.texture.release()
+
+
+@dataclass(frozen=True)
+class TextureDesc:
+    """A 2D colour target: ``size`` (W, H), ``components`` 1-4, ``dtype`` ``f1`` (RGBA8), ``f2``,
+    ``f4`` (float) or ``u4`` (unsigned integers)."""
+
+    size: tuple[int, int]
+    components: int = 4
+    dtype: str = "f4"
+
+    def create(self, ctx) -> Target:
+        tex = ctx.texture(tuple(int(s) for s in self.size), self.components, dtype=self.dtype)
+        tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        return Target(tex, ctx.framebuffer(color_attachments=[tex]))
+
+    def bytes(self) -> int:
+        return int(self.size[0]) * int(self.size[1]) * self.components * _DTYPE_BYTES[self.dtype]
+
+    def describe(self) -> str:
+        return (f"{self.size[0]}x{self.size[1]} {_CHANNELS[self.components]}"
+                f"{_DTYPE_NAME[self.dtype]}")
+
+
+@dataclass(frozen=True)
+class GBufferDesc:
+    """The G-buffer of ``layout`` at ``size``: its attachments and a 24-bit depth buffer."""
+
+    layout: GBufferLayout
+    size: tuple[int, int]
+
+    def create(self, ctx) -> GBufferTargets:
+        return GBufferTargets.create(ctx, self.layout, self.size)
+
+    def bytes(self) -> int:
+        per = 4 * _DTYPE_BYTES[self.layout.dtype]
+        return int(self.size[0]) * int(self.size[1]) * (per * len(self.layout.attachments) + 4)
+
+    def describe(self) -> str:
+        n = len(self.layout.attachments)
+        return (f"{self.size[0]}x{self.size[1]} G-buffer {n} x RGBA{_DTYPE_NAME[self.layout.dtype]}"
+                f" + depth")

@@ -37,7 +37,8 @@ def surface_depth_at(q_vs, p_vs, n_vs, depth_center) -> torch.Tensor:
     len_q = torch.linalg.vector_norm(q_vs, dim=-1)
     ok = qn.abs() > 0.05 * len_q
     z = -q_vs[..., 2] * ((p_vs * n_vs).sum(-1) / torch.where(ok, qn, torch.ones_like(qn)))
-    return torch.where(ok, z, depth_center)
+    front = ((q_vs - p_vs) * n_vs).sum(-1) >= -1e-4 * len_q  # grazing: on or before the plane
+    return torch.where(ok, z, torch.where(front, -q_vs[..., 2], depth_center))
 
 
 def ssao_upsample_weight(bilinear, p_vs, n_vs, q_vs, nq_vs) -> torch.Tensor:

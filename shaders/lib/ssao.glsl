@@ -21,11 +21,16 @@ vec3 view_to_frag(vec3 p_vs, vec2 resolution, vec2 tan_half_fov) {
 // The stored surface's depth along the ray through q_vs: the depth buffer holds the surface at the
 // pixel centre, p_vs with normal n_vs; its tangent plane is intersected with the camera ray
 // through q (first-order reconstruction between pixel centres, so a flat surface is exact).
-// Falls back to the centre depth when the ray grazes the plane.
+// Where the ray grazes the plane the intersection is ill-conditioned: a q on the plane's front side
+// (or on it, within 1e-4 of |q|) is taken as lying on or in front of that surface (its own depth:
+// not occluded, as a floor seen edge-on at the horizon must be), one behind it falls back to the
+// centre depth.
 float surface_depth_at(vec3 q_vs, vec3 p_vs, vec3 n_vs, float depth_center) {
     float qn = dot(q_vs, n_vs);
     float len_q = length(q_vs);
-    if (!(abs(qn) > 0.05 * len_q)) return depth_center;
+    if (!(abs(qn) > 0.05 * len_q)) {
+        return dot(q_vs - p_vs, n_vs) >= -1e-4 * len_q ? -q_vs.z : depth_center;
+    }
     return -q_vs.z * (dot(p_vs, n_vs) / qn);
 }
 

@@ -437,3 +437,27 @@ def test_low_resolution_rounds_up():
     assert low_resolution((512, 512), 4) == (128, 128)
     assert low_resolution((50, 47), 3) == (17, 16)
     assert low_resolution((7, 5), 1) == (7, 5)
+
+
+@pytest.mark.parametrize("size", [(50, 47), (47, 45), (51, 49), (64, 64)])
+def test_grazing_floor_horizon_is_unoccluded(ctx, size):
+    """A flat floor seen almost edge-on up to its horizon: every covered pixel, the horizon rows
+    included, has O(x) = 1 exactly (no surface occludes a plane). The rows near the horizon take
+    the grazing branch of surface_depth_at, which once fell back to the centre depth and darkened
+    them to 0.5 at these odd sizes."""
+    renderer = Renderer(ctx=ctx)
+    try:
+        sc = scene_from_dict({
+            "camera": {"position": [0, 0.25, 3], "target": [0, 0.2, -10], "fov_y": 50,
+                       "size": list(size)},
+            "environment": {"procedural": "white", "width": 64},
+            "objects": [{"type": "plane", "center": [0, 0, 0], "size": [200, 200],
+                         "normal": [0, 1, 0]}],
+            "render": {"ssao": True, "ssao_rays": 16, "ssao_steps": 8, "tonemap": "none"}})
+        t = renderer.draw(sc)
+        ao = np.frombuffer(t.ssao.read(), np.float32).reshape(size[1], size[0], 4)[::-1, :, 0]
+        covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0
+        assert covered.sum() > size[0] * 5
+        assert ao[covered].min() == 1.0, np.where(covered & (ao < 1.0))
+    finally:
+        renderer.release()

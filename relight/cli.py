@@ -9,6 +9,7 @@
                  [--spp N] [--seed N]
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
+    relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
     relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
@@ -21,6 +22,8 @@ import sys
 
 from viewer.errors import RelightError
 
+from . import gallery
+from . import graph as graph_command
 from .commands import (
     _hidden,
     _nonnegative_float,
@@ -254,6 +257,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_view)
+
+    gallery.add_parser(sub)  # relight gallery: relight/gallery.py
+    graph_command.add_parser(sub)  # relight graph: relight/graph.py
     return parser
 
 

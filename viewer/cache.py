@@ -6,8 +6,9 @@ collects them), so memory stays flat however many sizes, environments or meshes 
     cache = BoundedCache("targets", max_bytes=256 << 20, release=lambda v: v.release())
     tex = cache.get_or_create(key, lambda: ctx.texture(...), nbytes=texture_bytes)
 
-Entries in use by the frame being drawn are pinned (:meth:`BoundedCache.pinned`): the budget may
-be exceeded while they are held, never by evicting what a pass still reads. ``stats()`` reports
+Entries in use by the frame being drawn are pinned (:meth:`BoundedCache.pinned`, or everything
+looked up inside :meth:`BoundedCache.frame`): the budget may be exceeded while they are held, never
+by evicting what a pass still reads. ``stats()`` reports
 items, bytes, hits, misses and evictions (``Renderer.memory()`` gathers them per cache).
 """
 from __future__ import annotations
@@ -39,6 +40,20 @@ class CacheStats:
     def as_dict(self) -> dict:
         return dict(self.__dict__)
 
+    @staticmethod
+    def combine(name: str, stats) -> "CacheStats":
+        """One line for several caches of one kind (each layout's pass, say): items, bytes and
+        counters summed; a budget is the sum, or None where any of them is unbounded."""
+        stats = list(stats)
+
+        def budget(values):
+            values = list(values)
+            return None if not values or any(v is None for v in values) else sum(values)
+        return CacheStats(name, sum(s.items for s in stats), sum(s.bytes for s in stats),
+                          budget(s.max_bytes for s in stats), budget(s.max_items for s in stats),
+                          sum(s.hits for s in stats), sum(s.misses for s in stats),
+                          sum(s.evictions for s in stats))
+
 
 class BoundedCache:
     """A least-recently-used map with a byte budget (``max_bytes``) and/or an item budget
@@ -63,6 +78,9 @@ class BoundedCache:
         self._entries: OrderedDict[Hashable, tuple[object, int]] = OrderedDict()
         self._bytes = 0
         self._pins: dict[Hashable, int] = {}
+        # keys looked up or stored inside frame(): kept until the outermost frame ends
+        self._frame_depth = 0
+        self._in_frame: set = set()
         self.hits = self.misses = self.evictions = 0
 
     # ---- lookups ----------------------------------------------------------------------------
@@ -87,9 +105,18 @@ class BoundedCache:
         entry = self._entries.get(key)
         if entry is None:
             return default
-        self._entries.move_to_end(key)
-        self._used[key] = self.clock
+        self._mark(key)
         return entry[0]
+
+    def peek(self, key: Hashable, default=None):
+        """The value of ``key`` or ``default``, leaving its recency and the statistics alone."""
+        entry = self._entries.get(key)
+        return default if entry is None else entry[0]
+
+    def nbytes(self, key: Hashable) -> int:
+        """The bytes ``key`` was stored with (0 when absent)."""
+        entry = self._entries.get(key)
+        return 0 if entry is None else entry[1]
 
     def get_or_create(self, key: Hashable, factory: Callable[[], object],
                       nbytes: int | Callable[[object], int] = 0):
@@ -98,8 +125,7 @@ class BoundedCache:
         entry = self._entries.get(key)
         if entry is not None:
             self.hits += 1
-            self._entries.move_to_end(key)
-            self._used[key] = self.clock
+            self._mark(key)
             return entry[0]
         self.misses += 1
         value = factory()
@@ -116,9 +142,20 @@ class BoundedCache:
             if old[0] is not value:
                 self._free(old[0])
         self._entries[key] = (value, int(nbytes))
-        self._used[key] = self.clock
+        self._mark(key)
         self._bytes += int(nbytes)
         self.trim(keep=(key,))
+
+    def set_nbytes(self, key: Hashable, nbytes: int) -> None:
+        """Count ``key`` as ``nbytes`` from now on (what it holds grew or shrank), evicting other
+        entries if the budget no longer holds; its recency is unchanged."""
+        entry = self._entries.get(key)
+        if entry is None:
+            return
+        self._bytes += int(nbytes) - entry[1]
+        self._entries[key] = (entry[0], int(nbytes))  # an existing key keeps its place
+        if int(nbytes) > entry[1]:
+            self.trim(keep=(key,))
 
     def pop(self, key: Hashable, release: bool = True):
         """Remove ``key`` (releasing its value unless ``release=False``); returns the value."""
@@ -126,6 +163,7 @@ class BoundedCache:
         if entry is None:
             return None
         self._used.pop(key, None)
+        self._in_frame.discard(key)
         self._bytes -= entry[1]
         if release:
             self._free(entry[0])
@@ -137,7 +175,8 @@ class BoundedCache:
         evicted = 0
         if self.max_age is not None:
             for key in [k for k, t in self._used.items() if self.clock - t > self.max_age]:
-                if key not in keep and not self._pins.get(key):
+                # (a release callback may have removed entries meanwhile)
+                if key in self._entries and key not in keep and not self._held(key):
                     self.pop(key)
                     self.evictions += 1
                     evicted += 1
@@ -146,7 +185,7 @@ class BoundedCache:
         for key in list(self._entries.keys()):
             if not self._over():
                 break
-            if key in keep or self._pins.get(key):
+            if key in keep or self._held(key) or key not in self._entries:
                 continue
             self.pop(key)
             self.evictions += 1
@@ -162,8 +201,7 @@ class BoundedCache:
     def touch(self, key: Hashable) -> None:
         """Mark ``key`` used now (and most recently used) without looking it up."""
         if key in self._entries:
-            self._entries.move_to_end(key)
-            self._used[key] = self.clock
+            self._mark(key)
 
     def resize(self, max_bytes: int | None = None, max_items: int | None = None) -> None:
         """New budgets (evicting at once what no longer fits)."""
@@ -171,11 +209,13 @@ class BoundedCache:
         self.trim()
 
     def clear(self) -> None:
-        for value, _ in self._entries.values():
-            self._free(value)
+        entries = list(self._entries.values())
         self._entries.clear()
         self._used.clear()
+        self._in_frame.clear()
         self._bytes = 0
+        for value, _ in entries:  # after emptying: a release callback may look the cache up
+            self._free(value)
 
     @contextmanager
     def pinned(self, *keys: Hashable):
@@ -193,11 +233,34 @@ class BoundedCache:
                     self._pins.pop(k, None)
             self.trim()
 
+    @contextmanager
+    def frame(self):
+        """Inside (a frame being drawn), every entry looked up or stored is kept until the
+        outermost ``frame()`` ends: a pass may hold what it looked up earlier in the frame. The
+        budgets may be exceeded meanwhile; they hold again when it ends."""
+        self._frame_depth += 1
+        try:
+            yield self
+        finally:
+            self._frame_depth -= 1
+            if self._frame_depth == 0:
+                self._in_frame.clear()
+                self.trim()
+
     def stats(self) -> CacheStats:
         return CacheStats(self.name, len(self._entries), self._bytes, self.max_bytes,
                           self.max_items, self.hits, self.misses, self.evictions)
 
     # ---- internals --------------------------------------------------------------------------
+    def _mark(self, key: Hashable) -> None:
+        self._entries.move_to_end(key)
+        self._used[key] = self.clock
+        if self._frame_depth:
+            self._in_frame.add(key)
+
+    def _held(self, key: Hashable) -> bool:
+        return bool(self._pins.get(key)) or key in self._in_frame
+
     def _over(self) -> bool:
         return ((self.max_bytes is not None and self._bytes > self.max_bytes)
                 or (self.max_items is not None and len(self._entries) > self.max_items))

@@ -56,8 +56,9 @@ class Renderer:
         self._owns_context = ctx is None
         self.ctx = ctx if ctx is not None else create_context(options)
         self.budgets = budgets
-        self.programs = Programs(self.ctx)
-        self.geometry_cache = GeometryCache()  # CPU geometry per object shape
+        self.programs = Programs(self.ctx, max_items=budgets.programs)  # compiled, by count
+        # loaded geometry and its uploads, by bytes
+        self.geometry_cache = GeometryCache(max_bytes=budgets.geometry_bytes)
         self.resources = GPUResources(self.programs, budgets)  # targets, passes, environments
         # (objects, environment) -> SceneFeatures: the analysis scans materials and texture maps
         self._features = BoundedCache("features", max_items=64)
@@ -144,9 +145,10 @@ class Renderer:
         Drawn into a target of its own (valid until the next call): for training data, tests and
         parity checks."""
         make_current(self.ctx)
-        spec = self.specialization(scene)
-        graph = visibility_graph(self, scene, spec, frame)
-        return graph.compile().execute()["ssao"].texture
+        with self._frame():
+            spec = self.specialization(scene)
+            graph = visibility_graph(self, scene, spec, frame)
+            return graph.compile().execute()["ssao"].texture
 
     # ---- the render graph ---------------------------------------------------------------------
     def draw(self, scene: Scene, size: tuple[int, int] | None = None, progressive: bool = False,
@@ -164,6 +166,16 @@ class Renderer:
         in one process.
         """
         make_current(self.ctx)
+        with self._frame():
+            return self._draw(scene, size, progressive, samples_per_frame, aovs)
+
+    @contextmanager
+    def _frame(self):
+        """Nothing a frame looks up (programs, geometry) is evicted before the frame ends."""
+        with self.programs.frame(), self.geometry_cache.frame():
+            yield
+
+    def _draw(self, scene, size, progressive, samples_per_frame, aovs) -> FrameTargets:
         model = model_info(scene.render.model)  # unknown model -> SceneError before any GPU work
         settings = required_settings(scene.render)  # SSAO for a student that reads visibility
         if settings is not scene.render:
@@ -242,6 +254,8 @@ class Renderer:
         """Free every GPU resource (and the context, if this renderer created it)."""
         make_current(self.ctx)
         self.resources.release()
+        self.geometry_cache.clear()
+        self.programs.release()
         if self._owns_context:
             self.ctx.release()
 

@@ -6,15 +6,24 @@ guards are implicit) and records which file and line every output line came from
 message such as Mesa's ``0:57(3): error`` is reported as ``lib/brdf.glsl:12(3)``. (``#line`` with a
 source-string number would be neater, but Mesa ignores the number, so we map global lines.) Variants are prepended
 ``#define`` lines; the compiled program is cached under (stages, defines).
+
+The cache is bounded by count (:attr:`viewer.cache.Budgets.programs`, least recently used first):
+an evicted program is released at once, with whatever was registered on it (:func:`on_release`:
+the vertex arrays made for it), and a later request compiles it again. Look a program up where it
+is used (every pass does, per draw) rather than keeping it: what was looked up inside
+:meth:`Programs.frame` is never evicted before that frame ends.
 """
 from __future__ import annotations
 
 import re
+import weakref
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import Callable, Mapping
 
 from shaders import SHADER_ROOT
 
+from ..cache import BoundedCache, Budgets, CacheStats
 from ..errors import ShaderCompileError
 
 GLSL_VERSION = "#version 430 core"
@@ -96,12 +105,51 @@ def assemble(entry: str, defines: Mapping[str, object] | None = None,
     return out
 
 
-class Programs:
-    """Compiles and caches programs for one context, keyed by stages, defines and virtual files."""
+class _ReleaseHooks:
+    """What to call when :class:`Programs` releases a program (kept in the program's ``extra``):
+    weak references, so a pass that is gone is not kept alive by the programs it used."""
 
-    def __init__(self, ctx):
+    def __init__(self):
+        self.refs: list = []
+
+    def add(self, callback: Callable[[object], None]) -> None:
+        self.refs = [r for r in self.refs if r() is not None]  # what died meanwhile
+        if not any(r() == callback for r in self.refs):
+            self.refs.append(weakref.WeakMethod(callback) if hasattr(callback, "__self__")
+                             else weakref.ref(callback))
+
+    def run(self, program) -> None:
+        refs, self.refs = self.refs, []
+        for ref in refs:
+            callback = ref()
+            if callback is not None:
+                callback(program)
+
+
+def on_release(program, callback: Callable[[object], None]) -> None:
+    """Call ``callback(program)`` just before :class:`Programs` releases ``program`` (evicted from
+    the cache, or the cache released): drop what was made for it, such as vertex arrays. Held
+    weakly (a bound method of an object that is gone is skipped); a program that did not come
+    from :class:`Programs` is never released by it, so nothing is registered."""
+    hooks = getattr(program, "extra", None)
+    if isinstance(hooks, _ReleaseHooks):
+        hooks.add(callback)
+
+
+def _release_program(program) -> None:
+    hooks = getattr(program, "extra", None)
+    if isinstance(hooks, _ReleaseHooks):
+        hooks.run(program)
+    program.release()
+
+
+class Programs:
+    """Compiles and caches programs for one context, keyed by stages, defines and virtual files;
+    at most ``max_items`` (least recently used evicted and released; ``None``: unbounded)."""
+
+    def __init__(self, ctx, max_items: int | None = Budgets.programs):
         self.ctx = ctx
-        self._cache: dict[tuple, object] = {}
+        self._cache = BoundedCache("programs", max_items=max_items, release=_release_program)
 
     def _key(self, stages, defines, virtual):
         return (stages, tuple(sorted((defines or {}).items())),
@@ -110,8 +158,8 @@ class Programs:
     def graphics(self, vertex: str, fragment: str, defines: Mapping[str, object] | None = None,
                  virtual: Mapping[str, str] | None = None):
         """A vertex + fragment program (cached)."""
-        key = self._key(("vf", vertex, fragment), defines, virtual)
-        if key not in self._cache:
+
+        def build():
             defs = dict(defines or {})
             vs = assemble(vertex, {**defs, "STAGE_VERTEX": 1}, virtual)
             fs = assemble(fragment, {**defs, "STAGE_FRAGMENT": 1}, virtual)
@@ -119,21 +167,26 @@ class Programs:
                 prog = self.ctx.program(vertex_shader=vs.source, fragment_shader=fs.source)
             except Exception as exc:
                 raise self._error(exc, fragment, (vs, fs)) from None
-            self._cache[key] = prog
-        return self._cache[key]
+            prog.extra = _ReleaseHooks()
+            return prog
+
+        return self._cache.get_or_create(self._key(("vf", vertex, fragment), defines, virtual),
+                                         build)
 
     def compute(self, entry: str, defines: Mapping[str, object] | None = None,
                 virtual: Mapping[str, str] | None = None):
         """A compute program (cached)."""
-        key = self._key(("c", entry), defines, virtual)
-        if key not in self._cache:
+
+        def build():
             cs = assemble(entry, {**dict(defines or {}), "STAGE_COMPUTE": 1}, virtual)
             try:
                 prog = self.ctx.compute_shader(cs.source)
             except Exception as exc:
                 raise self._error(exc, entry, (cs,)) from None
-            self._cache[key] = prog
-        return self._cache[key]
+            prog.extra = _ReleaseHooks()
+            return prog
+
+        return self._cache.get_or_create(self._key(("c", entry), defines, virtual), build)
 
     @staticmethod
     def _error(exc: Exception, entry: str, parts) -> ShaderCompileError:
@@ -144,6 +197,28 @@ class Programs:
         errors = [ln.strip() for ln in mapped.splitlines() if "error" in ln.lower() and ":" in ln]
         detail = "; ".join(dict.fromkeys(e for e in errors if not e.startswith("GLSL Compiler")))
         return ShaderCompileError(detail or mapped.strip().splitlines()[-1], where=entry)
+
+    @contextmanager
+    def frame(self):
+        """``with programs.frame():`` around a frame: no program looked up inside is evicted
+        before it ends (the count may exceed the budget meanwhile)."""
+        with self._cache.frame():
+            yield self
+
+    def resize(self, max_items: int | None) -> None:
+        """A new count budget (evicting at once what no longer fits)."""
+        self._cache.resize(max_items=max_items)
+
+    def stats(self) -> CacheStats:
+        return self._cache.stats()
+
+    def release(self) -> None:
+        """Release every program (and what was registered on them: :func:`on_release`)."""
+        self._cache.clear()
+
+    def __contains__(self, program) -> bool:
+        """Whether ``program`` (the object) is cached now."""
+        return any(p is program for p in self._cache.values())
 
     def __len__(self) -> int:
         return len(self._cache)

@@ -93,7 +93,7 @@ def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
         # this layout, so the lighting pass reads them and no copy pass runs
         stack = renderer.geometry(scene.objects[0])
         view = GBufferTargets(ctx=renderer.ctx, layout=spec.layout, size=tuple(camera.size),
-                              textures=dict(gpass.stack_textures(stack)), depth=None, fbo=None)
+                              textures=dict(gpass._stack_textures(stack)), depth=None, fbo=None)
         g.import_resource("gbuffer", view, signature=tuple(sorted(identity.items())))
         return
     g.create("gbuffer", GBufferDesc(spec.layout, tuple(camera.size)), kept=True)

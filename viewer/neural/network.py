@@ -6,6 +6,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..cache import BoundedCache, CacheStats
 from .format import (MODEL_KINDS, STUDENT_FEATURES, NetworkFile, WeightsError, default_weights,
                      read_weights)
 from .glsl import WEIGHT_STORAGES, NetworkCode, generate_glsl
@@ -31,7 +32,15 @@ class Network(NetworkFile):
         return self._code[storage]
 
 
-_CACHE: dict[tuple, Network] = {}
+MAX_NETWORKS = 16  # loaded networks kept per process (least recently used forgotten)
+# (resolved path, size, modification time) -> Network: a rewritten file is a new key, the old one
+# ages out
+_CACHE = BoundedCache("networks", max_items=MAX_NETWORKS)
+
+
+def cache_stats() -> CacheStats:
+    """The process-wide cache of loaded networks (:func:`load_network`)."""
+    return _CACHE.stats()
 
 
 def load_network(path: str | os.PathLike, kind: str | None = None) -> Network:
@@ -43,11 +52,11 @@ def load_network(path: str | os.PathLike, kind: str | None = None) -> Network:
         raise WeightsError("weights file not found", where=path)
     st = path.stat()
     key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
-    net = _CACHE.get(key)
-    if net is None:
+    def load():
         net = read_weights(path, Network)
         net.code("const")  # generation errors belong to loading
-        _CACHE[key] = net
+        return net
+    net = _CACHE.get_or_create(key, load)
     if kind is not None and net.kind != kind:
         raise WeightsError(f"holds a {net.kind} network, expected a {kind} "
                            f"(model {'neural' if kind == 'student' else 'neural_teacher'})",

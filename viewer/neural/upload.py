@@ -38,6 +38,16 @@ class NeuralWeights:
             return unit + 1
         return unit
 
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the uploaded weight data."""
+        if self._buffer is not None:
+            return int(self._buffer.size)
+        if self._texture is not None:
+            w, h = self._texture.size
+            return w * h * 16  # RGBA32F
+        return 0
+
     def release(self) -> None:
         for r in (self._buffer, self._texture):
             if r is not None:

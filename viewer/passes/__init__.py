@@ -1,6 +1,8 @@
 """Render passes, one module per ``shaders/passes`` entry point: G-buffer fill (:mod:`.gbuffer`),
 lighting (:mod:`.shade`), transparent surfaces after lighting (:mod:`.forward`), tone mapping
 (:mod:`.tonemap`)."""
+from ..cache import BoundedCache
+from ..gl.programs import on_release
 
 
 def set_uniform(prog, name: str, value) -> None:
@@ -29,20 +31,41 @@ def bind_gbuffer(prog, textures: dict, first_unit: int = 0) -> int:
 
 class FullscreenDraw:
     """Draws the single fullscreen triangle of ``passes/fullscreen.vert`` with any program,
-    keeping one empty vertex array per program (no per-frame allocation)."""
+    keeping one empty vertex array per program (no per-frame allocation). At most
+    :data:`MAX_VAOS` programs' arrays are kept (least recently used released), and a program's
+    array is released with the program (:func:`viewer.gl.programs.on_release`)."""
+
+    MAX_VAOS = 16
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self._vaos: dict[int, object] = {}
+        # id(program) -> (program, vertex array): the program is held, so its id is not reused
+        # while the entry lives
+        self._vaos = BoundedCache("fullscreen vertex arrays", max_items=self.MAX_VAOS,
+                                  release=lambda entry: entry[1].release())
+
+    def vao(self, program):
+        """The empty vertex array of ``program`` (made on first use): instanced splat quads draw
+        with it too."""
+        entry = self._vaos.get(id(program))
+        if entry is None or entry[0] is not program:
+            entry = (program, self.ctx.vertex_array(program, []))
+            self._vaos.put(id(program), entry)
+            on_release(program, self._program_released)
+        return entry[1]
 
     def __call__(self, program) -> None:
-        vao = self._vaos.get(id(program))
-        if vao is None:
-            vao = self._vaos[id(program)] = self.ctx.vertex_array(program, [])
+        vao = self.vao(program)
         self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND)
         vao.render(mode=self.ctx.TRIANGLES, vertices=3)
 
+    def _program_released(self, program) -> None:
+        entry = self._vaos.peek(id(program))
+        if entry is not None and entry[0] is program:
+            self._vaos.pop(id(program))
+
+    def stats(self):
+        return self._vaos.stats()
+
     def release(self) -> None:
-        for vao in self._vaos.values():
-            vao.release()
         self._vaos.clear()

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from ..cache import BoundedCache, CacheStats
 from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import ShadeVariant, model_info
@@ -43,22 +44,26 @@ def set_view_and_lighting(prog, camera, environment, light) -> None:
 
 
 class ShadePass:
+    MAX_WEIGHTS = 4  # networks whose buffered weights stay uploaded (least recently used freed)
+
     def __init__(self, programs, layout: GBufferLayout):
         self.programs = programs
         self.ctx = programs.ctx
         self.layout = layout
         self._draw = FullscreenDraw(self.ctx)
-        self._weights: dict[tuple, NeuralWeights] = {}  # (checkpoint, storage) -> uploaded data
+        # (checkpoint, storage, symbol) -> uploaded weight data (bound right after the lookup)
+        self.weights = BoundedCache("neural weights", max_items=self.MAX_WEIGHTS,
+                                    release=lambda w: w.release())
 
     def _bind_weights(self, prog, found, unit: int) -> int:
         """Upload (once) and bind the weight data of a neural model's buffered storage."""
         if found is None or found[1].data is None:
             return unit
         net, code = found
-        key = (net.checkpoint, code.storage, code.symbol)
-        if key not in self._weights:
-            self._weights[key] = NeuralWeights(self.ctx, code)
-        return self._weights[key].bind(prog, unit)
+        weights = self.weights.get_or_create((net.checkpoint, code.storage, code.symbol),
+                                             lambda: NeuralWeights(self.ctx, code),
+                                             nbytes=lambda w: w.nbytes)
+        return weights.bind(prog, unit)
 
     def _program(self, variant: ShadeVariant, found):
         """The variant's program; ``found``: the neural model's (network, generated code)."""
@@ -97,8 +102,11 @@ class ShadePass:
         out_fbo.use()
         self._draw(prog)
 
+    def stats(self) -> dict[str, CacheStats]:
+        """Each cache of this pass (``Renderer.memory`` gathers them)."""
+        return {"neural weights": self.weights.stats(),
+                "shade vertex arrays": self._draw.stats()}
+
     def release(self) -> None:
         self._draw.release()
-        for w in self._weights.values():
-            w.release()
-        self._weights.clear()
+        self.weights.clear()

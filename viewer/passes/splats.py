@@ -22,13 +22,17 @@ so the median costs about five splat rasterisations more than the expected depth
 
 The torch twin is :func:`learned.splats.rasterize.rasterize`; ``relight parity --model splats``
 compares the two.
+
+Resources (:mod:`.splat_resources`): each cloud's buffers are cached by the cloud's identity
+(released when it dies or its geometry cache entry is evicted), the concatenation of a scene's
+clouds likewise (by the identities of its parts), and the accumulation targets per G-buffer shape,
+at most :data:`MAX_ACCUM` shapes. Programs are looked up at every use (they may be evicted).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
 
-import numpy as np
-
+from ..cache import BoundedCache, CacheStats, array_bytes
 from ..camera import Camera, gl_bytes
 from ..gbuffer import GBufferLayout
 from ..settings import SPLAT_DEPTHS
@@ -36,37 +40,25 @@ from ..splats.data import Splats, concat
 from ..splats.sort import depth_order
 from . import FullscreenDraw
 from . import set_uniform as _set
+from .splat_resources import RECORD, SplatAccum, SplatCopy, accum_key, upload_splats
+from .uploads import UploadCache
 
-RECORD = 24  # floats per projected splat (see splat_project.comp)
+__all__ = ["CHUNK", "DEPTHS", "MAX_ACCUM", "MEDIAN_LEVELS", "RECORD", "SORTS", "SplatPass",
+           "camera_constants"]
+
 CHUNK = 1 << 18  # splats per projection dispatch (keeps each bound range under SSBO limits)
 SORTS = ("cpu", "gpu")
 DEPTHS = SPLAT_DEPTHS  # [render] splat_depth
 MEDIAN_LEVELS = 3  # search levels: the range shrinks 17x per level, then the nearest splat in it
+MAX_ACCUM = 2  # G-buffer shapes whose accumulation targets are kept
 _FAR = 3.0e38  # clear value of the min-blended targets ("no splat")
+_RECORD_DEFINE = {"SPLAT_RECORD": f"{RECORD}u"}
 
 
 def camera_constants(camera: Camera) -> dict:
     """Uniform values shared with the torch twin: focal lengths in pixels and tan(fov / 2)."""
     tx, ty = camera.tan_half_fov()
     return {"focal_tan": (camera.width / (2.0 * tx), camera.height / (2.0 * ty), tx, ty)}
-
-
-@dataclass
-class _Uploaded:
-    splats: Splats  # held so id() cannot be reused while the entry lives
-    count: int
-    padded: int  # power of two >= count, for the bitonic sort
-    sh_count: int
-    geometry: object
-    material: object
-    sh: object
-    projected: object
-    keys: object
-    order: object  # GPU-sorted order (in place)
-    cpu_order: object
-    vao: object | None = None
-    view_key: bytes | None = None  # the camera the records and order were made for
-    sort: str | None = None
 
 
 class SplatPass:
@@ -79,82 +71,58 @@ class SplatPass:
         self.programs = programs
         self.ctx = programs.ctx
         self.layout = layout
-        self._uploads: dict[int, _Uploaded] = {}
-        self._accum: dict[int, dict] = {}  # id(targets) -> accumulation resources
-        self._clouds: dict[tuple, tuple] = {}  # ids of the parts -> (parts, concatenation)
+        self.uploads = UploadCache(self.ctx, "splat uploads", release=SplatCopy.release)
+        # the concatenation of a scene's clouds (by the parts' identities); its buffers are in
+        # ``uploads``, counted towards the parts' geometry entries and released with it
+        self.clouds = UploadCache(self.ctx, "splat scenes", release=self.forget, max_items=2)
+        # accum_key(targets) -> SplatAccum
+        self.accum = BoundedCache("splat accumulation", max_items=MAX_ACCUM,
+                                  release=SplatAccum.release)
         self._fullscreen = FullscreenDraw(self.ctx)
-        defines = {"SPLAT_RECORD": f"{RECORD}u"}
-        self._project = programs.compute("passes/splat_project.comp", defines=defines)
-        self._sort = programs.compute("passes/splat_sort.comp")
-        self._raster = programs.graphics("passes/splat_raster.vert", "passes/splat_raster.frag",
-                                         defines=defines)
-        self._resolve = {
-            mode: programs.graphics("passes/fullscreen.vert", "passes/splat_resolve.frag",
-                                    defines={"SPLAT_DEPTH_MEDIAN": int(mode == "median")},
-                                    virtual=layout.virtual_files()) for mode in DEPTHS}
-        self._median = None  # the median-depth programs, built on first use
+        # compile now: a broken shader fails when the pass is made, not in a frame
+        self.programs.compute("passes/splat_project.comp", defines=_RECORD_DEFINE)
+        self.programs.compute("passes/splat_sort.comp")
+        self._raster()
+        for d in DEPTHS:
+            self._resolve(d)
+
+    # ---- programs (looked up at every use: the cache may evict them) --------------------------
+    def _raster(self, median_pass: int | None = None):
+        if median_pass is None:
+            return self.programs.graphics("passes/splat_raster.vert", "passes/splat_raster.frag",
+                                          defines=_RECORD_DEFINE)
+        return self.programs.graphics("passes/splat_raster.vert", "passes/splat_median.frag",
+                                      defines={**_RECORD_DEFINE, "SPLAT_MEDIAN_PASS": median_pass})
+
+    def _resolve(self, depth: str):
+        return self.programs.graphics("passes/fullscreen.vert", "passes/splat_resolve.frag",
+                                      defines={"SPLAT_DEPTH_MEDIAN": int(depth == "median")},
+                                      virtual=self.layout.virtual_files())
+
+    def _median_update(self, init: bool):
+        return self.programs.graphics("passes/fullscreen.vert", "passes/splat_median_update.frag",
+                                      defines={"SPLAT_MEDIAN_INIT": int(init)},
+                                      virtual=self.layout.virtual_files())
 
     # ---- resources ---------------------------------------------------------------------------
-    def upload(self, splats: Splats) -> _Uploaded:
-        entry = self._uploads.get(id(splats))
-        if entry is not None and entry.splats is splats:
-            return entry
-        ctx = self.ctx
-        n = len(splats)
-        m = max(n, 1)
-        geo = np.zeros((m, 12), np.float32)
-        geo[:n, 0:3] = splats.means
-        geo[:n, 3] = splats.opacities
-        geo[:n, 4:8] = splats.rotations
-        geo[:n, 8:11] = splats.scales
-        mat = np.zeros((m, 8), np.float32)
-        mat[:n, 0:3] = splats.albedo
-        mat[:n, 3] = splats.roughness
-        mat[:n, 4:7] = splats.normals
-        mat[:n, 7] = splats.metallic
-        k = splats.sh.shape[1]
-        sh = np.zeros((m, k, 3), np.float32)
-        sh[:n] = splats.sh
-        padded = 1 << max(int(np.ceil(np.log2(m))), 0)
-        keys = np.full(padded, -np.inf, np.float32)
-        order = np.arange(padded, dtype=np.uint32)
-        entry = _Uploaded(
-            splats=splats, count=n, padded=padded, sh_count=k,
-            geometry=ctx.buffer(geo.tobytes()), material=ctx.buffer(mat.tobytes()),
-            sh=ctx.buffer(sh.tobytes()), projected=ctx.buffer(reserve=m * RECORD * 4),
-            keys=ctx.buffer(keys.tobytes()), order=ctx.buffer(order.tobytes()),
-            cpu_order=ctx.buffer(reserve=m * 4))
-        entry.vao = ctx.vertex_array(self._raster, [])
-        self._uploads[id(splats)] = entry
-        return entry
+    def upload(self, splats: Splats) -> SplatCopy:
+        """The buffers of ``splats`` (uploaded on first use)."""
+        return self.uploads.get_or_create(splats, None, lambda: self._upload(splats))
 
-    def _accum_targets(self, targets) -> dict:
-        acc = self._accum.get(id(targets))
-        if acc is not None and acc["targets"] is targets:
-            return acc
-        ctx = self.ctx
-        tex = []
-        for _ in range(4):
-            t = ctx.texture(targets.size, 4, dtype="f4")
-            t.filter = (ctx.NEAREST, ctx.NEAREST)
-            tex.append(t)
-        scratch = {}
-        for a, t in targets.textures.items():
-            s = ctx.texture(targets.size, 4, dtype=targets.layout.dtype)
-            s.filter = (ctx.NEAREST, ctx.NEAREST)
-            scratch[a] = s
-        acc = {
-            "targets": targets, "textures": tex,
-            "fbo": ctx.framebuffer(color_attachments=tex, depth_attachment=targets.depth),
-            "clear": ctx.framebuffer(color_attachments=tex),
-            "scratch": scratch,
-            "scratch_fbo": ctx.framebuffer(color_attachments=[scratch[a] for a in sorted(scratch)]),
-        }
-        self._accum[id(targets)] = acc
-        return acc
+    def _upload(self, splats: Splats) -> tuple[SplatCopy, int]:
+        copy = upload_splats(self.ctx, splats)
+        return copy, copy.nbytes
+
+    def _accum_targets(self, targets) -> SplatAccum:
+        key = accum_key(targets)
+        acc = self.accum.get(key)
+        if acc is None:
+            acc = SplatAccum.create(self.ctx, targets)
+            self.accum.put(key, acc, acc.nbytes)
+        return acc.attach(targets)
 
     # ---- the passes ------------------------------------------------------------------------------
-    def prepare(self, splats: Splats, camera: Camera, sort: str = "cpu") -> _Uploaded:
+    def prepare(self, splats: Splats, camera: Camera, sort: str = "cpu") -> SplatCopy:
         """Project and sort for ``camera`` (skipped when neither the view nor ``sort`` changed)."""
         if sort not in SORTS:
             raise ValueError(f"sort must be one of {SORTS}")
@@ -172,8 +140,8 @@ class SplatPass:
         entry.view_key, entry.sort = key, sort
         return entry
 
-    def _run_project(self, entry: _Uploaded, camera: Camera, view, proj) -> None:
-        prog = self._project
+    def _run_project(self, entry: SplatCopy, camera: Camera, view, proj) -> None:
+        prog = self.programs.compute("passes/splat_project.comp", defines=_RECORD_DEFINE)
         prog["u_view"].write(gl_bytes(view))
         prog["u_projection"].write(gl_bytes(proj))
         _set(prog, "u_camera_ws", tuple(float(x) for x in camera.position))
@@ -195,8 +163,8 @@ class SplatPass:
             prog.run((count + 127) // 128)
         self.ctx.memory_barrier()
 
-    def _run_gpu_sort(self, entry: _Uploaded) -> None:
-        prog = self._sort
+    def _run_gpu_sort(self, entry: SplatCopy) -> None:
+        prog = self.programs.compute("passes/splat_sort.comp")
         entry.keys.bind_to_storage_buffer(0)
         entry.order.bind_to_storage_buffer(1)
         n = entry.padded
@@ -223,9 +191,9 @@ class SplatPass:
         camera = camera.with_size(*targets.size)
         entry = self.prepare(splats, camera, sort)
         acc = self._accum_targets(targets)
-        acc["clear"].clear(0.0, 0.0, 0.0, 0.0)
+        acc.clear.clear(0.0, 0.0, 0.0, 0.0)
         if entry.count:
-            fbo = acc["fbo"]
+            fbo = acc.fbo
             fbo.use()
             fbo.depth_mask = False
             ctx.viewport = (0, 0, *targets.size)
@@ -236,75 +204,42 @@ class SplatPass:
             try:
                 entry.projected.bind_to_storage_buffer(0)
                 (entry.order if entry.sort == "gpu" else entry.cpu_order).bind_to_storage_buffer(1)
-                _set(self._raster, "u_resolution", (float(camera.width), float(camera.height)))
-                entry.vao.render(ctx.TRIANGLE_STRIP, vertices=4, instances=entry.count)
+                raster = self._raster()
+                _set(raster, "u_resolution", (float(camera.width), float(camera.height)))
+                self._fullscreen.vao(raster).render(ctx.TRIANGLE_STRIP, vertices=4,
+                                                    instances=entry.count)
             finally:
                 ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
                 ctx.blend_func = ctx.DEFAULT_BLENDING
                 fbo.depth_mask = True
-        ctx.copy_framebuffer(acc["scratch_fbo"], targets.fbo)
+        ctx.copy_framebuffer(acc.scratch_fbo, targets.fbo)
         if depth == "median":
             self._run_median(entry, acc, camera)
-        prog = self._resolve[depth]
+            self.accum.set_nbytes(accum_key(targets), acc.nbytes)  # + the search targets
+        prog = self._resolve(depth)
         unit = 0
-        for a, tex in acc["scratch"].items():
+        for a, tex in acc.scratch.items():
             tex.use(unit)
             _set(prog, f"u_gbuffer{a}", unit)
             unit += 1
-        for i, tex in enumerate(acc["textures"]):
+        for i, tex in enumerate(acc.textures):
             tex.use(unit)
             _set(prog, f"u_accum{i}", unit)
             unit += 1
         if depth == "median":
-            acc["median"]["answer"].use(unit)
+            acc.median["answer"].use(unit)
             _set(prog, "u_median", unit)
         targets.fbo.use()
         ctx.viewport = (0, 0, *targets.size)
         self._fullscreen(prog)
 
     # ---- median depth ----------------------------------------------------------------------------
-    def _median_programs(self) -> dict:
-        if self._median is None:
-            p = self.programs
-            raster = {i: p.graphics("passes/splat_raster.vert", "passes/splat_median.frag",
-                                    defines={"SPLAT_RECORD": f"{RECORD}u", "SPLAT_MEDIAN_PASS": i})
-                      for i in range(3)}
-            self._median = {
-                "raster": raster,
-                "vaos": {i: self.ctx.vertex_array(prog, []) for i, prog in raster.items()},
-                "init": p.graphics("passes/fullscreen.vert", "passes/splat_median_update.frag",
-                                   defines={"SPLAT_MEDIAN_INIT": 1},
-                                   virtual=self.layout.virtual_files()),
-                "refine": p.graphics("passes/fullscreen.vert", "passes/splat_median_update.frag",
-                                     defines={"SPLAT_MEDIAN_INIT": 0},
-                                     virtual=self.layout.virtual_files()),
-            }
-        return self._median
-
-    def _median_targets(self, acc: dict) -> dict:
-        if "median" not in acc:
-            ctx, targets = self.ctx, acc["targets"]
-
-            def tex():
-                t = ctx.texture(targets.size, 4, dtype="f4")
-                t.filter = (ctx.NEAREST, ctx.NEAREST)
-                return t
-            m = {"range": tex(), "state": [tex(), tex()], "t": [tex() for _ in range(4)],
-                 "answer": tex()}
-            m["range_fbo"] = ctx.framebuffer([m["range"]], depth_attachment=targets.depth)
-            m["search_fbo"] = ctx.framebuffer(m["t"], depth_attachment=targets.depth)
-            m["answer_fbo"] = ctx.framebuffer([m["answer"]], depth_attachment=targets.depth)
-            m["state_fbo"] = [ctx.framebuffer([t]) for t in m["state"]]
-            acc["median"] = m
-        return acc["median"]
-
-    def _run_median(self, entry: _Uploaded, acc: dict, camera: Camera) -> None:
+    def _run_median(self, entry: SplatCopy, acc: SplatAccum, camera: Camera) -> None:
         """The median-depth search (module docstring): leaves the answer in
-        ``acc["median"]["answer"]`` (r; 3e38 where no splat contributes)."""
+        ``acc.median["answer"]`` (r; 3e38 where no splat contributes)."""
         ctx = self.ctx
-        progs = self._median_programs()
-        m = self._median_targets(acc)
-        size = acc["targets"].size
+        m = acc.median_targets()
+        size = acc.size
         m["range_fbo"].clear(_FAR, _FAR, _FAR, 0.0)
         m["answer_fbo"].clear(_FAR, _FAR, _FAR, _FAR)
         order = entry.order if entry.sort == "gpu" else entry.cpu_order
@@ -312,7 +247,7 @@ class SplatPass:
         def splats(i, fbo, state=None):
             if not entry.count:
                 return
-            prog = progs["raster"][i]
+            prog = self._raster(median_pass=i)
             fbo.use()
             fbo.depth_mask = False
             ctx.viewport = (0, 0, *size)
@@ -325,7 +260,8 @@ class SplatPass:
                 if state is not None:
                     state.use(0)
                     _set(prog, "u_state", 0)
-                progs["vaos"][i].render(ctx.TRIANGLE_STRIP, vertices=4, instances=entry.count)
+                self._fullscreen.vao(prog).render(ctx.TRIANGLE_STRIP, vertices=4,
+                                                  instances=entry.count)
             finally:
                 ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
                 ctx.blend_func = ctx.DEFAULT_BLENDING
@@ -342,15 +278,15 @@ class SplatPass:
 
         ctx.blend_equation = (ctx.MIN, ctx.MAX)
         splats(0, m["range_fbo"])
-        under = {f"u_gbuffer{a}": t for a, t in acc["scratch"].items()}
-        fullscreen(progs["init"], m["state_fbo"][0],
-                   {**under, "u_range": m["range"], "u_accum0": acc["textures"][0]})
+        under = {f"u_gbuffer{a}": t for a, t in acc.scratch.items()}
+        fullscreen(self._median_update(init=True), m["state_fbo"][0],
+                   {**under, "u_range": m["range"], "u_accum0": acc.textures[0]})
         cur = 0
         for _ in range(MEDIAN_LEVELS):
             m["search_fbo"].clear(1.0, 1.0, 1.0, 1.0)
             ctx.blend_func = (ctx.ZERO, ctx.SRC_COLOR)  # dst *= 1 - alpha: transmittance
             splats(1, m["search_fbo"], m["state"][cur])
-            fullscreen(progs["refine"], m["state_fbo"][1 - cur],
+            fullscreen(self._median_update(init=False), m["state_fbo"][1 - cur],
                        {"u_state": m["state"][cur], **{f"u_t{i}": t for i, t in enumerate(m["t"])}})
             cur = 1 - cur
         ctx.blend_equation = ctx.MIN
@@ -360,44 +296,32 @@ class SplatPass:
                     depth: str = "expected") -> None:
         """:meth:`draw` for several clouds of one scene, concatenated (once) so they sort
         together."""
+        parts = tuple(clouds)
+        if len(parts) == 1:
+            cloud = parts[0]
+        else:
+            def join():
+                cat = concat(list(parts))
+                return cat, array_bytes(*(getattr(cat, f.name) for f in dataclasses.fields(cat)))
+            cloud = self.clouds.get_or_create(parts, None, join)
+            # its buffers count towards (and are released with) the parts' geometry entries
+            self.uploads.get_or_create(cloud, None, lambda: self._upload(cloud), account=parts)
+        self.draw(targets, camera, cloud, sort=self.sort, depth=depth)
 
-        key = tuple(id(c) for c in clouds)
-        if key not in self._clouds:
-            for old_parts, old in self._clouds.values():  # one scene at a time: free the last
-                self._forget(old)
-            self._clouds.clear()
-            self._clouds[key] = (list(clouds), concat(list(clouds)))
-        self.draw(targets, camera, self._clouds[key][1], sort=self.sort, depth=depth)
+    def forget(self, splats: Splats) -> None:
+        """Release the buffers of ``splats`` now (they are otherwise released when it dies)."""
+        self.uploads.forget(splats)
 
-    def _forget(self, splats: Splats) -> None:
-        e = self._uploads.pop(id(splats), None)
-        if e is not None:
-            for b in (e.geometry, e.material, e.sh, e.projected, e.keys, e.order, e.cpu_order):
-                b.release()
-            e.vao.release()
+    _forget = forget  # the name relight.bench.splats uses
+
+    def stats(self) -> dict[str, CacheStats]:
+        """Each cache of this pass (``Renderer.memory`` gathers them)."""
+        return {"splat uploads": self.uploads.stats(), "splat scenes": self.clouds.stats(),
+                "splat accumulation": self.accum.stats(),
+                "splat vertex arrays": self._fullscreen.stats()}
 
     def release(self) -> None:
-        self._clouds.clear()
-        for e in self._uploads.values():
-            for b in (e.geometry, e.material, e.sh, e.projected, e.keys, e.order, e.cpu_order):
-                b.release()
-            if e.vao is not None:
-                e.vao.release()
-        self._uploads.clear()
-        for acc in self._accum.values():
-            for key in ("fbo", "clear", "scratch_fbo"):
-                acc[key].release()
-            for t in acc["textures"] + list(acc["scratch"].values()):
-                t.release()
-            m = acc.get("median")
-            if m is not None:
-                for f in [m["range_fbo"], m["search_fbo"], m["answer_fbo"], *m["state_fbo"]]:
-                    f.release()
-                for t in [m["range"], m["answer"], *m["state"], *m["t"]]:
-                    t.release()
-        self._accum.clear()
-        if self._median is not None:
-            for vao in self._median["vaos"].values():
-                vao.release()
-            self._median = None
+        self.clouds.release()
+        self.uploads.release()
+        self.accum.clear()
         self._fullscreen.release()

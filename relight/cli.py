@@ -258,7 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_view)
 
-    gallery.add_parser(sub)  # relight gallery: relight/gallery.py
+    gallery.add_parser(sub)  # relight gallery: relight/gallery/
     graph_command.add_parser(sub)  # relight graph: relight/graph.py
     return parser
 

@@ -19,7 +19,8 @@ import torch
 from safetensors.numpy import save_file
 
 from viewer.neural import load_network
-from viewer.neural.format import architecture, metadata as file_metadata, tensor_name
+from viewer.neural.contract import architecture
+from viewer.neural.format import metadata as file_metadata, tensor_name
 
 from .neural.student import Student
 from .neural.teacher import Teacher

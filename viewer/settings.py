@@ -1,6 +1,6 @@
 """The ``[render]`` table as frozen dataclasses, grouped by the part of the renderer each setting
 steers (Monte Carlo, SSAO, the neural models, the display), with the flat TOML keys mapped onto
-them (:data:`RENDER_KEYS`). Parsing and validation: :func:`viewer.scene.validate_render`."""
+them (:data:`RENDER_KEYS`). Parsing and validation: :func:`viewer.scene_checks.validate_render`."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace

@@ -62,16 +62,17 @@ FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"), "vis": INP
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
-# how the ao input enters (architecture "occlusion"; twin: viewer.neural.format.STUDENT_OCCLUSION):
+# how the ao input enters (architecture "occlusion"; twin:
+# viewer.neural.contract.STUDENT_OCCLUSION):
 # "factor" (new students) multiplies the diffuse factor(s) by ao outside the MLP, as every classical
 # model applies AO; "input" (files written before) leaves the product to the MLP, which learned the
 # training set's mean occlusion as a constant instead (issue 14: white furnace 0.42 for 0.8)
 OCCLUSIONS = ("input", "factor")
 # whether the student learns a factor on the screen-space indirect light (architecture "indirect";
-# twin: viewer.neural.format.STUDENT_INDIRECT): "factor" = a second network "indirect" of
+# twin: viewer.neural.contract.STUDENT_INDIRECT): "factor" = a second network "indirect" of
 # INDIRECT_HIDDEN relu units on the same inputs, one sigmoid output
 INDIRECTS = ("none", "factor")
-INDIRECT_HIDDEN = 16  # twin: viewer.neural.format.INDIRECT_HIDDEN
+INDIRECT_HIDDEN = 16  # twin: viewer.neural.contract.INDIRECT_HIDDEN
 
 # Candidate designs of the measured comparison (relight.bench.students.compare_students):
 # name -> Student keyword arguments

@@ -30,7 +30,7 @@ from .encoding import encoded_size, fourier_encode
 from .lighting import Lighting, env_radiance, sample_lights, surface
 from learned.twins.common import half_vector  # GLSL lib/common.glsl (same function)
 
-from viewer.neural.format import teacher_inputs
+from viewer.neural.contract import teacher_inputs
 
 INPUTS = teacher_inputs(True)  # the thesis's inputs, with log(1 + L_in)
 

@@ -2,7 +2,8 @@
 
 :mod:`.state` holds all viewer state in one dataclass and maps it to a :class:`~viewer.scene.Scene`
 (no GL); :mod:`.camera_control` is orbit/pan/zoom math (no GL); :mod:`.ui` the ImGui panels;
-:mod:`.window` the glfw window, main loop, screenshots and GPU timers. Importing this package is
+:mod:`.window` the glfw window, main loop and GPU timers; :mod:`.files` its file actions (open,
+drop, save, a reference render) and :mod:`.capture` its screenshots. Importing this package is
 cheap: the window pulls in imgui-bundle and glfw only when a :class:`~.window.Viewer` is made.
 """
 from .state import ViewerState, scene_from_state, state_from_scene

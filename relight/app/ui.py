@@ -29,7 +29,7 @@ CHOICES = {"model": lambda: tuple(MODELS), "sampling": lambda: SAMPLINGS,
            "mis_heuristic": lambda: getattr(scene_module, "MIS_HEURISTICS", None)}
 QUICK_FIELDS = ("model", "exposure", "tonemap")  # shown at the top, not again under Shading
 LIMITS = {"exposure": (-10.0, 10.0), "samples": (1, 1 << 16), "seed": (0, (1 << 31) - 1),
-          # the ranges viewer.scene.validate_render accepts
+          # the ranges viewer.scene_checks.validate_render accepts
           "ssao_rays": (1, 1024), "ssao_steps": (1, 256), "ssao_scale": (1, SSAO_SCALE_MAX)}
 ERROR_COLOUR = (1.0, 0.45, 0.4, 1.0)
 

@@ -18,6 +18,10 @@ to the message line as well. GPU time per pass comes from timer queries read one
 Mouse over the image: left drag orbits, right or middle drag (or shift + left) pans, the wheel
 zooms; R resets the camera, H hides the panels. Files dropped on the window: ``.toml`` opens a
 scene, an image (``.hdr``, ``.exr``, ...) becomes the environment.
+
+The file actions (open, drop, save, a reference) are :class:`~.files.FileActions`, the output
+(screenshots, the framebuffer read back) :class:`~.capture.Capture`: both mixed into
+:class:`Viewer`.
 """
 from __future__ import annotations
 
@@ -25,28 +29,28 @@ import sys
 import time
 import warnings
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
-from viewer.errors import InputError, RelightError, SceneError
+from viewer.errors import RelightError, SceneError
 from viewer.gbuffer import CHANNEL_NAMES
 from viewer.gl.context import ContextOptions, create_window, make_current
 from viewer.gl.timing import PassTimer
 from viewer.models import SAMPLING_MODELS
-from viewer.renderer import FrameTargets, Renderer, read_texture
-from viewer.scene import Scene, load_scene
+from viewer.renderer import FrameTargets, Renderer
+from viewer.scene import Scene
 from . import camera_control
-from .state import ViewerState, load_into, reset_camera, scene_from_state, state_from_scene, \
-    with_environment_file
+from .capture import Capture
+from .files import IMAGE_SUFFIXES, SCENE_SUFFIXES, FileActions
+from .state import ViewerState, reset_camera, scene_from_state, state_from_scene
 
-SCENE_SUFFIXES = (".toml",)
-IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
+__all__ = ["IMAGE_SUFFIXES", "MAX_WINDOW", "PASS_NAMES", "SCENE_SUFFIXES", "Viewer"]
+
 PASS_NAMES = ("gbuffer", "ibl", "shade", "forward", "tonemap", "view", "ui")
 MAX_WINDOW = (1600, 1000)
 
 
-class Viewer:
+class Viewer(FileActions, Capture):
     """One window on one :class:`ViewerState`; see the module docstring."""
 
     def __init__(self, scene: Scene, *, window_size: tuple[int, int] | None = None,
@@ -256,71 +260,6 @@ class Viewer:
         self.timers.end_frame()
         self._glfw.swap_buffers(self.window.window)
 
-    # ---- files ---------------------------------------------------------------------------------
-    def drop(self, paths: list[str]) -> None:
-        """Files dropped on the window: a ``.toml`` scene, or an image as the environment."""
-        for path in paths:
-            suffix = Path(path).suffix.lower()
-            if suffix in SCENE_SUFFIXES:
-                self.open_scene(path)
-            elif suffix in IMAGE_SUFFIXES:
-                self.set_environment_file(path)
-            else:
-                self.state.message = str(InputError(
-                    f"unsupported file type {suffix or '(none)'}: drop a .toml scene or an "
-                    f"HDR/EXR environment", where=path))
-
-    def open_scene(self, path: str) -> bool:
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                scene = load_scene(path)
-        except RelightError as exc:
-            self.state.message = str(exc)
-            return False
-        self.state = load_into(self.state, scene)
-        self.state.message = None
-        self.show_warnings(caught)
-        return True
-
-    def set_environment_file(self, path: str) -> None:
-        """Use an equirect HDR/EXR; a file that cannot be used leaves the environment as it was."""
-        self.state = with_environment_file(self.state, str(Path(path).resolve()))
-        self.state.message = None
-
-    def load_reference(self, path: str) -> bool:
-        """Load a linear render (EXR/HDR, the size of the render) for the difference views."""
-        from viewer.imageio import read_image
-
-        try:
-            arr, _ = read_image(path, channels=(3, 4))
-        except RelightError as exc:
-            self.state.message = str(exc)
-            return False
-        h, w = arr.shape[:2]
-        rgba = np.ones((h, w, 4), np.float32)
-        rgba[..., :3] = arr[..., :3]
-        if self._reference is not None:
-            self._reference.release()
-        make_current(self.ctx)
-        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba[::-1]).tobytes(), dtype="f4")
-        tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-        self._reference = tex
-        self.state.reference_path = str(path)
-        self.state.message = None
-        return True
-
-    def save_scene(self, path: str) -> bool:
-        """Write what is shown as a scene TOML that ``relight render`` renders identically."""
-        from viewer.scene_io import save_scene
-
-        try:
-            save_scene(self.current_scene(), path)
-        except RelightError as exc:
-            self.state.message = str(exc)
-            return False
-        self.state.message = f"saved {path}"
-        return True
-
     @property
     def targets(self) -> dict | None:
         """The render targets on screen (what :meth:`Renderer.draw` returned), or None."""
@@ -329,52 +268,6 @@ class Viewer:
     def current_scene(self) -> Scene:
         """The scene on screen (the last one that rendered)."""
         return self._scene if self._scene is not None else scene_from_state(self.state)
-
-    # ---- output --------------------------------------------------------------------------------
-    def screenshot(self, path: str) -> Path:
-        """``.png``: the current view exactly as shown, at the render's size, without the UI.
-        ``.exr``: the linear radiance (before exposure), as ``relight render --out x.exr``."""
-        from viewer.imageio import write_exr, write_png
-
-        path = Path(path)
-        suffix = path.suffix.lower()
-        if suffix not in (".png", ".exr"):
-            raise SceneError("a screenshot is .png (the view) or .exr (linear radiance)",
-                             where=path)
-        if not path.resolve().parent.is_dir():
-            raise SceneError("output folder does not exist", where=path.parent)
-        if self._targets is None:
-            self._render()
-        make_current(self.ctx)
-        scene = self.current_scene()
-        transparent = scene.render.display.background == "transparent"
-        if suffix == ".exr":
-            rgba = read_texture(self._targets.radiance, "f4")
-            write_exr(path, rgba if transparent else rgba[..., :3],
-                      ["R", "G", "B", "A"][: 4 if transparent else 3])
-            return path
-        size = tuple(self._targets.display.size)
-        if size not in self._shot:
-            tex = self.ctx.texture(size, 4, dtype="f1")
-            self._shot[size] = (tex, self.ctx.framebuffer(color_attachments=[tex]))
-        tex, fbo = self._shot[size]
-        fbo.use()
-        self.ctx.viewport = (0, 0, *size)
-        self._draw_view()
-        pixels = read_texture(tex, "f1")
-        if transparent and self.state.view == "display":
-            pixels[..., 3] = read_texture(self._targets.display, "f1")[..., 3]
-            write_png(path, pixels)
-        else:
-            write_png(path, pixels[..., :3])
-        return path
-
-    def read_framebuffer(self) -> np.ndarray:
-        """The window's default framebuffer as ``[H, W, 4]`` uint8, row 0 at the top (tests)."""
-        make_current(self.ctx)
-        fw, fh = self.window.framebuffer_size()
-        data = self.ctx.screen.read(viewport=(0, 0, fw, fh), components=4)
-        return np.frombuffer(data, np.uint8).reshape(fh, fw, 4)[::-1].copy()
 
     def close(self) -> None:
         imgui = self._imgui

@@ -1,13 +1,13 @@
 """glTF alphaMode BLEND: transparent surfaces through the forward pass after deferred shading
 (viewer/passes/forward.py): premultiplied "over", back-to-front order per mesh, depth-tested
 against the opaque G-buffer, coverage in the radiance's alpha. Fixtures built here with
-pygltflib (the builder of test_gltf_materials.py)."""
+pygltflib (the builder in gltf_builder.py)."""
 import warnings
 
 import numpy as np
 import pytest
 
-from test_gltf_materials import QUAD_POS, GltfBuilder, image, quad
+from gltf_builder import QUAD_POS, GltfBuilder, image, quad
 
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict

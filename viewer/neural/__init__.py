@@ -5,9 +5,11 @@ One module per job:
 ============ ======================================================================================
 module       job
 ============ ======================================================================================
-``format``   the weights file (safetensors keys, metadata, architecture) and the networks' input /
-             output contract, for reading (validation, one-line errors naming the file) and for
-             writing (``learned.export``); :func:`checkpoint_hash`, :func:`default_weights`
+``format``   the weights file (safetensors keys, metadata), for reading (validation, one-line
+             errors naming the file) and for writing (``learned.export``);
+             :func:`checkpoint_hash`, :func:`default_weights`
+``contract`` the networks' input / output contract: student and teacher inputs, output forms,
+             the architecture each kind must have (:func:`expected_networks`)
 ``glsl``     GLSL generation: ``generated/neural_<kind>.glsl`` for each weight storage
              (:data:`WEIGHT_STORAGES`)
 ``network``  :func:`load_network` (a validated file with its generated code, cached) and the
@@ -19,12 +21,11 @@ module       job
 
 Every name below is importable from ``viewer.neural`` itself.
 """
-from .format import (DEFAULT_FEATURES, DEFAULT_OUTPUT, FORMAT, FORMAT_VERSION, INDIRECT_HIDDEN,
-                     KINDS, MODEL_KINDS,
-                     STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS, STUDENT_OUTPUTS,
-                     TEACHER_INPUTS, DEFAULT_LIGHT_INPUT,
-                     TENSOR_PARTS, NetworkFile, WeightsError, checkpoint_hash, default_weights,
-                     expected_networks, read_weights, teacher_inputs, tensor_name)
+from .contract import (DEFAULT_FEATURES, DEFAULT_LIGHT_INPUT, DEFAULT_OUTPUT, INDIRECT_HIDDEN,
+                       STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS,
+                       STUDENT_OUTPUTS, TEACHER_INPUTS, expected_networks, teacher_inputs)
+from .format import (FORMAT, FORMAT_VERSION, KINDS, MODEL_KINDS, TENSOR_PARTS, NetworkFile,
+                     WeightsError, checkpoint_hash, default_weights, read_weights, tensor_name)
 from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_TEXTURE_WIDTH,
                    NetworkCode, generate_glsl)
 from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
@@ -33,7 +34,7 @@ from .network import (Network, learns_indirect, load_network, model_network, rea
 from .upload import NeuralWeights
 
 __all__ = [
-    # format
+    # contract, format
     "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "INDIRECT_HIDDEN", "KINDS", "MODEL_KINDS",
     "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INDIRECT", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
     "DEFAULT_LIGHT_INPUT", "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights",

@@ -1,8 +1,8 @@
 """3D Gaussian splats: file formats detected by content (:mod:`.formats`: PLY layouts, .splat),
-PLY I/O and validation (:mod:`.ply`), the :class:`Splats` arrays
-(:mod:`.data`), depth sorting (:mod:`.sort`) and synthetic scenes with known materials and light
-(:mod:`.generate`). Rendering: :mod:`viewer.passes.splats` (GLSL) and
-:mod:`learned.splats.rasterize` (torch twin)."""
+PLY I/O (:mod:`.ply`; SuperSplat's compressed PLY: :mod:`.compressed`), the validation every
+reader's fields go through (:mod:`.validate`), the :class:`Splats` arrays (:mod:`.data`), depth
+sorting (:mod:`.sort`) and synthetic scenes with known materials and light (:mod:`.generate`).
+Rendering: :mod:`viewer.passes.splats` (GLSL) and :mod:`learned.splats.rasterize` (torch twin)."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,7 +11,8 @@ import numpy as np
 
 from .data import Splats, concat, make_splats, transform_splats
 from .formats import detect_format, read_splat, unsupported
-from .ply import fields_to_splats, read_ply, write_ply
+from .ply import read_ply, write_ply
+from .validate import fields_to_splats
 
 __all__ = ["Splats", "concat", "load_splats", "make_splats", "read_ply", "read_splats",
            "transform_splats", "write_ply"]

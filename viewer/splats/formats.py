@@ -95,7 +95,7 @@ def unsupported(fmt: str, path) -> InputError:
 
 def read_splat(path) -> dict:
     """Decode an antimatter15 ``.splat`` file into the loader's raw fields (see
-    :func:`viewer.splats.ply.fields_to_splats`): means, sh [N, 1, 3], opacity (activated),
+    :func:`viewer.splats.validate.fields_to_splats`): means, sh [N, 1, 3], opacity (activated),
     log_scale, rot (w, x, y, z, not normalised)."""
     path = Path(path)
     data = path.read_bytes()

@@ -3,7 +3,7 @@ GaussianShader, and SuperSplat's compressed PLY. Other formats: :mod:`.formats`.
 
 Every layout is decoded into the same raw fields (means, SH, opacity, log sigma, quaternion,
 optional albedo / roughness / metallic / normal), then validated once
-(:func:`fields_to_splats`). The layout is told from the property names:
+(:func:`~.validate.fields_to_splats`). The layout is told from the property names:
 
 * **3DGS** (INRIA): one ``vertex`` element with ``x y z``; ``f_dc_0..2`` (SH band 0);
   ``f_rest_*`` (3 (K - 1) values, channel-major: all of red's higher coefficients, then green's,
@@ -25,25 +25,17 @@ optional albedo / roughness / metallic / normal), then validated once
   normalise(shortest axis + ``nx ny nz``) (their residual for the side the shortest axis faces;
   ``nx2 ny2 nz2``, the other side's residual, needs a view-dependent normal and is ignored), and
   ``f_rest_*`` are BRDF-MLP features, not SH: ignored.
-* **SuperSplat compressed** (PlayCanvas ``gsplat-compressed-data.js``): a ``chunk`` element
-  (one per 256 splats: ``min_/max_x y z``, ``min_/max_scale_x y z``, optionally
-  ``min_/max_r g b``), ``vertex`` with uint32 ``packed_position`` and ``packed_scale`` (11/10/11
-  bits, lerped between the chunk's min and max; scales are log sigma), ``packed_rotation`` (2 bits:
-  index of the largest quaternion component in (w, x, y, z), then the other three in order, 10
-  bits each, (u / 1023 - 0.5) sqrt(2); the largest is sqrt(1 - the others' squares)),
-  ``packed_color`` (8/8/8/8: SH band-0 colour 0.5 + C0 f_dc, lerped by the chunk's colour range
-  when present, and sigmoid(opacity)), and optionally an ``sh`` element of uint8 ``f_rest_*``
-  (value = u 8 / 255 - 4, the 3DGS order).
+* **SuperSplat compressed**: a ``chunk`` element and ``vertex`` with ``packed_*`` properties
+  (optionally an ``sh`` element); the bit layout is in :mod:`.compressed`, which decodes it.
 
 Every property (or element) the chosen layout does not use is named once in one warning per file,
 so nothing is silently ignored.
 
 :func:`write_ply` writes the GS-IR layout (binary little-endian).
 
-Validation: splats with NaN/Inf values, zero quaternions or huge/infinite scales are dropped; tiny
-scales are clamped to :data:`MIN_SIGMA`; material values outside [0, 1] are clamped. Each kind of
-fix produces one warning naming the file and the count. Structural problems (not a PLY, truncated,
-missing or list-typed properties, an unsupported f_rest count) raise
+Validation (:mod:`.validate`): splats that cannot be drawn are dropped, tiny scales and material
+values outside [0, 1] clamped, each kind of fix with one warning. Structural problems (not a PLY,
+truncated, missing or list-typed properties, an unsupported f_rest count) raise
 :class:`~viewer.errors.InputError`. A file with zero splats loads as an empty cloud with a warning.
 """
 from __future__ import annotations
@@ -56,10 +48,15 @@ import numpy as np
 from plyfile import PlyData, PlyElement
 
 from ..errors import InputError
-from .data import SH_C0, SH_COUNTS, Splats, make_splats, quat_to_matrix
+from .compressed import CHUNK, CHUNK_COLOR, PACKED, SPLATS_PER_CHUNK, _compressed
+from .data import SH_C0, SH_COUNTS, Splats, quat_to_matrix
+from .validate import MAX_SIGMA, MIN_SIGMA, fields_to_splats
 
-MIN_SIGMA = 1e-7
-MAX_SIGMA = 1e4
+# the compressed layout's and the validation's names stay importable from here
+__all__ = ["CHUNK", "CHUNK_COLOR", "CORE", "DC", "GSHADER", "MATERIAL", "MAX_SIGMA", "MIN_SIGMA",
+           "NORMAL", "NXYZ", "PACKED", "R3DG", "REQUIRED", "SPLATS_PER_CHUNK", "fields_to_splats",
+           "layout_of", "read_ply", "write_ply"]
+
 CORE = ("x", "y", "z", "opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2",
         "rot_3")
 DC = ("f_dc_0", "f_dc_1", "f_dc_2")
@@ -69,11 +66,6 @@ NORMAL = ("normal_0", "normal_1", "normal_2")
 NXYZ = ("nx", "ny", "nz")
 R3DG = ("base_color_0", "base_color_1", "base_color_2", "roughness")
 GSHADER = ("roughness", "specular0", "specular1", "specular2")
-CHUNK = ("min_x", "min_y", "min_z", "max_x", "max_y", "max_z", "min_scale_x", "min_scale_y",
-         "min_scale_z", "max_scale_x", "max_scale_y", "max_scale_z")
-CHUNK_COLOR = ("min_r", "min_g", "min_b", "max_r", "max_g", "max_b")
-PACKED = ("packed_position", "packed_rotation", "packed_scale", "packed_color")
-SPLATS_PER_CHUNK = 256
 
 
 def read_ply(path) -> Splats:
@@ -197,86 +189,6 @@ def _sh(props, col, dc, path) -> np.ndarray:
     return sh
 
 
-def _compressed(elements, path: Path):
-    """Decode SuperSplat's compressed PLY (bit layout in the module docstring)."""
-    chunk, vertex = elements["chunk"], elements["vertex"]
-    cnames = {p.name for p in chunk.properties}
-    vnames = {p.name for p in vertex.properties}
-    missing = [c for c in CHUNK if c not in cnames] + [p for p in PACKED if p not in vnames]
-    if missing:
-        raise InputError(f"compressed PLY: missing propert{'ies' if len(missing) > 1 else 'y'} "
-                         f"{', '.join(missing)}", where=path)
-    n = len(vertex.data)
-    n_chunks = len(chunk.data)
-    if n_chunks != -(-n // SPLATS_PER_CHUNK):
-        raise InputError(f"compressed PLY: {n_chunks} chunks for {n} splats (expected "
-                         f"{-(-n // SPLATS_PER_CHUNK)}, one per 256)", where=path)
-    for name in PACKED:
-        if not np.issubdtype(vertex.data.dtype[name], np.integer):
-            raise InputError(f"compressed PLY: {name!r} must be an unsigned integer", where=path)
-    has_color = all(c in cnames for c in CHUNK_COLOR)
-    cn = CHUNK + (CHUNK_COLOR if has_color else ())
-    ch = np.stack([np.asarray(chunk.data[c], np.float64) for c in cn], -1)
-    ch = ch[np.arange(n) // SPLATS_PER_CHUNK] if n else np.zeros((0, len(cn)))
-
-    def packed(name):
-        return np.asarray(vertex.data[name]).astype(np.uint32)
-
-    def lerp(lo, hi, t):
-        return lo * (1.0 - t) + hi * t
-
-    fields = {
-        "means": lerp(ch[:, 0:3], ch[:, 3:6], _unpack_111011(packed("packed_position"))),
-        "log_scale": lerp(ch[:, 6:9], ch[:, 9:12], _unpack_111011(packed("packed_scale"))),
-        "rot": _unpack_rotation(packed("packed_rotation")),
-    }
-    color = _unpack_8888(packed("packed_color"))
-    rgb = lerp(ch[:, 12:15], ch[:, 15:18], color[:, :3]) if has_color else color[:, :3]
-    fields["opacity"] = color[:, 3]
-    used = {("chunk", c) for c in cn} | {("vertex", p) for p in PACKED}
-    k = 1
-    sh_rest = None
-    if "sh" in elements:
-        sh_el = elements["sh"]
-        rest = [p.name for p in sh_el.properties if p.name.startswith("f_rest_")]
-        k = len(rest) // 3 + 1
-        if rest != [f"f_rest_{i}" for i in range(len(rest))] or len(rest) % 3 or k not in SH_COUNTS:
-            raise InputError(f"compressed PLY: the 'sh' element needs f_rest_0..f_rest_(m-1), "
-                             f"m = 9, 24 or 45; got {len(rest)}", where=path)
-        if len(sh_el.data) != n:
-            raise InputError(f"compressed PLY: 'sh' has {len(sh_el.data)} rows for {n} splats",
-                             where=path)
-        sh_rest = np.stack([np.asarray(sh_el.data[r], np.float64) for r in rest], -1)
-        sh_rest = sh_rest * (8.0 / 255.0) - 4.0
-        used |= {("sh", r) for r in rest}
-    sh = np.zeros((n, k, 3))
-    sh[:, 0] = (rgb - 0.5) / SH_C0
-    if sh_rest is not None:
-        sh[:, 1:] = sh_rest.reshape(n, 3, k - 1).transpose(0, 2, 1)
-    fields["sh"] = sh
-    return fields, used
-
-
-def _unpack_111011(v: np.ndarray) -> np.ndarray:
-    """uint32 -> [N, 3] in [0, 1]: 11 bits x, 10 bits y, 11 bits z (high to low)."""
-    return np.stack([(v >> 21) / 2047.0, ((v >> 11) & 0x3FF) / 1023.0, (v & 0x7FF) / 2047.0], -1)
-
-
-def _unpack_8888(v: np.ndarray) -> np.ndarray:
-    return np.stack([((v >> s) & 0xFF) / 255.0 for s in (24, 16, 8, 0)], -1)
-
-
-def _unpack_rotation(v: np.ndarray) -> np.ndarray:
-    """uint32 (2 bits largest index in (w, x, y, z), 3 x 10 bits the others) -> [N, 4]."""
-    abc = np.stack([(((v >> s) & 0x3FF) / 1023.0 - 0.5) * np.sqrt(2.0) for s in (20, 10, 0)], -1)
-    m = np.sqrt(np.maximum(1.0 - np.sum(abc * abc, axis=1), 0.0))
-    largest = (v >> 30).astype(np.int64)
-    slot = np.arange(4)[None, :]
-    others = slot - (slot > largest[:, None])  # index into abc for the non-largest slots
-    return np.where(slot == largest[:, None], m[:, None],
-                    np.take_along_axis(abc, np.clip(others, 0, 2), axis=1))
-
-
 def _min_axis(rot: np.ndarray, log_scale: np.ndarray) -> np.ndarray:
     """[N, 3] the unit shortest axis of each Gaussian (ties: lowest index), as in
     ``splat_min_axis`` (shaders/lib/splat.glsl); zero quaternions give the identity."""
@@ -330,59 +242,6 @@ def _compact(names: list[str]) -> str:
     return ", ".join(out)
 
 
-def fields_to_splats(path, f: dict, stacklevel: int = 2) -> Splats:
-    """Validate decoded fields (every reader's output) into :class:`Splats`: ``means`` [N, 3],
-    ``sh`` [N, K, 3], ``opacity`` [N] in [0, 1] (NaN = unreadable), ``log_scale`` [N, 3],
-    ``rot`` [N, 4] (w, x, y, z), optional ``albedo`` [N, 3], ``roughness``, ``metallic`` [N],
-    ``normals`` [N, 3] (any length; zero = none). Drops, clamps and warns as the module
-    docstring says."""
-    path = Path(path)
-    stacklevel += 1
-    means, sh, opacity = f["means"], f["sh"], f["opacity"]
-    log_scale, rot = f["log_scale"], f["rot"]
-    albedo, rough, metal = f.get("albedo"), f.get("roughness"), f.get("metallic")
-    normals = f.get("normals")
-    n = means.shape[0]
-    if n == 0:
-        warnings.warn(f"{path}: no splats", stacklevel=stacklevel)
-    mats = albedo is not None
-    arrays = [a.reshape(n, int(np.prod(a.shape[1:]))) for a in
-              (means, sh, opacity, log_scale, rot, albedo, rough, metal, normals) if a is not None]
-    finite = np.all(np.isfinite(np.concatenate(arrays, axis=1)), axis=1) if n else np.ones(0, bool)
-    with np.errstate(over="ignore"):
-        sigma = np.exp(log_scale)
-    qnorm = np.linalg.norm(rot, axis=1)
-    zero_q = finite & ~(qnorm > 1e-12)
-    huge = finite & ~zero_q & np.any(sigma > MAX_SIGMA, axis=1)
-    keep = finite & ~zero_q & ~huge
-    for count, what in ((np.sum(~finite), "with NaN or Inf values"),
-                        (np.sum(zero_q), "with zero quaternions"),
-                        (np.sum(huge), f"with scales above {MAX_SIGMA:g}")):
-        if count:
-            warnings.warn(f"{path}: dropped {int(count)} splats {what}", stacklevel=stacklevel)
-    tiny = keep & np.any(sigma < MIN_SIGMA, axis=1)
-    if tiny.any():
-        warnings.warn(f"{path}: clamped the scales of {int(tiny.sum())} splats to {MIN_SIGMA:g}",
-                      stacklevel=stacklevel)
-    sigma = np.clip(np.where(np.isfinite(sigma), sigma, MAX_SIGMA), MIN_SIGMA, MAX_SIGMA)
-    if mats:
-        vals = np.concatenate([albedo, rough[:, None], metal[:, None]], axis=1)
-        out = keep & np.any((vals < 0.0) | (vals > 1.0), axis=1)
-        if out.any():
-            warnings.warn(f"{path}: clamped the materials of {int(out.sum())} splats to [0, 1]",
-                          stacklevel=stacklevel)
-        albedo, rough, metal = (np.clip(a, 0.0, 1.0) for a in (albedo, rough, metal))
-    if normals is not None:
-        length = np.linalg.norm(normals, axis=1, keepdims=True)
-        normals = np.where(length > 1e-12, normals / np.maximum(length, 1e-30), 0.0)
-    splats = make_splats(means[keep], sigma[keep], rot[keep], opacity[keep], sh=sh[keep],
-                         albedo=None if albedo is None else albedo[keep],
-                         roughness=None if rough is None else rough[keep],
-                         metallic=None if metal is None else metal[keep],
-                         normals=None if normals is None else normals[keep], source=str(path))
-    if n and not len(splats):
-        warnings.warn(f"{path}: no valid splats left", stacklevel=stacklevel)
-    return splats
 def write_ply(path, splats: Splats, text: bool = False) -> None:
     """Write the relightable layout: 3DGS properties plus ``normal_*``, ``albedo_*``,
     ``roughness``, ``metallic`` (binary little-endian unless ``text``)."""

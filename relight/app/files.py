@@ -1,0 +1,86 @@
+"""The viewer's file actions: files dropped on the window, opening a scene, an environment file,
+a reference render for the difference views, saving what is shown as a scene. A mixin of
+:class:`~relight.app.window.Viewer` (it uses the window's state, GL context and messages)."""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from viewer.errors import InputError, RelightError
+from viewer.gl.context import make_current
+from viewer.scene import load_scene
+
+from .state import load_into, with_environment_file
+
+SCENE_SUFFIXES = (".toml",)
+IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
+
+
+class FileActions:
+    """Opening and saving files; mixed into :class:`~relight.app.window.Viewer`."""
+
+    def drop(self, paths: list[str]) -> None:
+        """Files dropped on the window: a ``.toml`` scene, or an image as the environment."""
+        for path in paths:
+            suffix = Path(path).suffix.lower()
+            if suffix in SCENE_SUFFIXES:
+                self.open_scene(path)
+            elif suffix in IMAGE_SUFFIXES:
+                self.set_environment_file(path)
+            else:
+                self.state.message = str(InputError(
+                    f"unsupported file type {suffix or '(none)'}: drop a .toml scene or an "
+                    f"HDR/EXR environment", where=path))
+
+    def open_scene(self, path: str) -> bool:
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                scene = load_scene(path)
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        self.state = load_into(self.state, scene)
+        self.state.message = None
+        self.show_warnings(caught)
+        return True
+
+    def set_environment_file(self, path: str) -> None:
+        """Use an equirect HDR/EXR; a file that cannot be used leaves the environment as it was."""
+        self.state = with_environment_file(self.state, str(Path(path).resolve()))
+        self.state.message = None
+
+    def load_reference(self, path: str) -> bool:
+        """Load a linear render (EXR/HDR, the size of the render) for the difference views."""
+        from viewer.imageio import read_image
+
+        try:
+            arr, _ = read_image(path, channels=(3, 4))
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        h, w = arr.shape[:2]
+        rgba = np.ones((h, w, 4), np.float32)
+        rgba[..., :3] = arr[..., :3]
+        if self._reference is not None:
+            self._reference.release()
+        make_current(self.ctx)
+        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba[::-1]).tobytes(), dtype="f4")
+        tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        self._reference = tex
+        self.state.reference_path = str(path)
+        self.state.message = None
+        return True
+
+    def save_scene(self, path: str) -> bool:
+        """Write what is shown as a scene TOML that ``relight render`` renders identically."""
+        from viewer.scene_io import save_scene
+
+        try:
+            save_scene(self.current_scene(), path)
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        self.state.message = f"saved {path}"
+        return True

@@ -1,0 +1,42 @@
+"""What several sub-commands share: the demo scene, ``--size WxH``, the GL context options and the
+import of a torch-side module with a one-line error when torch is missing."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from viewer.errors import RelightError, SceneError
+
+
+DEMO_SCENE = "demo.toml"
+
+
+def _demo_path() -> Path:
+    from assets import ASSET_ROOT
+
+    return ASSET_ROOT / "scenes" / DEMO_SCENE
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise SceneError(f"--size must look like 512x512, got {text!r}", where="--size") from None
+    if not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise SceneError(f"--size {w}x{h} is outside 1..16384", where="--size")
+    return w, h
+
+
+def _context_options(args):
+    from viewer.gl import ContextOptions
+
+    return ContextOptions(software=getattr(args, "software", False))
+
+
+def _learned(what: str):
+    import importlib
+
+    try:
+        return importlib.import_module(what)
+    except ImportError as exc:
+        raise RelightError(f"this command needs torch: pip install -e '.[learned]' ({exc})",
+                           where=what) from None

@@ -1,0 +1,82 @@
+"""``relight train``: synthetic data -> teacher -> shadow estimator -> distilled student (or the
+comparison of student designs), optionally on path-traced targets (``--targets reference``)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from viewer.errors import RelightError
+
+from .common import _learned
+from .reference import reference_tracer
+
+
+# ``relight train`` options that override a field of learned.train.TrainConfig
+TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixels",
+                   "light_samples", "strategy", "student_target", "student_features",
+                   "student_output", "student_hidden", "student_indirect",
+                   "student_sun", "student_multiscatter", "student_gain_penalty",
+                   "teacher_light_input")
+
+
+def cmd_train(args) -> int:
+    """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student, or
+    (--compare-students) the measured comparison of the candidate student designs."""
+    over = {k: getattr(args, k) for k in TRAIN_OVERRIDES if getattr(args, k) is not None}
+    if "teacher_light_input" in over:  # --teacher-light-input on | off
+        over["teacher_light_input"] = over["teacher_light_input"] == "on"
+    if args.compare_students:
+        if args.stage != "all":
+            raise RelightError("--compare-students trains every stage it needs; drop --stage",
+                               where="--stage")
+        students = _learned("relight.bench.students")
+        res = students.compare_students(args.out, data=args.data, install=args.install,
+                                        quiet=args.quiet, **over)
+        print(students.compare_table(res))
+        return 0
+    if args.stage == "student" and over.get("student_target") != "target":
+        raise RelightError("the student stage alone learns from the dataset's targets: add "
+                           "--student-target target (a distilled student needs the teacher)",
+                           where="--stage")
+    train = _learned("learned.train")
+    data = args.data
+    if getattr(args, "targets", "rasteriser") == "reference":
+        data = _truth_data(args)
+    elif getattr(args, "count", None) is not None:
+        raise RelightError("--count sizes the dataset --targets reference generates",
+                           where="--count")
+    res = train.pipeline(args.out, data=data, quick=args.quick, install=args.install,
+                         quiet=args.quiet, stages=args.stage, **over)
+    if not args.quiet:
+        for k in ("teacher", "shadow", "student", "installed_student", "installed_teacher"):
+            if k in res:
+                print(f"{k}: {res[k]}")
+    return 0
+
+
+def _truth_data(args) -> str:
+    """``relight train --targets reference``: the ``truth-train`` preset (:func:`_truth_config`:
+    path-traced targets, the truth scene kinds (contact, clusters, concave meshes, glTF models)
+    and the real HDRIs sky and park beside the procedural environments; esplanade and the nested
+    kinds stay held out), generated under OUT/data-truth by every torchrun rank (sample i by rank
+    i % WORLD_SIZE), resumable; returns its folder."""
+    if args.data is not None:
+        raise RelightError("--targets makes the generated dataset; drop --data (a given dataset "
+                           "brings its own targets)", where="--targets")
+    if args.compare_students:
+        raise RelightError("--compare-students generates its own data; drop --targets",
+                           where="--targets")
+    data = str(Path(args.out) / "data-truth")
+    _learned("learned.data.generator").generate(data, _truth_config(args), progress=not args.quiet,
+                                                shard=True, tracer=reference_tracer())
+    return data
+
+
+def _truth_config(args):
+    """The dataset of ``relight train --targets reference``: the ``truth-train`` preset
+    (``relight data --preset truth-train``) with ``--count`` samples (default the quick dataset's
+    40) and ``--reference-spp``."""
+    count = getattr(args, "count", None)
+    if count is None:
+        count = _learned("learned.train.config").QUICK_DATA["count"]
+    return _learned("learned.data.presets").preset_config(
+        "truth-train", count=int(count), reference_spp=args.reference_spp)

@@ -1,0 +1,52 @@
+"""``relight view``: the interactive viewer (:mod:`relight.app`), or its screenshot offscreen."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from viewer.errors import RelightError, SceneError
+
+from .common import _context_options, _demo_path, _parse_size
+
+
+def cmd_view(args) -> int:
+    try:
+        import imgui_bundle  # noqa: F401  (before glfw: both must use the same libglfw)
+    except ImportError as exc:
+        raise RelightError(f"relight view needs imgui-bundle: pip install -e '.[gui]' ({exc})",
+                           where="view") from None
+    from viewer.scene import load_scene
+
+    from ..app.window import Viewer
+
+    if args.frames is not None and args.frames < 1:
+        raise SceneError(f"--frames must be at least 1, got {args.frames}", where="--frames")
+    shot = Path(args.screenshot) if args.screenshot else None
+    if shot is not None:
+        if shot.suffix.lower() not in (".png", ".exr"):
+            raise SceneError("--screenshot must end in .png (the view) or .exr (linear radiance)",
+                             where=shot)
+        if not shot.resolve().parent.is_dir():
+            raise SceneError("output folder does not exist", where=shot.parent)
+    scene = load_scene(args.scene or _demo_path())
+    if args.size:
+        scene = scene.with_camera(size=_parse_size(args.size))
+    viewer = Viewer(scene, offscreen=args.offscreen, options=_context_options(args),
+                    title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
+    try:
+        if args.reference:
+            viewer.frame()
+            if not viewer.load_reference(args.reference):
+                raise RelightError(viewer.state.message)
+        frames = args.frames
+        if frames is None and (args.offscreen or shot is not None):
+            frames = 1
+        viewer.run(frames=frames)
+        if viewer.renders == 0:  # the scene itself failed (a missing mesh, an unknown model)
+            raise RelightError(viewer.state.message or "nothing could be rendered")
+        if shot is not None:
+            viewer.screenshot(shot)
+            if not args.quiet:
+                print(f"{viewer.frames} frames -> {shot}")
+    finally:
+        viewer.close()
+    return 0

@@ -1,0 +1,53 @@
+"""Fixtures shared by the learned tests, session-scoped (the tests that use one share it, as when
+they were one module): the tiny synthetic ``dataset`` (tiny_dataset.py) of the data, training and
+evaluation tests, and the weights files of the neural-shader tests (test_neural*.py): a random
+student and teacher (``weights``), a ``dfg`` student and a ``pbr3`` student."""
+import pytest
+
+
+@pytest.fixture(scope="session")
+def weights(tmp_path_factory):
+    import torch
+
+    from learned.export import export
+    from learned.neural.student import Student
+    from learned.neural.teacher import Teacher
+
+    d = tmp_path_factory.mktemp("weights")
+    torch.manual_seed(1)
+    s = Student(hidden=(16, 32), num_freqs=2)
+    t = Teacher(hidden=16, num_freqs=1)
+    with torch.no_grad():  # move outputs away from the sigmoid's flat ends
+        s.layers[-1].weight.mul_(3.0)
+    export(s, d / "s.safetensors", {"note": "test"})
+    export(t, d / "t.safetensors")
+    return d / "s.safetensors", d / "t.safetensors"
+
+
+@pytest.fixture(scope="session")
+def dfg_weights(tmp_path_factory):
+    from neural_weights import student_file
+
+    return student_file(tmp_path_factory, "dfg", 2, features="dfg")
+
+
+@pytest.fixture(scope="session")
+def pbr_weights(tmp_path_factory):
+    from neural_weights import student_file
+
+    return student_file(tmp_path_factory, "pbr", 3, features="dfg", output="pbr3")
+
+
+@pytest.fixture(scope="session")
+def dataset(tmp_path_factory, ctx):
+    from learned.data.generator import generate
+    from tiny_dataset import TINY
+    from viewer.renderer import Renderer
+
+    root = tmp_path_factory.mktemp("data") / "d"
+    r = Renderer(ctx=ctx)
+    try:
+        generate(root, TINY, renderer=r, progress=False)
+    finally:
+        r.release()
+    return root

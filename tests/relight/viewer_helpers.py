@@ -1,0 +1,37 @@
+"""The offscreen viewer tests' scene and readers: a grey sphere (:func:`sphere_scene`), what the
+window shows (:func:`shown`, :func:`to_linear`) and the headless render to compare it with
+(:func:`headless`). The viewer itself is the ``viewer`` / ``fresh`` fixtures of
+tests/relight/conftest.py."""
+import numpy as np
+
+from viewer.renderer import Renderer
+from viewer.scene import scene_from_dict
+
+SIZE = (96, 96)
+
+
+def sphere_scene():
+    return scene_from_dict({
+        "camera": {"position": [0, 0, 3.2], "fov_y": 40, "size": list(SIZE)},
+        "environment": {"procedural": "studio", "width": 128},
+        "objects": [{"type": "sphere", "material": {"albedo": [0.6, 0.6, 0.6], "roughness": 0.0,
+                                                   "specular": 1.0}}],
+        "render": {"tonemap": "none", "exposure": -1.0}})
+
+
+def shown(viewer, frames=1) -> np.ndarray:
+    viewer.run(frames=frames)
+    return viewer.read_framebuffer()
+
+
+def to_linear(rgba8: np.ndarray) -> np.ndarray:
+    c = rgba8[..., :3].astype(np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def headless(ctx, scene, **kw):
+    r = Renderer(ctx=ctx)
+    try:
+        return r.render(scene, **kw)
+    finally:
+        r.release()

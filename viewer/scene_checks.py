@@ -1,0 +1,124 @@
+"""Checked values of scene files: the typed readers of one key (:func:`_num`, :func:`_vec`,
+:func:`_int`, :func:`_str`, :func:`_path`, unknown keys :func:`_check_keys`), each a one-line
+:class:`~viewer.errors.SceneError` naming the file and the key, and the ``[render]`` table's
+validation (:func:`validate_render`), shared by scene files, ``Scene.with_render`` and the CLI.
+The tables themselves become dataclasses in :mod:`viewer.scene`."""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+from .errors import SceneError
+from .models import MODELS, SAMPLINGS
+from .neural.glsl import WEIGHT_STORAGES
+from .settings import RENDER_KEYS, SPLAT_DEPTHS, SSAO_SCALE_MAX
+
+
+TONEMAPS = ("none", "aces", "reinhard")
+BACKGROUNDS = ("environment", "transparent")
+PRECISIONS = ("fp32", "fp16")
+MIS_HEURISTICS = ("power", "balance")
+
+
+def _check_keys(table: dict, allowed: set[str], where: str, file: str) -> None:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise SceneError(f"unknown key{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(repr(k) for k in unknown)} in {where} "
+                         f"(known: {', '.join(sorted(allowed))})", where=file)
+
+
+def _num(v: Any, key: str, file: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise SceneError(f"{key} must be a finite number, got {v!r}", where=file)
+    if not lo <= v <= hi:
+        raise SceneError(f"{key} = {v} is outside [{lo}, {hi}]", where=file)
+    return float(v)
+
+
+def _vec(v: Any, n: int, key: str, file: str) -> tuple[float, ...]:
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise SceneError(f"{key} must be a list of {n} numbers, got {v!r}", where=file)
+    return tuple(_num(x, key, file) for x in v)
+
+
+def _int(v: Any, key: str, file: str, lo: int = 1, hi: int = 1 << 30) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise SceneError(f"{key} must be an integer in [{lo}, {hi}], got {v!r}", where=file)
+    return v
+
+
+def _str(v: Any, key: str, file: str, choices: tuple[str, ...] | None = None) -> str:
+    if not isinstance(v, str):
+        raise SceneError(f"{key} must be a string, got {v!r}", where=file)
+    if choices is not None and v not in choices:
+        raise SceneError(f"{key} = {v!r} is not one of {', '.join(choices)}", where=file)
+    return v
+
+
+def _path(v: Any, key: str, file: str, base: Path) -> str:
+    s = _str(v, key, file)
+    p = Path(os.path.expanduser(s))
+    return str(p if p.is_absolute() else (base / p).resolve())
+
+
+def validate_render(t: dict, file: str) -> dict[str, Any]:
+    """The ``[render]`` keys of ``t`` checked (types, ranges, choices; paths resolved against
+    ``file``'s folder): the one validation for scene files, ``Scene.with_render`` and the CLI."""
+    _check_keys(t, set(RENDER_KEYS), "[render]", file)
+    kw: dict[str, Any] = {}
+    if "model" in t:
+        kw["model"] = _str(t["model"], "render.model", file, tuple(MODELS))
+    if "samples" in t:
+        kw["samples"] = _int(t["samples"], "render.samples", file, 1, 1 << 20)
+    if "sampling" in t:
+        kw["sampling"] = _str(t["sampling"], "render.sampling", file, SAMPLINGS)
+    for k in ("multiscatter", "ao", "sun"):
+        if k in t:
+            if not isinstance(t[k], bool):
+                raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)
+            kw[k] = t[k]
+    if "tonemap" in t:
+        kw["tonemap"] = _str(t["tonemap"], "render.tonemap", file, TONEMAPS)
+    if "exposure" in t:
+        kw["exposure"] = _num(t["exposure"], "render.exposure", file, -40.0, 40.0)
+    if "background" in t:
+        kw["background"] = _str(t["background"], "render.background", file, BACKGROUNDS)
+    if "seed" in t:
+        kw["seed"] = _int(t["seed"], "render.seed", file, 0, (1 << 31) - 1)
+    if "specialize" in t:
+        if not isinstance(t["specialize"], bool):
+            raise SceneError(f"render.specialize must be true or false, got {t['specialize']!r}",
+                             where=file)
+        kw["specialize"] = t["specialize"]
+    if "precision" in t:
+        kw["precision"] = _str(t["precision"], "render.precision", file, PRECISIONS)
+    if "mis_heuristic" in t:
+        kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
+                                   MIS_HEURISTICS)
+    for k in ("ssao", "indirect"):
+        if k in t:
+            if not isinstance(t[k], bool):
+                raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)
+            kw[k] = t[k]
+    if "ssao_rays" in t:
+        kw["ssao_rays"] = _int(t["ssao_rays"], "render.ssao_rays", file, 1, 1024)
+    if "ssao_steps" in t:
+        kw["ssao_steps"] = _int(t["ssao_steps"], "render.ssao_steps", file, 1, 256)
+    if "ssao_scale" in t:
+        kw["ssao_scale"] = _int(t["ssao_scale"], "render.ssao_scale", file, 1, SSAO_SCALE_MAX)
+    for k in ("ssao_radius", "ssao_thickness"):
+        if k in t:
+            kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
+    if "splat_depth" in t:
+        kw["splat_depth"] = _str(t["splat_depth"], "render.splat_depth", file, SPLAT_DEPTHS)
+    if "neural_storage" in t:
+        kw["neural_storage"] = _str(t["neural_storage"], "render.neural_storage", file,
+                                    WEIGHT_STORAGES)
+    for k in ("weights", "teacher_weights"):  # relative to the scene file
+        if k in t:
+            base = Path(file).resolve().parent if Path(file).is_file() else Path.cwd()
+            kw[k] = _path(t[k], f"render.{k}", file, base)
+    return kw

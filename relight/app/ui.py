@@ -311,6 +311,8 @@ class ViewerUI:
             imgui.text(f"samples {targets.samples}/{scene.render.mc.samples}")
         for name, ms in viewer.timers.ms.items():
             imgui.text(f"{name:>8}: {ms:7.3f} ms GPU")
+        for line in frame_lines(viewer.renderer):
+            imgui.text(line)
         imgui.end()
 
     # ---- file dialogs ----------------------------------------------------------------------------
@@ -336,3 +338,21 @@ class ViewerUI:
             self.viewer.set_environment_file(chosen[0])
         else:
             self.viewer.load_reference(chosen[0])
+
+
+def frame_lines(renderer) -> list[str]:
+    """The overlay's lines on the last frame's graph (the passes it reused) and the renderer's
+    memory: bytes and entries per cache, against each budget (:meth:`Renderer.memory`)."""
+    from viewer.cache import mib
+
+    lines = []
+    graph = renderer.last_graph
+    if graph is not None:
+        reused = [p.name for p in graph.passes if p.reused and not p.culled]
+        lines.append("reused: " + (", ".join(reused) if reused else "nothing"))
+    for name, s in renderer.memory().items():
+        budget = (f" / {mib(s.max_bytes)}" if s.max_bytes is not None
+                  else f" / {s.max_items}" if s.max_items is not None else "")
+        lines.append(f"{name:>12}: {mib(s.bytes):>10}{budget}  ({s.items})")
+    return lines
+

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .checks import env_sampling, forward, ibl, models, neural, splats, ssao
+from .checks import env_sampling, forward, ibl, models, neural, shadow, splats, ssao
 
-CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao)
+CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow)
 
 _REGISTRY: dict[str, tuple[str | None, Callable]] = {}
 

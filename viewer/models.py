@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .errors import SceneError
+from .lights import light_defines
 
 SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
 SAMPLING_IDS = {name: i for i, name in enumerate(SAMPLINGS)}  # the SAMPLING define
@@ -43,10 +44,11 @@ class ShadingModel:
     reads: frozenset[str] | None = ALL_CHANNELS
     accumulates: bool = False  # Monte Carlo: `samples` accumulate in batches and over frames
     network: str | None = None  # "student" | "teacher": the weights file the model loads
-    # how the model treats a scene's [light]: "shaded" (the analytic direct term), "unlit" (no
-    # lighting at all) or "ignored" (the neural models: trained under environment light only;
-    # the renderer warns once when a scene with a light is rendered with one)
-    directional_light: str = "shaded"
+    # how the model treats a scene's punctual lights (viewer.lights): "shaded" (the analytic
+    # direct term of each: LIGHT_COUNT, LIGHT_POSITIONAL), "unlit" (no lighting at all) or
+    # "ignored" (the neural teacher: trained under environment light only; the renderer warns
+    # once when a scene with lights is rendered with it)
+    lights: str = "shaded"
     occlusion: bool = True  # honours `ao` (the G-buffer's) and `ssao` (USE_AO, USE_SSAO)
     multiscatter: bool = False  # has the GGX energy compensation switch (MULTISCATTER)
     # Monte-Carlo strategies it implements: SAMPLINGS, or a prefix of it (a request past the
@@ -60,12 +62,12 @@ class ShadingModel:
     def variant(self, settings, light=None, specular: bool = True,
                 sun: bool = False) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
-        :class:`~viewer.scene.DirectionalLight` or None), whether any surface has a specular
+        :class:`~viewer.lights.Light`, a tuple of them or None), whether any surface has a specular
         lobe (:class:`viewer.specialize.SceneFeatures`) and whether the environment has a sun
         (:func:`viewer.sun.extract_sun`; shaded analytically when ``settings.sun``)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
-        if self.directional_light == "shaded":
-            d["LIGHT_DIRECTIONAL"] = int(light is not None)
+        if self.lights == "shaded":
+            d.update(light_defines(light, shadows=settings.shadow.enabled))
         if self.occlusion:
             d["USE_AO"] = int(settings.ao)
             d["USE_SSAO"] = int(settings.ssao.enabled)
@@ -93,7 +95,7 @@ MODELS: dict[str, ShadingModel] = {
     m.name: m for m in (
         ShadingModel("unlit", "passes/shade_unlit.frag",
                      "albedo (a splat's baked colour) without lighting, for inspection",
-                     frozenset({"radiance"}), reads=frozenset(), directional_light="unlit",
+                     frozenset({"radiance"}), reads=frozenset(), lights="unlit",
                      occlusion=False),
         ShadingModel("blinn_phong", "passes/shade_blinn_phong.frag",
                      "the thesis baseline: Lambert diffuse from SH irradiance + a Fresnel-free "
@@ -115,14 +117,13 @@ MODELS: dict[str, ShadingModel] = {
                      "the distilled neural shader (thesis ch. 4 student): one small MLP per "
                      "pixel on the material, n.v, SH irradiance and prefiltered radiance; "
                      "weights baked into generated GLSL from `weights` (default: assets/weights)",
-                     frozenset({"sh", "prefiltered", "radiance"}), network="student",
-                     directional_light="ignored"),
+                     frozenset({"sh", "prefiltered", "radiance"}), network="student"),
         ShadingModel("neural_teacher", "passes/shade_neural_teacher.frag",
                      "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse "
                      "and specular MLPs per sampled light direction, `samples` averaged "
                      "progressively; `sampling` uniform | cosine | env (brdf and mis use env)",
                      frozenset({"radiance", "cdf"}), accumulates=True, network="teacher",
-                     directional_light="ignored", occlusion=False, samplings=SAMPLINGS[:3]),
+                     lights="ignored", occlusion=False, samplings=SAMPLINGS[:3]),
     )
 }
 # models that integrate by Monte Carlo (accumulate samples)

@@ -33,12 +33,14 @@ from .frame import Frame, FrameTargets, read_texture
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
+from .bounds import scene_bounds
 from .cache import BoundedCache
 from .models import ShadingModel, model_info
 from .neural import learns_indirect, required_settings, shades_sun
 from .cache import Budgets, CacheStats
 from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
+from .lights import gather_lights
 from .resources import GPUResources
 from .scene import ObjectSpec, Scene
 from .specialize import analyse, specialise
@@ -62,6 +64,7 @@ class Renderer:
         self.resources = GPUResources(self.programs, budgets)  # targets, passes, environments
         # (objects, environment) -> SceneFeatures: the analysis scans materials and texture maps
         self._features = BoundedCache("features", max_items=64)
+        self._bounds = BoundedCache("bounds", max_items=64)  # scene content -> Bounds
         self.last_graph: FrameGraph | None = None  # the last frame's compiled graph
         # optional per-pass profiler (viewer.gl.timing.PassTimer): .begin(name) between passes
         self.profiler = None
@@ -115,6 +118,7 @@ class Renderer:
         """The G-buffer layout and lighting-pass defines this scene needs (see
         :mod:`viewer.specialize`; ``render.specialize = false`` gives the all-features path).
         ``aovs``: channels the caller reads back, always allocated."""
+        scene = gather_lights(scene, self.geometry)  # + the meshes' own lights
         # a sun to shade analytically (SUN_LIGHT): only looked for where the model can use it
         # (a classical model that does, or a student whose base does: viewer.neural.shades_sun)
         sun = ((model_info(scene.render.model).analytic_sun or shades_sun(scene.render))
@@ -183,7 +187,8 @@ class Renderer:
         if model.accumulates and settings.mc.samples < 1:
             raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
                              f"{settings.mc.samples}", where=scene.source or "render.samples")
-        if scene.light is not None and model.directional_light == "ignored":
+        scene = gather_lights(scene, self.geometry)  # + the meshes' own lights
+        if scene.light is not None and model.lights == "ignored":
             _warn_light_ignored(settings.model)
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
@@ -213,9 +218,16 @@ class Renderer:
         settings = required_settings(scene.render)
         if settings is not scene.render:
             scene = dataclasses.replace(scene, render=settings)
+        scene = gather_lights(scene, self.geometry)
         request = FrameRequest(scene, model_info(settings.model), self.specialization(scene, aovs),
                                self.resolve_camera(scene, size))
         return build_frame(self, request, reuse=self.reuse_passes).compile()
+
+    def bounds(self, scene: Scene):
+        """World bounds of what ``scene`` contains (:func:`viewer.bounds.scene_bounds`; robust
+        for splats), cached per scene content; None for image stacks alone."""
+        key = (scene.objects, self.geometry_cache.version)
+        return self._bounds.get_or_create(key, lambda: scene_bounds(self, scene))
 
     def memory(self) -> dict[str, CacheStats]:
         """Bytes and entries of every cache this renderer keeps (name -> stats)."""
@@ -272,8 +284,8 @@ _LIGHT_WARNED: set[str] = set()
 
 
 def _warn_light_ignored(model: str) -> None:
-    """Once per model and process: ``model`` renders without the scene's directional light."""
+    """Once per model and process: ``model`` renders without the scene's lights."""
     if model not in _LIGHT_WARNED:
         _LIGHT_WARNED.add(model)
-        warnings.warn(f"model {model!r} ignores the scene's [light] (trained under environment "
+        warnings.warn(f"model {model!r} ignores the scene's lights (trained under environment "
                       f"light only); it is shaded by the environment alone", stacklevel=4)

@@ -18,6 +18,7 @@ from .passes.accumulate import AccumulatePass
 from .passes.forward import ForwardPass
 from .passes.gbuffer import GBufferPass
 from .passes.shade import ShadePass
+from .passes.shadow import ShadowPass
 from .passes.splats import SplatPass
 from .passes.ssao import SSAOPass
 from .passes.tonemap import TonemapPass
@@ -41,6 +42,7 @@ class GPUResources:
                                     release=lambda p: p.release())
         self._tonemap: TonemapPass | None = None
         self._accumulate: AccumulatePass | None = None
+        self._shadow: ShadowPass | None = None
         self._ibl: dict[tuple, object] = {}
         self._env_sampling: dict[tuple, object] = {}
         self._power_directions: dict[tuple, np.ndarray] = {}
@@ -69,6 +71,11 @@ class GPUResources:
         if self._tonemap is None:
             self._tonemap = TonemapPass(self.programs)
         return self._tonemap
+
+    def shadow_pass(self) -> ShadowPass:
+        if self._shadow is None:
+            self._shadow = ShadowPass(self.programs)
+        return self._shadow
 
     def accumulate_pass(self) -> AccumulatePass:
         if self._accumulate is None:
@@ -137,9 +144,10 @@ class GPUResources:
         self._passes.clear()
         for obj in (list(self._ibl.values()) + list(self._ibl_sun.values())
                     + list(self._env_sampling.values())
-                    + [p for p in (self._tonemap, self._accumulate) if p is not None]):
+                    + [p for p in (self._tonemap, self._accumulate, self._shadow)
+                       if p is not None]):
             obj.release()
         for d in (self._ibl, self._ibl_sun, self._env_sampling, self._power_directions,
                   self._suns, self._env_arrays):
             d.clear()
-        self._tonemap = self._accumulate = None
+        self._tonemap = self._accumulate = self._shadow = None

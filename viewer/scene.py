@@ -28,10 +28,15 @@ Example::
     metallic = 0.0
     specular = 0.5
 
-    [light]                          # optional: one directional light (absent: none)
+    [[lights]]                       # optional, up to 8 (viewer.lights); absent: none
+    type = "directional"             # directional | point | spot
     direction = [0.3, 1.0, 0.5]      # towards the light, world space; normalised on load
     color = [1.0, 0.95, 0.9]         # linear RGB
-    intensity = 3.0                  # irradiance at normal incidence
+    intensity = 3.0                  # W/m^2 facing it (point, spot: W/sr)
+    # point, spot: position = [x, y, z], range = 10 (optional, glTF's window)
+    # spot: direction = its axis reversed (towards the light), inner_cone_deg, outer_cone_deg
+
+    # the old [light] table (direction, color, intensity) still reads as one directional light
 
     [render]
     model = "ggx_split_sum"          # see viewer.models.MODELS
@@ -54,6 +59,8 @@ from typing import Any
 from .camera import Camera
 from .environment import EnvironmentSpec
 from .errors import SceneError
+from .light_tables import parse_light, parse_lights
+from .lights import DirectionalLight, Light, check_count, unit_direction
 from .material import Material
 from .scene_checks import (
     BACKGROUNDS,
@@ -77,8 +84,8 @@ except ImportError:  # pragma: no cover - Python < 3.11
 
 # BACKGROUNDS, MIS_HEURISTICS, PRECISIONS, TONEMAPS and validate_render live in viewer.scene_checks
 __all__ = ["BACKGROUNDS", "MIS_HEURISTICS", "OBJECT_TYPES", "PRECISIONS", "TONEMAPS",
-           "DirectionalLight", "ObjectSpec", "Scene", "load_scene", "parse_camera",
-           "parse_environment", "parse_light", "parse_material", "parse_object", "parse_render",
+           "DirectionalLight", "Light", "ObjectSpec", "Scene", "load_scene", "parse_camera",
+           "parse_environment", "parse_light", "parse_lights", "parse_material", "parse_object", "parse_render",
            "scene_from_dict", "unit_direction", "validate_render"]
 
 
@@ -106,29 +113,24 @@ class ObjectSpec:
 
 
 @dataclass(frozen=True)
-class DirectionalLight:
-    """A light at infinity (the ``[light]`` table): every surface point receives irradiance
-    ``intensity * color`` on a plane facing it, from ``direction``. Nothing shadows it. It lives in
-    world space: the environment's ``rotation_deg`` does not turn it."""
-
-    direction: tuple[float, float, float]  # unit vector towards the light, world space
-    color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # linear RGB, >= 0
-    intensity: float = 1.0  # irradiance at normal incidence (radiance x steradians), >= 0
-
-    @property
-    def irradiance(self) -> tuple[float, float, float]:
-        """``color * intensity``: the RGB irradiance on a surface facing the light."""
-        return tuple(c * self.intensity for c in self.color)
-
-
-@dataclass(frozen=True)
 class Scene:
     camera: Camera = Camera()
     environment: EnvironmentSpec = EnvironmentSpec(procedural="studio")
     objects: tuple[ObjectSpec, ...] = ()
     render: RenderSettings = RenderSettings()
     source: str | None = None  # the TOML file it came from
-    light: DirectionalLight | None = None  # the optional ``[light]``
+    lights: tuple[Light, ...] = ()  # ``[light]`` then ``[[lights]]`` (viewer.lights), world space
+    # the mesh objects' own lights (glTF KHR_lights_punctual, world space): None until the
+    # renderer gathers them (viewer.lights.gather_lights), never written to a scene file
+    object_lights: tuple[Light, ...] | None = None
+
+    @property
+    def light(self) -> tuple[Light, ...] | None:
+        """Every light the lighting passes shade (the scene's, then the objects' own once
+        gathered), as one hashable value; ``None`` when there is none. The passes' ``light``
+        argument and the frame graph's input (its name from when a scene had one light)."""
+        lights = self.lights + (self.object_lights or ())
+        return lights or None
 
     def with_render(self, **changes) -> "Scene":
         """A copy with ``[render]`` settings changed by their TOML keys (``samples=64``), checked
@@ -267,34 +269,6 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
     return ObjectSpec(**kw)
 
 
-def unit_direction(v: tuple[float, ...]) -> tuple[float, float, float] | None:
-    """``v`` normalised, or ``None`` for a (near-)zero vector. A vector already of unit length
-    (within 1e-12) is kept as it is, so saving and loading a scene gives back the same floats."""
-    norm = math.sqrt(sum(x * x for x in v))
-    if not norm > 1e-9 or not math.isfinite(norm):
-        return None
-    if abs(norm - 1.0) <= 1e-12:
-        return (float(v[0]), float(v[1]), float(v[2]))
-    return (v[0] / norm, v[1] / norm, v[2] / norm)
-
-
-def parse_light(t: dict, file: str) -> DirectionalLight:
-    _check_keys(t, {f.name for f in fields(DirectionalLight)}, "[light]", file)
-    if "direction" not in t:
-        raise SceneError("light.direction is required (a vector towards the light)", where=file)
-    direction = unit_direction(_vec(t["direction"], 3, "light.direction", file))
-    if direction is None:
-        raise SceneError(f"light.direction must not be zero, got {t['direction']!r}", where=file)
-    kw: dict[str, Any] = {"direction": direction}
-    if "color" in t:
-        kw["color"] = _vec(t["color"], 3, "light.color", file)
-        if min(kw["color"]) < 0.0:
-            raise SceneError(f"light.color = {list(kw['color'])} must be >= 0", where=file)
-    if "intensity" in t:
-        kw["intensity"] = _num(t["intensity"], "light.intensity", file, 0.0)
-    return DirectionalLight(**kw)
-
-
 def parse_render(t: dict, file: str) -> RenderSettings:
     return RenderSettings().with_flat(**validate_render(t, file))
 
@@ -302,20 +276,24 @@ def parse_render(t: dict, file: str) -> RenderSettings:
 def scene_from_dict(data: dict, file: str = "<scene>", base: Path | None = None) -> Scene:
     """Build a :class:`Scene` from parsed TOML. ``base`` resolves relative paths."""
     base = base or Path.cwd()
-    _check_keys(data, {"camera", "environment", "light", "objects", "render"}, "the scene", file)
+    _check_keys(data, {"camera", "environment", "light", "lights", "objects", "render"},
+                "the scene", file)
     for k in ("camera", "environment", "light", "render"):
         if k in data and not isinstance(data[k], dict):
             raise SceneError(f"[{k}] must be a table", where=file)
     objs = data.get("objects", [])
     if not isinstance(objs, list) or not all(isinstance(o, dict) for o in objs):
         raise SceneError("objects must be an array of tables ([[objects]])", where=file)
+    lights = ((parse_light(data["light"], file),) if "light" in data else ()) + \
+        parse_lights(data.get("lights", []), file)
+    check_count(lights, file)
     return Scene(
         camera=parse_camera(data.get("camera", {}), file),
         environment=parse_environment(data.get("environment", {}), file, base),
         objects=tuple(parse_object(o, i, file, base) for i, o in enumerate(objs)),
         render=parse_render(data.get("render", {}), file),
         source=file,
-        light=parse_light(data["light"], file) if "light" in data else None,
+        lights=lights,
     )
 
 

@@ -98,7 +98,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "mis_heuristic" in t:
         kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
                                    MIS_HEURISTICS)
-    for k in ("ssao", "indirect"):
+    for k in ("ssao", "indirect", "shadows"):
         if k in t:
             if not isinstance(t[k], bool):
                 raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)
@@ -112,6 +112,11 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     for k in ("ssao_radius", "ssao_thickness"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
+    if "shadow_size" in t:
+        kw["shadow_size"] = _int(t["shadow_size"], "render.shadow_size", file, 64, 8192)
+    for k in ("shadow_softness", "shadow_bias"):
+        if k in t:
+            kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)
     if "splat_depth" in t:
         kw["splat_depth"] = _str(t["splat_depth"], "render.splat_depth", file, SPLAT_DEPTHS)
     if "neural_storage" in t:

@@ -18,6 +18,7 @@ from typing import Any
 import tomli_w
 
 from .errors import SceneError
+from .light_tables import light_table
 from .scene import ObjectSpec, Scene
 
 
@@ -70,8 +71,8 @@ def scene_to_dict(scene: Scene) -> dict:
         "objects": [_object_table(o) for o in scene.objects],
         "render": {k: _plain(v) for k, v in scene.render.flat().items() if v is not None},
     }
-    if scene.light is not None:  # no table: no light
-        doc["light"] = _table(scene.light)
+    if scene.lights:  # the scene's own lights as [[lights]] (never the objects' own lights)
+        doc["lights"] = [light_table(li) for li in scene.lights]
     return doc
 
 

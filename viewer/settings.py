@@ -55,6 +55,20 @@ class DisplaySettings:
     background: str = "environment"  # "environment" | "transparent"
 
 
+@dataclass(frozen=True)
+class ShadowSettings:
+    """Shadow maps of the shadowing lights (viewer/passes/shadow.py, lib/shadow.glsl)."""
+
+    enabled: bool = True  # every directional light casts a shadow (TOML: shadows)
+    size: int = 2048  # texels a side of each map (shadow_size, 64..8192)
+    # scales each light's angular size, so the penumbra (PCSS); 0: hard (shadow_softness)
+    softness: float = 1.0
+    bias: float = 1.0  # scales the receiver's normal offset (shadow_bias)
+
+    def __bool__(self):
+        raise TypeError("ShadowSettings has no truth value: use settings.shadow.enabled")
+
+
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
 
@@ -80,6 +94,7 @@ class RenderSettings:
     ssao: SSAOSettings = SSAOSettings()
     neural: NeuralSettings = NeuralSettings()
     display: DisplaySettings = DisplaySettings()
+    shadow: ShadowSettings = ShadowSettings()
 
     def flat(self) -> dict[str, Any]:
         """Every setting by its TOML key, in :data:`RENDER_KEYS` order."""
@@ -130,4 +145,8 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "teacher_weights": ("neural", "teacher_weights"),
     "neural_storage": ("neural", "storage"),
     "splat_depth": (None, "splat_depth"),
+    "shadows": ("shadow", "enabled"),
+    "shadow_size": ("shadow", "size"),
+    "shadow_softness": ("shadow", "softness"),
+    "shadow_bias": ("shadow", "bias"),
 }

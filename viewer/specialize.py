@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .gbuffer import CHANNEL_NAMES, CHANNELS, GBufferLayout
+from .lights import as_lights, shadowing
 from .models import ShadeVariant, model_info
 
 
@@ -109,7 +110,8 @@ _OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
                light=None, sun: bool = False) -> Specialization:
     """Layout and lighting-pass variant for ``settings.model`` on a scene with ``features`` and
-    ``light`` (the scene's directional light or None); ``sun``: the environment has a sun
+    ``light`` (``Scene.light``: the lights to shade, or None; LIGHT_COUNT 0 compiles the light
+    loop out, LIGHT_POSITIONAL 0 the surface position); ``sun``: the environment has a sun
     (:func:`viewer.sun.extract_sun`) for a model that shades it analytically.
 
     ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
@@ -132,6 +134,9 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         needed.add("depth")  # meshes and splats depth-test against the stack's stored depth
     if features.blend:
         needed.add("depth")  # blended meshes depth-test against it (viewer/passes/forward.py)
+    if model.lights == "shaded" and (any(li.positional for li in as_lights(light))
+                                     or shadowing(light, settings.shadow.enabled)):
+        needed.add("depth")  # point and spot lights, shadow maps: the position from its depth
     needed |= set(aovs) | {"albedo", "alpha"}
     needed -= _OPTIONAL  # allocated by the layout's flags, never omitted
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c not in _OPTIONAL)

@@ -25,13 +25,12 @@ from .ibl import (
     sample_trilinear_envelope,
     specular_dominant_direction,
 )
+from .lights import light_surface_position, lights_blinn_phong, lights_ggx
 from .sh import sh_irradiance
 from .shade_ggx_mc import shade_ggx_mc
 from .shading import (
     blinn_phong,
-    blinn_phong_directional_light,
     diffuse_color,
-    ggx_directional_light,
     ggx_environment_sun,
     ggx_split_sum,
     shading_normal,
@@ -49,8 +48,8 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     ``conditional``, ``pdf`` (:func:`learned.twins.env_sampling.env_distribution` layout).
     ``defines`` as in :func:`viewer.passes.shade.shade_defines`; ``ssao`` ([H, W], the occlusion
     texture) when ``USE_SSAO``; ``mc``: ``start``, ``count``, ``seed`` of the Monte-Carlo batch;
-    ``light``: the scene's :class:`~viewer.scene.DirectionalLight`, shaded when
-    ``LIGHT_DIRECTIONAL`` (as the GLSL, the define decides, not the argument).
+    ``light``: the scene's lights (``Scene.light``: a tuple of :class:`~viewer.lights.Light` or
+    None), shaded when ``LIGHT_COUNT`` > 0 (as the GLSL, the define decides, not the argument).
     Returns [H, W, 4]: composited radiance and coverage.
 
     ``envelope`` (a dict, filled in): ``"bound"`` [H, W, 3], how far a conforming GPU may land
@@ -144,7 +143,14 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         dfg = traced("dfg", ibl_dfg(lut, nov, r), lambda: sample_trilinear_envelope(
             [lut], uv_lut, torch.zeros_like(r), torch.full_like(uv_lut, 1e-6), repeat_u=False,
             weight_bits=bits))
-        surf = _Surface(n=n, v=v, r=r, ao=ao, irradiance=irradiance,
+        if defines.get("LIGHT_POSITIONAL", 0):  # passes/lights.glsl light_surface_position
+            size_px = torch.tensor([float(frag.shape[1]), float(frag.shape[0])])
+            p_ws = light_surface_position(frag, g["depth"][..., 0], camera.position, basis.T,
+                                          torch.tensor(camera.tan_half_fov(), dtype=torch.float32),
+                                          size_px)
+        else:
+            p_ws = torch.zeros_like(n)
+        surf = _Surface(n=n, v=v, r=r, ao=ao, irradiance=irradiance, p=p_ws,
                         prefiltered=prefiltered * intensity, dfg=dfg,
                         diffuse=diffuse_color(g["albedo"], g["metallic"][..., 0]),
                         f0=compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0]),
@@ -200,11 +206,17 @@ class _Surface:
     diffuse: torch.Tensor
     f0: torch.Tensor
     ms: torch.Tensor  # MULTISCATTER as 0/1
+    p: torch.Tensor  # world position (LIGHT_POSITIONAL; else 0)
 
 
-def _light(light) -> tuple[torch.Tensor, torch.Tensor]:
-    return (torch.tensor(light.direction, dtype=torch.float32),
-            torch.tensor(light.irradiance, dtype=torch.float32))
+def _lights(light, defines) -> tuple:
+    """The lights a pass compiled in: the first LIGHT_COUNT of ``light`` (a tuple, one Light or
+    None)."""
+    lights = () if light is None else (light,) if hasattr(light, "type") else tuple(light)
+    count = int(defines.get("LIGHT_COUNT", 0))
+    if count != len(lights):
+        raise ValueError(f"LIGHT_COUNT {count} but {len(lights)} lights given")
+    return lights
 
 
 def _shade_unlit(g, s, defines, **_) -> torch.Tensor:
@@ -217,27 +229,23 @@ def _shade_unlit(g, s, defines, **_) -> torch.Tensor:
 
 
 def _shade_blinn_phong(g, s: _Surface, defines, light=None, **_) -> torch.Tensor:
-    """``shade_blinn_phong.frag``: the environment terms, plus the directional light."""
+    """``shade_blinn_phong.frag``: the environment terms, plus the punctual lights."""
     c = blinn_phong(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered)
-    if defines.get("LIGHT_DIRECTIONAL", 0):
+    if defines.get("LIGHT_COUNT", 0):
         f0, a = s.f0, s.r * s.r
         if not defines.get("SPECULAR_LOBE", 1):  # the specialised variant passes f0 = 0, a = 1
             f0, a = torch.zeros_like(f0), torch.ones_like(a)
-        l_ws, e = _light(light)
-        c = c + blinn_phong_directional_light(s.diffuse, f0, a, s.n, s.v, l_ws.expand_as(s.n),
-                                              e.expand_as(s.n))
+        c = c + lights_blinn_phong(_lights(light, defines), s.diffuse, f0, a, s.n, s.v, s.p)
     return c
 
 
-def _ggx_light(s: _Surface, f0, a, dfg, ms, light) -> torch.Tensor:
-    l_ws, e = _light(light)
-    return ggx_directional_light(s.diffuse, f0, a, dfg, ms, s.n, s.v, l_ws.expand_as(s.n),
-                                 e.expand_as(s.n))
+def _ggx_light(s: _Surface, f0, a, dfg, ms, light, defines) -> torch.Tensor:
+    return lights_ggx(_lights(light, defines), s.diffuse, f0, a, dfg, ms, s.n, s.v, s.p)
 
 
 def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensity=1.0,
                          rotation_rad=0.0, **_) -> torch.Tensor:
-    """``shade_ggx_split_sum.frag``: split-sum GGX + SH diffuse, plus the directional light and
+    """``shade_ggx_split_sum.frag``: split-sum GGX + SH diffuse, plus the punctual lights and
     (``SUN_LIGHT``) the environment's sun, ``env["sun"]`` (a :class:`viewer.sun.Sun`)."""
     c = ggx_split_sum(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
     f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
@@ -246,8 +254,8 @@ def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensit
         f0, a = torch.zeros_like(f0), torch.ones_like(a)
         dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
         ms = torch.zeros_like(a)
-    if defines.get("LIGHT_DIRECTIONAL", 0):
-        c = c + _ggx_light(s, f0, a, dfg, ms, light)
+    if defines.get("LIGHT_COUNT", 0):
+        c = c + _ggx_light(s, f0, a, dfg, ms, light, defines)
     if defines.get("SUN_LIGHT", 0):
         sun = env["sun"]
         l_env = torch.tensor(sun.direction, dtype=torch.float32).expand_as(s.n)
@@ -262,8 +270,8 @@ def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensit
 
 def _shade_ggx_mc(g, s: _Surface, defines, env=None, intensity=1.0, rotation_rad=0.0, mc=None,
                   light=None, envelope=None) -> torch.Tensor:
-    """``shade_ggx_mc.frag`` on the covered pixels (:func:`shade_ggx_mc`), plus the directional
-    light on batches with samples. ``envelope``: filled with the samples' lookup bound."""
+    """``shade_ggx_mc.frag`` on the covered pixels (:func:`shade_ggx_mc`), plus the punctual
+    lights on batches with samples. ``envelope``: filled with the samples' lookup bound."""
     alpha = g["alpha"][..., 0]
     h, w = alpha.shape
     covered = alpha > 0.0
@@ -278,8 +286,8 @@ def _shade_ggx_mc(g, s: _Surface, defines, env=None, intensity=1.0, rotation_rad
         bound = torch.zeros_like(s.n)
         bound[covered] = envelope["bound"]
         envelope["bound"] = bound
-    if defines.get("LIGHT_DIRECTIONAL", 0) and int(mc.get("count", 1)) > 0:
-        c = c + _ggx_light(s, s.f0, s.r * s.r, s.dfg, s.ms, light)
+    if defines.get("LIGHT_COUNT", 0) and int(mc.get("count", 1)) > 0:
+        c = c + _ggx_light(s, s.f0, s.r * s.r, s.dfg, s.ms, light, defines)
     return c
 
 

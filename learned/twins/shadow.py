@@ -33,41 +33,51 @@ def shadow_depth_at(map_, uv) -> torch.Tensor:
     return map_[ty, tx]
 
 
-def shadow_blocker_depth(map_, uv, z, search_uv, phi) -> torch.Tensor:
-    """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, float z, float search_uv,
-    float phi)``: mean occluder depth in the search disk, -1 where none."""
+def shadow_depth_slope(m) -> torch.Tensor:
+    """GLSL ``vec2 shadow_depth_slope(vec3 m)``: the receiver plane's depth per uv unit."""
+    mz = m[..., 2]
+    mz = torch.where(mz.abs() > 1e-6, mz, torch.full_like(mz, 1e-6))
+    g = -m[..., :2] / mz[..., None]
+    n = torch.linalg.vector_norm(g, dim=-1, keepdim=True)
+    return torch.where(n > 4.0, g * (4.0 / n.clamp_min(1e-30)), g)
+
+
+def shadow_blocker_depth(map_, uv, z, dz, search_uv, phi) -> torch.Tensor:
+    """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz,
+    float search_uv, float phi)``: mean occluder depth in the search disk, -1 where none."""
     total = torch.zeros_like(z)
     count = torch.zeros_like(z)
     for i in range(SHADOW_SEARCH_SAMPLES):
         off = vogel_disk(i, SHADOW_SEARCH_SAMPLES, phi) * search_uv[..., None]
         d = shadow_depth_at(map_, uv + off)
-        hit = d < z
+        hit = d < z + (dz * off).sum(-1)
         total = total + torch.where(hit, d, torch.zeros_like(d))
         count = count + hit.float()
     return torch.where(count > 0, total / count.clamp_min(1.0), torch.full_like(z, -1.0))
 
 
-def shadow_pcf(map_, uv, z, r_uv, phi) -> torch.Tensor:
-    """GLSL ``float shadow_pcf(sampler2D map, vec2 uv, float z, float r_uv, float phi)``."""
+def shadow_pcf(map_, uv, z, dz, r_uv, phi) -> torch.Tensor:
+    """GLSL ``float shadow_pcf(sampler2D map, vec2 uv, float z, vec2 dz, float r_uv,
+    float phi)``."""
     lit = torch.zeros_like(z)
     for i in range(SHADOW_PCF_SAMPLES):
         off = vogel_disk(i, SHADOW_PCF_SAMPLES, phi) * r_uv[..., None]
-        lit = lit + (shadow_depth_at(map_, uv + off) >= z).float()
+        lit = lit + (shadow_depth_at(map_, uv + off) >= z + (dz * off).sum(-1)).float()
     return lit / float(SHADOW_PCF_SAMPLES)
 
 
-def shadow_visibility(map_, s, angle, depth_range, extent, phi) -> torch.Tensor:
-    """GLSL ``float shadow_visibility(sampler2D map, vec3 s, float angle, float depth_range,
-    float extent, float phi)``: PCSS visibility of a directional light of angular radius
-    ``angle`` at the light-space receiver point ``s``."""
+def shadow_visibility(map_, s, dz, angle, depth_range, extent, phi) -> torch.Tensor:
+    """GLSL ``float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle,
+    float depth_range, float extent, float phi)``: PCSS visibility of a directional light of
+    angular radius ``angle`` at the light-space receiver point ``s`` (plane slope ``dz``)."""
     angle = torch.as_tensor(angle, dtype=torch.float32)
     outside = ((s < 0.0) | (s > 1.0)).any(-1)
     texel_uv = 1.0 / float(map_.shape[-1])
     t = torch.tan(angle.clamp(0.0, 0.3))
     z = s[..., 2]
     search = torch.clamp_min(z * depth_range * t / extent, 2.0 * texel_uv)
-    blocker = shadow_blocker_depth(map_, s[..., :2], z, search, phi)
+    blocker = shadow_blocker_depth(map_, s[..., :2], z, dz, search, phi)
     penumbra = (z - blocker) * depth_range * 2.0 * t / extent
-    vis = shadow_pcf(map_, s[..., :2], z, torch.clamp_min(penumbra * 0.5, texel_uv), phi)
+    vis = shadow_pcf(map_, s[..., :2], z, dz, torch.clamp_min(penumbra * 0.5, texel_uv), phi)
     vis = torch.where(blocker < 0.0, torch.ones_like(vis), vis)
     return torch.where(outside, torch.ones_like(vis), vis)

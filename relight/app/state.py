@@ -22,7 +22,7 @@ from viewer.camera import Camera
 from viewer.environment import EnvironmentSpec
 from viewer.gbuffer import CHANNEL_NAMES
 from viewer.material import Material
-from viewer.scene import DirectionalLight, Scene
+from viewer.scene import DirectionalLight, Light, Scene
 from viewer.settings import RenderSettings
 
 # What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
@@ -78,7 +78,8 @@ class ViewerState:
     render: RenderSettings
     object_materials: tuple[Material | None, ...]
     material_override: MaterialOverride = MaterialOverride()
-    light: DirectionalLight | None = None  # the directional light (None: off)
+    light: DirectionalLight | None = None  # the key directional light (None: off)
+    lights: tuple[Light, ...] = ()  # the scene's other lights ([[lights]], in file order)
     view: str = "display"  # one of VIEWS
     error_scale: float = 0.25  # "error": relative error mapped to the top of the colour map
     reference_path: str | None = None  # a linear EXR/HDR render to compare against
@@ -95,9 +96,18 @@ class ViewerState:
 
 def state_from_scene(scene: Scene) -> ViewerState:
     """A fresh state showing ``scene`` exactly (``scene_from_state`` gives ``scene`` back)."""
+    key, rest = split_lights(scene.lights)
     return ViewerState(scene=scene, camera=scene.camera, environment=scene.environment,
-                       render=scene.render, light=scene.light,
+                       render=scene.render, light=key, lights=rest,
                        object_materials=tuple(o.material for o in scene.objects))
+
+
+def split_lights(lights) -> tuple[Light | None, tuple[Light, ...]]:
+    """(the key light the azimuth/elevation widgets move, the others): the first light when it
+    is directional, so joining them back keeps the scene's order."""
+    if lights and lights[0].type == "directional":
+        return lights[0], tuple(lights[1:])
+    return None, tuple(lights)
 
 
 def effective_material(state: ViewerState, index: int) -> Material | None:
@@ -114,7 +124,8 @@ def scene_from_state(state: ViewerState) -> Scene:
     objects = tuple(replace(o, material=effective_material(state, i))
                     for i, o in enumerate(state.scene.objects))
     return replace(state.scene, camera=state.camera, environment=state.environment,
-                   render=state.render, objects=objects, light=state.light)
+                   render=state.render, objects=objects,
+                   lights=((state.light,) if state.light is not None else ()) + state.lights)
 
 
 def load_into(state: ViewerState, scene: Scene) -> ViewerState:

@@ -17,6 +17,7 @@ from viewer.environment import PROCEDURAL
 from viewer.material import Material
 from viewer.models import MODELS, SAMPLING_MODELS, SAMPLINGS
 from viewer import scene as scene_module
+from viewer.lights import unit_direction
 from viewer.scene import BACKGROUNDS, TONEMAPS
 from viewer.settings import SSAO_SCALE_MAX
 from .state import DEFAULT_LIGHT, MATERIAL_FIELDS, VIEWS, MaterialOverride, light_angles, \
@@ -152,7 +153,7 @@ class ViewerUI:
             light = state.light
         if light is None:
             return
-        handling = MODELS[state.render.model].directional_light if state.render.model in MODELS \
+        handling = MODELS[state.render.model].lights if state.render.model in MODELS \
             else "shaded"
         if handling != "shaded":
             imgui.text_disabled(f"{state.render.model} ignores the light"
@@ -178,6 +179,39 @@ class ViewerUI:
         if changes:
             state.light = replace(light, **changes)
         imgui.text_disabled("irradiance at normal incidence; azimuth 0 = -Z, 90 = +X; no shadows")
+        self._other_lights(state)
+
+    def _other_lights(self, state) -> None:
+        """The scene's other lights ([[lights]], glTF lights are the meshes' own): per light its
+        type, colour, intensity and position (point, spot) or direction (directional, spot)."""
+        imgui = self.imgui
+        lights = list(state.lights)
+        for i, light in enumerate(lights):
+            imgui.text(f"light {i + 1}: {light.type}")
+            changes = {}
+            edited, color = imgui.color_edit3(f"colour##light{i}", list(light.color))
+            if edited:
+                changes["color"] = tuple(max(0.0, float(c)) for c in color)
+            edited, value = imgui.slider_float(f"intensity##light{i}", float(light.intensity),
+                                               0.0, 100.0, "%.3f")
+            if edited:
+                changes["intensity"] = max(0.0, float(value))
+            if light.positional:
+                edited, pos = imgui.slider_float3(f"position##light{i}", *light.position,
+                                                  -10.0, 10.0, "%.2f")
+                if edited:
+                    changes["position"] = tuple(float(x) for x in pos)
+            if light.type != "point":
+                edited, d = imgui.slider_float3(f"direction##light{i}", *light.direction,
+                                                -1.0, 1.0, "%.2f")
+                unit = unit_direction(tuple(float(x) for x in d)) if edited else None
+                if unit is not None:
+                    changes["direction"] = unit
+            if changes:
+                lights[i] = replace(light, **changes)
+        if lights:
+            state.lights = tuple(lights)
+            imgui.text_disabled("point, spot: W/sr; directional: W/m^2; direction towards the light")
 
     def _material_widgets(self, label: str, m: Material) -> Material:
         imgui = self.imgui

@@ -189,7 +189,7 @@ class Viewer(FileActions, Capture):
                              environment=good.environment, render=good.render,
                              object_materials=good.object_materials,
                              material_override=good.material_override, light=good.light,
-                             message=message)
+                             lights=good.lights, message=message)
 
     def show_warnings(self, caught: list, after_message: bool = False) -> None:
         """Warnings recorded while loading or drawing (``warnings.catch_warnings(record=True)``):

@@ -15,6 +15,7 @@ from viewer.errors import RelightError
 from viewer.geometry import primitives
 from viewer.geometry.cache import GeometryCache
 from viewer.material import Material
+from viewer.lights import Light, gather_lights
 from viewer.scene import Scene
 
 from .bsdf import bsdf_class
@@ -85,11 +86,10 @@ def to_mitsuba(scene: Scene, mi, dr, max_depth: int, geometry: str = "mesh") -> 
         "scale": float(env.intensity),
         "to_world": mi.ScalarTransform4f().rotate([0.0, 1.0, 0.0], float(env.rotation_deg)),
     }
-    if scene.light is not None:
-        irr = scene.light.irradiance
-        d["light"] = {"type": "directional",
-                      "direction": [-c for c in scene.light.direction],
-                      "irradiance": {"type": "rgb", "value": [float(c) for c in irr]}}
+    cache = GeometryCache()
+    scene = gather_lights(scene, cache.get)  # + the meshes' own lights (glTF)
+    for i, light in enumerate(scene.light or ()):
+        d[f"light_{i}"] = mitsuba_light(light, mi)
     count = 0
     for obj in scene.objects:
         for shape in _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
@@ -115,7 +115,7 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         return
     # the rasteriser's own triangles (GeometryCache: tessellated primitives, loaded meshes with
     # the object's material override), so a difference is shading, never geometry
-    for mesh in GeometryCache().get(obj):
+    for mesh in GeometryCache().get(obj):  # (a fresh cache: loads apply materials in place)
         where = obj.path or obj.type
         textures = {}
         for key in ("base_color", "metallic_roughness", "normal"):
@@ -203,3 +203,31 @@ def _mesh(mi, dr, mesh, bsdf, emitter=None):
     flat("faces", mesh.indices, np.uint32)
     params.update()
     return m
+
+
+def mitsuba_light(light: Light, mi) -> dict:
+    """One of our punctual lights as a Mitsuba emitter, in the units the rasteriser uses
+    (viewer.lights): directional -> ``directional`` (irradiance, W/m^2), point -> ``point``
+    (intensity, W/sr), spot -> ``spot`` (intensity on the axis, ``cutoff_angle`` = the outer
+    cone, ``beam_width`` = the inner one). Mitsuba's spot falls off between them as a smoothstep
+    of the *angle*, glTF's as the square of a ramp in its *cosine*: both are 1 inside the inner
+    cone and 0 outside the outer one, between them they differ (docs/explanation/conventions.md).
+    Mitsuba has no range window: a light with a ``range`` is a one-line error."""
+    rgb = {"type": "rgb", "value": [float(c) for c in light.radiant]}
+    if light.type == "directional":
+        return {"type": "directional", "direction": [-c for c in light.direction],
+                "irradiance": rgb}
+    if light.range is not None:
+        raise ReferenceError(f"a {light.type} light with range = {light.range} (glTF's range "
+                             f"window) has no path-traced counterpart; remove the range",
+                             where="[[lights]]")
+    if light.type == "point":
+        return {"type": "point", "position": [float(c) for c in light.position],
+                "intensity": rgb}
+    origin = [float(c) for c in light.position]
+    target = [o - c for o, c in zip(origin, light.direction)]  # direction points to the light
+    up = [0.0, 1.0, 0.0] if abs(light.direction[1]) < 0.99 else [1.0, 0.0, 0.0]
+    return {"type": "spot", "intensity": rgb,
+            "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up),
+            "cutoff_angle": float(light.outer_cone_deg),
+            "beam_width": float(light.inner_cone_deg)}

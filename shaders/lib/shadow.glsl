@@ -31,14 +31,28 @@ float shadow_depth_at(sampler2D map, vec2 uv) {
     return texelFetch(map, t, 0).r;
 }
 
-// PCSS step 1: mean depth of the occluders in front of the receiver (depth z) within radius
-// search_uv of uv; -1 where none is (fully lit).
-float shadow_blocker_depth(sampler2D map, vec2 uv, float z, float search_uv, float phi) {
+// The receiver's depth gradient in the map (receiver-plane depth bias): a planar receiver of
+// light-space normal m (the normal through the inverse transpose of the world -> map matrix)
+// has depth z + dot(shadow_depth_slope(m), offset) at a uv offset, so samples of a filter
+// footprint compare against the receiver's own plane, not its centre's depth (a slanted receiver
+// would otherwise shadow itself under a wide kernel). Clamped to 4 depth units per uv unit where
+// the light grazes the surface.
+vec2 shadow_depth_slope(vec3 m) {
+    vec2 g = -m.xy / (abs(m.z) > 1e-6 ? m.z : 1e-6);
+    float len_g = length(g);
+    return len_g > 4.0 ? g * (4.0 / len_g) : g;
+}
+
+// PCSS step 1: mean depth of the occluders in front of the receiver (depth z at uv, plane slope
+// dz) within radius search_uv of uv; -1 where none is (fully lit).
+float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz, float search_uv,
+                           float phi) {
     float sum = 0.0;
     float count = 0.0;
     for (int i = 0; i < SHADOW_SEARCH_SAMPLES; ++i) {
-        float d = shadow_depth_at(map, uv + vogel_disk(i, SHADOW_SEARCH_SAMPLES, phi) * search_uv);
-        if (d < z) {
+        vec2 o = vogel_disk(i, SHADOW_SEARCH_SAMPLES, phi) * search_uv;
+        float d = shadow_depth_at(map, uv + o);
+        if (d < z + dot(dz, o)) {
             sum += d;
             count += 1.0;
         }
@@ -47,31 +61,32 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, float z, float search_uv, flo
 }
 
 // Percentage-closer filter: the fraction of SHADOW_PCF_SAMPLES disk samples of radius r_uv around
-// uv whose stored depth does not occlude depth z.
-float shadow_pcf(sampler2D map, vec2 uv, float z, float r_uv, float phi) {
+// uv whose stored depth does not occlude the receiver's plane (depth z at uv, slope dz).
+float shadow_pcf(sampler2D map, vec2 uv, float z, vec2 dz, float r_uv, float phi) {
     float lit = 0.0;
     for (int i = 0; i < SHADOW_PCF_SAMPLES; ++i) {
-        float d = shadow_depth_at(map, uv + vogel_disk(i, SHADOW_PCF_SAMPLES, phi) * r_uv);
-        lit += d >= z ? 1.0 : 0.0;
+        vec2 o = vogel_disk(i, SHADOW_PCF_SAMPLES, phi) * r_uv;
+        lit += shadow_depth_at(map, uv + o) >= z + dot(dz, o) ? 1.0 : 0.0;
     }
     return lit / float(SHADOW_PCF_SAMPLES);
 }
 
 // Visibility of a directional light of angular radius `angle` (radians) at the light-space point
-// s = (u, v, depth) of a receiver (after shadow_receiver): PCSS with the penumbra of a disk light
+// s = (u, v, depth) of a receiver (after shadow_receiver) whose plane has depth slope dz
+// (shadow_depth_slope): PCSS with the penumbra of a disk light
 // seen past an occluder, w = (z_receiver - z_blocker) * depth_range * 2 tan(angle), in uv units of
 // a map `extent` world units wide; at least one texel wide (a hard shadow is still filtered over a
 // texel so it does not alias). Outside the map: lit.
-float shadow_visibility(sampler2D map, vec3 s, float angle, float depth_range, float extent,
-                        float phi) {
+float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle, float depth_range,
+                        float extent, float phi) {
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
     float texel_uv = 1.0 / float(textureSize(map, 0).x);
     float t = tan(clamp(angle, 0.0, 0.3));
     // an occluder as far in front as the light's side of the map casts a penumbra of half-width
     // s.z depth_range tan(angle): no farther occluder can reach the receiver
     float search = max(s.z * depth_range * t / extent, 2.0 * texel_uv);
-    float blocker = shadow_blocker_depth(map, s.xy, s.z, search, phi);
+    float blocker = shadow_blocker_depth(map, s.xy, s.z, dz, search, phi);
     if (blocker < 0.0) return 1.0;
     float penumbra = (s.z - blocker) * depth_range * 2.0 * t / extent;
-    return shadow_pcf(map, s.xy, s.z, max(penumbra * 0.5, texel_uv), phi);
+    return shadow_pcf(map, s.xy, s.z, dz, max(penumbra * 0.5, texel_uv), phi);
 }

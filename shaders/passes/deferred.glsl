@@ -1,6 +1,6 @@
 // deferred.glsl - the shared part of every lighting pass (shade_*.frag): G-buffer access, the
 // per-pixel view ray, the environment's rotation and intensity, the background, ambient occlusion,
-// the optional directional light's uniforms and the surface's own emission.
+// and the surface's own emission.
 // Pass-level chunk (has uniforms); the shading maths lives in shaders/lib.
 #define GBUFFER_READ
 #ifndef SPECULAR_LOBE
@@ -60,15 +60,8 @@ float ambient_occlusion(ivec2 pixel, GBuffer g) {
     return ao;
 }
 
-// ---- the optional directional light ([light]; uniforms set by viewer/passes/shade.py) ----------
-// LIGHT_DIRECTIONAL 1 when the scene has a light and the model shades it; 0 compiles it out.
-#ifndef LIGHT_DIRECTIONAL
-#define LIGHT_DIRECTIONAL 0
-#endif
-#if LIGHT_DIRECTIONAL
-uniform vec3 u_light_direction;   // unit, towards the light, world space (not u_env_rotation'd)
-uniform vec3 u_light_irradiance;  // linear RGB irradiance on a surface facing it: color * intensity
-#endif
+// The scene's punctual lights (LIGHT_COUNT, LIGHT_POSITIONAL): passes/lights.glsl, included by
+// each lighting pass after lib/shading.glsl.
 
 // ---- emission (glTF emissive; the G-buffer's optional channel, 0 where a scene has none) --------
 // Radiance the surface emits towards the viewer, added to every model's reflected radiance. It

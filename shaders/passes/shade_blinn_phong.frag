@@ -1,11 +1,12 @@
 // shade_blinn_phong.frag - the thesis's classical baseline under environment light.
 // Defines: USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1), SPECULAR_LOBE (0/1),
-// LIGHT_DIRECTIONAL (0/1: the [light]'s analytic term, no shadowing).
+// LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, passes/lights.glsl).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
+#include "passes/lights.glsl"
 
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
@@ -31,16 +32,16 @@ void main() {
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = blinn_phong(diffuse, f0, ao, irradiance, prefiltered);
-#if LIGHT_DIRECTIONAL
-    c += blinn_phong_directional_light(diffuse, f0, r * r, n, v, u_light_direction,
-                                       u_light_irradiance);
+#if LIGHT_COUNT > 0
+    c += lights_blinn_phong(diffuse, f0, r * r, n, v,
+                            light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #else
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 c = blinn_phong(diffuse, vec3(0.0), ao, irradiance, vec3(0.0));
-#if LIGHT_DIRECTIONAL  // f0 = 0: the lobe's weight is exactly 0 (any alpha)
-    c += blinn_phong_directional_light(diffuse, vec3(0.0), 1.0, n, v, u_light_direction,
-                                       u_light_irradiance);
+#if LIGHT_COUNT > 0  // f0 = 0: the lobe's weight is exactly 0 (any alpha)
+    c += lights_blinn_phong(diffuse, vec3(0.0), 1.0, n, v,
+                            light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

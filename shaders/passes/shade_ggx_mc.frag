@@ -6,13 +6,14 @@
 // (0, 2)-sequence (lib/mc.glsl; a pure function of pixel, sample index and u_seed). Writes the
 // mean of this batch; passes/accumulate.frag averages batches. Nothing occludes (single bounce).
 // Defines: SAMPLING (0 uniform, 1 cosine, 2 env, 3 brdf, 4 mis), MIS_POWER (1 balance,
-// 2 power heuristic), MULTISCATTER, USE_AO, USE_SSAO, BACKGROUND_ENVIRONMENT, LIGHT_DIRECTIONAL
-// (0/1 each; the [light]'s term is analytic, not sampled: see main()).
+// 2 power heuristic), MULTISCATTER, USE_AO, USE_SSAO, BACKGROUND_ENVIRONMENT (0/1
+// each), LIGHT_COUNT, LIGHT_POSITIONAL (the punctual lights' terms are analytic, not sampled: main()).
 // "mis" draws one BRDF and one environment direction per sample (two evaluations).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
+#include "passes/lights.glsl"
 #include "lib/sampling.glsl"
 #include "lib/mc.glsl"
 #include "lib/env_sampling.glsl"
@@ -147,13 +148,12 @@ void main() {
         sum += estimate(s, uvec2(pixel), u_sample_start + k);
     }
     vec3 c = sum / float(max(u_sample_count, 1u));
-#if LIGHT_DIRECTIONAL
-    // a delta light is not sampled: its term is added exactly (the function ggx_split_sum uses,
-    // on the same diffuse, f0, alpha and DFG terms), to every batch alike
+#if LIGHT_COUNT > 0
+    // delta lights are not sampled: their terms are added exactly (the function ggx_split_sum
+    // uses, on the same diffuse, f0, alpha and DFG terms), to every batch alike
     if (u_sample_count > 0u) {
-        c += ggx_directional_light(diffuse_color(g.albedo, g.metallic), s.f0, s.a, dfg,
-                                   float(MULTISCATTER), s.n, s.v, u_light_direction,
-                                   u_light_irradiance);
+        c += lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.a, dfg, float(MULTISCATTER),
+                        s.n, s.v, light_surface_position(gl_FragCoord.xy, g.depth));
     }
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

@@ -1,7 +1,7 @@
 // shade_ggx_split_sum.frag - Cook-Torrance GGX with split-sum image-based lighting.
 // Defines: MULTISCATTER (0/1), USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1),
 // SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0),
-// LIGHT_DIRECTIONAL (0/1: the [light]'s analytic term, same BRDF, no shadowing),
+// LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, same BRDF: passes/lights.glsl),
 // SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/sun.py; the IBL bound then
 // leaves it out of the prefiltered chain and the SH, and u_env_prefiltered_full keeps it).
 #include "passes/deferred.glsl"
@@ -9,6 +9,7 @@
 #include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
+#include "passes/lights.glsl"
 
 uniform sampler2D u_env_prefiltered;
 uniform sampler2D u_env_dfg;
@@ -54,9 +55,9 @@ void main() {
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = ggx_split_sum(diffuse, f0, ao, irradiance, prefiltered, dfg, float(MULTISCATTER));
-#if LIGHT_DIRECTIONAL
-    c += ggx_directional_light(diffuse, f0, r * r, dfg, float(MULTISCATTER), n, v,
-                               u_light_direction, u_light_irradiance);
+#if LIGHT_COUNT > 0
+    c += lights_ggx(diffuse, f0, r * r, dfg, float(MULTISCATTER), n, v,
+                    light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if SUN_LIGHT
     // ao scales its diffuse part as it scales the rest of the environment's (SH) diffuse light
@@ -69,9 +70,9 @@ void main() {
     // does the light's BRDF (F = 0; any alpha)
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 c = ggx_split_sum(diffuse, vec3(0.0), ao, irradiance, vec3(0.0), vec2(0.0, 1.0), 0.0);
-#if LIGHT_DIRECTIONAL
-    c += ggx_directional_light(diffuse, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
-                               u_light_direction, u_light_irradiance);
+#if LIGHT_COUNT > 0
+    c += lights_ggx(diffuse, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
+                    light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if SUN_LIGHT
     c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,

@@ -18,12 +18,14 @@
 // 0 when not given: a split3 student with NEURAL_STUDENT_SUN under an environment with a sun; the
 // IBL bound then leaves the sun out of the prefiltered chain and the SH, u_env_prefiltered_full
 // keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it, with the student's
-// corrections: lib/neural.glsl neural_student_sun_split).
+// corrections: lib/neural.glsl neural_student_sun_split), LIGHT_COUNT, LIGHT_POSITIONAL (the
+// scene's punctual lights through the student's classical base: passes/lights.glsl, main()).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
+#include "passes/lights.glsl"
 #include "generated/neural_student.glsl"
 
 #ifndef SUN_LIGHT
@@ -125,6 +127,20 @@ void main() {
                                          f90_from_f0(f0), irradiance, prefiltered);
 #else
     vec3 c = neural_student_radiance(k_0, k_1, g.albedo, irradiance, prefiltered);
+#endif
+#if LIGHT_COUNT > 0
+    // the scene's punctual lights through the student's classical base, its BRDF without the
+    // learned factors (they were trained under environment light): GGX + Lambert with the base's
+    // energy split (the DFG terms of a split or dfg student, none (e_spec = 0) otherwise) and its
+    // multiple-scattering compensation (NEURAL_STUDENT_MULTISCATTER)
+#if NEURAL_STUDENT_SPLIT && NEURAL_STUDENT_MULTISCATTER
+    float ms_l = 1.0;
+#else
+    float ms_l = 0.0;
+#endif
+    c += lights_ggx(diffuse_color(g.albedo, g.metallic), compute_f0(g.albedo, g.metallic,
+                    g.specular), r * r, dfg, ms_l, n, v,
+                    light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if NEURAL_STUDENT_INDIRECT
     o_indirect_factor = vec4(neural_indirect_factor(k_1.x));

@@ -93,7 +93,7 @@ def test_light_panel_switches_moves_and_keeps_the_light():
         click(tall, x0 + 5, (y0 + y1) / 2)
         release(tall)
         light = tall.state.light
-        assert light is not None and tall.current_scene().light == light
+        assert light is not None and tall.current_scene().lights == (light,)
         renders = tall.renders
         tall.run(frames=3)
         assert tall.state.light is light and tall.renders == renders
@@ -106,7 +106,7 @@ def test_light_panel_switches_moves_and_keeps_the_light():
         x0, y0, x1, y1 = tall.ui.rects["directional light"]
         click(tall, x0 + 5, (y0 + y1) / 2)
         release(tall)
-        assert tall.state.light is None and tall.current_scene().light is None
+        assert tall.state.light is None and tall.current_scene().light is None  # no lights
         click(tall, x0 + 5, (y0 + y1) / 2)
         release(tall)
         assert tall.state.light == moved

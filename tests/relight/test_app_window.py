@@ -139,7 +139,7 @@ def test_directional_light_through_the_state_adds_lambert_and_saves(fresh, ctx, 
         expected[inside][:, None], 3, axis=1), atol=2e-5, rtol=1e-4)
     assert fresh.save_scene(str(tmp_path / "lit.toml"))
     saved = load_scene(tmp_path / "lit.toml")
-    assert saved.light == fresh.state.light
+    assert saved.lights == (fresh.state.light,)
     np.testing.assert_array_equal(headless(ctx, saved).radiance[..., :3], on)
     fresh.state.light = None
     fresh.run(frames=1)

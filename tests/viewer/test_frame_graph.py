@@ -200,7 +200,7 @@ CHANGES = {
     "environment intensity": (_env(intensity=1.6), LIGHTING),
     "environment rotation": (_env(rotation_deg=30.0), LIGHTING),
     "light intensity": (lambda s: dataclasses.replace(
-        s, light=dataclasses.replace(s.light, intensity=3.0)), LIGHTING),
+        s, lights=(dataclasses.replace(s.lights[0], intensity=3.0),)), LIGHTING),
     "model": (lambda s: s.with_render(model="blinn_phong"), LIGHTING),
     "ssao radius": (lambda s: s.with_render(ssao_radius=0.9), SSAO | LIGHTING),
     "seed": (lambda s: s.with_render(seed=7), SSAO | LIGHTING),

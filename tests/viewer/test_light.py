@@ -45,12 +45,12 @@ def lambertian(rho=(1.0, 1.0, 1.0)) -> Material:
 def test_light_table_parses_and_normalises(tmp_path):
     p = tmp_path / "s.toml"
     p.write_text("[light]\ndirection = [0, 3, 4]\ncolor = [1, 0.5, 0]\nintensity = 2.5\n")
-    light = load_scene(p).light
+    (light,) = load_scene(p).lights
     assert light == DirectionalLight(direction=(0.0, 0.6, 0.8), color=(1.0, 0.5, 0.0),
                                      intensity=2.5)
     assert light.irradiance == (2.5, 1.25, 0.0)
     assert scene_from_dict({}).light is None  # no table, no light
-    assert scene_from_dict({"light": {"direction": [0, 0, 1]}}).light == DirectionalLight(
+    assert scene_from_dict({"light": {"direction": [0, 0, 1]}}).lights[0] == DirectionalLight(
         direction=(0.0, 0.0, 1.0), color=(1.0, 1.0, 1.0), intensity=1.0)
 
 
@@ -165,9 +165,9 @@ def test_light_adds_to_the_environment_and_scales_linearly(renderer, model):
     light = {"direction": [0.3, 0.8, 0.6], "color": [1.0, 0.5, 0.25]}
     none = renderer.render(base).radiance[..., :3]
     one = renderer.render(dataclasses.replace(
-        base, light=scene_from_dict({"light": {**light, "intensity": 1.0}}).light)).radiance
+        base, lights=scene_from_dict({"light": {**light, "intensity": 1.0}}).lights)).radiance
     three = renderer.render(dataclasses.replace(
-        base, light=scene_from_dict({"light": {**light, "intensity": 3.0}}).light)).radiance
+        base, lights=scene_from_dict({"light": {**light, "intensity": 3.0}}).lights)).radiance
     term = one[..., :3] - none
     assert term.max() > 0.05 and term.min() >= -1e-6
     np.testing.assert_allclose(three[..., :3] - none, 3.0 * term, rtol=1e-4, atol=2e-6)
@@ -179,33 +179,36 @@ def test_scenes_without_a_light_compile_it_out(renderer):
     settings = scene_from_dict({}).render
     light = DirectionalLight(direction=(0.0, 1.0, 0.0))
     for model in LIT_MODELS:
-        assert shade_defines(model, settings)["LIGHT_DIRECTIONAL"] == 0
-        assert shade_defines(model, settings, light)["LIGHT_DIRECTIONAL"] == 1
-    for model in ("unlit", "neural", "neural_teacher"):
-        assert "LIGHT_DIRECTIONAL" not in shade_defines(model, settings, light)
+        assert shade_defines(model, settings)["LIGHT_COUNT"] == 0
+        assert shade_defines(model, settings, light)["LIGHT_COUNT"] == 1
+        assert shade_defines(model, settings, light)["LIGHT_POSITIONAL"] == 0
+    assert shade_defines("neural", settings, light)["LIGHT_COUNT"] == 1  # through its base
+    for model in ("unlit", "neural_teacher"):
+        assert "LIGHT_COUNT" not in shade_defines(model, settings, light)
 
 
 def test_unlit_ignores_the_light(renderer):
     sphere = ObjectSpec("sphere", material=Material(albedo=(0.6, 0.4, 0.2)))
     scene = dark_scene([sphere], {"direction": [0.0, 0.0, 1.0], "intensity": 9.0}, "unlit")
     np.testing.assert_array_equal(renderer.render(scene).radiance,
-                                  renderer.render(dataclasses.replace(scene, light=None)).radiance)
+                                  renderer.render(dataclasses.replace(scene, lights=())).radiance)
 
 
-def test_neural_model_warns_that_it_ignores_the_light(renderer):
+def test_neural_teacher_warns_that_it_ignores_the_light(renderer):
     from viewer import renderer as renderer_module
 
     sphere = ObjectSpec("sphere", material=Material(albedo=(0.6, 0.4, 0.2)))
-    scene = dark_scene([sphere], {"direction": [0.0, 0.0, 1.0], "intensity": 9.0}, "neural",
-                       size=(24, 24)).with_environment(intensity=1.0)
-    renderer_module._LIGHT_WARNED.discard("neural")
-    with pytest.warns(UserWarning, match="ignores the scene's \\[light\\]"):
+    scene = dark_scene([sphere], {"direction": [0.0, 0.0, 1.0], "intensity": 9.0},
+                       "neural_teacher", size=(16, 16)).with_environment(intensity=1.0) \
+        .with_render(samples=1)
+    renderer_module._LIGHT_WARNED.discard("neural_teacher")
+    with pytest.warns(UserWarning, match="ignores the scene's lights"):
         lit = renderer.render(scene).radiance
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # once per model: no second warning
         renderer.render(scene)
     np.testing.assert_array_equal(lit, renderer.render(
-        dataclasses.replace(scene, light=None)).radiance)
+        dataclasses.replace(scene, lights=())).radiance)
 
 
 @pytest.mark.parametrize("model", ["ggx_split_sum", "blinn_phong"])
@@ -233,10 +236,10 @@ def test_viewer_state_carries_the_light():
 
     scene = scene_from_dict({"light": {"direction": [0.0, 1.0, 1.0], "intensity": 2.0}})
     state = state_from_scene(scene)
-    assert state.light == scene.light and scene_from_state(state) == scene
+    assert (state.light,) == scene.lights and scene_from_state(state) == scene
     state.light = None
     assert scene_from_state(state).light is None
-    assert load_into(state, scene).light == scene.light  # a loaded scene brings its light
+    assert load_into(state, scene).light == scene.lights[0]  # a loaded scene brings its light
     moved = with_light_angles(state, 90.0, 0.0).light  # off: starts from the default light
     assert moved.intensity == DEFAULT_LIGHT.intensity
     np.testing.assert_allclose(moved.direction, (1.0, 0.0, 0.0), atol=1e-15)  # azimuth 90 = +X

@@ -234,3 +234,14 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     """IEC 61966-2-1 sRGB decoding of values in [0, 1] (float32 out)."""
     c = np.clip(np.asarray(c, np.float32), 0.0, 1.0)
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+class MeshList(list):
+    """What a mesh file loads as: its meshes (a list) and the lights it places, ``lights``
+    (:class:`viewer.lights.Light`, world space after every transform; glTF
+    ``KHR_lights_punctual``), which the renderer shades with the scene's own
+    (:func:`viewer.lights.gather_lights`)."""
+
+    def __init__(self, meshes=(), lights=()):
+        super().__init__(meshes)
+        self.lights = tuple(lights)

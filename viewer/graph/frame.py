@@ -1,7 +1,7 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
-    gbuffer -> splats -> ssao -> ssao_upsample -> shade -> indirect_gather -> indirect
-            -> forward -> tonemap
+    gbuffer -> splats -> ssao -> ssao_upsample -> shadow<i> -> shade -> indirect_gather
+            -> indirect -> forward -> tonemap
 
 Each pass names what it reads and writes and the scene/settings values its output depends on;
 the graph (:mod:`viewer.graph.graph`) culls, decides reuse from those declarations and allocates
@@ -12,18 +12,21 @@ targets from the renderer's pool. Only the passes the scene's specialisation nee
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 from ..camera import Camera
+from ..lights import as_lights, shadowing
 from ..models import ShadingModel, model_info
 from ..neural import learns_indirect, reads_visibility
 from ..passes.forward import forward_model
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
+from ..shadows import directional_frame
 from ..specialize import Specialization
 from .graph import FrameGraph
-from .resources import GBufferDesc, TextureDesc
+from .resources import GBufferDesc, ShadowMapDesc, TextureDesc
 
 MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
 
@@ -55,16 +58,21 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     _gbuffer_passes(g, renderer, scene, spec, camera)
     ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
                         record_hits=settings.ssao.indirect) if settings.ssao.enabled else None
-    _lighting_passes(g, renderer, req, ssao)
+    shadows = _shadow_passes(g, renderer, scene, spec)
+    _lighting_passes(g, renderer, req, ssao, shadows)
     blended = [] if spec.direct_stack else renderer.blended(scene)
     if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
         # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
         sun = settings.sun and model_info(forward_model(settings.model)).analytic_sun
 
+        # transparent surfaces are lit without shadow maps (their pass binds none)
+        fwd_settings = dataclasses.replace(settings, shadow=dataclasses.replace(
+            settings.shadow, enabled=False))
+
         def forward(f):
             res.layout_pass("forward", spec.layout).run(
                 blended, f["gbuffer"].textures, f["radiance"].fbo, camera,
-                res.ibl(scene.environment, sun=sun), scene.environment, settings,
+                res.ibl(scene.environment, sun=sun), scene.environment, fwd_settings,
                 light=scene.light)
         g.add_pass("forward", forward, reads=("gbuffer", "radiance"), writes=("radiance",),
                    inputs={"objects": scene.objects, "render": _lighting_settings(settings),
@@ -166,6 +174,40 @@ def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, ca
     return SSAOOutputs("ssao", hits)
 
 
+# ---- shadows ----------------------------------------------------------------------------------
+def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) -> dict:
+    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``), fitted to the
+    scene's bounds; only where the lighting pass reads them (LIGHT_SHADOWS). Returns light index
+    -> (resource, frame, angular radius, normal offset) for the lighting pass."""
+    settings = scene.render
+    if not dict(spec.variant.defines).get("LIGHT_SHADOWS"):
+        return {}
+    lights = as_lights(scene.light)
+    bounds = renderer.bounds(scene)
+    if bounds is None:  # an image stack alone: nothing to cast a shadow map from
+        return {}
+    contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
+    meshes = [m for obj, c in contents if obj.type not in ("gbuffer", "splats") for m in c]
+    clouds = [c for obj, c in contents if obj.type == "splats"]
+    spass = renderer.resources.shadow_pass()
+    size = int(settings.shadow.size)
+    out = {}
+    for i in shadowing(lights, settings.shadow.enabled):
+        light = lights[i]
+        frame = directional_frame(bounds, light.direction, resolution=size)
+        name = g.create(f"shadowmap{i}", ShadowMapDesc(size), kept=True)
+
+        def draw(f, name=name, frame=frame):
+            spass.draw(f[name], frame, meshes, clouds)
+        # the light's colour and intensity do not enter: a light slider reuses the map
+        g.add_pass(f"shadow{i}", draw, writes=(name,),
+                   inputs={"objects": scene.objects, "geometry": renderer.geometry_cache.version,
+                           "direction": light.direction, "size": size})
+        angle = math.radians(light.angular_diameter_deg) / 2.0 * settings.shadow.softness
+        out[i] = (name, frame, angle, frame.texel_world * settings.shadow.bias)
+    return out
+
+
 # ---- lighting ---------------------------------------------------------------------------------
 def _lighting_settings(settings):
     """The settings the lighting passes depend on: all but exposure and tone mapping."""
@@ -173,7 +215,8 @@ def _lighting_settings(settings):
         settings.display, exposure=0.0, tonemap="none"))
 
 
-def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None):
+def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None,
+                     shadows: dict):
     """``shade`` (accumulated for Monte-Carlo models) into ``radiance``, or, with the indirect
     light, into ``direct`` (and a student's learned ``indirect_factor``), then ``indirect``."""
     scene, model, spec, camera = req.scene, req.model, req.spec, req.camera
@@ -189,7 +232,8 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
         if factor:  # the student's 2nd output: its indirect factor (R32F)
             g.create("indirect_factor", TextureDesc(size, 1, "f4"), kept=True)
             outs = ("direct", "indirect_factor")
-    reads = ("gbuffer",) + ((ssao.occlusion,) if ssao else ())
+    reads = (("gbuffer",) + ((ssao.occlusion,) if ssao else ())
+             + tuple(name for name, _, _, _ in shadows.values()))
     env_sampling = renderer.env_sampling(scene) if "cdf" in model.needs else None
     # the IBL without the sun a SUN_LIGHT pass shades itself
     ibl = res.ibl(scene.environment, sun=bool(spec.variant.defines.get("SUN_LIGHT")))
@@ -198,7 +242,9 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     def shade_into(f, fbo, sample_range=(0, 1)):
         spass.run(f["gbuffer"].textures, fbo, camera, ibl, scene.environment, settings,
                   env_sampling=env_sampling, ssao=f[ssao.occlusion].texture if ssao else None,
-                  sample_range=sample_range, variant=spec.variant, light=scene.light)
+                  sample_range=sample_range, variant=spec.variant, light=scene.light,
+                  shadows={i: (f[name].texture, frame, angle, offset)
+                           for i, (name, frame, angle, offset) in shadows.items()})
 
     inputs = {"model": settings.model, "render": _lighting_settings(settings),
               "environment": scene.environment, "light": scene.light, "variant": spec.variant}

@@ -68,3 +68,40 @@ class GBufferDesc:
         n = len(self.layout.attachments)
         return (f"{self.size[0]}x{self.size[1]} G-buffer {n} x RGBA{_DTYPE_NAME[self.layout.dtype]}"
                 f" + depth")
+
+
+@dataclass
+class ShadowTarget:
+    """A shadow map: an R32F texture of normalised light depth (1 where nothing is) and a depth
+    buffer for the depth test, in one framebuffer."""
+
+    texture: object
+    depth: object
+    fbo: object
+
+    def release(self) -> None:
+        self.fbo.release()
+        self.depth.release()
+        self.texture.release()
+
+
+@dataclass(frozen=True)
+class ShadowMapDesc:
+    """A square shadow map of ``size`` texels a side."""
+
+    size: int
+
+    def create(self, ctx) -> ShadowTarget:
+        n = int(self.size)
+        tex = ctx.texture((n, n), 1, dtype="f4")
+        tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        tex.repeat_x = tex.repeat_y = False
+        depth = ctx.depth_renderbuffer((n, n))
+        return ShadowTarget(tex, depth, ctx.framebuffer(color_attachments=[tex],
+                                                        depth_attachment=depth))
+
+    def bytes(self) -> int:
+        return int(self.size) ** 2 * 8
+
+    def describe(self) -> str:
+        return f"{self.size}x{self.size} shadow map R32F + depth"

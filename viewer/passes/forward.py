@@ -9,11 +9,11 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
   ``passes/forward_surface.glsl`` in place of the generated ``gbuffer_load``: the surface comes
   from the mesh at this fragment (``passes/mesh_surface.glsl``, the code the G-buffer fill uses)
   instead of the G-buffer, so blended surfaces are shaded by the same code as opaque ones,
-  including the directional light and emission. Models whose lighting pass is not one evaluation
+  including the punctual lights and emission. Models whose lighting pass is not one evaluation
   per fragment - the Monte-Carlo ones that accumulate samples over batches (``ggx_mc``,
   ``neural_teacher``) and the network ones (``neural``) - shade blended surfaces with
   :data:`FALLBACK_MODEL` (``ggx_split_sum``, the split-sum of the same GGX BRDF), with one
-  warning per model; the neural ones keep ignoring the ``[light]`` there too.
+  warning per model; the fallback shades the scene's lights unless the model ignores them.
 - **Blending**: a fragment writes premultiplied ``(c alpha, alpha)`` (the pass's
   ``write_radiance`` with ``BACKGROUND_ENVIRONMENT 0``) and the blend state (ONE,
   ONE_MINUS_SRC_ALPHA) puts it "over" what is there: ``dst = src + (1 - alpha) dst``, so the
@@ -41,7 +41,7 @@ from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..geometry.mesh import Mesh
 from ..models import ShadeVariant, model_info
-from ..scene import DirectionalLight
+from ..lights import Light
 from ..settings import RenderSettings
 from . import bind_gbuffer
 from .gbuffer import MeshUploads
@@ -58,14 +58,14 @@ def forward_model(model: str) -> str:
     return model if not info.accumulates and info.network is None else FALLBACK_MODEL
 
 
-def forward_variant(settings: RenderSettings, light: DirectionalLight | None,
+def forward_variant(settings: RenderSettings, light: Light | tuple[Light, ...] | None,
                     sun: bool = False) -> ShadeVariant:
     """The lighting-pass variant that shades blended surfaces for ``settings.model``: the forward
     model's own variant (every lobe: blended surfaces are not specialised), without SSAO and
     without the background (the destination already holds it), and without the light when the
     scene's model ignores it; ``sun``: the IBL bound leaves out a sun to shade (SUN_LIGHT)."""
     info = model_info(settings.model)
-    shaded = light if info.directional_light == "shaded" else None
+    shaded = light if info.lights == "shaded" else None
     defines = model_info(forward_model(settings.model)).variant(settings, shaded, specular=True,
                                                                 sun=sun).defines
     defines["BACKGROUND_ENVIRONMENT"] = 0
@@ -104,7 +104,7 @@ class ForwardPass:
                                       defines=defines, virtual=self._virtual)
 
     def run(self, meshes: list[Mesh], gbuffer_textures: dict, out_fbo, camera: Camera, ibl,
-            environment, settings: RenderSettings, light: DirectionalLight | None = None) -> None:
+            environment, settings: RenderSettings, light: Light | tuple[Light, ...] | None = None) -> None:
         """Blend ``meshes`` over ``out_fbo`` (the RGBA32F radiance target of the camera's size),
         sorted back to front, depth-tested against ``gbuffer_textures`` (this layout's
         attachments: the opaque G-buffer, which must hold the depth channel)."""

@@ -15,32 +15,35 @@ from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network, virtual_files
-from ..scene import DirectionalLight
+from ..lights import Light, as_lights, light_uniforms
 from ..settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
 
 
 def shade_defines(model: str, settings: RenderSettings,
-                  light: DirectionalLight | None = None) -> dict[str, int]:
+                  light: Light | tuple[Light, ...] | None = None) -> dict[str, int]:
     """The lighting pass's defines for ``model`` (no specialisation: every lobe on); see
     :meth:`viewer.models.ShadingModel.variant`."""
     return model_info(model).variant(settings, light).defines
 
 
 def set_view_and_lighting(prog, camera, environment, light) -> None:
-    """The view and lighting uniforms of ``passes/deferred.glsl`` (camera frame, resolution,
-    environment intensity and rotation, the directional light), for every pass that includes it:
-    the lighting passes and the forward pass of transparent surfaces."""
+    """The view and lighting uniforms of ``passes/deferred.glsl`` and ``passes/lights.glsl``
+    (camera frame and position, resolution, environment intensity and rotation, the punctual
+    lights' arrays: ``light`` is a :class:`~viewer.lights.Light`, a tuple of them or None), for
+    every pass that includes them: the lighting passes and the forward pass of transparent
+    surfaces."""
     basis = camera.basis()  # rows: right, up, back
     _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
     _set(prog, "u_tan_half_fov", camera.tan_half_fov())
     _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
     _set(prog, "u_env_intensity", float(environment.intensity))
     _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
-    if light is not None:  # world space: the environment's rotation does not turn it
-        _set(prog, "u_light_direction", tuple(float(x) for x in light.direction))
-        _set(prog, "u_light_irradiance", tuple(float(x) for x in light.irradiance))
+    _set(prog, "u_camera_position", tuple(float(x) for x in camera.position))
+    # world space: the environment's rotation does not turn them
+    for name, data in light_uniforms(light).items():
+        _set(prog, name, data)
 
 
 class ShadePass:
@@ -54,6 +57,7 @@ class ShadePass:
         # (checkpoint, storage, symbol) -> uploaded weight data (bound right after the lookup)
         self.weights = BoundedCache("neural weights", max_items=self.MAX_WEIGHTS,
                                     release=lambda w: w.release())
+        self._empty_shadow = None  # the 1x1 map bound for lights without a shadow
 
     def _bind_weights(self, prog, found, unit: int) -> int:
         """Upload (once) and bind the weight data of a neural model's buffered storage."""
@@ -74,14 +78,16 @@ class ShadePass:
     def run(self, gbuffer_textures: dict, out_fbo, camera: Camera, ibl, environment,
             settings: RenderSettings, env_sampling=None, ssao=None,
             sample_range: tuple[int, int] = (0, 1), variant: ShadeVariant | None = None,
-            light: DirectionalLight | None = None) -> None:
+            light: Light | tuple[Light, ...] | None = None, shadows: dict | None = None) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
         ``ssao``: the occlusion texture when ``settings.ssao.enabled``; ``sample_range``: (first index,
         count) of the Monte-Carlo samples this call averages (sampling models only);
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
-        unspecialised variant); ``light``: the scene's directional light (``None``: none)."""
+        unspecialised variant); ``light``: the lights to shade (``Scene.light``: a tuple, or ``None``);
+        ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame`,
+        angular radius in radians, normal offset in world units) for the lights that cast one."""
         if variant is None:
             variant = model_info(settings.model).variant(settings, light)
         found = model_network(settings.model, settings)  # the weights file, looked up once
@@ -95,12 +101,48 @@ class ShadePass:
             ssao.use(unit)
             prog["u_ssao"].value = unit
             unit += 1
+        unit = self._bind_shadows(prog, light, shadows or {}, unit)
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))
         set_view_and_lighting(prog, camera, environment, light)
         out_fbo.use()
         self._draw(prog)
+
+    def _bind_shadows(self, prog, light, shadows: dict, unit: int) -> int:
+        """The shadow maps of ``lights.glsl`` (LIGHT_SHADOWS): one sampler per light, a 1x1 map
+        of depth 1 where a light has none (its params then say so)."""
+        if "u_shadow_params" not in prog:
+            return unit
+        n = len(as_lights(light))
+        matrices = np.zeros((n, 4, 4), np.float32)
+        normals = np.zeros((n, 3, 3), np.float32)
+        params = np.zeros((n, 4), np.float32)
+        params[:, 0] = -1.0
+        units = np.zeros(n, np.int32)
+        for i in range(n):
+            entry = shadows.get(i)
+            tex = self._no_shadow() if entry is None else entry[0]
+            tex.use(unit)
+            units[i] = unit
+            unit += 1
+            if entry is not None:
+                _, frame, angle, offset = entry
+                matrices[i] = frame.matrix.T  # column-major for GLSL
+                normals[i] = np.linalg.inv(frame.matrix[:3, :3])  # (M^-T)^T: column-major
+                params[i] = (angle, frame.depth_range, max(frame.extent), offset)
+        _set(prog, "u_shadow_map", units.tobytes())
+        _set(prog, "u_shadow_matrix", matrices.tobytes())
+        _set(prog, "u_shadow_normal_matrix", normals.tobytes())
+        _set(prog, "u_shadow_params", params.tobytes())
+        return unit
+
+    def _no_shadow(self):
+        if self._empty_shadow is None:
+            self._empty_shadow = self.ctx.texture((1, 1), 1, np.ones(1, np.float32).tobytes(),
+                                                  dtype="f4")
+            self._empty_shadow.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        return self._empty_shadow
 
     def stats(self) -> dict[str, CacheStats]:
         """Each cache of this pass (``Renderer.memory`` gathers them)."""
@@ -110,3 +152,6 @@ class ShadePass:
     def release(self) -> None:
         self._draw.release()
         self.weights.clear()
+        if self._empty_shadow is not None:
+            self._empty_shadow.release()
+            self._empty_shadow = None

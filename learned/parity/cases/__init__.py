@@ -11,19 +11,21 @@ from . import (
     env_sampling,
     equirect,
     ibl,
+    lights,
     mc,
     neural,
     sampling,
     sh,
     shading,
+    shadow,
     splat,
     ssao,
     tonemap,
 )
 from .base import Arg, ParityCase
 
-MODULES = (brdf, common, env_sampling, equirect, ibl, mc, neural, sampling, sh, shading, splat,
-           ssao, tonemap)
+MODULES = (brdf, common, env_sampling, equirect, ibl, lights, mc, neural, sampling, sh, shading,
+           shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

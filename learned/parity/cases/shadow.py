@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from .base import Arg, ParityCase
 
-PASS_LEVEL = ("shadow_depth_at", "shadow_blocker_depth", "shadow_pcf", "shadow_visibility")
+PASS_LEVEL = ("shadow_depth_at", "shadow_blocker_depth", "shadow_pcf", "shadow_visibility",
+              "shadow_depth_slope")
 
 PARITY_CASES = [
     ParityCase("vogel_disk", (Arg(kind="int", lo=0, hi=63), Arg(kind="int", lo=1, hi=64),

@@ -102,15 +102,18 @@ def checks() -> dict:
                        for variant in ({}, {"multiscatter": False, "ao": False,
                                             "background": "transparent", "sun": False})
                        if variant == {} or model != "unlit"]
-            # the [light] variant: the scene's directional light on top of the environment
-            return results + [_check_model(programs, model, {}, light=PARITY_LIGHT)]
+            # the [light] variant: the scene's directional light on top of the environment; the
+            # [[lights]] one: point, spot and directional lights (unlit: compiled out)
+            return results + [_check_model(programs, model, {}, light=PARITY_LIGHT),
+                              _check_model(programs, model, {}, light=PARITY_LIGHTS)]
 
         register_pass_check(f"model:{model}", model=model)(check)
 
     def check_mc(programs):
         return [_check_model(programs, "ggx_mc", variant) for variant in MC_VARIANTS] + \
             [_check_model(programs, "ggx_mc", variant, light=PARITY_LIGHT)
-             for variant in MC_LIGHT_VARIANTS]
+             for variant in MC_LIGHT_VARIANTS] + \
+            [_check_model(programs, "ggx_mc", MC_LIGHT_VARIANTS[0], light=PARITY_LIGHTS)]
 
     register_pass_check("model:ggx_mc", model="ggx_mc")(check_mc)
 
@@ -161,13 +164,27 @@ MC_VARIANTS = (
 PARITY_LIGHT = {"direction": [0.6, 0.7, 0.4], "color": [1.0, 0.9, 0.7], "intensity": 4.0}
 
 
+# The [[lights]] variants: a point light with a range window over the spheres and a spot light
+# whose cone edge crosses the floor, besides a directional one (every LIGHT_TYPE_*).
+PARITY_LIGHTS = [
+    {"type": "point", "position": [0.2, 1.2, 1.0], "color": [1.0, 0.8, 0.6], "intensity": 3.0,
+     "range": 4.0},
+    {"type": "spot", "position": [-0.5, 1.5, 0.8], "direction": [0.3, 1.0, 0.4],
+     "intensity": 6.0, "inner_cone_deg": 15.0, "outer_cone_deg": 35.0},
+    {"type": "directional", "direction": [-0.4, 0.6, 0.2], "color": [0.4, 0.5, 1.0],
+     "intensity": 1.5},
+]
+
+
 MC_LIGHT_VARIANTS = ({"samples": 2, "sampling": "mis"},
                      {"samples": 2, "sampling": "brdf", "multiscatter": False, "ao": False})
 
 
-def _check_model(programs, model: str, variant: dict, light: dict | None = None,
+def _check_model(programs, model: str, variant: dict, light: dict | list | None = None,
                  emissive: bool = False):
-    doc = PARITY_SCENE if light is None else {**PARITY_SCENE, "light": light}
+    # light: a [light] table (dict) or a [[lights]] array (list)
+    doc = PARITY_SCENE if light is None else \
+        {**PARITY_SCENE, ("lights" if isinstance(light, list) else "light"): light}
     if emissive:  # + an in-memory mesh object (emissive_quad)
         doc = {**doc, "objects": doc["objects"] + [{"type": "mesh", "path": "emissive.glb"}]}
     scene = scene_from_dict(doc).with_render(model=model, **variant)
@@ -198,7 +215,8 @@ def _check_model(programs, model: str, variant: dict, light: dict | None = None,
     finally:
         renderer.release()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(
-        f"{k}={v}" for k, v in variant.items())) + (":light" if light is not None else "") \
+        f"{k}={v}" for k, v in variant.items())) + (
+        "" if light is None else ":lights" if isinstance(light, list) else ":light") \
         + (":emission" if emissive else "")
     if model == "ggx_mc":
         atol, rtol = MC_ATOL, MC_RTOL

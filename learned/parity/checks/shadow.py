@@ -9,6 +9,7 @@ import torch
 from learned.twins.shadow import (
     shadow_blocker_depth,
     shadow_depth_at,
+    shadow_depth_slope,
     shadow_pcf,
     shadow_visibility,
 )
@@ -40,7 +41,7 @@ def checks() -> dict:
     @register_pass_check("shadow:lookups")
     def check_lookups(programs):
         ctx = programs.ctx
-        m = shadow_test_map()
+        depth_map = shadow_test_map()
         rng = np.random.default_rng(1)
         n = 2048
         # texel centres offset by a quarter texel: floor() never sits on a texel boundary
@@ -49,9 +50,12 @@ def checks() -> dict:
         radius = rng.uniform(0.0, 0.15, n)
         angle = rng.uniform(0.0, 0.1, n)
         phi = rng.uniform(0.0, 6.2832, n)
-        inputs = np.concatenate([s, radius[:, None], angle[:, None], phi[:, None],
-                                 np.zeros((n, 1))], axis=1).astype(np.float32)
-        tex = ctx.texture((SIZE, SIZE), 1, m.tobytes(), dtype="f4")
+        m = rng.normal(size=(n, 3))
+        m[:, 2] = np.abs(m[:, 2]) * 3.0  # mostly facing the light; some grazing (clamped)
+        m[: n // 8, :2] = 0.0  # facing it: no slope
+        inputs = np.concatenate([s, radius[:, None], angle[:, None], phi[:, None], m],
+                                axis=1).astype(np.float32)
+        tex = ctx.texture((SIZE, SIZE), 1, depth_map.tobytes(), dtype="f4")
         tex.filter = (ctx.NEAREST, ctx.NEAREST)
 
         def setup(prog):
@@ -61,17 +65,20 @@ def checks() -> dict:
             prog["u_extent"].value = EXTENT
 
         try:
-            gl = run_kernel(programs, "passes/parity_shadow.comp", inputs, 4, setup)
+            gl = run_kernel(programs, "passes/parity_shadow.comp", inputs, 6, setup)
         finally:
             tex.release()
         t = {k: torch.from_numpy(np.ascontiguousarray(v, np.float32)) for k, v in
-             (("m", m), ("s", inputs[:, :3]), ("r", inputs[:, 3]), ("a", inputs[:, 4]),
-              ("phi", inputs[:, 5]))}
+             (("map", depth_map), ("s", inputs[:, :3]), ("r", inputs[:, 3]),
+              ("a", inputs[:, 4]), ("phi", inputs[:, 5]), ("m", inputs[:, 6:9]))}
         with torch.no_grad():
-            ref = [shadow_depth_at(t["m"], t["s"][:, :2]),
-                   shadow_blocker_depth(t["m"], t["s"][:, :2], t["s"][:, 2], t["r"], t["phi"]),
-                   shadow_pcf(t["m"], t["s"][:, :2], t["s"][:, 2], t["r"], t["phi"]),
-                   shadow_visibility(t["m"], t["s"], t["a"], DEPTH_RANGE, EXTENT, t["phi"])]
+            dz = shadow_depth_slope(t["m"])
+            uv, z = t["s"][:, :2], t["s"][:, 2]
+            ref = [shadow_depth_at(t["map"], uv),
+                   shadow_blocker_depth(t["map"], uv, z, dz, t["r"], t["phi"]),
+                   shadow_pcf(t["map"], uv, z, dz, t["r"], t["phi"]),
+                   shadow_visibility(t["map"], t["s"], dz, t["a"], DEPTH_RANGE, EXTENT, t["phi"]),
+                   dz[:, 0], dz[:, 1]]
         envelope = ("texel indices from floor(uv size) of the same float32 uv: a sample's "
                     "offset r vogel(i) differs by trig's ~1e-6 abs x r <= 0.15 -> 1.5e-7 uv "
                     "= 1e-5 texel, so a disk sample lands in another texel only within 1e-5 "
@@ -82,7 +89,9 @@ def checks() -> dict:
         for i, (name, step) in enumerate((("shadow_depth_at", 0.0),
                                           ("shadow_blocker_depth", 1.0),
                                           ("shadow_pcf", 1.0 / 32.0),
-                                          ("shadow_visibility", 1.0 / 32.0))):
+                                          ("shadow_visibility", 1.0 / 32.0),
+                                          ("shadow_depth_slope.x", 0.0),
+                                          ("shadow_depth_slope.y", 0.0))):
             ref_i = ref[i].numpy()
             diff = np.abs(gl[:, i] - ref_i)
             bad = diff > 1e-5 + 1e-5 * np.abs(ref_i)

@@ -38,7 +38,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...material import Material
-from ..mesh import Mesh
+from ..mesh import Mesh, MeshList
 from .gltf import GLTF_ATTRIBUTES, GLTF_EXTENSIONS, _load_gltf
 from .trimesh_files import _load_trimesh
 
@@ -49,8 +49,9 @@ __all__ = ["GLTF_ATTRIBUTES", "GLTF_EXTENSIONS", "GLTF_SUFFIXES", "TRIMESH_SUFFI
 
 
 def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
-              material_override: Material | None = None) -> list[Mesh]:
-    """Load every triangle mesh in ``path`` into world space.
+              material_override: Material | None = None) -> MeshList:
+    """Load every triangle mesh in ``path`` into world space, with the lights the file places
+    (``.lights``: glTF ``KHR_lights_punctual``, moved by ``transform`` too).
 
     ``transform`` (``[4, 4]``, column vectors) is applied after the file's own node transforms.
     ``material_override`` replaces each mesh's material and drops its base colour,
@@ -69,6 +70,7 @@ def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
         known = ", ".join(GLTF_SUFFIXES + TRIMESH_SUFFIXES)
         raise InputError(f"unsupported mesh format {suffix or '(no extension)'!r} "
                          f"(supported: {known})", where=path)
+    lights = getattr(meshes, "lights", ())
     meshes = [m for m in meshes if m.triangle_count > 0]
     if not meshes:
         raise InputError("contains no triangles", where=path)
@@ -78,6 +80,7 @@ def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
             raise InputError(f"transform must be a finite 4x4 matrix, got shape {t.shape}",
                              where=path)
         meshes = [m.transformed(t) for m in meshes]
+        lights = tuple(li.transformed(t) for li in lights)
     out = []
     for i, m in enumerate(meshes):
         if material_override is not None:  # opaque, not emissive; shape (normal map,
@@ -88,7 +91,7 @@ def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
         m.source = str(path)
         out.append(m.validated(where=f"{path} (mesh {i}: {m.name})" if m.name else
                                f"{path} (mesh {i})"))
-    return out
+    return MeshList(out, lights)
 
 
 def _guarded(loader, path: Path, kind: str) -> list[Mesh]:

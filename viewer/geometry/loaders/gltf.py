@@ -1,6 +1,7 @@
 """glTF 2.0 files (``.gltf``, ``.glb``) as meshes: one :class:`~viewer.geometry.mesh.Mesh` per
-triangle primitive of the flattened default scene, and one warning naming everything in the file
-the loader does not use."""
+triangle primitive of the flattened default scene, the lights its nodes place
+(``KHR_lights_punctual``: :mod:`.gltf_lights`) and one warning naming everything in the file the
+loader does not use."""
 from __future__ import annotations
 
 import logging
@@ -10,8 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ..mesh import Mesh, _normalize, smooth_normals
+from ..mesh import Mesh, MeshList, _normalize, smooth_normals
 from .gltf_material import _gltf_material
+from .gltf_lights import gltf_lights
 from .gltf_reader import _draco_attributes, _GltfReader
 
 log = logging.getLogger(__package__)  # the loaders' logger, viewer.geometry.loaders
@@ -19,7 +21,8 @@ log = logging.getLogger(__package__)  # the loaders' logger, viewer.geometry.loa
 
 # glTF extensions this loader implements; any other one a file uses is named in a warning
 GLTF_EXTENSIONS = frozenset({"KHR_texture_transform", "KHR_mesh_quantization",
-                             "KHR_materials_emissive_strength", "KHR_draco_mesh_compression"})
+                             "KHR_materials_emissive_strength", "KHR_draco_mesh_compression",
+                             "KHR_lights_punctual"})
 # the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_1.., TEXCOORD_2..,
 # _CUSTOM)
 GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1",
@@ -42,7 +45,7 @@ def _triangles(indices: np.ndarray, mode: int) -> np.ndarray | None:
     return None  # points and lines
 
 
-def _load_gltf(path: Path) -> list[Mesh]:
+def _load_gltf(path: Path) -> MeshList:
     reader = _GltfReader(path)
     g = reader.gltf
     out: list[Mesh] = []
@@ -106,8 +109,9 @@ def _load_gltf(path: Path) -> list[Mesh]:
             out.append(mesh.transformed(world) if not np.allclose(world, np.eye(4)) else mesh)
     if skipped:
         log.info("%s: skipped %d non-triangle primitives", path, skipped)
-    _warn_ignored(reader)
-    return out
+    lights, unused = gltf_lights(reader)
+    _warn_ignored(reader, unused)
+    return MeshList(out, lights)
 
 
 # KHR_materials_* extensions that change the BSDF (none is implemented): named as such
@@ -166,9 +170,10 @@ def _texture_infos(m) -> list:
             pbr.metallicRoughnessTexture if pbr is not None else None]
 
 
-def _warn_ignored(reader: "_GltfReader") -> None:
-    """One warning line naming everything in the file the loader does not use."""
-    items = _ignored_items(reader)
+def _warn_ignored(reader: "_GltfReader", extra: list[str] = ()) -> None:
+    """One warning line naming everything in the file the loader does not use (``extra``: what
+    of KHR_lights_punctual was not used)."""
+    items = sorted(set(_ignored_items(reader)) | set(extra))
     if items:
         warnings.warn(f"{reader.path}: ignored (not supported): {'; '.join(items)}",
                       stacklevel=2)

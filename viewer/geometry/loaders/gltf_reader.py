@@ -157,15 +157,33 @@ class _GltfReader:
     def node_matrices(self) -> list[tuple[int, np.ndarray]]:
         """(mesh index, world matrix) for every mesh instance in the default scene."""
         g = self.gltf
+        if not g.scenes and not g.nodes:  # meshes without nodes
+            return [(i, np.eye(4)) for i in range(len(g.meshes or []))]
+        return [(node.mesh, world) for node, world in self.scene_nodes() if node.mesh is not None]
+
+    def light_nodes(self) -> list[tuple[int, np.ndarray]]:
+        """(KHR_lights_punctual light index, world matrix) for every light a node of the default
+        scene places."""
+        out = []
+        for node, world in self.scene_nodes():
+            ext = (node.extensions or {}).get("KHR_lights_punctual") \
+                if isinstance(node.extensions, dict) else None
+            if isinstance(ext, dict) and "light" in ext:
+                out.append((ext["light"], world))
+        return out
+
+    def scene_nodes(self) -> list[tuple[object, np.ndarray]]:
+        """(node, world matrix) for every node of the default scene, depth first."""
+        g = self.gltf
         if g.scenes:
             scene = g.scenes[g.scene if g.scene is not None else 0]
             roots = list(scene.nodes or [])
         elif g.nodes:
             children = {c for n in g.nodes for c in (n.children or [])}
             roots = [i for i in range(len(g.nodes)) if i not in children]
-        else:  # meshes without nodes
-            return [(i, np.eye(4)) for i in range(len(g.meshes or []))]
-        out: list[tuple[int, np.ndarray]] = []
+        else:
+            return []
+        out: list[tuple[object, np.ndarray]] = []
         stack = [(r, np.eye(4), 0) for r in reversed(roots)]
         while stack:
             idx, parent, depth = stack.pop()
@@ -173,8 +191,7 @@ class _GltfReader:
                 raise InputError("node hierarchy is too deep (a cycle?)", where=self.path)
             node = g.nodes[idx]
             world = parent @ _node_matrix(node)
-            if node.mesh is not None:
-                out.append((node.mesh, world))
+            out.append((node, world))
             stack.extend((c, world, depth + 1) for c in reversed(node.children or []))
         return out
 

@@ -1,0 +1,104 @@
+// lights.glsl (pass chunk) - the scene's punctual lights as uniform arrays and every model's sum
+// over them. Included by the lighting passes after lib/shading.glsl (and so by the forward pass of
+// transparent surfaces, which compiles the same passes). The maths is lib/lights.glsl.
+// LIGHT_COUNT: the number of lights (0 compiles everything out; at most viewer.lights.MAX_LIGHTS);
+// LIGHT_POSITIONAL: 1 when one of them is a point or spot light (the surface position is then
+// rebuilt from the G-buffer's depth). Uniforms are set by viewer/passes/shade.py (set_lights).
+#ifndef LIGHT_COUNT
+#define LIGHT_COUNT 0
+#endif
+#ifndef LIGHT_POSITIONAL
+#define LIGHT_POSITIONAL 0
+#endif
+#ifndef LIGHT_SHADOWS
+#define LIGHT_SHADOWS 0  // 1: some light reads a shadow map (viewer/passes/shadow.py)
+#endif
+
+#if LIGHT_COUNT > 0
+#include "lib/lights.glsl"
+
+uniform int u_light_type[LIGHT_COUNT];         // LIGHT_TYPE_* of lib/lights.glsl
+uniform vec3 u_light_direction[LIGHT_COUNT];   // unit, towards the light (world space)
+uniform vec3 u_light_position[LIGHT_COUNT];    // world space (point, spot)
+uniform vec3 u_light_intensity[LIGHT_COUNT];   // colour x intensity: W/m^2 (directional), W/sr
+uniform vec4 u_light_cone_range[LIGHT_COUNT];  // (cos outer, cos inner, range or 0, 0)
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS
+uniform vec3 u_camera_position;                // world space
+#endif
+#if LIGHT_SHADOWS
+#include "lib/shadow.glsl"
+// per light: its map (a 1x1 map of depth 1 for lights without one), world -> (u, v, depth), and
+// (angular radius in radians, world depth range, world extent, normal offset in world units;
+// x < 0: no shadow map)
+uniform sampler2D u_shadow_map[LIGHT_COUNT];
+uniform mat4 u_shadow_matrix[LIGHT_COUNT];
+uniform mat3 u_shadow_normal_matrix[LIGHT_COUNT];  // world normal -> map-space plane normal
+uniform vec4 u_shadow_params[LIGHT_COUNT];
+#endif
+
+// The surface's world position from its view depth (the G-buffer's depth channel: positive
+// distance along the view axis) at fragment frag_coord; 0 without positional lights or shadows.
+vec3 light_surface_position(vec2 frag_coord, float depth) {
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS
+    vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
+    return u_camera_position + u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0) * depth;
+#else
+    return vec3(0.0);
+#endif
+}
+
+// The fraction of light i that reaches the surface point p (normal n, world space): its shadow
+// map's PCSS visibility (lib/shadow.glsl) where it has one, else 1. The disk rotation phi is
+// interleaved gradient noise of the pixel (Jimenez 2014), so the filter's pattern is noise, not
+// bands.
+float light_visibility(int i, vec3 p, vec3 n) {
+#if LIGHT_SHADOWS
+    vec4 sp = u_shadow_params[i];
+    if (sp.x < 0.0) return 1.0;
+    vec3 q = shadow_receiver(p, n, u_light_direction[i], sp.w);
+    vec3 s = (u_shadow_matrix[i] * vec4(q, 1.0)).xyz;
+    float phi = 6.28318531 * fract(52.9829189 * fract(dot(gl_FragCoord.xy,
+                                                           vec2(0.06711056, 0.00583715))));
+    vec2 dz = shadow_depth_slope(u_shadow_normal_matrix[i] * n);
+    return shadow_visibility(u_shadow_map[i], s, dz, sp.x, sp.y, sp.z, phi);
+#else
+    return 1.0;
+#endif
+}
+
+// Light i at p: (l, irradiance scale): punctual_light's attenuation times light_visibility.
+vec4 scene_light(int i, vec3 p, vec3 n) {
+    vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
+                             u_light_cone_range[i], p);
+    la.w *= light_visibility(i, p, n);
+    return la;
+}
+
+// Every light through ggx_directional_light (Cook-Torrance GGX + Lambert with ggx_split_sum's
+// energy split): the BRDF the environment sees in ggx_split_sum, ggx_mc and the split students.
+vec3 lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n, vec3 v,
+                vec3 p) {
+    vec3 c = vec3(0.0);
+    for (int i = 0; i < LIGHT_COUNT; ++i) {
+        vec4 la = scene_light(i, p, n);
+        if (la.w > 0.0) {
+            c += ggx_directional_light(diffuse, f0, a, dfg, multiscatter, n, v, la.xyz,
+                                       u_light_intensity[i] * la.w);
+        }
+    }
+    return c;
+}
+
+// Every light through blinn_phong_directional_light (the Blinn-Phong model's BRDF).
+vec3 lights_blinn_phong(vec3 diffuse, vec3 f0, float a, vec3 n, vec3 v, vec3 p) {
+    vec3 c = vec3(0.0);
+    for (int i = 0; i < LIGHT_COUNT; ++i) {
+        vec4 la = scene_light(i, p, n);
+        if (la.w > 0.0) {
+            c += blinn_phong_directional_light(diffuse, f0, a, n, v, la.xyz,
+                                               u_light_intensity[i] * la.w);
+        }
+    }
+    return c;
+}
+#endif

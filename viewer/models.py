@@ -86,6 +86,8 @@ class ShadingModel:
             # decides: viewer.neural.shades_sun); others keep their defines (shade_neural.frag's
             # SUN_LIGHT defaults to 0)
             d["SUN_LIGHT"] = 1
+        if d.get("SUN_LIGHT") and settings.shadow.enabled:
+            d["SUN_SHADOW"] = 1  # the analytic sun reads a shadow map (viewer/passes/shadow.py)
         return ShadeVariant(self.name, tuple(sorted(d.items())))
 
 

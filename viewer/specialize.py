@@ -135,7 +135,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     if features.blend:
         needed.add("depth")  # blended meshes depth-test against it (viewer/passes/forward.py)
     if model.lights == "shaded" and (any(li.positional for li in as_lights(light))
-                                     or shadowing(light, settings.shadow.enabled)):
+                                     or shadowing(light, settings.shadow.enabled)) or \
+            (sun and settings.sun and settings.shadow.enabled):
         needed.add("depth")  # point and spot lights, shadow maps: the position from its depth
     needed |= set(aovs) | {"albedo", "alpha"}
     needed -= _OPTIONAL  # allocated by the layout's flags, never omitted

@@ -19,6 +19,12 @@ def vogel_disk(i, n, phi) -> torch.Tensor:
     return torch.stack([r * torch.cos(theta), r * torch.sin(theta)], dim=-1)
 
 
+def shadow_phi(frag_coord) -> torch.Tensor:
+    """GLSL ``float shadow_phi(vec2 frag_coord)``: interleaved gradient noise times 2 pi."""
+    t = frag_coord[..., 0] * 0.06711056 + frag_coord[..., 1] * 0.00583715
+    return 6.28318531 * torch.frac(52.9829189 * torch.frac(t))
+
+
 def shadow_receiver(p_ws, n_ws, l_ws, texel_world) -> torch.Tensor:
     """GLSL ``vec3 shadow_receiver(vec3 p_ws, vec3 n_ws, vec3 l_ws, float texel_world)``."""
     NoL = (n_ws * l_ws).sum(-1).clamp(0.0, 1.0)

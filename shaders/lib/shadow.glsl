@@ -16,6 +16,12 @@ vec2 vogel_disk(int i, int n, float phi) {
     return r * vec2(cos(theta), sin(theta));
 }
 
+// A pixel's rotation of the shadow filters' sample disk: interleaved gradient noise (Jimenez
+// 2014) of its fragment coordinates, in [0, 2 pi): the filter's pattern becomes noise, not bands.
+float shadow_phi(vec2 frag_coord) {
+    return 6.28318531 * fract(52.9829189 * fract(dot(frag_coord, vec2(0.06711056, 0.00583715))));
+}
+
 // The receiver's world position moved off its surface before the lookup (normal-offset bias):
 // along the normal by 1.5 texels, more as the light grazes the surface (up to 3 more at
 // NoL -> 0), so a lit plane never shadows itself at any incidence.

@@ -3,7 +3,8 @@
 // transparent surfaces, which compiles the same passes). The maths is lib/lights.glsl.
 // LIGHT_COUNT: the number of lights (0 compiles everything out; at most viewer.lights.MAX_LIGHTS);
 // LIGHT_POSITIONAL: 1 when one of them is a point or spot light (the surface position is then
-// rebuilt from the G-buffer's depth). Uniforms are set by viewer/passes/shade.py (set_lights).
+// rebuilt from the G-buffer's depth); LIGHT_SHADOWS / SUN_SHADOW: lights / the environment's sun
+// read shadow maps (viewer/passes/shadow.py). Uniforms are set by viewer/passes/shade.py.
 #ifndef LIGHT_COUNT
 #define LIGHT_COUNT 0
 #endif
@@ -14,6 +15,54 @@
 #define LIGHT_SHADOWS 0  // 1: some light reads a shadow map (viewer/passes/shadow.py)
 #endif
 
+#ifndef SUN_SHADOW
+#define SUN_SHADOW 0  // 1: the environment's sun (SUN_LIGHT) reads a shadow map
+#endif
+#if LIGHT_SHADOWS || SUN_SHADOW
+#include "lib/shadow.glsl"
+#endif
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW
+uniform vec3 u_camera_position;                // world space
+#endif
+
+// The surface's world position from its view depth (the G-buffer's depth channel: positive
+// distance along the view axis) at fragment frag_coord; 0 without positional lights or
+// shadow maps.
+vec3 light_surface_position(vec2 frag_coord, float depth) {
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW
+    vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
+    return u_camera_position + u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0) * depth;
+#else
+    return vec3(0.0);
+#endif
+}
+
+#if SUN_SHADOW
+uniform sampler2D u_sun_shadow_map;
+uniform mat4 u_sun_shadow_matrix;         // world -> (u, v, depth)
+uniform mat3 u_sun_shadow_normal_matrix;  // world normal -> map-space plane normal
+uniform vec4 u_sun_shadow_params;         // angular radius, depth range, extent, normal offset
+
+// The fraction of the environment's sun (unit l towards it, world space) reaching p (normal n).
+float sun_visibility(vec3 p, vec3 n, vec3 l) {
+    vec4 sp = u_sun_shadow_params;
+    vec3 q = shadow_receiver(p, n, l, sp.w);
+    vec3 s = (u_sun_shadow_matrix * vec4(q, 1.0)).xyz;
+    vec2 dz = shadow_depth_slope(u_sun_shadow_normal_matrix * n);
+    return shadow_visibility(u_sun_shadow_map, s, dz, sp.x, sp.y, sp.z,
+                             shadow_phi(gl_FragCoord.xy));
+}
+#endif
+
+// The sun's visibility at the pixel whose G-buffer is g (SUN_SHADOW; 1 without).
+float sun_shadow(GBuffer g, vec3 n, vec3 l) {
+#if SUN_SHADOW
+    return sun_visibility(light_surface_position(gl_FragCoord.xy, g.depth), n, l);
+#else
+    return 1.0;
+#endif
+}
+
 #if LIGHT_COUNT > 0
 #include "lib/lights.glsl"
 
@@ -22,11 +71,7 @@ uniform vec3 u_light_direction[LIGHT_COUNT];   // unit, towards the light (world
 uniform vec3 u_light_position[LIGHT_COUNT];    // world space (point, spot)
 uniform vec3 u_light_intensity[LIGHT_COUNT];   // colour x intensity: W/m^2 (directional), W/sr
 uniform vec4 u_light_cone_range[LIGHT_COUNT];  // (cos outer, cos inner, range or 0, 0)
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS
-uniform vec3 u_camera_position;                // world space
-#endif
 #if LIGHT_SHADOWS
-#include "lib/shadow.glsl"
 // per light: its map (a 1x1 map of depth 1 for lights without one), world -> (u, v, depth), and
 // (angular radius in radians, world depth range, world extent, normal offset in world units;
 // x < 0: no shadow map)
@@ -36,31 +81,17 @@ uniform mat3 u_shadow_normal_matrix[LIGHT_COUNT];  // world normal -> map-space 
 uniform vec4 u_shadow_params[LIGHT_COUNT];
 #endif
 
-// The surface's world position from its view depth (the G-buffer's depth channel: positive
-// distance along the view axis) at fragment frag_coord; 0 without positional lights or shadows.
-vec3 light_surface_position(vec2 frag_coord, float depth) {
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS
-    vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
-    return u_camera_position + u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0) * depth;
-#else
-    return vec3(0.0);
-#endif
-}
-
 // The fraction of light i that reaches the surface point p (normal n, world space): its shadow
-// map's PCSS visibility (lib/shadow.glsl) where it has one, else 1. The disk rotation phi is
-// interleaved gradient noise of the pixel (Jimenez 2014), so the filter's pattern is noise, not
-// bands.
+// map's PCSS visibility (lib/shadow.glsl) where it has one, else 1.
 float light_visibility(int i, vec3 p, vec3 n) {
 #if LIGHT_SHADOWS
     vec4 sp = u_shadow_params[i];
     if (sp.x < 0.0) return 1.0;
     vec3 q = shadow_receiver(p, n, u_light_direction[i], sp.w);
     vec3 s = (u_shadow_matrix[i] * vec4(q, 1.0)).xyz;
-    float phi = 6.28318531 * fract(52.9829189 * fract(dot(gl_FragCoord.xy,
-                                                           vec2(0.06711056, 0.00583715))));
     vec2 dz = shadow_depth_slope(u_shadow_normal_matrix[i] * n);
-    return shadow_visibility(u_shadow_map[i], s, dz, sp.x, sp.y, sp.z, phi);
+    return shadow_visibility(u_shadow_map[i], s, dz, sp.x, sp.y, sp.z,
+                             shadow_phi(gl_FragCoord.xy));
 #else
     return 1.0;
 #endif

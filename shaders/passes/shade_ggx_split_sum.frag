@@ -61,9 +61,10 @@ void main() {
 #endif
 #if SUN_LIGHT
     // ao scales its diffuse part as it scales the rest of the environment's (SH) diffuse light
-    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v,
-                             rotate_y(u_sun_direction, u_env_rotation),
-                             u_sun_irradiance * u_env_intensity, w_sun);
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, l_sun,
+                             u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
+                             w_sun);
 #endif
 #else
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
@@ -75,9 +76,9 @@ void main() {
                     light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if SUN_LIGHT
-    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
-                               rotate_y(u_sun_direction, u_env_rotation),
-                               u_sun_irradiance * u_env_intensity);
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, l_sun,
+                               u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun));
 #endif
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

@@ -117,9 +117,11 @@ void main() {
                                            f90_from_f0(f0), dfg, irradiance, prefiltered,
                                            spec_scale);
 #if SUN_LIGHT
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
     c += neural_student_sun_split(k_0, diffuse_color(g.albedo, g.metallic), f0, f90_from_f0(f0),
-                                  dfg, r * r, n, v, rotate_y(u_sun_direction, u_env_rotation),
-                                  u_sun_irradiance * u_env_intensity, w_sun, spec_scale);
+                                  dfg, r * r, n, v, l_sun,
+                                  u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
+                                  w_sun, spec_scale);
 #endif
 #elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);

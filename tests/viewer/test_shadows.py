@@ -220,3 +220,33 @@ def test_a_light_slider_reuses_the_shadow_map(renderer):
     finally:
         timer.enabled = False
         renderer.profiler = None
+
+
+def test_the_environments_sun_casts_its_shadow(renderer):
+    """Under a sky with a sun (shaded analytically: SUN_LIGHT) the sphere's shadow is where the
+    sun's direction (extracted from the map, turned by the environment's rotation) projects it;
+    the sky's own diffuse light is left unshadowed, so the test reads the darkening."""
+    from viewer.graph.frame import env_to_world
+
+    sc = scene_from_dict({
+        "camera": {"position": [0, HEIGHT, 0], "target": [0, 0, 0], "up": [0, 0, -1],
+                   "fov_y": FOV, "size": [N, N]},
+        "environment": {"procedural": "sky", "width": 256, "rotation_deg": 40,
+                        "sun_elevation_deg": 40},
+        "objects": [FLOOR, SPHERE], "render": {"tonemap": "none"}})
+    sun = renderer.resources.sun(sc.environment)
+    assert sun is not None
+    direction = env_to_world(sun.direction, sc.environment.rotation_deg)
+    lit = renderer.render(sc).radiance[..., 0]
+    free = renderer.render(sc.with_render(shadows=False)).radiance[..., 0]
+    dark = free - lit
+    assert dark.min() >= -1e-6  # shadows only take light away
+    x, z = floor_points()
+    truth = analytic_shadow(direction, x, z)
+    keep = ~sphere_pixels(x, z)
+    ours = dark > 0.5 * dark[truth & keep].max()
+    band = ndimage.binary_dilation(truth, iterations=2) & ~ndimage.binary_erosion(truth,
+                                                                                  iterations=2)
+    assert (truth & keep).sum() > 200
+    wrong = (ours != truth) & keep & ~band
+    assert wrong.sum() == 0, np.argwhere(wrong)[:10]

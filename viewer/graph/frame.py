@@ -176,11 +176,13 @@ def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, ca
 
 # ---- shadows ----------------------------------------------------------------------------------
 def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) -> dict:
-    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``), fitted to the
-    scene's bounds; only where the lighting pass reads them (LIGHT_SHADOWS). Returns light index
-    -> (resource, frame, angular radius, normal offset) for the lighting pass."""
+    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``) and for the
+    environment's analytic sun (``shadowsun``), fitted to the scene's bounds; only where the
+    lighting pass reads them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) ->
+    (resource, frame, angular radius, normal offset) for the lighting pass."""
     settings = scene.render
-    if not dict(spec.variant.defines).get("LIGHT_SHADOWS"):
+    defines = dict(spec.variant.defines)
+    if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")):
         return {}
     lights = as_lights(scene.light)
     bounds = renderer.bounds(scene)
@@ -191,10 +193,19 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
     clouds = [c for obj, c in contents if obj.type == "splats"]
     spass = renderer.resources.shadow_pass()
     size = int(settings.shadow.size)
+    casters = []  # (light index or "sun", direction towards it, angular radius)
+    if defines.get("LIGHT_SHADOWS"):
+        casters += [(i, lights[i].direction,
+                     math.radians(lights[i].angular_diameter_deg) / 2.0)
+                    for i in shadowing(lights, settings.shadow.enabled)]
+    if defines.get("SUN_SHADOW"):
+        sun = renderer.resources.sun(scene.environment)
+        # the sun's direction is in the environment's frame: turned by its rotation
+        casters.append(("sun", env_to_world(sun.direction, scene.environment.rotation_deg),
+                        float(sun.angular_radius)))
     out = {}
-    for i in shadowing(lights, settings.shadow.enabled):
-        light = lights[i]
-        frame = directional_frame(bounds, light.direction, resolution=size)
+    for i, direction, radius in casters:
+        frame = directional_frame(bounds, direction, resolution=size)
         name = g.create(f"shadowmap{i}", ShadowMapDesc(size), kept=True)
 
         def draw(f, name=name, frame=frame):
@@ -202,10 +213,19 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
         # the light's colour and intensity do not enter: a light slider reuses the map
         g.add_pass(f"shadow{i}", draw, writes=(name,),
                    inputs={"objects": scene.objects, "geometry": renderer.geometry_cache.version,
-                           "direction": light.direction, "size": size})
-        angle = math.radians(light.angular_diameter_deg) / 2.0 * settings.shadow.softness
-        out[i] = (name, frame, angle, frame.texel_world * settings.shadow.bias)
+                           "direction": tuple(direction), "size": size})
+        out[i] = (name, frame, radius * settings.shadow.softness,
+                  frame.texel_world * settings.shadow.bias)
     return out
+
+
+def env_to_world(direction, rotation_deg: float) -> tuple[float, float, float]:
+    """A direction of the environment's frame in world space (``rotate_y`` of
+    ``lib/equirect.glsl`` by the environment's rotation)."""
+    a = math.radians(rotation_deg)
+    c, s = math.cos(a), math.sin(a)
+    x, y, z = (float(v) for v in direction)
+    return (c * x + s * z, y, -s * x + c * z)
 
 
 # ---- lighting ---------------------------------------------------------------------------------
@@ -244,7 +264,9 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
                   env_sampling=env_sampling, ssao=f[ssao.occlusion].texture if ssao else None,
                   sample_range=sample_range, variant=spec.variant, light=scene.light,
                   shadows={i: (f[name].texture, frame, angle, offset)
-                           for i, (name, frame, angle, offset) in shadows.items()})
+                           for i, (name, frame, angle, offset) in shadows.items() if i != "sun"},
+                  sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
+                              if "sun" in shadows else None))
 
     inputs = {"model": settings.model, "render": _lighting_settings(settings),
               "environment": scene.environment, "light": scene.light, "variant": spec.variant}

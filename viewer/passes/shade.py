@@ -78,7 +78,8 @@ class ShadePass:
     def run(self, gbuffer_textures: dict, out_fbo, camera: Camera, ibl, environment,
             settings: RenderSettings, env_sampling=None, ssao=None,
             sample_range: tuple[int, int] = (0, 1), variant: ShadeVariant | None = None,
-            light: Light | tuple[Light, ...] | None = None, shadows: dict | None = None) -> None:
+            light: Light | tuple[Light, ...] | None = None, shadows: dict | None = None,
+            sun_shadow: tuple | None = None) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
@@ -87,7 +88,8 @@ class ShadePass:
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
         unspecialised variant); ``light``: the lights to shade (``Scene.light``: a tuple, or ``None``);
         ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame`,
-        angular radius in radians, normal offset in world units) for the lights that cast one."""
+        angular radius in radians, normal offset in world units) for the lights that cast one;
+        ``sun_shadow``: the same for the environment's sun (SUN_SHADOW)."""
         if variant is None:
             variant = model_info(settings.model).variant(settings, light)
         found = model_network(settings.model, settings)  # the weights file, looked up once
@@ -102,6 +104,17 @@ class ShadePass:
             prog["u_ssao"].value = unit
             unit += 1
         unit = self._bind_shadows(prog, light, shadows or {}, unit)
+        if sun_shadow is not None and "u_sun_shadow_map" in prog:
+            tex, frame, angle, offset = sun_shadow
+            tex.use(unit)
+            prog["u_sun_shadow_map"].value = unit
+            unit += 1
+            _set(prog, "u_sun_shadow_matrix",
+                 np.ascontiguousarray(frame.matrix.T, np.float32).tobytes())
+            _set(prog, "u_sun_shadow_normal_matrix",
+                 np.ascontiguousarray(np.linalg.inv(frame.matrix[:3, :3]), np.float32).tobytes())
+            _set(prog, "u_sun_shadow_params",
+                 (float(angle), float(frame.depth_range), float(max(frame.extent)), float(offset)))
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))

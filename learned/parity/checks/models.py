@@ -187,7 +187,9 @@ def _check_model(programs, model: str, variant: dict, light: dict | list | None 
         {**PARITY_SCENE, ("lights" if isinstance(light, list) else "light"): light}
     if emissive:  # + an in-memory mesh object (emissive_quad)
         doc = {**doc, "objects": doc["objects"] + [{"type": "mesh", "path": "emissive.glb"}]}
-    scene = scene_from_dict(doc).with_render(model=model, **variant)
+    # shadow maps off: their lookups are the check shadow:lookups (checks/shadow.py); the twin of
+    # the lighting pass is compared on the same unshadowed light
+    scene = scene_from_dict(doc).with_render(model=model, **{"shadows": False, **variant})
     renderer = Renderer(ctx=programs.ctx)
     if emissive:
         renderer.add_geometry(scene.objects[-1], [emissive_quad()])

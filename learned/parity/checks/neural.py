@@ -106,7 +106,8 @@ def check_model(programs, model: str, variant: dict, weights=None, label: str = 
     kind = MODEL_KINDS[model]
     path = weights or default_weights(kind)
     key = "weights" if kind == "student" else "teacher_weights"
-    scene = scene_from_dict(PARITY_SCENE).with_render(model=model, **{key: str(path)}, **variant)
+    scene = scene_from_dict(PARITY_SCENE).with_render(shadows=False, model=model,
+                                                      **{key: str(path)}, **variant)
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
     net_model = load_model(path, kind)
     renderer = Renderer(ctx=programs.ctx)
@@ -204,7 +205,7 @@ def _check_indirect_factor(programs, path) -> list:
 
     from .ssao import robust_compare
 
-    scene = scene_from_dict(PARITY_SCENE).with_render(model="neural", weights=str(path))
+    scene = scene_from_dict(PARITY_SCENE).with_render(shadows=False, model="neural", weights=str(path))
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
     assert scene.render.ssao.indirect, "the student's indirect pass is not forced on"
     net_model = load_model(path, "student")

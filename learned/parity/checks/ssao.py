@@ -24,7 +24,8 @@ def checks() -> dict:
     @register_pass_check("ssao")
     def check_ssao(programs):
         scene = scene_from_dict(PARITY_SCENE).with_render(
-            model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6, ssao_steps=8,
+            shadows=False, model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6,
+            ssao_steps=8,
             ssao_radius=0.6, ssao_thickness=0.3, seed=3)
         renderer = Renderer(ctx=programs.ctx)
         try:
@@ -66,7 +67,8 @@ def checks() -> dict:
         and the whole indirect light."""
         k = 3
         scene = scene_from_dict(PARITY_SCENE).with_render(
-            model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6, ssao_steps=8,
+            shadows=False, model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6,
+            ssao_steps=8,
             ssao_radius=0.6, ssao_thickness=0.3, seed=3, ssao_scale=k)
         renderer = Renderer(ctx=programs.ctx)
         try:

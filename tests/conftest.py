@@ -1,5 +1,11 @@
 """Shared fixtures: one headless GL context (EGL; llvmpipe without a GPU) for the whole session."""
+import os
+
 import pytest
+
+# the suite is hermetic: no environment is read from or written to the user's disk cache
+# (viewer.envcache; the cache's own tests pass an explicit cache)
+os.environ.setdefault("RELIGHT_ENV_CACHE", "0")
 
 
 @pytest.fixture(scope="session")

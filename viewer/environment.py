@@ -86,6 +86,8 @@ def _load_file(path: str) -> np.ndarray:
         warnings.warn(f"{path}: {count} negative, NaN or Inf texel values set to 0", stacklevel=3)
         arr = np.where(bad, np.float32(0.0), arr)
     width = _pow2(w)
+    if (w, h) == (width, width // 2):
+        return arr  # already a new float32 array
     return resample(arr, width, width // 2)
 
 

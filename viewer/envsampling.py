@@ -49,6 +49,26 @@ class EnvSampling:
             out[name] = arr[0].copy() if name == "marginal" else arr.copy()
         return out
 
+    @classmethod
+    def from_arrays(cls, ctx, marginal: np.ndarray, conditional: np.ndarray, pdf: np.ndarray,
+                    fallback: bool) -> "EnvSampling":
+        """The textures of arrays :meth:`read` returned (e.g. from the disk cache)."""
+        h, w = pdf.shape
+        if marginal.shape != (h + 1,) or conditional.shape != (h, w + 1):
+            raise ValueError(f"sampling tables of shapes {marginal.shape}, {conditional.shape}, "
+                             f"{pdf.shape} do not belong together")
+        out = []
+        try:
+            for arr, (tw, th) in ((marginal, (h + 1, 1)), (conditional, (w + 1, h)), (pdf, (w, h))):
+                tex = _r32f(ctx, tw, th)
+                out.append(tex)
+                tex.write(np.ascontiguousarray(arr, np.float32).tobytes())
+        except BaseException:
+            for tex in out:
+                tex.release()
+            raise
+        return cls(out[0], out[1], out[2], bool(fallback))
+
     def release(self) -> None:
         for name in ("marginal", "conditional", "pdf"):
             tex = getattr(self, name)

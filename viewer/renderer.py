@@ -149,7 +149,7 @@ class Renderer:
         Drawn into a target of its own (valid until the next call): for training data, tests and
         parity checks."""
         make_current(self.ctx)
-        with self._frame():
+        with self._frame(scene):
             spec = self.specialization(scene)
             graph = visibility_graph(self, scene, spec, frame)
             return graph.compile().execute()["ssao"].texture
@@ -170,13 +170,15 @@ class Renderer:
         in one process.
         """
         make_current(self.ctx)
-        with self._frame():
+        with self._frame(scene):
             return self._draw(scene, size, progressive, samples_per_frame, aovs)
 
     @contextmanager
-    def _frame(self):
-        """Nothing a frame looks up (programs, geometry) is evicted before the frame ends."""
-        with self.programs.frame(), self.geometry_cache.frame():
+    def _frame(self, scene: Scene):
+        """Nothing a frame looks up (programs, geometry, its environment) is evicted before the
+        frame ends."""
+        with self.programs.frame(), self.geometry_cache.frame(), \
+                self.resources.env.pinned(scene.environment):
             yield
 
     def _draw(self, scene, size, progressive, samples_per_frame, aovs) -> FrameTargets:

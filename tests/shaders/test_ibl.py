@@ -12,9 +12,10 @@ from viewer.environment import texel_directions
 from viewer.errors import InputError
 from viewer.ibl import IBLOptions, build_ibl, mip_sizes
 
-SMALL = IBLOptions(prefilter_levels=4, prefilter_samples=16, dfg_size=16, dfg_samples=64)
-OUR_CHECKS = ["ibl_downsample", "ibl_prefilter", "ibl_sh", "ibl_dfg_lut", "ibl_dominant_lut",
-              "ibl_lookups", "sh_irradiance"]
+SMALL = IBLOptions(prefilter_levels=4, prefilter_method="fis", prefilter_samples=16, dfg_size=16,
+                   dfg_samples=64)
+OUR_CHECKS = ["ibl_downsample", "ibl_prefilter", "ibl_compose", "ibl_sh", "ibl_dfg_lut",
+              "ibl_dominant_lut", "ibl_lookups", "sh_irradiance"]
 
 
 def test_ibl_pass_checks_are_registered():
@@ -198,10 +199,27 @@ def test_build_ibl_rejects_bad_shapes(programs):
 
 
 def test_tiny_environment_caps_levels(programs):
+    """Importance sampling ("fis") prefilters the map at its own size: a 4x2 map has 3 levels."""
     ibl = build_ibl(programs, np.ones((2, 4, 3), np.float32), SMALL)
     try:
         assert ibl.levels == len(mip_sizes(4, 2)) == 3
         np.testing.assert_allclose(ibl.read_level("prefiltered", 2)[..., :3], 1.0, rtol=1e-5)
+    finally:
+        ibl.release()
+
+
+def test_tiny_environment_gets_a_full_chain(programs):
+    """The convolution method builds a narrow map's chain prefilter_width wide (its source
+    upsampled), so every level exists and holds the constant; the radiance keeps its size."""
+    opts = IBLOptions(prefilter_levels=4, prefilter_width=64, dfg_size=16, dfg_samples=64)
+    ibl = build_ibl(programs, np.full((2, 4, 3), 1.5, np.float32), opts)
+    try:
+        assert ibl.levels == 4
+        assert ibl.prefiltered.size == (64, 32) and ibl.radiance.size == (4, 2)
+        for k in range(4):
+            level = ibl.read_level("prefiltered", k)
+            assert level.shape == (32 >> k, 64 >> k, 4)
+            np.testing.assert_allclose(level[..., :3], 1.5, rtol=1e-5)
     finally:
         ibl.release()
 

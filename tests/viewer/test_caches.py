@@ -27,7 +27,9 @@ BASE = {
     "camera": {"position": [0, 0.4, 2.4], "target": [0, 0.2, 0], "fov_y": 45, "size": [32, 24]},
     "environment": {"procedural": "sky", "width": 64},
     "objects": [],
-    "render": {"tonemap": "none"},
+    # no shadow maps: the counts below are the G-buffer pass's copies (the shadow pass keeps its
+    # own, released the same way: tests/viewer/test_shadows.py)
+    "render": {"tonemap": "none", "shadows": False},
 }
 CAM = Camera(position=(0.0, 0.0, 2.5), target=(0.0, 0.0, 0.0), fov_y=40.0, size=(32, 32))
 

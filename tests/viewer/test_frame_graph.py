@@ -167,6 +167,7 @@ GLASS = ObjectSpec(type="mesh", path="in-memory-glass")
 SPLATS = ObjectSpec(type="splats", path="in-memory-splats")
 LIGHTING = {"shade", "indirect_gather", "indirect", "forward", "tonemap"}
 SSAO = {"ssao", "ssao_upsample"}
+SHADOWS = {"shadow0", "shadowsun"}  # the [light]'s map and the sky's sun's
 
 
 def _base():
@@ -198,7 +199,7 @@ CHANGES = {
     "exposure": (lambda s: s.with_render(exposure=1.0), {"tonemap"}),
     "tone mapper": (lambda s: s.with_render(tonemap="aces"), {"tonemap"}),
     "environment intensity": (_env(intensity=1.6), LIGHTING),
-    "environment rotation": (_env(rotation_deg=30.0), LIGHTING),
+    "environment rotation": (_env(rotation_deg=30.0), LIGHTING | {"shadowsun"}),
     "light intensity": (lambda s: dataclasses.replace(
         s, lights=(dataclasses.replace(s.lights[0], intensity=3.0),)), LIGHTING),
     "model": (lambda s: s.with_render(model="blinn_phong"), LIGHTING),
@@ -208,7 +209,8 @@ CHANGES = {
     "splat depth": (lambda s: s.with_render(splat_depth="median"),
                     {"gbuffer", "splats"} | SSAO | LIGHTING),
     "material": (_material, {"gbuffer", "splats"} | SSAO | LIGHTING),
-    "geometry": (_sphere(center=(0.2, 0.45, 0.0)), {"gbuffer", "splats"} | SSAO | LIGHTING),
+    "geometry": (_sphere(center=(0.2, 0.45, 0.0)),
+                 {"gbuffer", "splats"} | SSAO | LIGHTING | SHADOWS),
     "camera": (lambda s: s.with_camera(position=(0.3, 1.2, 2.6)),
                {"gbuffer", "splats"} | SSAO | LIGHTING),
 }
@@ -244,8 +246,9 @@ def _drawn(renderer, scene):
 
 def test_the_frame_declares_every_pass(renderer):
     g = renderer.graph(_base())
-    assert [p.name for p in g.passes] == ["gbuffer", "splats", "ssao", "ssao_upsample", "shade",
-                                          "indirect_gather", "indirect", "forward", "tonemap"]
+    assert [p.name for p in g.passes] == ["gbuffer", "splats", "ssao", "ssao_upsample",
+                                          "shadow0", "shadowsun", "shade", "indirect_gather",
+                                          "indirect", "forward", "tonemap"]
 
 
 @pytest.mark.parametrize("change", list(CHANGES))
@@ -260,7 +263,9 @@ def test_a_change_redraws_exactly_what_is_downstream(renderer, change):
     assert drawn == expected, (change, drawn)
     with renderer.every_pass():
         full, every = _drawn(renderer, changed)
-    assert every == {"gbuffer", "splats"} | SSAO | LIGHTING
+    # every pass the changed frame declares (blinn_phong shades no analytic sun: no shadowsun)
+    assert every == {"gbuffer", "splats"} | SSAO | LIGHTING | SHADOWS - (
+        {"shadowsun"} if change == "model" else set())
     np.testing.assert_array_equal(img, full)
 
 

@@ -250,3 +250,24 @@ def test_the_environments_sun_casts_its_shadow(renderer):
     assert (truth & keep).sum() > 200
     wrong = (ours != truth) & keep & ~band
     assert wrong.sum() == 0, np.argwhere(wrong)[:10]
+
+
+def test_evicted_geometry_releases_its_shadow_copies(ctx):
+    """The shadow pass's copies of a mesh go with the geometry entry holding it."""
+    from viewer.gl.tracking import ObjectTracker
+
+    r = Renderer(ctx=ctx)
+    tracker = ObjectTracker(ctx).install()
+    try:
+        sc = scene([FLOOR, SPHERE], (1.0, 1.0, 0.0))
+        r.render(sc)
+        spass = r.resources.shadow_pass()
+        assert len(spass.meshes) == 2
+        before = tracker.live()
+        r.geometry_cache.clear()
+        assert len(spass.meshes) == 0
+        after = tracker.live()
+        assert after["VertexArray"] <= before["VertexArray"] - 2
+    finally:
+        tracker.uninstall()
+        r.release()

@@ -203,6 +203,8 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
         # the sun's direction is in the environment's frame: turned by its rotation
         casters.append(("sun", env_to_world(sun.direction, scene.environment.rotation_deg),
                         float(sun.angular_radius)))
+    # what casts shadows: the objects without their materials (a material slider keeps the maps)
+    shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
     out = {}
     for i, direction, radius in casters:
         frame = directional_frame(bounds, direction, resolution=size)
@@ -212,7 +214,7 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
             spass.draw(f[name], frame, meshes, clouds)
         # the light's colour and intensity do not enter: a light slider reuses the map
         g.add_pass(f"shadow{i}", draw, writes=(name,),
-                   inputs={"objects": scene.objects, "geometry": renderer.geometry_cache.version,
+                   inputs={"shapes": shapes, "geometry": renderer.geometry_cache.version,
                            "direction": tuple(direction), "size": size})
         out[i] = (name, frame, radius * settings.shadow.softness,
                   frame.texel_world * settings.shadow.bias)

@@ -1,0 +1,103 @@
+"""``relight bench``'s extra suites, each a section of ``bench.json`` and a table of ``bench.md``:
+``SUITES`` maps a name to ``callable(renderer, scenes, config, cache) -> list[row dict]``."""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from viewer.models import MODELS
+
+from .clamps import clamp_costs
+from .mc import mc_convergence
+
+
+def _suite_mc(renderer, scenes, config, cache) -> list[dict]:
+    """Error vs samples per pixel for every sampling strategy (thesis ch. 5: uniform vs importance
+    sampling, measured), and time per sample, on the mesh scene."""
+
+    if "ggx_mc" not in MODELS:
+        return []
+    scene = scenes["mesh"].with_camera(size=config.sizes[0])
+    spps = (1, 4, 16, 64) if config.quick else (1, 4, 16, 64, 256)
+    return mc_convergence(renderer, scene, spp_list=spps, reference_spp=config.reference_spp)
+
+
+def _suite_splats(renderer, scenes, config, cache) -> list[dict]:
+    """Splats per second including sorting (CPU and GPU sort) and GLSL vs the torch twin."""
+    try:
+        from .splats import glsl_vs_torch, splat_throughput
+    except ImportError:
+        return []
+    counts = (10_000, 100_000) if config.quick else (10_000, 100_000, 1_000_000)
+    rows = splat_throughput(renderer.programs, counts=counts, size=512,
+                            frames=2 if config.quick else 3)
+    try:
+        rows += glsl_vs_torch(renderer.programs)
+    except ImportError:  # no torch: the GLSL rows only
+        pass
+    return rows
+
+
+def _suite_neural(renderer, scenes, config, cache) -> list[dict]:
+    """Student vs teacher (128 samples): frame-time ratio and PSNR; GLSL vs torch MLP throughput."""
+
+    if "neural" not in MODELS:
+        return []
+    from .neural import neural_rows
+
+    return neural_rows(renderer, quick=config.quick)
+
+
+def _suite_heldout(renderer, scenes, config, cache) -> list[dict]:
+    """Every model against path-traced truth on the held-out datasets of ``config.heldout``
+    (:mod:`relight.bench.heldout`), with each dataset's Pareto front marked."""
+    if not config.heldout:
+        return []
+    from .heldout import heldout_rows
+
+    return heldout_rows(renderer, config.heldout)
+
+
+def _suite_clamps(renderer, scenes, config, cache) -> list[dict]:
+    """What each shading clamp (roughness, n.v, ACES input, dfg.y) costs against an unclamped
+    reference (:mod:`relight.bench.clamps`)."""
+
+    return clamp_costs(renderer, config)
+
+
+def _suite_environments(renderer, scenes, config, cache) -> list[dict]:
+    """A new 2048x1024 EXR with a sun: first frame in a warm process, and the environment part in
+    a new process with and without the disk cache, against the method before
+    (:mod:`relight.bench.environments`)."""
+    from .environments import suite
+
+    return suite(renderer, scenes, config, cache)
+
+
+def _suite_shadows(renderer, scenes, config, cache) -> list[dict]:
+    """What shadow maps cost: whole frames at 512^2 with 1 and 4 shadowing lights, with and
+    without shadows in the same run (:mod:`relight.bench.shadows`)."""
+    from .shadows import shadow_rows
+
+    return shadow_rows(renderer, scenes["mesh"].with_render(sun=False), config)
+
+
+def _suite_memory(renderer, scenes, config, cache) -> list[dict]:
+    """Resident memory under the sweeps that used to grow without bound: 150 frame widths, 20
+    environments, 50 meshes, each in a fresh renderer (:mod:`relight.bench.memory`). Minutes
+    long: left out of ``--quick``."""
+    if config.quick:
+        return []
+    from viewer.renderer import Renderer
+
+    from .memory import memory_rows
+
+    return memory_rows(lambda: Renderer(ctx=renderer.ctx), scenes["mesh"], cache / "memory")
+
+
+# Extra suites, each a section of bench.json and a table of bench.md:
+# name -> callable(renderer, scenes, config, cache) -> list[row dict]
+SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
+                               "neural": _suite_neural, "clamps": _suite_clamps,
+                               "heldout": _suite_heldout, "environments": _suite_environments,
+                               "shadows": _suite_shadows, "memory": _suite_memory}
+

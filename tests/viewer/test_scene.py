@@ -88,7 +88,7 @@ def test_with_render_is_immutable_update():
     ("[environment]\npath = 'a.exr'\nprocedural = 'sky'\n", "both path and procedural"),
     ("[render]\nexposure = nan\n", "finite number"),
     ("[render]\nmultiscatter = 1\n", "true or false"),
-    ("[lights]\nx = 1\n", "unknown key 'lights'"),
+    ("[lightz]\nx = 1\n", "unknown key 'lightz'"),
     ("this is not toml = = \n", "not valid TOML"),
 ])
 def test_bad_scene_is_one_line_error_naming_file(tmp_path, text, needle):

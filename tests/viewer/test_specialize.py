@@ -22,6 +22,10 @@ def test_diffuse_only_scene_drops_specular_channels_and_lobe(renderer):
     scene = diffuse_scene()
     spec = renderer.specialization(scene)
     assert spec.defines["SPECULAR_LOBE"] == 0
+    # the sky's sun casts a shadow map: its lookups need the surface position, so depth stays
+    assert "depth" not in spec.layout.omit and spec.defines.get("SUN_SHADOW") == 1
+    assert {"roughness", "metallic", "specular", "ao"} <= spec.layout.omit
+    spec = renderer.specialization(scene.with_render(shadows=False))
     assert {"roughness", "metallic", "specular", "depth", "ao"} <= spec.layout.omit
     assert len(spec.layout.attachments) == 1 + 1  # albedo+alpha, normal
     general = renderer.specialization(scene.with_render(specialize=False))

@@ -104,17 +104,22 @@ class ShadePass:
             prog["u_ssao"].value = unit
             unit += 1
         unit = self._bind_shadows(prog, light, shadows or {}, unit)
-        if sun_shadow is not None and "u_sun_shadow_map" in prog:
-            tex, frame, angle, offset = sun_shadow
-            tex.use(unit)
+        if "u_sun_shadow_map" in prog:
+            if sun_shadow is None:  # nothing casts one (an image stack alone): a map of depth 1
+                self._no_shadow().use(unit)
+                matrix, normal, params = np.zeros((4, 4)), np.eye(3), (0.0, 1.0, 1.0, 0.0)
+            else:
+                tex, frame, angle, offset = sun_shadow
+                tex.use(unit)
+                matrix, normal = frame.matrix.T, np.linalg.inv(frame.matrix[:3, :3])
+                params = (float(angle), float(frame.depth_range), float(max(frame.extent)),
+                          float(offset))
             prog["u_sun_shadow_map"].value = unit
             unit += 1
-            _set(prog, "u_sun_shadow_matrix",
-                 np.ascontiguousarray(frame.matrix.T, np.float32).tobytes())
+            _set(prog, "u_sun_shadow_matrix", np.ascontiguousarray(matrix, np.float32).tobytes())
             _set(prog, "u_sun_shadow_normal_matrix",
-                 np.ascontiguousarray(np.linalg.inv(frame.matrix[:3, :3]), np.float32).tobytes())
-            _set(prog, "u_sun_shadow_params",
-                 (float(angle), float(frame.depth_range), float(max(frame.extent)), float(offset)))
+                 np.ascontiguousarray(normal, np.float32).tobytes())
+            _set(prog, "u_sun_shadow_params", params)
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))

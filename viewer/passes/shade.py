@@ -107,7 +107,10 @@ class ShadePass:
         if "u_sun_shadow_map" in prog:
             if sun_shadow is None:  # nothing casts one (an image stack alone): a map of depth 1
                 self._no_shadow().use(unit)
-                matrix, normal, params = np.zeros((4, 4)), np.eye(3), (0.0, 1.0, 1.0, 0.0)
+                # every point maps to (-1, -1, -1): outside the map, so lit (shadow_visibility)
+                matrix = np.zeros((4, 4))
+                matrix[3] = (-1.0, -1.0, -1.0, 1.0)  # the translation column (column-major)
+                normal, params = np.eye(3), (0.0, 1.0, 1.0, 0.0)
             else:
                 tex, frame, angle, offset = sun_shadow
                 tex.use(unit)

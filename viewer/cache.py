@@ -231,21 +231,26 @@ class BoundedCache:
                     self._pins[k] = n
                 else:
                     self._pins.pop(k, None)
-            self.trim()
+            # what was pinned stays (the last frame's working set, even above the budget:
+            # evicting it would reload it next frame); older entries make room
+            self.trim(keep=keys)
 
     @contextmanager
     def frame(self):
         """Inside (a frame being drawn), every entry looked up or stored is kept until the
-        outermost ``frame()`` ends: a pass may hold what it looked up earlier in the frame. The
-        budgets may be exceeded meanwhile; they hold again when it ends."""
+        outermost ``frame()`` ends: a pass may hold what it looked up earlier in the frame. When
+        it ends, older entries are evicted until the budgets hold, but never the frame's own
+        working set (a scene larger than the budget would otherwise be reloaded every frame):
+        the budgets hold except when one frame's content alone exceeds them."""
         self._frame_depth += 1
         try:
             yield self
         finally:
             self._frame_depth -= 1
             if self._frame_depth == 0:
+                working = set(self._in_frame)
                 self._in_frame.clear()
-                self.trim()
+                self.trim(keep=working)
 
     def stats(self) -> CacheStats:
         return CacheStats(self.name, len(self._entries), self._bytes, self.max_bytes,
@@ -319,5 +324,7 @@ class Budgets:
     targets_bytes: int = 1 << 30       # render targets and the transient pool: ~3 4K frames
     target_max_age: int = 4            # frames a pooled target may go unused before it is freed
     programs: int = 256                # compiled programs
-    environment_bytes: int = 768 << 20  # environments: arrays, IBL chains, suns, sampling tables
-    geometry_bytes: int = 1 << 30      # loaded and uploaded geometry (meshes, stacks, splats)
+    # environments: arrays, IBL chains, suns, sampling tables (the one in use is always kept)
+    environment_bytes: int = 256 << 20
+    # loaded and uploaded geometry: meshes, stacks, splats (the last frame's is always kept)
+    geometry_bytes: int = 128 << 20

@@ -325,7 +325,10 @@ def test_programs_are_bounded_by_count_and_rebuilt_identically(ctx, tracker):
         with programs.frame():  # nothing looked up in a frame is evicted before it ends
             held = [_tonemapped(ctx, programs, draw, t)[0] for t in (0, 1, 2)]
             assert len(programs) == 3 and all(p in programs for p in held)
-        assert len(programs) == 2
+        assert len(programs) == 3  # the last frame's working set stays (no recompiles)...
+        with programs.frame():
+            _tonemapped(ctx, programs, draw, 0)
+        assert len(programs) == 2  # ...until a frame that needs less: back within the bound
     finally:
         draw.release()
         programs.release()

@@ -193,7 +193,7 @@ def decompose(splats: Splats, options: DecomposeOptions = DecomposeOptions()) ->
     start, losses = 0, []
     ckpt = Path(options.checkpoint) if options.checkpoint else None
     if ckpt is not None and options.resume and ckpt.is_file():
-        state = torch.load(ckpt, weights_only=False)
+        state = torch.load(ckpt, weights_only=True)
         if state["options"] != asdict(options) | {"iterations": state["options"]["iterations"],
                                                   "resume": state["options"]["resume"],
                                                   "progress": state["options"]["progress"]}:

@@ -78,7 +78,7 @@ class Run:
         if not path.is_file():
             return 0, []
         try:
-            ck = torch.load(path, map_location="cpu", weights_only=False)
+            ck = torch.load(path, map_location="cpu", weights_only=True)
             model.load_state_dict(ck["model"])
             if opt is not None:
                 opt.load_state_dict(ck["opt"])

@@ -2,7 +2,6 @@
 the dataset generator takes its targets from (:func:`reference_tracer`)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from viewer.errors import RelightError, SceneError
@@ -25,7 +24,7 @@ def cmd_reference(args) -> int:
         render_reference,
         write_reference,
     )
-    from ..reference.render import config_key
+    from ..reference.render import finished_reference
 
     if (args.out is None) == (args.out_dir is None):
         raise SceneError("give either --out (one scene) or --out-dir (one or more scenes)",
@@ -56,16 +55,11 @@ def cmd_reference(args) -> int:
     for scene, out in jobs[rank::world]:
         if not out.resolve().parent.is_dir():
             out.resolve().parent.mkdir(parents=True, exist_ok=True)
-        meta = out.with_suffix(".json")
-        if meta.is_file():
-            try:
-                done = json.loads(meta.read_text())
-            except ValueError:
-                done = {}
-            if done.get("key") == config_key(scene, options) and done.get("spp", 0) >= args.spp:
-                if not args.quiet:
-                    print(f"{out}: up to date ({done['spp']} spp)")
-                continue
+        done = finished_reference(out, scene, options, args.spp)
+        if done is not None:
+            if not args.quiet:
+                print(f"{out}: up to date ({done['spp']} spp)")
+            continue
         ref = render_reference(scene, options, checkpoint=out.with_name(out.name + ".partial.npz"),
                                progress=not args.quiet, aovs=aovs)
         files = write_reference(ref, out)

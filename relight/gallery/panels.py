@@ -3,7 +3,6 @@ under ``--cache``; :func:`asset_panel`) and the fidelity spheres against their s
 (:func:`sphere_panel`)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from .cases import CASES, ENVIRONMENTS, ERROR_MAX, SPHERE_SCENES, Case, GalleryOptions
@@ -27,18 +26,12 @@ def gallery_scene(environment: tuple[str, str, float], size: tuple[int, int] | N
 def _truth(scene, name: str, options: GalleryOptions, spp: int):
     """The path-traced reference of ``scene``, from the cache when it has this configuration."""
     from ..reference import ReferenceOptions, read_reference, render_reference, write_reference
-    from ..reference.render import config_key
+    from ..reference.render import finished_reference
 
     ref_options = ReferenceOptions(spp=spp)
     out = options.cache / f"{name}.exr"
-    meta = out.with_suffix(".json")
-    if meta.is_file():
-        try:
-            done = json.loads(meta.read_text())
-        except ValueError:
-            done = {}
-        if done.get("key") == config_key(scene, ref_options) and done.get("spp", 0) >= spp:
-            return read_reference(out)
+    if finished_reference(out, scene, ref_options, spp) is not None:
+        return read_reference(out)
     options.cache.mkdir(parents=True, exist_ok=True)
     ref = render_reference(scene, ref_options, checkpoint=out.with_name(out.name + ".partial.npz"),
                            progress=options.progress)

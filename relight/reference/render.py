@@ -141,6 +141,23 @@ def config_key(scene: Scene, options: ReferenceOptions) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def finished_reference(out: str | os.PathLike, scene: Scene, options: ReferenceOptions,
+                       spp: int) -> dict | None:
+    """The metadata of a reference already written to ``out`` (its ``.json`` beside it) for this
+    scene and options with at least ``spp`` samples, or None: then it must be (re)traced. An
+    unreadable ``.json`` counts as none."""
+    meta = Path(out).with_suffix(".json")
+    if not meta.is_file():
+        return None
+    try:
+        done = json.loads(meta.read_text())
+    except ValueError:
+        return None
+    if done.get("key") == config_key(scene, options) and done.get("spp", 0) >= spp:
+        return done
+    return None
+
+
 def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(),
                      checkpoint: str | os.PathLike | None = None, progress: bool = True,
                      aovs: tuple[str, ...] = ()) -> Reference:

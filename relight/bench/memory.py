@@ -36,21 +36,27 @@ def _row(name: str, steps: int, rss: list[int], renderer, seconds: float) -> dic
             "seconds": seconds}
 
 
-def sweep_widths(make_renderer, scene, steps: int = 150, progress=None) -> dict:
-    """The demo at ``steps`` widths 320.. x 240."""
+def _sweep(name: str, make_renderer, steps: int, draw, progress=None) -> dict:
+    """``steps`` frames of a fresh renderer, ``draw(renderer, i)`` each; RSS after each."""
     renderer = make_renderer()
     rss, t0 = [], time.perf_counter()
     try:
         for i in range(steps):
-            renderer.draw(scene, size=(320 + i, 240))
+            draw(renderer, i)
             renderer.ctx.finish()
             gc.collect()
             rss.append(rss_bytes())
             if progress:
-                progress("widths", i + 1, steps)
-        return _row("widths", steps, rss, renderer, time.perf_counter() - t0)
+                progress(name, i + 1, steps)
+        return _row(name, steps, rss, renderer, time.perf_counter() - t0)
     finally:
         renderer.release()
+
+
+def sweep_widths(make_renderer, scene, steps: int = 150, progress=None) -> dict:
+    """The demo at ``steps`` widths 320.. x 240."""
+    return _sweep("widths", make_renderer, steps,
+                  lambda r, i: r.draw(scene, size=(320 + i, 240)), progress)
 
 
 def sweep_environments(make_renderer, scene, folder: Path, steps: int = 20, progress=None) -> dict:
@@ -58,47 +64,27 @@ def sweep_environments(make_renderer, scene, folder: Path, steps: int = 20, prog
     from viewer.environment import EnvironmentSpec, sky_environment
     from viewer.imageio import write_exr
 
-    renderer = make_renderer()
-    rss, t0 = [], time.perf_counter()
-    try:
-        for i in range(steps):
-            path = Path(folder) / f"env{i:03d}.exr"
-            if not path.exists():
-                write_exr(path, sky_environment(1024, 15.0 + 3.0 * i, 17.0 * i), ["R", "G", "B"])
-            sc = dataclasses.replace(scene, environment=EnvironmentSpec(path=str(path)))
-            renderer.draw(sc, size=(256, 192))
-            renderer.ctx.finish()
-            gc.collect()
-            rss.append(rss_bytes())
-            if progress:
-                progress("environments", i + 1, steps)
-        return _row("environments", steps, rss, renderer, time.perf_counter() - t0)
-    finally:
-        renderer.release()
+    def draw(renderer, i):
+        path = Path(folder) / f"env{i:03d}.exr"
+        if not path.exists():
+            write_exr(path, sky_environment(1024, 15.0 + 3.0 * i, 17.0 * i), ["R", "G", "B"])
+        renderer.draw(dataclasses.replace(scene, environment=EnvironmentSpec(path=str(path))),
+                      size=(256, 192))
+    return _sweep("environments", make_renderer, steps, draw, progress)
 
 
 def sweep_meshes(make_renderer, scene, steps: int = 50, progress=None) -> dict:
-    """``steps`` distinct meshes (in memory, ~40k triangles each), one at a time."""
+    """``steps`` distinct meshes (in memory, 65k triangles each), one at a time."""
     from viewer.geometry.primitives import sphere
     from viewer.scene import ObjectSpec
 
-    renderer = make_renderer()
-    rss, t0 = [], time.perf_counter()
-    try:
-        for i in range(steps):
-            obj = ObjectSpec(type="mesh", path=f"in-memory-mesh-{i}")
-            mesh = sphere(center=(0.0, 0.5, 0.0), radius=0.4 + 0.002 * i, segments=256, rings=128)
-            renderer.add_geometry(obj, [mesh])
-            sc = dataclasses.replace(scene, objects=scene.objects[:1] + (obj,))
-            renderer.draw(sc, size=(256, 192))
-            renderer.ctx.finish()
-            gc.collect()
-            rss.append(rss_bytes())
-            if progress:
-                progress("meshes", i + 1, steps)
-        return _row("meshes", steps, rss, renderer, time.perf_counter() - t0)
-    finally:
-        renderer.release()
+    def draw(renderer, i):
+        obj = ObjectSpec(type="mesh", path=f"in-memory-mesh-{i}")
+        mesh = sphere(center=(0.0, 0.5, 0.0), radius=0.4 + 0.002 * i, segments=256, rings=128)
+        renderer.add_geometry(obj, [mesh])
+        renderer.draw(dataclasses.replace(scene, objects=scene.objects[:1] + (obj,)),
+                      size=(256, 192))
+    return _sweep("meshes", make_renderer, steps, draw, progress)
 
 
 def memory_rows(make_renderer, scene, folder: Path, progress=None) -> list[dict]:

@@ -50,8 +50,11 @@ def punctual_light(type_: torch.Tensor, position: torch.Tensor, direction: torch
 
 
 def light_visibility(i: int, p: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
-    """GLSL ``float light_visibility(int i, vec3 p, vec3 n)`` (passes/lights.glsl), the shadow
-    hook: 1 (nothing shadows a light yet). [...]."""
+    """GLSL ``float light_visibility(int i, vec3 p, vec3 n)`` (passes/lights.glsl) without shadow
+    maps (LIGHT_SHADOWS 0, as the model parity checks render): 1. With maps it is
+    ``shadow_visibility(shadow_receiver(...), shadow_depth_slope(...))`` of
+    :mod:`learned.twins.shadow`, each function twinned and parity-checked there; the composed,
+    shadowed lighting pass has no twin yet."""
     return torch.ones(p.shape[:-1], dtype=p.dtype)
 
 

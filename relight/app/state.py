@@ -84,6 +84,7 @@ class ViewerState:
     error_scale: float = 0.25  # "error": relative error mapped to the top of the colour map
     reference_path: str | None = None  # a linear EXR/HDR render to compare against
     show_ui: bool = True
+    fit_view: bool = False  # the render size follows the area beside the panel
     show_overlay: bool = True
     message: str | None = None  # the last problem (bad file, bad scene, missing weights)
     screenshot_path: str = "relight_view.png"
@@ -134,6 +135,7 @@ def load_into(state: ViewerState, scene: Scene) -> ViewerState:
     fresh = state_from_scene(scene)
     return replace(fresh, view=state.view, error_scale=state.error_scale,
                    reference_path=state.reference_path, show_ui=state.show_ui,
+                   fit_view=state.fit_view,
                    show_overlay=state.show_overlay, screenshot_path=state.screenshot_path,
                    scene_path=state.scene_path)
 

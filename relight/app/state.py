@@ -20,15 +20,14 @@ from dataclasses import dataclass, fields, replace
 
 from viewer.camera import Camera
 from viewer.environment import EnvironmentSpec
-from viewer.gbuffer import CHANNEL_NAMES
 from viewer.material import Material
+from viewer.passes.debug_view import VIEWS  # noqa: F401  (re-exported)
 from viewer.scene import DirectionalLight, Light, Scene
 from viewer.settings import RenderSettings
 
-# What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
+# What the view shows (VIEWS): the tone-mapped image, one G-buffer channel, or the error against a
 # reference render ("difference": |render - reference| exposed like the image; "error": relative
 # error in false colour).
-VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
 MATERIAL_FIELDS = ("albedo", "roughness", "metallic", "specular")  # what the UI edits
 
 

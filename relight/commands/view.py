@@ -39,6 +39,7 @@ def cmd_view(args) -> int:
                     title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
     if args.view:
         viewer.state.view = args.view
+    viewer.state.fit_view = args.fit_window
     try:
         if args.reference:
             viewer.frame()

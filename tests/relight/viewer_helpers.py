@@ -35,3 +35,18 @@ def headless(ctx, scene, **kw):
         return r.render(scene, **kw)
     finally:
         r.release()
+
+
+def drop_files(viewer, paths) -> None:
+    """Drop ``paths`` on the window as the window system does: through the C drop callback the
+    viewer registered with glfw (what ``glfwSetDropCallback`` holds), then one frame."""
+    import ctypes
+
+    import glfw
+
+    window = viewer.window.window
+    address = ctypes.cast(ctypes.pointer(window), ctypes.POINTER(ctypes.c_long)).contents.value
+    _, c_callback = glfw._window_drop_callback_repository[address]
+    names = (ctypes.c_char_p * len(paths))(*[str(p).encode() for p in paths])
+    c_callback(window, len(paths), names)
+    viewer.run(frames=1)

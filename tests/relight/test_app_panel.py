@@ -89,6 +89,20 @@ def test_every_section_opens_beside_the_image_and_no_label_is_cut(panel):
     assert panel.view_area() == area and panel._view_rect() == shown_at
 
 
+def test_in_a_small_window_labels_wrap_instead_of_being_cut():
+    """At 320x240 the panel is half the window (160 pixels): labels go on their own lines,
+    checkbox and button text wraps, and still no item passes the panel's edge."""
+    from relight.app.window import Viewer
+
+    with Viewer(lit_scene(), window_size=(320, 240), offscreen=True) as v:
+        v.ui.open_all = True
+        v.run(frames=3)
+        assert v.ui.width == pytest.approx(160.0) and v.view_area() == (160, 0, 160, 240)
+        assert cut_labels(v.ui) == []
+        kinds = {it.kind for it in v.ui.items if it.label}
+        assert "label" in kinds  # some labels moved to their own line
+
+
 def test_labels_would_be_cut_at_imgui_default_widths(panel, monkeypatch):
     """The check above can fail: with ImGui's default item width (65% of the panel) the longer
     labels pass the panel's edge."""

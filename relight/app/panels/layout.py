@@ -81,16 +81,31 @@ class Layout:
         self._fitted[label] = "##" + label
         return "##" + label
 
+    def _wrap(self, text: str, width: float) -> str:
+        """``text`` broken into lines at spaces so that each fits ``width`` pixels."""
+        lines: list[str] = []
+        for word in text.split(" "):
+            line = f"{lines[-1]} {word}" if lines else word
+            if lines and self.imgui.calc_text_size(line).x <= width:
+                lines[-1] = line
+            else:
+                lines.append(word)
+        return "\n".join(lines)
+
     def button(self, label: str, same_line: bool = False) -> bool:
-        """A button; beside the previous item when ``same_line`` and it fits there."""
+        """A button; beside the previous item when ``same_line`` and it fits there; its text
+        on several lines when one is wider than the panel."""
         imgui = self.imgui
-        if same_line:
-            style = imgui.get_style()
-            width = imgui.calc_text_size(shown_label(label)).x + 2 * style.frame_padding.x
-            if imgui.get_item_rect_max().x + style.item_spacing.x + width <= self.right:
-                imgui.same_line()
-        pressed = imgui.button(label)
-        self._record(label, "button")
+        style = imgui.get_style()
+        text, _, key = label.partition("##")
+        width = imgui.calc_text_size(text).x + 2 * style.frame_padding.x
+        if same_line and imgui.get_item_rect_max().x + style.item_spacing.x + width <= self.right:
+            imgui.same_line()
+        avail = imgui.get_content_region_avail().x
+        if width > avail:
+            text = self._wrap(text, avail - 2 * style.frame_padding.x)
+        pressed = imgui.button(f"{text}###{label}")  # the id stays when the text wraps
+        self._record(text, "button", key=label)
         return pressed
 
     def _combo(self, label: str, current: str, items) -> str:
@@ -106,6 +121,39 @@ class Layout:
         return value
 
     def _checkbox(self, label: str, value: bool) -> tuple[bool, bool]:
-        toggled, value = self.imgui.checkbox(label, value)
-        self._track(label)
+        """A checkbox; its label wrapped beside it when one line would pass the panel's edge."""
+        imgui = self.imgui
+        text = shown_label(label)
+        box = imgui.get_frame_height() + imgui.get_style().item_inner_spacing.x
+        if box + imgui.calc_text_size(text).x <= imgui.get_content_region_avail().x:
+            toggled, value = imgui.checkbox(label, value)
+            self._record(label)
+            return toggled, value
+        toggled, value = imgui.checkbox("##" + label, value)
+        self._record("##" + label, key=label)
+        self._text_beside(text)
         return toggled, value
+
+    def _tree_node(self, text: str, key: str) -> bool:
+        """A tree node labelled ``text`` (id ``key``), its label wrapped beside the arrow when one
+        line would pass the panel's edge."""
+        imgui = self.imgui
+        if self.open_all:
+            imgui.set_next_item_open(True)
+        arrow = imgui.get_tree_node_to_label_spacing()
+        if arrow + imgui.calc_text_size(text).x <= imgui.get_content_region_avail().x:
+            opened = imgui.tree_node(f"{text}##{key}")
+            self._record(text, "header", key=key)
+            return opened
+        opened = imgui.tree_node_ex(f"##{key}", imgui.TreeNodeFlags_.span_avail_width)
+        self._record("", "header", key=key)
+        self._text_beside(text)
+        return opened
+
+    def _text_beside(self, text: str) -> None:
+        """``text`` after the last item on its line, wrapped at the panel's edge."""
+        imgui = self.imgui
+        imgui.same_line(0.0, imgui.get_style().item_inner_spacing.x)
+        lines = self._wrap(text, imgui.get_content_region_avail().x)
+        imgui.text(lines)
+        self._record(lines, "label", key=f"{text} (label)")

@@ -51,11 +51,7 @@ class MaterialPanel:
         imgui.separator()
         materials = list(state.object_materials)
         for i, obj in enumerate(state.scene.objects):
-            if self.open_all:
-                imgui.set_next_item_open(True)
-            opened = imgui.tree_node(f"object {i}: {obj.type}##obj{i}")
-            self._record(f"object {i}: {obj.type}", "header", key=f"obj{i}")
-            if not opened:
+            if not self._tree_node(f"object {i}: {obj.type}", f"obj{i}"):
                 continue
             if obj.path:
                 imgui.text_disabled(obj.path)  # wrapped at the panel's edge

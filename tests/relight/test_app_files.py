@@ -158,9 +158,13 @@ def test_files_dropped_through_glfw_open_and_a_bad_one_keeps_the_scene(fresh, tm
     good, image, renders = fresh.current_scene(), shown(fresh), fresh.renders
 
     (tmp_path / "bad.hdr").write_bytes(b"#?RADIANCE\nthis is not a picture")
+    fresh.state.show_overlay = True  # the panel is hidden: the overlay shows the message
     drop_files(fresh, [tmp_path / "bad.hdr"])
     message = fresh.state.message
     assert "bad.hdr" in message and "\n" not in message
+    fresh.run(frames=1)
+    assert fresh.ui.overlay_lines[-1] == message
+    fresh.state.show_overlay = False
     assert fresh.current_scene() == good and fresh.renders == renders
     assert np.array_equal(shown(fresh), image)
 

@@ -52,6 +52,7 @@ class ViewerUI(Layout, ScenePanels, MaterialPanel, SettingsPanels):
         self._fitted: dict[str, str] = {}
         self.fraction = PANEL_FRACTION  # the panel's share of the window width
         self.width = 0.0  # the panel's width drawn last (window pixels); 0 while hidden
+        self.overlay_lines: list[str] = []  # what the overlay drew last
         self.open_all = False  # open every section and object (tests, screenshots)
         self._dialog = None  # a pending portable-file-dialog: (kind, dialog)
         self._size = list(viewer.state.camera.size)
@@ -94,7 +95,7 @@ class ViewerUI(Layout, ScenePanels, MaterialPanel, SettingsPanels):
         imgui.end()
 
     def overlay(self) -> None:
-        draw_overlay(self.imgui, self.viewer)
+        self.overlay_lines = draw_overlay(self.imgui, self.viewer)
 
     # ---- file dialogs ----------------------------------------------------------------------------
     def _open_dialog(self, kind: str, title: str, filters: list[str]) -> None:

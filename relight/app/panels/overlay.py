@@ -7,8 +7,9 @@ from viewer.models import SAMPLING_MODELS
 from .choices import ERROR_COLOUR
 
 
-def draw_overlay(imgui, viewer) -> None:
-    """Frame time, per-pass GPU time (timer queries) and what is shown, top right."""
+def draw_overlay(imgui, viewer) -> list[str]:
+    """Frame time, per-pass GPU time (timer queries) and what is shown, top right; returns the
+    lines drawn."""
     io = imgui.get_io()
     imgui.set_next_window_pos((io.display_size.x - 8, 8), imgui.Cond_.always, (1.0, 0.0))
     imgui.set_next_window_bg_alpha(0.55)
@@ -18,17 +19,19 @@ def draw_overlay(imgui, viewer) -> None:
     imgui.begin("##overlay", None, flags)
     scene = viewer.current_scene()
     w, h = scene.camera.size
-    imgui.text(f"{viewer.frame_ms:6.2f} ms frame  {scene.render.model}  {w}x{h}")
+    lines = [f"{viewer.frame_ms:6.2f} ms frame  {scene.render.model}  {w}x{h}"]
     targets = viewer.targets
     if targets is not None and scene.render.model in SAMPLING_MODELS:
-        imgui.text(f"samples {targets.samples}/{scene.render.mc.samples}")
-    for name, ms in viewer.timers.ms.items():
-        imgui.text(f"{name:>8}: {ms:7.3f} ms GPU")
-    for line in frame_lines(viewer.renderer):
+        lines.append(f"samples {targets.samples}/{scene.render.mc.samples}")
+    lines += [f"{name:>8}: {ms:7.3f} ms GPU" for name, ms in viewer.timers.ms.items()]
+    lines += frame_lines(viewer.renderer)
+    for line in lines:
         imgui.text(line)
     if viewer.state.message and not viewer.state.show_ui:  # else the panel shows it
         imgui.text_colored(ERROR_COLOUR, viewer.state.message)
+        lines.append(viewer.state.message)
     imgui.end()
+    return lines
 
 
 def frame_lines(renderer) -> list[str]:

@@ -11,7 +11,7 @@
                  [--shadow-weights FILE] [--json]
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
     relight view [SCENE.toml] [--frames N] [--screenshot FILE [--screenshot-ui]] [--offscreen]
-                 [--size WxH] [--fit-window] [--model M] [--view V]
+                 [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
 writing nothing.
@@ -264,6 +264,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--offscreen", action="store_true",
                    help="no display: glfw's Null platform with an EGL context")
     p.add_argument("--size", help="WxH render size (overrides [camera] size)")
+    p.add_argument("--window", metavar="WxH",
+                   help="window size (default: the render 1:1 beside the panel, at most "
+                        "1600x1000)")
     p.add_argument("--fit-window", action="store_true",
                    help="the render size follows the area beside the panel (the camera's "
                         "aspect follows the window)")

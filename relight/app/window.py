@@ -63,10 +63,15 @@ class Viewer(FileActions, Capture):
                  title: str = "relight view"):
         from imgui_bundle import imgui  # before glfw (create_window checks the order)
 
-        if window_size is None:
+        if window_size is None:  # the render 1:1 beside the panel, unless over MAX_WINDOW
+            from .panels import window_width_for
+
             w, h = scene.camera.size
-            scale = min(1.0, MAX_WINDOW[0] / w, MAX_WINDOW[1] / h)
-            window_size = (max(1, int(w * scale)), max(1, int(h * scale)))
+            scale = min(1.0, MAX_WINDOW[1] / h)
+            while scale > 0.05 and window_width_for(int(w * scale)) > MAX_WINDOW[0]:
+                scale *= 0.98
+            h = max(1, int(h * scale))
+            window_size = (window_width_for(max(1, int(w * scale))), h)
         self.window = create_window(window_size, title, offscreen=offscreen, options=options)
         import glfw
 

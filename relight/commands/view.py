@@ -35,7 +35,9 @@ def cmd_view(args) -> int:
         scene = scene.with_camera(size=_parse_size(args.size))
     if args.model:
         scene = replace(scene, render=scene.render.with_flat(model=args.model))
-    viewer = Viewer(scene, offscreen=args.offscreen, options=_context_options(args),
+    window = _parse_size(args.window, "--window") if args.window else None
+    viewer = Viewer(scene, window_size=window, offscreen=args.offscreen,
+                    options=_context_options(args),
                     title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
     if args.view:
         viewer.state.view = args.view

@@ -103,6 +103,19 @@ def test_in_a_small_window_labels_wrap_instead_of_being_cut():
         assert "label" in kinds  # some labels moved to their own line
 
 
+def test_the_default_window_shows_the_render_one_to_one_beside_the_panel():
+    from relight.app.panels import PANEL_FRACTION, panel_limits, window_width_for
+
+    def area(width):
+        lo, hi = panel_limits(width)
+        return width - max(lo, min(hi, PANEL_FRACTION * width))
+
+    assert window_width_for(400) == 640  # a 240-pixel panel
+    for view in (1, 64, 240, 400, 640, 1280):
+        width = window_width_for(view)
+        assert area(width) >= view > area(width - 1)
+
+
 def test_labels_would_be_cut_at_imgui_default_widths(panel, monkeypatch):
     """The check above can fail: with ImGui's default item width (65% of the panel) the longer
     labels pass the panel's edge."""
@@ -179,7 +192,7 @@ def test_panel_screenshot_on_a_real_x_server(tmp_path):
     out = tmp_path / "ui.png"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     cmd = ["xvfb-run", "-a", "-s", "-screen 0 1024x768x24", sys.executable, "-m", "relight",
-           "view", str(scene), "--size", "640x480", "--frames", "2", "--screenshot", str(out),
+           "view", str(scene), "--window", "640x480", "--frames", "2", "--screenshot", str(out),
            "--screenshot-ui", "-q"]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
     if run.returncode != 0 and "cannot initialise glfw" in run.stderr:

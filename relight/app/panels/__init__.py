@@ -26,7 +26,8 @@ from .scene import ScenePanels
 from .settings import SettingsPanels
 
 __all__ = ["CHOICES", "LIMITS", "PANEL_FRACTION", "PANEL_MAX_FRACTION", "PANEL_MIN",
-           "QUICK_FIELDS", "SECTIONS", "Item", "ViewerUI", "frame_lines", "panel_limits"]
+           "QUICK_FIELDS", "SECTIONS", "Item", "ViewerUI", "frame_lines", "panel_limits",
+           "window_width_for"]
 
 PANEL_FRACTION = 0.3  # of the window's width, until the user drags the panel's edge
 PANEL_MIN = 240.0  # pixels (window coordinates), unless the window is narrower than twice that
@@ -38,6 +39,16 @@ def panel_limits(window_width: float) -> tuple[float, float]:
     """(min, max) width of the panel in a window ``window_width`` pixels wide."""
     hi = PANEL_MAX_FRACTION * window_width
     return min(PANEL_MIN, hi), hi
+
+
+def window_width_for(view_width: int) -> int:
+    """The narrowest window whose area beside the panel (at :data:`PANEL_FRACTION`) is
+    ``view_width`` pixels wide: the window a render of that width is shown 1:1 in."""
+    width = int(view_width)
+    while width - max(panel_limits(width)[0], min(panel_limits(width)[1],
+                                                   PANEL_FRACTION * width)) < view_width:
+        width += 1
+    return width
 
 
 class ViewerUI(Layout, ScenePanels, MaterialPanel, SettingsPanels):

@@ -3,36 +3,10 @@ slider, the Light panel) and on the image (orbiting), through the glfw backend's
 import numpy as np
 import pytest
 
-from viewer_helpers import shown, sphere_scene, to_linear
+from viewer_helpers import click, drag_to, release, shown, sphere_scene, to_linear
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
-
-
-def click(viewer, x, y, frames_down=2):
-    """Press and release the left button at window pixel (x, y) through the glfw backend."""
-    from imgui_bundle import imgui
-
-    b, addr = imgui.backends, viewer.window.address
-    b.glfw_cursor_enter_callback(addr, 1)
-    b.glfw_cursor_pos_callback(addr, float(x), float(y))
-    viewer.run(frames=1)
-    b.glfw_mouse_button_callback(addr, 0, 1, 0)  # GLFW_PRESS
-    viewer.run(frames=frames_down)
-
-
-def drag_to(viewer, x, y, frames=2):
-    from imgui_bundle import imgui
-
-    imgui.backends.glfw_cursor_pos_callback(viewer.window.address, float(x), float(y))
-    viewer.run(frames=frames)
-
-
-def release(viewer):
-    from imgui_bundle import imgui
-
-    imgui.backends.glfw_mouse_button_callback(viewer.window.address, 0, 0, 0)  # GLFW_RELEASE
-    viewer.run(frames=2)
 
 
 def test_mouse_on_the_exposure_slider_changes_the_image():

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from viewer.scene import scene_from_dict
-from viewer_helpers import sphere_scene
+from viewer_helpers import click, drag_to, release, sphere_scene
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
@@ -150,8 +150,6 @@ def test_f1_hides_the_panel_and_the_image_takes_the_window(panel):
 
 
 def test_dragging_the_panel_edge_resizes_it_and_the_image_follows(panel):
-    from test_app_input import click, drag_to, release
-
     click(panel, panel.ui.width - 1, 300)  # on the panel's right border, below the widgets
     drag_to(panel, 300, 300, frames=3)
     release(panel)

@@ -1,7 +1,8 @@
 """The offscreen viewer tests' scene and readers: a grey sphere (:func:`sphere_scene`), what the
 window shows (:func:`shown`, :func:`to_linear`) and the headless render to compare it with
-(:func:`headless`). The viewer itself is the ``viewer`` / ``fresh`` fixtures of
-tests/relight/conftest.py."""
+(:func:`headless`), and input through the glfw backend's callbacks (:func:`click`,
+:func:`drag_to`, :func:`release`, :func:`drop_files`). The viewer itself is the ``viewer`` /
+``fresh`` fixtures of tests/relight/conftest.py."""
 import numpy as np
 
 from viewer.renderer import Renderer
@@ -50,3 +51,29 @@ def drop_files(viewer, paths) -> None:
     names = (ctypes.c_char_p * len(paths))(*[str(p).encode() for p in paths])
     c_callback(window, len(paths), names)
     viewer.run(frames=1)
+
+
+def click(viewer, x, y, frames_down=2):
+    """Press and release the left button at window pixel (x, y) through the glfw backend."""
+    from imgui_bundle import imgui
+
+    b, addr = imgui.backends, viewer.window.address
+    b.glfw_cursor_enter_callback(addr, 1)
+    b.glfw_cursor_pos_callback(addr, float(x), float(y))
+    viewer.run(frames=1)
+    b.glfw_mouse_button_callback(addr, 0, 1, 0)  # GLFW_PRESS
+    viewer.run(frames=frames_down)
+
+
+def drag_to(viewer, x, y, frames=2):
+    from imgui_bundle import imgui
+
+    imgui.backends.glfw_cursor_pos_callback(viewer.window.address, float(x), float(y))
+    viewer.run(frames=frames)
+
+
+def release(viewer):
+    from imgui_bundle import imgui
+
+    imgui.backends.glfw_mouse_button_callback(viewer.window.address, 0, 0, 0)  # GLFW_RELEASE
+    viewer.run(frames=2)

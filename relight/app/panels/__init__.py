@@ -61,6 +61,8 @@ class ViewerUI(Layout, ScenePanels, MaterialPanel, SettingsPanels):
         self.items: list[Item] = []
         self.right = self.edge = 0.0
         self._fitted: dict[str, str] = {}
+        self._widest: dict[str, float] = {}  # section -> its widest label (layout.py)
+        self._section = ""
         self.fraction = PANEL_FRACTION  # the panel's share of the window width
         self.width = 0.0  # the panel's width drawn last (window pixels); 0 while hidden
         self.overlay_lines: list[str] = []  # what the overlay drew last
@@ -94,8 +96,10 @@ class ViewerUI(Layout, ScenePanels, MaterialPanel, SettingsPanels):
                 state.message = None
             self._record("dismiss", "button")
         # a section may replace viewer.state (reset, new environment): each gets the current one
+        self.section("")
         self._quick(viewer.state)
         for title in SECTIONS:
+            self.section(title)
             if self.open_all:
                 imgui.set_next_item_open(True)
             is_open = imgui.collapsing_header(title)

@@ -4,7 +4,9 @@ ImGui draws a widget's label to the right of its frame; with the default item wi
 window) a label longer than the remaining 35% is cut at the panel's edge ("light intensi").
 :meth:`Layout.fit` sizes the next widget to the row left after its label, measured with
 ``imgui.calc_text_size``; when that leaves less than :data:`MIN_WIDGET` pixels the label goes on
-its own line above a full-width widget. Text is wrapped at the panel's edge (the panel pushes a
+its own line above a full-width widget. Within a section the labels share one column, as wide as
+the section's widest label last frame (where that leaves the widget its minimum), so the widgets
+end, and the labels start, at one x. Text is wrapped at the panel's edge (the panel pushes a
 wrap position) and buttons go on the next line when they would not fit beside the previous one.
 
 Every tracked widget lands in ``rects`` (label -> screen rectangle, for tests that click the real
@@ -42,9 +44,14 @@ class Layout:
         imgui = self.imgui
         self.items: list[Item] = []
         self._fitted: dict[str, str] = {}  # label -> what fit() returned for it
+        self._columns, self._widest = self._widest, {}  # section -> its widest label
         self.right = imgui.get_cursor_screen_pos().x + imgui.get_content_region_avail().x
         scrollbar = imgui.get_style().scrollbar_size if imgui.get_scroll_max_y() > 0 else 0.0
         self.edge = imgui.get_window_pos().x + imgui.get_window_width() - scrollbar
+
+    def section(self, name: str) -> None:
+        """The widgets that follow belong to section ``name`` (they share a label column)."""
+        self._section = name
 
     def _record(self, label: str, kind: str = "widget", key: str | None = None) -> None:
         """The last item's rectangle under ``key`` (default ``label``); ``label`` is what the
@@ -71,7 +78,13 @@ class Layout:
         if not text:
             imgui.set_next_item_width(avail)
             return label
-        room = avail - imgui.calc_text_size(text).x - imgui.get_style().item_inner_spacing.x
+        width = imgui.calc_text_size(text).x
+        self._widest[self._section] = max(self._widest.get(self._section, 0.0), width)
+        spacing = imgui.get_style().item_inner_spacing.x
+        column = max(width, self._columns.get(self._section, 0.0))
+        room = avail - column - spacing
+        if room < MIN_WIDGET:  # the shared column leaves too little: this label's own width
+            room = avail - width - spacing
         if room >= MIN_WIDGET:
             imgui.set_next_item_width(room)
             return label

@@ -10,7 +10,8 @@
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
-    relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
+    relight view [SCENE.toml] [--frames N] [--screenshot FILE [--screenshot-ui]] [--offscreen]
+                 [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
 writing nothing.
@@ -245,14 +246,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.set_defaults(func=cmd_info)
 
+    from viewer.models import MODELS
+    from viewer.passes.debug_view import VIEWS
+
     p = sub.add_parser("view", help="the interactive viewer (glfw + Dear ImGui)")
     p.add_argument("scene", nargs="?", help="scene TOML (default: the built-in demo)")
     p.add_argument("--frames", type=int, help="run exactly N frames, then exit")
     p.add_argument("--screenshot", help="after the last frame, save the view (.png) or the "
                    "linear radiance (.exr)")
+    p.add_argument("--screenshot-ui", action="store_true",
+                   help="with --screenshot FILE.png: the whole window, the panel and overlay "
+                        "drawn, at the window's size")
+    p.add_argument("--model", choices=tuple(MODELS), metavar="MODEL",
+                   help="shading model (overrides [render] model): " + ", ".join(MODELS))
+    p.add_argument("--view", choices=VIEWS, metavar="VIEW",
+                   help="what the view shows: " + ", ".join(VIEWS))
     p.add_argument("--offscreen", action="store_true",
                    help="no display: glfw's Null platform with an EGL context")
     p.add_argument("--size", help="WxH render size (overrides [camera] size)")
+    p.add_argument("--window", metavar="WxH",
+                   help="window size (default: the render 1:1 beside the panel, at most "
+                        "1600x1000)")
+    p.add_argument("--fit-window", action="store_true",
+                   help="the render size follows the area beside the panel (the camera's "
+                        "aspect follows the window)")
     p.add_argument("--reference", help="a linear EXR/HDR render for the difference views")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")

@@ -1,5 +1,6 @@
-"""The viewer's output: screenshots (the view as shown, or the linear radiance) and the window's
-framebuffer read back. A mixin of :class:`~relight.app.window.Viewer`."""
+"""The viewer's output: screenshots (the view as shown, the linear radiance, or the whole window
+with its panel) and the window's framebuffer read back. A mixin of
+:class:`~relight.app.window.Viewer`."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,9 +15,11 @@ from viewer.renderer import read_texture
 class Capture:
     """Reading back what the viewer shows; mixed into :class:`~relight.app.window.Viewer`."""
 
-    def screenshot(self, path: str) -> Path:
+    def screenshot(self, path: str, ui: bool = False) -> Path:
         """``.png``: the current view exactly as shown, at the render's size, without the UI.
-        ``.exr``: the linear radiance (before exposure), as ``relight render --out x.exr``."""
+        ``.exr``: the linear radiance (before exposure), as ``relight render --out x.exr``.
+        ``ui=True`` (``.png`` only): the window's whole framebuffer as the next frame draws it,
+        the panel and overlay included (at the window's framebuffer size)."""
         from viewer.imageio import write_exr, write_png
 
         path = Path(path)
@@ -24,8 +27,16 @@ class Capture:
         if suffix not in (".png", ".exr"):
             raise SceneError("a screenshot is .png (the view) or .exr (linear radiance)",
                              where=path)
+        if ui and suffix != ".png":
+            raise SceneError("a screenshot with the UI is a .png", where=path)
         if not path.resolve().parent.is_dir():
             raise SceneError("output folder does not exist", where=path.parent)
+        if ui:
+            self._want_grab = True
+            self.frame()
+            write_png(path, self._grab[..., :3])
+            self._grab = None
+            return path
         if self._targets is None:
             self._render()
         make_current(self.ctx)

@@ -1,9 +1,12 @@
-"""The viewer's file actions: files dropped on the window, opening a scene, an environment file,
-a reference render for the difference views, saving what is shown as a scene. A mixin of
-:class:`~relight.app.window.Viewer` (it uses the window's state, GL context and messages)."""
+"""The viewer's file actions: files dropped on the window, opening a scene, an asset, an
+environment file, a reference render for the difference views, saving what is shown as a scene.
+A mixin of :class:`~relight.app.window.Viewer` (it uses the window's state, GL context and
+messages). Every action that fails leaves the scene on screen as it was and says why in one line
+(the message line: the panel, or the overlay while the panel is hidden)."""
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,23 +19,62 @@ from .state import load_into, with_environment_file
 
 SCENE_SUFFIXES = (".toml",)
 IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
+ASSET_SUFFIXES = (".gltf", ".glb", ".obj", ".ply", ".splat")  # opened by viewer.assets
 
 
 class FileActions:
     """Opening and saving files; mixed into :class:`~relight.app.window.Viewer`."""
 
     def drop(self, paths: list[str]) -> None:
-        """Files dropped on the window: a ``.toml`` scene, or an image as the environment."""
+        """Files dropped on the window: a ``.toml`` scene opens; assets (glTF, GLB, OBJ, PLY,
+        ``.splat``) dropped together open as one framed scene (:meth:`open_assets`); an image
+        becomes the environment (after the scene or assets, so it lights them)."""
+        kinds: dict[str, list[str]] = {"scene": [], "asset": [], "image": []}
         for path in paths:
             suffix = Path(path).suffix.lower()
-            if suffix in SCENE_SUFFIXES:
-                self.open_scene(path)
-            elif suffix in IMAGE_SUFFIXES:
-                self.set_environment_file(path)
-            else:
+            kind = ("scene" if suffix in SCENE_SUFFIXES else "asset" if suffix in ASSET_SUFFIXES
+                    else "image" if suffix in IMAGE_SUFFIXES else None)
+            if kind is None:
                 self.state.message = str(InputError(
-                    f"unsupported file type {suffix or '(none)'}: drop a .toml scene or an "
-                    f"HDR/EXR environment", where=path))
+                    f"unsupported file type {suffix or '(none)'}: drop a .toml scene, an asset "
+                    f"({', '.join(ASSET_SUFFIXES)}) or an HDR/EXR environment", where=path))
+            else:
+                kinds[kind].append(path)
+        for path in kinds["scene"]:
+            self.open_scene(path)
+        if kinds["asset"]:
+            self.open_assets(kinds["asset"])
+        for path in kinds["image"]:
+            self.set_environment_file(path)
+
+    def open_assets(self, paths: list[str]) -> bool:
+        """A scene framing ``paths`` (``viewer.assets.scene_from_assets``) at the current render
+        size, lit by the current environment. A build without ``viewer.assets`` says so in one
+        line; a file that cannot be read keeps the scene on screen (its geometry loads on the
+        first draw: a failure there is rejected like any other)."""
+        where = paths[0]
+        try:
+            from viewer.assets import scene_from_assets
+        except ImportError:
+            kinds = ", ".join(dict.fromkeys(Path(p).suffix.lower() for p in paths))
+            self.state.message = str(InputError(
+                f"opening {kinds} assets is not supported by this build (no viewer.assets)",
+                where=where))
+            return False
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                scene = scene_from_assets([str(p) for p in paths], size=self.state.camera.size)
+        except RelightError as exc:
+            self.state.message = str(exc)
+            return False
+        except (OSError, ValueError) as exc:  # a reader's own error on a corrupt file
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            self.state.message = str(InputError(f"cannot open: {first}", where=where))
+            return False
+        self.state = load_into(self.state, replace(scene, environment=self.state.environment))
+        self.state.message = None
+        self.show_warnings(caught)
+        return True
 
     def open_scene(self, path: str) -> bool:
         try:

@@ -20,15 +20,14 @@ from dataclasses import dataclass, fields, replace
 
 from viewer.camera import Camera
 from viewer.environment import EnvironmentSpec
-from viewer.gbuffer import CHANNEL_NAMES
 from viewer.material import Material
+from viewer.passes.debug_view import VIEWS  # noqa: F401  (re-exported)
 from viewer.scene import DirectionalLight, Light, Scene
 from viewer.settings import RenderSettings
 
-# What the view shows: the tone-mapped image, one G-buffer channel, or the error against a
+# What the view shows (VIEWS): the tone-mapped image, one G-buffer channel, or the error against a
 # reference render ("difference": |render - reference| exposed like the image; "error": relative
 # error in false colour).
-VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
 MATERIAL_FIELDS = ("albedo", "roughness", "metallic", "specular")  # what the UI edits
 
 
@@ -84,6 +83,7 @@ class ViewerState:
     error_scale: float = 0.25  # "error": relative error mapped to the top of the colour map
     reference_path: str | None = None  # a linear EXR/HDR render to compare against
     show_ui: bool = True
+    fit_view: bool = False  # the render size follows the area beside the panel
     show_overlay: bool = True
     message: str | None = None  # the last problem (bad file, bad scene, missing weights)
     screenshot_path: str = "relight_view.png"
@@ -134,6 +134,7 @@ def load_into(state: ViewerState, scene: Scene) -> ViewerState:
     fresh = state_from_scene(scene)
     return replace(fresh, view=state.view, error_scale=state.error_scale,
                    reference_path=state.reference_path, show_ui=state.show_ui,
+                   fit_view=state.fit_view,
                    show_overlay=state.show_overlay, screenshot_path=state.screenshot_path,
                    scene_path=state.scene_path)
 

@@ -5,6 +5,7 @@ backends) and the renderer's graph drawn with the window's own moderngl context.
     viewer.state.render = viewer.state.render.with_flat(exposure=1.0)
     viewer.run(frames=2)
     viewer.screenshot("shot.png")          # the view as shown (no UI); .exr: linear radiance
+    viewer.screenshot("ui.png", ui=True)   # the whole window, panel and overlay included
     viewer.close()
 
 Each frame: input -> UI (writes :class:`ViewerState`) -> if ``scene_from_state(state)`` changed,
@@ -15,9 +16,13 @@ and shows the one-line message. Python warnings raised while a scene loads or re
 feature the loader does not use, a model that ignores the light, ...) go to stderr as always and
 to the message line as well. GPU time per pass comes from timer queries read one frame late.
 
-Mouse over the image: left drag orbits, right or middle drag (or shift + left) pans, the wheel
-zooms; R resets the camera, H hides the panels. Files dropped on the window: ``.toml`` opens a
-scene, an image (``.hdr``, ``.exr``, ...) becomes the environment.
+The panel is docked at the left, a share of the window's width (drag its right edge to resize
+it); the image is drawn beside it (:meth:`Viewer.view_area`), letterboxed at the render's aspect,
+or filling that area when ``state.fit_view`` makes the render size follow it. Mouse over the
+image: left drag orbits, right or middle drag (or shift + left) pans, the wheel zooms; R resets
+the camera, H or F1 hides the panel. Files dropped on the window (glfw's drop callback,
+:meth:`~.files.FileActions.drop`): ``.toml`` opens a scene, an image (``.hdr``, ``.exr``, ...)
+becomes the environment, an asset (glTF, GLB, OBJ, PLY, ``.splat``) opens framed in a new scene.
 
 The file actions (open, drop, save, a reference) are :class:`~.files.FileActions`, the output
 (screenshots, the framebuffer read back) :class:`~.capture.Capture`: both mixed into
@@ -58,15 +63,20 @@ class Viewer(FileActions, Capture):
                  title: str = "relight view"):
         from imgui_bundle import imgui  # before glfw (create_window checks the order)
 
-        if window_size is None:
+        if window_size is None:  # the render 1:1 beside the panel, unless over MAX_WINDOW
+            from .panels import window_width_for
+
             w, h = scene.camera.size
-            scale = min(1.0, MAX_WINDOW[0] / w, MAX_WINDOW[1] / h)
-            window_size = (max(1, int(w * scale)), max(1, int(h * scale)))
+            scale = min(1.0, MAX_WINDOW[1] / h)
+            while scale > 0.05 and window_width_for(int(w * scale)) > MAX_WINDOW[0]:
+                scale *= 0.98
+            h = max(1, int(h * scale))
+            window_size = (window_width_for(max(1, int(w * scale))), h)
         self.window = create_window(window_size, title, offscreen=offscreen, options=options)
         import glfw
 
         from viewer.passes.debug_view import DebugViewPass
-        from .ui import ViewerUI
+        from .panels import ViewerUI
 
         self._glfw, self._imgui = glfw, imgui
         self.ctx = self.window.ctx
@@ -87,6 +97,8 @@ class Viewer(FileActions, Capture):
         self.frames = 0
         self.renders = 0  # how many times the render graph ran (tests: no work when idle)
         self._last_time = time.perf_counter()
+        self._grab: np.ndarray | None = None  # the framebuffer read before the swap (ui shots)
+        self._want_grab = False
 
         self._imgui_ctx = imgui.create_context()
         imgui.set_current_context(self._imgui_ctx)  # create_context does not when one exists
@@ -95,7 +107,11 @@ class Viewer(FileActions, Capture):
         imgui.backends.glfw_init_for_opengl(self.window.address, True)
         imgui.backends.opengl3_init("#version 410 core")
         self.ui = ViewerUI(self)
-        glfw.set_drop_callback(self.window.window, lambda _w, paths: self.drop(list(paths)))
+        glfw.set_drop_callback(self.window.window, self._on_drop)
+
+    def _on_drop(self, _window, paths) -> None:
+        """glfw's drop callback (called from ``poll_events``): open what was dropped."""
+        self.drop([str(p) for p in paths])
 
     # ---- the frame ---------------------------------------------------------------------------
     def frame(self) -> None:
@@ -110,7 +126,13 @@ class Viewer(FileActions, Capture):
         self.ui.poll_dialogs()
         if self.state.show_ui:
             self.ui.draw()
+        else:
+            self.ui.width = 0.0
         self._input()
+        if self.state.fit_view:
+            _, _, w, h = self.view_area()
+            if tuple(self.state.camera.size) != (w, h):
+                self.state.camera = self.state.camera.with_size(w, h)
         self._render()
         self._present()
         now = time.perf_counter()
@@ -134,7 +156,8 @@ class Viewer(FileActions, Capture):
         if not io.want_capture_keyboard:
             if imgui.is_key_pressed(imgui.Key.r, False):
                 self.state = reset_camera(state)
-            if imgui.is_key_pressed(imgui.Key.h, False):
+            if imgui.is_key_pressed(imgui.Key.h, False) or imgui.is_key_pressed(imgui.Key.f1,
+                                                                                  False):
                 state.show_ui = not state.show_ui
         if io.want_capture_mouse:
             return
@@ -205,13 +228,21 @@ class Viewer(FileActions, Capture):
         message = self.state.message
         self.state.message = f"{message}\n{text}" if after_message and message else text
 
-    def _view_rect(self) -> tuple[int, int, int, int, float]:
-        """(x, y, w, h, scale): where the render is shown in the window (letterboxed)."""
+    def view_area(self) -> tuple[int, int, int, int]:
+        """(x, y, w, h) in framebuffer pixels (y up): the window beside the panel."""
         fw, fh = self.window.framebuffer_size()
+        sx = self._imgui.get_io().display_framebuffer_scale.x or 1.0
+        panel = min(fw - 1, int(round(self.ui.width * sx))) if self.state.show_ui else 0
+        return panel, 0, max(1, fw - panel), max(1, fh)
+
+    def _view_rect(self) -> tuple[int, int, int, int, float]:
+        """(x, y, w, h, scale): where the render is shown in the window (letterboxed in
+        :meth:`view_area`, y up)."""
+        ax, ay, aw, ah = self.view_area()
         rw, rh = self.state.camera.size if self._scene is None else self._scene.camera.size
-        scale = min(fw / rw, fh / rh) if rw and rh else 1.0
+        scale = min(aw / rw, ah / rh) if rw and rh else 1.0
         w, h = max(1, int(round(rw * scale))), max(1, int(round(rh * scale)))
-        return (fw - w) // 2, (fh - h) // 2, w, h, max(scale, 1e-6)
+        return ax + (aw - w) // 2, ay + (ah - h) // 2, w, h, max(scale, 1e-6)
 
     def _draw_view(self) -> None:
         """The chosen view of the current targets into the bound framebuffer's viewport."""
@@ -258,6 +289,8 @@ class Viewer(FileActions, Capture):
         self.timers.begin("ui")
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
         self.timers.end_frame()
+        if self._want_grab:  # the back buffer as drawn: after the swap it is undefined
+            self._want_grab, self._grab = False, self.read_framebuffer()
         self._glfw.swap_buffers(self.window.window)
 
     @property

@@ -16,13 +16,13 @@ def _demo_path() -> Path:
     return ASSET_ROOT / "scenes" / DEMO_SCENE
 
 
-def _parse_size(text: str) -> tuple[int, int]:
+def _parse_size(text: str, option: str = "--size") -> tuple[int, int]:
     try:
         w, h = (int(x) for x in text.lower().split("x"))
     except ValueError:
-        raise SceneError(f"--size must look like 512x512, got {text!r}", where="--size") from None
+        raise SceneError(f"{option} must look like 512x512, got {text!r}", where=option) from None
     if not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise SceneError(f"--size {w}x{h} is outside 1..16384", where="--size")
+        raise SceneError(f"{option} {w}x{h} is outside 1..16384", where=option)
     return w, h
 
 

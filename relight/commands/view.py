@@ -1,6 +1,7 @@
 """``relight view``: the interactive viewer (:mod:`relight.app`), or its screenshot offscreen."""
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from viewer.errors import RelightError, SceneError
@@ -27,11 +28,20 @@ def cmd_view(args) -> int:
                              where=shot)
         if not shot.resolve().parent.is_dir():
             raise SceneError("output folder does not exist", where=shot.parent)
+    if args.screenshot_ui and (shot is None or shot.suffix.lower() != ".png"):
+        raise SceneError("--screenshot-ui needs --screenshot FILE.png", where="--screenshot-ui")
     scene = load_scene(args.scene or _demo_path())
     if args.size:
         scene = scene.with_camera(size=_parse_size(args.size))
-    viewer = Viewer(scene, offscreen=args.offscreen, options=_context_options(args),
+    if args.model:
+        scene = replace(scene, render=scene.render.with_flat(model=args.model))
+    window = _parse_size(args.window, "--window") if args.window else None
+    viewer = Viewer(scene, window_size=window, offscreen=args.offscreen,
+                    options=_context_options(args),
                     title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
+    if args.view:
+        viewer.state.view = args.view
+    viewer.state.fit_view = args.fit_window
     try:
         if args.reference:
             viewer.frame()
@@ -44,7 +54,7 @@ def cmd_view(args) -> int:
         if viewer.renders == 0:  # the scene itself failed (a missing mesh, an unknown model)
             raise RelightError(viewer.state.message or "nothing could be rendered")
         if shot is not None:
-            viewer.screenshot(shot)
+            viewer.screenshot(shot, ui=args.screenshot_ui)
             if not args.quiet:
                 print(f"{viewer.frames} frames -> {shot}")
     finally:

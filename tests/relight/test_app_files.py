@@ -81,6 +81,22 @@ def test_cli_view_offscreen_screenshot(tmp_path, ctx):
     truth = headless(ctx, load_scene(ASSET_ROOT / "scenes" / "demo.toml"), size=(64, 40))
     assert np.array_equal(np.round(png * 255).astype(np.uint8), truth.display[..., :3])
     assert main(["view", "--offscreen", "--screenshot", str(tmp_path / "x.jpg")]) == 2
+    assert main(["view", "--offscreen", "--screenshot", str(tmp_path / "x.exr"),
+                 "--screenshot-ui"]) == 2  # the window with its panel is a .png
+
+
+def test_cli_view_help_lists_models_and_views(capsys):
+    from relight.cli import main
+    from relight.app.state import VIEWS
+    from viewer.models import MODELS
+
+    with pytest.raises(SystemExit):
+        main(["view", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert ", ".join(MODELS) in text and ", ".join(VIEWS) in text
+    with pytest.raises(SystemExit) as exit_:
+        main(["view", "--offscreen", "--model", "no_such_model"])
+    assert exit_.value.code == 2 and "invalid choice" in capsys.readouterr().err
 
 
 def _gltf_with_clearcoat(path):
@@ -123,3 +139,63 @@ def test_loader_warnings_reach_stderr_and_the_message_line(fresh, tmp_path, caps
     fresh.run(frames=1)
     assert fresh.renders == renders + 2 and fresh.state.message == message
     assert "KHR_materials_clearcoat" not in capsys.readouterr().err
+
+
+def test_files_dropped_through_glfw_open_and_a_bad_one_keeps_the_scene(fresh, tmp_path):
+    """The drop callback registered with glfw: a scene opens, an environment replaces the
+    environment, a corrupt file or an asset this build cannot open says so in one line and the
+    scene on screen stays."""
+    from viewer.imageio import write_exr
+    from viewer_helpers import drop_files
+
+    (tmp_path / "s.toml").write_text(
+        '[camera]\nsize = [64, 48]\n[[objects]]\ntype = "sphere"\n[render]\nmodel = "unlit"\n')
+    drop_files(fresh, [tmp_path / "s.toml"])
+    assert fresh.state.message is None and fresh.current_scene().render.model == "unlit"
+    write_exr(tmp_path / "sky.exr", np.full((16, 32, 3), 0.25, np.float32), ["R", "G", "B"])
+    drop_files(fresh, [tmp_path / "sky.exr"])
+    assert fresh.current_scene().environment.path == str((tmp_path / "sky.exr").resolve())
+    good, image, renders = fresh.current_scene(), shown(fresh), fresh.renders
+
+    (tmp_path / "bad.hdr").write_bytes(b"#?RADIANCE\nthis is not a picture")
+    fresh.state.show_overlay = True  # the panel is hidden: the overlay shows the message
+    drop_files(fresh, [tmp_path / "bad.hdr"])
+    message = fresh.state.message
+    assert "bad.hdr" in message and "\n" not in message
+    fresh.run(frames=1)
+    assert fresh.ui.overlay_lines[-1] == message
+    fresh.state.show_overlay = False
+    assert fresh.current_scene() == good and fresh.renders == renders
+    assert np.array_equal(shown(fresh), image)
+
+
+def test_a_dropped_asset_opens_through_viewer_assets(fresh, tmp_path, monkeypatch):
+    """Assets go to ``viewer.assets.scene_from_assets`` (one call, the current environment kept);
+    a build without it says so in one line and keeps the scene."""
+    import sys
+    import types
+
+    from viewer.scene import scene_from_dict
+    from viewer_helpers import drop_files
+
+    good = fresh.current_scene()
+    monkeypatch.setitem(sys.modules, "viewer.assets", None)  # a build without viewer.assets
+    drop_files(fresh, [tmp_path / "chair.glb"])
+    message = fresh.state.message
+    assert "chair.glb" in message and ".glb assets is not supported by this build" in message
+    assert "\n" not in message and fresh.current_scene() == good
+
+    calls = []
+
+    def scene_from_assets(paths, size=None, **_):
+        calls.append((paths, size))
+        return scene_from_dict({"camera": {"size": list(size)}, "objects": [{"type": "plane"}],
+                                "environment": {"procedural": "sky"}})
+
+    monkeypatch.setitem(sys.modules, "viewer.assets",
+                        types.SimpleNamespace(scene_from_assets=scene_from_assets))
+    drop_files(fresh, [tmp_path / "a.obj", tmp_path / "b.ply"])
+    assert calls == [([str(tmp_path / "a.obj"), str(tmp_path / "b.ply")], good.camera.size)]
+    scene = fresh.current_scene()
+    assert fresh.state.message is None and [o.type for o in scene.objects] == ["plane"]
+    assert scene.environment == good.environment  # lit as before the drop

@@ -3,56 +3,31 @@ slider, the Light panel) and on the image (orbiting), through the glfw backend's
 import numpy as np
 import pytest
 
-from viewer_helpers import SIZE, shown, sphere_scene, to_linear
+from viewer_helpers import click, drag_to, release, shown, sphere_scene, to_linear
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
 
 
-def click(viewer, x, y, frames_down=2):
-    """Press and release the left button at window pixel (x, y) through the glfw backend."""
-    from imgui_bundle import imgui
+def test_mouse_on_the_exposure_slider_changes_the_image():
+    from relight.app.window import Viewer
 
-    b, addr = imgui.backends, viewer.window.address
-    b.glfw_cursor_enter_callback(addr, 1)
-    b.glfw_cursor_pos_callback(addr, float(x), float(y))
-    viewer.run(frames=1)
-    b.glfw_mouse_button_callback(addr, 0, 1, 0)  # GLFW_PRESS
-    viewer.run(frames=frames_down)
-
-
-def drag_to(viewer, x, y, frames=2):
-    from imgui_bundle import imgui
-
-    imgui.backends.glfw_cursor_pos_callback(viewer.window.address, float(x), float(y))
-    viewer.run(frames=frames)
-
-
-def release(viewer):
-    from imgui_bundle import imgui
-
-    imgui.backends.glfw_mouse_button_callback(viewer.window.address, 0, 0, 0)  # GLFW_RELEASE
-    viewer.run(frames=2)
-
-
-def test_mouse_on_the_exposure_slider_changes_the_image(fresh):
-    fresh.state.show_ui = True
-    fresh.run(frames=2)  # lay out the panel
-    x0, y0, x1, y1 = fresh.ui.rects["exposure"]
-    y = (y0 + y1) / 2
-    right = min(x1, SIZE[0]) - 3
-    click(fresh, x0 + 2, y)
-    low = fresh.state.render.display.exposure
-    assert low < -9.0  # the slider's left end is its minimum, -10 EV
-    drag_to(fresh, right, y)
-    high = fresh.state.render.display.exposure
-    release(fresh)
-    assert high > low + 2.0 and fresh.state.render.display.exposure == high
-    fresh.state.show_ui = False
-    bright = to_linear(shown(fresh)).mean()
-    fresh.state.render = fresh.state.render.with_flat(exposure=low)
-    dark = to_linear(shown(fresh)).mean()
-    assert bright > 4 * dark
+    with Viewer(sphere_scene(), window_size=(480, 240), offscreen=True) as v:
+        v.run(frames=2)  # lay out the panel
+        x0, y0, x1, y1 = v.ui.rects["exposure"]
+        y = (y0 + y1) / 2
+        click(v, x0 + 2, y)
+        low = v.state.render.display.exposure
+        assert low < -9.0  # the slider's left end is its minimum, -10 EV
+        drag_to(v, x1 - 3, y)
+        high = v.state.render.display.exposure
+        release(v)
+        assert high > low + 2.0 and v.state.render.display.exposure == high
+        v.state.show_ui = False
+        bright = to_linear(shown(v)).mean()
+        v.state.render = v.state.render.with_flat(exposure=low)
+        dark = to_linear(shown(v)).mean()
+        assert bright > 4 * dark
 
 
 def test_dragging_on_the_image_orbits_the_camera(fresh):
@@ -72,18 +47,9 @@ def test_light_panel_switches_moves_and_keeps_the_light():
     """The Light panel's widgets, clicked through the glfw backend: the checkbox switches the
     light on (and off, and back to what it was), the elevation slider moves it, and frames with
     the panel open never rewrite it (float32 widget values are written only on an edit)."""
-    from imgui_bundle import imgui
-
     from relight.app.window import Viewer
 
-    tall = Viewer(sphere_scene(), window_size=(320, 640), offscreen=True)
-    draw = tall.ui.draw
-
-    def tall_panel():  # the panel fits its first layout; make room for the opened header
-        draw()
-        imgui.set_window_size("relight", (310.0, 630.0))
-
-    tall.ui.draw = tall_panel
+    tall = Viewer(sphere_scene(), window_size=(480, 400), offscreen=True)
     try:
         tall.run(frames=2)
         x0, y0, x1, y1 = tall.ui.rects["Light"]

@@ -1,6 +1,6 @@
 """The viewer overlay's frame lines: which passes the last frame reused, and every cache's bytes
 against its budget (Renderer.memory)."""
-from relight.app.ui import frame_lines
+from relight.app.panels import frame_lines
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
 

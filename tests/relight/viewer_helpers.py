@@ -1,7 +1,8 @@
 """The offscreen viewer tests' scene and readers: a grey sphere (:func:`sphere_scene`), what the
 window shows (:func:`shown`, :func:`to_linear`) and the headless render to compare it with
-(:func:`headless`). The viewer itself is the ``viewer`` / ``fresh`` fixtures of
-tests/relight/conftest.py."""
+(:func:`headless`), and input through the glfw backend's callbacks (:func:`click`,
+:func:`drag_to`, :func:`release`, :func:`drop_files`). The viewer itself is the ``viewer`` /
+``fresh`` fixtures of tests/relight/conftest.py."""
 import numpy as np
 
 from viewer.renderer import Renderer
@@ -35,3 +36,44 @@ def headless(ctx, scene, **kw):
         return r.render(scene, **kw)
     finally:
         r.release()
+
+
+def drop_files(viewer, paths) -> None:
+    """Drop ``paths`` on the window as the window system does: through the C drop callback the
+    viewer registered with glfw (what ``glfwSetDropCallback`` holds), then one frame."""
+    import ctypes
+
+    import glfw
+
+    window = viewer.window.window
+    address = ctypes.cast(ctypes.pointer(window), ctypes.POINTER(ctypes.c_long)).contents.value
+    _, c_callback = glfw._window_drop_callback_repository[address]
+    names = (ctypes.c_char_p * len(paths))(*[str(p).encode() for p in paths])
+    c_callback(window, len(paths), names)
+    viewer.run(frames=1)
+
+
+def click(viewer, x, y, frames_down=2):
+    """Press and release the left button at window pixel (x, y) through the glfw backend."""
+    from imgui_bundle import imgui
+
+    b, addr = imgui.backends, viewer.window.address
+    b.glfw_cursor_enter_callback(addr, 1)
+    b.glfw_cursor_pos_callback(addr, float(x), float(y))
+    viewer.run(frames=1)
+    b.glfw_mouse_button_callback(addr, 0, 1, 0)  # GLFW_PRESS
+    viewer.run(frames=frames_down)
+
+
+def drag_to(viewer, x, y, frames=2):
+    from imgui_bundle import imgui
+
+    imgui.backends.glfw_cursor_pos_callback(viewer.window.address, float(x), float(y))
+    viewer.run(frames=frames)
+
+
+def release(viewer):
+    from imgui_bundle import imgui
+
+    imgui.backends.glfw_mouse_button_callback(viewer.window.address, 0, 0, 0)  # GLFW_RELEASE
+    viewer.run(frames=2)

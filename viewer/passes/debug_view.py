@@ -1,6 +1,6 @@
 """The viewer's view pass: render targets -> the window (or a screenshot target).
 
-Shows one of :data:`relight.app.state.VIEWS`: the tone-mapped image, a G-buffer channel, or the
+Shows one of :data:`VIEWS`: the tone-mapped image, a G-buffer channel, or the
 render against a reference (``difference``: |render - reference| exposed like the image;
 ``error``: relative luminance error in false colour, Turbo map, ``error_scale`` at the top).
 The program variant is chosen by prepended defines (``VIEW_MODE``) plus a generated chunk that
@@ -13,10 +13,12 @@ scalars as grey.
 from __future__ import annotations
 
 from ..errors import SceneError
-from ..gbuffer import CHANNELS, GBufferLayout
+from ..gbuffer import CHANNEL_NAMES, CHANNELS, GBufferLayout
 from . import FullscreenDraw, bind_gbuffer
 
 VIEW_MODES = {"display": 0, "difference": 2, "error": 3}  # any channel name is mode 1
+# what the view can show: the image, one G-buffer channel, the error against a reference
+VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
 _COLOUR_CHANNELS = ("albedo", "color")
 
 

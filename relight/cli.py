@@ -1,6 +1,8 @@
 """``relight``: the command line of the relighting workbench.
 
-    relight render [SCENE.toml] --out FILE [--model M] [--samples N] [--size WxH] [--aov a,b]
+    relight render [SCENE.toml | ASSET...] --out FILE [--model M] [--samples N] [--size WxH]
+                 [--aov a,b] [--env FILE|sky|studio|white] [--up AXIS] [--floor]
+    relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH] > scene.toml
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
@@ -10,17 +12,23 @@
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
-    relight view [SCENE.toml] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
+    relight view [SCENE.toml | ASSET...] [--frames N] [--screenshot FILE] [--offscreen] [--size WxH]
+                 [--env E] [--up AXIS] [--floor] [--model M]
+
+An ASSET is a glTF/GLB, OBJ, STL, OFF or PLY mesh, a splat cloud (3DGS PLY, .splat) or an image
+G-buffer stack (a folder, a 12-channel .exr): the scene is made for it (viewer.assets).
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
-writing nothing.
+writing nothing; warnings print one line each, ``relight: warning: <file>: <problem>`` (what was
+assumed about an asset: ``relight: note: ...``).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
-from viewer.errors import RelightError
+from viewer.errors import AssetNote, RelightError
 
 from . import gallery
 from . import graph as graph_command
@@ -39,6 +47,7 @@ from .commands import (
     cmd_train,
     cmd_view,
 )
+from .commands.scene import add_asset_arguments, cmd_scene, glue_up_values, model_help
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,17 +55,28 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("render", help="render a scene headlessly to EXR (linear) or PNG")
-    p.add_argument("scene", nargs="?", help="scene TOML (default: the built-in demo)")
+    p.add_argument("scene", nargs="*", metavar="SCENE.toml|ASSET",
+                   help="a scene TOML (default: the built-in demo), or asset files (glTF/GLB, "
+                        "OBJ, STL, OFF, PLY mesh or splats, .splat, G-buffer stack), framed")
     p.add_argument("--out", required=True, help="output .exr (linear radiance) or .png")
-    p.add_argument("--model", help="shading model (overrides [render] model)")
+    p.add_argument("--model", help=model_help("shading model (overrides [render] model)"))
     p.add_argument("--samples", type=int, help="samples per pixel for sampling models")
     p.add_argument("--size", help="WxH (overrides [camera] size)")
     p.add_argument("--aov", help="comma-separated G-buffer channels written to <out>.<name>.exr")
     p.add_argument("--exposure", type=float, help="EV stops (PNG only)")
     p.add_argument("--tonemap", help="none | aces | reinhard (PNG only)")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
+    add_asset_arguments(p, model=False, size=False)
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("scene", help="print the scene made for asset files (TOML) to continue from",
+                       description="Print, as TOML on stdout, the scene relight render and relight "
+                       "view make for asset files with the same options: edit it and render it "
+                       "(relight render scene.toml) for everything the options do not say.")
+    p.add_argument("scene", nargs="+", metavar="ASSET|SCENE.toml", help="asset files (or a scene)")
+    add_asset_arguments(p)
+    p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("reference", help="path-traced ground truth with Mitsuba 3 and our BSDF",
                        description="Path-trace scenes with Mitsuba 3 (our BSDF as a Mitsuba "
@@ -246,7 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("view", help="the interactive viewer (glfw + Dear ImGui)")
-    p.add_argument("scene", nargs="?", help="scene TOML (default: the built-in demo)")
+    p.add_argument("scene", nargs="*", metavar="SCENE.toml|ASSET",
+                   help="a scene TOML (default: the built-in demo), or asset files, framed")
     p.add_argument("--frames", type=int, help="run exactly N frames, then exit")
     p.add_argument("--screenshot", help="after the last frame, save the view (.png) or the "
                    "linear radiance (.exr)")
@@ -254,6 +275,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="no display: glfw's Null platform with an EGL context")
     p.add_argument("--size", help="WxH render size (overrides [camera] size)")
     p.add_argument("--reference", help="a linear EXR/HDR render for the difference views")
+    add_asset_arguments(p, size=False)
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_view)
@@ -264,7 +286,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(glue_up_values(sys.argv[1:] if argv is None else argv))
+    shown, formatted = warnings.showwarning, warnings.formatwarning
+    warnings.showwarning, warnings.formatwarning = _show_warning, _format_warning
     try:
         return args.func(args)
     except RelightError as exc:
@@ -272,6 +296,19 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_code
     except KeyboardInterrupt:
         return 130
+    finally:
+        warnings.showwarning, warnings.formatwarning = shown, formatted
+
+
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """A warning as the CLI prints it: one line, no source location (the message names the
+    file it is about); what was assumed about an asset is a note."""
+    label = "note" if issubclass(category, AssetNote) else "warning"
+    return f"relight: {label}: {' '.join(str(message).split())}\n"
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    (file or sys.stderr).write(_format_warning(message, category, filename, lineno))
 
 
 if __name__ == "__main__":

@@ -16,14 +16,15 @@ from .info import cmd_info
 from .parity import cmd_parity
 from .reference import cmd_reference, reference_tracer
 from .render import cmd_render
+from .scene import add_asset_arguments, cmd_scene
 from .train import TRAIN_OVERRIDES, _truth_config, _truth_data, cmd_train
 from .view import cmd_view
 
 __all__ = [
     "DEMO_SCENE", "TRAIN_OVERRIDES", "cmd_bench", "cmd_data", "cmd_decompose", "cmd_eval",
-    "cmd_info", "cmd_parity", "cmd_reference", "cmd_render", "cmd_train", "cmd_view",
+    "cmd_info", "cmd_parity", "cmd_reference", "cmd_render", "cmd_scene", "cmd_train", "cmd_view",
     "reference_tracer",
     # private, for relight.cli and the tests
-    "_context_options", "_data_config", "_demo_path", "_hidden", "_learned",
+    "add_asset_arguments", "_context_options", "_data_config", "_demo_path", "_hidden", "_learned",
     "_nonnegative_float", "_parse_size", "_positive_int", "_truth_config", "_truth_data",
 ]

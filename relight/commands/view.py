@@ -5,7 +5,8 @@ from pathlib import Path
 
 from viewer.errors import RelightError, SceneError
 
-from .common import _context_options, _demo_path, _parse_size
+from .common import _context_options, _parse_size
+from .scene import apply_model, hand_over, open_input
 
 
 def cmd_view(args) -> int:
@@ -14,8 +15,6 @@ def cmd_view(args) -> int:
     except ImportError as exc:
         raise RelightError(f"relight view needs imgui-bundle: pip install -e '.[gui]' ({exc})",
                            where="view") from None
-    from viewer.scene import load_scene
-
     from ..app.window import Viewer
 
     if args.frames is not None and args.frames < 1:
@@ -27,12 +26,14 @@ def cmd_view(args) -> int:
                              where=shot)
         if not shot.resolve().parent.is_dir():
             raise SceneError("output folder does not exist", where=shot.parent)
-    scene = load_scene(args.scene or _demo_path())
+    scene, contents = open_input(args)  # a scene file, or assets made into a scene
+    scene = apply_model(scene, args.model)
     if args.size:
         scene = scene.with_camera(size=_parse_size(args.size))
     viewer = Viewer(scene, offscreen=args.offscreen, options=_context_options(args),
                     title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
     try:
+        hand_over(viewer.renderer, contents)
         if args.reference:
             viewer.frame()
             if not viewer.load_reference(args.reference):

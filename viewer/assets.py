@@ -41,12 +41,12 @@ MESH_SUFFIXES = (".gltf", ".glb", ".obj", ".off", ".stl")
 SPLAT_SUFFIXES = (".splat", ".spz", ".ksplat")
 ASSET_SUFFIXES = MESH_SUFFIXES + (".ply",) + SPLAT_SUFFIXES + (".exr",)
 DEFAULT_SIZE = (512, 512)
-_CONVENTION = {".obj": ("+Y", "OBJ has no up axis; +Y is the common one"),
-               ".off": ("+Y", "OFF has no up axis; +Y is the common one"),
-               ".ply": ("+Y", "the PLY header does not say"),
-               ".stl": ("+Z", "STL has no up axis; CAD and 3D-printing files are +Z up")}
-_SPLAT_CONVENTION = ("-Y", "COLMAP / 3DGS captures keep the y-down camera convention, and the "
-                           "cloud's shape does not say")
+_CONVENTION = {".obj": ("+Y", "assumed: OBJ has no up axis, +Y is the common one"),
+               ".off": ("+Y", "assumed: OFF has no up axis, +Y is the common one"),
+               ".ply": ("+Y", "assumed: the PLY header does not say"),
+               ".stl": ("+Z", "assumed: STL has no up axis, CAD and 3D-printing files are +Z up")}
+_SPLAT_CONVENTION = ("-Y", "assumed: COLMAP / 3DGS captures keep the y-down camera convention, "
+                           "and the cloud's shape does not say")
 
 __all__ = ["ASSET_SUFFIXES", "AssetNote", "OpenedAssets", "UP_AXES", "asset_kind",
            "is_scene_file", "open_assets", "scene_from_assets"]
@@ -212,8 +212,8 @@ def _load(path: Path, absolute: str, kind: str, forced: str | None):
         transform = None if up == "+Y" else up_matrix(up)
         obj = ObjectSpec(type="splats", path=absolute, transform=transform)
         content = raw if transform is None else transform_splats(raw, _matrix(transform))
-    note = None if why is None else (f"{path}: assumed {up} up ({why}); "
-                                     f"--up {'|'.join(UP_AXES)} to change it")
+    note = None if why is None else (f"{path}: taken as {up} up ({why}); to change it: "
+                                     f"--up {'|'.join(UP_AXES)}")
     return obj, content, note
 
 

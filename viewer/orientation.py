@@ -100,10 +100,10 @@ def marked_up(comments: list[str]) -> tuple[str, str] | None:
     for line in comments:
         m = _MARKER.match(line)
         if m:
-            return (m.group(1) or "+") + m.group(2).upper(), f"its header says {line!r}"
+            return (m.group(1) or "+") + m.group(2).upper(), f"read from its header: {line!r}"
     for line in comments:
         if "blender" in line.lower():
-            return "+Z", "written by Blender, whose PLY exporter keeps +Z up"
+            return "+Z", "assumed: written by Blender, whose PLY exporter keeps +Z up"
     return None
 
 
@@ -160,5 +160,6 @@ def detect_splat_up(splats) -> tuple[str, str] | None:
         return None
     up = ("+" if side > 0 else "-") + "XYZ"[axis]
     share = 100.0 * votes[axis] / weight.sum()
-    return up, (f"its dominant plane ({share:.0f} % of the flat splats' area) faces "
-                f"{'XYZ'[axis]} with the content on its {up[0]} side")
+    return up, (f"detected: the flat splats' dominant plane ({share:.0f} % of their area: a "
+                f"ground, a table) is normal to {'XYZ'[axis]}, the rest of the cloud on its "
+                f"{up[0]} side")

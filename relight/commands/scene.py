@@ -3,6 +3,8 @@ file, or asset files made into a scene (:func:`viewer.assets.open_assets`); and 
 scene``, which prints that scene as TOML to continue from."""
 from __future__ import annotations
 
+import os
+
 from viewer.errors import SceneError
 
 from .common import _demo_path, _parse_size
@@ -54,7 +56,8 @@ def open_input(args):
     from viewer.assets import environment_spec, is_scene_file, open_assets
     from viewer.scene import load_scene
 
-    inputs = list(args.scene or [])
+    inputs = args.scene or []
+    inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     env, up, floor = getattr(args, "env", None), getattr(args, "up", None), getattr(args, "floor",
                                                                                   False)
     if not inputs or is_scene_file(inputs[0]):

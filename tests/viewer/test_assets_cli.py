@@ -158,3 +158,22 @@ def test_view_opens_an_asset(tmp_path):
     code = main(["view", str(box_gltf(tmp_path / "m.glb")), "--offscreen", "--screenshot",
                  str(shot), "--size", "64x48", "--floor", "-q"])
     assert code == 0 and read_image(shot)[0].shape[:2] == (48, 64)
+
+
+def test_image_stack_opens_as_an_asset(tmp_path, capsys):
+    """A 12-channel G-buffer stack given directly renders from its own camera, as the scene it
+    was captured from (camera at the origin looking down -Z: the stack's convention)."""
+    from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
+
+    scene = tmp_path / "ball.toml"
+    scene.write_text("[camera]\nposition = [0, 0, 0]\ntarget = [0, 0, -1]\nfov_y = 30\n"
+                     "size = [48, 40]\n[[objects]]\ntype = 'sphere'\ncenter = [0, 0, -3]\n")
+    channels = ("albedo", "normal", "roughness", "specular", "metallic", "depth", "ao", "alpha")
+    want, _, _ = _render(tmp_path, "want", scene, aovs=",".join(channels))
+    stack = ImageGBuffer(channels={c: read_image(tmp_path / f"want.{c}.exr")[0]
+                                   for c in channels}, fov_y=30.0)
+    save_stack_exr(tmp_path / "stack.exr", stack)
+    got, alpha, _ = _render(tmp_path, "got", tmp_path / "stack.exr", "--floor", aovs="alpha")
+    assert got.shape == want.shape and alpha.max() == 1.0
+    np.testing.assert_allclose(got, want, atol=5e-4, rtol=1e-3)  # as test_imagespace_render
+    assert "--floor ignored" in capsys.readouterr().err

@@ -23,6 +23,7 @@ AZIMUTH_DEG = 0.0  # from +Z towards +X
 FILL = 0.9
 MAX_DEPTH_RATIO = 1e5
 FLOOR_EXTENT = 3.0  # the floor is this x the bounds' larger horizontal side, each way
+FLOOR_MATERIAL = Material(albedo=(0.5, 0.5, 0.5), roughness=0.9)  # matte mid grey
 
 
 def view_direction(elevation_deg: float = ELEVATION_DEG,
@@ -56,13 +57,14 @@ def frame_camera(bounds: Bounds, fov_y: float, size: tuple[int, int],
     for box in also:
         far = max(far, float((dist - (box.corners() - center) @ back).max()))
     far = min(max(2.0 * far, near * 4.0), near * MAX_DEPTH_RATIO)
+    near, far = max(near, 1e-6), min(max(far, 4e-6), 1e9)  # what a scene file accepts
     return Camera(position=tuple(float(v) for v in position), target=tuple(center.tolist()),
                   up=(0.0, 1.0, 0.0), fov_y=float(fov_y), size=(int(size[0]), int(size[1])),
                   near=float(near), far=float(far))
 
 
 def floor_object(bounds: Bounds):
-    """A ``plane`` :class:`~viewer.scene.ObjectSpec` (normal +Y, the default grey material)
+    """A ``plane`` :class:`~viewer.scene.ObjectSpec` (normal +Y, :data:`FLOOR_MATERIAL`)
     touching the bounds' bottom, :data:`FLOOR_EXTENT` x their larger horizontal side across,
     so shadows have somewhere to fall."""
     from .scene import ObjectSpec
@@ -72,7 +74,7 @@ def floor_object(bounds: Bounds):
     c = bounds.center
     return ObjectSpec(type="plane", center=(float(c[0]), float(lo[1]), float(c[2])),
                       size=(FLOOR_EXTENT * side, FLOOR_EXTENT * side), normal=(0.0, 1.0, 0.0),
-                      material=Material())
+                      material=FLOOR_MATERIAL)
 
 
 def object_bounds(obj) -> Bounds:

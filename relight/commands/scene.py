@@ -60,6 +60,10 @@ def open_input(args):
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     env, up, floor = getattr(args, "env", None), getattr(args, "up", None), getattr(args, "floor",
                                                                                   False)
+    later = [p for p in inputs[1:] if is_scene_file(p)]
+    if later:
+        raise SceneError("a scene file is opened alone, not after asset files",
+                         where=later[0])
     if not inputs or is_scene_file(inputs[0]):
         if len(inputs) > 1:
             raise SceneError(f"a scene file is opened alone, not with {', '.join(inputs[1:])} "

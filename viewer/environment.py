@@ -82,17 +82,18 @@ def _load_file(path: str) -> np.ndarray:
     if c == 1:
         arr = np.repeat(arr, 3, axis=2)
     arr = np.ascontiguousarray(arr[:, :, :3], dtype=np.float32)
+    if abs(w / h - 2.0) > 2.0 * _ASPECT_TOLERANCE:
+        raise InputError(f"an equirect environment must be 2:1, this one is {w}x{h}", where=path)
     kind = pixel_type(path)
     if kind in DISPLAY_TYPES:  # PNG, JPEG, 8/16-bit TIFF: display-encoded sRGB, clipped at 1
         from .geometry.mesh import srgb_to_linear
 
         arr = srgb_to_linear(arr)
-        warnings.warn(f"{path}: a {kind} image, decoded from sRGB to linear; its dynamic range "
-                      f"is clipped (nothing brighter than 1: no sun, weak highlights and "
+        bits = "".join(ch for ch in kind if ch.isdigit())
+        warnings.warn(f"{path}: a {bits}-bit image, decoded from sRGB to linear; its dynamic "
+                      f"range is clipped (nothing brighter than 1: no sun, weak highlights and "
                       f"shadows) - an HDR or EXR environment lights a scene properly",
                       stacklevel=3)
-    if abs(w / h - 2.0) > 2.0 * _ASPECT_TOLERANCE:
-        raise InputError(f"an equirect environment must be 2:1, this one is {w}x{h}", where=path)
     bad = ~np.isfinite(arr) | (arr < 0)
     count = int(bad.sum())
     if count:

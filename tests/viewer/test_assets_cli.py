@@ -177,3 +177,13 @@ def test_image_stack_opens_as_an_asset(tmp_path, capsys):
     assert got.shape == want.shape and alpha.max() == 1.0
     np.testing.assert_allclose(got, want, atol=5e-4, rtol=1e-3)  # as test_imagespace_render
     assert "--floor ignored" in capsys.readouterr().err
+
+
+def test_floor_catches_the_suns_shadow(tmp_path):
+    glb = box_gltf(tmp_path / "m.glb")
+    rad, _, albedo = _render(tmp_path, "f", glb, "--floor", "--env", "sky", *SIZE)
+    floor = (np.abs(albedo - 0.5) < 0.01).all(axis=-1)  # the floor's mid grey (the box is white)
+    lum = rad[..., :3].mean(axis=-1)[floor]
+    assert floor.sum() > 200
+    # lit by the sun (~0.95) and in the box's shadow (~0.36; measured at 64x48)
+    assert np.percentile(lum, 95) > 2.0 * np.percentile(lum, 5)

@@ -39,7 +39,7 @@ def glue_up_values(argv: list[str]) -> list[str]:
     out, i = [], 0
     argv = list(argv)
     while i < len(argv):
-        if argv[i] == "--up" and i + 1 < len(argv) and argv[i + 1][:1] == "-":
+        if argv[i] == "--up" and i + 1 < len(argv) and argv[i + 1].upper() in ("-X", "-Y", "-Z"):
             out.append(f"--up={argv[i + 1]}")
             i += 2
         else:

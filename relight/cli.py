@@ -1,6 +1,8 @@
 """``relight``: the command line of the relighting workbench.
 
-    relight render [SCENE.toml] --out FILE [--model M] [--samples N] [--size WxH] [--aov a,b]
+    relight render [SCENE.toml | ASSET...] --out FILE [--model M] [--samples N] [--size WxH]
+                 [--aov a,b] [--env FILE|sky|studio|white] [--up AXIS] [--floor]
+    relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH] > scene.toml
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
@@ -10,18 +12,24 @@
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
-    relight view [SCENE.toml] [--frames N] [--screenshot FILE [--screenshot-ui]] [--offscreen]
-                 [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
+    relight view [SCENE.toml | ASSET...] [--frames N] [--screenshot FILE [--screenshot-ui]]
+                 [--offscreen] [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
+                 [--env E] [--up AXIS] [--floor]
+
+An ASSET is a glTF/GLB, OBJ, STL, OFF or PLY mesh, a splat cloud (3DGS PLY, .splat) or an image
+G-buffer stack (a folder, a 12-channel .exr): the scene is made for it (viewer.assets).
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
-writing nothing.
+writing nothing; warnings print one line each, ``relight: warning: <file>: <problem>`` (what was
+assumed about an asset: ``relight: note: ...``).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
-from viewer.errors import RelightError
+from viewer.errors import AssetNote, RelightError
 
 from . import gallery
 from . import graph as graph_command
@@ -40,6 +48,7 @@ from .commands import (
     cmd_train,
     cmd_view,
 )
+from .commands.scene import add_asset_arguments, cmd_scene, glue_up_values, model_help
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -47,17 +56,28 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("render", help="render a scene headlessly to EXR (linear) or PNG")
-    p.add_argument("scene", nargs="?", help="scene TOML (default: the built-in demo)")
+    p.add_argument("scene", nargs="*", metavar="SCENE.toml|ASSET",
+                   help="a scene TOML (default: the built-in demo), or asset files (glTF/GLB, "
+                        "OBJ, STL, OFF, PLY mesh or splats, .splat, G-buffer stack), framed")
     p.add_argument("--out", required=True, help="output .exr (linear radiance) or .png")
-    p.add_argument("--model", help="shading model (overrides [render] model)")
+    p.add_argument("--model", help=model_help("shading model (overrides [render] model)"))
     p.add_argument("--samples", type=int, help="samples per pixel for sampling models")
     p.add_argument("--size", help="WxH (overrides [camera] size)")
     p.add_argument("--aov", help="comma-separated G-buffer channels written to <out>.<name>.exr")
     p.add_argument("--exposure", type=float, help="EV stops (PNG only)")
     p.add_argument("--tonemap", help="none | aces | reinhard (PNG only)")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
+    add_asset_arguments(p, model=False, size=False)
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("scene", help="print the scene made for asset files (TOML) to continue from",
+                       description="Print, as TOML on stdout, the scene relight render and relight "
+                       "view make for asset files with the same options: edit it and render it "
+                       "(relight render scene.toml) for everything the options do not say.")
+    p.add_argument("scene", nargs="+", metavar="ASSET|SCENE.toml", help="asset files (or a scene)")
+    add_asset_arguments(p)
+    p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("reference", help="path-traced ground truth with Mitsuba 3 and our BSDF",
                        description="Path-trace scenes with Mitsuba 3 (our BSDF as a Mitsuba "
@@ -250,7 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
     from viewer.passes.debug_view import VIEWS
 
     p = sub.add_parser("view", help="the interactive viewer (glfw + Dear ImGui)")
-    p.add_argument("scene", nargs="?", help="scene TOML (default: the built-in demo)")
+    p.add_argument("scene", nargs="*", metavar="SCENE.toml|ASSET",
+                   help="a scene TOML (default: the built-in demo), or asset files, framed")
     p.add_argument("--frames", type=int, help="run exactly N frames, then exit")
     p.add_argument("--screenshot", help="after the last frame, save the view (.png) or the "
                    "linear radiance (.exr)")
@@ -271,6 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the render size follows the area beside the panel (the camera's "
                         "aspect follows the window)")
     p.add_argument("--reference", help="a linear EXR/HDR render for the difference views")
+    add_asset_arguments(p, model=False, size=False)
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_view)
@@ -281,7 +303,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(glue_up_values(sys.argv[1:] if argv is None else argv))
+    shown, formatted = warnings.showwarning, warnings.formatwarning
+    warnings.showwarning, warnings.formatwarning = _show_warning, _format_warning
     try:
         return args.func(args)
     except RelightError as exc:
@@ -289,6 +313,19 @@ def main(argv: list[str] | None = None) -> int:
         return exc.exit_code
     except KeyboardInterrupt:
         return 130
+    finally:
+        warnings.showwarning, warnings.formatwarning = shown, formatted
+
+
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """A warning as the CLI prints it: one line, no source location (the message names the
+    file it is about); what was assumed about an asset is a note."""
+    label = "note" if issubclass(category, AssetNote) else "warning"
+    return f"relight: {label}: {' '.join(str(message).split())}\n"
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    (file or sys.stderr).write(_format_warning(message, category, filename, lineno))
 
 
 if __name__ == "__main__":

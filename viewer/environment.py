@@ -14,11 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError, SceneError
-from .imageio import read_image
+from .imageio import pixel_type, read_image
 
 PROCEDURAL = ("sky", "studio", "white")
 MAX_WIDTH = 2048
 _ASPECT_TOLERANCE = 0.02  # a file is "2:1" if |W / H - 2| <= 2 * this
+# integer pixel types: display-referred (sRGB-encoded) images, decoded to linear on load
+DISPLAY_TYPES = ("uint8", "int8", "uint16", "int16")
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,9 @@ class EnvironmentSpec:
 def load_environment(spec: EnvironmentSpec) -> np.ndarray:
     """The environment of ``spec`` as ``[H, W, 3]`` float32 linear radiance (H = W / 2, W a power
     of two). Files are read through :func:`viewer.imageio.read_image` (1, 3 or 4 channels; alpha
-    dropped, one channel is grey) and resampled to the power of two nearest their width (at most
+    dropped, one channel is grey); 8- and 16-bit files (PNG, JPEG, TIFF) are sRGB-encoded display
+    images, decoded to linear with one warning that their dynamic range is clipped (HDR and EXR
+    are linear already); then resampled to the power of two nearest their width (at most
     2048). Negative, NaN and Inf texels become 0 with one warning naming the file and the count.
 
     Raises :class:`InputError` for unreadable files or ones not ~2:1, and :class:`SceneError` for
@@ -80,6 +84,16 @@ def _load_file(path: str) -> np.ndarray:
     arr = np.ascontiguousarray(arr[:, :, :3], dtype=np.float32)
     if abs(w / h - 2.0) > 2.0 * _ASPECT_TOLERANCE:
         raise InputError(f"an equirect environment must be 2:1, this one is {w}x{h}", where=path)
+    kind = pixel_type(path)
+    if kind in DISPLAY_TYPES:  # PNG, JPEG, 8/16-bit TIFF: display-encoded sRGB, clipped at 1
+        from .geometry.mesh import srgb_to_linear
+
+        arr = srgb_to_linear(arr)
+        bits = "".join(ch for ch in kind if ch.isdigit())
+        warnings.warn(f"{path}: a {bits}-bit image, decoded from sRGB to linear; its dynamic "
+                      f"range is clipped (nothing brighter than 1: no sun, weak highlights and "
+                      f"shadows) - an HDR or EXR environment lights a scene properly",
+                      stacklevel=3)
     bad = ~np.isfinite(arr) | (arr < 0)
     count = int(bad.sum())
     if count:

@@ -30,10 +30,11 @@ import numpy as np
 
 from .cache import BoundedCache, Budgets, CacheStats, array_bytes, mib, texture_bytes
 from .envcache import EnvCache, _one_line, digest_key, file_digest
-from .environment import EnvironmentSpec, load_environment
+from .environment import DISPLAY_TYPES, EnvironmentSpec, load_environment
 from .envsampling import EnvSampling, build_env_sampling, power_directions
 from .ibl import IBL, IBLOptions, build_ibl, build_luts, mip_sizes
 from .ibl_build import EnvironmentIBLs, build_environment_ibls
+from .imageio import pixel_type
 from .prefilter import level_widths, spectra_bytes
 from .sun import Sun, extract_sun
 
@@ -245,6 +246,8 @@ class EnvironmentStore:
             if not Path(spec.path).is_file():
                 return None  # load_environment reports it
             source = ("file", file_digest(spec.path))
+            if pixel_type(spec.path) in DISPLAY_TYPES:  # sRGB-decoded: apart from entries
+                source += ("srgb",)  # cached before 8-bit files were decoded (taken as linear)
         else:
             source = ("procedural", dataclasses.asdict(spec))
         return digest_key("environment", source, dataclasses.asdict(self.options))

@@ -34,3 +34,8 @@ class GLContextError(RelightError):
 
 class ShaderCompileError(RelightError):
     """A GLSL compile or link error, with file names and lines mapped back to ``shaders/``."""
+
+
+class AssetNote(UserWarning):
+    """A warning that says what was assumed about an input rather than read from it (an asset's
+    up axis: :mod:`viewer.assets`); the CLI prints it as ``relight: note: <message>``."""

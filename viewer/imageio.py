@@ -57,6 +57,22 @@ def read_image(path: str | os.PathLike, channels: int | tuple[int, ...] | None =
     return arr, names
 
 
+def pixel_type(path: str | os.PathLike) -> str:
+    """The stored pixel type of an image file, from its header: ``"uint8"``, ``"uint16"``,
+    ``"half"``, ``"float"``... (an 8-bit PNG or JPEG says ``"uint8"``). Errors as
+    :func:`read_image`'s."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found", where=path)
+    inp = _oiio().ImageInput.open(str(path))
+    if inp is None:
+        raise InputError(f"cannot read image ({_clean(oiio.geterror())})", where=path)
+    try:
+        return str(inp.spec().format)
+    finally:
+        inp.close()
+
+
 def _clean(msg: str | None) -> str:
     return " ".join((msg or "").split())[:300]
 

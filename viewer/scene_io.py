@@ -76,6 +76,13 @@ def scene_to_dict(scene: Scene) -> dict:
     return doc
 
 
+def scene_toml(scene: Scene, comment: str | None = None) -> str:
+    """The TOML text of ``scene`` (what :func:`save_scene` writes), after an optional one-line
+    ``# comment``."""
+    head = f"# {' '.join(comment.split())}\n" if comment else ""
+    return head + tomli_w.dumps(scene_to_dict(scene))
+
+
 def save_scene(scene: Scene, path: str | os.PathLike) -> Path:
     """Write ``scene`` as TOML to ``path`` (parent folder must exist); returns the path.
 
@@ -86,7 +93,7 @@ def save_scene(scene: Scene, path: str | os.PathLike) -> Path:
     path = Path(path)
     if not path.resolve().parent.is_dir():
         raise SceneError("folder does not exist", where=path.parent)
-    text = "# saved by relight view\n" + tomli_w.dumps(scene_to_dict(scene))
+    text = scene_toml(scene, "saved by relight view")
     try:
         tmp = path.with_name(path.name + ".tmp")
         tmp.write_text(text, encoding="utf-8")

@@ -146,9 +146,11 @@ API = (
     ("Scenes", ("viewer.load_scene", "viewer.scene_from_dict", "viewer.scene_io.save_scene",
                 "viewer.Scene", "viewer.scene.ObjectSpec", "viewer.lights.Light",
                 "viewer.camera.Camera", "viewer.material.Material",
-                "viewer.environment.EnvironmentSpec"),
+                "viewer.environment.EnvironmentSpec", "viewer.assets.open_assets",
+                "viewer.assets.scene_from_assets", "viewer.assets.OpenedAssets"),
      "Scene files load into frozen dataclasses; change them with `dataclasses.replace` or the "
-     "`with_*` helpers. The file format: [Scene files](scene-file.md)."),
+     "`with_*` helpers. The file format: [Scene files](scene-file.md). Asset files without a "
+     "scene file: `open_assets` ([Open an asset](../how-to/open-an-asset.md))."),
     ("Render settings", ("viewer.settings.RenderSettings", "viewer.settings.MonteCarloSettings",
                          "viewer.settings.SSAOSettings", "viewer.settings.NeuralSettings",
                          "viewer.settings.DisplaySettings"), ""),

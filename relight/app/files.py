@@ -49,18 +49,12 @@ class FileActions:
 
     def open_assets(self, paths: list[str]) -> bool:
         """A scene framing ``paths`` (``viewer.assets.scene_from_assets``) at the current render
-        size, lit by the current environment. A build without ``viewer.assets`` says so in one
-        line; a file that cannot be read keeps the scene on screen (its geometry loads on the
-        first draw: a failure there is rejected like any other)."""
+        size, lit by the current environment. A file that cannot be read keeps the scene on
+        screen (its geometry loads on the first draw: a failure there is rejected like any
+        other)."""
+        from viewer.assets import scene_from_assets
+
         where = paths[0]
-        try:
-            from viewer.assets import scene_from_assets
-        except ImportError:
-            kinds = ", ".join(dict.fromkeys(Path(p).suffix.lower() for p in paths))
-            self.state.message = str(InputError(
-                f"opening {kinds} assets is not supported by this build (no viewer.assets)",
-                where=where))
-            return False
         try:
             with warnings.catch_warnings(record=True) as caught:
                 scene = scene_from_assets([str(p) for p in paths], size=self.state.camera.size)

@@ -5,13 +5,14 @@ from pathlib import Path
 
 from viewer.errors import SceneError
 
-from .common import _context_options, _demo_path, _parse_size
+from .common import _context_options, _parse_size
+from .scene import hand_over, open_input
 
 
 def cmd_render(args) -> int:
     from viewer.imageio import write_exr, write_png
     from viewer.renderer import Renderer, check_aovs
-    from viewer.scene import load_scene, validate_render
+    from viewer.scene import validate_render
 
     out = Path(args.out)
     if out.suffix.lower() not in (".exr", ".png"):
@@ -19,7 +20,7 @@ def cmd_render(args) -> int:
                          where=out)
     if not out.resolve().parent.is_dir():
         raise SceneError("output folder does not exist", where=out.parent)
-    scene = load_scene(args.scene or _demo_path())
+    scene, contents = open_input(args)  # a scene file, or assets made into a scene
     changes = {k: v for k, v in (("model", args.model), ("samples", args.samples),
                                  ("exposure", args.exposure), ("tonemap", args.tonemap))
                if v is not None}
@@ -33,6 +34,7 @@ def cmd_render(args) -> int:
 
     renderer = Renderer(options=_context_options(args))
     try:
+        hand_over(renderer, contents)
         frame = renderer.render(scene, aovs=tuple(aovs), size=size)
     finally:
         renderer.release()

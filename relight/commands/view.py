@@ -1,12 +1,12 @@
 """``relight view``: the interactive viewer (:mod:`relight.app`), or its screenshot offscreen."""
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 from viewer.errors import RelightError, SceneError
 
-from .common import _context_options, _demo_path, _parse_size
+from .common import _context_options, _parse_size
+from .scene import apply_model, hand_over, open_input
 
 
 def cmd_view(args) -> int:
@@ -15,8 +15,6 @@ def cmd_view(args) -> int:
     except ImportError as exc:
         raise RelightError(f"relight view needs imgui-bundle: pip install -e '.[gui]' ({exc})",
                            where="view") from None
-    from viewer.scene import load_scene
-
     from ..app.window import Viewer
 
     if args.frames is not None and args.frames < 1:
@@ -30,11 +28,10 @@ def cmd_view(args) -> int:
             raise SceneError("output folder does not exist", where=shot.parent)
     if args.screenshot_ui and (shot is None or shot.suffix.lower() != ".png"):
         raise SceneError("--screenshot-ui needs --screenshot FILE.png", where="--screenshot-ui")
-    scene = load_scene(args.scene or _demo_path())
+    scene, contents = open_input(args)  # a scene file, or assets made into a scene
+    scene = apply_model(scene, args.model)
     if args.size:
         scene = scene.with_camera(size=_parse_size(args.size))
-    if args.model:
-        scene = replace(scene, render=scene.render.with_flat(model=args.model))
     window = _parse_size(args.window, "--window") if args.window else None
     viewer = Viewer(scene, window_size=window, offscreen=args.offscreen,
                     options=_context_options(args),
@@ -43,6 +40,7 @@ def cmd_view(args) -> int:
         viewer.state.view = args.view
     viewer.state.fit_view = args.fit_window
     try:
+        hand_over(viewer.renderer, contents)
         if args.reference:
             viewer.frame()
             if not viewer.load_reference(args.reference):

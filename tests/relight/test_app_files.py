@@ -169,33 +169,29 @@ def test_files_dropped_through_glfw_open_and_a_bad_one_keeps_the_scene(fresh, tm
     assert np.array_equal(shown(fresh), image)
 
 
-def test_a_dropped_asset_opens_through_viewer_assets(fresh, tmp_path, monkeypatch):
-    """Assets go to ``viewer.assets.scene_from_assets`` (one call, the current environment kept);
-    a build without it says so in one line and keeps the scene."""
+def test_a_dropped_asset_opens_framed_in_the_current_environment(fresh, tmp_path):
+    """Assets go to ``viewer.assets.scene_from_assets`` at the current render size, lit by the
+    current environment; a corrupt one gives one line and keeps the scene."""
     import sys
-    import types
+    from pathlib import Path
 
-    from viewer.scene import scene_from_dict
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "viewer"))
+    from asset_files import box_gltf
     from viewer_helpers import drop_files
 
     good = fresh.current_scene()
-    monkeypatch.setitem(sys.modules, "viewer.assets", None)  # a build without viewer.assets
-    drop_files(fresh, [tmp_path / "chair.glb"])
+    bad = tmp_path / "chair.glb"
+    bad.write_bytes(b"glTF not really")
+    drop_files(fresh, [bad])
     message = fresh.state.message
-    assert "chair.glb" in message and ".glb assets is not supported by this build" in message
-    assert "\n" not in message and fresh.current_scene() == good
+    assert message and "chair.glb" in message and "\n" not in message
+    assert fresh.current_scene() == good
 
-    calls = []
-
-    def scene_from_assets(paths, size=None, **_):
-        calls.append((paths, size))
-        return scene_from_dict({"camera": {"size": list(size)}, "objects": [{"type": "plane"}],
-                                "environment": {"procedural": "sky"}})
-
-    monkeypatch.setitem(sys.modules, "viewer.assets",
-                        types.SimpleNamespace(scene_from_assets=scene_from_assets))
-    drop_files(fresh, [tmp_path / "a.obj", tmp_path / "b.ply"])
-    assert calls == [([str(tmp_path / "a.obj"), str(tmp_path / "b.ply")], good.camera.size)]
+    box = tmp_path / "box.gltf"
+    box_gltf(box)
+    drop_files(fresh, [box])
     scene = fresh.current_scene()
-    assert fresh.state.message is None and [o.type for o in scene.objects] == ["plane"]
+    assert fresh.state.message is None, fresh.state.message
+    assert [o.type for o in scene.objects] == ["mesh"]
+    assert scene.camera.size == good.camera.size
     assert scene.environment == good.environment  # lit as before the drop

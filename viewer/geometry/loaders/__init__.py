@@ -32,6 +32,7 @@ decoding); :func:`load_mesh`, here, picks the loader by suffix and validates wha
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -95,12 +96,18 @@ def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
 
 
 def _guarded(loader, path: Path, kind: str) -> list[Mesh]:
-    """Run ``loader`` and turn anything but an InputError into a one-line InputError."""
-    try:
-        return loader(path)
-    except InputError:
-        raise
-    except Exception as exc:  # parsers raise anything: struct.error, KeyError, ValueError...
-        detail = " ".join(str(exc).split())[:200]
-        raise InputError(f"corrupt or unreadable {kind} file ({type(exc).__name__}"
-                         f"{': ' + detail if detail else ''})", where=path) from None
+    """Run ``loader`` and turn anything but an InputError into a one-line InputError. What the
+    parsers warned about a file they then fail on is left out: the error says it."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            meshes = loader(path)
+        except InputError:
+            raise
+        except Exception as exc:  # parsers raise anything: struct.error, KeyError, ValueError...
+            detail = " ".join(str(exc).split())[:200]
+            raise InputError(f"corrupt or unreadable {kind} file ({type(exc).__name__}"
+                             f"{': ' + detail if detail else ''})", where=path) from None
+    for w in caught:  # it loaded: every warning stands
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return meshes

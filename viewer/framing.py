@@ -1,0 +1,85 @@
+"""A camera framed on world-space bounds, and a floor under them.
+
+:func:`frame_camera` looks at the bounds' centre from a default direction a little above the
+front (+Z, the glTF front; :data:`ELEVATION_DEG` up, as model-viewer's default orbit) and moves
+back exactly as far as needed for all eight corners of the box to project inside
+:data:`FILL` of the frame's half-width and half-height: the box fills the frame's limiting
+dimension to 90 % and nothing inside it is cut off. Near and far enclose the box (and, when
+given, what else should not be clipped: a floor, a cloud's outliers), with far / near at most
+:data:`MAX_DEPTH_RATIO`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .bounds import Bounds
+from .camera import Camera
+from .material import Material
+
+ELEVATION_DEG = 15.0
+AZIMUTH_DEG = 0.0  # from +Z towards +X
+FILL = 0.9
+MAX_DEPTH_RATIO = 1e5
+FLOOR_EXTENT = 3.0  # the floor is this x the bounds' larger horizontal side, each way
+FLOOR_MATERIAL = Material(albedo=(0.5, 0.5, 0.5), roughness=0.9)  # matte mid grey
+
+
+def view_direction(elevation_deg: float = ELEVATION_DEG,
+                   azimuth_deg: float = AZIMUTH_DEG) -> np.ndarray:
+    """Unit vector from the target towards the camera."""
+    el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+    return np.array([math.cos(el) * math.sin(az), math.sin(el), math.cos(el) * math.cos(az)])
+
+
+def frame_camera(bounds: Bounds, fov_y: float, size: tuple[int, int],
+                 also: tuple[Bounds, ...] = (), direction: np.ndarray | None = None) -> Camera:
+    """A :class:`Camera` (up +Y) fitted to ``bounds`` as the module docstring says; ``also``:
+    boxes that only widen near and far."""
+    d = view_direction() if direction is None else np.asarray(direction, np.float64)
+    d = d / np.linalg.norm(d)
+    center = bounds.center
+    probe = Camera(position=tuple((center + d).tolist()), target=tuple(center.tolist()),
+                   fov_y=fov_y, size=size)
+    right, up, back = probe.basis()
+    tx, ty = probe.tan_half_fov()
+    rel = bounds.corners() - center
+    x, y, z = rel @ right, rel @ up, rel @ back
+    # corner depth at distance D is D - z; inside the frame when |x| <= FILL tx (D - z)
+    dist = float(np.max(np.maximum(np.abs(x) / (FILL * tx), np.abs(y) / (FILL * ty)) + z))
+    radius = max(bounds.radius, 1e-6)
+    dist = max(dist, 1e-3 * radius)
+    position = center + d * dist
+    depths = dist - z
+    near = 0.5 * float(depths.min()) if depths.min() > 0 else 1e-3 * radius
+    far = float(depths.max())
+    for box in also:
+        far = max(far, float((dist - (box.corners() - center) @ back).max()))
+    far = min(max(2.0 * far, near * 4.0), near * MAX_DEPTH_RATIO)
+    near, far = max(near, 1e-6), min(max(far, 4e-6), 1e9)  # what a scene file accepts
+    return Camera(position=tuple(float(v) for v in position), target=tuple(center.tolist()),
+                  up=(0.0, 1.0, 0.0), fov_y=float(fov_y), size=(int(size[0]), int(size[1])),
+                  near=float(near), far=float(far))
+
+
+def floor_object(bounds: Bounds):
+    """A ``plane`` :class:`~viewer.scene.ObjectSpec` (normal +Y, :data:`FLOOR_MATERIAL`)
+    touching the bounds' bottom, :data:`FLOOR_EXTENT` x their larger horizontal side across,
+    so shadows have somewhere to fall."""
+    from .scene import ObjectSpec
+
+    lo, hi = np.asarray(bounds.lo), np.asarray(bounds.hi)
+    side = float(max(hi[0] - lo[0], hi[2] - lo[2], 1e-3 * max(bounds.radius, 1e-6)))
+    c = bounds.center
+    return ObjectSpec(type="plane", center=(float(c[0]), float(lo[1]), float(c[2])),
+                      size=(FLOOR_EXTENT * side, FLOOR_EXTENT * side), normal=(0.0, 1.0, 0.0),
+                      material=FLOOR_MATERIAL)
+
+
+def object_bounds(obj) -> Bounds:
+    """The world-space box of a ``plane`` object (for near and far)."""
+    c = np.asarray(obj.center, np.float64)
+    hx, hz = obj.size[0] / 2.0, obj.size[1] / 2.0
+    return Bounds((float(c[0] - hx), float(c[1]), float(c[2] - hz)),
+                  (float(c[0] + hx), float(c[1]), float(c[2] + hz)))

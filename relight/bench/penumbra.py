@@ -124,3 +124,26 @@ def profile_stderr(stderr: np.ndarray) -> np.ndarray:
     rows = stderr[h // 2 - ROWS // 2: h // 2 + ROWS // 2 + 1, :, 0].astype(np.float64)
     unshadowed = ALBEDO / math.pi * IRRADIANCE * math.cos(math.radians(THETA_DEG))
     return np.sqrt((rows ** 2).sum(axis=0)) / rows.shape[0] / unshadowed
+
+
+def pcss_bias_bound(diameter_deg: float, shadow_size: int = 2048) -> float:
+    """The largest relative widening PCSS's blocker average can give the far edge's penumbra here.
+
+    ``shadow_visibility`` (shaders/lib/shadow.glsl) searches blockers within
+    ``s = z depth_range tan(alpha)`` of the receiver (``z`` its depth in the map fitted to the
+    scene's bounds) and widens the penumbra with the receiver's distance to their *mean* depth.
+    A sphere's front surface at ``r - s`` from its centre (in the map plane) is
+    ``sqrt(2 r s - s^2)`` nearer the light than its silhouette, so no mean lies farther in front of
+    the silhouette than that: the width is at most that over ``D`` (the silhouette's distance to
+    the floor) too wide, and never narrower from this cause."""
+    from viewer.bounds import Bounds
+    from viewer.shadows import directional_frame
+
+    t = math.radians(THETA_DEG)
+    light = np.array([math.sin(t), math.cos(t), 0.0])
+    bounds = Bounds((-3.0, 0.0, -3.0), (3.0, CENTRE_Y + RADIUS, 3.0))  # the 6 m floor, the sphere
+    frame = directional_frame(bounds, light, shadow_size)
+    z = float(frame.project(np.array([[shadow_edge_x(), 0.0, 0.0]]))[0, 2])
+    s = min(z * frame.depth_range * math.tan(math.radians(diameter_deg) / 2.0), RADIUS)
+    dist = (CENTRE_Y + RADIUS * math.sin(t)) / math.cos(t)
+    return math.sqrt(2.0 * RADIUS * s - s * s) / dist

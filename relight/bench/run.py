@@ -296,7 +296,11 @@ def run_suites(out_dir: str | Path, names: list[str], config: BenchConfig = Benc
             sections[name] = SUITES[name](renderer, scenes, config, cache)
             (out / f"{name}.json").write_text(json.dumps(sections[name], indent=1,
                                                          allow_nan=True))
-            (out / f"{name}.md").write_text("\n".join(suite_table(sections[name])) + "\n")
+            m = machine_info(renderer)
+            header = (f"Measured by `relight bench --suite {name}` on {m['gl'].get('renderer')} "
+                      f"({m['cpus']} CPUs), {m['date']}.\n\n")
+            (out / f"{name}.md").write_text(header + "\n".join(suite_table(sections[name]))
+                                            + "\n")
     finally:
         renderer.release()
     return sections

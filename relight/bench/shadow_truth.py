@@ -1,7 +1,7 @@
 """``relight bench``'s shadow suites against path-traced truth.
 
-``shadow_truth``: on each scene of :data:`SHADOW_SCENES` (``assets/scenes/reference``, references
-stored in ``assets/references``: objects on a floor under real HDRIs whose sun the renderer
+``shadow_truth``: on each scene of :data:`SHADOW_SCENES` (``assets/scenes/shadows``, then
+``assets/scenes/reference``; references stored in ``assets/references``: objects on a floor under real HDRIs whose sun the renderer
 extracts and shadows, and in the procedural studio with and without a directional key light),
 every classical case of :data:`CANDIDATES` is rendered at the reference's size with the scene's
 shadows on and with ``[render] shadows = false``, and scored against the reference
@@ -20,11 +20,14 @@ from __future__ import annotations
 import math
 import warnings
 
+from assets import ASSET_ROOT
 from viewer.environment import load_environment
 from viewer.errors import RelightError
 from viewer.sun import extract_sun
 
 from .truth import REFERENCE_SCENES, REFERENCES, TruthScene
+
+SHADOW_SCENE_DIR = ASSET_ROOT / "scenes" / "shadows"  # apart from the fidelity scenes' folder
 
 SHADOW_SCENES = ("sky_shadow_spheres", "esplanade_shadow_spheres", "park_sphere_on_plane",
                  "studio_key_spheres", "studio_sphere_on_plane")
@@ -59,7 +62,10 @@ def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES) -> l
 
     rows = []
     for name in names:
-        ts = TruthScene(name, REFERENCE_SCENES / f"{name}.toml", REFERENCES / f"{name}.exr")
+        path = SHADOW_SCENE_DIR / f"{name}.toml"
+        if not path.is_file():
+            path = REFERENCE_SCENES / f"{name}.toml"
+        ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
         if not ts.path.is_file() or not ts.reference.is_file():
             warnings.warn(f"relight bench shadow_truth: no scene or reference for {name}; left out",
                           stacklevel=2)

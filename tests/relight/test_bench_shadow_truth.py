@@ -58,3 +58,11 @@ def test_shadow_truth_row_on_a_committed_reference(renderer):
     assert row["model"] == "ggx_split_sum" and row["casters"].startswith("sun")
     assert all(math.isfinite(row[k]) for k in ("psnr_shadows", "psnr_without", "gain_db"))
     assert row["gain_db"] > 0.0, row
+
+
+def test_bench_unknown_suite_is_one_line_error(tmp_path, capsys):
+    from relight.cli import main
+
+    assert main(["bench", "--suite", "shadow_truht", "--out", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "shadow_truht" in err and "shadow_truth" in err and "\n" not in err, err

@@ -1,8 +1,9 @@
 """``relight bench``'s shadow suites against path-traced truth.
 
 ``shadow_truth``: on each scene of :data:`SHADOW_SCENES` (``assets/scenes/shadows``, then
-``assets/scenes/reference``; references stored in ``assets/references``: objects on a floor under real HDRIs whose sun the renderer
-extracts and shadows, and in the procedural studio with and without a directional key light),
+``assets/scenes/reference``; references stored in ``assets/references``: objects on a floor under
+real HDRIs whose sun the renderer extracts and shadows, and in the procedural studio with and
+without a directional key light),
 every classical case of :data:`CANDIDATES` is rendered at the reference's size with the scene's
 shadows on and with ``[render] shadows = false``, and scored against the reference
 (:func:`relight.reference.compare.score`: PSNR, median relative error, energy bias, over covered

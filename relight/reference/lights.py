@@ -10,8 +10,8 @@ facing it (W/m^2, the "lux" of the scene file), a point or spot light's its radi
   disc light (``directional`` is a delta; ``sunsky`` is an environment, of which a scene holds one,
   and its irradiance is a sky model's). It is traced as a **far disc**: a ``disk`` shape with an
   ``area`` emitter of radiance ``L = E / (pi sin^2 alpha)``, ``FAR`` scene radii away, facing the
-  scene, of radius ``D tan alpha``. From a point on its axis it subtends exactly the cap of half-angle
-  alpha, and a uniform cap gives irradiance ``int L (n . w) dw = pi L sin^2 alpha (n . c)`` =
+  scene, of radius ``D tan alpha``. From a point on its axis it subtends exactly the cap of
+  half-angle alpha, and a uniform cap gives irradiance ``int L (n . w) dw = pi L sin^2 alpha (n . c)`` =
   ``E cos theta`` exactly while the cap is above the horizon (the rasteriser's delta light times
   ``cos theta``), and the shadow of a uniform disc: the penumbra the PCSS filter models. Off the
   axis the direction moves by at most (scene radius / D) = 1 / ``FAR`` rad. What differs: the disc

@@ -28,7 +28,8 @@ def _disc_profile(width_px: float, n: int = 128, centre: float = 60.3) -> np.nda
 @pytest.mark.parametrize("width", [6.0, 13.0, 50.0])
 def test_transition_width_of_a_disc_is_0687_of_its_penumbra(width):
     """10-90 % of a uniform disc's penumbra spans 0.687 of its full width (the module's closed
-    form); linear interpolation between pixels costs < 3 % at 6 px (2.3 % here). Either direction of the row."""
+    form); linear interpolation between pixels costs < 3 % at 6 px (2.3 % here). Either direction
+    of the row."""
     p = _disc_profile(width)
     assert transition_width(p) == pytest.approx(0.687 * width, rel=0.03)
     assert transition_width(p[::-1]) == pytest.approx(0.687 * width, rel=0.03)
@@ -47,7 +48,8 @@ def test_transition_width_noise_follows_the_slope():
 
 def test_shadow_truth_row_on_a_committed_reference(renderer):
     """park_sphere_on_plane (the park sun casts the sphere's shadow): one row with the best of two
-    cases, finite scores, and shadows on scoring above shadows off (the reference has the shadow)."""
+    cases, finite scores, and shadows on scoring above shadows off (the reference has the
+    shadow)."""
     from relight.bench.shadow_truth import shadow_truth_rows
 
     rows = shadow_truth_rows(renderer, names=("park_sphere_on_plane",),

@@ -121,6 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also score every model against path-traced truth on this held-out "
                         "dataset (relight eval DATA --split all) and mark its Pareto front "
                         "(repeatable; needs torch)")
+    p.add_argument("--suite", action="append", metavar="NAME",
+                   help="measure only this extra suite (e.g. shadow_truth, penumbra) -> "
+                        "OUT/NAME.json and NAME.md (repeatable)")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_bench)
 

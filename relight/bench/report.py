@@ -98,6 +98,15 @@ def _truth_tables(rows: list[dict]) -> list[str]:
     return lines
 
 
+def suite_table(section: list[dict]) -> list[str]:
+    """An extra suite's rows as markdown table lines (the union of their plain keys)."""
+    keys = list(dict.fromkeys(k for r in section for k in r if not isinstance(r[k], dict)))
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for r in section:
+        lines.append("| " + " | ".join(_fmt(r.get(k, "")) for k in keys) + " |")
+    return lines
+
+
 def write_reports(out: Path, report: dict) -> None:
     rows = report["results"]
     if any(r.get("kind") == "truth" for r in rows):
@@ -127,14 +136,8 @@ def write_reports(out: Path, report: dict) -> None:
                          f"| {_fmt(s['ms_general'] / s['ms_specialized'])}× "
                          f"| {_fmt(s['max_abs_diff'])} |")
     for name in SUITES:
-        section = report.get(name) or []
-        if not section:
-            continue
-        keys = list(dict.fromkeys(k for r in section for k in r if not isinstance(r[k], dict)))
-        lines += ["", f"### {name}", "", "| " + " | ".join(keys) + " |",
-                  "|" + "---|" * len(keys)]
-        for r in section:
-            lines.append("| " + " | ".join(_fmt(r.get(k, "")) for k in keys) + " |")
+        if report.get(name):
+            lines += ["", f"### {name}", "", *suite_table(report[name])]
     m = report["machine"]
     header = (f"Measured on {m['gl'].get('renderer')} ({m['cpus']} CPUs, {m['platform']}), "
               f"{m['date']}. Times: median ms per frame; PSNR/SSIM on the display image and "

@@ -269,6 +269,43 @@ def run_bench(out_dir: str | Path, config: BenchConfig = BenchConfig(), fresh: b
     return report
 
 
+def run_suites(out_dir: str | Path, names: list[str], config: BenchConfig = BenchConfig(),
+               progress: bool = True) -> dict[str, list[dict]]:
+    """Only the extra suites ``names`` (of :data:`relight.bench.suites.SUITES`): each measured
+    afresh and written to ``<out>/<name>.json`` and ``<out>/<name>.md`` (its table)."""
+    from .report import suite_table
+
+    unknown = [n for n in names if n not in SUITES]
+    if unknown:
+        raise RelightError(f"unknown bench suite {unknown[0]!r} (known: {', '.join(SUITES)})",
+                           where="--suite")
+    out = Path(out_dir)
+    if not out.parent.exists():
+        raise RelightError("output folder's parent does not exist", where=out)
+    out.mkdir(exist_ok=True)
+    cache = out / "cache"
+    cache.mkdir(exist_ok=True)
+    renderer = Renderer()
+    renderer.reuse_passes = False
+    sections = {}
+    try:
+        scenes = {"mesh": demo_scene()}  # what the extra suites read (no stack, no splats)
+        for name in names:
+            if progress:
+                print(f"bench: {name} ...", file=sys.stderr, flush=True)
+            sections[name] = SUITES[name](renderer, scenes, config, cache)
+            (out / f"{name}.json").write_text(json.dumps(sections[name], indent=1,
+                                                         allow_nan=True))
+            m = machine_info(renderer)
+            header = (f"Measured by `relight bench --suite {name}` on {m['gl'].get('renderer')} "
+                      f"({m['cpus']} CPUs), {m['date']}.\n\n")
+            (out / f"{name}.md").write_text(header + "\n".join(suite_table(sections[name]))
+                                            + "\n")
+    finally:
+        renderer.release()
+    return sections
+
+
 def _same_heldout(rows: list[dict], config: BenchConfig) -> bool:
     """Whether stored held-out rows are of the datasets asked for now (else measured again)."""
     return {r.get("dataset_path") for r in rows} == {str(Path(d)) for d in config.heldout} \

@@ -94,10 +94,27 @@ def _suite_memory(renderer, scenes, config, cache) -> list[dict]:
     return memory_rows(lambda: Renderer(ctx=renderer.ctx), scenes["mesh"], cache / "memory")
 
 
+def _suite_shadow_truth(renderer, scenes, config, cache) -> list[dict]:
+    """The best classical model with shadow maps and without, against path-traced references of
+    objects on floors under a sun and studio lights (:mod:`relight.bench.shadow_truth`)."""
+    from .shadow_truth import shadow_truth_rows
+
+    return shadow_truth_rows(renderer)
+
+
+def _suite_penumbra(renderer, scenes, config, cache) -> list[dict]:
+    """PCSS penumbra widths against the path tracer's, 2 and 8 deg suns
+    (:mod:`relight.bench.penumbra`); traced live, so needs Mitsuba."""
+    from .shadow_truth import penumbra_rows
+
+    return penumbra_rows(renderer)
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
                                "neural": _suite_neural, "clamps": _suite_clamps,
                                "heldout": _suite_heldout, "environments": _suite_environments,
-                               "shadows": _suite_shadows, "memory": _suite_memory}
+                               "shadows": _suite_shadows, "memory": _suite_memory,
+                               "shadow_truth": _suite_shadow_truth, "penumbra": _suite_penumbra}
 

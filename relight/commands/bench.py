@@ -8,6 +8,15 @@ def cmd_bench(args) -> int:
     config = BenchConfig(quick=args.quick, frames=args.frames,
                          reference_spp=256 if args.quick else 1024,
                          heldout=tuple(getattr(args, "heldout", None) or ()))
+    if getattr(args, "suite", None):
+        from ..bench.report import suite_table
+        from ..bench.run import run_suites
+
+        for name, rows in run_suites(args.out, args.suite, config,
+                                     progress=not args.quiet).items():
+            print(f"{name} ({args.out}/{name}.json, {name}.md):")
+            print("\n".join(suite_table(rows)) if rows else "  (no rows)")
+        return 0
     report = run_bench(args.out, config, fresh=args.fresh, progress=not args.quiet)
     front = pareto_front(report["results"])
     print(f"wrote {args.out}/bench.json, bench.csv, bench.md, pareto.png "

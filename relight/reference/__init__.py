@@ -1,9 +1,9 @@
 """``relight reference``: path-traced ground truth with Mitsuba 3 and our own BSDF.
 
 :func:`render_reference` renders a :class:`~viewer.scene.Scene` (spheres, planes, the material
-grid, glTF/OBJ meshes; the environment and the directional light) with the rasteriser's per-pixel
-rays and returns the mean radiance with its per-pixel standard error; :func:`write_reference` /
-:func:`read_reference` store it beside its metadata. :mod:`relight.reference.compare` scores a
+grid, glTF/OBJ meshes; the environment and every punctual light, :mod:`relight.reference.lights`)
+with the rasteriser's per-pixel rays and returns the mean radiance with its per-pixel standard
+error; :func:`write_reference` / :func:`read_reference` store it beside its metadata. :mod:`relight.reference.compare` scores a
 render against it (per-pixel z-test, bias, median relative error)."""
 from .render import (
                      AOVS,

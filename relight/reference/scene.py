@@ -1,8 +1,9 @@
 """A workbench :class:`~viewer.scene.Scene` as a Mitsuba 3 scene: the same environment (texels,
-orientation, rotation, intensity), the same directional light, analytic spheres, planes and the
+orientation, rotation, intensity), analytic spheres, planes and the
 material-ball grid as the rasteriser builds them, glTF/OBJ meshes through the project's own
 loader (so the reference sees exactly the triangles, normals, UVs and texture maps the G-buffer
-pass does), and :class:`~relight.reference.bsdf` for every surface. The camera is not converted:
+pass does), :class:`~relight.reference.bsdf` for every surface, and every punctual light
+(:mod:`relight.reference.lights`). The camera is not converted:
 :mod:`relight.reference.render` traces the rasteriser's own per-pixel rays."""
 from __future__ import annotations
 
@@ -15,10 +16,12 @@ from viewer.errors import RelightError
 from viewer.geometry import primitives
 from viewer.geometry.cache import GeometryCache
 from viewer.material import Material
-from viewer.lights import Light, gather_lights
+from viewer.bounds import points_bounds
+from viewer.lights import gather_lights
 from viewer.scene import Scene
 
 from .bsdf import bsdf_class
+from .lights import mitsuba_light
 
 TRACEABLE = ("sphere", "plane", "material_grid", "mesh")
 GEOMETRIES = ("mesh", "analytic")
@@ -80,16 +83,19 @@ def to_mitsuba(scene: Scene, mi, dr, max_depth: int, geometry: str = "mesh") -> 
                "integrator": {"type": "path", "max_depth": int(max_depth),
                               "rr_depth": int(max_depth) + 1}}
     env = scene.environment
-    d["environment"] = {
-        "type": "envmap",
-        "bitmap": mi.Bitmap(environment_bitmap(scene)),
-        "scale": float(env.intensity),
-        "to_world": mi.ScalarTransform4f().rotate([0.0, 1.0, 0.0], float(env.rotation_deg)),
-    }
+    if env.intensity > 0.0:  # a dark one is left out: Mitsuba would still pick it for light samples
+        d["environment"] = {
+            "type": "envmap",
+            "bitmap": mi.Bitmap(environment_bitmap(scene)),
+            "scale": float(env.intensity),
+            "to_world": mi.ScalarTransform4f().rotate([0.0, 1.0, 0.0], float(env.rotation_deg)),
+        }
     cache = GeometryCache()
     scene = gather_lights(scene, cache.get)  # + the meshes' own lights (glTF)
+    bounds = points_bounds(np.concatenate(
+        [m.positions.reshape(-1, 3) for obj in scene.objects for m in cache.get(obj)]))
     for i, light in enumerate(scene.light or ()):
-        d[f"light_{i}"] = mitsuba_light(light, mi)
+        d[f"light_{i}"] = mitsuba_light(light, mi, bounds, scene.source or "[[lights]]")
     count = 0
     for obj in scene.objects:
         for shape in _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
@@ -203,31 +209,3 @@ def _mesh(mi, dr, mesh, bsdf, emitter=None):
     flat("faces", mesh.indices, np.uint32)
     params.update()
     return m
-
-
-def mitsuba_light(light: Light, mi) -> dict:
-    """One of our punctual lights as a Mitsuba emitter, in the units the rasteriser uses
-    (viewer.lights): directional -> ``directional`` (irradiance, W/m^2), point -> ``point``
-    (intensity, W/sr), spot -> ``spot`` (intensity on the axis, ``cutoff_angle`` = the outer
-    cone, ``beam_width`` = the inner one). Mitsuba's spot falls off between them as a smoothstep
-    of the *angle*, glTF's as the square of a ramp in its *cosine*: both are 1 inside the inner
-    cone and 0 outside the outer one, between them they differ (docs/explanation/conventions.md).
-    Mitsuba has no range window: a light with a ``range`` is a one-line error."""
-    rgb = {"type": "rgb", "value": [float(c) for c in light.radiant]}
-    if light.type == "directional":
-        return {"type": "directional", "direction": [-c for c in light.direction],
-                "irradiance": rgb}
-    if light.range is not None:
-        raise ReferenceError(f"a {light.type} light with range = {light.range} (glTF's range "
-                             f"window) has no path-traced counterpart; remove the range",
-                             where="[[lights]]")
-    if light.type == "point":
-        return {"type": "point", "position": [float(c) for c in light.position],
-                "intensity": rgb}
-    origin = [float(c) for c in light.position]
-    target = [o - c for o, c in zip(origin, light.direction)]  # direction points to the light
-    up = [0.0, 1.0, 0.0] if abs(light.direction[1]) < 0.99 else [1.0, 0.0, 0.0]
-    return {"type": "spot", "intensity": rgb,
-            "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up),
-            "cutoff_angle": float(light.outer_cone_deg),
-            "beam_width": float(light.inner_cone_deg)}

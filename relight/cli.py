@@ -53,7 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", help="WxH (overrides [camera] size)")
     p.add_argument("--aov", help="comma-separated G-buffer channels written to <out>.<name>.exr")
     p.add_argument("--exposure", type=float, help="EV stops (PNG only)")
-    p.add_argument("--tonemap", help="none | aces | reinhard (PNG only)")
+    p.add_argument("--tonemap", help="pbr_neutral (default) | aces | agx | reinhard | none "
+                   "(PNG only)")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_render)

@@ -50,9 +50,17 @@ class NeuralSettings:
 class DisplaySettings:
     """The last pass: linear radiance -> the displayed image."""
 
-    tonemap: str = "aces"  # none | aces | reinhard
+    # pbr_neutral (Khronos PBR Neutral: keeps base colours) | aces (Hill's fit) | agx (three.js)
+    # | reinhard | none (viewer.scene_checks.TONEMAPS)
+    tonemap: str = "pbr_neutral"
     exposure: float = 0.0  # EV stops: radiance * 2^exposure before tone mapping
     background: str = "environment"  # "environment" | "transparent"
+    # anti-aliasing of the display image: "fxaa" (FXAA 3.11 after tone mapping; not drawn when
+    # supersampled, whose edges are already filtered) | "none"
+    aa: str = "fxaa"
+    # supersampling: every pass before tone mapping at ssaa x the size, box-averaged in linear
+    # radiance (viewer/passes/antialias.py; 1 = off, up to SSAA_MAX)
+    ssaa: int = 1
 
 
 @dataclass(frozen=True)
@@ -71,6 +79,8 @@ class ShadowSettings:
 
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
+AA_MODES = ("fxaa", "none")  # [render] aa
+SSAA_MAX = 8  # [render] ssaa: 1..8 (ssaa^2 times the pixels of every pass before the resolve)
 
 
 @dataclass(frozen=True)
@@ -130,6 +140,8 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "tonemap": ("display", "tonemap"),
     "exposure": ("display", "exposure"),
     "background": ("display", "background"),
+    "aa": ("display", "aa"),
+    "ssaa": ("display", "ssaa"),
     "seed": ("mc", "seed"),
     "precision": (None, "precision"),
     "specialize": (None, "specialize"),

@@ -1,7 +1,11 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
     gbuffer -> splats -> ssao -> ssao_upsample -> shadow<i> -> shade -> indirect_gather
-            -> indirect -> forward -> tonemap
+            -> indirect -> forward -> ssaa_resolve -> tonemap -> fxaa
+
+With ``[render] ssaa`` = N > 1 every pass up to ``forward`` runs at N times the camera's size and
+``ssaa_resolve`` box-averages the radiance into ``resolved`` (the output size); with ``[render] aa
+= "fxaa"`` the tone-mapped image goes through FXAA into ``display``.
 
 Each pass names what it reads and writes and the scene/settings values its output depends on;
 the graph (:mod:`viewer.graph.graph`) culls, decides reuse from those declarations and allocates
@@ -25,6 +29,7 @@ from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
 from ..shadows import directional_frame
 from ..specialize import Specialization
+from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
 from .resources import GBufferDesc, ShadowMapDesc, TextureDesc
 
@@ -47,13 +52,18 @@ class FrameRequest:
 
 def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     """The frame graph of ``req`` over ``renderer``'s passes and pool (not yet compiled)."""
+    n = ssaa_factor(req.scene)
+    out_size = tuple(req.camera.size)
+    if n > 1:  # every pass up to the resolve at n x the size
+        req = dataclasses.replace(req, camera=req.camera.with_size(out_size[0] * n,
+                                                                   out_size[1] * n))
     scene, spec, camera = req.scene, req.spec, req.camera
     settings = scene.render
     res = renderer.resources
     g = FrameGraph(res.pool, scope="frame", reuse=reuse)
     size = tuple(camera.size)
     g.create("radiance", TextureDesc(size, 4, "f4"), kept=True)
-    g.create("display", TextureDesc(size, 4, "f1"), kept=True)
+    g.create("display", TextureDesc(out_size, 4, "f1"), kept=True)
 
     _gbuffer_passes(g, renderer, scene, spec, camera)
     ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
@@ -78,12 +88,7 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
                    inputs={"objects": scene.objects, "render": _lighting_settings(settings),
                            "environment": scene.environment, "light": scene.light})
 
-    def tonemap(f):
-        res.tonemap().run(f["radiance"].texture, f["display"].fbo, settings.display.exposure,
-                          settings.display.tonemap)
-    g.add_pass("tonemap", tonemap, reads=("radiance",), writes=("display",),
-               inputs={"exposure": settings.display.exposure,
-                       "tonemap": settings.display.tonemap})
+    display_passes(g, renderer, settings, n, out_size)
     return g
 
 
@@ -232,9 +237,9 @@ def env_to_world(direction, rotation_deg: float) -> tuple[float, float, float]:
 
 # ---- lighting ---------------------------------------------------------------------------------
 def _lighting_settings(settings):
-    """The settings the lighting passes depend on: all but exposure and tone mapping."""
+    """The settings the lighting passes depend on: all but exposure, tone mapping and FXAA."""
     return dataclasses.replace(settings, display=dataclasses.replace(
-        settings.display, exposure=0.0, tonemap="none"))
+        settings.display, exposure=0.0, tonemap="none", aa="none"))
 
 
 def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None,

@@ -1,6 +1,7 @@
 """``relight``: the command line of the relighting workbench.
 
     relight render [SCENE.toml] --out FILE [--model M] [--samples N] [--size WxH] [--aov a,b]
+                   [--ssaa N]
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json]
@@ -55,6 +56,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--exposure", type=float, help="EV stops (PNG only)")
     p.add_argument("--tonemap", help="pbr_neutral (default) | aces | agx | reinhard | none "
                    "(PNG only)")
+    p.add_argument("--aa", help="fxaa (default) | none: anti-aliasing of the PNG")
+    p.add_argument("--ssaa", type=int, metavar="N",
+                   help="supersample: render at N x the size and box-average the radiance (1-8)")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.add_argument("-q", "--quiet", action="store_true")
     p.set_defaults(func=cmd_render)

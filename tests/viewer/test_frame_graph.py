@@ -279,7 +279,7 @@ def test_relight_graph_explains_reuse(renderer):
     g = renderer.graph(scene.with_render(exposure=2.0))
     why = {p.name: p.why for p in g.passes}
     assert why["fxaa"] == "display changed: tonemapped (read)", why
-    assert why["tonemap"] == "writes transient tonemapped", why
+    assert why["tonemap"] == "tonemapped changed: exposure", why
     renderer.draw(scene.with_render(aa="none"))
     g = renderer.graph(scene.with_render(aa="none", exposure=2.0))
     why = {p.name: p.why for p in g.passes}

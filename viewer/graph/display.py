@@ -46,8 +46,9 @@ def display_passes(g: FrameGraph, renderer, settings, n: int, out_size) -> None:
     # supersampled edges are already filtered: FXAA on top only blurs them (measured against an
     # 8 x 8 supersampled frame: edge error 0.0195 at ssaa 4, 0.0346 with FXAA as well)
     fxaa = settings.display.aa == "fxaa" and n == 1
-    # FXAA reads the tone-mapped image from a transient target (drawn only when FXAA is)
-    ldr = g.create("tonemapped", TextureDesc(out_size, 4, "f1")) if fxaa else "display"
+    # FXAA reads the tone-mapped image from a target of its own (kept: an exposure slider then
+    # says it redraws for the exposure; RGBA8, small)
+    ldr = g.create("tonemapped", TextureDesc(out_size, 4, "f1"), kept=True) if fxaa else "display"
 
     def tonemap(f):
         res.tonemap().run(f[radiance].texture, f[ldr].fbo, settings.display.exposure,

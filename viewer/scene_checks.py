@@ -102,7 +102,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "mis_heuristic" in t:
         kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
                                    MIS_HEURISTICS)
-    for k in ("ssao", "indirect", "shadows"):
+    for k in ("ssao", "indirect", "shadows", "ssao_blur"):
         if k in t:
             if not isinstance(t[k], bool):
                 raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)

@@ -30,6 +30,9 @@ class SSAOSettings:
     # 1: every pixel marches; k > 1: one pixel in k x k marches and a joint bilateral filter
     # fills the rest (viewer/passes/ssao.py; about k^2 x cheaper; TOML: ssao_scale, 1..8)
     scale: int = 1
+    # a depth- and normal-aware 5 x 5 blur of O(x) against the rays' per-pixel noise
+    # (passes/ssao_blur.frag; TOML: ssao_blur)
+    blur: bool = True
 
     def __bool__(self):  # `if settings.ssao:` would always be true: say where the switch is
         raise TypeError("SSAOSettings has no truth value: use settings.ssao.enabled")
@@ -153,6 +156,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ssao_radius": ("ssao", "radius"),
     "ssao_thickness": ("ssao", "thickness"),
     "ssao_scale": ("ssao", "scale"),
+    "ssao_blur": ("ssao", "blur"),
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "neural_storage": ("neural", "storage"),

@@ -167,7 +167,7 @@ GLASS = ObjectSpec(type="mesh", path="in-memory-glass")
 SPLATS = ObjectSpec(type="splats", path="in-memory-splats")
 LIGHTING = {"shade", "indirect_gather", "indirect", "forward", "tonemap", "fxaa"}
 DISPLAY = {"tonemap", "fxaa"}
-SSAO = {"ssao", "ssao_upsample"}
+SSAO = {"ssao", "ssao_upsample", "ssao_blur"}
 SHADOWS = {"shadow0", "shadowsun"}  # the [light]'s map and the sky's sun's
 
 
@@ -250,7 +250,7 @@ def _drawn(renderer, scene):
 def test_the_frame_declares_every_pass(renderer):
     g = renderer.graph(_base())
     assert [p.name for p in g.passes] == ["gbuffer", "splats", "ssao", "ssao_upsample",
-                                          "shadow0", "shadowsun", "shade", "indirect_gather",
+                                          "ssao_blur", "shadow0", "shadowsun", "shade", "indirect_gather",
                                           "indirect", "forward", "tonemap", "fxaa"]
 
 

@@ -101,3 +101,12 @@ def test_supersampling_resolves_radiance_and_aovs_at_the_output_size(renderer):
 def test_bad_aa_settings_are_one_line_errors(render, message):
     with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
         _scene("quad", **render)
+
+
+def test_the_frame_declares_the_aa_passes_it_needs(renderer):
+    def names(**render):
+        return [p.name for p in renderer.graph(_scene("quad", **render)).passes]
+    assert names()[-2:] == ["tonemap", "fxaa"]  # the default: FXAA
+    assert names(aa="none")[-1] == "tonemap" and "fxaa" not in names(aa="none")
+    # supersampled: resolved before tone mapping, and no FXAA on its filtered edges
+    assert names(ssaa=2)[-2:] == ["ssaa_resolve", "tonemap"]

@@ -2,8 +2,9 @@
 // one pixel of k x k: render.ssao_scale): which full-resolution pixel a low-resolution texel
 // stands for, the joint bilateral upsampling of a low-resolution result to a full-resolution
 // pixel (weights: lib/ssao.glsl ssao_upsample_weight), and the bilateral blur of a
-// full-resolution result with the same weights (passes/ssao_blur.frag). Pass-level chunk: needs passes/deferred.glsl
-// (G-buffer, camera uniforms), lib/shading.glsl and lib/ssao.glsl included first.
+// full-resolution result with the same weights (passes/ssao_blur.frag). Pass-level chunk:
+// needs passes/deferred.glsl (G-buffer, camera uniforms), lib/shading.glsl and lib/ssao.glsl
+// included first.
 // Twins: learned/twins/ssao.py (ssao_sample_pixel, ssao_upsample, ssao_blur).
 #ifndef SSAO_SCALE
 #define SSAO_SCALE 1

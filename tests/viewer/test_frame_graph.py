@@ -250,8 +250,9 @@ def _drawn(renderer, scene):
 def test_the_frame_declares_every_pass(renderer):
     g = renderer.graph(_base())
     assert [p.name for p in g.passes] == ["gbuffer", "splats", "ssao", "ssao_upsample",
-                                          "ssao_blur", "shadow0", "shadowsun", "shade", "indirect_gather",
-                                          "indirect", "forward", "tonemap", "fxaa"]
+                                          "ssao_blur", "shadow0", "shadowsun", "shade",
+                                          "indirect_gather", "indirect", "forward", "tonemap",
+                                          "fxaa"]
 
 
 @pytest.mark.parametrize("change", list(CHANGES))

@@ -44,8 +44,8 @@ PARITY_CASES = [
                         "draw within 1 ulp of either could flip a branch (continuous there)"),
     ParityCase("agx_contrast", (Arg(lo=0.0, hi=1.0, components=3,
                                     adversarial=((0, 0.5, 1),)),),
-               atol=2e-5, rtol=0.0, measured="max abs 1.3e-6 (rel 5e-5 beside the root near x = 0.02; "
-                        "seeds 0-7)",
+               atol=2e-5, rtol=0.0,
+               measured="max abs 1.3e-6 (rel 5e-5 beside the root near x = 0.02; seeds 0-7)",
                envelope="a degree-6 polynomial with coefficients up to 40 summed with "
                         "cancellation (terms ~30, result ~0.5 at x = 1): 7 terms x 2^-24 x 40 = "
                         "1.7e-5 worst abs in any evaluation order; x in [0, 1] keeps terms "

@@ -1,7 +1,7 @@
 """``relight``: the command line of the relighting workbench.
 
     relight render [SCENE.toml | ASSET...] --out FILE [--model M] [--samples N] [--size WxH]
-                 [--aov a,b] [--env FILE|sky|studio|white] [--up AXIS] [--floor]
+                 [--aov a,b] [--ssaa N] [--env FILE|sky|studio|white] [--up AXIS] [--floor]
     relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH] > scene.toml
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
@@ -65,7 +65,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", help="WxH (overrides [camera] size)")
     p.add_argument("--aov", help="comma-separated G-buffer channels written to <out>.<name>.exr")
     p.add_argument("--exposure", type=float, help="EV stops (PNG only)")
-    p.add_argument("--tonemap", help="none | aces | reinhard (PNG only)")
+    p.add_argument("--tonemap", help="pbr_neutral (default) | aces | agx | reinhard | none "
+                   "(PNG only)")
+    p.add_argument("--aa", help="fxaa (default) | none: anti-aliasing of the PNG")
+    p.add_argument("--ssaa", type=int, metavar="N",
+                   help="supersample: render at N x the size and box-average the radiance (1-8)")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     add_asset_arguments(p, model=False, size=False)
     p.add_argument("-q", "--quiet", action="store_true")

@@ -27,7 +27,9 @@ class FrameTargets:
     back): what a window shows, the debug views read and the parity checks compare. Textures are
     moderngl textures, GL row order (row 0 at the bottom)."""
 
-    radiance: object  # RGBA32F: linear radiance composited over the background, alpha = coverage
+    # RGBA32F: linear radiance composited over the background, alpha = coverage (at the output
+    # size: the resolved radiance when supersampled; the other targets are then at ssaa x it)
+    radiance: object
     display: object  # RGBA8: exposed, tone-mapped, sRGB-encoded
     gbuffer: GBufferTargets  # the G-buffer the frame was shaded from (.textures, .read())
     camera: Camera  # the camera it was rendered with (a stack's own camera for image stacks)
@@ -50,3 +52,20 @@ def read_texture(texture, dtype: str) -> np.ndarray:
     np_dtype = np.float32 if dtype == "f4" else np.uint8
     arr = np.frombuffer(texture.read(), dtype=np_dtype).reshape(h, w, texture.components)
     return arr[::-1].copy()
+
+
+def downsample_aov(channel: np.ndarray, n: int, name: str) -> np.ndarray:
+    """An AOV read from a G-buffer rendered at ``n`` x the size (``[render] ssaa``) brought to the
+    output size: each n x n block's mean (the pixel's box filter, as the radiance is resolved),
+    normals renormalised, and depth point-sampled at the block's centre (a mean across a
+    silhouette is a depth no surface has). ``n = 1``: ``channel`` itself."""
+    if n <= 1:
+        return channel
+    h, w, c = channel.shape[0] // n, channel.shape[1] // n, channel.shape[2]
+    if name == "depth":
+        return channel[n // 2::n, n // 2::n][:h, :w].copy()
+    mean = channel[: h * n, : w * n].reshape(h, n, w, n, c).mean(axis=(1, 3))
+    if name == "normal":
+        length = np.linalg.norm(mean, axis=-1, keepdims=True)
+        mean = np.where(length > 1e-6, mean / np.maximum(length, 1e-6), 0.0)
+    return mean.astype(channel.dtype)

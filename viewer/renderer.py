@@ -29,7 +29,7 @@ from contextlib import contextmanager
 
 from .camera import Camera
 from .errors import SceneError
-from .frame import Frame, FrameTargets, read_texture
+from .frame import Frame, FrameTargets, downsample_aov, read_texture
 from .gbuffer import CHANNEL_NAMES, GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
@@ -38,6 +38,7 @@ from .cache import BoundedCache
 from .models import ShadingModel, model_info
 from .neural import learns_indirect, required_settings, shades_sun
 from .cache import Budgets, CacheStats
+from .graph.display import output_radiance, ssaa_factor
 from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
 from .lights import gather_lights
@@ -200,7 +201,7 @@ class Renderer:
         frame = graph.execute(on_pass=self._pass_begin)
         self.last_graph = graph
         return FrameTargets(
-            radiance=frame["radiance"].texture, display=frame["display"].texture,
+            radiance=frame[output_radiance(scene)].texture, display=frame["display"].texture,
             gbuffer=frame["gbuffer"], camera=camera, variant=spec.variant, samples=frame.samples,
             ssao=frame["ssao"].texture if settings.ssao.enabled else None,
             direct=frame["direct"].texture if settings.ssao.indirect else None,
@@ -257,11 +258,12 @@ class Renderer:
         if aovs:
             gb = targets.gbuffer
             channels = gb.read()
+            n = ssaa_factor(scene)  # supersampled: the G-buffer is n x the size
             for name in aovs:
                 if name == "color" and "color" not in channels:
                     # meshes: the unlit colour is the albedo, premultiplied by coverage
                     channels["color"] = channels["albedo"] * channels["alpha"]
-                frame.aovs[name] = channels[name]
+                frame.aovs[name] = downsample_aov(channels[name], n, name)
         return frame
 
     def release(self) -> None:

@@ -13,6 +13,7 @@ from .environments import EnvironmentStore
 from .gbuffer import GBufferLayout
 from .graph.pool import TargetPool
 from .passes.accumulate import AccumulatePass
+from .passes.antialias import AntialiasPass
 from .passes.forward import ForwardPass
 from .passes.gbuffer import GBufferPass
 from .passes.shade import ShadePass
@@ -44,6 +45,7 @@ class GPUResources:
         self._tonemap: TonemapPass | None = None
         self._accumulate: AccumulatePass | None = None
         self._shadow: ShadowPass | None = None
+        self._antialias: AntialiasPass | None = None
 
     def layout_pass(self, kind: str, layout: GBufferLayout):
         """The ``kind`` pass (:data:`LAYOUT_PASSES`) built for ``layout``."""
@@ -61,6 +63,11 @@ class GPUResources:
         if self._tonemap is None:
             self._tonemap = TonemapPass(self.programs)
         return self._tonemap
+
+    def antialias(self) -> AntialiasPass:
+        if self._antialias is None:
+            self._antialias = AntialiasPass(self.programs)
+        return self._antialias
 
     def shadow_pass(self) -> ShadowPass:
         if self._shadow is None:
@@ -98,7 +105,7 @@ class GPUResources:
         self.pool.clear()
         self._passes.clear()
         self.env.release()
-        for p in (self._tonemap, self._accumulate, self._shadow):
+        for p in (self._tonemap, self._accumulate, self._shadow, self._antialias):
             if p is not None:
                 p.release()
-        self._tonemap = self._accumulate = self._shadow = None
+        self._tonemap = self._accumulate = self._shadow = self._antialias = None

@@ -41,8 +41,10 @@ Example::
     [render]
     model = "ggx_split_sum"          # see viewer.models.MODELS
     multiscatter = true
-    tonemap = "aces"                 # none | aces | reinhard
+    tonemap = "pbr_neutral"          # pbr_neutral | aces | agx | reinhard | none
     exposure = 0.0                   # EV stops, applied before tone mapping
+    aa = "fxaa"                      # fxaa (FXAA 3.11 on the display image) | none
+    ssaa = 1                         # supersampling: render at N x the size, box-average radiance
     splat_depth = "expected"         # splat depth: expected (eq. 6.10) | median (robust to floaters)
 
 The typed readers of one value and the ``[render]`` table's validation (:func:`validate_render`)

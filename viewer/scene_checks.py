@@ -13,10 +13,10 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import RENDER_KEYS, SPLAT_DEPTHS, SSAO_SCALE_MAX
+from .settings import AA_MODES, RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX, SSAO_SCALE_MAX
 
 
-TONEMAPS = ("none", "aces", "reinhard")
+TONEMAPS = ("pbr_neutral", "aces", "agx", "reinhard", "none")
 BACKGROUNDS = ("environment", "transparent")
 PRECISIONS = ("fp32", "fp16")
 MIS_HEURISTICS = ("power", "balance")
@@ -86,6 +86,10 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
         kw["exposure"] = _num(t["exposure"], "render.exposure", file, -40.0, 40.0)
     if "background" in t:
         kw["background"] = _str(t["background"], "render.background", file, BACKGROUNDS)
+    if "aa" in t:
+        kw["aa"] = _str(t["aa"], "render.aa", file, AA_MODES)
+    if "ssaa" in t:
+        kw["ssaa"] = _int(t["ssaa"], "render.ssaa", file, 1, SSAA_MAX)
     if "seed" in t:
         kw["seed"] = _int(t["seed"], "render.seed", file, 0, (1 << 31) - 1)
     if "specialize" in t:
@@ -98,7 +102,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "mis_heuristic" in t:
         kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
                                    MIS_HEURISTICS)
-    for k in ("ssao", "indirect", "shadows"):
+    for k in ("ssao", "indirect", "shadows", "ssao_blur"):
         if k in t:
             if not isinstance(t[k], bool):
                 raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)

@@ -30,6 +30,9 @@ class SSAOSettings:
     # 1: every pixel marches; k > 1: one pixel in k x k marches and a joint bilateral filter
     # fills the rest (viewer/passes/ssao.py; about k^2 x cheaper; TOML: ssao_scale, 1..8)
     scale: int = 1
+    # a depth- and normal-aware 5 x 5 blur of O(x) against the rays' per-pixel noise
+    # (passes/ssao_blur.frag; TOML: ssao_blur)
+    blur: bool = True
 
     def __bool__(self):  # `if settings.ssao:` would always be true: say where the switch is
         raise TypeError("SSAOSettings has no truth value: use settings.ssao.enabled")
@@ -50,9 +53,17 @@ class NeuralSettings:
 class DisplaySettings:
     """The last pass: linear radiance -> the displayed image."""
 
-    tonemap: str = "aces"  # none | aces | reinhard
+    # pbr_neutral (Khronos PBR Neutral: keeps base colours) | aces (Hill's fit) | agx (three.js)
+    # | reinhard | none (viewer.scene_checks.TONEMAPS)
+    tonemap: str = "pbr_neutral"
     exposure: float = 0.0  # EV stops: radiance * 2^exposure before tone mapping
     background: str = "environment"  # "environment" | "transparent"
+    # anti-aliasing of the display image: "fxaa" (FXAA 3.11 after tone mapping; not drawn when
+    # supersampled, whose edges are already filtered) | "none"
+    aa: str = "fxaa"
+    # supersampling: every pass before tone mapping at ssaa x the size, box-averaged in linear
+    # radiance (viewer/passes/antialias.py; 1 = off, up to SSAA_MAX)
+    ssaa: int = 1
 
 
 @dataclass(frozen=True)
@@ -71,6 +82,8 @@ class ShadowSettings:
 
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
+AA_MODES = ("fxaa", "none")  # [render] aa
+SSAA_MAX = 8  # [render] ssaa: 1..8 (ssaa^2 times the pixels of every pass before the resolve)
 
 
 @dataclass(frozen=True)
@@ -130,6 +143,8 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "tonemap": ("display", "tonemap"),
     "exposure": ("display", "exposure"),
     "background": ("display", "background"),
+    "aa": ("display", "aa"),
+    "ssaa": ("display", "ssaa"),
     "seed": ("mc", "seed"),
     "precision": (None, "precision"),
     "specialize": (None, "specialize"),
@@ -141,6 +156,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ssao_radius": ("ssao", "radius"),
     "ssao_thickness": ("ssao", "thickness"),
     "ssao_scale": ("ssao", "scale"),
+    "ssao_blur": ("ssao", "blur"),
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "neural_storage": ("neural", "storage"),

@@ -163,6 +163,32 @@ def ssao_upsample(low: torch.Tensor, gbuffer: dict, camera, scale: int,
                        total / torch.where(wsum > 1e-6, wsum, 1.0)[..., None], nearest)
 
 
+def ssao_blur(ao: torch.Tensor, gbuffer: dict, camera) -> torch.Tensor:
+    """GLSL ``vec4 ssao_blur(sampler2D ao, ivec2 pixel, GBuffer g)`` of
+    ``passes/ssao_upsample.glsl`` at every pixel: ``ao [H, W, C]`` (GL order) -> ``[H, W, C]``
+    (meaningful on surface pixels; the pass writes 1 on the background)."""
+    view = _View(gbuffer, camera)
+    ys, xs = torch.meshgrid(torch.arange(view.h), torch.arange(view.w), indexing="ij")
+    _, _, _, n, p = view.at(xs, ys)
+    binomial = (1.0, 4.0, 6.0, 4.0, 1.0)
+    total = torch.zeros(view.h, view.w, ao.shape[-1])
+    wsum = torch.zeros(view.h, view.w)
+    for j in range(-2, 3):
+        for i in range(-2, 3):
+            qx, qy = xs + i, ys + j
+            inside = (qx >= 0) & (qx < view.w) & (qy >= 0) & (qy < view.h)
+            qx, qy = qx.clamp(0, view.w - 1), qy.clamp(0, view.h - 1)
+            _, h_alpha, h_depth, nq, pq = view.at(qx, qy)
+            ok = inside & (h_alpha > 0.0) & (h_depth > 0.0)
+            w = ssao_upsample_weight(torch.full_like(wsum, binomial[i + 2] * binomial[j + 2]),
+                                     p, n, pq, nq)
+            w = torch.where(ok, w, torch.zeros_like(w))
+            total = total + w[..., None] * torch.where(ok[..., None], ao[qy, qx],
+                                                       torch.zeros_like(ao[qy, qx]))
+            wsum = wsum + w
+    return total / torch.where(wsum > 0.0, wsum, 1.0)[..., None]
+
+
 def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thickness: float,
               seed: int, direct: torch.Tensor | None = None, vis_dirs: torch.Tensor | None = None,
               vis_steps: int = 16, vis_radius: float = 2.0, env_rotation: float = 0.0,

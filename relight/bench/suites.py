@@ -81,6 +81,14 @@ def _suite_shadows(renderer, scenes, config, cache) -> list[dict]:
     return shadow_rows(renderer, scenes["mesh"].with_render(sun=False), config)
 
 
+def _suite_antialias(renderer, scenes, config, cache) -> list[dict]:
+    """What FXAA and 2x supersampling cost: whole frames at 512^2 against the same frame without
+    anti-aliasing, in the same run (:mod:`relight.bench.antialias`)."""
+    from .antialias import antialias_rows
+
+    return antialias_rows(renderer, scenes["mesh"], config)
+
+
 def _suite_memory(renderer, scenes, config, cache) -> list[dict]:
     """Resident memory under the sweeps that used to grow without bound: 150 frame widths, 20
     environments, 50 meshes, each in a fresh renderer (:mod:`relight.bench.memory`). Minutes
@@ -115,6 +123,7 @@ def _suite_penumbra(renderer, scenes, config, cache) -> list[dict]:
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
                                "neural": _suite_neural, "clamps": _suite_clamps,
                                "heldout": _suite_heldout, "environments": _suite_environments,
-                               "shadows": _suite_shadows, "memory": _suite_memory,
-                               "shadow_truth": _suite_shadow_truth, "penumbra": _suite_penumbra}
+                               "shadows": _suite_shadows, "antialias": _suite_antialias,
+                               "memory": _suite_memory, "shadow_truth": _suite_shadow_truth,
+                               "penumbra": _suite_penumbra}
 

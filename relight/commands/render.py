@@ -22,7 +22,8 @@ def cmd_render(args) -> int:
         raise SceneError("output folder does not exist", where=out.parent)
     scene, contents = open_input(args)  # a scene file, or assets made into a scene
     changes = {k: v for k, v in (("model", args.model), ("samples", args.samples),
-                                 ("exposure", args.exposure), ("tonemap", args.tonemap))
+                                 ("exposure", args.exposure), ("tonemap", args.tonemap),
+                                 ("aa", args.aa), ("ssaa", args.ssaa))
                if v is not None}
     for key, value in changes.items():  # checked as a scene file's [render] is, named by option
         validate_render({key: value}, f"--{key}")

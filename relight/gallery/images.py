@@ -20,8 +20,9 @@ _ACES_OUT = np.array([[1.60475, -0.53108, -0.07367],
 
 
 def display(radiance: np.ndarray, exposure: float = 0.0) -> np.ndarray:
-    """``[H, W, 3]`` uint8 sRGB of linear ``radiance``: the renderer's display transform (exposure,
-    Hill's ACES fit, sRGB encoding; ``shaders/lib/tonemap.glsl``) in numpy."""
+    """``[H, W, 3]`` uint8 sRGB of linear ``radiance``: the renderer's ``aces`` display transform
+    (exposure, Hill's ACES fit, sRGB encoding; ``shaders/lib/tonemap.glsl``) in numpy, the one
+    every gallery tile is shown with (the renderer's default is ``pbr_neutral``)."""
     v = np.clip(np.asarray(radiance[..., :3], np.float64) * 2.0 ** exposure, 0.0, 1e4) @ _ACES_IN.T
     a = v * (v + 0.0245786) - 0.000090537
     b = v * (0.983729 * v + 0.4329510) + 0.238081

@@ -1,5 +1,5 @@
 // tonemap.frag - exposure, tone mapping and sRGB encoding: linear radiance -> display pixels.
-// Defines: TONEMAP (0 none, 1 ACES fitted, 2 Reinhard).
+// Defines: TONEMAP (0 none, 1 ACES fitted, 2 Reinhard, 3 Khronos PBR Neutral, 4 AgX).
 #include "lib/tonemap.glsl"
 
 uniform sampler2D u_radiance;
@@ -14,6 +14,10 @@ void main() {
     c = tonemap_aces_fitted(c);
 #elif TONEMAP == 2
     c = tonemap_reinhard(c);
+#elif TONEMAP == 3
+    c = tonemap_pbr_neutral(c);
+#elif TONEMAP == 4
+    c = tonemap_agx(c);
 #endif
     o_color = vec4(linear_to_srgb(c), radiance.a);
 }

@@ -49,6 +49,17 @@ def test_render_png_exr_and_aovs(tmp_path, scene_file, capsys):
     assert normal[c][2] > 0.99
 
 
+def test_render_supersampled(tmp_path, scene_file):
+    """--ssaa 2: the PNG, the EXR and the AOVs at the output size (the frame drawn at 2x)."""
+    png, exr = tmp_path / "s.png", tmp_path / "s.exr"
+    assert main(["render", str(scene_file), "--out", str(png), "--ssaa", "2", "-q"]) == 0
+    assert main(["render", str(scene_file), "--out", str(exr), "--ssaa", "2", "--aov", "depth",
+                 "--size", "32x24", "-q"]) == 0
+    assert read_image(png)[0].shape == (40, 48, 3)
+    assert read_image(exr)[0].shape == (24, 32, 3)
+    assert read_image(tmp_path / "s.depth.exr")[0].shape == (24, 32, 1)
+
+
 def test_every_model_renders(tmp_path, scene_file):
     from viewer.models import MODELS
 
@@ -64,6 +75,8 @@ def test_every_model_renders(tmp_path, scene_file):
     (["--aov", "normals"], "unknown AOV 'normals'"),
     (["--size", "12by3"], "--size must look like"),
     (["--samples", "0"], "--samples: render.samples must be an integer in [1"),
+    (["--ssaa", "9"], "--ssaa: render.ssaa must be an integer in [1, 8]"),
+    (["--aa", "msaa"], "--aa: render.aa = 'msaa' is not one of fxaa, none"),
 ])
 def test_bad_options_exit_2_and_write_nothing(tmp_path, scene_file, capsys, args, needle):
     out = tmp_path / "x.png"

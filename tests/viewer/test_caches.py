@@ -340,7 +340,8 @@ def test_a_renderer_with_two_programs_renders_as_one_with_all(ctx):
         {"type": "plane", "center": [0, 0, 0], "size": [4, 4], "normal": [0, 1, 0]},
         {"type": "sphere", "center": [0, 0.4, 0], "radius": 0.4,
          "material": {"albedo": [0.9, 0.3, 0.2], "roughness": 0.4}}],
-        "render": {**BASE["render"], "ssao": True, "ssao_rays": 4, "ssao_steps": 4}})
+        # without FXAA: a frame whose G-buffer and SSAO are reused then draws two programs
+        "render": {**BASE["render"], "ssao": True, "ssao_rays": 4, "ssao_steps": 4, "aa": "none"}})
     small, full = _renderer(ctx, programs=2), _renderer(ctx)
     try:
         for s in (scene, scene.with_render(model="blinn_phong"), scene):

@@ -165,8 +165,9 @@ BASE = {
 }
 GLASS = ObjectSpec(type="mesh", path="in-memory-glass")
 SPLATS = ObjectSpec(type="splats", path="in-memory-splats")
-LIGHTING = {"shade", "indirect_gather", "indirect", "forward", "tonemap"}
-SSAO = {"ssao", "ssao_upsample"}
+LIGHTING = {"shade", "indirect_gather", "indirect", "forward", "tonemap", "fxaa"}
+DISPLAY = {"tonemap", "fxaa"}
+SSAO = {"ssao", "ssao_upsample", "ssao_blur"}
 SHADOWS = {"shadow0", "shadowsun"}  # the [light]'s map and the sky's sun's
 
 
@@ -196,8 +197,10 @@ def _material(s):
 
 # each declared input -> the passes that must be drawn again (exactly these)
 CHANGES = {
-    "exposure": (lambda s: s.with_render(exposure=1.0), {"tonemap"}),
-    "tone mapper": (lambda s: s.with_render(tonemap="aces"), {"tonemap"}),
+    "exposure": (lambda s: s.with_render(exposure=1.0), DISPLAY),
+    "tone mapper": (lambda s: s.with_render(tonemap="aces"), DISPLAY),
+    # without FXAA the tone mapping pass writes the display itself
+    "anti-aliasing": (lambda s: s.with_render(aa="none"), {"tonemap"}),
     "environment intensity": (_env(intensity=1.6), LIGHTING),
     "environment rotation": (_env(rotation_deg=30.0), LIGHTING | {"shadowsun"}),
     "light intensity": (lambda s: dataclasses.replace(
@@ -247,8 +250,9 @@ def _drawn(renderer, scene):
 def test_the_frame_declares_every_pass(renderer):
     g = renderer.graph(_base())
     assert [p.name for p in g.passes] == ["gbuffer", "splats", "ssao", "ssao_upsample",
-                                          "shadow0", "shadowsun", "shade", "indirect_gather",
-                                          "indirect", "forward", "tonemap"]
+                                          "ssao_blur", "shadow0", "shadowsun", "shade",
+                                          "indirect_gather", "indirect", "forward", "tonemap",
+                                          "fxaa"]
 
 
 @pytest.mark.parametrize("change", list(CHANGES))
@@ -264,8 +268,9 @@ def test_a_change_redraws_exactly_what_is_downstream(renderer, change):
     with renderer.every_pass():
         full, every = _drawn(renderer, changed)
     # every pass the changed frame declares (blinn_phong shades no analytic sun: no shadowsun)
-    assert every == {"gbuffer", "splats"} | SSAO | LIGHTING | SHADOWS - (
-        {"shadowsun"} if change == "model" else set())
+    assert every == ({"gbuffer", "splats"} | SSAO | LIGHTING | SHADOWS) - (
+        {"shadowsun"} if change == "model" else set()) - (
+        {"fxaa"} if change == "anti-aliasing" else set())
     np.testing.assert_array_equal(img, full)
 
 
@@ -273,6 +278,11 @@ def test_relight_graph_explains_reuse(renderer):
     scene = _base()
     renderer.draw(scene)
     g = renderer.graph(scene.with_render(exposure=2.0))
+    why = {p.name: p.why for p in g.passes}
+    assert why["fxaa"] == "display changed: tonemapped (read)", why
+    assert why["tonemap"] == "tonemapped changed: exposure", why
+    renderer.draw(scene.with_render(aa="none"))
+    g = renderer.graph(scene.with_render(aa="none", exposure=2.0))
     why = {p.name: p.why for p in g.passes}
     assert why["tonemap"] == "display changed: exposure", why
     assert why["gbuffer"] == "inputs unchanged"

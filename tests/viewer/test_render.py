@@ -79,7 +79,8 @@ def test_intensity_scales_radiance_linearly(renderer):
 
 
 def test_exposure_changes_display_not_radiance(renderer):
-    base = sphere_scene(Material(roughness=0.4), env="sky", tonemap="none")
+    # without FXAA, whose edge tests on perceptual luma see each exposure differently
+    base = sphere_scene(Material(roughness=0.4), env="sky", tonemap="none", aa="none")
     a = renderer.render(base.with_render(exposure=-3.0))
     b = renderer.render(base.with_render(exposure=-2.0))
     np.testing.assert_array_equal(a.radiance, b.radiance)

@@ -1,7 +1,11 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
-    gbuffer -> splats -> ssao -> ssao_upsample -> shadow<i> -> shade -> indirect_gather
-            -> indirect -> forward -> tonemap
+    gbuffer -> splats -> ssao -> ssao_upsample -> ssao_blur -> shadow<i> -> shade
+            -> indirect_gather -> indirect -> forward -> ssaa_resolve -> tonemap -> fxaa
+
+With ``[render] ssaa`` = N > 1 every pass up to ``forward`` runs at N times the camera's size and
+``ssaa_resolve`` box-averages the radiance into ``resolved`` (the output size); with ``[render] aa
+= "fxaa"`` the tone-mapped image goes through FXAA into ``display``.
 
 Each pass names what it reads and writes and the scene/settings values its output depends on;
 the graph (:mod:`viewer.graph.graph`) culls, decides reuse from those declarations and allocates
@@ -25,6 +29,7 @@ from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
 from ..shadows import directional_frame
 from ..specialize import Specialization
+from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
 from .resources import GBufferDesc, ShadowMapDesc, TextureDesc
 
@@ -47,17 +52,23 @@ class FrameRequest:
 
 def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     """The frame graph of ``req`` over ``renderer``'s passes and pool (not yet compiled)."""
+    n = ssaa_factor(req.scene)
+    out_size = tuple(req.camera.size)
+    if n > 1:  # every pass up to the resolve at n x the size
+        req = dataclasses.replace(req, camera=req.camera.with_size(out_size[0] * n,
+                                                                   out_size[1] * n))
     scene, spec, camera = req.scene, req.spec, req.camera
     settings = scene.render
     res = renderer.resources
     g = FrameGraph(res.pool, scope="frame", reuse=reuse)
     size = tuple(camera.size)
     g.create("radiance", TextureDesc(size, 4, "f4"), kept=True)
-    g.create("display", TextureDesc(size, 4, "f1"), kept=True)
+    g.create("display", TextureDesc(out_size, 4, "f1"), kept=True)
 
     _gbuffer_passes(g, renderer, scene, spec, camera)
     ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
-                        record_hits=settings.ssao.indirect) if settings.ssao.enabled else None
+                        record_hits=settings.ssao.indirect,
+                        blur=settings.ssao.blur) if settings.ssao.enabled else None
     shadows = _shadow_passes(g, renderer, scene, spec)
     _lighting_passes(g, renderer, req, ssao, shadows)
     blended = [] if spec.direct_stack else renderer.blended(scene)
@@ -78,12 +89,7 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
                    inputs={"objects": scene.objects, "render": _lighting_settings(settings),
                            "environment": scene.environment, "light": scene.light})
 
-    def tonemap(f):
-        res.tonemap().run(f["radiance"].texture, f["display"].fbo, settings.display.exposure,
-                          settings.display.tonemap)
-    g.add_pass("tonemap", tonemap, reads=("radiance",), writes=("display",),
-               inputs={"exposure": settings.display.exposure,
-                       "tonemap": settings.display.tonemap})
+    display_passes(g, renderer, settings, n, out_size)
     return g
 
 
@@ -137,18 +143,21 @@ class SSAOOutputs:
 
 
 def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, camera: Camera,
-                 visibility: bool, record_hits: bool) -> SSAOOutputs:
+                 visibility: bool, record_hits: bool, blur: bool) -> SSAOOutputs:
     """SSAO's occlusion O(x) (``ssao``); with ``visibility`` also S(x) towards the environment's
     equal-power directions; with ``record_hits`` each ray's hit pixel for the indirect pass. At
-    ``ssao.scale`` k > 1 the rays run at low resolution and ``ssao_upsample`` fills ``ssao``."""
+    ``ssao.scale`` k > 1 the rays run at low resolution and ``ssao_upsample`` brings them to full
+    resolution; with ``blur`` that result (``ssao/raw``) goes through ``ssao_blur`` into
+    ``ssao``."""
     res = renderer.resources
     settings = scene.render
     k = int(settings.ssao.scale)
     low_size = low_resolution(camera.size, k)
-    occ = "ssao" if k == 1 else f"ssao/{k}"
+    full = "ssao/raw" if blur else "ssao"  # O(x) at full resolution before the blur
+    occ = full if k == 1 else f"ssao/{k}"
     g.create(occ, TextureDesc(low_size, 4, "f4"), kept=True)
-    hits = tuple(f"{occ}_hits{i}" for i in range(hit_targets(settings.ssao.rays))) \
-        if record_hits else ()
+    hits = tuple(f"{'ssao' if k == 1 else occ}_hits{i}"
+                 for i in range(hit_targets(settings.ssao.rays))) if record_hits else ()
     for h in hits:
         g.create(h, TextureDesc(low_size, 4, "u4"), kept=True)
     env = scene.environment
@@ -161,16 +170,25 @@ def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, ca
                          record_hits=record_hits)
     # the environment enters only through the visibility's directions (not its intensity)
     g.add_pass("ssao", occlusion, reads=("gbuffer",), writes=(occ,) + hits,
-               inputs={"ssao": settings.ssao, "seed": settings.mc.seed, "visibility": visibility,
+               inputs={"ssao": dataclasses.replace(settings.ssao, blur=True),
+                       "seed": settings.mc.seed, "visibility": visibility,
                        "environment": (dataclasses.replace(env, intensity=1.0)
                                        if visibility else None)})
     if k > 1:
-        g.create("ssao", TextureDesc(tuple(camera.size), 4, "f4"), kept=True)
+        g.create(full, TextureDesc(tuple(camera.size), 4, "f4"), kept=True)
 
         def upsample(f):
-            sspass.upsample(f["gbuffer"].textures, f[occ].texture, f["ssao"].fbo, camera, settings)
-        g.add_pass("ssao_upsample", upsample, reads=("gbuffer", occ), writes=("ssao",),
+            sspass.upsample(f["gbuffer"].textures, f[occ].texture, f[full].fbo, camera, settings)
+        g.add_pass("ssao_upsample", upsample, reads=("gbuffer", occ), writes=(full,),
                    inputs={"scale": k})
+    if blur:
+        g.create("ssao", TextureDesc(tuple(camera.size), 4, "f4"), kept=True)
+
+        def blurred(f):
+            sspass.blur(f["gbuffer"].textures, f[full].texture, f["ssao"].fbo, camera,
+                        env_vis=visibility)
+        g.add_pass("ssao_blur", blurred, reads=("gbuffer", full), writes=("ssao",),
+                   inputs={"blur": True})
     return SSAOOutputs("ssao", hits)
 
 
@@ -232,9 +250,9 @@ def env_to_world(direction, rotation_deg: float) -> tuple[float, float, float]:
 
 # ---- lighting ---------------------------------------------------------------------------------
 def _lighting_settings(settings):
-    """The settings the lighting passes depend on: all but exposure and tone mapping."""
+    """The settings the lighting passes depend on: all but exposure, tone mapping and FXAA."""
     return dataclasses.replace(settings, display=dataclasses.replace(
-        settings.display, exposure=0.0, tonemap="none"))
+        settings.display, exposure=0.0, tonemap="none", aa="none"))
 
 
 def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None,
@@ -349,5 +367,7 @@ def visibility_graph(renderer, scene: Scene, spec: Specialization, frame) -> Fra
     mistaken for) the frame's SSAO target."""
     g = FrameGraph(renderer.resources.pool, scope="visibility", reuse=False)
     g.import_resource("gbuffer", frame.gbuffer, signature=("frame", id(frame.gbuffer)))
-    _ssao_passes(g, renderer, scene, spec, frame.camera, visibility=True, record_hits=False)
+    # unblurred: the students' inputs as they are trained (relight data reads this pass)
+    _ssao_passes(g, renderer, scene, spec, frame.camera, visibility=True, record_hits=False,
+                 blur=False)
     return g

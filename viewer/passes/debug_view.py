@@ -69,8 +69,9 @@ class DebugViewPass:
         required for ``difference`` and ``error``."""
         gb = targets.gbuffer
         prog = self.program(view, gb.layout)
-        if "u_source_size" in prog:
-            prog["u_source_size"].value = tuple(gb.size)
+        if "u_source_size" in prog:  # supersampled frames: the G-buffer is ssaa x the display
+            source = targets.display if view == "display" or view in VIEW_MODES else gb
+            prog["u_source_size"].value = tuple(source.size)
         if view == "display":
             targets.display.use(0)
             prog["u_display"].value = 0

@@ -145,6 +145,21 @@ class SSAOPass:
         self.ctx.viewport = (0, 0, camera.width, camera.height)
         self._draw(prog)
 
+    def blur(self, gbuffer_textures: dict, ao, out_fbo, camera: Camera, env_vis: bool) -> None:
+        """The full-resolution occlusion ``ao`` through the bilateral blur into ``out_fbo``
+        (``passes/ssao_blur.frag``; ``env_vis``: the g channel, S(x), passed through)."""
+        prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao_blur.frag",
+                                      defines={"SSAO_ENV_VIS": int(env_vis),
+                                               "BACKGROUND_ENVIRONMENT": 0},
+                                      virtual=self.layout.virtual_files())
+        unit = bind_gbuffer(prog, gbuffer_textures)
+        ao.use(unit)
+        prog["u_ao"].value = unit
+        self._camera_uniforms(prog, camera)
+        out_fbo.use()
+        self.ctx.viewport = (0, 0, camera.width, camera.height)
+        self._draw(prog)
+
     def _camera_uniforms(self, prog, camera: Camera) -> None:
         basis = camera.basis()
         _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())

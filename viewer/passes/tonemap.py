@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from . import FullscreenDraw
 
-TONEMAP_IDS = {"none": 0, "aces": 1, "reinhard": 2}
+TONEMAP_IDS = {"none": 0, "aces": 1, "reinhard": 2, "pbr_neutral": 3, "agx": 4}
 
 
 class TonemapPass:

@@ -6,6 +6,7 @@ checks (:mod:`learned.parity.checks`) cover instead."""
 from __future__ import annotations
 
 from . import (
+    antialias,
     brdf,
     common,
     env_sampling,
@@ -24,8 +25,8 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (brdf, common, env_sampling, equirect, ibl, lights, mc, neural, sampling, sh, shading,
-           shadow, splat, ssao, tonemap)
+MODULES = (antialias, brdf, common, env_sampling, equirect, ibl, lights, mc, neural, sampling, sh,
+           shading, shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

@@ -31,6 +31,34 @@ PARITY_CASES = [
     ParityCase("tonemap_reinhard", (_HDR,), atol=1e-7, rtol=1e-6, measured="exact",
                envelope="x / (1 + x): add + division (2.5 ulp) + torch's 2 roundings -> 4 ulp "
                         "= 4.8e-7 rel"),
+    ParityCase("tonemap_pbr_neutral", (Arg(lo=0.0, hi=20.0, components=3,
+                                           adversarial=((0, 0, 0), (0.08, 0.5, 0.9),
+                                                        (0.76, 0.2, 0.1), (1e5, 1e5, 1e5),
+                                                        (2e6, 0.5, 0), (-1, 0.5, 2))),),
+               atol=2e-6, rtol=1e-5, measured="max abs 1.2e-7 (seeds 0-7)",
+               envelope="offset f = m - m^2 / 0.16 (3 roundings), the compression p_n = 1 - "
+                        "d^2 / (p + d - k_s) (division 2.5 ulp) and g = 1 / (k_d (p - p_n) + 1): "
+                        "p - p_n cancels near the knee (p ~ 0.76: ulps of p over a difference "
+                        "~1e-3, x k_d), each output a convex mix of values in [0, 1]: first-order "
+                        "~6 ulp = 4e-7 abs; the knee compares p with k_s and m with 0.08, so a "
+                        "draw within 1 ulp of either could flip a branch (continuous there)"),
+    ParityCase("agx_contrast", (Arg(lo=0.0, hi=1.0, components=3,
+                                    adversarial=((0, 0.5, 1),)),),
+               atol=2e-5, rtol=0.0,
+               measured="max abs 1.3e-6 (rel 5e-5 beside the root near x = 0.02; seeds 0-7)",
+               envelope="a degree-6 polynomial with coefficients up to 40 summed with "
+                        "cancellation (terms ~30, result ~0.5 at x = 1): 7 terms x 2^-24 x 40 = "
+                        "1.7e-5 worst abs in any evaluation order; x in [0, 1] keeps terms "
+                        "<= 40: first-order on the draws 1.2e-6 abs"),
+    ParityCase("tonemap_agx", (_HDR,), atol=9e-5, rtol=1e-5,
+               measured="max abs 4.0e-5 (seeds 0-7)",
+               envelope="inset matrix (terms >= 0), log2 (2^-21 abs in [0.5, 2] else 3 ulp) over "
+                        "16.5 EV -> 1.5e-7 abs in [0, 1], agx_contrast's polynomial (slope <= 2.4 "
+                        "-> 4e-7), outset matrix with negative entries, pow 2.2 (exp2 3 ulp, log2 "
+                        "as above: 2.2 x 2^-21 x ln2 rel), Rec. 2020 -> 709 cancels: the "
+                        "polynomial's worst 1.7e-5 abs x pow's slope 2.2 x the matrix's row sum "
+                        "2.32 -> 8.7e-5 (float32 itself: the twin in float32 is 3.0e-5 from "
+                        "float64 at (14.9, 17.0, 2.8))"),
     ParityCase("linear_to_srgb", (Arg(lo=0.0, hi=1.2, components=3,
                                       adversarial=((0, 0.0031308, 1), (-1, 2, 0.5))),),
                atol=2e-6, rtol=1e-5, measured="max abs 2.4e-7, rel 7.2e-7 (pow; seeds 0-7)",

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import torch
 
-from learned.twins.ssao import ssao_pass, ssao_upsample
+from learned.twins.ssao import ssao_blur, ssao_pass, ssao_upsample
 from viewer.passes.ssao import ENV_VIS_RADIUS, ENV_VIS_STEPS
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
@@ -36,6 +36,7 @@ def checks() -> dict:
                 return gl_texture(getattr(targets, name))
 
             ao_gl, direct, final_gl = read("ssao"), read("direct"), read("radiance")
+            raw_gl = gl_texture(targets.targets["ssao/raw"].texture)  # before the blur
             s = scene.render
             # the occlusion pass again with the environment's visibility (SSAO_ENV_VIS), as a
             # student with "vis" features runs it
@@ -55,7 +56,12 @@ def checks() -> dict:
             renderer.release()
         # the visibility's share per direction is max(n.l_k, 0) / sum: a flipped hit moves it by
         # at most 1 (one direction carrying all the light); the robust test bounds the count
-        return [robust_compare("ssao:occlusion", ao_gl, ao, 1.0 / 6.0),
+        surface = ((gb["alpha"][..., 0] > 0.0) & (gb["depth"][..., 0] > 0.0))[..., None]
+        with torch.no_grad():
+            blurred = torch.where(surface, ssao_blur(torch.from_numpy(raw_gl), gb,
+                                                     targets.camera), torch.ones(4)).numpy()
+        return [robust_compare("ssao:occlusion", raw_gl, ao, 1.0 / 6.0),
+                upsample_compare("ssao:blur", ao_gl, blurred),
                 robust_compare("ssao:env_visibility", vis_gl, vis, 1.0),
                 robust_compare("ssao:indirect", final_gl, final, float(np.abs(final).max()))]
 
@@ -76,7 +82,8 @@ def checks() -> dict:
             gb = gl_gbuffer(targets)
             low_gl = gl_texture(targets.targets[f"ssao/{k}"].texture)
             gathered_gl = gl_texture(targets.targets[f"gathered/{k}"].texture)
-            full_gl, direct = gl_texture(targets.ssao), gl_texture(targets.direct)
+            full_gl = gl_texture(targets.targets["ssao/raw"].texture)  # upsampled, not blurred
+            direct = gl_texture(targets.direct)
             final_gl = gl_texture(targets.radiance)
             vis_dirs = renderer.resources.power_directions(scene.environment)
             vis_full_gl = gl_texture(renderer.environment_visibility(scene, targets))
@@ -117,8 +124,9 @@ def checks() -> dict:
 
 
 def upsample_compare(name, gl, ref):
-    """The joint bilateral upsampling on the same low-resolution input: a normalised weighted
-    mean of values in [0, 1], so its error is the weights' relative error times the spread."""
+    """The joint bilateral upsampling (or the bilateral blur) on the same input: a normalised
+    weighted mean of values in [0, 1], so its error is the weights' relative error times the
+    spread."""
     diff = np.abs(gl - ref).max(axis=-1)
     atol = 2e-5
     ok = float(diff.max()) <= atol

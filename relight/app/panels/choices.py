@@ -4,15 +4,16 @@ from __future__ import annotations
 from viewer import scene as scene_module
 from viewer.models import MODELS, SAMPLINGS
 from viewer.scene import BACKGROUNDS, TONEMAPS
-from viewer.settings import SSAO_SCALE_MAX
+from viewer.settings import AA_MODES, SSAA_MAX, SSAO_SCALE_MAX
 
 # RenderSettings fields with a fixed set of values (others get a text field)
 CHOICES = {"model": lambda: tuple(MODELS), "sampling": lambda: SAMPLINGS,
-           "tonemap": lambda: TONEMAPS, "background": lambda: BACKGROUNDS,
+           "tonemap": lambda: TONEMAPS, "background": lambda: BACKGROUNDS, "aa": lambda: AA_MODES,
            "precision": lambda: getattr(scene_module, "PRECISIONS", None),
            "mis_heuristic": lambda: getattr(scene_module, "MIS_HEURISTICS", None)}
 QUICK_FIELDS = ("model", "exposure", "tonemap")  # shown at the top, not again under Shading
 LIMITS = {"exposure": (-10.0, 10.0), "samples": (1, 1 << 16), "seed": (0, (1 << 31) - 1),
           # the ranges viewer.scene_checks.validate_render accepts
-          "ssao_rays": (1, 1024), "ssao_steps": (1, 256), "ssao_scale": (1, SSAO_SCALE_MAX)}
+          "ssao_rays": (1, 1024), "ssao_steps": (1, 256), "ssao_scale": (1, SSAO_SCALE_MAX),
+          "ssaa": (1, SSAA_MAX)}
 ERROR_COLOUR = (1.0, 0.45, 0.4, 1.0)

@@ -113,6 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", help="only this shading model's passes")
     p.add_argument("--json", action="store_true")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--skip", action="append", default=[], metavar="CHECK",
+                   help="leave out this pass check (repeatable; e.g. model:neural_teacher)")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
     p.set_defaults(func=cmd_parity)
 

@@ -17,14 +17,20 @@ def cmd_parity(args) -> int:
     from viewer.gl import Programs, create_context
     from viewer.models import model_info
 
+    from learned.parity import check_models, pass_checks
+
+    unknown = [name for name in args.skip if name not in pass_checks()]
+    if unknown:
+        raise RelightError(f"no pass check named {unknown[0]!r} (known: "
+                           f"{', '.join(pass_checks())})", where="--skip")
     if args.model is not None:
-        from learned.parity import check_models
 
         if args.model not in check_models():
             model_info(args.model)  # not a pass-check group (e.g. "splats"): must be a model
     ctx = create_context(_context_options(args))
     try:
-        results = run_parity(Programs(ctx), model=args.model, seed=args.seed)
+        results = run_parity(Programs(ctx), model=args.model, seed=args.seed,
+                              skip=tuple(args.skip))
     finally:
         ctx.release()
     if args.json:

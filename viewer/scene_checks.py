@@ -114,6 +114,9 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
     if "shadow_size" in t:
         kw["shadow_size"] = _int(t["shadow_size"], "render.shadow_size", file, 64, 8192)
+    if "shadow_cube_size" in t:
+        kw["shadow_cube_size"] = _int(t["shadow_cube_size"], "render.shadow_cube_size", file, 32,
+                                      4096)
     for k in ("shadow_softness", "shadow_bias"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)

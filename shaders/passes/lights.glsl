@@ -72,26 +72,23 @@ uniform vec3 u_light_position[LIGHT_COUNT];    // world space (point, spot)
 uniform vec3 u_light_intensity[LIGHT_COUNT];   // colour x intensity: W/m^2 (directional), W/sr
 uniform vec4 u_light_cone_range[LIGHT_COUNT];  // (cos outer, cos inner, range or 0, 0)
 #if LIGHT_SHADOWS
-// per light: its map (a 1x1 map of depth 1 for lights without one), world -> (u, v, depth), and
-// (angular radius in radians, world depth range, world extent, normal offset in world units;
-// x < 0: no shadow map)
+// per light (viewer/passes/shade.py): its map (a 1x1 map of depth 1 for lights without one), the
+// map's world -> (u w, v w, depth, w) (unused by a cube map), its lens (kind: 0 none, SHADOW_ORTHO,
+// SHADOW_PERSPECTIVE, SHADOW_CUBE; light-size scale, near, depth range: shadow_penumbra_uv) and
+// normal offset (shadow_light_visibility)
 uniform sampler2D u_shadow_map[LIGHT_COUNT];
 uniform mat4 u_shadow_matrix[LIGHT_COUNT];
-uniform mat3 u_shadow_normal_matrix[LIGHT_COUNT];  // world normal -> map-space plane normal
-uniform vec4 u_shadow_params[LIGHT_COUNT];
+uniform vec4 u_shadow_lens[LIGHT_COUNT];
+uniform float u_shadow_offset[LIGHT_COUNT];
 #endif
 
-// The fraction of light i that reaches the surface point p (normal n, world space): its shadow
-// map's PCSS visibility (lib/shadow.glsl) where it has one, else 1.
-float light_visibility(int i, vec3 p, vec3 n) {
+// The fraction of light i that reaches the surface point p (normal n, world space; l towards the
+// light): its shadow map's PCSS visibility (lib/shadow.glsl) where it has one, else 1.
+float light_visibility(int i, vec3 p, vec3 n, vec3 l) {
 #if LIGHT_SHADOWS
-    vec4 sp = u_shadow_params[i];
-    if (sp.x < 0.0) return 1.0;
-    vec3 q = shadow_receiver(p, n, u_light_direction[i], sp.w);
-    vec3 s = (u_shadow_matrix[i] * vec4(q, 1.0)).xyz;
-    vec2 dz = shadow_depth_slope(u_shadow_normal_matrix[i] * n);
-    return shadow_visibility(u_shadow_map[i], s, dz, sp.x, sp.y, sp.z,
-                             shadow_phi(gl_FragCoord.xy));
+    return shadow_light_visibility(u_shadow_map[i], u_shadow_matrix[i], u_shadow_lens[i],
+                                   u_shadow_offset[i], u_light_position[i], l, p, n,
+                                   shadow_phi(gl_FragCoord.xy));
 #else
     return 1.0;
 #endif
@@ -101,7 +98,7 @@ float light_visibility(int i, vec3 p, vec3 n) {
 vec4 scene_light(int i, vec3 p, vec3 n) {
     vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
                              u_light_cone_range[i], p);
-    la.w *= light_visibility(i, p, n);
+    if (la.w > 0.0) la.w *= light_visibility(i, p, n, la.xyz);
     return la;
 }
 

@@ -11,6 +11,10 @@
 #define SHADOW_PCF_SAMPLES 32
 #define SHADOW_MIN_SAMPLES 8      // taps of a filter disk no wider than a few texels
 #define SHADOW_MAX_SEARCH_UV 0.25  // the blocker search never covers more than this radius
+// perspective and cube maps: the blocker search looks for occluders no nearer the light than this
+// fraction of the receiver's distance (a search reaching up to the light would cover most of the
+// map with a few samples, and miss the occluder it is looking for: noise in the umbra)
+#define SHADOW_NEAREST_BLOCKER 0.25
 #define SHADOW_ORTHO 1
 #define SHADOW_PERSPECTIVE 2
 #define SHADOW_CUBE 3
@@ -111,13 +115,13 @@ vec2 shadow_depth_slope(vec3 m) {
     return len_g > 4.0 ? g * (4.0 / len_g) : g;
 }
 
-// shadow_depth_slope of a receiver of world normal n in a map whose (u, v, depth) have the world
-// gradients du, dv, dd at the receiver (any kind of map: its local affine approximation). The
-// map-space normal is the inverse transpose of that Jacobian times n, up to a scale that the
-// slope does not see: the rows of the cofactor matrix, cross products of the gradients.
-vec2 shadow_plane_slope(vec3 du, vec3 dv, vec3 dd, vec3 n) {
-    return shadow_depth_slope(vec3(dot(cross(dv, dd), n), dot(cross(dd, du), n),
-                                   dot(cross(du, dv), n)));
+// The map-space normal of a receiver plane of world normal n in a map whose (u, v, depth) have
+// the world gradients du, dv, dd at the receiver (any kind of map: its local affine
+// approximation; dd may be any function's gradient, e.g. 1 / distance's): the inverse transpose
+// of that Jacobian times n, up to a scale no slope sees: the rows of the cofactor matrix, cross
+// products of the gradients. The plane's slope of that function per uv is -m.xy / m.z.
+vec3 shadow_plane_normal(vec3 du, vec3 dv, vec3 dd, vec3 n) {
+    return vec3(dot(cross(dv, dd), n), dot(cross(dd, du), n), dot(cross(du, dv), n));
 }
 
 // Radius (uv) of the map region whose occluders at depth zb can hide part of the light from a
@@ -133,11 +137,26 @@ float shadow_penumbra_uv(vec4 lens, float zr, float zb) {
     return lens.y * (1.0 / b - 1.0 / r);
 }
 
-// PCSS step 1: mean depth of the occluders in front of the receiver (depth z at uv, plane slope
-// dz) within radius search_uv of uv; -1 where none is (fully lit); face: the cube face uv is on
-// (-1: a 2D map). Sets umbra when every sample occludes.
-float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz, float search_uv,
-                           float phi, int face, out bool umbra) {
+// The receiver's depth in the map at the offset o from uv (its filter footprint's samples
+// compare against the receiver's own plane, not its centre's depth: a slanted receiver would
+// otherwise shadow itself under a wide kernel). plane = (z, dz): orthographic maps, the depth z at
+// uv and its slope dz (shadow_depth_slope); perspective and cube maps, the inverse of the distance
+// along the axis (of the cube face `face`) and its slope: 1 / distance is affine in (u, v) over a
+// plane, so the plane's depth is exact at any offset (kept at most 4 x the centre's where the
+// plane turns away from the light).
+float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
+    float z = plane.x + dot(plane.yz, o);
+    if (lens.x < 1.5) return z;
+    float axial = 1.0 / max(z, 0.25 * plane.x);
+    float dist = face < 0 ? axial : axial * length(shadow_cube_dir(face, uv + o));
+    return (dist - lens.z) / lens.w;
+}
+
+// PCSS step 1: mean depth of the occluders in front of the receiver (plane: see
+// shadow_receiver_depth) within radius search_uv of uv; -1 where none is (fully lit); face: the
+// cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes.
+float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
+                           vec4 lens, int face, out bool umbra) {
     int n = shadow_taps(search_uv, float(textureSize(map, 0).y) / (face < 0 ? 1.0 : 2.0),
                         SHADOW_SEARCH_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
@@ -146,7 +165,7 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz, float searc
     for (int i = 0; i < n; ++i) {
         vec2 o = sqrt((float(i) + 0.5) / float(n)) * search_uv * dir;
         float d = shadow_sample(map, uv + o, face);
-        if (d < z + dot(dz, o)) {
+        if (d < shadow_receiver_depth(plane, lens, face, uv, o)) {
             sum += d;
             count += 1.0;
         }
@@ -157,37 +176,43 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz, float searc
 }
 
 // Percentage-closer filter: the fraction of disk samples of radius r_uv around uv (shadow_taps
-// of them) whose stored depth does not occlude the receiver's plane (depth z at uv, slope dz).
-float shadow_pcf(sampler2D map, vec2 uv, float z, vec2 dz, float r_uv, float phi, int face) {
+// of them) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
+float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
+                 int face) {
     int n = shadow_taps(r_uv, float(textureSize(map, 0).y) / (face < 0 ? 1.0 : 2.0),
                         SHADOW_PCF_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float lit = 0.0;
     for (int i = 0; i < n; ++i) {
         vec2 o = sqrt((float(i) + 0.5) / float(n)) * r_uv * dir;
-        lit += shadow_sample(map, uv + o, face) >= z + dot(dz, o) ? 1.0 : 0.0;
+        lit += shadow_sample(map, uv + o, face) >= shadow_receiver_depth(plane, lens, face, uv, o)
+            ? 1.0 : 0.0;
         dir = vogel_turn(dir);
     }
     return lit / float(n);
 }
 
 // PCSS visibility at the map point s = (u, v, depth) of a receiver (after shadow_receiver) whose
-// plane has depth slope dz, for a light of lens (shadow_penumbra_uv); face: the cube face s is on
-// (-1: a 2D map). The blocker search covers every occluder that can reach the receiver; where
-// none is, lit; where every search sample occludes, in the umbra (the PCF disk is never wider
-// than the search's); else PCF over the penumbra's region, at least one texel wide (a hard
-// shadow is still filtered over a texel so it does not alias). Outside the map: lit.
-float shadow_pcss(sampler2D map, vec3 s, vec2 dz, vec4 lens, float phi, int face) {
+// plane is `plane` (shadow_receiver_depth), for a light of lens (shadow_penumbra_uv); face: the
+// cube face s is on (-1: a 2D map). The blocker search covers every occluder that can reach the
+// receiver (at most SHADOW_MAX_SEARCH_UV; for perspective and cube maps the occluders at least
+// SHADOW_NEAREST_BLOCKER of its distance from the light); where none is, lit; where every search sample
+// occludes, in the umbra (the PCF disk is never wider than the search's); else PCF over the
+// penumbra's region, at least one texel wide (a hard shadow is still filtered over a texel so
+// it does not alias). Outside the map: lit.
+float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face) {
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
     float texel_uv = (face < 0 ? 1.0 : 2.0) / float(textureSize(map, 0).y);
-    float search = clamp(shadow_penumbra_uv(lens, s.z, 0.0), 2.0 * texel_uv,
+    float nearest = lens.x < 1.5 ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
+                                                   * SHADOW_NEAREST_BLOCKER - lens.z) / lens.w);
+    float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 2.0 * texel_uv,
                          SHADOW_MAX_SEARCH_UV);
     bool umbra;
-    float blocker = shadow_blocker_depth(map, s.xy, s.z, dz, search, phi, face, umbra);
+    float blocker = shadow_blocker_depth(map, s.xy, plane, search, phi, lens, face, umbra);
     if (blocker < 0.0) return 1.0;
     if (umbra) return 0.0;
     float r = max(shadow_penumbra_uv(lens, s.z, blocker), texel_uv);
-    return shadow_pcf(map, s.xy, s.z, dz, r, phi, face);
+    return shadow_pcf(map, s.xy, plane, r, phi, lens, face);
 }
 
 // Visibility of a directional light of angular radius `angle` (radians) at the light-space point
@@ -196,7 +221,7 @@ float shadow_pcss(sampler2D map, vec3 s, vec2 dz, vec4 lens, float phi, int face
 float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle, float depth_range,
                         float extent, float phi) {
     vec4 lens = vec4(1.0, tan(clamp(angle, 0.0, 0.3)) / extent, 0.0, depth_range);
-    return shadow_pcss(map, s, dz, lens, phi, -1);
+    return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, -1);
 }
 
 // The fraction of a light that reaches the surface point p (normal n, world space) through its
@@ -225,12 +250,14 @@ float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, ve
     vec3 m3 = vec3(m[0][3], m[1][3], m[2][3]);
     vec3 du = (vec3(m[0][0], m[1][0], m[2][0]) - s.x * m3) / h.w;
     vec3 dv = (vec3(m[0][1], m[1][1], m[2][1]) - s.y * m3) / h.w;
-    vec3 dd = vec3(m[0][2], m[1][2], m[2][2]);
-    if (face >= 0) {  // depth: the distance from the light
-        vec3 d = q - light_pos;
-        float dist = length(d);
-        s.z = (dist - lens.z) / lens.w;
-        dd = d / (dist * lens.w);
+    if (ortho) {
+        vec2 dz = shadow_depth_slope(shadow_plane_normal(du, dv, vec3(m[0][2], m[1][2], m[2][2]),
+                                                         n));
+        return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, face);
     }
-    return shadow_pcss(map, s, shadow_plane_slope(du, dv, dd, n), lens, phi, face);
+    // perspective and cube: the plane as 1 / (distance along the axis), affine in (u, v)
+    if (face >= 0) s.z = (distance(q, light_pos) - lens.z) / lens.w;  // the distance
+    vec3 c = shadow_plane_normal(du, dv, -m3 / (h.w * h.w), n);
+    vec2 g = -c.xy / (abs(c.z) > 1e-30 ? c.z : 1e-30);
+    return shadow_pcss(map, s, vec3(1.0 / h.w, g), lens, phi, face);
 }

@@ -120,13 +120,20 @@ def shadowing(light, shadows: bool = True) -> tuple[int, ...]:
 
 def light_defines(light, shadows: bool = False) -> dict[str, int]:
     """The lighting passes' defines for these lights: LIGHT_COUNT, LIGHT_POSITIONAL (the
-    surface position is rebuilt from depth only when a point or spot light needs it) and
-    LIGHT_SHADOWS (some light reads a shadow map: :func:`shadowing`)."""
+    surface position is rebuilt from depth only when a point or spot light needs it),
+    LIGHT_SHADOWS (some light reads a shadow map: :func:`shadowing`) and, with shadows, the kinds
+    of map read (``lib/shadow.glsl``: SHADOW_POSITIONAL for spot or point lights' maps,
+    SHADOW_CUBE_MAPS for point lights')."""
     lights = as_lights(light)
     check_count(lights)
-    return {"LIGHT_COUNT": len(lights),
-            "LIGHT_POSITIONAL": int(any(li.positional for li in lights)),
-            "LIGHT_SHADOWS": int(bool(shadowing(lights, shadows)))}
+    casting = [lights[i].type for i in shadowing(lights, shadows)]
+    out = {"LIGHT_COUNT": len(lights),
+           "LIGHT_POSITIONAL": int(any(li.positional for li in lights)),
+           "LIGHT_SHADOWS": int(bool(casting))}
+    if casting:
+        out["SHADOW_POSITIONAL"] = int(any(t != "directional" for t in casting))
+        out["SHADOW_CUBE_MAPS"] = int("point" in casting)
+    return out
 
 
 def light_uniforms(light) -> dict[str, bytes]:

@@ -197,3 +197,4 @@ def cube_frames(bounds: Bounds, position, resolution: int = 1024) -> ShadowCube:
                                resolution, center=position) for a, r, t in CUBE_FACES)
     return ShadowCube(faces=faces, center=tuple(float(v) for v in position), near=near,
                       depth_range=far - near, resolution=int(resolution))
+

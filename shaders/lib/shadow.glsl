@@ -9,7 +9,7 @@
 
 #define SHADOW_SEARCH_SAMPLES 16
 #define SHADOW_PCF_SAMPLES 32
-#define SHADOW_MIN_SAMPLES 8      // taps of a filter disk no wider than a few texels
+#define SHADOW_MIN_SAMPLES 4      // taps of a filter disk no wider than a few texels
 #define SHADOW_MAX_SEARCH_UV 0.25  // the blocker search never covers more than this radius
 // perspective and cube maps: the blocker search looks for occluders no nearer the light than this
 // fraction of the receiver's distance (a search reaching up to the light would cover most of the
@@ -18,6 +18,16 @@
 #define SHADOW_ORTHO 1
 #define SHADOW_PERSPECTIVE 2
 #define SHADOW_CUBE 3
+// what a program compiles (viewer/lights.py light_defines): SHADOW_POSITIONAL 0 when every map it
+// reads is orthographic, SHADOW_CUBE_MAPS 0 when none is a cube map (their branches compile out)
+#ifndef SHADOW_POSITIONAL
+#define SHADOW_POSITIONAL 1
+#endif
+#ifndef SHADOW_CUBE_MAPS
+#define SHADOW_CUBE_MAPS 1
+#endif
+#define SHADOW_IS_ORTHO(lens) (SHADOW_POSITIONAL == 0 || (lens).x < 1.5)
+#define SHADOW_IS_2D(face) (SHADOW_CUBE_MAPS == 0 || (face) < 0)
 
 // Sample i of n on a unit disk (Vogel's golden-angle spiral), rotated by phi: evenly spread for
 // any n, and a per-pixel phi turns banding into noise.
@@ -40,12 +50,12 @@ float shadow_phi(vec2 frag_coord) {
     return 6.28318531 * fract(52.9829189 * fract(dot(frag_coord, vec2(0.06711056, 0.00583715))));
 }
 
-// Taps of a filter disk of radius r_uv on a map of `size` texels a side: about one per texel it
-// covers (pi r^2), at least SHADOW_MIN_SAMPLES, at most n_max: a hard shadow's one-texel kernel
-// needs 8, not 32.
+// Taps of a filter disk of radius r_uv on a map of `size` texels a side: about one per two texels
+// it covers (pi r^2 / 2: the per-pixel rotation spreads them), at least SHADOW_MIN_SAMPLES, at
+// most n_max: a hard shadow's one-texel kernel needs 4, not 32.
 int shadow_taps(float r_uv, float size, int n_max) {
     float r = r_uv * size;
-    return clamp(int(ceil(3.14159265 * r * r)), SHADOW_MIN_SAMPLES, n_max);
+    return clamp(int(ceil(1.57079633 * r * r)), SHADOW_MIN_SAMPLES, n_max);
 }
 
 // The receiver's world position moved off its surface before the lookup (normal-offset bias):
@@ -95,7 +105,7 @@ vec3 shadow_cube_dir(int face, vec2 uv) {
 // the texel of the direction through (u, v) of face `face`'s plane, on whichever face holds it
 // (a filter disk crossing a face's edge reads the neighbour face).
 float shadow_sample(sampler2D map, vec2 uv, int face) {
-    if (face < 0) return shadow_depth_at(map, uv);
+    if (SHADOW_IS_2D(face)) return shadow_depth_at(map, uv);
     vec3 fc = shadow_cube_face(shadow_cube_dir(face, uv));
     int f = int(fc.z);
     int n = textureSize(map, 0).y / 2;
@@ -131,7 +141,7 @@ vec3 shadow_plane_normal(vec3 du, vec3 dv, vec3 dd, vec3 n) {
 // z = near + depth range from it): similar triangles give R (1 / zb - 1 / zr) per unit of
 // distance, scale = R / (2 tan(half-angle)) (a cube face: half-angle 45 degrees).
 float shadow_penumbra_uv(vec4 lens, float zr, float zb) {
-    if (lens.x < 1.5) return lens.y * (zr - zb) * lens.w;
+    if (SHADOW_IS_ORTHO(lens)) return lens.y * (zr - zb) * lens.w;
     float r = lens.z + zr * lens.w;
     float b = lens.z + zb * lens.w;
     return lens.y * (1.0 / b - 1.0 / r);
@@ -146,9 +156,9 @@ float shadow_penumbra_uv(vec4 lens, float zr, float zb) {
 // plane turns away from the light).
 float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
     float z = plane.x + dot(plane.yz, o);
-    if (lens.x < 1.5) return z;
+    if (SHADOW_IS_ORTHO(lens)) return z;
     float axial = 1.0 / max(z, 0.25 * plane.x);
-    float dist = face < 0 ? axial : axial * length(shadow_cube_dir(face, uv + o));
+    float dist = SHADOW_IS_2D(face) ? axial : axial * length(shadow_cube_dir(face, uv + o));
     return (dist - lens.z) / lens.w;
 }
 
@@ -157,7 +167,7 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 // cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes.
 float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
                            vec4 lens, int face, out bool umbra) {
-    int n = shadow_taps(search_uv, float(textureSize(map, 0).y) / (face < 0 ? 1.0 : 2.0),
+    int n = shadow_taps(search_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
                         SHADOW_SEARCH_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float sum = 0.0;
@@ -179,7 +189,7 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
 // of them) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
 float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
                  int face) {
-    int n = shadow_taps(r_uv, float(textureSize(map, 0).y) / (face < 0 ? 1.0 : 2.0),
+    int n = shadow_taps(r_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
                         SHADOW_PCF_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float lit = 0.0;
@@ -202,10 +212,10 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
 // it does not alias). Outside the map: lit.
 float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face) {
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
-    float texel_uv = (face < 0 ? 1.0 : 2.0) / float(textureSize(map, 0).y);
-    float nearest = lens.x < 1.5 ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
+    float texel_uv = (SHADOW_IS_2D(face) ? 1.0 : 2.0) / float(textureSize(map, 0).y);
+    float nearest = SHADOW_IS_ORTHO(lens) ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
                                                    * SHADOW_NEAREST_BLOCKER - lens.z) / lens.w);
-    float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 2.0 * texel_uv,
+    float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 1.5 * texel_uv,
                          SHADOW_MAX_SEARCH_UV);
     bool umbra;
     float blocker = shadow_blocker_depth(map, s.xy, plane, search, phi, lens, face, umbra);
@@ -232,10 +242,10 @@ float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle, float depth
 float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, vec3 light_pos,
                               vec3 l, vec3 p, vec3 n, float phi) {
     if (lens.x < 0.5) return 1.0;
-    bool ortho = lens.x < 1.5;
+    bool ortho = SHADOW_IS_ORTHO(lens);
     vec3 q = shadow_receiver(p, n, l, ortho ? offset : offset * distance(p, light_pos));
     int face = -1;
-    if (lens.x > 2.5) {  // the face of the receiver's direction, as a perspective frame
+    if (SHADOW_CUBE_MAPS != 0 && lens.x > 2.5) {  // the face of the receiver's direction, as a perspective frame
         vec3 d = q - light_pos;
         face = int(shadow_cube_face(d).z);
         vec3 a = shadow_cube_dir(face, vec2(0.5));
@@ -256,7 +266,7 @@ float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, ve
         return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, face);
     }
     // perspective and cube: the plane as 1 / (distance along the axis), affine in (u, v)
-    if (face >= 0) s.z = (distance(q, light_pos) - lens.z) / lens.w;  // the distance
+    if (!SHADOW_IS_2D(face)) s.z = (distance(q, light_pos) - lens.z) / lens.w;  // the distance
     vec3 c = shadow_plane_normal(du, dv, -m3 / (h.w * h.w), n);
     vec2 g = -c.xy / (abs(c.z) > 1e-30 ? c.z : 1e-30);
     return shadow_pcss(map, s, vec3(1.0 / h.w, g), lens, phi, face);

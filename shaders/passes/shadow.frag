@@ -1,12 +1,17 @@
 // shadow.frag - writes the normalised light-space depth of the nearest occluder (R32F; the
 // depth test keeps the nearest). Meshes pass v_depth (RADIAL: the distance from the light,
 // (|p - light| - near) / range); splats (SPLAT) discard where a Gaussian's opacity falls below
-// SPLAT_SHADOW_ALPHA and write the Gaussian's mean depth along the ray.
+// SPLAT_SHADOW_ALPHA and write the Gaussian's mean depth along the ray. An orthographic map's
+// meshes (WRITE_DEPTH 0) leave the depth test the rasterised depth, the same linear depth: no
+// gl_FragDepth write, so the rasteriser may test depth before shading.
 #ifndef SPLAT
 #define SPLAT 0
 #endif
 #ifndef RADIAL
 #define RADIAL 0
+#endif
+#ifndef WRITE_DEPTH
+#define WRITE_DEPTH 1  // 0: the rasterised depth is the map's (orthographic meshes: exact)
 #endif
 #define SPLAT_SHADOW_ALPHA 0.5
 in float v_depth;
@@ -33,5 +38,7 @@ void main() {
     depth = (length(v_from_light) - u_near_range.x) / u_near_range.y;
 #endif
     o_depth = depth;
+#if WRITE_DEPTH
     gl_FragDepth = clamp(depth, 0.0, 1.0);
+#endif
 }

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.mesh import Mesh
-from ..shadows import ShadowCube, ShadowFrame
+from ..shadows import SHADOW_ORTHO, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
 
@@ -70,9 +70,13 @@ class ShadowPass:
         self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
                                   release=_release_arrays)
 
-    def _mesh_program(self, radial: bool = False):
+    def _mesh_program(self, variant: str = "ortho"):
+        """``variant``: "ortho" (the rasterised depth is the map's: no gl_FragDepth),
+        "perspective" (linear depth written per fragment) or "radial" (cube faces)."""
+        defines = {"ortho": {"WRITE_DEPTH": 0}, "perspective": {},
+                   "radial": {"RADIAL": 1}}[variant]
         return self.programs.graphics("passes/shadow_mesh.vert", "passes/shadow.frag",
-                                      defines={"RADIAL": 1} if radial else None)
+                                      defines=defines)
 
     def _splat_program(self):
         return self.programs.graphics("passes/shadow_splat.vert", "passes/shadow.frag",
@@ -102,11 +106,13 @@ class ShadowPass:
     def _draw_frame(self, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats]) -> None:
         n = int(frame.resolution)
         radial = frame.center is not None
+        variant = "radial" if radial else ("ortho" if frame.kind == SHADOW_ORTHO
+                                           else "perspective")
         matrix = np.ascontiguousarray(frame.matrix.T, np.float32).tobytes()
         for mesh in meshes:
             if mesh.alpha_mode == "BLEND":
                 continue
-            vao = self._mesh_array(mesh, radial)
+            vao = self._mesh_array(mesh, variant)
             vao.program["u_light_matrix"].write(matrix)
             if radial:
                 vao.program["u_light_center"].value = frame.center
@@ -119,18 +125,18 @@ class ShadowPass:
             vao.program["u_map_size"].value = (float(n), float(n))
             vao.render(self.ctx.TRIANGLE_STRIP, vertices=4, instances=len(cloud))
 
-    def _mesh_array(self, mesh: Mesh, radial: bool = False):
-        """The mesh's positions and indices with the shadow program (remade if the program was
-        evicted and compiled again); ``radial``: the cube faces' program."""
-        prog = self._mesh_program(radial)
-        entry = self.meshes.get(mesh, radial)
+    def _mesh_array(self, mesh: Mesh, variant: str = "ortho"):
+        """The mesh's positions and indices with the shadow program of ``variant``
+        (:meth:`_mesh_program`; remade if the program was evicted and compiled again)."""
+        prog = self._mesh_program(variant)
+        entry = self.meshes.get(mesh, variant)
         if entry is None or entry[0].program is not prog:
             mesh.validated()
             pos = self.ctx.buffer(np.ascontiguousarray(mesh.positions, np.float32).tobytes())
             idx = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
             vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
                                         index_element_size=4)
-            entry = self.meshes.put(mesh, radial, (vao, pos, idx), pos.size + idx.size)
+            entry = self.meshes.put(mesh, variant, (vao, pos, idx), pos.size + idx.size)
         return entry[0]
 
     def _splat_array(self, cloud: Splats, frame: ShadowFrame):

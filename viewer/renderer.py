@@ -35,7 +35,7 @@ from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .bounds import scene_bounds
 from .cache import BoundedCache
-from .models import ShadingModel, model_info
+from .models import ShadingModel, contact_shadows, model_info
 from .neural import learns_indirect, required_settings, shades_sun
 from .cache import Budgets, CacheStats
 from .graph.frame import FrameRequest, build_frame, visibility_graph
@@ -123,13 +123,15 @@ class Renderer:
         # (a classical model that does, or a student whose base does: viewer.neural.shades_sun)
         sun = ((model_info(scene.render.model).analytic_sun or shades_sun(scene.render))
                and scene.render.sun and self.resources.sun(scene.environment) is not None)
+        contact = contact_shadows(scene.render, any(o.type == "gbuffer" for o in scene.objects))
         if not scene.render.specialize:
             return specialise(None, scene.render, aovs, enabled=False, light=scene.light,
-                              sun=sun)
+                              sun=sun, contact=contact)
         # the analysis scans materials and texture maps: once per scene content, not per frame
         key = (scene.objects, scene.environment.path, scene.environment.procedural)
         features = self._features.get_or_create(key, lambda: analyse(self, scene))
-        return specialise(features, scene.render, aovs, light=scene.light, sun=sun)
+        return specialise(features, scene.render, aovs, light=scene.light, sun=sun,
+                          contact=contact)
 
     def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
         return self.specialization(scene, aovs).layout

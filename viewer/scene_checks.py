@@ -13,7 +13,7 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import RENDER_KEYS, SPLAT_DEPTHS, SSAO_SCALE_MAX
+from .settings import CONTACT_SHADOWS, RENDER_KEYS, SPLAT_DEPTHS, SSAO_SCALE_MAX
 
 
 TONEMAPS = ("none", "aces", "reinhard")
@@ -120,6 +120,11 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     for k in ("shadow_softness", "shadow_bias"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)
+    if "contact_shadows" in t:
+        kw["contact_shadows"] = _str(t["contact_shadows"], "render.contact_shadows", file,
+                                     CONTACT_SHADOWS)
+    if "contact_length" in t:
+        kw["contact_length"] = _num(t["contact_length"], "render.contact_length", file, 1e-6, 1e6)
     if "splat_depth" in t:
         kw["splat_depth"] = _str(t["splat_depth"], "render.splat_depth", file, SPLAT_DEPTHS)
     if "neural_storage" in t:

@@ -67,11 +67,18 @@ class ShadowSettings:
     # scales each light's angular size, so the penumbra (PCSS); 0: hard (shadow_softness)
     softness: float = 1.0
     bias: float = 1.0  # scales the receiver's normal offset (shadow_bias)
+    # screen-space contact shadows (passes/lights.glsl contact_shadow: a march through the
+    # G-buffer's depth towards each light): "auto" on image stacks (no shadow map holds them),
+    # "on" every surface (meshes too: small-scale detail a map's texels miss), "off"
+    # (contact_shadows)
+    contact: str = "auto"
+    contact_length: float = 0.3  # world units the march covers (contact_length)
 
     def __bool__(self):
         raise TypeError("ShadowSettings has no truth value: use settings.shadow.enabled")
 
 
+CONTACT_SHADOWS = ("auto", "on", "off")  # [render] contact_shadows
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
 
@@ -153,4 +160,6 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "shadow_cube_size": ("shadow", "cube_size"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),
+    "contact_shadows": ("shadow", "contact"),
+    "contact_length": ("shadow", "contact_length"),
 }

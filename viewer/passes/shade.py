@@ -141,6 +141,7 @@ class ShadePass:
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))
+        _set(prog, "u_contact_length", float(settings.shadow.contact_length))
         set_view_and_lighting(prog, camera, environment, light)
         out_fbo.use()
         self._draw(prog)

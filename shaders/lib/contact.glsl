@@ -6,12 +6,13 @@
 #include "lib/common.glsl"
 
 // A world point's pixel coordinates (gl_FragCoord units: (0, 0) the bottom-left corner) and view
-// depth (positive distance along the view axis) for a camera at camera_pos whose frame's columns
-// are right, up and back (camera_to_world), tan_half_fov = (tan(fov_x / 2), tan(fov_y / 2)), a
+// depth (positive distance along the view axis) for a camera at camera_pos whose frame's axes
+// are right, up and back (world space), tan_half_fov = (tan(fov_x / 2), tan(fov_y / 2)), a
 // framebuffer of `resolution` pixels.
-vec3 contact_project(vec3 p_ws, mat3 camera_to_world, vec3 camera_pos, vec2 tan_half_fov,
-                     vec2 resolution) {
-    vec3 v = transpose(camera_to_world) * (p_ws - camera_pos);
+vec3 contact_project(vec3 p_ws, vec3 right, vec3 up, vec3 back, vec3 camera_pos,
+                     vec2 tan_half_fov, vec2 resolution) {
+    vec3 d = p_ws - camera_pos;
+    vec3 v = vec3(dot(d, right), dot(d, up), dot(d, back));
     float depth = -v.z;
     vec2 ndc = v.xy / (max(depth, 1e-6) * tan_half_fov);
     return vec3((ndc * 0.5 + 0.5) * resolution, depth);

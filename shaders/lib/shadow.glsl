@@ -166,8 +166,8 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 // shadow_receiver_depth) within radius search_uv of uv; -1 where none is (fully lit); face: the
 // cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes.
 float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
-                           vec4 lens, int face, out bool umbra) {
-    int n = shadow_taps(search_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
+                           vec4 lens, int face, bool adaptive, out bool umbra) {
+    int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
                         SHADOW_SEARCH_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float sum = 0.0;
@@ -186,10 +186,10 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
 }
 
 // Percentage-closer filter: the fraction of disk samples of radius r_uv around uv (shadow_taps
-// of them) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
+// of them where adaptive, else SHADOW_PCF_SAMPLES) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
 float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
-                 int face) {
-    int n = shadow_taps(r_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
+                 int face, bool adaptive) {
+    int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
                         SHADOW_PCF_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float lit = 0.0;
@@ -210,7 +210,8 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
 // occludes, in the umbra (the PCF disk is never wider than the search's); else PCF over the
 // penumbra's region, at least one texel wide (a hard shadow is still filtered over a texel so
 // it does not alias). Outside the map: lit.
-float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face) {
+float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face,
+                  bool adaptive) {
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
     float texel_uv = (SHADOW_IS_2D(face) ? 1.0 : 2.0) / float(textureSize(map, 0).y);
     float nearest = SHADOW_IS_ORTHO(lens) ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
@@ -218,20 +219,22 @@ float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int f
     float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 1.5 * texel_uv,
                          SHADOW_MAX_SEARCH_UV);
     bool umbra;
-    float blocker = shadow_blocker_depth(map, s.xy, plane, search, phi, lens, face, umbra);
+    float blocker = shadow_blocker_depth(map, s.xy, plane, search, phi, lens, face, adaptive,
+                                         umbra);
     if (blocker < 0.0) return 1.0;
-    if (umbra) return 0.0;
+    if (adaptive && umbra) return 0.0;
     float r = max(shadow_penumbra_uv(lens, s.z, blocker), texel_uv);
-    return shadow_pcf(map, s.xy, plane, r, phi, lens, face);
+    return shadow_pcf(map, s.xy, plane, r, phi, lens, face, adaptive);
 }
 
 // Visibility of a directional light of angular radius `angle` (radians) at the light-space point
 // s of a receiver in an orthographic map `extent` world units wide and depth_range deep
-// (shadow_pcss with that light's lens; the sun's lookup).
+// (shadow_pcss with that light's lens and every tap: the sun's lookup, whose penumbrae the
+// golden images hold).
 float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle, float depth_range,
                         float extent, float phi) {
     vec4 lens = vec4(1.0, tan(clamp(angle, 0.0, 0.3)) / extent, 0.0, depth_range);
-    return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, -1);
+    return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, -1, false);
 }
 
 // The fraction of a light that reaches the surface point p (normal n, world space) through its
@@ -263,11 +266,11 @@ float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, ve
     if (ortho) {
         vec2 dz = shadow_depth_slope(shadow_plane_normal(du, dv, vec3(m[0][2], m[1][2], m[2][2]),
                                                          n));
-        return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, face);
+        return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, face, true);
     }
     // perspective and cube: the plane as 1 / (distance along the axis), affine in (u, v)
     if (!SHADOW_IS_2D(face)) s.z = (distance(q, light_pos) - lens.z) / lens.w;  // the distance
     vec3 c = shadow_plane_normal(du, dv, -m3 / (h.w * h.w), n);
     vec2 g = -c.xy / (abs(c.z) > 1e-30 ? c.z : 1e-30);
-    return shadow_pcss(map, s, vec3(1.0 / h.w, g), lens, phi, face);
+    return shadow_pcss(map, s, vec3(1.0 / h.w, g), lens, phi, face, true);
 }

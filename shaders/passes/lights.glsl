@@ -99,17 +99,18 @@ uniform float u_contact_length;  // world units the march covers
 // read the neighbouring pixels' depths as occluders), each sample's bias is a pixel's width at
 // its depth, and the samples are offset per pixel by contact_jitter of a step.
 float contact_shadow(vec3 p, vec3 n, vec3 l) {
-    vec3 c = contact_project(p, u_camera_to_world, u_camera_position, u_tan_half_fov,
+    mat3 cw = u_camera_to_world;
+    vec3 c = contact_project(p, cw[0], cw[1], cw[2], u_camera_position, u_tan_half_fov,
                              u_resolution);
     float pixel = 2.0 * u_tan_half_fov.y / u_resolution.y;  // a pixel's width per unit depth
     vec3 start = p + n * (2.0 * pixel * c.z);
     float step_ws = u_contact_length / float(CONTACT_STEPS);
-    float thickness = max(2.0 * abs(dot(l, u_camera_to_world[2])) * step_ws,
+    float thickness = max(2.0 * abs(dot(l, cw[2])) * step_ws,
                           0.5 * u_contact_length);
     float jitter = contact_jitter(gl_FragCoord.xy);
     for (int k = 0; k < CONTACT_STEPS; ++k) {
-        vec3 s = contact_project(start + l * ((float(k) + jitter) * step_ws), u_camera_to_world,
-                                 u_camera_position, u_tan_half_fov, u_resolution);
+        vec3 s = contact_project(start + l * ((float(k) + jitter) * step_ws), cw[0], cw[1],
+                                 cw[2], u_camera_position, u_tan_half_fov, u_resolution);
         if (s.z <= 0.0 || any(lessThan(s.xy, vec2(0.0))) ||
             any(greaterThanEqual(s.xy, u_resolution))) break;
         float scene = gbuffer_load(ivec2(s.xy)).depth;

@@ -8,6 +8,7 @@ from __future__ import annotations
 from . import (
     brdf,
     common,
+    contact,
     env_sampling,
     equirect,
     ibl,
@@ -24,7 +25,7 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (brdf, common, env_sampling, equirect, ibl, lights, mc, neural, sampling, sh, shading,
+MODULES = (brdf, common, contact, env_sampling, equirect, ibl, lights, mc, neural, sampling, sh, shading,
            shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]

@@ -5,9 +5,19 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .checks import env_sampling, forward, ibl, models, neural, shadow, splats, ssao
+from .checks import (
+    env_sampling,
+    forward,
+    ibl,
+    models,
+    neural,
+    shadow,
+    shadow_lights,
+    splats,
+    ssao,
+)
 
-CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow)
+CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow, shadow_lights)
 
 _REGISTRY: dict[str, tuple[str | None, Callable]] = {}
 

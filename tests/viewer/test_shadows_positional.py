@@ -144,3 +144,41 @@ def test_moving_the_light_redraws_its_map(renderer):
     finally:
         timer.enabled = False
         renderer.profiler = None
+
+
+@pytest.mark.parametrize("doc, needle", [
+    ({"lights": [{"type": "point", "position": [0, 1, 0], "radius": -0.1}]},
+     "lights[0].radius = -0.1 is outside [0.0, inf]"),
+    ({"lights": [{"type": "spot", "position": [0, 1, 0], "direction": [0, 1, 0],
+                  "shadow": "yes"}]}, "lights[0].shadow must be true or false"),
+    ({"lights": [{"type": "directional", "direction": [0, 1, 0], "radius": 0.1}]},
+     "unknown key 'radius' in lights[0]"),
+    ({"render": {"contact_shadows": "always"}},
+     "render.contact_shadows = 'always' is not one of auto, on, off"),
+    ({"render": {"contact_length": 0}}, "render.contact_length = 0 is outside"),
+    ({"render": {"shadow_cube_size": 8}}, "render.shadow_cube_size"),
+])
+def test_bad_shadow_keys_are_one_line_errors(tmp_path, doc, needle):
+    import tomli_w
+
+    from viewer.errors import SceneError
+    from viewer.scene import load_scene
+
+    p = tmp_path / "s.toml"
+    p.write_text(tomli_w.dumps(doc))
+    with pytest.raises(SceneError) as exc:
+        load_scene(p)
+    assert needle in str(exc.value) and "\n" not in str(exc.value), str(exc.value)
+
+
+def test_a_lights_radius_and_shadow_round_trip():
+    from viewer.light_tables import light_table, parse_lights_entry
+    from viewer.lights import DEFAULT_RADIUS, Light
+
+    spot = Light(type="spot", position=(0.0, 2.0, 0.0), radius=0.2, shadow=False,
+                 inner_cone_deg=10.0, outer_cone_deg=30.0)
+    table = light_table(spot)
+    assert table["radius"] == 0.2 and table["shadow"] is False
+    assert parse_lights_entry(table, 0, "s.toml") == spot
+    point = Light(type="point", position=(1.0, 2.0, 3.0))
+    assert point.radius == DEFAULT_RADIUS and "radius" not in light_table(point)

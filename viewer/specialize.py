@@ -11,7 +11,7 @@ output is unchanged (``relight bench`` measures both paths and records the diffe
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -120,6 +120,11 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     """
     dtype = "f2" if settings.precision == "fp16" else "f4"
     model = model_info(settings.model)
+    if enabled and features is not None and not (features.meshes or features.splats) and \
+            settings.shadow.enabled:
+        # nothing a shadow map could hold (image stacks alone): the lookups compile out (their
+        # 1x1 maps of depth 1 would give exactly 1 on the general path)
+        settings = replace(settings, shadow=replace(settings.shadow, enabled=False))
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True),
                               model.variant(settings, light, specular=True, sun=sun,

@@ -11,8 +11,9 @@ from .scene_checks import _check_keys, _num, _str, _vec
 
 # keys each type takes in [[lights]] (besides type, color, intensity)
 _KEYS = {"directional": {"direction", "angular_diameter_deg", "shadow"},
-         "point": {"position", "range"},
-         "spot": {"position", "direction", "inner_cone_deg", "outer_cone_deg", "range"}}
+         "point": {"position", "range", "radius", "shadow"},
+         "spot": {"position", "direction", "inner_cone_deg", "outer_cone_deg", "range", "radius",
+                  "shadow"}}
 
 
 def _direction(t: dict, where: str, file: str) -> tuple[float, float, float]:
@@ -67,6 +68,8 @@ def parse_lights_entry(t: Any, index: int, file: str) -> Light:
     if "angular_diameter_deg" in t:
         kw["angular_diameter_deg"] = _num(t["angular_diameter_deg"],
                                           f"{where}.angular_diameter_deg", file, 0.0, 30.0)
+    if "radius" in t:
+        kw["radius"] = _num(t["radius"], f"{where}.radius", file, 0.0)
     if "shadow" in t:
         if not isinstance(t["shadow"], bool):
             raise SceneError(f"{where}.shadow must be true or false, got {t['shadow']!r}",
@@ -94,7 +97,7 @@ def light_table(light: Light) -> dict[str, Any]:
                            "intensity": light.intensity}
     for k in sorted(_KEYS[light.type]):
         v = getattr(light, k)
-        if k in ("angular_diameter_deg", "shadow") and v == getattr(Light, k):
+        if k in ("angular_diameter_deg", "shadow", "radius") and v == getattr(Light, k):
             continue  # the defaults: not written
         if v is not None:
             out[k] = list(v) if isinstance(v, tuple) else v

@@ -25,6 +25,7 @@ from .errors import SceneError
 MAX_LIGHTS = 8  # uniform array entries a lighting pass compiles at most (LIGHT_COUNT)
 LIGHT_TYPES = ("directional", "point", "spot")
 LIGHT_TYPE_IDS = {t: i for i, t in enumerate(LIGHT_TYPES)}  # LIGHT_TYPE_* of lib/lights.glsl
+DEFAULT_RADIUS = 0.05  # metres: a point or spot light's size where the scene gives none
 
 @dataclass(frozen=True)
 class Light:
@@ -32,8 +33,11 @@ class Light:
     light's incoming direction; a spot light's axis reversed, from what it lights back to it);
     ``position`` a point or spot light's place. ``inner_cone_deg`` / ``outer_cone_deg``: a spot
     light's cone half-angles (full intensity inside the inner, none outside the outer, glTF's
-    falloff between); ``range``: glTF's range window (None: none). Nothing shadows a light yet
-    (``light_visibility`` in shaders/passes/lights.glsl is the hook)."""
+    falloff between); ``range``: glTF's range window (None: none). ``shadow``: the light casts a
+    shadow map when ``[render] shadows`` is on (``light_visibility`` in
+    shaders/passes/lights.glsl): a directional light's penumbra follows its
+    ``angular_diameter_deg``, a point or spot light's its ``radius`` (glTF's KHR_lights_punctual
+    has no size: lights from glTF files get :data:`DEFAULT_RADIUS`)."""
 
     direction: tuple[float, float, float] = (0.0, 1.0, 0.0)
     color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # linear RGB, >= 0
@@ -45,7 +49,9 @@ class Light:
     range: float | None = None
     # a directional light's angular size (the sun's 0.53 deg by default): its shadow's penumbra
     angular_diameter_deg: float = 0.53
-    shadow: bool = True  # a directional light casts a shadow (with [render] shadows)
+    shadow: bool = True  # casts a shadow map (with [render] shadows)
+    # a point or spot light's radius in metres (a sphere light): its shadow's penumbra
+    radius: float = 0.05
 
     @property
     def radiant(self) -> tuple[float, float, float]:
@@ -104,23 +110,30 @@ def as_lights(light) -> tuple[Light, ...]:
 
 
 def shadowing(light, shadows: bool = True) -> tuple[int, ...]:
-    """Indices of the lights that cast a shadow map: directional ones with ``shadow`` set, when
-    shadows are on (``[render] shadows``). Point and spot lights cast none yet."""
+    """Indices of the lights that cast a shadow map (those with ``shadow`` set), when shadows are
+    on (``[render] shadows``): directional lights an orthographic map, spot lights a perspective
+    one, point lights a cube map (:mod:`viewer.shadows`)."""
     if not shadows:
         return ()
-    return tuple(i for i, li in enumerate(as_lights(light))
-                 if li.type == "directional" and li.shadow)
+    return tuple(i for i, li in enumerate(as_lights(light)) if li.shadow)
 
 
 def light_defines(light, shadows: bool = False) -> dict[str, int]:
     """The lighting passes' defines for these lights: LIGHT_COUNT, LIGHT_POSITIONAL (the
-    surface position is rebuilt from depth only when a point or spot light needs it) and
-    LIGHT_SHADOWS (some light reads a shadow map: :func:`shadowing`)."""
+    surface position is rebuilt from depth only when a point or spot light needs it),
+    LIGHT_SHADOWS (some light reads a shadow map: :func:`shadowing`) and, with shadows, the kinds
+    of map read (``lib/shadow.glsl``: SHADOW_POSITIONAL for spot or point lights' maps,
+    SHADOW_CUBE_MAPS for point lights')."""
     lights = as_lights(light)
     check_count(lights)
-    return {"LIGHT_COUNT": len(lights),
-            "LIGHT_POSITIONAL": int(any(li.positional for li in lights)),
-            "LIGHT_SHADOWS": int(bool(shadowing(lights, shadows)))}
+    casting = [lights[i].type for i in shadowing(lights, shadows)]
+    out = {"LIGHT_COUNT": len(lights),
+           "LIGHT_POSITIONAL": int(any(li.positional for li in lights)),
+           "LIGHT_SHADOWS": int(bool(casting))}
+    if casting:
+        out["SHADOW_POSITIONAL"] = int(any(t != "directional" for t in casting))
+        out["SHADOW_CUBE_MAPS"] = int("point" in casting)
+    return out
 
 
 def light_uniforms(light) -> dict[str, bytes]:

@@ -60,14 +60,17 @@ class ShadingModel:
     analytic_sun: bool = False
 
     def variant(self, settings, light=None, specular: bool = True,
-                sun: bool = False) -> ShadeVariant:
+                sun: bool = False, contact: bool = False) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
         :class:`~viewer.lights.Light`, a tuple of them or None), whether any surface has a specular
         lobe (:class:`viewer.specialize.SceneFeatures`) and whether the environment has a sun
-        (:func:`viewer.sun.extract_sun`; shaded analytically when ``settings.sun``)."""
+        (:func:`viewer.sun.extract_sun`; shaded analytically when ``settings.sun``); ``contact``:
+        the lights' screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.lights == "shaded":
             d.update(light_defines(light, shadows=settings.shadow.enabled))
+            if contact and d["LIGHT_COUNT"] > 0:
+                d["CONTACT_SHADOWS"] = 1
         if self.occlusion:
             d["USE_AO"] = int(settings.ao)
             d["USE_SSAO"] = int(settings.ssao.enabled)
@@ -138,3 +141,11 @@ def model_info(name: str) -> ShadingModel:
         raise SceneError(f"unknown shading model {name!r} (known: {', '.join(MODELS)})",
                          where="model")
     return MODELS[name]
+
+
+def contact_shadows(settings, stacks: bool) -> bool:
+    """Whether the lights get screen-space contact shadows (``[render] contact_shadows``):
+    ``"on"``, or ``"auto"`` in a scene with image-space stacks (``stacks``: no shadow map holds
+    their surfaces, so contact shadows are all the shadow they get)."""
+    mode = settings.shadow.contact
+    return mode == "on" or (mode == "auto" and stacks)

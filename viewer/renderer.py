@@ -35,7 +35,7 @@ from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
 from .bounds import scene_bounds
 from .cache import BoundedCache
-from .models import ShadingModel, model_info
+from .models import ShadingModel, contact_shadows, model_info
 from .neural import learns_indirect, required_settings, shades_sun
 from .cache import Budgets, CacheStats
 from .graph.display import output_radiance, ssaa_factor
@@ -124,13 +124,15 @@ class Renderer:
         # (a classical model that does, or a student whose base does: viewer.neural.shades_sun)
         sun = ((model_info(scene.render.model).analytic_sun or shades_sun(scene.render))
                and scene.render.sun and self.resources.sun(scene.environment) is not None)
+        contact = contact_shadows(scene.render, any(o.type == "gbuffer" for o in scene.objects))
         if not scene.render.specialize:
             return specialise(None, scene.render, aovs, enabled=False, light=scene.light,
-                              sun=sun)
+                              sun=sun, contact=contact)
         # the analysis scans materials and texture maps: once per scene content, not per frame
         key = (scene.objects, scene.environment.path, scene.environment.procedural)
         features = self._features.get_or_create(key, lambda: analyse(self, scene))
-        return specialise(features, scene.render, aovs, light=scene.light, sun=sun)
+        return specialise(features, scene.render, aovs, light=scene.light, sun=sun,
+                          contact=contact)
 
     def layout_for(self, scene: Scene, aovs=()) -> GBufferLayout:
         return self.specialization(scene, aovs).layout
@@ -251,7 +253,8 @@ class Renderer:
         """Render ``scene`` and read back radiance, display pixels and the requested AOVs."""
         make_current(self.ctx)
         check_aovs(aovs)
-        targets = self.draw(scene, size, aovs=tuple(a for a in aovs if a != "color"))
+        targets = self.draw(scene, size, aovs=tuple(a for a in aovs
+                                                    if a != "color" and not _is_shadow_aov(a)))
         radiance = read_texture(targets.radiance, "f4")
         display = read_texture(targets.display, "f1")
         frame = Frame(radiance=radiance, display=display, camera=targets.camera)
@@ -260,6 +263,9 @@ class Renderer:
             channels = gb.read()
             n = ssaa_factor(scene)  # supersampled: the G-buffer is n x the size
             for name in aovs:
+                if _is_shadow_aov(name):  # a shadow map, at its own size
+                    frame.aovs[name] = _read_shadow_map(targets, name)
+                    continue
                 if name == "color" and "color" not in channels:
                     # meshes: the unlit colour is the albedo, premultiplied by coverage
                     channels["color"] = channels["albedo"] * channels["alpha"]
@@ -277,11 +283,30 @@ class Renderer:
 
 
 def check_aovs(aovs) -> None:
-    """Every name in ``aovs`` is a G-buffer channel (:data:`AOV_NAMES`), or a one-line error."""
-    unknown = [a for a in aovs if a not in AOV_NAMES]
+    """Every name in ``aovs`` is a G-buffer channel (:data:`AOV_NAMES`) or a shadow map
+    (``shadow<i>``, ``shadowsun``), or a one-line error."""
+    unknown = [a for a in aovs if a not in AOV_NAMES and not _is_shadow_aov(a)]
     if unknown:
         raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
-                         f"(known: {', '.join(AOV_NAMES)})", where="--aov")
+                         f"(known: {', '.join(AOV_NAMES)}, shadow<i>, shadowsun)", where="--aov")
+
+
+def _is_shadow_aov(name: str) -> bool:
+    """``shadow<i>`` (light i's map) or ``shadowsun`` (the environment's sun's)."""
+    rest = name[len("shadow"):] if name.startswith("shadow") else None
+    return rest is not None and (rest == "sun" or rest.isdigit())
+
+
+def _read_shadow_map(targets: FrameTargets, name: str):
+    """The shadow map ``name`` of a frame, ``[H, W, 1]`` float32 normalised depth (row 0 at the
+    top; a point light's: its atlas of six faces), or a one-line error naming those it has."""
+    target = targets.targets.get("shadowmap" + name[len("shadow"):])
+    if target is None:
+        have = sorted("shadow" + k[len("shadowmap"):] for k in targets.targets
+                      if k.startswith("shadowmap"))
+        raise SceneError(f"this scene draws no shadow map {name!r} (it draws: "
+                         f"{', '.join(have) or 'none'})", where="--aov")
+    return read_texture(target.texture, "f4")
 
 
 _LIGHT_WARNED: set[str] = set()

@@ -13,7 +13,8 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import AA_MODES, RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX, SSAO_SCALE_MAX
+from .settings import (AA_MODES, CONTACT_SHADOWS, RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX,
+                       SSAO_SCALE_MAX)
 
 
 TONEMAPS = ("pbr_neutral", "aces", "agx", "reinhard", "none")
@@ -118,9 +119,17 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
     if "shadow_size" in t:
         kw["shadow_size"] = _int(t["shadow_size"], "render.shadow_size", file, 64, 8192)
+    if "shadow_cube_size" in t:
+        kw["shadow_cube_size"] = _int(t["shadow_cube_size"], "render.shadow_cube_size", file, 32,
+                                      4096)
     for k in ("shadow_softness", "shadow_bias"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)
+    if "contact_shadows" in t:
+        kw["contact_shadows"] = _str(t["contact_shadows"], "render.contact_shadows", file,
+                                     CONTACT_SHADOWS)
+    if "contact_length" in t:
+        kw["contact_length"] = _num(t["contact_length"], "render.contact_length", file, 1e-6, 1e6)
     if "splat_depth" in t:
         kw["splat_depth"] = _str(t["splat_depth"], "render.splat_depth", file, SPLAT_DEPTHS)
     if "neural_storage" in t:

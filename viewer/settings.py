@@ -70,16 +70,26 @@ class DisplaySettings:
 class ShadowSettings:
     """Shadow maps of the shadowing lights (viewer/passes/shadow.py, lib/shadow.glsl)."""
 
-    enabled: bool = True  # every directional light casts a shadow (TOML: shadows)
-    size: int = 2048  # texels a side of each map (shadow_size, 64..8192)
+    enabled: bool = True  # every light with `shadow` set casts a shadow (TOML: shadows)
+    size: int = 2048  # texels a side of a directional or spot light's map (shadow_size, 64..8192)
+    # texels a side of each of a point light's six cube faces (shadow_cube_size, 32..4096): six
+    # faces of half the 2D map's side hold 1.5 x its texels
+    cube_size: int = 1024
     # scales each light's angular size, so the penumbra (PCSS); 0: hard (shadow_softness)
     softness: float = 1.0
     bias: float = 1.0  # scales the receiver's normal offset (shadow_bias)
+    # screen-space contact shadows (passes/lights.glsl contact_shadow: a march through the
+    # G-buffer's depth towards each light): "auto" on image stacks (no shadow map holds them),
+    # "on" every surface (meshes too: small-scale detail a map's texels miss), "off"
+    # (contact_shadows)
+    contact: str = "auto"
+    contact_length: float = 0.3  # world units the march covers (contact_length)
 
     def __bool__(self):
         raise TypeError("ShadowSettings has no truth value: use settings.shadow.enabled")
 
 
+CONTACT_SHADOWS = ("auto", "on", "off")  # [render] contact_shadows
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
 AA_MODES = ("fxaa", "none")  # [render] aa
@@ -163,6 +173,9 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "splat_depth": (None, "splat_depth"),
     "shadows": ("shadow", "enabled"),
     "shadow_size": ("shadow", "size"),
+    "shadow_cube_size": ("shadow", "cube_size"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),
+    "contact_shadows": ("shadow", "contact"),
+    "contact_length": ("shadow", "contact_length"),
 }

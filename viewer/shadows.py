@@ -1,38 +1,113 @@
 """Shadow-map frames: where a shadowing light's map looks from and what it covers.
 
-A directional light's map is an orthographic view along the light, fitted to the scene's bounds
-(:mod:`viewer.bounds`): the box's corners projected onto the light's axes give the map's extent
-in x and y (so no texel is spent outside the scene) and its depth range (so depth precision is
-spent only where there is geometry). :class:`ShadowFrame` maps world points to ``(u, v, depth)``
-in ``[0, 1]^3`` (depth 0 nearest the light) and carries the numbers the lookups need: the world
-size of one texel (normal-offset bias) and the world depth range (slope bias, penumbra width).
+Three kinds, one per light type (the ``SHADOW_*`` constants of ``lib/shadow.glsl``):
+
+* **orthographic** (directional lights, the environment's sun): a view along the light fitted to
+  the scene's bounds (:mod:`viewer.bounds`): the box's corners projected onto the light's axes
+  give the map's extent in x and y (no texel is spent outside the scene) and its depth range
+  (depth precision is spent only where there is geometry);
+* **perspective** (spot lights): a square frustum from the light's position along its axis whose
+  half-angle is the outer cone's (nothing outside the cone is lit, so nothing outside it needs a
+  shadow), near and far planes from the scene's bounds along the axis;
+* **cube** (point lights): six 90-degree perspective faces around the light (:class:`ShadowCube`)
+  in one atlas texture 3 faces wide and 2 high; the depth stored is the *distance* from the light
+  (not the depth along a face's axis), so a direction's depth does not depend on the face that
+  holds it.
+
+:class:`ShadowFrame` maps world points to ``(u, v, depth)`` (each in ``[0, 1]`` inside; depth 0
+nearest the light) through a 4x4 ``matrix`` to ``(u w, v w, depth, w)`` (``w = 1`` orthographic,
+the distance along the axis perspective), and carries what the lookups need: the world size of one
+texel (normal-offset bias), the depth range and near plane (penumbra width).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .bounds import Bounds
 
+SHADOW_ORTHO, SHADOW_PERSPECTIVE, SHADOW_CUBE = 1, 2, 3  # lib/shadow.glsl's kinds (0: none)
+MAX_SPOT_HALF_ANGLE_DEG = 80.0  # a wider spot's map is clamped to this (tan grows without bound)
+
+# a cube face: the axis it looks along, its map's +u and +v directions (lib/shadow.glsl
+# shadow_cube_face and shadow_cube_dir use the same table); atlas tile (face % 3, face // 3)
+CUBE_FACES = (((1, 0, 0), (0, 0, -1), (0, 1, 0)), ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
+              ((0, 1, 0), (1, 0, 0), (0, 0, -1)), ((0, -1, 0), (1, 0, 0), (0, 0, 1)),
+              ((0, 0, 1), (1, 0, 0), (0, 1, 0)), ((0, 0, -1), (-1, 0, 0), (0, 1, 0)))
+
 
 @dataclass(frozen=True)
 class ShadowFrame:
-    matrix: np.ndarray   # [4, 4] float64: world -> (u, v, depth, 1), each in [0, 1] inside
-    extent: tuple[float, float]  # world width and height the map covers
+    matrix: np.ndarray   # [4, 4] float64: world -> (u w, v w, depth, w)
+    extent: tuple[float, float]  # orthographic: world width and height; perspective: per unit
+    # of distance from the light (2 tan(half-angle) each)
     depth_range: float   # world distance from depth 0 to depth 1
-    resolution: int      # texels per side
+    resolution: int      # texels per side (a cube: per face side)
+    kind: int = SHADOW_ORTHO
+    near: float = 0.0    # perspective, cube: world distance from the light of depth 0
+    # cube faces: the light's position; depth is then the distance from it, not along the axis
+    center: tuple[float, float, float] | None = None
 
     @property
     def texel_world(self) -> float:
-        """World size of one texel (the larger side's)."""
+        """World size of one texel (the larger side's); perspective and cube frames: per unit of
+        distance from the light."""
         return max(self.extent) / float(self.resolution)
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """``[N, 3]`` world points -> ``[N, 3]`` (u, v, depth)."""
         p = np.asarray(points, np.float64).reshape(-1, 3)
         h = np.concatenate([p, np.ones((len(p), 1))], axis=1) @ self.matrix.T
-        return h[:, :3]
+        out = np.stack([h[:, 0] / h[:, 3], h[:, 1] / h[:, 3], h[:, 2]], axis=1)
+        if self.center is not None:
+            dist = np.linalg.norm(p - np.asarray(self.center), axis=1)
+            out[:, 2] = (dist - self.near) / self.depth_range
+        return out
+
+    def jacobian(self, points: np.ndarray) -> np.ndarray:
+        """``[N, 3, 3]``: rows d(u, v, depth)/d(world) at each point (the map's local affine
+        approximation: how a splat's covariance projects into it)."""
+        p = np.asarray(points, np.float64).reshape(-1, 3)
+        m = self.matrix
+        h = np.concatenate([p, np.ones((len(p), 1))], axis=1) @ m.T
+        w = h[:, 3:4]
+        du = (m[0, :3][None] - (h[:, 0:1] / w) * m[3, :3][None]) / w
+        dv = (m[1, :3][None] - (h[:, 1:2] / w) * m[3, :3][None]) / w
+        dd = np.broadcast_to(m[2, :3], du.shape)
+        if self.center is not None:
+            d = p - np.asarray(self.center)
+            dd = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12) / self.depth_range
+        return np.stack([du, dv, dd], axis=1)
+
+
+@dataclass(frozen=True)
+class ShadowCube:
+    """A point light's six faces (:data:`CUBE_FACES` order), one atlas 3 x 2 faces."""
+
+    faces: tuple[ShadowFrame, ...]
+    center: tuple[float, float, float]
+    near: float
+    depth_range: float
+    resolution: int  # texels per face side
+
+    kind = SHADOW_CUBE
+    extent = (2.0, 2.0)  # per unit of distance, every face
+
+    @property
+    def texel_world(self) -> float:
+        return 2.0 / float(self.resolution)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """Not used by the lookups (each face's is made in the shader): the identity."""
+        return np.eye(4)
+
+    def tile(self, face: int) -> tuple[int, int, int, int]:
+        """The atlas viewport (x, y, width, height) of ``face``."""
+        n = self.resolution
+        return (face % 3 * n, face // 3 * n, n, n)
 
 
 def light_basis(direction) -> np.ndarray:
@@ -64,3 +139,62 @@ def directional_frame(bounds: Bounds, direction, resolution: int = 2048,
     m[:3, 3] = -(scale @ lo)
     return ShadowFrame(matrix=m, extent=(float(size[0]), float(size[1])),
                        depth_range=float(size[2]), resolution=int(resolution))
+
+
+def _near_far(bounds: Bounds, position, axis=None) -> tuple[float, float]:
+    """The distances from ``position`` (along ``axis``; without: radially) that bound the box,
+    the near one at least 1e-3 of the far one (and 1e-4 world units)."""
+    p = np.asarray(position, np.float64)
+    corners = bounds.corners() - p
+    if axis is None:
+        far = float(np.linalg.norm(corners, axis=1).max())
+        nearest = np.clip(p, bounds.lo, bounds.hi) - p  # the box's nearest point
+        near = float(np.linalg.norm(nearest))
+    else:
+        along = corners @ np.asarray(axis, np.float64)
+        near, far = float(along.min()), float(along.max())
+    far = max(far * 1.01, 1e-3)
+    near = min(max(near * 0.99, far * 1e-3, 1e-4), far * 0.5)
+    return near, far
+
+
+def _perspective(origin, basis: np.ndarray, tan_half: float, near: float, far: float,
+                 resolution: int, center=None) -> ShadowFrame:
+    """A square frustum from ``origin`` looking along ``basis[2]`` (rows: map x, map y, axis)."""
+    o = np.asarray(origin, np.float64)
+    x, y, z = basis
+    rng = far - near
+    m = np.zeros((4, 4))
+    # u w = 0.5 (x.d / tan + z.d), v likewise, depth = (z.d - near) / range, w = z.d (d = p - o)
+    m[0, :3] = 0.5 * (x / tan_half + z)
+    m[1, :3] = 0.5 * (y / tan_half + z)
+    m[2, :3] = z / rng
+    m[3, :3] = z
+    m[:, 3] = -(m[:, :3] @ o)
+    m[2, 3] -= near / rng
+    return ShadowFrame(matrix=m, extent=(2.0 * tan_half, 2.0 * tan_half), depth_range=rng,
+                       resolution=int(resolution), kind=SHADOW_PERSPECTIVE, near=near,
+                       center=None if center is None else tuple(float(v) for v in center))
+
+
+def spot_frame(bounds: Bounds, position, direction, outer_cone_deg: float,
+               resolution: int = 2048, margin: float = 0.02) -> ShadowFrame:
+    """The perspective frame of a spot light at ``position`` (``direction``: its axis reversed,
+    towards the light): half-angle the outer cone's (at most
+    :data:`MAX_SPOT_HALF_ANGLE_DEG`) grown by ``margin``, near and far from ``bounds``."""
+    basis = light_basis(direction)
+    half = math.radians(min(float(outer_cone_deg), MAX_SPOT_HALF_ANGLE_DEG))
+    tan_half = math.tan(half) * (1.0 + margin)
+    near, far = _near_far(bounds, position, basis[2])
+    return _perspective(position, basis, tan_half, near, far, resolution)
+
+
+def cube_frames(bounds: Bounds, position, resolution: int = 1024) -> ShadowCube:
+    """The six faces of a point light at ``position``, depth the distance from it, near and far
+    from ``bounds``."""
+    near, far = _near_far(bounds, position)
+    faces = tuple(_perspective(position, np.array([r, t, a], np.float64), 1.0, near, far,
+                               resolution, center=position) for a, r, t in CUBE_FACES)
+    return ShadowCube(faces=faces, center=tuple(float(v) for v in position), near=near,
+                      depth_range=far - near, resolution=int(resolution))
+

@@ -11,7 +11,7 @@ output is unchanged (``relight bench`` measures both paths and records the diffe
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -108,20 +108,27 @@ _OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission
 
 
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
-               light=None, sun: bool = False) -> Specialization:
+               light=None, sun: bool = False, contact: bool = False) -> Specialization:
     """Layout and lighting-pass variant for ``settings.model`` on a scene with ``features`` and
     ``light`` (``Scene.light``: the lights to shade, or None; LIGHT_COUNT 0 compiles the light
     loop out, LIGHT_POSITIONAL 0 the surface position); ``sun``: the environment has a sun
-    (:func:`viewer.sun.extract_sun`) for a model that shades it analytically.
+    (:func:`viewer.sun.extract_sun`) for a model that shades it analytically; ``contact``: the
+    lights' screen-space contact shadows (:func:`viewer.models.contact_shadows`).
 
     ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
     the all-features path (every channel, every lobe), the baseline ``relight bench`` compares to.
     """
     dtype = "f2" if settings.precision == "fp16" else "f4"
     model = model_info(settings.model)
+    if enabled and features is not None and not (features.meshes or features.splats) and \
+            settings.shadow.enabled:
+        # nothing a shadow map could hold (image stacks alone): the lookups compile out (their
+        # 1x1 maps of depth 1 would give exactly 1 on the general path)
+        settings = replace(settings, shadow=replace(settings.shadow, enabled=False))
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True),
-                              model.variant(settings, light, specular=True, sun=sun))
+                              model.variant(settings, light, specular=True, sun=sun,
+                                            contact=contact))
     # models that do not say what they read get every channel (sampling, neural, future ones)
     needed = set(CHANNEL_NAMES if model.reads is None else model.reads)
     if model.specular_lobe and not features.specular:
@@ -138,6 +145,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
                                      or shadowing(light, settings.shadow.enabled)) or \
             (sun and settings.sun and settings.shadow.enabled):
         needed.add("depth")  # point and spot lights, shadow maps: the position from its depth
+    if contact and model.lights == "shaded" and as_lights(light):
+        needed |= {"depth", "alpha"}  # contact shadows march through the depth
     needed |= set(aovs) | {"albedo", "alpha"}
     needed -= _OPTIONAL  # allocated by the layout's flags, never omitted
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c not in _OPTIONAL)
@@ -146,5 +155,5 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
                                         with_emission=features.emission),
                           model.variant(settings, light, specular=features.specular,
-                                        sun=sun),
+                                        sun=sun, contact=contact),
                           direct_stack=direct)

@@ -5,9 +5,20 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .checks import antialias, env_sampling, forward, ibl, models, neural, shadow, splats, ssao
+from .checks import (
+    antialias,
+    env_sampling,
+    forward,
+    ibl,
+    models,
+    neural,
+    shadow,
+    shadow_lights,
+    splats,
+    ssao,
+)
 
-CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow,
+CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow, shadow_lights,
                  antialias)
 
 _REGISTRY: dict[str, tuple[str | None, Callable]] = {}

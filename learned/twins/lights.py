@@ -49,12 +49,13 @@ def punctual_light(type_: torch.Tensor, position: torch.Tensor, direction: torch
     return torch.cat([l, att[..., None]], dim=-1)
 
 
-def light_visibility(i: int, p: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
-    """GLSL ``float light_visibility(int i, vec3 p, vec3 n)`` (passes/lights.glsl) without shadow
-    maps (LIGHT_SHADOWS 0, as the model parity checks render): 1. With maps it is
-    ``shadow_visibility(shadow_receiver(...), shadow_depth_slope(...))`` of
-    :mod:`learned.twins.shadow`, each function twinned and parity-checked there; the composed,
-    shadowed lighting pass has no twin yet."""
+def light_visibility(i: int, p: torch.Tensor, n: torch.Tensor, l=None) -> torch.Tensor:
+    """GLSL ``float light_visibility(int i, vec3 p, vec3 n, vec3 l)`` (passes/lights.glsl)
+    without shadow maps or contact shadows (LIGHT_SHADOWS 0, CONTACT_SHADOWS 0, as the model
+    parity checks render): 1. With a map it is :func:`learned.twins.shadow.shadow_light_visibility`
+    of light i's map and uniforms (the pass check ``shadow:lights`` compares the two on a
+    rendered scene's maps), with contact shadows times
+    :func:`learned.twins.contact.contact_shadow`."""
     return torch.ones(p.shape[:-1], dtype=p.dtype)
 
 
@@ -88,7 +89,8 @@ def scene_light(light, i: int, p: torch.Tensor, n: torch.Tensor) -> torch.Tensor
     shape = p.shape[:-1]
     la = punctual_light(a["type"].expand(shape), a["position"].expand_as(p),
                         a["direction"].expand_as(p), a["cone_range"].expand(*shape, 4), p)
-    return torch.cat([la[..., :3], (la[..., 3] * light_visibility(i, p, n))[..., None]], -1)
+    return torch.cat([la[..., :3], (la[..., 3] * light_visibility(i, p, n, la[..., :3]))[..., None]],
+                     -1)
 
 
 def lights_ggx(lights, diffuse, f0, a, dfg, multiscatter, n, v, p) -> torch.Tensor:

@@ -1,12 +1,24 @@
 """Twins of ``shaders/lib/shadow.glsl``: shadow-map lookups (receiver bias, PCSS blocker search,
-percentage-closer filtering). A map is a ``[H, W]`` tensor in GL row order (row 0 = texel row 0,
-the bottom), as ``texelFetch`` addresses it; inputs broadcast over leading dimensions."""
+percentage-closer filtering) of orthographic, perspective and cube maps. A map is a ``[H, W]``
+tensor in GL row order (row 0 = texel row 0, the bottom), as ``texelFetch`` addresses it (a cube
+map: the atlas, 3 faces wide and 2 high); inputs broadcast over leading dimensions. The filters'
+loops run to the largest tap count of the batch with each element's own count masking the rest,
+as the GLSL loop runs each pixel's."""
 from __future__ import annotations
 
 import torch
 
 SHADOW_SEARCH_SAMPLES = 16
 SHADOW_PCF_SAMPLES = 32
+SHADOW_MIN_SAMPLES = 4
+SHADOW_MAX_SEARCH_UV = 0.25
+SHADOW_NEAREST_BLOCKER = 0.25
+SHADOW_ORTHO, SHADOW_PERSPECTIVE, SHADOW_CUBE = 1, 2, 3
+_GOLDEN = (-0.73736888, 0.67549030)  # (cos, sin) of the golden angle 2.39996323
+
+
+def _f(x) -> torch.Tensor:
+    return torch.as_tensor(x, dtype=torch.float32)
 
 
 def vogel_disk(i, n, phi) -> torch.Tensor:
@@ -17,6 +29,20 @@ def vogel_disk(i, n, phi) -> torch.Tensor:
     r = torch.sqrt((i + 0.5) / n)
     theta = i * 2.39996323 + phi
     return torch.stack([r * torch.cos(theta), r * torch.sin(theta)], dim=-1)
+
+
+def vogel_turn(dir_) -> torch.Tensor:
+    """GLSL ``vec2 vogel_turn(vec2 dir)``: ``dir`` turned by the golden angle."""
+    gx, gy = _GOLDEN
+    x, y = dir_[..., 0], dir_[..., 1]
+    return torch.stack([x * gx - y * gy, x * gy + y * gx], dim=-1)
+
+
+def shadow_taps(r_uv, size, n_max) -> torch.Tensor:
+    """GLSL ``int shadow_taps(float r_uv, float size, int n_max)`` (as float32)."""
+    r = _f(r_uv) * _f(size)
+    n = torch.ceil(1.57079633 * r * r)
+    return torch.minimum(torch.clamp_min(n, SHADOW_MIN_SAMPLES), _f(n_max))
 
 
 def shadow_phi(frag_coord) -> torch.Tensor:
@@ -39,6 +65,79 @@ def shadow_depth_at(map_, uv) -> torch.Tensor:
     return map_[ty, tx]
 
 
+def shadow_cube_face(d) -> torch.Tensor:
+    """GLSL ``vec3 shadow_cube_face(vec3 d)``: (u, v, face) of direction ``d``."""
+    a = d.abs()
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    on_x = (ax >= ay) & (ax >= az)
+    on_y = ~on_x & (ay >= az)
+    h = torch.full_like(x, 0.5)
+    fx = torch.stack([torch.where(x > 0, h - 0.5 * z / ax, h + 0.5 * z / ax), h + 0.5 * y / ax,
+                      torch.where(x > 0, 0.0, 1.0).to(x)], -1)
+    fy = torch.stack([h + 0.5 * x / ay, torch.where(y > 0, h - 0.5 * z / ay, h + 0.5 * z / ay),
+                      torch.where(y > 0, 2.0, 3.0).to(x)], -1)
+    fz = torch.stack([torch.where(z > 0, h + 0.5 * x / az, h - 0.5 * x / az), h + 0.5 * y / az,
+                      torch.where(z > 0, 4.0, 5.0).to(x)], -1)
+    return torch.where(on_x[..., None], fx, torch.where(on_y[..., None], fy, fz))
+
+
+def shadow_cube_dir(face, uv) -> torch.Tensor:
+    """GLSL ``vec3 shadow_cube_dir(int face, vec2 uv)``: the face plane's direction at ``uv``."""
+    face = torch.as_tensor(face).to(torch.int64)
+    st = uv * 2.0 - 1.0
+    s, t = st[..., 0], st[..., 1]
+    one = torch.ones_like(s)
+    face = face.expand(s.shape)
+    table = torch.stack([torch.stack([one, t, -s], -1), torch.stack([-one, t, s], -1),
+                         torch.stack([s, one, -t], -1), torch.stack([s, -one, t], -1),
+                         torch.stack([s, t, one], -1), torch.stack([-s, t, -one], -1)], 0)
+    return torch.gather(table, 0, face.clamp(0, 5)[None, ..., None].expand(1, *s.shape, 3))[0]
+
+
+def shadow_sample(map_, uv, face) -> torch.Tensor:
+    """GLSL ``float shadow_sample(sampler2D map, vec2 uv, int face)``: a 2D map's texel
+    (face < 0) or the cube atlas texel of the direction through face ``face``'s plane at uv."""
+    face = torch.as_tensor(face).to(torch.int64).expand(uv.shape[:-1])
+    flat = shadow_depth_at(map_, uv)
+    if bool((face < 0).all()):
+        return flat
+    fc = shadow_cube_face(shadow_cube_dir(face.clamp_min(0), uv))
+    f = fc[..., 2].long()
+    n = map_.shape[-2] // 2
+    tx = torch.floor(fc[..., 0] * n).long().clamp(0, n - 1) + (f % 3) * n
+    ty = torch.floor(fc[..., 1] * n).long().clamp(0, n - 1) + (f // 3) * n
+    return torch.where(face < 0, flat, map_[ty, tx])
+
+
+def shadow_plane_normal(du, dv, dd, n) -> torch.Tensor:
+    """GLSL ``vec3 shadow_plane_normal(vec3 du, vec3 dv, vec3 dd, vec3 n)``."""
+    def dot_cross(a, b):
+        return (torch.linalg.cross(a, b) * n).sum(-1)
+    return torch.stack([dot_cross(dv, dd), dot_cross(dd, du), dot_cross(du, dv)], -1)
+
+
+def shadow_penumbra_uv(lens, zr, zb) -> torch.Tensor:
+    """GLSL ``float shadow_penumbra_uv(vec4 lens, float zr, float zb)``."""
+    zr, zb = _f(zr), _f(zb)
+    ortho = lens[..., 1] * (zr - zb) * lens[..., 3]
+    r = lens[..., 2] + zr * lens[..., 3]
+    b = lens[..., 2] + zb * lens[..., 3]
+    persp = lens[..., 1] * (1.0 / b - 1.0 / r)
+    return torch.where(lens[..., 0] < 1.5, ortho, persp)
+
+
+def shadow_receiver_depth(plane, lens, face, uv, o) -> torch.Tensor:
+    """GLSL ``float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o)``."""
+    face = torch.as_tensor(face).to(torch.int64).expand(uv.shape[:-1])
+    z = plane[..., 0] + (plane[..., 1:] * o).sum(-1)
+    axial = 1.0 / torch.maximum(z, 0.25 * plane[..., 0])
+    ray = torch.linalg.vector_norm(shadow_cube_dir(face.clamp_min(0), uv + o), dim=-1)
+    dist = torch.where(face < 0, axial, axial * ray)
+    persp = (dist - lens[..., 2]) / lens[..., 3]
+    return torch.where(lens[..., 0] < 1.5, z, persp)
+
+
 def shadow_depth_slope(m) -> torch.Tensor:
     """GLSL ``vec2 shadow_depth_slope(vec3 m)``: the receiver plane's depth per uv unit."""
     mz = m[..., 2]
@@ -48,42 +147,138 @@ def shadow_depth_slope(m) -> torch.Tensor:
     return torch.where(n > 4.0, g * (4.0 / n.clamp_min(1e-30)), g)
 
 
-def shadow_blocker_depth(map_, uv, z, dz, search_uv, phi) -> torch.Tensor:
-    """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz,
-    float search_uv, float phi)``: mean occluder depth in the search disk, -1 where none."""
-    total = torch.zeros_like(z)
-    count = torch.zeros_like(z)
-    for i in range(SHADOW_SEARCH_SAMPLES):
-        off = vogel_disk(i, SHADOW_SEARCH_SAMPLES, phi) * search_uv[..., None]
-        d = shadow_depth_at(map_, uv + off)
-        hit = d < z + (dz * off).sum(-1)
+def _map_size(map_, face) -> torch.Tensor:
+    """textureSize(map, 0).y, halved for a cube atlas (per face)."""
+    h = float(map_.shape[-2])
+    face = torch.as_tensor(face)
+    return torch.where(face < 0, _f(h), _f(h / 2.0))
+
+
+def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
+    """The filters' common walk: (per-sample stored depth, receiver depth, active) for each tap
+    of the Vogel spiral of radius ``radius`` (shadow_taps of them where adaptive, else n_max)."""
+    n = shadow_taps(radius, _map_size(map_, face), n_max) if adaptive else \
+        torch.full_like(radius, float(n_max))
+    phi = _f(phi)
+    dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1).expand(*radius.shape, 2)
+    for i in range(int(n.max().item()) if n.numel() else 0):
+        o = (torch.sqrt((i + 0.5) / n) * radius)[..., None] * dir_
+        yield (shadow_sample(map_, uv + o, face),
+               shadow_receiver_depth(plane, lens, face, uv, o), i < n)
+        dir_ = vogel_turn(dir_)
+
+
+def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=True):
+    """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv,
+    float phi, vec4 lens, int face, bool adaptive, out bool umbra)``: (mean occluder depth or
+    -1, umbra)."""
+    search_uv = _f(search_uv).expand(uv.shape[:-1])
+    total = torch.zeros_like(search_uv)
+    count = torch.zeros_like(search_uv)
+    taps = shadow_taps(search_uv, _map_size(map_, face), SHADOW_SEARCH_SAMPLES) if adaptive \
+        else torch.full_like(search_uv, float(SHADOW_SEARCH_SAMPLES))
+    for d, z, active in _disk_loop(map_, uv, plane, search_uv, phi, lens, face,
+                                   SHADOW_SEARCH_SAMPLES, adaptive):
+        hit = active & (d < z)
         total = total + torch.where(hit, d, torch.zeros_like(d))
         count = count + hit.float()
-    return torch.where(count > 0, total / count.clamp_min(1.0), torch.full_like(z, -1.0))
+    depth = torch.where(count > 0, total / count.clamp_min(1.0), torch.full_like(total, -1.0))
+    return depth, count == taps
 
 
-def shadow_pcf(map_, uv, z, dz, r_uv, phi) -> torch.Tensor:
-    """GLSL ``float shadow_pcf(sampler2D map, vec2 uv, float z, vec2 dz, float r_uv,
-    float phi)``."""
-    lit = torch.zeros_like(z)
-    for i in range(SHADOW_PCF_SAMPLES):
-        off = vogel_disk(i, SHADOW_PCF_SAMPLES, phi) * r_uv[..., None]
-        lit = lit + (shadow_depth_at(map_, uv + off) >= z + (dz * off).sum(-1)).float()
-    return lit / float(SHADOW_PCF_SAMPLES)
+def shadow_pcf(map_, uv, plane, r_uv, phi, lens, face, adaptive=True) -> torch.Tensor:
+    """GLSL ``float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi,
+    vec4 lens, int face, bool adaptive)``."""
+    r_uv = _f(r_uv).expand(uv.shape[:-1])
+    lit = torch.zeros_like(r_uv)
+    taps = shadow_taps(r_uv, _map_size(map_, face), SHADOW_PCF_SAMPLES) if adaptive else \
+        torch.full_like(r_uv, float(SHADOW_PCF_SAMPLES))
+    for d, z, active in _disk_loop(map_, uv, plane, r_uv, phi, lens, face, SHADOW_PCF_SAMPLES,
+                                   adaptive):
+        lit = lit + (active & (d >= z)).float()
+    return lit / taps
+
+
+def shadow_pcss(map_, s, plane, lens, phi, face, adaptive=True) -> torch.Tensor:
+    """GLSL ``float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi,
+    int face, bool adaptive)``."""
+    face_t = torch.as_tensor(face)
+    outside = ((s < 0.0) | (s > 1.0)).any(-1)
+    texel_uv = torch.where(face_t < 0, 1.0, 2.0) / float(map_.shape[-2])
+    z = s[..., 2]
+    ortho = lens[..., 0] < 1.5
+    nearest = torch.where(ortho, torch.zeros_like(z), torch.clamp_min(
+        ((lens[..., 2] + z * lens[..., 3]) * SHADOW_NEAREST_BLOCKER - lens[..., 2])
+        / lens[..., 3], 0.0))
+    search = torch.minimum(torch.maximum(shadow_penumbra_uv(lens, z, nearest), 1.5 * texel_uv),
+                           _f(SHADOW_MAX_SEARCH_UV))
+    blocker, umbra = shadow_blocker_depth(map_, s[..., :2], plane, search, phi, lens, face,
+                                          adaptive)
+    r = torch.maximum(shadow_penumbra_uv(lens, z, blocker), texel_uv)
+    vis = shadow_pcf(map_, s[..., :2], plane, r, phi, lens, face, adaptive)
+    if adaptive:
+        vis = torch.where(umbra, torch.zeros_like(vis), vis)
+    vis = torch.where(blocker < 0.0, torch.ones_like(vis), vis)
+    return torch.where(outside, torch.ones_like(vis), vis)
 
 
 def shadow_visibility(map_, s, dz, angle, depth_range, extent, phi) -> torch.Tensor:
     """GLSL ``float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle,
-    float depth_range, float extent, float phi)``: PCSS visibility of a directional light of
-    angular radius ``angle`` at the light-space receiver point ``s`` (plane slope ``dz``)."""
-    angle = torch.as_tensor(angle, dtype=torch.float32)
-    outside = ((s < 0.0) | (s > 1.0)).any(-1)
-    texel_uv = 1.0 / float(map_.shape[-1])
+    float depth_range, float extent, float phi)``: shadow_pcss of a directional light of angular
+    radius ``angle`` at the light-space receiver point ``s`` (plane slope ``dz``)."""
+    angle = _f(angle)
     t = torch.tan(angle.clamp(0.0, 0.3))
     z = s[..., 2]
-    search = torch.clamp_min(z * depth_range * t / extent, 2.0 * texel_uv)
-    blocker = shadow_blocker_depth(map_, s[..., :2], z, dz, search, phi)
-    penumbra = (z - blocker) * depth_range * 2.0 * t / extent
-    vis = shadow_pcf(map_, s[..., :2], z, dz, torch.clamp_min(penumbra * 0.5, texel_uv), phi)
-    vis = torch.where(blocker < 0.0, torch.ones_like(vis), vis)
-    return torch.where(outside, torch.ones_like(vis), vis)
+    lens = torch.stack(torch.broadcast_tensors(torch.ones_like(z), t / _f(extent),
+                                               torch.zeros_like(z), _f(depth_range)), -1)
+    return shadow_pcss(map_, s, torch.cat([z[..., None], dz], -1), lens, phi, -1, False)
+
+
+def shadow_light_visibility(map_, m, lens, offset, light_pos, l, p, n, phi) -> torch.Tensor:
+    """GLSL ``float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset,
+    vec3 light_pos, vec3 l, vec3 p, vec3 n, float phi)`` for one map (``m``: [4, 4] with rows
+    as in :class:`viewer.shadows.ShadowFrame.matrix`; ``lens`` [4]; a single kind per call)."""
+    kind = int(round(float(lens[0])))
+    lens_b = lens.expand(*p.shape[:-1], 4)
+    if kind == 0:
+        return torch.ones(p.shape[:-1])
+    light_pos = _f(light_pos)
+    ortho = kind == SHADOW_ORTHO
+    texel = _f(offset) if ortho else _f(offset) * torch.linalg.vector_norm(p - light_pos, dim=-1)
+    q = shadow_receiver(p, n, l, texel)
+    face = torch.full(p.shape[:-1], -1, dtype=torch.int64)
+    rows = m.expand(*p.shape[:-1], 4, 4)
+    if kind == SHADOW_CUBE:
+        d = q - light_pos
+        face = shadow_cube_face(d)[..., 2].long()
+        a = shadow_cube_dir(face, torch.full((*face.shape, 2), 0.5))
+        r = shadow_cube_dir(face, torch.stack(torch.broadcast_tensors(
+            torch.ones(face.shape), torch.full(face.shape, 0.5)), -1)) - a
+        t = shadow_cube_dir(face, torch.stack(torch.broadcast_tensors(
+            torch.full(face.shape, 0.5), torch.ones(face.shape)), -1)) - a
+        ra, ta = r + a, t + a
+        zero = torch.zeros_like(a)
+
+        def row(v, w):
+            return torch.cat([v, w[..., None]], -1)
+        rows = torch.stack([row(0.5 * ra, -0.5 * (ra * light_pos).sum(-1)),
+                            row(0.5 * ta, -0.5 * (ta * light_pos).sum(-1)),
+                            row(zero, torch.zeros_like(a[..., 0])),
+                            row(a, -(a * light_pos).sum(-1))], -2)
+    h = (rows @ torch.cat([q, torch.ones_like(q[..., :1])], -1)[..., None])[..., 0]
+    w = h[..., 3]
+    s = torch.stack([h[..., 0] / w, h[..., 1] / w, h[..., 2]], -1)
+    m3 = rows[..., 3, :3]
+    du = (rows[..., 0, :3] - s[..., 0:1] * m3) / w[..., None]
+    dv = (rows[..., 1, :3] - s[..., 1:2] * m3) / w[..., None]
+    if ortho:
+        dz = shadow_depth_slope(shadow_plane_normal(du, dv, rows[..., 2, :3], n))
+        return shadow_pcss(map_, s, torch.cat([s[..., 2:3], dz], -1), lens_b, phi, face)
+    if kind == SHADOW_CUBE:
+        dist = torch.linalg.vector_norm(q - light_pos, dim=-1)
+        s = torch.stack([s[..., 0], s[..., 1], (dist - lens[2]) / lens[3]], -1)
+    c = shadow_plane_normal(du, dv, -m3 / (w * w)[..., None], n)
+    cz = c[..., 2]
+    cz = torch.where(cz.abs() > 1e-30, cz, torch.full_like(cz, 1e-30))
+    g = -c[..., :2] / cz[..., None]
+    return shadow_pcss(map_, s, torch.cat([(1.0 / w)[..., None], g], -1), lens_b, phi, face)

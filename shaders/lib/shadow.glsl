@@ -1,12 +1,33 @@
 // shadow.glsl - shadow-map lookups: receiver bias, percentage-closer soft shadows (PCSS: blocker
 // search, then a PCF kernel whose radius follows the light's size). The map stores, per texel, the
-// normalised light-space depth (0 nearest the light, 1 farthest) of the nearest occluder, in an
-// R32F texture read with texelFetch (nearest texel, clamped to the map); 1 where nothing is.
-// No uniforms, no main. Twins: learned/twins/shadow.py.
+// normalised depth (0 nearest the light, 1 farthest) of the nearest occluder, in an R32F texture
+// read with texelFetch (nearest texel, clamped to the map); 1 where nothing is. Three kinds of map
+// (viewer/shadows.py): orthographic (directional lights, the sun), perspective (spot lights:
+// depth linear along the axis) and cube (point lights: six faces in an atlas 3 x 2 faces, depth
+// the distance from the light). No uniforms, no main. Twins: learned/twins/shadow.py.
 #include "lib/common.glsl"
 
 #define SHADOW_SEARCH_SAMPLES 16
 #define SHADOW_PCF_SAMPLES 32
+#define SHADOW_MIN_SAMPLES 4      // taps of a filter disk no wider than a few texels
+#define SHADOW_MAX_SEARCH_UV 0.25  // the blocker search never covers more than this radius
+// perspective and cube maps: the blocker search looks for occluders no nearer the light than this
+// fraction of the receiver's distance (a search reaching up to the light would cover most of the
+// map with a few samples, and miss the occluder it is looking for: noise in the umbra)
+#define SHADOW_NEAREST_BLOCKER 0.25
+#define SHADOW_ORTHO 1
+#define SHADOW_PERSPECTIVE 2
+#define SHADOW_CUBE 3
+// what a program compiles (viewer/lights.py light_defines): SHADOW_POSITIONAL 0 when every map it
+// reads is orthographic, SHADOW_CUBE_MAPS 0 when none is a cube map (their branches compile out)
+#ifndef SHADOW_POSITIONAL
+#define SHADOW_POSITIONAL 1
+#endif
+#ifndef SHADOW_CUBE_MAPS
+#define SHADOW_CUBE_MAPS 1
+#endif
+#define SHADOW_IS_ORTHO(lens) (SHADOW_POSITIONAL == 0 || (lens).x < 1.5)
+#define SHADOW_IS_2D(face) (SHADOW_CUBE_MAPS == 0 || (face) < 0)
 
 // Sample i of n on a unit disk (Vogel's golden-angle spiral), rotated by phi: evenly spread for
 // any n, and a per-pixel phi turns banding into noise.
@@ -16,10 +37,25 @@ vec2 vogel_disk(int i, int n, float phi) {
     return r * vec2(cos(theta), sin(theta));
 }
 
+// The next sample's direction on Vogel's spiral: dir turned by the golden angle (the filters
+// walk the spiral by this rotation instead of a cos and sin per sample).
+vec2 vogel_turn(vec2 dir) {
+    const vec2 g = vec2(-0.73736888, 0.67549030);  // (cos, sin) of 2.39996323
+    return vec2(dir.x * g.x - dir.y * g.y, dir.x * g.y + dir.y * g.x);
+}
+
 // A pixel's rotation of the shadow filters' sample disk: interleaved gradient noise (Jimenez
 // 2014) of its fragment coordinates, in [0, 2 pi): the filter's pattern becomes noise, not bands.
 float shadow_phi(vec2 frag_coord) {
     return 6.28318531 * fract(52.9829189 * fract(dot(frag_coord, vec2(0.06711056, 0.00583715))));
+}
+
+// Taps of a filter disk of radius r_uv on a map of `size` texels a side: about one per two texels
+// it covers (pi r^2 / 2: the per-pixel rotation spreads them), at least SHADOW_MIN_SAMPLES, at
+// most n_max: a hard shadow's one-texel kernel needs 4, not 32.
+int shadow_taps(float r_uv, float size, int n_max) {
+    float r = r_uv * size;
+    return clamp(int(ceil(1.57079633 * r * r)), SHADOW_MIN_SAMPLES, n_max);
 }
 
 // The receiver's world position moved off its surface before the lookup (normal-offset bias):
@@ -37,6 +73,46 @@ float shadow_depth_at(sampler2D map, vec2 uv) {
     return texelFetch(map, t, 0).r;
 }
 
+// The cube face (0..5: +X, -X, +Y, -Y, +Z, -Z) holding direction d (from the light), and d's
+// (u, v) on it; the faces' axes are viewer/shadows.py CUBE_FACES.
+vec3 shadow_cube_face(vec3 d) {
+    vec3 a = abs(d);
+    if (a.x >= a.y && a.x >= a.z) {
+        return d.x > 0.0 ? vec3(0.5 - 0.5 * d.z / a.x, 0.5 + 0.5 * d.y / a.x, 0.0)
+                         : vec3(0.5 + 0.5 * d.z / a.x, 0.5 + 0.5 * d.y / a.x, 1.0);
+    }
+    if (a.y >= a.z) {
+        return d.y > 0.0 ? vec3(0.5 + 0.5 * d.x / a.y, 0.5 - 0.5 * d.z / a.y, 2.0)
+                         : vec3(0.5 + 0.5 * d.x / a.y, 0.5 + 0.5 * d.z / a.y, 3.0);
+    }
+    return d.z > 0.0 ? vec3(0.5 + 0.5 * d.x / a.z, 0.5 + 0.5 * d.y / a.z, 4.0)
+                     : vec3(0.5 - 0.5 * d.x / a.z, 0.5 + 0.5 * d.y / a.z, 5.0);
+}
+
+// The direction (from the light, not unit) of the point (u, v) of face `face`'s plane, extended
+// beyond [0, 1]: axis + (2u - 1) right + (2v - 1) up.
+vec3 shadow_cube_dir(int face, vec2 uv) {
+    vec2 st = uv * 2.0 - 1.0;
+    if (face == 0) return vec3(1.0, st.y, -st.x);
+    if (face == 1) return vec3(-1.0, st.y, st.x);
+    if (face == 2) return vec3(st.x, 1.0, -st.y);
+    if (face == 3) return vec3(st.x, -1.0, st.y);
+    if (face == 4) return vec3(st.x, st.y, 1.0);
+    return vec3(-st.x, st.y, -1.0);
+}
+
+// The depth a map stores at uv: a 2D map's (face < 0: shadow_depth_at), or, for a cube atlas,
+// the texel of the direction through (u, v) of face `face`'s plane, on whichever face holds it
+// (a filter disk crossing a face's edge reads the neighbour face).
+float shadow_sample(sampler2D map, vec2 uv, int face) {
+    if (SHADOW_IS_2D(face)) return shadow_depth_at(map, uv);
+    vec3 fc = shadow_cube_face(shadow_cube_dir(face, uv));
+    int f = int(fc.z);
+    int n = textureSize(map, 0).y / 2;
+    ivec2 t = clamp(ivec2(floor(fc.xy * float(n))), ivec2(0), ivec2(n - 1));
+    return texelFetch(map, t + ivec2(f % 3, f / 3) * n, 0).r;
+}
+
 // The receiver's depth gradient in the map (receiver-plane depth bias): a planar receiver of
 // light-space normal m (the normal through the inverse transpose of the world -> map matrix)
 // has depth z + dot(shadow_depth_slope(m), offset) at a uv offset, so samples of a filter
@@ -49,50 +125,152 @@ vec2 shadow_depth_slope(vec3 m) {
     return len_g > 4.0 ? g * (4.0 / len_g) : g;
 }
 
-// PCSS step 1: mean depth of the occluders in front of the receiver (depth z at uv, plane slope
-// dz) within radius search_uv of uv; -1 where none is (fully lit).
-float shadow_blocker_depth(sampler2D map, vec2 uv, float z, vec2 dz, float search_uv,
-                           float phi) {
+// The map-space normal of a receiver plane of world normal n in a map whose (u, v, depth) have
+// the world gradients du, dv, dd at the receiver (any kind of map: its local affine
+// approximation; dd may be any function's gradient, e.g. 1 / distance's): the inverse transpose
+// of that Jacobian times n, up to a scale no slope sees: the rows of the cofactor matrix, cross
+// products of the gradients. The plane's slope of that function per uv is -m.xy / m.z.
+vec3 shadow_plane_normal(vec3 du, vec3 dv, vec3 dd, vec3 n) {
+    return vec3(dot(cross(dv, dd), n), dot(cross(dd, du), n), dot(cross(du, dv), n));
+}
+
+// Radius (uv) of the map region whose occluders at depth zb can hide part of the light from a
+// receiver at depth zr (zb = 0: the blocker search's radius). lens = (kind, scale, near, range):
+// orthographic (a disk light of angular radius a, map `extent` wide): scale = tan(a) / extent,
+// radius = scale (zr - zb) range; perspective and cube (a sphere light of radius R, distances
+// z = near + depth range from it): similar triangles give R (1 / zb - 1 / zr) per unit of
+// distance, scale = R / (2 tan(half-angle)) (a cube face: half-angle 45 degrees).
+float shadow_penumbra_uv(vec4 lens, float zr, float zb) {
+    if (SHADOW_IS_ORTHO(lens)) return lens.y * (zr - zb) * lens.w;
+    float r = lens.z + zr * lens.w;
+    float b = lens.z + zb * lens.w;
+    return lens.y * (1.0 / b - 1.0 / r);
+}
+
+// The receiver's depth in the map at the offset o from uv (its filter footprint's samples
+// compare against the receiver's own plane, not its centre's depth: a slanted receiver would
+// otherwise shadow itself under a wide kernel). plane = (z, dz): orthographic maps, the depth z at
+// uv and its slope dz (shadow_depth_slope); perspective and cube maps, the inverse of the distance
+// along the axis (of the cube face `face`) and its slope: 1 / distance is affine in (u, v) over a
+// plane, so the plane's depth is exact at any offset (kept at most 4 x the centre's where the
+// plane turns away from the light).
+float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
+    float z = plane.x + dot(plane.yz, o);
+    if (SHADOW_IS_ORTHO(lens)) return z;
+    float axial = 1.0 / max(z, 0.25 * plane.x);
+    float dist = SHADOW_IS_2D(face) ? axial : axial * length(shadow_cube_dir(face, uv + o));
+    return (dist - lens.z) / lens.w;
+}
+
+// PCSS step 1: mean depth of the occluders in front of the receiver (plane: see
+// shadow_receiver_depth) within radius search_uv of uv; -1 where none is (fully lit); face: the
+// cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes.
+float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
+                           vec4 lens, int face, bool adaptive, out bool umbra) {
+    int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
+                        SHADOW_SEARCH_SAMPLES);
+    vec2 dir = vec2(cos(phi), sin(phi));
     float sum = 0.0;
     float count = 0.0;
-    for (int i = 0; i < SHADOW_SEARCH_SAMPLES; ++i) {
-        vec2 o = vogel_disk(i, SHADOW_SEARCH_SAMPLES, phi) * search_uv;
-        float d = shadow_depth_at(map, uv + o);
-        if (d < z + dot(dz, o)) {
+    for (int i = 0; i < n; ++i) {
+        vec2 o = sqrt((float(i) + 0.5) / float(n)) * search_uv * dir;
+        float d = shadow_sample(map, uv + o, face);
+        if (d < shadow_receiver_depth(plane, lens, face, uv, o)) {
             sum += d;
             count += 1.0;
         }
+        dir = vogel_turn(dir);
     }
+    umbra = count == float(n);
     return count > 0.0 ? sum / count : -1.0;
 }
 
-// Percentage-closer filter: the fraction of SHADOW_PCF_SAMPLES disk samples of radius r_uv around
-// uv whose stored depth does not occlude the receiver's plane (depth z at uv, slope dz).
-float shadow_pcf(sampler2D map, vec2 uv, float z, vec2 dz, float r_uv, float phi) {
+// Percentage-closer filter: the fraction of disk samples of radius r_uv around uv (shadow_taps
+// of them where adaptive, else SHADOW_PCF_SAMPLES) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
+float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
+                 int face, bool adaptive) {
+    int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
+                        SHADOW_PCF_SAMPLES);
+    vec2 dir = vec2(cos(phi), sin(phi));
     float lit = 0.0;
-    for (int i = 0; i < SHADOW_PCF_SAMPLES; ++i) {
-        vec2 o = vogel_disk(i, SHADOW_PCF_SAMPLES, phi) * r_uv;
-        lit += shadow_depth_at(map, uv + o) >= z + dot(dz, o) ? 1.0 : 0.0;
+    for (int i = 0; i < n; ++i) {
+        vec2 o = sqrt((float(i) + 0.5) / float(n)) * r_uv * dir;
+        lit += shadow_sample(map, uv + o, face) >= shadow_receiver_depth(plane, lens, face, uv, o)
+            ? 1.0 : 0.0;
+        dir = vogel_turn(dir);
     }
-    return lit / float(SHADOW_PCF_SAMPLES);
+    return lit / float(n);
+}
+
+// PCSS visibility at the map point s = (u, v, depth) of a receiver (after shadow_receiver) whose
+// plane is `plane` (shadow_receiver_depth), for a light of lens (shadow_penumbra_uv); face: the
+// cube face s is on (-1: a 2D map). The blocker search covers every occluder that can reach the
+// receiver (at most SHADOW_MAX_SEARCH_UV; for perspective and cube maps the occluders at least
+// SHADOW_NEAREST_BLOCKER of its distance from the light); where none is, lit; where every search sample
+// occludes, in the umbra (the PCF disk is never wider than the search's); else PCF over the
+// penumbra's region, at least one texel wide (a hard shadow is still filtered over a texel so
+// it does not alias). Outside the map: lit.
+float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face,
+                  bool adaptive) {
+    if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
+    float texel_uv = (SHADOW_IS_2D(face) ? 1.0 : 2.0) / float(textureSize(map, 0).y);
+    float nearest = SHADOW_IS_ORTHO(lens) ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
+                                                   * SHADOW_NEAREST_BLOCKER - lens.z) / lens.w);
+    float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 1.5 * texel_uv,
+                         SHADOW_MAX_SEARCH_UV);
+    bool umbra;
+    float blocker = shadow_blocker_depth(map, s.xy, plane, search, phi, lens, face, adaptive,
+                                         umbra);
+    if (blocker < 0.0) return 1.0;
+    if (adaptive && umbra) return 0.0;
+    float r = max(shadow_penumbra_uv(lens, s.z, blocker), texel_uv);
+    return shadow_pcf(map, s.xy, plane, r, phi, lens, face, adaptive);
 }
 
 // Visibility of a directional light of angular radius `angle` (radians) at the light-space point
-// s = (u, v, depth) of a receiver (after shadow_receiver) whose plane has depth slope dz
-// (shadow_depth_slope): PCSS with the penumbra of a disk light
-// seen past an occluder, w = (z_receiver - z_blocker) * depth_range * 2 tan(angle), in uv units of
-// a map `extent` world units wide; at least one texel wide (a hard shadow is still filtered over a
-// texel so it does not alias). Outside the map: lit.
+// s of a receiver in an orthographic map `extent` world units wide and depth_range deep
+// (shadow_pcss with that light's lens and every tap: the sun's lookup, whose penumbrae the
+// golden images hold).
 float shadow_visibility(sampler2D map, vec3 s, vec2 dz, float angle, float depth_range,
                         float extent, float phi) {
-    if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
-    float texel_uv = 1.0 / float(textureSize(map, 0).x);
-    float t = tan(clamp(angle, 0.0, 0.3));
-    // an occluder as far in front as the light's side of the map casts a penumbra of half-width
-    // s.z depth_range tan(angle): no farther occluder can reach the receiver
-    float search = max(s.z * depth_range * t / extent, 2.0 * texel_uv);
-    float blocker = shadow_blocker_depth(map, s.xy, s.z, dz, search, phi);
-    if (blocker < 0.0) return 1.0;
-    float penumbra = (s.z - blocker) * depth_range * 2.0 * t / extent;
-    return shadow_pcf(map, s.xy, s.z, dz, max(penumbra * 0.5, texel_uv), phi);
+    vec4 lens = vec4(1.0, tan(clamp(angle, 0.0, 0.3)) / extent, 0.0, depth_range);
+    return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, -1, false);
+}
+
+// The fraction of a light that reaches the surface point p (normal n, world space) through its
+// shadow map: m the map's world -> (u w, v w, depth, w) (a cube map's faces are made here), lens
+// (shadow_penumbra_uv; lens.x = 0: no map, lit), offset the normal offset (world units for an
+// orthographic map, per unit of distance from the light for the others), light_pos the light's
+// position (perspective, cube), l the unit direction towards the light at p.
+float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, vec3 light_pos,
+                              vec3 l, vec3 p, vec3 n, float phi) {
+    if (lens.x < 0.5) return 1.0;
+    bool ortho = SHADOW_IS_ORTHO(lens);
+    vec3 q = shadow_receiver(p, n, l, ortho ? offset : offset * distance(p, light_pos));
+    int face = -1;
+    if (SHADOW_CUBE_MAPS != 0 && lens.x > 2.5) {  // the face of the receiver's direction, as a perspective frame
+        vec3 d = q - light_pos;
+        face = int(shadow_cube_face(d).z);
+        vec3 a = shadow_cube_dir(face, vec2(0.5));
+        vec3 r = shadow_cube_dir(face, vec2(1.0, 0.5)) - a;
+        vec3 t = shadow_cube_dir(face, vec2(0.5, 1.0)) - a;
+        m = transpose(mat4(vec4(0.5 * (r + a), -0.5 * dot(r + a, light_pos)),
+                           vec4(0.5 * (t + a), -0.5 * dot(t + a, light_pos)),
+                           vec4(0.0), vec4(a, -dot(a, light_pos))));
+    }
+    vec4 h = m * vec4(q, 1.0);
+    vec3 s = vec3(h.xy / h.w, h.z);
+    vec3 m3 = vec3(m[0][3], m[1][3], m[2][3]);
+    vec3 du = (vec3(m[0][0], m[1][0], m[2][0]) - s.x * m3) / h.w;
+    vec3 dv = (vec3(m[0][1], m[1][1], m[2][1]) - s.y * m3) / h.w;
+    if (ortho) {
+        vec2 dz = shadow_depth_slope(shadow_plane_normal(du, dv, vec3(m[0][2], m[1][2], m[2][2]),
+                                                         n));
+        return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, face, true);
+    }
+    // perspective and cube: the plane as 1 / (distance along the axis), affine in (u, v)
+    if (!SHADOW_IS_2D(face)) s.z = (distance(q, light_pos) - lens.z) / lens.w;  // the distance
+    vec3 c = shadow_plane_normal(du, dv, -m3 / (h.w * h.w), n);
+    vec2 g = -c.xy / (abs(c.z) > 1e-30 ? c.z : 1e-30);
+    return shadow_pcss(map, s, vec3(1.0 / h.w, g), lens, phi, face, true);
 }

@@ -1,6 +1,7 @@
 // debug_view.frag - what the viewer shows: the tone-mapped image, one G-buffer channel, or the
 // error of the render against a reference, resampled (nearest) into the current viewport.
-// Defines: VIEW_MODE (0 display, 1 G-buffer channel, 2 difference, 3 false-colour error).
+// Defines: VIEW_MODE (0 display, 1 G-buffer channel, 2 difference, 3 false-colour error, 4 a
+// shadow map: its normalised depth as grey, 1 (nothing) white; a cube map's atlas of six faces).
 // VIEW_MODE 1 includes "generated/debug_channel.glsl" (viewer/passes/debug_view.py), which defines
 // vec3 debug_channel(GBuffer g): the chosen channel as display-ready [0, 1] values.
 #include "lib/tonemap.glsl"
@@ -11,6 +12,8 @@ layout(location = 0) out vec4 o_color;  // sRGB-encoded display values
 
 #if VIEW_MODE == 0
 uniform sampler2D u_display;
+#elif VIEW_MODE == 4
+uniform sampler2D u_shadow_map;  // R32F, its own size (not the render's)
 #elif VIEW_MODE == 1
 #define GBUFFER_READ
 #include "generated/gbuffer.glsl"
@@ -42,6 +45,10 @@ void main() {
     ivec2 pixel = clamp(ivec2(v_uv * vec2(u_source_size)), ivec2(0), u_source_size - 1);
 #if VIEW_MODE == 0
     o_color = vec4(texelFetch(u_display, pixel, 0).rgb, 1.0);
+#elif VIEW_MODE == 4
+    ivec2 map_size = textureSize(u_shadow_map, 0);
+    ivec2 texel = clamp(ivec2(v_uv * vec2(map_size)), ivec2(0), map_size - 1);
+    o_color = vec4(vec3(clamp(texelFetch(u_shadow_map, texel, 0).r, 0.0, 1.0)), 1.0);
 #elif VIEW_MODE == 1
     o_color = vec4(debug_channel(gbuffer_load(pixel)), 1.0);
 #else

@@ -21,7 +21,10 @@
 #if LIGHT_SHADOWS || SUN_SHADOW
 #include "lib/shadow.glsl"
 #endif
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW
+#ifndef CONTACT_SHADOWS
+#define CONTACT_SHADOWS 0  // 1: screen-space contact shadows ([render] contact_shadows)
+#endif
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS
 uniform vec3 u_camera_position;                // world space
 #endif
 
@@ -29,7 +32,7 @@ uniform vec3 u_camera_position;                // world space
 // distance along the view axis) at fragment frag_coord; 0 without positional lights or
 // shadow maps.
 vec3 light_surface_position(vec2 frag_coord, float depth) {
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS
     vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
     return u_camera_position + u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0) * depth;
 #else
@@ -72,36 +75,73 @@ uniform vec3 u_light_position[LIGHT_COUNT];    // world space (point, spot)
 uniform vec3 u_light_intensity[LIGHT_COUNT];   // colour x intensity: W/m^2 (directional), W/sr
 uniform vec4 u_light_cone_range[LIGHT_COUNT];  // (cos outer, cos inner, range or 0, 0)
 #if LIGHT_SHADOWS
-// per light: its map (a 1x1 map of depth 1 for lights without one), world -> (u, v, depth), and
-// (angular radius in radians, world depth range, world extent, normal offset in world units;
-// x < 0: no shadow map)
+// per light (viewer/passes/shade.py): its map (a 1x1 map of depth 1 for lights without one), the
+// map's world -> (u w, v w, depth, w) (unused by a cube map), its lens (kind: 0 none, SHADOW_ORTHO,
+// SHADOW_PERSPECTIVE, SHADOW_CUBE; light-size scale, near, depth range: shadow_penumbra_uv) and
+// normal offset (shadow_light_visibility)
 uniform sampler2D u_shadow_map[LIGHT_COUNT];
 uniform mat4 u_shadow_matrix[LIGHT_COUNT];
-uniform mat3 u_shadow_normal_matrix[LIGHT_COUNT];  // world normal -> map-space plane normal
-uniform vec4 u_shadow_params[LIGHT_COUNT];
+uniform vec4 u_shadow_lens[LIGHT_COUNT];
+uniform float u_shadow_offset[LIGHT_COUNT];
 #endif
 
-// The fraction of light i that reaches the surface point p (normal n, world space): its shadow
-// map's PCSS visibility (lib/shadow.glsl) where it has one, else 1.
-float light_visibility(int i, vec3 p, vec3 n) {
-#if LIGHT_SHADOWS
-    vec4 sp = u_shadow_params[i];
-    if (sp.x < 0.0) return 1.0;
-    vec3 q = shadow_receiver(p, n, u_light_direction[i], sp.w);
-    vec3 s = (u_shadow_matrix[i] * vec4(q, 1.0)).xyz;
-    vec2 dz = shadow_depth_slope(u_shadow_normal_matrix[i] * n);
-    return shadow_visibility(u_shadow_map[i], s, dz, sp.x, sp.y, sp.z,
-                             shadow_phi(gl_FragCoord.xy));
-#else
+#if CONTACT_SHADOWS
+#include "lib/contact.glsl"
+#define CONTACT_STEPS 12
+uniform float u_contact_length;  // world units the march covers
+
+// 0 where the march from p (normal n) towards the light (unit l) meets, within u_contact_length,
+// a sample hidden behind what the G-buffer's depth shows (contact_occluded), else 1. What the
+// buffer shows is assumed half the march's length thick, or twice the march's change of depth
+// per step where that is more (Filament's thickness, which alone misses a march entering an
+// object from its hidden side), so a march passing far behind an object is not taken for a
+// hit; the march starts two pixels' width off the surface (a sample on the surface itself would
+// read the neighbouring pixels' depths as occluders), each sample's bias is a pixel's width at
+// its depth, and the samples are offset per pixel by contact_jitter of a step.
+float contact_shadow(vec3 p, vec3 n, vec3 l) {
+    mat3 cw = u_camera_to_world;
+    vec3 c = contact_project(p, cw[0], cw[1], cw[2], u_camera_position, u_tan_half_fov,
+                             u_resolution);
+    float pixel = 2.0 * u_tan_half_fov.y / u_resolution.y;  // a pixel's width per unit depth
+    vec3 start = p + n * (2.0 * pixel * c.z);
+    float step_ws = u_contact_length / float(CONTACT_STEPS);
+    float thickness = max(2.0 * abs(dot(l, cw[2])) * step_ws,
+                          0.5 * u_contact_length);
+    float jitter = contact_jitter(gl_FragCoord.xy);
+    for (int k = 0; k < CONTACT_STEPS; ++k) {
+        vec3 s = contact_project(start + l * ((float(k) + jitter) * step_ws), cw[0], cw[1],
+                                 cw[2], u_camera_position, u_tan_half_fov, u_resolution);
+        if (s.z <= 0.0 || any(lessThan(s.xy, vec2(0.0))) ||
+            any(greaterThanEqual(s.xy, u_resolution))) break;
+        float scene = gbuffer_load(ivec2(s.xy)).depth;
+        float bias = pixel * s.z;
+        if (contact_occluded(s.z, scene, bias, max(thickness, 2.0 * bias)) > 0.5) return 0.0;
+    }
     return 1.0;
+}
 #endif
+
+// The fraction of light i that reaches the surface point p (normal n, world space; l towards the
+// light): its shadow map's PCSS visibility (lib/shadow.glsl) where it has one, times the contact
+// shadow (CONTACT_SHADOWS), else 1.
+float light_visibility(int i, vec3 p, vec3 n, vec3 l) {
+    float v = 1.0;
+#if LIGHT_SHADOWS
+    v = shadow_light_visibility(u_shadow_map[i], u_shadow_matrix[i], u_shadow_lens[i],
+                                u_shadow_offset[i], u_light_position[i], l, p, n,
+                                shadow_phi(gl_FragCoord.xy));
+#endif
+#if CONTACT_SHADOWS
+    if (v > 0.0 && dot(n, l) > 0.0) v *= contact_shadow(p, n, l);
+#endif
+    return v;
 }
 
 // Light i at p: (l, irradiance scale): punctual_light's attenuation times light_visibility.
 vec4 scene_light(int i, vec3 p, vec3 n) {
     vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
                              u_light_cone_range[i], p);
-    la.w *= light_visibility(i, p, n);
+    if (la.w > 0.0) la.w *= light_visibility(i, p, n, la.xyz);
     return la;
 }
 

@@ -1,27 +1,39 @@
-// parity_shadow.comp - lib/shadow.glsl's map lookups (shadow_depth_at, shadow_blocker_depth,
-// shadow_pcf, shadow_visibility) on a list of inputs, for the parity check against
-// learned.twins.shadow (learned/parity/checks/shadow.py).
+// parity_shadow.comp - lib/shadow.glsl's map lookups (shadow_sample, shadow_blocker_depth,
+// shadow_pcf, shadow_visibility, shadow_pcss) on a list of inputs, for the parity check against
+// learned.twins.shadow (learned/parity/checks/shadow.py). u_lens: the map's kind and lens
+// (shadow_penumbra_uv); a cube map is an atlas 3 x 2 faces.
 #include "lib/shadow.glsl"
 layout(local_size_x = 64) in;
 uniform uint u_count;
 uniform sampler2D u_map;
 uniform float u_depth_range;
 uniform float u_extent;
-// [n][9]: s (u, v, depth), radius (uv: search and PCF), angle, phi, m (light-space normal)
+uniform vec4 u_lens;
+// [n][13]: s (u, v, depth), radius (uv: search and PCF), angle, phi, m (light-space normal),
+// face (-1: a 2D map), plane (shadow_receiver_depth)
 layout(std430, binding = 0) readonly buffer In { float inv[]; };
-layout(std430, binding = 1) writeonly buffer Out { float outv[]; };  // [n][6]
+layout(std430, binding = 1) writeonly buffer Out { float outv[]; };  // [n][8]
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= u_count) return;
-    vec3 s = vec3(inv[9u * i], inv[9u * i + 1u], inv[9u * i + 2u]);
-    float radius = inv[9u * i + 3u];
-    float angle = inv[9u * i + 4u];
-    float phi = inv[9u * i + 5u];
-    vec2 dz = shadow_depth_slope(vec3(inv[9u * i + 6u], inv[9u * i + 7u], inv[9u * i + 8u]));
-    outv[6u * i] = shadow_depth_at(u_map, s.xy);
-    outv[6u * i + 1u] = shadow_blocker_depth(u_map, s.xy, s.z, dz, radius, phi);
-    outv[6u * i + 2u] = shadow_pcf(u_map, s.xy, s.z, dz, radius, phi);
-    outv[6u * i + 3u] = shadow_visibility(u_map, s, dz, angle, u_depth_range, u_extent, phi);
-    outv[6u * i + 4u] = dz.x;
-    outv[6u * i + 5u] = dz.y;
+    uint k = 13u * i;
+    vec3 s = vec3(inv[k], inv[k + 1u], inv[k + 2u]);
+    float radius = inv[k + 3u];
+    float angle = inv[k + 4u];
+    float phi = inv[k + 5u];
+    vec2 dz = shadow_depth_slope(vec3(inv[k + 6u], inv[k + 7u], inv[k + 8u]));
+    int face = int(inv[k + 9u]);
+    vec3 plane = vec3(inv[k + 10u], inv[k + 11u], inv[k + 12u]);
+    bool umbra;
+    uint o = 8u * i;
+    outv[o] = shadow_sample(u_map, s.xy, face);
+    outv[o + 1u] = shadow_blocker_depth(u_map, s.xy, plane, radius, phi, u_lens, face, true,
+                                        umbra);
+    outv[o + 2u] = umbra ? 1.0 : 0.0;
+    outv[o + 3u] = shadow_pcf(u_map, s.xy, plane, radius, phi, u_lens, face, true);
+    outv[o + 4u] = face < 0 ? shadow_visibility(u_map, s, dz, angle, u_depth_range, u_extent, phi)
+                            : 0.0;
+    outv[o + 5u] = shadow_pcss(u_map, s, plane, u_lens, phi, face, true);
+    outv[o + 6u] = dz.x;
+    outv[o + 7u] = dz.y;
 }

@@ -27,7 +27,7 @@ from ..passes.forward import forward_model
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
-from ..shadows import directional_frame
+from ..shadows import ShadowCube, cube_frames, directional_frame, spot_frame
 from ..specialize import Specialization
 from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
@@ -194,10 +194,12 @@ def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, ca
 
 # ---- shadows ----------------------------------------------------------------------------------
 def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) -> dict:
-    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``) and for the
-    environment's analytic sun (``shadowsun``), fitted to the scene's bounds; only where the
-    lighting pass reads them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) ->
-    (resource, frame, angular radius, normal offset) for the lighting pass."""
+    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``: orthographic,
+    perspective for a spot light, a cube atlas for a point light) and for the environment's
+    analytic sun (``shadowsun``), fitted to the scene's bounds; only where the lighting pass reads
+    them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) -> (resource, frame,
+    light size: angular radius in radians or radius in world units, normal offset) for the
+    lighting pass."""
     settings = scene.render
     defines = dict(spec.variant.defines)
     if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")):
@@ -210,33 +212,53 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
     meshes = [m for obj, c in contents if obj.type not in ("gbuffer", "splats") for m in c]
     clouds = [c for obj, c in contents if obj.type == "splats"]
     spass = renderer.resources.shadow_pass()
-    size = int(settings.shadow.size)
-    casters = []  # (light index or "sun", direction towards it, angular radius)
+    casters = []  # (light index or "sun", frame, penumbra size: angular or world radius)
     if defines.get("LIGHT_SHADOWS"):
-        casters += [(i, lights[i].direction,
-                     math.radians(lights[i].angular_diameter_deg) / 2.0)
+        casters += [(i, light_shadow_frame(lights[i], bounds, settings.shadow),
+                     lights[i].radius if lights[i].positional
+                     else math.radians(lights[i].angular_diameter_deg) / 2.0)
                     for i in shadowing(lights, settings.shadow.enabled)]
     if defines.get("SUN_SHADOW"):
         sun = renderer.resources.sun(scene.environment)
         # the sun's direction is in the environment's frame: turned by its rotation
-        casters.append(("sun", env_to_world(sun.direction, scene.environment.rotation_deg),
+        direction = env_to_world(sun.direction, scene.environment.rotation_deg)
+        casters.append(("sun", directional_frame(bounds, direction, int(settings.shadow.size)),
                         float(sun.angular_radius)))
     # what casts shadows: the objects without their materials (a material slider keeps the maps)
     shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
     out = {}
-    for i, direction, radius in casters:
-        frame = directional_frame(bounds, direction, resolution=size)
-        name = g.create(f"shadowmap{i}", ShadowMapDesc(size), kept=True)
+    for i, frame, size in casters:
+        cube = isinstance(frame, ShadowCube)
+        name = g.create(f"shadowmap{i}", ShadowMapDesc(frame.resolution, 6 if cube else 1),
+                        kept=True)
 
         def draw(f, name=name, frame=frame):
             spass.draw(f[name], frame, meshes, clouds)
         # the light's colour and intensity do not enter: a light slider reuses the map
         g.add_pass(f"shadow{i}", draw, writes=(name,),
                    inputs={"shapes": shapes, "geometry": renderer.geometry_cache.version,
-                           "direction": tuple(direction), "size": size})
-        out[i] = (name, frame, radius * settings.shadow.softness,
+                           "frame": _frame_key(frame)})
+        out[i] = (name, frame, size * settings.shadow.softness,
                   frame.texel_world * settings.shadow.bias)
     return out
+
+
+def light_shadow_frame(light, bounds, shadow):
+    """The shadow frame of ``light`` fitted to ``bounds`` (``shadow``: the render settings'
+    :class:`~viewer.settings.ShadowSettings`): orthographic, perspective (spot) or a cube
+    (point)."""
+    if light.type == "spot":
+        return spot_frame(bounds, light.position, light.direction, light.outer_cone_deg,
+                          int(shadow.size))
+    if light.type == "point":
+        return cube_frames(bounds, light.position, int(shadow.cube_size))
+    return directional_frame(bounds, light.direction, int(shadow.size))
+
+
+def _frame_key(frame) -> tuple:
+    """What a shadow map's contents depend on besides the shapes: its frame's numbers."""
+    faces = getattr(frame, "faces", (frame,))
+    return tuple((f.matrix.tobytes(), f.resolution, f.near, f.depth_range) for f in faces)
 
 
 def env_to_world(direction, rotation_deg: float) -> tuple[float, float, float]:

@@ -87,21 +87,31 @@ class ShadowTarget:
 
 @dataclass(frozen=True)
 class ShadowMapDesc:
-    """A square shadow map of ``size`` texels a side."""
+    """A square shadow map of ``size`` texels a side, or (``faces=6``) a point light's cube map
+    as an atlas of six such faces, 3 wide and 2 high (viewer/shadows.py ShadowCube)."""
 
     size: int
+    faces: int = 1
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = int(self.size)
+        return (3 * n, 2 * n) if self.faces == 6 else (n, n)
 
     def create(self, ctx) -> ShadowTarget:
-        n = int(self.size)
-        tex = ctx.texture((n, n), 1, dtype="f4")
+        shape = self.shape
+        tex = ctx.texture(shape, 1, dtype="f4")
         tex.filter = (ctx.NEAREST, ctx.NEAREST)
         tex.repeat_x = tex.repeat_y = False
-        depth = ctx.depth_renderbuffer((n, n))
+        depth = ctx.depth_renderbuffer(shape)
         return ShadowTarget(tex, depth, ctx.framebuffer(color_attachments=[tex],
                                                         depth_attachment=depth))
 
     def bytes(self) -> int:
-        return int(self.size) ** 2 * 8
+        w, h = self.shape
+        return w * h * 8
 
     def describe(self) -> str:
+        if self.faces == 6:
+            return f"6 x {self.size}x{self.size} cube shadow map R32F + depth"
         return f"{self.size}x{self.size} shadow map R32F + depth"

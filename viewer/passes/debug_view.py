@@ -2,7 +2,9 @@
 
 Shows one of :data:`VIEWS`: the tone-mapped image, a G-buffer channel, or the
 render against a reference (``difference``: |render - reference| exposed like the image;
-``error``: relative luminance error in false colour, Turbo map, ``error_scale`` at the top).
+``error``: relative luminance error in false colour, Turbo map, ``error_scale`` at the top); or one
+of the frame's shadow maps (``shadow<i>`` for light i, ``shadowsun`` for the environment's sun:
+:func:`shadow_views` lists a frame's), its normalised depth as grey (white: nothing).
 The program variant is chosen by prepended defines (``VIEW_MODE``) plus a generated chunk that
 maps the chosen channel to display values, so switching views is a cached program switch.
 
@@ -19,6 +21,17 @@ from . import FullscreenDraw, bind_gbuffer
 VIEW_MODES = {"display": 0, "difference": 2, "error": 3}  # any channel name is mode 1
 # what the view can show: the image, one G-buffer channel, the error against a reference
 VIEWS = ("display",) + CHANNEL_NAMES + ("difference", "error")
+
+SHADOW_VIEW_MODE = 4  # a shadow map: shadow<i>, shadowsun
+
+
+def shadow_views(targets) -> tuple[str, ...]:
+    """The shadow-map views of a frame (a :class:`~viewer.frame.FrameTargets`): ``shadow<i>``
+    and ``shadowsun`` for each ``shadowmap<i>`` / ``shadowmapsun`` target it drew."""
+    return tuple(sorted("shadow" + name[len("shadowmap"):] for name in targets.targets
+                        if name.startswith("shadowmap")))
+
+
 _COLOUR_CHANNELS = ("albedo", "color")
 
 
@@ -52,7 +65,9 @@ class DebugViewPass:
     def program(self, view: str, layout: GBufferLayout):
         # the assembler inlines includes before the preprocessor runs, so every mode gets the
         # generated chunks (modes other than 1 compile them out)
-        if view in VIEW_MODES:
+        if view.startswith("shadow"):
+            mode, channel = SHADOW_VIEW_MODE, "albedo"
+        elif view in VIEW_MODES:
             mode, channel = VIEW_MODES[view], "albedo"
         elif view in {c.name for c in layout.channels}:
             mode, channel = 1, view
@@ -72,7 +87,14 @@ class DebugViewPass:
         if "u_source_size" in prog:  # supersampled frames: the G-buffer is ssaa x the display
             source = targets.display if view == "display" or view in VIEW_MODES else gb
             prog["u_source_size"].value = tuple(source.size)
-        if view == "display":
+        if view.startswith("shadow"):
+            target = targets.targets.get("shadowmap" + view[len("shadow"):])
+            if target is None:
+                raise SceneError(f"this frame has no shadow map {view!r} (it has: "
+                                 f"{', '.join(shadow_views(targets)) or 'none'})", where="view")
+            target.texture.use(0)
+            prog["u_shadow_map"].value = 0
+        elif view == "display":
             targets.display.use(0)
             prog["u_display"].value = 0
         elif view in VIEW_MODES:

@@ -17,6 +17,7 @@ from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network, virtual_files
 from ..lights import Light, as_lights, light_uniforms
 from ..settings import RenderSettings
+from ..shadows import SHADOW_ORTHO
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
 
@@ -44,6 +45,18 @@ def set_view_and_lighting(prog, camera, environment, light) -> None:
     # world space: the environment's rotation does not turn them
     for name, data in light_uniforms(light).items():
         _set(prog, name, data)
+
+
+def shadow_lens(frame, size: float) -> tuple[float, float, float, float]:
+    """``lib/shadow.glsl``'s lens of a shadow ``frame`` (kind, light-size scale, near, depth
+    range; see ``shadow_penumbra_uv``): ``size`` is a directional light's angular radius
+    (radians) or a point or spot light's radius (world units)."""
+    if frame.kind == SHADOW_ORTHO:
+        return (float(SHADOW_ORTHO), math.tan(min(max(size, 0.0), 0.3)) / max(frame.extent),
+                0.0, float(frame.depth_range))
+    # perspective: uv per unit of tangent is 1 / (2 tan(half-angle)) = 1 / extent
+    return (float(frame.kind), float(size) / max(frame.extent), float(frame.near),
+            float(frame.depth_range))
 
 
 class ShadePass:
@@ -87,8 +100,10 @@ class ShadePass:
         count) of the Monte-Carlo samples this call averages (sampling models only);
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
         unspecialised variant); ``light``: the lights to shade (``Scene.light``: a tuple, or ``None``);
-        ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame`,
-        angular radius in radians, normal offset in world units) for the lights that cast one;
+        ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame` or
+        :class:`~viewer.shadows.ShadowCube`, the light's size (angular radius in radians, or
+        radius in world units), normal offset (world units; per unit of distance for perspective
+        and cube maps)) for the lights that cast one;
         ``sun_shadow``: the same for the environment's sun (SUN_SHADOW)."""
         if variant is None:
             variant = model_info(settings.model).variant(settings, light)
@@ -126,20 +141,20 @@ class ShadePass:
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))
+        _set(prog, "u_contact_length", float(settings.shadow.contact_length))
         set_view_and_lighting(prog, camera, environment, light)
         out_fbo.use()
         self._draw(prog)
 
     def _bind_shadows(self, prog, light, shadows: dict, unit: int) -> int:
         """The shadow maps of ``lights.glsl`` (LIGHT_SHADOWS): one sampler per light, a 1x1 map
-        of depth 1 where a light has none (its params then say so)."""
-        if "u_shadow_params" not in prog:
+        of depth 1 where a light has none (its lens then says so)."""
+        if "u_shadow_lens" not in prog:
             return unit
         n = len(as_lights(light))
         matrices = np.zeros((n, 4, 4), np.float32)
-        normals = np.zeros((n, 3, 3), np.float32)
-        params = np.zeros((n, 4), np.float32)
-        params[:, 0] = -1.0
+        lenses = np.zeros((n, 4), np.float32)
+        offsets = np.zeros(n, np.float32)
         units = np.zeros(n, np.int32)
         for i in range(n):
             entry = shadows.get(i)
@@ -148,14 +163,14 @@ class ShadePass:
             units[i] = unit
             unit += 1
             if entry is not None:
-                _, frame, angle, offset = entry
+                _, frame, size, offset = entry
                 matrices[i] = frame.matrix.T  # column-major for GLSL
-                normals[i] = np.linalg.inv(frame.matrix[:3, :3])  # (M^-T)^T: column-major
-                params[i] = (angle, frame.depth_range, max(frame.extent), offset)
+                lenses[i] = shadow_lens(frame, size)
+                offsets[i] = offset
         _set(prog, "u_shadow_map", units.tobytes())
         _set(prog, "u_shadow_matrix", matrices.tobytes())
-        _set(prog, "u_shadow_normal_matrix", normals.tobytes())
-        _set(prog, "u_shadow_params", params.tobytes())
+        _set(prog, "u_shadow_lens", lenses.tobytes())
+        _set(prog, "u_shadow_offset", offsets.tobytes())
         return unit
 
     def _no_shadow(self):

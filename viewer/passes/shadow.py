@@ -1,6 +1,8 @@
 """Shadow maps (``passes/shadow_mesh.vert``, ``shadow_splat.vert``, ``shadow.frag``): the depth of
-the nearest occluder seen from a directional light, in the light's fitted frame
-(:class:`viewer.shadows.ShadowFrame`), rendered from the scene's meshes and Gaussian splats.
+the nearest occluder seen from a light, in the light's fitted frame
+(:class:`viewer.shadows.ShadowFrame`: orthographic for directional lights, perspective for spot
+lights; a point light's :class:`~viewer.shadows.ShadowCube` is six perspective faces drawn into
+the tiles of one atlas), rendered from the scene's meshes and Gaussian splats.
 
 Meshes are drawn with both faces (a closed mesh's back faces keep light from leaking through a
 thin wall); the receiver's normal-offset bias (``shadow_receiver`` in ``lib/shadow.glsl``) keeps
@@ -14,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.mesh import Mesh
-from ..shadows import ShadowFrame
+from ..shadows import SHADOW_ORTHO, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
 
@@ -26,12 +28,14 @@ def splat_shadow_instances(splats: Splats, frame: ShadowFrame) -> np.ndarray:
     the inverse 2D covariance in texels^-2, the 3-sigma radius in texels, the opacity, and the
     depth's slope per texel of offset (the Gaussian's conditional mean depth along each light
     ray, Sigma_zuv Sigma_uv^-1: a flat splat lit at a slant is a slanted surface in the map, not
-    one depth)."""
-    m = frame.matrix
-    centers = splats.means.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
-    j = m[:3, :3].copy()
-    j[:2] *= float(frame.resolution)  # world -> (texels, texels, depth)
-    cov3 = np.einsum("ij,njk,lk->nil", j, splats.covariances(), j)
+    one depth). A perspective frame is taken as its affine approximation at each splat's centre
+    (:meth:`~viewer.shadows.ShadowFrame.jacobian`, as EWA splatting projects a Gaussian); splats
+    behind a perspective frame's light get opacity 0 (drawn nowhere)."""
+    means = splats.means.astype(np.float64)
+    centers = frame.project(means)
+    j = frame.jacobian(means)  # [N, 3, 3]
+    j[:, :2] *= float(frame.resolution)  # world -> (texels, texels, depth)
+    cov3 = np.einsum("nij,njk,nlk->nil", j, splats.covariances(), j)
     cov = cov3[:, :2, :2].copy()
     cov[:, 0, 0] += 0.3  # at least a third of a texel wide, as splat rasterisers dilate
     cov[:, 1, 1] += 0.3
@@ -44,9 +48,14 @@ def splat_shadow_instances(splats: Splats, frame: ShadowFrame) -> np.ndarray:
     zuv = cov3[:, 2, :2]  # covariance of depth with (u, v)
     slope = np.stack([zuv[:, 0] * conic[:, 0] + zuv[:, 1] * conic[:, 1],
                       zuv[:, 0] * conic[:, 1] + zuv[:, 1] * conic[:, 2]], axis=1)
-    out = np.concatenate([centers, conic, radius[:, None],
-                          np.asarray(splats.opacities, np.float64)[:, None], slope], axis=1)
-    return np.ascontiguousarray(out, np.float32)
+    opacity = np.asarray(splats.opacities, np.float64).copy()
+    w = np.concatenate([means, np.ones((len(means), 1))], axis=1) @ frame.matrix[3]
+    behind = ~(w > 1e-9) | ~np.isfinite(centers).all(axis=1)
+    opacity[behind] = 0.0
+    radius[behind] = 0.0
+    out = np.concatenate([np.where(behind[:, None], 0.0, centers), conic, radius[:, None],
+                          opacity[:, None], slope], axis=1)
+    return np.ascontiguousarray(np.nan_to_num(out), np.float32)
 
 
 class ShadowPass:
@@ -58,55 +67,76 @@ class ShadowPass:
         # mesh -> (vertex array, position buffer, index buffer): positions only
         self.meshes = UploadCache(self.ctx, "shadow mesh uploads", release=_release_arrays)
         # (cloud, frame matrix) -> (vertex array, instance buffer): rebuilt when the light turns
-        self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=4,
+        self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
                                   release=_release_arrays)
 
-    def _mesh_program(self):
-        return self.programs.graphics("passes/shadow_mesh.vert", "passes/shadow.frag")
+    def _mesh_program(self, variant: str = "ortho"):
+        """``variant``: "ortho" (the rasterised depth is the map's: no gl_FragDepth),
+        "perspective" (linear depth written per fragment) or "radial" (cube faces)."""
+        defines = {"ortho": {"WRITE_DEPTH": 0}, "perspective": {},
+                   "radial": {"RADIAL": 1}}[variant]
+        return self.programs.graphics("passes/shadow_mesh.vert", "passes/shadow.frag",
+                                      defines=defines)
 
     def _splat_program(self):
         return self.programs.graphics("passes/shadow_splat.vert", "passes/shadow.frag",
                                       defines={"SPLAT": 1})
 
-    def draw(self, target, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats]) -> None:
+    def draw(self, target, frame: ShadowFrame | ShadowCube, meshes: list[Mesh],
+             clouds: list[Splats]) -> None:
         """Clear ``target`` (a :class:`~viewer.graph.resources.ShadowTarget`) to depth 1 and draw
-        ``meshes`` and ``clouds`` into it."""
+        ``meshes`` and ``clouds`` into it (a cube: into each face's tile)."""
         ctx = self.ctx
         target.fbo.use()
-        n = int(frame.resolution)
-        ctx.viewport = (0, 0, n, n)
+        ctx.viewport = (0, 0, *target.texture.size)
         target.fbo.clear(1.0, 1.0, 1.0, 1.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
-        matrix = np.ascontiguousarray(frame.matrix.T, np.float32).tobytes()
         try:
-            for mesh in meshes:
-                if mesh.alpha_mode == "BLEND":
-                    continue
-                vao = self._mesh_array(mesh)
-                vao.program["u_light_matrix"].write(matrix)
-                vao.render(ctx.TRIANGLES)
-            for cloud in clouds:
-                if len(cloud) == 0:
-                    continue
-                vao = self._splat_array(cloud, frame)
-                vao.program["u_map_size"].value = (float(n), float(n))
-                vao.render(ctx.TRIANGLE_STRIP, vertices=4, instances=len(cloud))
+            if isinstance(frame, ShadowCube):
+                for face, f in enumerate(frame.faces):
+                    ctx.viewport = frame.tile(face)
+                    self._draw_frame(f, meshes, clouds)
+            else:
+                ctx.viewport = (0, 0, frame.resolution, frame.resolution)
+                self._draw_frame(frame, meshes, clouds)
         finally:
             ctx.disable(ctx.DEPTH_TEST)
 
-    def _mesh_array(self, mesh: Mesh):
-        """The mesh's positions and indices with the shadow program (remade if the program was
-        evicted and compiled again)."""
-        prog = self._mesh_program()
-        entry = self.meshes.get(mesh)
+    def _draw_frame(self, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats]) -> None:
+        n = int(frame.resolution)
+        radial = frame.center is not None
+        variant = "radial" if radial else ("ortho" if frame.kind == SHADOW_ORTHO
+                                           else "perspective")
+        matrix = np.ascontiguousarray(frame.matrix.T, np.float32).tobytes()
+        for mesh in meshes:
+            if mesh.alpha_mode == "BLEND":
+                continue
+            vao = self._mesh_array(mesh, variant)
+            vao.program["u_light_matrix"].write(matrix)
+            if radial:
+                vao.program["u_light_center"].value = frame.center
+                vao.program["u_near_range"].value = (frame.near, frame.depth_range)
+            vao.render(self.ctx.TRIANGLES)
+        for cloud in clouds:
+            if len(cloud) == 0:
+                continue
+            vao = self._splat_array(cloud, frame)
+            vao.program["u_map_size"].value = (float(n), float(n))
+            vao.render(self.ctx.TRIANGLE_STRIP, vertices=4, instances=len(cloud))
+
+    def _mesh_array(self, mesh: Mesh, variant: str = "ortho"):
+        """The mesh's positions and indices with the shadow program of ``variant``
+        (:meth:`_mesh_program`; remade if the program was evicted and compiled again)."""
+        prog = self._mesh_program(variant)
+        entry = self.meshes.get(mesh, variant)
         if entry is None or entry[0].program is not prog:
             mesh.validated()
             pos = self.ctx.buffer(np.ascontiguousarray(mesh.positions, np.float32).tobytes())
             idx = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
             vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
                                         index_element_size=4)
-            entry = self.meshes.put(mesh, None, (vao, pos, idx), pos.size + idx.size)
+            entry = self.meshes.put(mesh, variant, (vao, pos, idx), pos.size + idx.size)
         return entry[0]
 
     def _splat_array(self, cloud: Splats, frame: ShadowFrame):

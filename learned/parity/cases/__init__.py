@@ -9,6 +9,7 @@ from . import (
     antialias,
     brdf,
     common,
+    contact,
     env_sampling,
     equirect,
     ibl,
@@ -25,8 +26,8 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (antialias, brdf, common, env_sampling, equirect, ibl, lights, mc, neural, sampling, sh,
-           shading, shadow, splat, ssao, tonemap)
+MODULES = (antialias, brdf, common, contact, env_sampling, equirect, ibl, lights, mc, neural,
+           sampling, sh, shading, shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

@@ -1,11 +1,27 @@
 """Parity cases of ``shaders/lib/shadow.glsl`` against :mod:`learned.twins.shadow`. The lookups
-that read the map (``shadow_depth_at``, ``shadow_blocker_depth``, ``shadow_pcf``,
-``shadow_visibility``) are the pass check ``shadow:lookups``."""
+that read the map (``shadow_depth_at``, ``shadow_sample``, ``shadow_blocker_depth``,
+``shadow_pcf``, ``shadow_pcss``, ``shadow_visibility``) are the pass check ``shadow:lookups``;
+``shadow_light_visibility`` (a mat4 argument) the pass check ``shadow:lights``."""
 from __future__ import annotations
+
+import numpy as np
 
 from .base import Arg, ParityCase
 
-PASS_LEVEL = ("shadow_depth_at", "shadow_blocker_depth", "shadow_pcf", "shadow_visibility")
+PASS_LEVEL = ("shadow_depth_at", "shadow_sample", "shadow_blocker_depth", "shadow_pcf",
+              "shadow_pcss", "shadow_visibility", "shadow_light_visibility")
+
+
+def _receiver_planes(args):
+    """Consistent inputs of shadow_receiver_depth: a kind (1 orthographic, 2 perspective, 3
+    cube) per row, a cube face only for cube maps (-1 otherwise), a positive near and range, a
+    plane whose depth (or inverse distance) is positive at uv, offsets of a filter's size."""
+    plane, lens, face, uv, o = (np.array(a, np.float32, copy=True) for a in args)
+    kind = np.floor(lens[:, 0] * 2.999) + 1.0
+    lens[:, 0] = kind
+    face = np.where(kind == 3.0, np.clip(np.floor(face), 0, 5), -1.0).astype(np.float32)
+    plane[:, 0] = np.abs(plane[:, 0]) + 0.05
+    return [plane, lens, face, uv, o * 0.05]
 
 PARITY_CASES = [
     ParityCase("vogel_disk", (Arg(kind="int", lo=0, hi=63), Arg(kind="int", lo=1, hi=64),
@@ -31,4 +47,48 @@ PARITY_CASES = [
                atol=1e-6, rtol=1e-6, measured="exact on llvmpipe",
                envelope="p + n t (1.5 + 3 (1 - NoL)): a dot product and 4 roundings on "
                         "|p| <= 17: 5 ulp rel of p"),
+    ParityCase("vogel_turn", (Arg(kind="unit", components=2),),
+               atol=1e-6, rtol=0.0, measured="exact on llvmpipe",
+               envelope="two products and a sum per component on a unit vector: 3 roundings "
+                        "(or one fused) of values <= 1: 2e-7 abs"),
+    ParityCase("shadow_taps", (Arg(lo=0.0, hi=0.02, adversarial=(0.0, 1.0)),
+                               Arg(lo=64.0, hi=2048.0), Arg(kind="int", lo=1, hi=32)),
+               atol=0.0, rtol=0.0, measured="exact on llvmpipe",
+               envelope="an integer: ceil of 1.57 r^2 (3 roundings) differs only within 1e-6 of "
+                        "an integer (p ~ 1e-6 per draw); clamps exact"),
+    ParityCase("shadow_cube_face", (Arg(kind="unit", components=3,
+                                        adversarial=((1, 0, 0), (0, -1, 0), (0, 0, 1))),),
+               atol=1e-6, rtol=0.0, measured="exact on llvmpipe",
+               envelope="0.5 +- 0.5 x / m: a 2.5 ulp division and 2 roundings on values <= 1; "
+                        "the face index is exact (comparisons of the same floats)"),
+    ParityCase("shadow_cube_dir", (Arg(kind="int", lo=0, hi=5), Arg(lo=-0.5, hi=1.5,
+                                                                       components=2)),
+               atol=1e-6, rtol=0.0, measured="exact on llvmpipe",
+               envelope="uv 2 - 1: 2 roundings (or one fused) on values <= 3: 4e-7 abs"),
+    ParityCase("shadow_plane_normal", (Arg(lo=-2.0, hi=2.0, components=3),
+                                       Arg(lo=-2.0, hi=2.0, components=3),
+                                       Arg(lo=-2.0, hi=2.0, components=3),
+                                       Arg(kind="unit", components=3)),
+               atol=1e-5, rtol=1e-5, measured="max abs 9.5e-7 on llvmpipe",
+               envelope="a cross product (2 products, a difference) then a dot (3 products, 2 "
+                        "sums) on values <= 2: terms <= 12, ~8 roundings: 1e-5 abs"),
+    ParityCase("shadow_penumbra_uv", (Arg(lo=0.0, hi=1.0, components=4),
+                                      Arg(lo=0.0, hi=1.0), Arg(lo=0.0, hi=1.0)),
+               atol=1e-6, rtol=1e-5, measured="exact on llvmpipe",
+               envelope="orthographic: 3 products; perspective: two 2.5 ulp reciprocals of "
+                        "distances >= near and a difference, relative to their sum (near >= "
+                        "0.05 after prepare): 1e-5 rel",
+               prepare=lambda a: [np.column_stack([np.floor(a[0][:, 0] * 2.999) + 1.0,
+                                                   a[0][:, 1], a[0][:, 2] + 0.05,
+                                                   a[0][:, 3] + 0.05]).astype(np.float32),
+                                  a[1], a[2]]),
+    ParityCase("shadow_receiver_depth", (Arg(lo=-1.0, hi=1.0, components=3),
+                                         Arg(lo=0.05, hi=1.0, components=4),
+                                         Arg(lo=0.0, hi=6.0), Arg(lo=0.0, hi=1.0, components=2),
+                                         Arg(lo=-1.0, hi=1.0, components=2)),
+               atol=1e-5, rtol=1e-5, measured="max abs 3e-5 (rel 1.3e-6) on llvmpipe",
+               envelope="orthographic: a dot and a sum; perspective and cube: a 2.5 ulp "
+                        "reciprocal of the plane's inverse distance (>= 0.25 of the centre's), "
+                        "a length (sqrt 3 ulp) and a division by the range: ~10 ulp rel",
+               prepare=_receiver_planes),
 ]

@@ -1,6 +1,8 @@
 """The shadow-map lookups of ``lib/shadow.glsl`` (``passes/parity_shadow.comp``) against
-:mod:`learned.twins.shadow` on the same map: a synthetic map with a disk occluder, steps and
-noise, so blocker search and PCF see partial coverage."""
+:mod:`learned.twins.shadow` on the same maps: synthetic maps (a disk occluder, steps and noise,
+so blocker search and PCF see partial coverage) read as an orthographic map, a perspective one
+and a cube atlas (``shadow:lookups``); and the composed ``shadow_light_visibility`` of a rendered
+scene's lights, read from the lighting pass's output (``shadow:lights``, :mod:`.shadow_lights`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,9 +10,10 @@ import torch
 
 from learned.twins.shadow import (
     shadow_blocker_depth,
-    shadow_depth_at,
     shadow_depth_slope,
     shadow_pcf,
+    shadow_pcss,
+    shadow_sample,
     shadow_visibility,
 )
 from viewer.gl.kernels import run_kernel
@@ -35,73 +38,106 @@ def shadow_test_map(seed: int = 0) -> np.ndarray:
     return m
 
 
+# (name, lens (kind, scale, near, range), map tiles across, down): the three kinds of map
+KINDS = (("ortho", (1.0, 0.02, 0.0, DEPTH_RANGE), 1, 1),
+         ("perspective", (2.0, 0.05, 0.5, DEPTH_RANGE), 1, 1),
+         ("cube", (3.0, 0.025, 0.5, DEPTH_RANGE), 3, 2))
+ENVELOPE = ("texel indices from floor(uv size) of the same float32 uv: a sample's offset "
+            "differs by the spiral's rounding (~1e-7 x r <= 0.15) -> 1e-5 texel, so a disk "
+            "sample lands in another texel only within 1e-5 texel of a boundary (p ~ 2e-5 per "
+            "sample); robust: 1 in 500 values may differ by one sample's share (1/16 of the "
+            "mean depth, 1/32 of the fraction; a tap count of 4 makes a share 1/4)")
+
+
+def _inputs(kind: str, n: int, rng) -> np.ndarray:
+    """[n, 13] rows of parity_shadow.comp's inputs for a map of ``kind``."""
+    uv = (rng.integers(-2, SIZE + 2, (n, 2)) + 0.25 + 0.5 * rng.random((n, 2))) / SIZE
+    s = np.concatenate([uv, rng.uniform(0.05, 1.0, (n, 1))], axis=1)
+    radius = rng.uniform(0.0, 0.15, n)
+    angle = rng.uniform(0.0, 0.1, n)
+    phi = rng.uniform(0.0, 6.2832, n)
+    m = rng.normal(size=(n, 3))
+    m[:, 2] = np.abs(m[:, 2]) * 3.0  # mostly facing the light; some grazing (clamped)
+    m[: n // 8, :2] = 0.0  # facing it: no slope
+    face = np.full(n, -1.0) if kind != "cube" else rng.integers(0, 6, n).astype(np.float64)
+    if kind == "ortho":
+        plane = np.concatenate([s[:, 2:3], np.asarray(shadow_depth_slope(
+            torch.from_numpy(m.astype(np.float32))))], axis=1)
+    else:  # 1 / distance along the axis at uv and its slope
+        near, rng_ = 0.5, DEPTH_RANGE
+        inv = 1.0 / (near + s[:, 2] * rng_)
+        plane = np.concatenate([inv[:, None], inv[:, None] * rng.normal(0, 0.5, (n, 2))], 1)
+    return np.concatenate([s, radius[:, None], angle[:, None], phi[:, None], m, face[:, None],
+                           plane], axis=1).astype(np.float32)
+
+
+def _twins(depth_map, inputs, lens, kind):
+    t = torch.from_numpy(np.ascontiguousarray(inputs))
+    m = torch.from_numpy(np.ascontiguousarray(depth_map))
+    s, r, a, phi = t[:, :3], t[:, 3], t[:, 4], t[:, 5]
+    dz = shadow_depth_slope(t[:, 6:9])
+    face = t[:, 9].long()
+    plane = t[:, 10:13]
+    lens_t = torch.tensor(lens, dtype=torch.float32).expand(len(t), 4)
+    uv = s[:, :2]
+    blocker, umbra = shadow_blocker_depth(m, uv, plane, r, phi, lens_t, face)
+    vis = (shadow_visibility(m, s, dz, a, DEPTH_RANGE, EXTENT, phi) if kind == "ortho"
+           else torch.zeros(len(t)))
+    return [shadow_sample(m, uv, face), blocker, umbra.float(),
+            shadow_pcf(m, uv, plane, r, phi, lens_t, face), vis,
+            shadow_pcss(m, s, plane, lens_t, phi, face), dz[:, 0], dz[:, 1]]
+
+
 def checks() -> dict:
     found, register_pass_check = collector()
 
     @register_pass_check("shadow:lookups")
     def check_lookups(programs):
         ctx = programs.ctx
-        depth_map = shadow_test_map()
         rng = np.random.default_rng(1)
         n = 2048
-        # texel centres offset by a quarter texel: floor() never sits on a texel boundary
-        uv = (rng.integers(-2, SIZE + 2, (n, 2)) + 0.25 + 0.5 * rng.random((n, 2))) / SIZE
-        s = np.concatenate([uv, rng.uniform(0.05, 1.0, (n, 1))], axis=1)
-        radius = rng.uniform(0.0, 0.15, n)
-        angle = rng.uniform(0.0, 0.1, n)
-        phi = rng.uniform(0.0, 6.2832, n)
-        m = rng.normal(size=(n, 3))
-        m[:, 2] = np.abs(m[:, 2]) * 3.0  # mostly facing the light; some grazing (clamped)
-        m[: n // 8, :2] = 0.0  # facing it: no slope
-        inputs = np.concatenate([s, radius[:, None], angle[:, None], phi[:, None], m],
-                                axis=1).astype(np.float32)
-        tex = ctx.texture((SIZE, SIZE), 1, depth_map.tobytes(), dtype="f4")
-        tex.filter = (ctx.NEAREST, ctx.NEAREST)
-
-        def setup(prog):
-            tex.use(location=0)
-            prog["u_map"].value = 0
-            prog["u_depth_range"].value = DEPTH_RANGE
-            prog["u_extent"].value = EXTENT
-
-        try:
-            gl = run_kernel(programs, "passes/parity_shadow.comp", inputs, 6, setup)
-        finally:
-            tex.release()
-        t = {k: torch.from_numpy(np.ascontiguousarray(v, np.float32)) for k, v in
-             (("map", depth_map), ("s", inputs[:, :3]), ("r", inputs[:, 3]),
-              ("a", inputs[:, 4]), ("phi", inputs[:, 5]), ("m", inputs[:, 6:9]))}
-        with torch.no_grad():
-            dz = shadow_depth_slope(t["m"])
-            uv, z = t["s"][:, :2], t["s"][:, 2]
-            ref = [shadow_depth_at(t["map"], uv),
-                   shadow_blocker_depth(t["map"], uv, z, dz, t["r"], t["phi"]),
-                   shadow_pcf(t["map"], uv, z, dz, t["r"], t["phi"]),
-                   shadow_visibility(t["map"], t["s"], dz, t["a"], DEPTH_RANGE, EXTENT, t["phi"]),
-                   dz[:, 0], dz[:, 1]]
-        envelope = ("texel indices from floor(uv size) of the same float32 uv: a sample's "
-                    "offset r vogel(i) differs by trig's ~1e-6 abs x r <= 0.15 -> 1.5e-7 uv "
-                    "= 1e-5 texel, so a disk sample lands in another texel only within 1e-5 "
-                    "texel of a boundary (p ~ 2e-5 per sample); robust: 1 in 500 values may "
-                    "differ by one sample's share (1/16 of the mean depth, 1/32 of the "
-                    "fraction)")
         out = []
-        for i, (name, step) in enumerate((("shadow_depth_at", 0.0),
-                                          ("shadow_blocker_depth", 1.0),
-                                          ("shadow_pcf", 1.0 / 32.0),
-                                          ("shadow_visibility", 1.0 / 32.0),
-                                          ("shadow_depth_slope.x", 0.0),
-                                          ("shadow_depth_slope.y", 0.0))):
-            ref_i = ref[i].numpy()
-            diff = np.abs(gl[:, i] - ref_i)
-            bad = diff > 1e-5 + 1e-5 * np.abs(ref_i)
-            ok = bad.mean() <= 1.0 / 500.0 and (step == 0.0 and not bad.any() or
-                                                (diff[bad] <= max(step, 1.0) + 1e-5).all())
-            res = compare(name, gl[:, i][~bad], ref_i[~bad], atol=1e-5, rtol=1e-5, kind="pass",
-                          measured=f"{int(bad.sum())} of {n} beyond 1e-5 on llvmpipe",
-                          envelope=envelope)
-            res.passed = bool(res.passed and ok)
-            out.append(res)
+        for kind, lens, across, down in KINDS:
+            tiles = [[shadow_test_map(seed=across * y + x) for x in range(across)]
+                     for y in range(down)]
+            depth_map = np.ascontiguousarray(np.block(tiles), np.float32)
+            inputs = _inputs(kind, n, rng)
+            tex = ctx.texture((depth_map.shape[1], depth_map.shape[0]), 1, depth_map.tobytes(),
+                              dtype="f4")
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+
+            def setup(prog, tex=tex, lens=lens):
+                tex.use(location=0)
+                prog["u_map"].value = 0
+                prog["u_depth_range"].value = DEPTH_RANGE
+                prog["u_extent"].value = EXTENT
+                prog["u_lens"].value = lens
+
+            try:
+                gl = run_kernel(programs, "passes/parity_shadow.comp", inputs, 8, setup)
+            finally:
+                tex.release()
+            with torch.no_grad():
+                ref = _twins(depth_map, inputs, lens, kind)
+            names = (("shadow_sample", 0.0), ("shadow_blocker_depth", 1.0),
+                     ("shadow_blocker_depth.umbra", 1.0), ("shadow_pcf", 0.25),
+                     ("shadow_visibility", 1.0 / 32.0), ("shadow_pcss", 0.25),
+                     ("shadow_depth_slope.x", 0.0), ("shadow_depth_slope.y", 0.0))
+            for i, (name, step) in enumerate(names):
+                if kind != "ortho" and name.startswith(("shadow_visibility",
+                                                        "shadow_depth_slope")):
+                    continue  # orthographic only (the sun's lookup)
+                ref_i = ref[i].numpy()
+                diff = np.abs(gl[:, i] - ref_i)
+                bad = diff > 1e-5 + 1e-5 * np.abs(ref_i)
+                ok = bad.mean() <= 1.0 / 500.0 and (step == 0.0 and not bad.any() or
+                                                    (diff[bad] <= max(step, 1.0) + 1e-5).all())
+                res = compare(f"{name} ({kind})", gl[:, i][~bad], ref_i[~bad], atol=1e-5,
+                              rtol=1e-5, kind="pass",
+                              measured=f"{int(bad.sum())} of {n} beyond 1e-5 on llvmpipe",
+                              envelope=ENVELOPE)
+                res.passed = bool(res.passed and ok)
+                out.append(res)
         return out
 
     return found

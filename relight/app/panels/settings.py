@@ -2,6 +2,8 @@
 (screenshot, save/open scene) sections."""
 from __future__ import annotations
 
+from viewer.passes.debug_view import shadow_views
+
 from ..state import VIEWS
 from .choices import CHOICES, LIMITS, QUICK_FIELDS
 
@@ -41,7 +43,9 @@ class SettingsPanels:
 
     def _inspect(self, state) -> None:
         imgui, viewer = self.imgui, self.viewer
-        state.view = self._combo("view", state.view, VIEWS)
+        targets = getattr(viewer, "_targets", None)  # the last frame's shadow maps are views too
+        views = VIEWS + (shadow_views(targets) if targets is not None else ())
+        state.view = self._combo("view", state.view, views)
         if state.view == "error":
             state.error_scale = self._slider("error scale", state.error_scale, 0.001, 2.0)
         ref = state.reference_path or ""

@@ -1,0 +1,122 @@
+"""``shadow:lights``: the composed ``shadow_light_visibility`` of ``lib/shadow.glsl`` as the
+lighting pass evaluates it (``light_visibility`` of passes/lights.glsl) on a rendered scene,
+against :func:`learned.twins.shadow.shadow_light_visibility` computed from the same shadow map
+texture, read back from the frame. A floor and a sphere under one soft light of each kind
+(directional, spot, point); the GLSL's visibility is the lit radiance over the same frame without
+shadows (nothing but that light lights the scene), the twin's is evaluated at each pixel's
+surface point rebuilt from the G-buffer's depth as the pass rebuilds it."""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from learned.twins.lights import light_surface_position
+from learned.twins.shadow import shadow_light_visibility, shadow_phi
+
+from ..results import compare
+from . import collector
+
+N = 64
+LIGHTS = {"directional": {"type": "directional", "direction": [0.5, 1.0, 0.2],
+                          "angular_diameter_deg": 6.0},
+          "spot": {"type": "spot", "position": [0.6, 3.0, 0.3], "direction": [0.2, 1.0, 0.1],
+                   "outer_cone_deg": 55, "inner_cone_deg": 45, "radius": 0.15},
+          "point": {"type": "point", "position": [-0.8, 2.4, 0.6], "radius": 0.15}}
+ENVELOPE = ("the surface point is rebuilt from depth by the same float32 expression on both "
+            "sides up to contraction (~1e-7 relative), the lookups are exact (shadow:lookups): "
+            "a pixel differs only where a tap's texel changes with that rounding; robust: 1 in "
+            "100 pixels may differ, by at most one tap's share (1/4) where they do")
+
+
+def _scene(light: dict):
+    from viewer.scene import scene_from_dict
+
+    return scene_from_dict({
+        "camera": {"position": [0, 5, 0.01], "target": [0, 0, 0], "fov_y": 60, "size": [N, N]},
+        "environment": {"procedural": "white", "width": 32, "intensity": 0.0},
+        "lights": [{"intensity": 10.0, **light}],
+        "objects": [{"type": "plane", "center": [0, 0, 0], "size": [8, 8], "normal": [0, 1, 0],
+                     "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0,
+                                  "specular": 0.0}},
+                    {"type": "sphere", "center": [0, 1, 0], "radius": 0.5,
+                     "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0,
+                                  "specular": 0.0}}],
+        "render": {"tonemap": "none", "model": "ggx_split_sum", "multiscatter": False}})
+
+
+def _read_map(frame) -> torch.Tensor:
+    """The frame's shadow map of light 0, [H, W] in GL row order (read before the next draw)."""
+    tex = frame.targets["shadowmap0"].texture
+    w, h = tex.size
+    return torch.from_numpy(np.frombuffer(tex.read(), np.float32).reshape(h, w).copy())
+
+
+def _twin_visibility(renderer, scene, frame, depth_map, gbuffer) -> np.ndarray:
+    from viewer.graph.frame import light_shadow_frame
+    from viewer.passes.shade import shadow_lens
+
+    light = scene.lights[0]
+    settings = scene.render.shadow
+    sframe = light_shadow_frame(light, renderer.bounds(scene), settings)
+    size = light.radius if light.positional else np.radians(light.angular_diameter_deg) / 2.0
+    lens = torch.tensor(shadow_lens(sframe, size * settings.softness), dtype=torch.float32)
+    offset = sframe.texel_world * settings.bias
+    cam = frame.camera
+    ys, xs = np.mgrid[0:N, 0:N]
+    frag = torch.from_numpy(np.stack([xs + 0.5, ys + 0.5], -1).astype(np.float32))  # GL rows
+    depth = torch.from_numpy(gbuffer["depth"][::-1, :, 0].copy())
+    normal = torch.from_numpy(gbuffer["normal"][::-1].copy())
+    p = light_surface_position(frag, depth, cam.position,
+                               torch.from_numpy(cam.basis().astype(np.float32).T.copy()),
+                               torch.tensor(cam.tan_half_fov(), dtype=torch.float32),
+                               torch.tensor([N, N], dtype=torch.float32))
+    if light.positional:
+        to = torch.tensor(light.position, dtype=torch.float32) - p
+        l = to / torch.linalg.vector_norm(to, dim=-1, keepdim=True)
+    else:
+        l = torch.tensor(light.direction, dtype=torch.float32).expand_as(p)
+    m = torch.from_numpy(sframe.matrix.astype(np.float32))
+    vis = shadow_light_visibility(depth_map, m, lens, offset, light.position, l, p, normal,
+                                  shadow_phi(frag))
+    return vis.numpy()[::-1]  # image rows (row 0 at the top)
+
+
+def checks() -> dict:
+    found, register_pass_check = collector()
+
+    @register_pass_check("shadow:lights")
+    def check_lights(programs):
+        from viewer.renderer import Renderer
+
+        renderer = Renderer(ctx=programs.ctx)
+        out = []
+        try:
+            for kind, light in LIGHTS.items():
+                scene = _scene(light)
+                frame = renderer.draw(scene, aovs=("depth", "normal"))
+                depth_map = _read_map(frame)
+                lit = renderer.render(scene, aovs=("depth", "normal"))  # the same frame, reused
+                gbuffer = lit.aovs
+                with torch.no_grad():
+                    twin = _twin_visibility(renderer, scene, frame, depth_map, gbuffer)
+                free = renderer.render(scene.with_render(shadows=False)).radiance[..., 0]
+                ok = (free > 1e-4) & (gbuffer["normal"][..., 1] > 0.2)  # lit by it, facing up
+                gl = lit.radiance[..., 0][ok] / free[ok]
+                ref = twin[ok]
+                diff = np.abs(gl - ref)
+                bad = diff > 1e-4
+                res = compare(f"shadow_light_visibility ({kind})", gl[~bad], ref[~bad],
+                              atol=1e-4, rtol=0.0, kind="pass",
+                              measured=f"{int(bad.sum())} of {int(ok.sum())} pixels beyond 1e-4 "
+                                       f"on llvmpipe; {int(((ref > 0) & (ref < 1)).sum())} in "
+                                       f"penumbrae, {int((ref == 0).sum())} in umbrae",
+                              envelope=ENVELOPE)
+                res.passed = bool(res.passed and bad.mean() <= 0.01
+                                  and (diff[bad] <= 0.25 + 1e-4).all()
+                                  and (ref == 0).sum() > 20)
+                out.append(res)
+        finally:
+            renderer.release()
+        return out
+
+    return found

@@ -35,7 +35,7 @@ from .envsampling import EnvSampling, build_env_sampling, power_directions
 from .ibl import IBL, IBLOptions, build_ibl, build_luts, mip_sizes
 from .ibl_build import EnvironmentIBLs, build_environment_ibls
 from .prefilter import level_widths, spectra_bytes
-from .sun import Sun, extract_sun
+from .sun import Sun, extract_lights
 
 _DEFAULT = object()
 
@@ -43,12 +43,13 @@ _DEFAULT = object()
 class Environment:
     """One environment's derived data (an entry of :class:`EnvironmentStore`)."""
 
-    def __init__(self, source: str, ibls: EnvironmentIBLs | None, sun: Sun | None,
+    def __init__(self, source: str, ibls: EnvironmentIBLs | None, lights: tuple[Sun, ...],
                  directions: np.ndarray | None = None, disk_key: str | None = None,
                  plain: IBL | None = None, arrays: tuple | None = None):
         self.source = source              # the file or procedural name (for memory reports)
         self.ibls = ibls                  # "convolution": both IBLs and their textures
-        self.sun = sun
+        self.lights = tuple(lights)       # its compact lights (viewer.sun.extract_lights)
+        self.sun = self.lights[0] if self.lights else None  # the most energetic one
         self.power_directions = directions  # None until asked for (EnvironmentStore)
         self.disk_key = disk_key          # the disk cache's key, or None
         self.sampling: EnvSampling | None = None
@@ -70,7 +71,8 @@ class Environment:
             return self.ibls.sunless
         if self._sunless is None:
             env, residual = self._arrays
-            ibl = build_ibl(programs, env, options, sun=self.sun, residual=residual)
+            ibl = build_ibl(programs, env, options, sun=self.sun, residual=residual,
+                            lights=self.lights)
             ibl.full_prefiltered = self._plain.prefiltered  # owned by the plain IBL
             self._sunless = ibl
         return self._sunless
@@ -142,8 +144,13 @@ class EnvironmentStore:
         return entry.plain
 
     def sun(self, spec: EnvironmentSpec) -> Sun | None:
-        """The environment's compact sun, or None."""
+        """The environment's compact sun (its most energetic compact light), or None."""
         return self._entry(spec).sun
+
+    def lights(self, spec: EnvironmentSpec) -> tuple[Sun, ...]:
+        """Every compact light taken out of the environment (:func:`viewer.sun.extract_lights`),
+        the sun first; () when it has none."""
+        return self._entry(spec).lights
 
     def env_sampling(self, spec: EnvironmentSpec) -> EnvSampling:
         """The environment's importance-sampling distribution (built on first use, on the GPU
@@ -254,15 +261,15 @@ class EnvironmentStore:
         source = Path(spec.path).name if spec.path is not None else f"{spec.procedural}"
         if self.options.prefilter_method != "convolution":
             env = load_environment(spec)
-            residual, sun = extract_sun(env)
+            residual, lights = extract_lights(env)
             plain = build_ibl(self.programs, env, self.options)
             self._say(source, "importance-sampled IBL", t0)
-            return Environment(source, None, sun, plain=plain,
-                               arrays=(env, residual) if sun is not None else None)
+            return Environment(source, None, lights, plain=plain,
+                               arrays=(env, residual) if lights else None)
         disk_key = self._disk_key(spec)
         cached = self._load(disk_key, spec) if disk_key is not None else None
         if cached is not None:
-            env, patch, sun, parts = cached
+            env, patch, lights, parts = cached
             self._say(source, "read from the disk cache", t0)
         else:
             with warnings.catch_warnings(record=True) as caught:
@@ -271,21 +278,21 @@ class EnvironmentStore:
             notes = [str(w.message) for w in caught]
             for w in caught:  # shown as they were, and kept for a later hit
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            residual, sun = extract_sun(env)
+            residual, lights = extract_lights(env)
             parts = {"notes": notes}
             patch = None
-            if sun is not None:
+            if lights:
                 ys, xs = np.nonzero((env != residual).any(axis=-1))
                 patch = (ys, xs, residual[ys, xs])
             self._say(source, f"loaded {env.shape[1]}x{env.shape[0]}", t0)
         ibls = build_environment_ibls(
-            self.programs, env, self.options, sun=sun, sun_patch=patch, luts=self._luts(),
-            cached=parts, keep=disk_key is not None and cached is None,
-            progress=lambda step: self._say(source, step, t0))
-        entry = Environment(source, ibls, sun, disk_key=disk_key)
+            self.programs, env, self.options, sun=lights[0] if lights else None, sun_patch=patch,
+            luts=self._luts(), cached=parts, keep=disk_key is not None and cached is None,
+            progress=lambda step: self._say(source, step, t0), lights=lights)
+        entry = Environment(source, ibls, lights, disk_key=disk_key)
         if cached is None and disk_key is not None:
             try:
-                self._save(disk_key, env, patch, sun, ibls.parts)
+                self._save(disk_key, env, patch, lights, ibls.parts)
             except Exception as exc:  # noqa: BLE001 - the cache is an optimisation: say, go on
                 warnings.warn(f"{self.disk.root}: environment {source} not cached "
                               f"({_one_line(exc)})", stacklevel=2)
@@ -293,23 +300,25 @@ class EnvironmentStore:
         return entry
 
     # ---- the disk cache ---------------------------------------------------------------------
-    def _save(self, key: str, env, patch, sun, parts: dict) -> None:
-        arrays = {"env": env, "sh": np.asarray(parts["sh"], np.float32)}
+    def _save(self, key: str, env, patch, lights, parts: dict) -> None:
+        arrays = {"env": env, "sh": np.asarray(parts["sh"], np.float32),
+                  "irradiance": np.asarray(parts["irradiance"], np.float32)}
         for k, level in enumerate(parts["levels"], start=1):
             arrays[f"level{k}"] = np.asarray(level, np.float32)
-        if sun is not None:
+        if lights:
             ys, xs, values = patch
             arrays.update(sun_rows=ys.astype(np.int64), sun_cols=xs.astype(np.int64),
                           sun_residual=np.asarray(values, np.float32),
-                          sh_sunless=np.asarray(parts["sh_sunless"], np.float32))
+                          sh_sunless=np.asarray(parts["sh_sunless"], np.float32),
+                          irradiance_sunless=np.asarray(parts["irradiance_sunless"], np.float32))
             for k, level in enumerate(parts["full_levels"], start=1):
                 arrays[f"full{k}"] = np.asarray(level, np.float32)
-        meta = {"sun": dataclasses.asdict(sun) if sun is not None else None,
+        meta = {"lights": [dataclasses.asdict(li) for li in lights],
                 "notes": list(parts.get("notes", [])), "levels": len(parts["levels"])}
         self.disk.save(key, "ibl", arrays, meta)
 
     def _load(self, key: str, spec: EnvironmentSpec):
-        got = self.disk.load(key, "ibl", {"env": None, "sh": (9, 3)})
+        got = self.disk.load(key, "ibl", {"env": None, "sh": (9, 3), "irradiance": None})
         if got is None:
             return None
         arrays, meta = got
@@ -323,16 +332,16 @@ class EnvironmentStore:
                                 len(mip_sizes(width, width // 2))))
             widths = level_widths(width, int(self.options.prefilter_width), levels)
             parts = {"levels": [arrays[f"level{k}"] for k in range(1, levels)],
-                     "sh": arrays["sh"], "notes": meta.get("notes", [])}
+                     "sh": arrays["sh"], "irradiance": arrays["irradiance"],
+                     "notes": meta.get("notes", [])}
             for k, lw in enumerate(widths, start=1):
                 if parts["levels"][k - 1].shape != (max(1, lw // 2), lw, 3):
                     raise ValueError(f"level{k} has shape {parts['levels'][k - 1].shape}")
-            patch, sun = None, None
-            if meta.get("sun") is not None:
-                fields = dict(meta["sun"])
-                fields["direction"] = tuple(fields["direction"])
-                fields["irradiance"] = tuple(fields["irradiance"])
-                sun = Sun(**fields)
+            patch, lights = None, ()
+            if meta.get("lights"):
+                lights = tuple(Sun(**{**f, "direction": tuple(f["direction"]),
+                                      "irradiance": tuple(f["irradiance"])})
+                               for f in meta["lights"])
                 ys, xs = arrays["sun_rows"], arrays["sun_cols"]
                 values = arrays["sun_residual"]
                 if not (ys.shape == xs.shape == values.shape[:1] and values.shape[1:] == (3,)
@@ -340,6 +349,7 @@ class EnvironmentStore:
                     raise ValueError("the sun's texels do not fit the image")
                 patch = (ys, xs, values)
                 parts["sh_sunless"] = arrays["sh_sunless"]
+                parts["irradiance_sunless"] = arrays["irradiance_sunless"]
                 parts["full_levels"] = [arrays[f"full{k}"] for k in range(1, levels)]
                 for k in range(1, levels):
                     want = (max(1, (width >> k) // 2), max(1, width >> k), 3)
@@ -350,7 +360,7 @@ class EnvironmentStore:
             return None
         for note in parts["notes"]:  # what loading the file warned about
             warnings.warn(note, stacklevel=4)
-        return env, patch, sun, parts
+        return env, patch, lights, parts
 
     def _directions(self, entry: Environment) -> np.ndarray:
         if entry.disk_key is not None and self.disk is not None:

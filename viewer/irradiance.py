@@ -54,13 +54,14 @@ def _spectra(ho: int, hs: int, ws: int) -> np.ndarray:
 def irradiance_map(env: np.ndarray, width: int = IRRADIANCE_WIDTH) -> np.ndarray:
     """``[width / 2, width, 3]`` float32: the irradiance E(n) = sum over every texel of
     ``env [H, W, 3]`` of L max(n.l, 0) dw at the texel centres of an equirect map ``width`` wide
-    (a power of two, at most the source's width). A unit constant environment gives pi."""
+    (a power of two >= 4; a narrower environment is first upsampled bilinearly to it). A unit
+    constant environment gives pi."""
     from .prefilter import working_map
 
     h, w = env.shape[:2]
-    if w < width or w != 2 * h or w & (w - 1) or width & (width - 1):
+    if w != 2 * h or w & (w - 1) or width & (width - 1) or width < 4:
         raise ValueError(f"environment {w}x{h} cannot give a {width}-wide irradiance map")
-    src = working_map(env, min(w, SOURCE_WIDTH)).astype(np.float64)
+    src = working_map(env, max(min(w, SOURCE_WIDTH), width)).astype(np.float64)
     hs, ws = src.shape[:2]
     ho = width // 2
     lf = np.fft.rfft(src, axis=1).transpose(1, 0, 2)  # [F, hs, 3]

@@ -236,7 +236,8 @@ def sun_texels(env: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, np.nd
     return ys, xs, np.maximum(excess, 0.0)
 
 
-def sun_points(texels: tuple, height: int, width: int, alpha: float) -> np.ndarray:
+def sun_points(texels: tuple, height: int, width: int, alpha: float,
+               max_points: int = SUN_MAX_POINTS) -> np.ndarray:
     """The sun's light (``texels`` from :func:`sun_texels` of a ``width x height`` map) as at
     most :data:`SUN_MAX_POINTS` points for a kernel of ``alpha``: its texels binned into cells of
     ``alpha / SUN_CELLS`` radians on the plane tangent at its centre, each cell one point at the
@@ -263,7 +264,7 @@ def sun_points(texels: tuple, height: int, width: int, alpha: float) -> np.ndarr
     while True:
         keys = np.stack([np.floor(px / cell), np.floor(py / cell)], -1).astype(np.int64)
         uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
-        if len(uniq) <= SUN_MAX_POINTS:
+        if len(uniq) <= max_points:
             break
         cell *= 1.5
     inverse = inverse.ravel()

@@ -20,11 +20,10 @@ from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
 from learned.twins.equirect import equirect_uv, rotate_y
 from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radiance,
-                                ibl_specular_radiance_sun,
+                                ibl_specular_radiance_sun, irradiance_lookup,
                                sample_bilinear, specular_dominant_direction)
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
-from learned.twins.sh import sh_irradiance
 from learned.twins.shading import shading_normal, sun_specular_weight
 from viewer.gl import make_current
 from viewer.scene import Scene
@@ -39,6 +38,7 @@ class Lighting:
     prefiltered: list  # [h_k, w_k, 4] per level
     levels: float
     sh: torch.Tensor  # [9, 3]
+    irradiance: torch.Tensor  # [h, w, 4] the irradiance map (lib/ibl.glsl irradiance_lookup)
     marginal: torch.Tensor  # [h + 1]
     conditional: torch.Tensor  # [h, w + 1]
     pdf: torch.Tensor  # [h, w] density on the uv square
@@ -74,6 +74,7 @@ def lighting_from_gl(renderer, environment, sun: bool = False) -> Lighting:
         radiance=t(ibl.read_level("radiance", 0)),
         prefiltered=[t(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)],
         levels=float(ibl.levels), sh=t(np.asarray(ibl.sh, np.float32)),
+        irradiance=t(ibl.read_level("irradiance", 0)),
         marginal=t(tables["marginal"]), conditional=t(tables["conditional"]), pdf=t(tables["pdf"]),
         intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg),
         dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()),
@@ -100,7 +101,7 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
 
     Returns ``x [N, 11]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis:
     :data:`learned.neural.student.ALL_INPUTS`; a student selects its own),
-    ``irradiance [N, 3]`` (SH, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
+    ``irradiance [N, 3]`` (the irradiance map's, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
     radiance along the mirror direction at the pixel's roughness, times intensity). ``ao [N]`` is
     the occlusion the pass uses, ``vis [N]`` the screen-space visibility of the environment's light
     (the g channel of the SSAO pass with ``SSAO_ENV_VIS``; 1 when None). ``dfg`` is the split-sum
@@ -117,7 +118,8 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     """
     n, nov = surface(gb, v)
     r = clamp_perceptual_roughness(gb["roughness"][..., 0])
-    irradiance = sh_irradiance(env_dir(n, lighting.rotation), lighting.sh) * lighting.intensity
+    irradiance = irradiance_lookup(lighting.irradiance, env_dir(n, lighting.rotation)) \
+        * lighting.intensity
     reflected = reflect(-v, n)
     if dominant:
         reflected = specular_dominant_direction(

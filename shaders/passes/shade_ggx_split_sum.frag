@@ -6,7 +6,6 @@
 // leaves it out of the prefiltered chain and the SH, and u_env_prefiltered_full keeps it).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
-#include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
@@ -15,7 +14,7 @@ uniform sampler2D u_env_prefiltered;
 uniform sampler2D u_env_dfg;
 uniform sampler2D u_env_dominant;
 uniform float u_env_levels;
-uniform vec3 u_sh[9];
+uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irradiance_lookup)
 #if SUN_LIGHT
 uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
 uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
@@ -34,7 +33,7 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
-    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
     float ao = ambient_occlusion(pixel, g);
 #if SPECULAR_LOBE
     float NoV = saturate(dot(n, v));

@@ -1,5 +1,5 @@
 // shade_neural.frag - the distilled neural shader (learned/neural/student.py): one MLP evaluation
-// per pixel on the material, n.v and the pre-integrated lighting (SH irradiance, GGX-prefiltered
+// per pixel on the material, n.v and the pre-integrated lighting (the exact irradiance map, GGX-prefiltered
 // radiance, and the split-sum DFG LUT for students with NEURAL_STUDENT_DFG) every classical model
 // reads. The network is generated code from an exported weights file (viewer/neural/ ->
 // "generated/neural_student.glsl": weights baked as constants, or read from the uniform/storage
@@ -22,7 +22,6 @@
 // scene's punctual lights through the student's classical base: passes/lights.glsl, main()).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
-#include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
@@ -40,7 +39,7 @@
 
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
-uniform vec3 u_sh[9];
+uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irradiance_lookup)
 #if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
 uniform sampler2D u_env_dfg;
 #endif
@@ -73,7 +72,7 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
-    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
 #if NEURAL_STUDENT_SPLIT  // the split-sum model's lookup direction (shade_ggx_split_sum.frag)
     vec3 reflected = specular_dominant_direction(n, reflect(-v, n),
                                                  ibl_dominant_factor(u_env_dominant, NoV, r));

@@ -32,13 +32,14 @@ def gl_texture(texture) -> np.ndarray:
 
 def env_from_ibl(ibl) -> dict:
     """The GPU environment resources of :class:`viewer.ibl.IBL`, read back as the ``env`` dict
-    :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH)."""
+    :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH, the irradiance map)."""
     return {"radiance": [torch.from_numpy(ibl.read_level("radiance", 0))],
             "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
                             for k in range(ibl.levels)],
             "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
             "dominant": torch.from_numpy(ibl.read_level("dominant", 0)),
             "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)),
+            "irradiance": torch.from_numpy(ibl.read_level("irradiance", 0)),
             "levels": float(ibl.levels)}
 
 

@@ -60,11 +60,13 @@ class ShadingModel:
     analytic_sun: bool = False
 
     def variant(self, settings, light=None, specular: bool = True,
-                sun: bool = False) -> ShadeVariant:
+                sun: int = 0) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
         :class:`~viewer.lights.Light`, a tuple of them or None), whether any surface has a specular
-        lobe (:class:`viewer.specialize.SceneFeatures`) and whether the environment has a sun
-        (:func:`viewer.sun.extract_sun`; shaded analytically when ``settings.sun``)."""
+        lobe (:class:`viewer.specialize.SceneFeatures`) and how many compact lights the environment
+        has (``sun``: :func:`viewer.sun.extract_lights`, the sun first; a bool counts as one;
+        shaded analytically when ``settings.sun``: SUN_LIGHT for the first, ENV_LIGHTS = the
+        others' count, compiled in only when there are others)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.lights == "shaded":
             d.update(light_defines(light, shadows=settings.shadow.enabled))
@@ -86,6 +88,8 @@ class ShadingModel:
             # decides: viewer.neural.shades_sun); others keep their defines (shade_neural.frag's
             # SUN_LIGHT defaults to 0)
             d["SUN_LIGHT"] = 1
+        if d.get("SUN_LIGHT") and int(sun) > 1:
+            d["ENV_LIGHTS"] = int(sun) - 1  # the environment's other compact lights
         if d.get("SUN_LIGHT") and settings.shadow.enabled:
             d["SUN_SHADOW"] = 1  # the analytic sun reads a shadow map (viewer/passes/shadow.py)
         return ShadeVariant(self.name, tuple(sorted(d.items())))

@@ -50,6 +50,8 @@ class Lighting:
     # prefiltered levels and SH leave it out, lighting_from_gl(..., sun=True)), else None
     sun: object | None = None
     prefiltered_full: list | None = None  # with a sun: the whole environment's prefiltered chain
+    # every compact light taken out with the sun (viewer.sun.extract_lights), the sun first
+    lights: tuple = ()
 
     def with_light(self, intensity: float, rotation: float) -> "Lighting":
         return dataclasses.replace(self, intensity=float(intensity), rotation=float(rotation))
@@ -79,7 +81,7 @@ def lighting_from_gl(renderer, environment, sun: bool = False) -> Lighting:
         intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg),
         dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()),
         dominant=t(ibl.read_level("dominant", 0)) if ibl.dominant is not None else None,
-        sun=ibl.sun, prefiltered_full=full)
+        sun=ibl.sun, prefiltered_full=full, lights=tuple(ibl.lights))
 
 
 def env_radiance(lighting: Lighting, l_ws: torch.Tensor) -> torch.Tensor:
@@ -127,7 +129,9 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     r_env = env_dir(reflected, lighting.rotation)
     sun_light = sun and lighting.sun is not None
     if sun_light:  # the sun's specular share w is analytic, the rest is in the whole chain
-        w = sun_specular_weight(r * r, torch.full_like(r, float(lighting.sun.angular_radius)))
+        # one weight for every light taken out: the widest's (IBL.bind's u_sun_radius)
+        radius = max(float(li.angular_radius) for li in (lighting.lights or (lighting.sun,)))
+        w = sun_specular_weight(r * r, torch.full_like(r, radius))
         prefiltered = ibl_specular_radiance_sun(lighting.prefiltered, lighting.prefiltered_full,
                                                 r_env, r, lighting.levels, w) * lighting.intensity
     else:

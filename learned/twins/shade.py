@@ -31,6 +31,7 @@ from .shade_ggx_mc import shade_ggx_mc
 from .shading import (
     blinn_phong,
     diffuse_color,
+    env_lights_ggx,
     ggx_environment_sun,
     ggx_split_sum,
     shading_normal,
@@ -125,7 +126,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         if model == "ggx_split_sum" and defines.get("SUN_LIGHT", 0):
             # the sun's specular light: analytic for the share w (_shade_ggx_split_sum), looked up
             # in the chain of the whole environment for the rest; the bound mixes as the lookups
-            w = sun_specular_weight(r * r, torch.full_like(r, env["sun"].angular_radius))
+            w = sun_specular_weight(r * r, torch.full_like(r, _widest(env)))
             w3 = w[..., None]
             prefiltered = ibl_specular_radiance_sun(env["prefiltered"], env["prefiltered_full"],
                                                     r_env, r, env["levels"], w)
@@ -184,6 +185,11 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         envelope["bound"] = bound.detach()
         out = out.detach()
     return torch.cat([out, alpha[..., None]], dim=-1)
+
+
+def _widest(env: dict) -> float:
+    """``u_sun_radius`` as :meth:`viewer.ibl.IBL.bind` sets it: the widest extracted light's."""
+    return max(float(li.angular_radius) for li in env.get("lights", (env["sun"],)))
 
 
 def _irradiance_bound(irradiance: torch.Tensor, n_env: torch.Tensor, bits: int) -> torch.Tensor:
@@ -275,10 +281,13 @@ def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensit
         l_env = torch.tensor(sun.direction, dtype=torch.float32).expand_as(s.n)
         l_ws = rotate_y(l_env, torch.full(s.r.shape, rotation_rad, dtype=torch.float32))
         e = (torch.tensor(sun.irradiance, dtype=torch.float32) * intensity).expand_as(s.n)
-        w = sun_specular_weight(s.r * s.r, torch.full_like(s.r, sun.angular_radius)) \
+        others = tuple(env.get("lights", (sun,)))[1:int(defines.get("ENV_LIGHTS", 0)) + 1]
+        w = sun_specular_weight(s.r * s.r, torch.full_like(s.r, _widest(env))) \
             if specular else torch.ones_like(s.r)
         diffuse = s.diffuse * s.ao[..., None]
         c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, l_ws, e, w)
+        c = c + env_lights_ggx(others, diffuse, f0, a, dfg, ms, s.n, s.v, w, intensity,
+                               rotation_rad)
     return c
 
 

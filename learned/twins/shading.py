@@ -112,3 +112,24 @@ def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: to
     return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
 
 
+
+
+def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+                   dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
+                   v: torch.Tensor, w: torch.Tensor, intensity: float,
+                   rotation_rad: float) -> torch.Tensor:
+    """GLSL ``vec3 env_lights_ggx(...)`` (passes/env_lights.glsl): the sum of
+    :func:`ggx_environment_sun` over ``lights`` (the environment's compact lights besides its sun,
+    :class:`viewer.sun.Sun` each; the uniforms ``u_env_light_*``), each turned by the
+    environment's rotation and scaled by its intensity. Shapes as ggx_environment_sun."""
+    from .equirect import rotate_y
+
+    c = torch.zeros_like(n)
+    angle = torch.full(a.shape, float(rotation_rad), dtype=torch.float32)
+    for light in lights:
+        l_env = torch.tensor(light.direction, dtype=torch.float32).expand_as(n)
+        e = (torch.tensor(light.irradiance, dtype=torch.float32)
+             * torch.tensor(float(intensity), dtype=torch.float32)).expand_as(n)
+        c = c + ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v,
+                                    rotate_y(l_env, angle), e, w)
+    return c

@@ -3,12 +3,14 @@
 // SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0),
 // LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, same BRDF: passes/lights.glsl),
 // SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/sun.py; the IBL bound then
-// leaves it out of the prefiltered chain and the SH, and u_env_prefiltered_full keeps it).
+// leaves it out of the prefiltered chain and the irradiance map, and u_env_prefiltered_full keeps
+// it), ENV_LIGHTS (its other compact lights, passes/env_lights.glsl; with SUN_LIGHT only).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/env_lights.glsl"
 
 uniform sampler2D u_env_prefiltered;
 uniform sampler2D u_env_dfg;
@@ -64,6 +66,7 @@ void main() {
     c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, l_sun,
                              u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
                              w_sun);
+    c += env_lights_ggx(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, w_sun);
 #endif
 #else
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
@@ -78,6 +81,7 @@ void main() {
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
     c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, l_sun,
                                u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun));
+    c += env_lights_ggx(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0);
 #endif
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

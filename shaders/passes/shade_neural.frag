@@ -16,15 +16,18 @@
 // "multiscatter": true), so an untrained student renders the classical model's default.
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1), SUN_LIGHT (0/1,
 // 0 when not given: a split3 student with NEURAL_STUDENT_SUN under an environment with a sun; the
-// IBL bound then leaves the sun out of the prefiltered chain and the SH, u_env_prefiltered_full
-// keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it, with the student's
-// corrections: lib/neural.glsl neural_student_sun_split), LIGHT_COUNT, LIGHT_POSITIONAL (the
+// IBL bound then leaves the sun out of the prefiltered chain and the irradiance map,
+// u_env_prefiltered_full keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it,
+// with the student's corrections: lib/neural.glsl neural_student_sun_split), ENV_LIGHTS (the
+// environment's other compact lights: the student's input takes one sun, so they go through its
+// classical base, passes/env_lights.glsl, without learned factors), LIGHT_COUNT, LIGHT_POSITIONAL (the
 // scene's punctual lights through the student's classical base: passes/lights.glsl, main()).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/env_lights.glsl"
 #include "generated/neural_student.glsl"
 
 #ifndef SUN_LIGHT
@@ -121,6 +124,8 @@ void main() {
                                   dfg, r * r, n, v, l_sun,
                                   u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
                                   w_sun, spec_scale);
+    c += env_lights_ggx(diffuse_color(g.albedo, g.metallic), f0, r * r, dfg,
+                        float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun);
 #endif
 #elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);

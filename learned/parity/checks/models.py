@@ -48,7 +48,7 @@ def env_for_pass(renderer, scene, sun: bool) -> dict:
     environment's sun, plus the sun (``"sun"``) and the whole environment's prefiltered chain
     (``"prefiltered_full"``); else the plain IBL (``"sun"`` None)."""
     ibl = renderer.resources.ibl(scene.environment, sun=sun)
-    env = {**env_from_ibl(ibl), "sun": ibl.sun}
+    env = {**env_from_ibl(ibl), "sun": ibl.sun, "lights": ibl.lights}
     if ibl.sun is not None:
         full = renderer.ibl(scene)
         env["prefiltered_full"] = [torch.from_numpy(full.read_level("prefiltered", k))

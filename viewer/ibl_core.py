@@ -144,7 +144,8 @@ class IBL:
             radius = max(float(li.angular_radius) for li in self.lights)
             for name, value in (("u_sun_direction", self.sun.direction),
                                 ("u_sun_irradiance", self.sun.irradiance),
-                                ("u_sun_radius", radius)):
+                                ("u_sun_radius", radius),
+                                ("u_sun_disc_radius", float(self.sun.angular_radius))):
                 if name in program:
                     program[name].value = value
             others = self.lights[1:]
@@ -153,6 +154,8 @@ class IBL:
                     np.array([li.direction for li in others], np.float32).tobytes())
                 program["u_env_light_irradiance"].write(
                     np.array([li.irradiance for li in others], np.float32).tobytes())
+                program["u_env_light_radius"].write(
+                    np.array([li.angular_radius for li in others], np.float32).tobytes())
             if "u_env_prefiltered_full" in program:
                 if self.full_prefiltered is None:
                     raise RuntimeError("an IBL without its sun needs full_prefiltered to bind")

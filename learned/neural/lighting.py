@@ -24,7 +24,7 @@ from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radian
                                sample_bilinear, specular_dominant_direction)
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
-from learned.twins.shading import shading_normal, sun_specular_weight
+from learned.twins.shading import disc_light, shading_normal, sun_specular_weight
 from viewer.gl import make_current
 from viewer.scene import Scene
 
@@ -112,8 +112,9 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     ``ggx_split_sum``) instead of the mirror direction.
 
     ``sun`` (a student whose base shades the environment's sun, ``shade_neural.frag`` with
-    ``SUN_LIGHT``): a fourth tensor ``sun [N, 13]`` (n, v, l world space, the sun's irradiance
-    times intensity, its specular weight w = ``sun_specular_weight``: the arguments of
+    ``SUN_LIGHT``): a fourth tensor ``sun [N, 13]`` (n, v, l world space - lifted above the
+    horizon where it cuts the sun, ``disc_light`` -, the sun's irradiance times intensity - times
+    the disc's horizon factor -, its specular weight w = ``sun_specular_weight``: the arguments of
     ``neural_student_sun_split``), and where w < 1 the prefiltered radiance mixes in the whole
     environment's chain as the pass does. Without a sun in ``lighting`` (the plain IBL) the
     irradiance is 0: no sun term.
@@ -157,6 +158,9 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
                         torch.full(r.shape, lighting.rotation, dtype=torch.float32))
         e = (torch.tensor(s.irradiance, dtype=torch.float32)
              * torch.tensor(lighting.intensity, dtype=torch.float32)).expand_as(n)
+        # the sun as the disc it is, cut by the horizon (shade_neural.frag's disc_light)
+        disc = disc_light(n, l_ws, torch.full_like(r, float(s.angular_radius)))
+        l_ws, e = disc[..., :3], e * disc[..., 3:]
     return x, irradiance, prefiltered, torch.cat([n, v.expand_as(n), l_ws, e, w[..., None]], -1)
 
 

@@ -31,6 +31,7 @@ from .shade_ggx_mc import shade_ggx_mc
 from .shading import (
     blinn_phong,
     diffuse_color,
+    disc_light,
     env_lights_ggx,
     ggx_environment_sun,
     ggx_split_sum,
@@ -285,7 +286,9 @@ def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensit
         w = sun_specular_weight(s.r * s.r, torch.full_like(s.r, _widest(env))) \
             if specular else torch.ones_like(s.r)
         diffuse = s.diffuse * s.ao[..., None]
-        c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, l_ws, e, w)
+        disc = disc_light(s.n, l_ws, torch.full_like(s.r, float(sun.angular_radius)))
+        c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, disc[..., :3],
+                                    e * disc[..., 3:], w)
         c = c + env_lights_ggx(others, diffuse, f0, a, dfg, ms, s.n, s.v, w, intensity,
                                rotation_rad)
     return c

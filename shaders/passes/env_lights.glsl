@@ -12,18 +12,21 @@
 #if ENV_LIGHTS > 0
 uniform vec3 u_env_light_direction[ENV_LIGHTS];   // unit, towards the light, environment frame
 uniform vec3 u_env_light_irradiance[ENV_LIGHTS];  // on a surface facing it (before intensity)
+uniform float u_env_light_radius[ENV_LIGHTS];     // angular radius, radians (lib disc_light)
 #endif
 
-// Every such light through ggx_environment_sun (their sum; 0 without ENV_LIGHTS), rotated and
-// scaled with the environment (u_env_rotation, u_env_intensity); nothing shadows them.
+// Every such light through ggx_environment_sun (their sum; 0 without ENV_LIGHTS) as the disc it
+// is (disc_light: cut by the horizon), rotated and scaled with the environment (u_env_rotation,
+// u_env_intensity); nothing shadows them.
 vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n, vec3 v,
                     float w) {
     vec3 c = vec3(0.0);
 #if ENV_LIGHTS > 0
     for (int i = 0; i < ENV_LIGHTS; ++i) {
-        vec3 l = rotate_y(u_env_light_direction[i], u_env_rotation);
-        c += ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, l,
-                                 u_env_light_irradiance[i] * u_env_intensity, w);
+        vec4 disc = disc_light(n, rotate_y(u_env_light_direction[i], u_env_rotation),
+                               u_env_light_radius[i]);
+        c += ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, disc.xyz,
+                                 u_env_light_irradiance[i] * (u_env_intensity * disc.w), w);
     }
 #endif
     return c;

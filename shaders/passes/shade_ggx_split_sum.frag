@@ -21,7 +21,8 @@ uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irrad
 uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
 uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
 uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
-uniform float u_sun_radius;     // angular radius, radians
+uniform float u_sun_radius;     // the widest extracted light's angular radius (radians): w
+uniform float u_sun_disc_radius;  // the sun's own angular radius (radians): its horizon
 #endif
 
 void main() {
@@ -63,9 +64,10 @@ void main() {
 #if SUN_LIGHT
     // ao scales its diffuse part as it scales the rest of the environment's (SH) diffuse light
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
-    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, l_sun,
-                             u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
-                             w_sun);
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
+    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, disc.xyz,
+                             u_sun_irradiance * u_env_intensity * disc.w
+                             * sun_shadow(g, n, l_sun), w_sun);
     c += env_lights_ggx(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, w_sun);
 #endif
 #else
@@ -79,8 +81,10 @@ void main() {
 #endif
 #if SUN_LIGHT
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
-    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, l_sun,
-                               u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun));
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
+    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, disc.xyz,
+                               u_sun_irradiance * u_env_intensity * disc.w
+                               * sun_shadow(g, n, l_sun));
     c += env_lights_ggx(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0);
 #endif
 #endif

@@ -53,7 +53,8 @@ uniform sampler2D u_env_dominant;
 uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
 uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
 uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
-uniform float u_sun_radius;     // angular radius, radians
+uniform float u_sun_radius;     // the widest extracted light's angular radius (radians): w
+uniform float u_sun_disc_radius;  // the sun's own angular radius (radians): its horizon
 #endif
 #if NEURAL_STUDENT_INDIRECT
 layout(location = 1) out vec4 o_indirect_factor;  // r: the factor on L_ind (all four channels)
@@ -120,10 +121,11 @@ void main() {
                                            spec_scale);
 #if SUN_LIGHT
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
     c += neural_student_sun_split(k_0, diffuse_color(g.albedo, g.metallic), f0, f90_from_f0(f0),
-                                  dfg, r * r, n, v, l_sun,
-                                  u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
-                                  w_sun, spec_scale);
+                                  dfg, r * r, n, v, disc.xyz,
+                                  u_sun_irradiance * u_env_intensity * disc.w
+                                  * sun_shadow(g, n, l_sun), w_sun, spec_scale);
     c += env_lights_ggx(diffuse_color(g.albedo, g.metallic), f0, r * r, dfg,
                         float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun);
 #endif

@@ -25,7 +25,7 @@ ALBEDO = 0.5
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 # three small discs (elevation, azimuth in degrees, angular radius in degrees, radiance) on a dim
-# sky over a darker ground, most energetic first
+# sky over a darker ground, most energetic first (37, 25 and 19 % of the map's energy)
 DISCS = ((55.0, 20.0, 2.5, (900.0, 850.0, 800.0)), (40.0, -110.0, 3.0, (400.0, 380.0, 300.0)),
          (25.0, 150.0, 2.0, (600.0, 700.0, 900.0)))
 
@@ -114,6 +114,7 @@ def _diffuse_against_truth(renderer, env: np.ndarray, path: Path):
 
     from learned.twins.ibl import irradiance_lookup
     from learned.twins.sh import sh_irradiance
+    from learned.twins.shading import disc_light
 
     write_exr(path, env)
     scene = _sphere_from_above(path)
@@ -131,8 +132,12 @@ def _diffuse_against_truth(renderer, env: np.ndarray, path: Path):
                               torch.from_numpy(n.astype(np.float32))).double().numpy()
         sh = sh_irradiance(torch.from_numpy(n.astype(np.float32)),
                            torch.from_numpy(np.asarray(renderer.ibl(scene).sh))).double().numpy()
-    for li in lights:
-        e += np.maximum(n @ np.asarray(li.direction), 0.0)[:, None] * np.asarray(li.irradiance)
+        nt = torch.from_numpy(n.astype(np.float32))
+        for li in lights:  # its diffuse light: E (n.l_b) s, the horizon-cut disc's share
+            d = disc_light(nt, torch.tensor(li.direction, dtype=torch.float32).expand_as(nt),
+                           torch.full((len(n),), float(li.angular_radius))).double().numpy()
+            cut = d[:, 3] * (n * d[:, :3]).sum(-1)
+            e += cut[:, None] * np.asarray(li.irradiance)
     return got, truth, ALBEDO / math.pi * e, ALBEDO / math.pi * sh, n, len(lights)
 
 
@@ -142,15 +147,16 @@ def _relative(a: np.ndarray, truth: np.ndarray) -> np.ndarray:
 
 def test_diffuse_under_three_discs_is_the_exact_convolution(renderer, tmp_path):
     """Every normal of the upper hemisphere (the floor's at the centre) within 2 % of the brute
-    force, rendered and twin (measured: max 0.6 %); SH9 of the same map misses by more than 2 %
-    (measured: 30 %) - what the test would see without the irradiance map."""
+    force, rendered and twin (measured: max 0.15 %); SH9 of the same map misses by more than 2 %
+    (measured: 23 %) - what the test would see without the irradiance map. The pass and the twin
+    agree to 2e-6 relative (float32 lookups)."""
     env = three_discs()
     got, truth, twin, sh, n, count = _diffuse_against_truth(renderer, env, tmp_path / "d.exr")
     assert count == 3
     assert len(n) > 500 and n[:, 1].max() > 0.999 and n[:, 1].min() < 0.3
     assert _relative(got, truth).max() < 0.02, _relative(got, truth).max()
     assert _relative(twin, truth).max() < 0.02
-    np.testing.assert_allclose(got, twin, rtol=2e-3, atol=1e-6)  # twin = what the pass computes
+    np.testing.assert_allclose(got, twin, rtol=1e-4, atol=1e-6)  # twin = what the pass computes
     assert _relative(sh, truth).max() > 0.02
 
 
@@ -162,7 +168,9 @@ def _real_maps() -> list[Path]:
 def test_diffuse_under_real_maps_is_the_exact_convolution(renderer, tmp_path, path):
     """Every real HDRI of assets/environments, 2x2-averaged to 256 wide (the truth is the sum
     over that map): rendered and twin diffuse within 2 % of the brute force at every normal of
-    the upper hemisphere (measured: max 0.3-0.9 %)."""
+    the upper hemisphere (measured: max 0.04 % esplanade, 0.3 % park, 1.7 % sky: one normal at
+    90 degrees from its sun, whose texels - 1.4 degrees at this size - the disc only
+    approximates where the horizon cuts it)."""
     env = load_environment(EnvironmentSpec(path=str(path)))
     while env.shape[1] > 256:
         env = box_down(env)

@@ -1,8 +1,9 @@
 """Every environment a renderer uses, kept bounded in memory and cached on disk.
 
 :class:`EnvironmentStore` owns, per environment, everything derived from it: the IBL (radiance
-chain, prefiltered chain, SH), the sun-less IBL and the sun (:func:`viewer.sun.extract_sun`) where
-it has one, the importance-sampling tables (built on first use) and the equal-power directions.
+chain, prefiltered chain, irradiance map, SH), the IBL without its compact lights and the lights
+(:func:`viewer.sun.extract_lights`) where it has any, the importance-sampling tables (built on
+first use) and the equal-power directions.
 One entry per environment, keyed by its description with intensity and rotation left out (they are
 shader uniforms), sized by the real bytes of its textures and arrays, in a
 :class:`viewer.cache.BoundedCache`: least recently used environments are evicted beyond
@@ -53,8 +54,7 @@ class Environment:
         self.power_directions = directions  # None until asked for (EnvironmentStore)
         self.disk_key = disk_key          # the disk cache's key, or None
         self.sampling: EnvSampling | None = None
-        # "fis" (the method before the store): the plain IBL, the sun-less one built on first use
-        # from the arrays (env, residual) kept for it
+        # "fis": the plain IBL, the sun-less one built on first use from the (env, residual) kept
         self._plain = plain
         self._sunless: IBL | None = None
         self._arrays = arrays
@@ -64,7 +64,7 @@ class Environment:
         return self.ibls.plain if self.ibls is not None else self._plain
 
     def sunless(self, programs, options: IBLOptions) -> IBL | None:
-        """The IBL without the sun (None where there is no sun); "fis" builds it now."""
+        """The IBL without its lights (None without any); "fis" builds it now."""
         if self.sun is None:
             return None
         if self.ibls is not None:
@@ -131,9 +131,9 @@ class EnvironmentStore:
         return (dataclasses.replace(spec, intensity=1.0, rotation_deg=0.0), self.options)
 
     def ibl(self, spec: EnvironmentSpec, sun: bool = False) -> IBL:
-        """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1 and SH leave
-        out the environment's sun (:func:`viewer.sun.extract_sun`), for passes that shade it
-        analytically (``SUN_LIGHT``); the plain IBL when the environment has no sun."""
+        """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1, irradiance
+        map and SH leave out its compact lights (:func:`viewer.sun.extract_lights`), for passes
+        that shade them (``SUN_LIGHT``, ``ENV_LIGHTS``); the plain IBL where it has none."""
         entry = self._entry(spec)
         if sun and entry.sun is not None:
             built = entry._sunless is None and entry.ibls is None
@@ -144,12 +144,11 @@ class EnvironmentStore:
         return entry.plain
 
     def sun(self, spec: EnvironmentSpec) -> Sun | None:
-        """The environment's compact sun (its most energetic compact light), or None."""
+        """The environment's sun (its most energetic compact light), or None."""
         return self._entry(spec).sun
 
     def lights(self, spec: EnvironmentSpec) -> tuple[Sun, ...]:
-        """Every compact light taken out of the environment (:func:`viewer.sun.extract_lights`),
-        the sun first; () when it has none."""
+        """Its compact lights (:func:`viewer.sun.extract_lights`), the sun first, or ()."""
         return self._entry(spec).lights
 
     def env_sampling(self, spec: EnvironmentSpec) -> EnvSampling:
@@ -172,8 +171,7 @@ class EnvironmentStore:
         return entry.power_directions
 
     @property
-    def environments(self) -> int:
-        """How many environments are held."""
+    def environments(self) -> int:  # how many environments are held
         return len(self._cache)
 
     def stats(self) -> CacheStats:
@@ -342,14 +340,13 @@ class EnvironmentStore:
                 lights = tuple(Sun(**{**f, "direction": tuple(f["direction"]),
                                       "irradiance": tuple(f["irradiance"])})
                                for f in meta["lights"])
-                ys, xs = arrays["sun_rows"], arrays["sun_cols"]
-                values = arrays["sun_residual"]
+                ys, xs, values = arrays["sun_rows"], arrays["sun_cols"], arrays["sun_residual"]
                 if not (ys.shape == xs.shape == values.shape[:1] and values.shape[1:] == (3,)
                         and ys.min() >= 0 and ys.max() < h and xs.min() >= 0 and xs.max() < w):
-                    raise ValueError("the sun's texels do not fit the image")
+                    raise ValueError("the lights' texels do not fit the image")
                 patch = (ys, xs, values)
-                parts["sh_sunless"] = arrays["sh_sunless"]
-                parts["irradiance_sunless"] = arrays["irradiance_sunless"]
+                parts.update(sh_sunless=arrays["sh_sunless"],
+                             irradiance_sunless=arrays["irradiance_sunless"])
                 parts["full_levels"] = [arrays[f"full{k}"] for k in range(1, levels)]
                 for k in range(1, levels):
                     want = (max(1, (width >> k) // 2), max(1, width >> k), 3)

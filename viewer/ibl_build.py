@@ -43,8 +43,8 @@ from .prefilter import (
     SUN_MAX_POINTS,
     box_down_sparse,
     level_widths,
+    light_points,
     prefilter_levels,
-    sun_points,
     working_map,
 )
 
@@ -203,24 +203,6 @@ class EnvironmentIBLs:
         for ibl in (self.plain, self.sunless):
             if ibl is not None:
                 ibl.release()
-
-
-def light_points(texels: tuple, lights: tuple, height: int, width: int, alpha: float
-                 ) -> np.ndarray:
-    """:func:`viewer.prefilter.sun_points` of each light's texels (each texel goes to the light
-    whose direction is nearest), SUN_MAX_POINTS / len(lights) points at most per light."""
-    ys, xs, excess = texels
-    if len(lights) <= 1:
-        return sun_points(texels, height, width, alpha)
-    phi = 2.0 * np.pi * ((xs + 0.5) / width - 0.5)
-    theta = np.pi * (ys + 0.5) / height
-    st = np.sin(theta)
-    dirs = np.stack([st * np.sin(phi), np.cos(theta), -st * np.cos(phi)], axis=-1)
-    owner = np.argmax(dirs @ np.array([li.direction for li in lights]).T, axis=1)
-    cap = SUN_MAX_POINTS // len(lights)
-    return np.concatenate([sun_points((ys[owner == i], xs[owner == i], excess[owner == i]),
-                                      height, width, alpha, max_points=cap)
-                           for i in range(len(lights))], axis=0)
 
 
 def compose_level(programs, dst, level: int, work: np.ndarray, points: np.ndarray,

@@ -35,8 +35,9 @@ SOURCE_WIDTH = 512      # a wider environment is box-averaged to this before the
 
 def _spectra(ho: int, hs: int, ws: int) -> np.ndarray:
     """``[F, ho, hs]`` complex128: the rfft over d of K_os[d] = max(n.l, 0) dw_s, n at output row
-    o (polar angle pi o / (ho - 1)), l at source row s, azimuth difference 2 pi (d + delta) / ws with delta = (r - 1) / 2 for a
-    source r times as wide as the output (output texel centres fall between source centres)."""
+    o (polar angle pi o / (ho - 1)), l at source row s, azimuth difference 2 pi (d + delta) / ws
+    with delta = (r - 1) / 2 for a source r times as wide as the output (output texel centres
+    fall between source centres)."""
     wo = 2 * ho
     r = ws // wo
     to = math.pi * np.arange(ho) / (ho - 1)  # rows from pole to pole (see irradiance_map)

@@ -39,7 +39,8 @@ class ShadingModel:
     name: str
     pass_file: str
     summary: str
-    needs: frozenset[str]  # environment resources: subset of {sh, prefiltered, dfg, radiance, cdf}
+    # environment resources: subset of {irradiance, prefiltered, dfg, radiance, cdf}
+    needs: frozenset[str]
     # G-buffer channels read besides albedo and alpha (None: all of them)
     reads: frozenset[str] | None = ALL_CHANNELS
     accumulates: bool = False  # Monte Carlo: `samples` accumulate in batches and over frames
@@ -104,14 +105,16 @@ MODELS: dict[str, ShadingModel] = {
                      frozenset({"radiance"}), reads=frozenset(), lights="unlit",
                      occlusion=False),
         ShadingModel("blinn_phong", "passes/shade_blinn_phong.frag",
-                     "the thesis baseline: Lambert diffuse from SH irradiance + a Fresnel-free "
-                     "normalised Blinn-Phong lobe from the prefiltered environment",
-                     frozenset({"sh", "prefiltered", "radiance"}), reads=_LIT, specular_lobe=True),
+                     "the thesis baseline: Lambert diffuse from the irradiance map + a "
+                     "Fresnel-free normalised Blinn-Phong lobe from the prefiltered environment",
+                     frozenset({"irradiance", "prefiltered", "radiance"}), reads=_LIT,
+                     specular_lobe=True),
         ShadingModel("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
                      "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
-                     "prefiltered specular + SH diffuse; the environment's sun, when it has one, "
-                     "as an analytic light; optional multiple-scattering compensation",
-                     frozenset({"sh", "prefiltered", "dfg", "radiance"}), reads=_LIT,
+                     "prefiltered specular + irradiance-map diffuse; the environment's compact "
+                     "lights, when it has any, as analytic lights; optional multiple-scattering "
+                     "compensation",
+                     frozenset({"irradiance", "prefiltered", "dfg", "radiance"}), reads=_LIT,
                      multiscatter=True, specular_lobe=True, analytic_sun=True),
         ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
                      "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
@@ -121,9 +124,9 @@ MODELS: dict[str, ShadingModel] = {
                      samplings=SAMPLINGS),
         ShadingModel("neural", "passes/shade_neural.frag",
                      "the distilled neural shader (thesis ch. 4 student): one small MLP per "
-                     "pixel on the material, n.v, SH irradiance and prefiltered radiance; "
+                     "pixel on the material, n.v, irradiance and prefiltered radiance; "
                      "weights baked into generated GLSL from `weights` (default: assets/weights)",
-                     frozenset({"sh", "prefiltered", "radiance"}), network="student"),
+                     frozenset({"irradiance", "prefiltered", "radiance"}), network="student"),
         ShadingModel("neural_teacher", "passes/shade_neural_teacher.frag",
                      "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse "
                      "and specular MLPs per sampled light direction, `samples` averaged "

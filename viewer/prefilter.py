@@ -276,3 +276,21 @@ def sun_points(texels: tuple, height: int, width: int, alpha: float,
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     e /= ggx_normalisation(alpha)
     return np.concatenate([d, e], axis=1).astype(np.float32)
+
+
+def light_points(texels: tuple, lights: tuple, height: int, width: int, alpha: float
+                 ) -> np.ndarray:
+    """:func:`sun_points` of each light's texels (each texel goes to the light
+    whose direction is nearest), SUN_MAX_POINTS / len(lights) points at most per light."""
+    ys, xs, excess = texels
+    if len(lights) <= 1:
+        return sun_points(texels, height, width, alpha)
+    phi = 2.0 * math.pi * ((xs + 0.5) / width - 0.5)
+    theta = math.pi * (ys + 0.5) / height
+    st = np.sin(theta)
+    dirs = np.stack([st * np.sin(phi), np.cos(theta), -st * np.cos(phi)], axis=-1)
+    owner = np.argmax(dirs @ np.array([li.direction for li in lights]).T, axis=1)
+    cap = SUN_MAX_POINTS // len(lights)
+    return np.concatenate([sun_points((ys[owner == i], xs[owner == i], excess[owner == i]),
+                                      height, width, alpha, max_points=cap)
+                           for i in range(len(lights))], axis=0)

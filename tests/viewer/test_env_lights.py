@@ -59,7 +59,8 @@ def test_three_discs_become_three_lights_and_no_energy_is_lost():
     assert len(lights) == 3 <= ENV_MAX_LIGHTS
     # brightest first, each where its disc is (within a texel: 1.4 degrees)
     for light, (el, az, radius, _) in zip(lights, DISCS):
-        angle = math.degrees(math.acos(min(1.0, float(np.dot(light.direction, _direction(el, az))))))
+        cos = min(1.0, float(np.dot(light.direction, _direction(el, az))))
+        angle = math.degrees(math.acos(cos))
         assert angle < 1.4, (light, el, az)
         assert abs(math.degrees(light.angular_radius) - radius) < 1.5
     # residual + lights = original: per texel the excess taken out, in total the irradiance

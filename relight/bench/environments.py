@@ -63,6 +63,9 @@ class TimedStore(EnvironmentStore):
     def sun(self, spec):
         return self._timed(super().sun, spec)
 
+    def lights(self, spec):
+        return self._timed(super().lights, spec)
+
     def env_sampling(self, spec):
         return self._timed(super().env_sampling, spec)
 

@@ -146,11 +146,14 @@ def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: to
 def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
                    dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
                    v: torch.Tensor, w: torch.Tensor, intensity: float,
-                   rotation_rad: float) -> torch.Tensor:
+                   rotation_rad: float, p: torch.Tensor | None = None) -> torch.Tensor:
     """GLSL ``vec3 env_lights_ggx(...)`` (passes/env_lights.glsl): the sum of
     :func:`ggx_environment_sun` over ``lights`` (the environment's compact lights besides its sun,
     :class:`viewer.sun.Sun` each; the uniforms ``u_env_light_*``), each turned by the
-    environment's rotation, scaled by its intensity and cut by the horizon (:func:`disc_light`). Shapes as ggx_environment_sun."""
+    environment's rotation, scaled by its intensity and cut by the horizon (:func:`disc_light`).
+    ``p`` (the surface point) is where the GLSL reads each light's shadow map with SUN_SHADOW;
+    as ``light_visibility``'s twin, this one is unshadowed (the model parity checks render
+    without shadow maps; shadow_visibility and its parts are twinned in learned.twins.shadow). Shapes as ggx_environment_sun."""
     from .equirect import rotate_y
 
     c = torch.zeros_like(n)

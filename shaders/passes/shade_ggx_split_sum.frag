@@ -68,7 +68,8 @@ void main() {
     c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, disc.xyz,
                              u_sun_irradiance * u_env_intensity * disc.w
                              * sun_shadow(g, n, l_sun), w_sun);
-    c += env_lights_ggx(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, w_sun);
+    c += env_lights_ggx(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, w_sun,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #else
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
@@ -85,7 +86,8 @@ void main() {
     c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, disc.xyz,
                                u_sun_irradiance * u_env_intensity * disc.w
                                * sun_shadow(g, n, l_sun));
-    c += env_lights_ggx(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0);
+    c += env_lights_ggx(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

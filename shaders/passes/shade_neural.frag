@@ -127,7 +127,8 @@ void main() {
                                   u_sun_irradiance * u_env_intensity * disc.w
                                   * sun_shadow(g, n, l_sun), w_sun, spec_scale);
     c += env_lights_ggx(diffuse_color(g.albedo, g.metallic), f0, r * r, dfg,
-                        float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun);
+                        float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);

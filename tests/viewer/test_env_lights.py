@@ -178,3 +178,50 @@ def test_diffuse_under_real_maps_is_the_exact_convolution(renderer, tmp_path, pa
     got, truth, twin, _, n, _ = _diffuse_against_truth(renderer, env, tmp_path / path.name)
     assert _relative(got, truth).max() < 0.02, _relative(got, truth).max()
     assert _relative(twin, truth).max() < 0.02
+
+
+def test_every_environment_light_casts_its_shadow(renderer, tmp_path):
+    """A sphere over a floor under the three-disc map, seen from above: one shadow map per
+    extracted light (shadowsun, shadowenv0, shadowenv1 in the frame graph), and each light's
+    umbra on the floor (a Lambertian one: specular 0) darkens by exactly that light's own term,
+    albedo / pi E (n.l) (measured: 1.0000 for each; the residual's diffuse light stays, as the
+    sun's shadow leaves it); the floor away from every shadow stays lit."""
+    from scipy import ndimage
+
+    path = tmp_path / "discs.exr"
+    write_exr(path, three_discs())
+    n, half = 96, 6.0 * math.tan(math.radians(30.0))
+    centre, radius = np.array([0.0, 1.0, 0.0]), 0.5
+    sc = scene_from_dict({
+        "camera": {"position": [0, 6.0, 0], "target": [0, 0, 0], "up": [0, 0, -1], "fov_y": 60,
+                   "size": [n, n]},
+        "environment": {"path": str(path)},
+        "render": {"tonemap": "none", "shadow_size": 512, "ao": False},
+        "objects": [{"type": "plane", "center": [0, 0, 0], "size": [10, 10], "normal": [0, 1, 0],
+                     "material": {"albedo": [0.5] * 3, "roughness": 0.9, "specular": 0.0}},
+                    {"type": "sphere", "center": centre.tolist(), "radius": radius}]})
+    lit = renderer.render(sc).radiance[..., 0].astype(np.float64)
+    assert {"shadowsun", "shadowenv0", "shadowenv1"} <= {p.name for p in renderer.last_graph.passes}
+    free = renderer.render(sc.with_render(shadows=False)).radiance[..., 0].astype(np.float64)
+    dark = free - lit
+    c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+    x, z = np.meshgrid(c * half, c * half)
+    o = np.stack([x, np.zeros_like(x), z], -1) - centre
+    lights = renderer.resources.env_lights(sc.environment)
+    shadows = []
+    for li in lights:
+        d = np.asarray(li.direction)
+        b = (o * d).sum(-1)
+        disc = b * b - ((o * o).sum(-1) - radius ** 2)
+        shadows.append((disc > 0) & (-b - np.sqrt(np.maximum(disc, 0.0)) > 0))
+    on_sphere = (x - centre[0]) ** 2 + (z - centre[2]) ** 2 < (radius * 1.25) ** 2
+    for k, (li, shadow) in enumerate(zip(lights, shadows)):
+        others = np.any([s for j, s in enumerate(shadows) if j != k], axis=0)
+        umbra = ndimage.binary_erosion(shadow, iterations=3) & ~on_sphere \
+            & ~ndimage.binary_dilation(others, iterations=3)
+        assert umbra.sum() > 20, (k, umbra.sum())
+        expected = ALBEDO / math.pi * li.irradiance[0] * li.direction[1]
+        ratio = float(np.median(dark[umbra])) / expected
+        assert 0.97 < ratio < 1.03, (k, ratio)
+    away = ~ndimage.binary_dilation(np.any(shadows, axis=0) | on_sphere, iterations=4)
+    assert np.abs(dark[away]).max() < 1e-3 * free[away].max()

@@ -203,6 +203,11 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
         # the sun's direction is in the environment's frame: turned by its rotation
         casters.append(("sun", env_to_world(sun.direction, scene.environment.rotation_deg),
                         float(sun.angular_radius)))
+        # the environment's other compact lights (ENV_LIGHTS): "env<k>", shadowenv<k>
+        others = renderer.resources.env_lights(scene.environment)[1:]
+        casters += [(f"env{k}", env_to_world(li.direction, scene.environment.rotation_deg),
+                     float(li.angular_radius))
+                    for k, li in enumerate(others[:defines.get("ENV_LIGHTS", 0)])]
     # what casts shadows: the objects without their materials (a material slider keeps the maps)
     shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
     out = {}

@@ -164,6 +164,30 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     return x, irradiance, prefiltered, torch.cat([n, v.expand_as(n), l_ws, e, w[..., None]], -1)
 
 
+def env_lights_base(gb: dict, x: torch.Tensor, sun_args: torch.Tensor, lighting: Lighting,
+                    multiscatter: bool, count: int | None = None) -> torch.Tensor:
+    """``[N, 3]``: the environment's compact lights besides its sun (``lighting.lights[1:]``, the
+    first ``count``; ENV_LIGHTS) through a sun student's classical base, as shade_neural.frag adds
+    them (``env_lights_ggx``, no learned factors): a term the network does not see, added to its
+    prediction in training as in the pass. ``x``, ``sun_args``: :func:`student_features`' first
+    and fourth tensors (ao is x[:, 6], dfg x[:, 8:10]; n, v, w are in sun_args). Their diffuse
+    part is scaled by ao, as ggx_split_sum scales its lights' (and a student its sun's)."""
+    from learned.twins.brdf import compute_f0
+    from learned.twins.shading import diffuse_color, env_lights_ggx
+
+    others = tuple(lighting.lights)[1:]
+    others = others[:count] if count is not None else others
+    if not others:
+        return torch.zeros(x.shape[0], 3)
+    metallic = gb["metallic"][:, 0]
+    r = clamp_perceptual_roughness(gb["roughness"][:, 0])
+    ms = torch.full_like(r, float(bool(multiscatter)))
+    return env_lights_ggx(others, diffuse_color(gb["albedo"], metallic) * x[:, 6:7],
+                          compute_f0(gb["albedo"], metallic, gb["specular"][:, 0]), r * r,
+                          x[:, 8:10], ms, sun_args[:, 0:3], sun_args[:, 3:6], sun_args[:, 12],
+                          lighting.intensity, lighting.rotation)
+
+
 def sample_lights(n: torch.Tensor, u: torch.Tensor, strategy: str, lighting: Lighting
                   ) -> tuple[torch.Tensor, torch.Tensor]:
     """Directions ``l [..., 3]`` (world) and their solid-angle pdfs ``[...]`` for the uniform pairs

@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import torch
 
-from learned.neural.lighting import STRATEGIES, env_radiance, student_features, surface
+from learned.neural.lighting import (STRATEGIES, env_lights_base, env_radiance,
+                                     student_features, surface)
 from learned.twins.deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from learned.twins.mc import mc_sample_2d
 
@@ -186,9 +187,10 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre, None, *sun_args)
-        others = tuple(getattr(lighting, "lights", ()))[1:int(defines.get("ENV_LIGHTS", 0)) + 1]
-        if sun and others:  # the environment's other compact lights: the classical base
-            c = c + _env_lights_base(net_model, flat, x, sun_args[0], lighting, others)
+        if sun and defines.get("ENV_LIGHTS", 0):  # the other compact lights: the classical base
+            c = c + env_lights_base(flat, x, sun_args[0], lighting,
+                                    getattr(net_model, "multiscatter", False),
+                                    int(defines["ENV_LIGHTS"]))
         if outputs is not None and getattr(net_model, "learns_indirect", False):
             with torch.no_grad():
                 f = net_model.indirect_factor(x.detach())
@@ -211,22 +213,6 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
                                               envelope.get("weight_bits", 8)).reshape(h, w, 3)
         out = out.detach()
     return torch.cat([out, alpha[:, None]], -1).reshape(h, w, 4)
-
-
-def _env_lights_base(net_model, flat, x, sun_args, lighting, others) -> torch.Tensor:
-    """``env_lights_ggx`` as shade_neural.frag calls it (passes/env_lights.glsl): the lights
-    ``others`` through the student's classical base, no learned factors. ``sun_args [N, 13]``:
-    n, v, l, E, w of :func:`learned.neural.lighting.student_features`; dfg is x[:, 6:8]."""
-    from .brdf import compute_f0
-    from .shading import diffuse_color, env_lights_ggx
-
-    metallic = flat["metallic"][:, 0]
-    r = clamp_perceptual_roughness(flat["roughness"][:, 0])
-    ms = torch.full_like(r, float(bool(getattr(net_model, "multiscatter", False))))
-    return env_lights_ggx(others, diffuse_color(flat["albedo"], metallic),
-                          compute_f0(flat["albedo"], metallic, flat["specular"][:, 0]), r * r,
-                          x[:, 6:8], ms, sun_args[:, 0:3], sun_args[:, 3:6], sun_args[:, 12],
-                          lighting.intensity, lighting.rotation)
 
 
 def _student_envelope(out, background, x, pre, flat, d, v, lighting, bits: int) -> torch.Tensor:

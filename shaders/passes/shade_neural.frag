@@ -20,7 +20,8 @@
 // u_env_prefiltered_full keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it,
 // with the student's corrections: lib/neural.glsl neural_student_sun_split), ENV_LIGHTS (the
 // environment's other compact lights: the student's input takes one sun, so they go through its
-// classical base, passes/env_lights.glsl, without learned factors), LIGHT_COUNT, LIGHT_POSITIONAL (the
+// classical base, passes/env_lights.glsl, without learned factors, diffuse times ao as the
+// base scales it), LIGHT_COUNT, LIGHT_POSITIONAL (the
 // scene's punctual lights through the student's classical base: passes/lights.glsl, main()).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -126,7 +127,7 @@ void main() {
                                   dfg, r * r, n, v, disc.xyz,
                                   u_sun_irradiance * u_env_intensity * disc.w
                                   * sun_shadow(g, n, l_sun), w_sun, spec_scale);
-    c += env_lights_ggx(diffuse_color(g.albedo, g.metallic), f0, r * r, dfg,
+    c += env_lights_ggx(diffuse_color(g.albedo, g.metallic) * ao, f0, r * r, dfg,
                         float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif

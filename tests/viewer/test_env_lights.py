@@ -225,3 +225,17 @@ def test_every_environment_light_casts_its_shadow(renderer, tmp_path):
         assert 0.97 < ratio < 1.03, (k, ratio)
     away = ~ndimage.binary_dilation(np.any(shadows, axis=0) | on_sphere, iterations=4)
     assert np.abs(dark[away]).max() < 1e-3 * free[away].max()
+
+
+@pytest.mark.parametrize("model", ["ggx_split_sum", "blinn_phong"])
+def test_models_match_their_twins_under_several_environment_lights(programs, tmp_path, model):
+    """The model parity check (GLSL pass against its torch twin, per-pixel envelope) under the
+    three-disc map, rotated: ggx_split_sum with SUN_LIGHT and ENV_LIGHTS 2 (the twins of
+    env_lights_ggx and disc_light inside the pass), blinn_phong with the whole map's irradiance."""
+    from learned.parity.checks.models import _check_model
+
+    path = tmp_path / "discs.exr"
+    write_exr(path, three_discs(128))
+    r = _check_model(programs, model, {}, environment={"path": str(path), "rotation_deg": 40.0,
+                                                      "intensity": 0.7})
+    assert r.passed, r

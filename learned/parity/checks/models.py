@@ -185,10 +185,13 @@ MC_LIGHT_VARIANTS = ({"samples": 2, "sampling": "mis"},
 
 
 def _check_model(programs, model: str, variant: dict, light: dict | list | None = None,
-                 emissive: bool = False):
-    # light: a [light] table (dict) or a [[lights]] array (list)
+                 emissive: bool = False, environment: dict | None = None):
+    # light: a [light] table (dict) or a [[lights]] array (list); environment: the scene's
+    # [environment] instead of the parity sky (a map with several compact lights: ENV_LIGHTS)
     doc = PARITY_SCENE if light is None else \
         {**PARITY_SCENE, ("lights" if isinstance(light, list) else "light"): light}
+    if environment is not None:
+        doc = {**doc, "environment": environment}
     if emissive:  # + an in-memory mesh object (emissive_quad)
         doc = {**doc, "objects": doc["objects"] + [{"type": "mesh", "path": "emissive.glb"}]}
     # shadow maps off: their lookups are the check shadow:lookups (checks/shadow.py); the twin of

@@ -357,11 +357,13 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
                     parts["sh_sunless"] = sh_project(programs, tmp)
                 finally:
                     tmp.release()
-        if "irradiance" not in parts:
+        if "irradiance" not in parts:  # both maps from one convolution
             iw = max(4, min(IRRADIANCE_WIDTH, w))
-            parts["irradiance"] = irradiance_map(env, iw)
-            if texels is not None:
-                parts["irradiance_sunless"] = irradiance_map(residual_map(), iw)
+            if texels is None:
+                parts["irradiance"] = irradiance_map(env, iw)
+            else:
+                parts["irradiance"], parts["irradiance_sunless"] = irradiance_map(
+                    env, iw, texels=texels)
         irr = irradiance_texture(ctx, parts["irradiance"])
         textures.append(irr)
         irr_sunless = None

@@ -33,43 +33,76 @@ IRRADIANCE_WIDTH = 256  # the map's width (height: half); 512 KiB as RGBA32F
 SOURCE_WIDTH = 512      # a wider environment is box-averaged to this before the convolution
 
 
+# The kernel spectra depend on the sizes alone: the process keeps the last one (34 MB for the
+# default 256-wide map from a 512-wide source), so a second environment skips them
+_spectra_memo: dict = {}
+
+
 def _spectra(ho: int, hs: int, ws: int) -> np.ndarray:
-    """``[F, ho, hs]`` complex128: the rfft over d of K_os[d] = max(n.l, 0) dw_s, n at output row
-    o (polar angle pi o / (ho - 1)), l at source row s, azimuth difference 2 pi (d + delta) / ws
-    with delta = (r - 1) / 2 for a source r times as wide as the output (output texel centres
-    fall between source centres)."""
+    """``[F, ceil(ho / 2), hs]`` complex64: the rfft over d of K_os[d] = max(n.l, 0) dw_s, n at
+    output row o < ceil(ho / 2) (polar angle pi o / (ho - 1); row ho - 1 - o mirrors it: it sees
+    source row hs - 1 - s as row o sees s), l at source row s, azimuth difference
+    2 pi (d + delta) / ws with delta = (r - 1) / 2 for a source r times as wide as the output
+    (output texel centres fall between source centres)."""
+    key = (ho, hs, ws)
+    if key in _spectra_memo:
+        return _spectra_memo[key]
     wo = 2 * ho
     r = ws // wo
-    to = math.pi * np.arange(ho) / (ho - 1)  # rows from pole to pole (see irradiance_map)
+    half = (ho + 1) // 2
+    to = math.pi * np.arange(half) / (ho - 1)  # rows from pole to pole (see irradiance_map)
     ts = math.pi * (np.arange(hs) + 0.5) / hs
     dphi = 2.0 * math.pi * (np.arange(ws) + (r - 1) / 2.0) / ws
     dw = texel_solid_angles(hs, ws)[:, None]
-    cos_s, sin_s = np.cos(ts)[:, None], np.sin(ts)[:, None]
-    out = np.empty((ws // 2 + 1, ho, hs), np.complex128)
-    for o in range(ho):  # a row at a time: the temporaries stay small
-        nol = math.cos(to[o]) * cos_s + math.sin(to[o]) * sin_s * np.cos(dphi)[None, :]
+    cos_s, sin_s, cos_d = np.cos(ts)[:, None], np.sin(ts)[:, None], np.cos(dphi)[None, :]
+    out = np.empty((ws // 2 + 1, half, hs), np.complex64)
+    for o in range(half):  # a row at a time: the temporaries stay small
+        nol = math.cos(to[o]) * cos_s + math.sin(to[o]) * sin_s * cos_d
         out[:, o, :] = np.fft.rfft(np.maximum(nol, 0.0) * dw, axis=1).T
+    _spectra_memo.clear()
+    _spectra_memo[key] = out
     return out
 
 
-def irradiance_map(env: np.ndarray, width: int = IRRADIANCE_WIDTH) -> np.ndarray:
+def irradiance_map(env: np.ndarray, width: int = IRRADIANCE_WIDTH,
+                   texels: tuple | None = None) -> np.ndarray:
     """``[width / 2, width, 3]`` float32: the irradiance E(n) = sum over every texel of
     ``env [H, W, 3]`` of L max(n.l, 0) dw at the texel centres of an equirect map ``width`` wide
     (a power of two >= 4; a narrower environment is first upsampled bilinearly to it). A unit
-    constant environment gives pi."""
-    from .prefilter import working_map
+    constant environment gives pi. With ``texels = (rows, columns, excess [n, 3])`` (the light
+    :func:`viewer.sun.extract_lights` took out), ``(E of env, E of env minus the excess)`` from
+    one convolution."""
+    from .prefilter import box_down_sparse, working_map
 
     h, w = env.shape[:2]
     if w != 2 * h or w & (w - 1) or width & (width - 1) or width < 4:
         raise ValueError(f"environment {w}x{h} cannot give a {width}-wide irradiance map")
     src = working_map(env, max(min(w, SOURCE_WIDTH), width)).astype(np.float64)
     hs, ws = src.shape[:2]
+    if texels is not None:  # the residual's source: the same means without the light (linear)
+        ys, xs, vals = texels
+        if ws < w:
+            ys, xs, vals = box_down_sparse(texels, h, w, (w // ws).bit_length() - 1)
+        if ws <= w:
+            res = src.copy()
+            res[ys, xs] -= np.asarray(vals, np.float64)
+            src = np.concatenate([src, res], axis=2)
+        else:  # a narrower map upsampled to the source: upsample the residual itself
+            residual = env[..., :3].astype(np.float64)
+            residual[texels[0], texels[1]] -= np.asarray(texels[2], np.float64)
+            src = np.concatenate([src, working_map(residual.astype(np.float32), ws)], axis=2)
     ho = width // 2
-    lf = np.fft.rfft(src, axis=1).transpose(1, 0, 2)  # [F, hs, 3]
-    spectra = _spectra(ho, hs, ws)                   # [F, ho, hs]
-    g = np.fft.irfft(np.einsum("fos,fsc->foc", spectra, lf), n=ws, axis=0)  # [ws, ho, 3]
-    out = g[:: ws // width].transpose(1, 0, 2)
-    return np.maximum(out, 0.0).astype(np.float32)
+    spectra = _spectra(ho, hs, ws)  # [F, half, hs]
+    half = spectra.shape[1]
+    lf = np.fft.rfft(src, axis=1).astype(np.complex64).transpose(1, 0, 2)  # [F, hs, C]
+    both = np.concatenate([lf, lf[:, ::-1, :]], axis=2)  # rows o and ho - 1 - o at once
+    g = np.fft.irfft(np.einsum("fos,fsc->foc", spectra, both), n=ws, axis=0)[:: ws // width]
+    c = src.shape[2]
+    top = g[..., :c].transpose(1, 0, 2)
+    bottom = g[..., c:].transpose(1, 0, 2)[::-1]  # rows ho - 1 - o, o = half - 1 .. 0
+    out = np.maximum(np.concatenate([top, bottom[half - (ho - half):]], axis=0), 0.0)
+    out = out.astype(np.float32)
+    return out if texels is None else (out[..., :3], out[..., 3:6])
 
 
 def irradiance_brute(env: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -84,4 +117,7 @@ def irradiance_brute(env: np.ndarray, normals: np.ndarray) -> np.ndarray:
     weighted = (env[..., :3].astype(np.float64)
                 * texel_solid_angles(h, w)[:, None, None]).reshape(-1, 3)
     normals = np.asarray(normals, np.float64).reshape(-1, 3)
-    return np.maximum(normals @ dirs.T, 0.0) @ weighted
+    out = np.empty((len(normals), 3))
+    for i in range(0, len(normals), 64):  # 64 normals at a time: a few MB of cosines
+        out[i:i + 64] = np.maximum(normals[i:i + 64] @ dirs.T, 0.0) @ weighted
+    return out

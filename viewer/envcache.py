@@ -29,7 +29,7 @@ import numpy as np
 
 # Bump when what an entry holds or how it is computed changes (the loader's resampling, the
 # convolution, the sun extraction, the sampling tables): older entries are then stale.
-FORMAT = 1
+FORMAT = 2  # 2: the irradiance maps, several lights per environment
 DEFAULT_MAX_BYTES = 2048 << 20
 _SUFFIX = ".safetensors"
 _OFF = ("0", "off", "false", "no")

@@ -1,8 +1,9 @@
 """Every environment a renderer uses, kept bounded in memory and cached on disk.
 
 :class:`EnvironmentStore` owns, per environment, everything derived from it: the IBL (radiance
-chain, prefiltered chain, SH), the sun-less IBL and the sun (:func:`viewer.sun.extract_sun`) where
-it has one, the importance-sampling tables (built on first use) and the equal-power directions.
+chain, prefiltered chain, irradiance map, SH), the IBL without its compact lights and the lights
+(:func:`viewer.sun.extract_lights`) where it has any, the importance-sampling tables (built on
+first use) and the equal-power directions.
 One entry per environment, keyed by its description with intensity and rotation left out (they are
 shader uniforms), sized by the real bytes of its textures and arrays, in a
 :class:`viewer.cache.BoundedCache`: least recently used environments are evicted beyond
@@ -36,7 +37,7 @@ from .ibl import IBL, IBLOptions, build_ibl, build_luts, mip_sizes
 from .ibl_build import EnvironmentIBLs, build_environment_ibls
 from .imageio import pixel_type
 from .prefilter import level_widths, spectra_bytes
-from .sun import Sun, extract_sun
+from .sun import Sun, extract_lights
 
 _DEFAULT = object()
 
@@ -44,17 +45,17 @@ _DEFAULT = object()
 class Environment:
     """One environment's derived data (an entry of :class:`EnvironmentStore`)."""
 
-    def __init__(self, source: str, ibls: EnvironmentIBLs | None, sun: Sun | None,
+    def __init__(self, source: str, ibls: EnvironmentIBLs | None, lights: tuple[Sun, ...],
                  directions: np.ndarray | None = None, disk_key: str | None = None,
                  plain: IBL | None = None, arrays: tuple | None = None):
         self.source = source              # the file or procedural name (for memory reports)
         self.ibls = ibls                  # "convolution": both IBLs and their textures
-        self.sun = sun
+        self.lights = tuple(lights)       # its compact lights (viewer.sun.extract_lights)
+        self.sun = self.lights[0] if self.lights else None  # the most energetic one
         self.power_directions = directions  # None until asked for (EnvironmentStore)
         self.disk_key = disk_key          # the disk cache's key, or None
         self.sampling: EnvSampling | None = None
-        # "fis" (the method before the store): the plain IBL, the sun-less one built on first use
-        # from the arrays (env, residual) kept for it
+        # "fis": the plain IBL, the sun-less one built on first use from the (env, residual) kept
         self._plain = plain
         self._sunless: IBL | None = None
         self._arrays = arrays
@@ -64,14 +65,15 @@ class Environment:
         return self.ibls.plain if self.ibls is not None else self._plain
 
     def sunless(self, programs, options: IBLOptions) -> IBL | None:
-        """The IBL without the sun (None where there is no sun); "fis" builds it now."""
+        """The IBL without its lights (None without any); "fis" builds it now."""
         if self.sun is None:
             return None
         if self.ibls is not None:
             return self.ibls.sunless
         if self._sunless is None:
             env, residual = self._arrays
-            ibl = build_ibl(programs, env, options, sun=self.sun, residual=residual)
+            ibl = build_ibl(programs, env, options, sun=self.sun, residual=residual,
+                            lights=self.lights)
             ibl.full_prefiltered = self._plain.prefiltered  # owned by the plain IBL
             self._sunless = ibl
         return self._sunless
@@ -130,9 +132,9 @@ class EnvironmentStore:
         return (dataclasses.replace(spec, intensity=1.0, rotation_deg=0.0), self.options)
 
     def ibl(self, spec: EnvironmentSpec, sun: bool = False) -> IBL:
-        """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1 and SH leave
-        out the environment's sun (:func:`viewer.sun.extract_sun`), for passes that shade it
-        analytically (``SUN_LIGHT``); the plain IBL when the environment has no sun."""
+        """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1, irradiance
+        map and SH leave out its compact lights (:func:`viewer.sun.extract_lights`), for passes
+        that shade them (``SUN_LIGHT``, ``ENV_LIGHTS``); the plain IBL where it has none."""
         entry = self._entry(spec)
         if sun and entry.sun is not None:
             built = entry._sunless is None and entry.ibls is None
@@ -143,8 +145,12 @@ class EnvironmentStore:
         return entry.plain
 
     def sun(self, spec: EnvironmentSpec) -> Sun | None:
-        """The environment's compact sun, or None."""
+        """The environment's sun (its most energetic compact light), or None."""
         return self._entry(spec).sun
+
+    def lights(self, spec: EnvironmentSpec) -> tuple[Sun, ...]:
+        """Its compact lights (:func:`viewer.sun.extract_lights`), the sun first, or ()."""
+        return self._entry(spec).lights
 
     def env_sampling(self, spec: EnvironmentSpec) -> EnvSampling:
         """The environment's importance-sampling distribution (built on first use, on the GPU
@@ -166,8 +172,7 @@ class EnvironmentStore:
         return entry.power_directions
 
     @property
-    def environments(self) -> int:
-        """How many environments are held."""
+    def environments(self) -> int:  # how many environments are held
         return len(self._cache)
 
     def stats(self) -> CacheStats:
@@ -257,15 +262,15 @@ class EnvironmentStore:
         source = Path(spec.path).name if spec.path is not None else f"{spec.procedural}"
         if self.options.prefilter_method != "convolution":
             env = load_environment(spec)
-            residual, sun = extract_sun(env)
+            residual, lights = extract_lights(env)
             plain = build_ibl(self.programs, env, self.options)
             self._say(source, "importance-sampled IBL", t0)
-            return Environment(source, None, sun, plain=plain,
-                               arrays=(env, residual) if sun is not None else None)
+            return Environment(source, None, lights, plain=plain,
+                               arrays=(env, residual) if lights else None)
         disk_key = self._disk_key(spec)
         cached = self._load(disk_key, spec) if disk_key is not None else None
         if cached is not None:
-            env, patch, sun, parts = cached
+            env, patch, lights, parts = cached
             self._say(source, "read from the disk cache", t0)
         else:
             with warnings.catch_warnings(record=True) as caught:
@@ -274,21 +279,21 @@ class EnvironmentStore:
             notes = [str(w.message) for w in caught]
             for w in caught:  # shown as they were, and kept for a later hit
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            residual, sun = extract_sun(env)
+            residual, lights = extract_lights(env)
             parts = {"notes": notes}
             patch = None
-            if sun is not None:
+            if lights:
                 ys, xs = np.nonzero((env != residual).any(axis=-1))
                 patch = (ys, xs, residual[ys, xs])
             self._say(source, f"loaded {env.shape[1]}x{env.shape[0]}", t0)
         ibls = build_environment_ibls(
-            self.programs, env, self.options, sun=sun, sun_patch=patch, luts=self._luts(),
-            cached=parts, keep=disk_key is not None and cached is None,
-            progress=lambda step: self._say(source, step, t0))
-        entry = Environment(source, ibls, sun, disk_key=disk_key)
+            self.programs, env, self.options, sun=lights[0] if lights else None, sun_patch=patch,
+            luts=self._luts(), cached=parts, keep=disk_key is not None and cached is None,
+            progress=lambda step: self._say(source, step, t0), lights=lights)
+        entry = Environment(source, ibls, lights, disk_key=disk_key)
         if cached is None and disk_key is not None:
             try:
-                self._save(disk_key, env, patch, sun, ibls.parts)
+                self._save(disk_key, env, patch, lights, ibls.parts)
             except Exception as exc:  # noqa: BLE001 - the cache is an optimisation: say, go on
                 warnings.warn(f"{self.disk.root}: environment {source} not cached "
                               f"({_one_line(exc)})", stacklevel=2)
@@ -296,23 +301,25 @@ class EnvironmentStore:
         return entry
 
     # ---- the disk cache ---------------------------------------------------------------------
-    def _save(self, key: str, env, patch, sun, parts: dict) -> None:
-        arrays = {"env": env, "sh": np.asarray(parts["sh"], np.float32)}
+    def _save(self, key: str, env, patch, lights, parts: dict) -> None:
+        arrays = {"env": env, "sh": np.asarray(parts["sh"], np.float32),
+                  "irradiance": np.asarray(parts["irradiance"], np.float32)}
         for k, level in enumerate(parts["levels"], start=1):
             arrays[f"level{k}"] = np.asarray(level, np.float32)
-        if sun is not None:
+        if lights:
             ys, xs, values = patch
             arrays.update(sun_rows=ys.astype(np.int64), sun_cols=xs.astype(np.int64),
                           sun_residual=np.asarray(values, np.float32),
-                          sh_sunless=np.asarray(parts["sh_sunless"], np.float32))
+                          sh_sunless=np.asarray(parts["sh_sunless"], np.float32),
+                          irradiance_sunless=np.asarray(parts["irradiance_sunless"], np.float32))
             for k, level in enumerate(parts["full_levels"], start=1):
                 arrays[f"full{k}"] = np.asarray(level, np.float32)
-        meta = {"sun": dataclasses.asdict(sun) if sun is not None else None,
+        meta = {"lights": [dataclasses.asdict(li) for li in lights],
                 "notes": list(parts.get("notes", [])), "levels": len(parts["levels"])}
         self.disk.save(key, "ibl", arrays, meta)
 
     def _load(self, key: str, spec: EnvironmentSpec):
-        got = self.disk.load(key, "ibl", {"env": None, "sh": (9, 3)})
+        got = self.disk.load(key, "ibl", {"env": None, "sh": (9, 3), "irradiance": None})
         if got is None:
             return None
         arrays, meta = got
@@ -326,23 +333,23 @@ class EnvironmentStore:
                                 len(mip_sizes(width, width // 2))))
             widths = level_widths(width, int(self.options.prefilter_width), levels)
             parts = {"levels": [arrays[f"level{k}"] for k in range(1, levels)],
-                     "sh": arrays["sh"], "notes": meta.get("notes", [])}
+                     "sh": arrays["sh"], "irradiance": arrays["irradiance"],
+                     "notes": meta.get("notes", [])}
             for k, lw in enumerate(widths, start=1):
                 if parts["levels"][k - 1].shape != (max(1, lw // 2), lw, 3):
                     raise ValueError(f"level{k} has shape {parts['levels'][k - 1].shape}")
-            patch, sun = None, None
-            if meta.get("sun") is not None:
-                fields = dict(meta["sun"])
-                fields["direction"] = tuple(fields["direction"])
-                fields["irradiance"] = tuple(fields["irradiance"])
-                sun = Sun(**fields)
-                ys, xs = arrays["sun_rows"], arrays["sun_cols"]
-                values = arrays["sun_residual"]
+            patch, lights = None, ()
+            if meta.get("lights"):
+                lights = tuple(Sun(**{**f, "direction": tuple(f["direction"]),
+                                      "irradiance": tuple(f["irradiance"])})
+                               for f in meta["lights"])
+                ys, xs, values = arrays["sun_rows"], arrays["sun_cols"], arrays["sun_residual"]
                 if not (ys.shape == xs.shape == values.shape[:1] and values.shape[1:] == (3,)
                         and ys.min() >= 0 and ys.max() < h and xs.min() >= 0 and xs.max() < w):
-                    raise ValueError("the sun's texels do not fit the image")
+                    raise ValueError("the lights' texels do not fit the image")
                 patch = (ys, xs, values)
-                parts["sh_sunless"] = arrays["sh_sunless"]
+                parts.update(sh_sunless=arrays["sh_sunless"],
+                             irradiance_sunless=arrays["irradiance_sunless"])
                 parts["full_levels"] = [arrays[f"full{k}"] for k in range(1, levels)]
                 for k in range(1, levels):
                     want = (max(1, (width >> k) // 2), max(1, width >> k), 3)
@@ -353,7 +360,7 @@ class EnvironmentStore:
             return None
         for note in parts["notes"]:  # what loading the file warned about
             warnings.warn(note, stacklevel=4)
-        return env, patch, sun, parts
+        return env, patch, lights, parts
 
     def _directions(self, entry: Environment) -> np.ndarray:
         if entry.disk_key is not None and self.disk is not None:

@@ -14,7 +14,11 @@
   is filtered importance sampling (Krivanek & Colbert 2008) with Hammersley points
   (``ibl_prefilter``), in compute, one full chain per IBL.
 * ``sh``: 9 radiance SH coefficients ``[9, 3]`` float32 (``ibl_sh.comp`` tile sums weighted by the
-  exact texel solid angle, reduced on the CPU in float64); irradiance is ``sh_irradiance`` in GLSL.
+  exact texel solid angle, reduced on the CPU in float64): kept for analyses; the passes read
+  ``irradiance`` instead.
+* ``irradiance``: RGBA32F equirect map of the exact cosine convolution of the environment (the
+  residual's with a sun), :func:`viewer.irradiance.irradiance_map`, looked up per normal by
+  ``irradiance_lookup`` in ``lib/ibl.glsl``: the diffuse term of every model.
 * ``dfg``: RG32F split-sum LUT, x = n.v, y = perceptual roughness (``ibl_dfg.comp``).
 * ``dominant``: R32F LUT on the same grid, the specular dominant direction's lerp factor
   (``ibl_dfg.comp``; ``specular_dominant_direction`` in ``lib/ibl.glsl``).
@@ -48,11 +52,13 @@ from .ibl_core import (  # noqa: F401 - re-exported: viewer.ibl is the public mo
     sh_project,
 )
 from .ibl_build import build_environment_ibls
-from .sun import extract_sun
+from .ibl_core import irradiance_texture
+from .irradiance import IRRADIANCE_WIDTH, irradiance_map
+from .sun import extract_lights
 
 
 def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions(),
-              sun=None, residual: np.ndarray | None = None) -> IBL:
+              sun=None, residual: np.ndarray | None = None, lights: tuple = ()) -> IBL:
     """Precompute the IBL resources of ``env`` (``[H, W, 3]`` float32 linear radiance, H = W / 2,
     W a power of two) on the GPU of ``programs.ctx``; the IBL owns its textures.
 
@@ -62,23 +68,26 @@ def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions(),
     ``env``. With the ``"convolution"`` method that IBL also owns the whole environment's chain
     (``full_prefiltered``), made from the same convolution with the sun added back; without
     ``residual`` the environment's compact sun is found here (the chain is the residual's
-    convolution plus the sun, as :class:`viewer.environments.EnvironmentStore` builds it)."""
+    convolution plus the sun, as :class:`viewer.environments.EnvironmentStore` builds it).
+    ``lights``: every light ``residual`` leaves out (:func:`viewer.sun.extract_lights`; default
+    ``(sun,)``)."""
     if options.prefilter_method == "convolution":
         plain_only = residual is None
         if plain_only:
-            residual, sun = extract_sun(_validate(env))
+            residual, lights = extract_lights(_validate(env))
+            sun = lights[0] if lights else None
             if sun is None:
                 residual = None
         built = build_environment_ibls(programs, env, options, residual=residual, sun=sun,
-                                       sunless=not plain_only)
+                                       sunless=not plain_only, lights=lights)
         ibl = built.plain if plain_only or built.sunless is None else built.sunless
         ibl._owned = built.take_textures()
         return ibl
-    return _build_ibl_fis(programs, env, options, sun, residual)
+    return _build_ibl_fis(programs, env, options, sun, residual, lights)
 
 
 def _build_ibl_fis(programs, env: np.ndarray, options: IBLOptions, sun=None,
-                   residual: np.ndarray | None = None) -> IBL:
+                   residual: np.ndarray | None = None, lights: tuple = ()) -> IBL:
     """``build_ibl`` with ``prefilter_method = "fis"``: filtered importance sampling in compute."""
     ctx = programs.ctx
     env = _validate(env)
@@ -98,6 +107,7 @@ def _build_ibl_fis(programs, env: np.ndarray, options: IBLOptions, sun=None,
     source = None  # the radiance chain the prefilter and the SH read: env's, or residual's
     dfg = None
     dominant = None
+    irradiance = None
     try:
         # (a) box mip chain of the radiance, level by level
         _downsample_chain(programs, radiance, sizes)
@@ -121,9 +131,11 @@ def _build_ibl_fis(programs, env: np.ndarray, options: IBLOptions, sun=None,
 
         # (c) SH projection, (d) the LUTs
         sh = sh_project(programs, source)
+        irradiance = irradiance_texture(ctx, irradiance_map(
+            env if residual is None else res, max(4, min(IRRADIANCE_WIDTH, w))))
         dfg, dominant = build_luts(programs, options)
     except BaseException:
-        for tex in (radiance, prefiltered, dfg, dominant):
+        for tex in (radiance, prefiltered, dfg, dominant, irradiance):
             if tex is not None:
                 tex.release()
         raise
@@ -131,4 +143,5 @@ def _build_ibl_fis(programs, env: np.ndarray, options: IBLOptions, sun=None,
         if source is not None and source is not radiance:
             source.release()
     return IBL(radiance, prefiltered, dfg, sh, levels, options, dominant,
-               sun=sun if residual is not None else None)
+               sun=sun if residual is not None else None, irradiance=irradiance,
+               lights=lights if residual is not None else ())

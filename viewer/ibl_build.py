@@ -33,16 +33,18 @@ from .ibl_core import (
     _groups,
     _validate,
     build_luts,
+    irradiance_texture,
     mip_sizes,
     prefilter_roughness,
     sh_project,
 )
+from .irradiance import IRRADIANCE_WIDTH, irradiance_map
 from .prefilter import (
     SUN_MAX_POINTS,
     box_down_sparse,
     level_widths,
+    light_points,
     prefilter_levels,
-    sun_points,
     working_map,
 )
 
@@ -240,7 +242,7 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
                            residual: np.ndarray | None = None, sun=None, luts=None,
                            cached: dict | None = None, progress=None,
                            sun_patch: tuple | None = None, keep: bool = False,
-                           sunless: bool = True) -> EnvironmentIBLs:
+                           sunless: bool = True, lights: tuple = ()) -> EnvironmentIBLs:
     """The IBLs of ``env [H, W, 3]`` (and, with a ``sun`` from :func:`viewer.sun.extract_sun` and
     its ``residual`` - or ``sun_patch = (rows, columns, residual rgb)``, the residual's texels
     that differ from ``env`` -, the sun-less one) by the convolution method.
@@ -251,8 +253,12 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
     to add. ``keep``: read the whole environment's levels back into ``parts`` (for the disk
     cache). ``sunless=False``: the whole environment's IBL only (its chain still made from the
     residual's convolution plus the sun). ``progress(step)`` is called after each step
-    ("radiance", "convolution", "chains", "sh")."""
+    ("radiance", "convolution", "chains", "sh"). ``lights``: every light taken out
+    (:func:`viewer.sun.extract_lights`, ``sun`` their first; default ``(sun,)``): the residual
+    leaves them all out, and each is added back to the whole environment's chain as points."""
     want_sunless = sunless
+    if sun is not None and not lights:
+        lights = (sun,)
     ctx = programs.ctx
     env = _validate(env)
     h, w = env.shape[:2]
@@ -335,7 +341,7 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
                 compose_level(programs, sunless, k, work_levels[k - 1], np.zeros((0, 6)), a2)
             if full_levels is None:
                 pts = (np.zeros((0, 6), np.float32) if texels is None
-                       else sun_points(texels, h, w, rough[k] ** 2))
+                       else light_points(texels, lights, h, w, rough[k] ** 2))
                 compose_level(programs, full, k, work_levels[k - 1], pts, a2)
         if keep and texels is not None and full_levels is None:
             parts["full_levels"] = [read_rgb(full, k) for k in range(1, levels)]
@@ -351,6 +357,19 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
                     parts["sh_sunless"] = sh_project(programs, tmp)
                 finally:
                     tmp.release()
+        if "irradiance" not in parts:  # both maps from one convolution
+            iw = max(4, min(IRRADIANCE_WIDTH, w))
+            if texels is None:
+                parts["irradiance"] = irradiance_map(env, iw)
+            else:
+                parts["irradiance"], parts["irradiance_sunless"] = irradiance_map(
+                    env, iw, texels=texels)
+        irr = irradiance_texture(ctx, parts["irradiance"])
+        textures.append(irr)
+        irr_sunless = None
+        if sunless is not None:
+            irr_sunless = irradiance_texture(ctx, parts["irradiance_sunless"])
+            textures.append(irr_sunless)
         if luts is None:
             owned_luts = list(build_luts(programs, options))
             luts = tuple(owned_luts)
@@ -361,10 +380,10 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
         raise
     dfg, dominant = luts
     plain = IBL(radiance, full, dfg, np.asarray(parts["sh"], np.float32), levels, options,
-                dominant, owned=())
+                dominant, owned=(), irradiance=irr)
     other = None
     if sunless is not None:
         other = IBL(radiance, sunless, dfg, np.asarray(parts["sh_sunless"], np.float32), levels,
-                    options, dominant, sun=sun, owned=())
+                    options, dominant, sun=sun, owned=(), irradiance=irr_sunless, lights=lights)
         other.full_prefiltered = full
     return EnvironmentIBLs(plain, other, textures + owned_luts, parts)

@@ -93,34 +93,43 @@ def mip_sizes(width: int, height: int) -> list[tuple[int, int]]:
 class IBL:
     """GPU resources of one environment: textures, SH coefficients and the options used."""
     def __init__(self, radiance, prefiltered, dfg, sh: np.ndarray, levels: int,
-                 options: IBLOptions, dominant=None, sun=None, owned=None):
+                 options: IBLOptions, dominant=None, sun=None, owned=None, irradiance=None,
+                 lights: tuple = ()):
         self.radiance = radiance        # moderngl.Texture, RGBA32F, full box mip chain
         self.prefiltered = prefiltered  # moderngl.Texture, RGBA32F, `levels` mips
         self.dfg = dfg                  # moderngl.Texture, RG32F, [dfg_size, dfg_size]
         self.dominant = dominant        # moderngl.Texture, R32F, [dfg_size, dfg_size]
         self.sh = sh                    # [9, 3] float32 radiance SH coefficients
+        # moderngl.Texture, RGBA32F: the exact irradiance map (viewer.irradiance; rows from pole
+        # to pole), of the same environment as the prefiltered chain (the residual with a sun)
+        self.irradiance = irradiance
         self.levels = levels            # mips in `prefiltered`
         self.options = options
         # viewer.sun.Sun: taken out of the prefiltered chain and the SH (the radiance chain keeps
         # it), shaded analytically by passes with SUN_LIGHT; None: not taken out
         self.sun = sun
+        # every light taken out (viewer.sun.extract_lights), the sun first; () without a sun
+        self.lights = tuple(lights) if lights else ((sun,) if sun is not None else ())
         # with a sun: the prefiltered chain of the whole environment (the plain IBL's, not owned),
         # which SUN_LIGHT passes read where the lobe is narrower than the sun
         self.full_prefiltered = None
         # the textures release() frees (default: radiance, prefiltered, dfg, dominant); an IBL of a
         # viewer.environments.EnvironmentStore owns none: the store frees them on eviction
         self._owned = (list(owned) if owned is not None else
-                       [t for t in (radiance, prefiltered, dfg, dominant) if t is not None])
+                       [t for t in (radiance, prefiltered, dfg, dominant, irradiance)
+                        if t is not None])
 
     def bind(self, program, first_unit: int = 0) -> int:
         """Bind to the uniforms ``program`` has among ``u_env_radiance``, ``u_env_prefiltered``,
-        ``u_env_dfg``, ``u_env_dominant`` (texture units from ``first_unit`` on), ``u_env_levels`` (float) and
-        ``u_sh`` (vec3[9]). Returns the next free texture unit."""
+        ``u_env_dfg``, ``u_env_dominant``, ``u_env_irradiance`` (texture units from ``first_unit``
+        on), ``u_env_levels`` (float) and ``u_sh`` (vec3[9]); with a sun its uniforms and those of
+        the other lights taken out (``u_env_light_*``). Returns the next free texture unit."""
         unit = first_unit
         for name, tex in (("u_env_radiance", self.radiance),
                           ("u_env_prefiltered", self.prefiltered),
                           ("u_env_dfg", self.dfg),
-                          ("u_env_dominant", self.dominant)):
+                          ("u_env_dominant", self.dominant),
+                          ("u_env_irradiance", self.irradiance)):
             if tex is not None and name in program:
                 tex.use(location=unit)
                 program[name].value = unit
@@ -130,11 +139,23 @@ class IBL:
         if "u_sh" in program:
             program["u_sh"].write(np.ascontiguousarray(self.sh, dtype=np.float32).tobytes())
         if self.sun is not None:  # SUN_LIGHT (a pass without a specular lobe reads no chain)
+            # every light's specular share uses the widest light's radius: the chain mix
+            # (ibl_specular_radiance_sun) holds one weight for all of them
+            radius = max(float(li.angular_radius) for li in self.lights)
             for name, value in (("u_sun_direction", self.sun.direction),
                                 ("u_sun_irradiance", self.sun.irradiance),
-                                ("u_sun_radius", float(self.sun.angular_radius))):
+                                ("u_sun_radius", radius),
+                                ("u_sun_disc_radius", float(self.sun.angular_radius))):
                 if name in program:
                     program[name].value = value
+            others = self.lights[1:]
+            if others and "u_env_light_direction" in program:
+                program["u_env_light_direction"].write(
+                    np.array([li.direction for li in others], np.float32).tobytes())
+                program["u_env_light_irradiance"].write(
+                    np.array([li.irradiance for li in others], np.float32).tobytes())
+                program["u_env_light_radius"].write(
+                    np.array([li.angular_radius for li in others], np.float32).tobytes())
             if "u_env_prefiltered_full" in program:
                 if self.full_prefiltered is None:
                     raise RuntimeError("an IBL without its sun needs full_prefiltered to bind")
@@ -156,9 +177,22 @@ class IBL:
         for tex in self._owned:
             tex.release()
         self._owned = []
-        for name in ("radiance", "prefiltered", "dfg", "dominant"):
+        for name in ("radiance", "prefiltered", "dfg", "dominant", "irradiance"):
             setattr(self, name, None)
         self.full_prefiltered = None
+
+
+def irradiance_texture(ctx, irradiance: np.ndarray):
+    """The RGBA32F texture of an irradiance map ``[h, w, 3]`` (:func:`viewer.irradiance.
+    irradiance_map`): LINEAR, REPEAT in u, CLAMP in v (``irradiance_lookup`` in lib/ibl.glsl)."""
+    h, w = irradiance.shape[:2]
+    rgba = np.concatenate([np.asarray(irradiance[..., :3], np.float32),
+                           np.ones((h, w, 1), np.float32)], axis=2)
+    tex = ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes(), dtype="f4")
+    tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    tex.repeat_x = True
+    tex.repeat_y = False
+    return tex
 
 
 def _groups(n: int) -> int:

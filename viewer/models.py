@@ -39,7 +39,8 @@ class ShadingModel:
     name: str
     pass_file: str
     summary: str
-    needs: frozenset[str]  # environment resources: subset of {sh, prefiltered, dfg, radiance, cdf}
+    # environment resources: subset of {irradiance, prefiltered, dfg, radiance, cdf}
+    needs: frozenset[str]
     # G-buffer channels read besides albedo and alpha (None: all of them)
     reads: frozenset[str] | None = ALL_CHANNELS
     accumulates: bool = False  # Monte Carlo: `samples` accumulate in batches and over frames
@@ -60,12 +61,14 @@ class ShadingModel:
     analytic_sun: bool = False
 
     def variant(self, settings, light=None, specular: bool = True,
-                sun: bool = False, contact: bool = False) -> ShadeVariant:
+                sun: int = 0, contact: bool = False) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
         :class:`~viewer.lights.Light`, a tuple of them or None), whether any surface has a specular
-        lobe (:class:`viewer.specialize.SceneFeatures`) and whether the environment has a sun
-        (:func:`viewer.sun.extract_sun`; shaded analytically when ``settings.sun``); ``contact``:
-        the lights' screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`)."""
+        lobe (:class:`viewer.specialize.SceneFeatures`) and how many compact lights the environment
+        has (``sun``: :func:`viewer.sun.extract_lights`, the sun first; a bool counts as one;
+        shaded analytically when ``settings.sun``: SUN_LIGHT for the first, ENV_LIGHTS = the
+        others' count, compiled in only when there are others); ``contact``: the lights'
+        screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.lights == "shaded":
             d.update(light_defines(light, shadows=settings.shadow.enabled))
@@ -89,6 +92,8 @@ class ShadingModel:
             # decides: viewer.neural.shades_sun); others keep their defines (shade_neural.frag's
             # SUN_LIGHT defaults to 0)
             d["SUN_LIGHT"] = 1
+        if d.get("SUN_LIGHT") and int(sun) > 1:
+            d["ENV_LIGHTS"] = int(sun) - 1  # the environment's other compact lights
         if d.get("SUN_LIGHT") and settings.shadow.enabled:
             d["SUN_SHADOW"] = 1  # the analytic sun reads a shadow map (viewer/passes/shadow.py)
         return ShadeVariant(self.name, tuple(sorted(d.items())))
@@ -103,14 +108,16 @@ MODELS: dict[str, ShadingModel] = {
                      frozenset({"radiance"}), reads=frozenset(), lights="unlit",
                      occlusion=False),
         ShadingModel("blinn_phong", "passes/shade_blinn_phong.frag",
-                     "the thesis baseline: Lambert diffuse from SH irradiance + a Fresnel-free "
-                     "normalised Blinn-Phong lobe from the prefiltered environment",
-                     frozenset({"sh", "prefiltered", "radiance"}), reads=_LIT, specular_lobe=True),
+                     "the thesis baseline: Lambert diffuse from the irradiance map + a "
+                     "Fresnel-free normalised Blinn-Phong lobe from the prefiltered environment",
+                     frozenset({"irradiance", "prefiltered", "radiance"}), reads=_LIT,
+                     specular_lobe=True),
         ShadingModel("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
                      "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
-                     "prefiltered specular + SH diffuse; the environment's sun, when it has one, "
-                     "as an analytic light; optional multiple-scattering compensation",
-                     frozenset({"sh", "prefiltered", "dfg", "radiance"}), reads=_LIT,
+                     "prefiltered specular + irradiance-map diffuse; the environment's compact "
+                     "lights, when it has any, as analytic lights; optional multiple-scattering "
+                     "compensation",
+                     frozenset({"irradiance", "prefiltered", "dfg", "radiance"}), reads=_LIT,
                      multiscatter=True, specular_lobe=True, analytic_sun=True),
         ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
                      "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
@@ -120,9 +127,9 @@ MODELS: dict[str, ShadingModel] = {
                      samplings=SAMPLINGS),
         ShadingModel("neural", "passes/shade_neural.frag",
                      "the distilled neural shader (thesis ch. 4 student): one small MLP per "
-                     "pixel on the material, n.v, SH irradiance and prefiltered radiance; "
+                     "pixel on the material, n.v, irradiance and prefiltered radiance; "
                      "weights baked into generated GLSL from `weights` (default: assets/weights)",
-                     frozenset({"sh", "prefiltered", "radiance"}), network="student"),
+                     frozenset({"irradiance", "prefiltered", "radiance"}), network="student"),
         ShadingModel("neural_teacher", "passes/shade_neural_teacher.frag",
                      "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse "
                      "and specular MLPs per sampled light direction, `samples` averaged "

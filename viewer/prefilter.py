@@ -236,7 +236,8 @@ def sun_texels(env: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, np.nd
     return ys, xs, np.maximum(excess, 0.0)
 
 
-def sun_points(texels: tuple, height: int, width: int, alpha: float) -> np.ndarray:
+def sun_points(texels: tuple, height: int, width: int, alpha: float,
+               max_points: int = SUN_MAX_POINTS) -> np.ndarray:
     """The sun's light (``texels`` from :func:`sun_texels` of a ``width x height`` map) as at
     most :data:`SUN_MAX_POINTS` points for a kernel of ``alpha``: its texels binned into cells of
     ``alpha / SUN_CELLS`` radians on the plane tangent at its centre, each cell one point at the
@@ -263,7 +264,7 @@ def sun_points(texels: tuple, height: int, width: int, alpha: float) -> np.ndarr
     while True:
         keys = np.stack([np.floor(px / cell), np.floor(py / cell)], -1).astype(np.int64)
         uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
-        if len(uniq) <= SUN_MAX_POINTS:
+        if len(uniq) <= max_points:
             break
         cell *= 1.5
     inverse = inverse.ravel()
@@ -275,3 +276,21 @@ def sun_points(texels: tuple, height: int, width: int, alpha: float) -> np.ndarr
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     e /= ggx_normalisation(alpha)
     return np.concatenate([d, e], axis=1).astype(np.float32)
+
+
+def light_points(texels: tuple, lights: tuple, height: int, width: int, alpha: float
+                 ) -> np.ndarray:
+    """:func:`sun_points` of each light's texels (each texel goes to the light
+    whose direction is nearest), SUN_MAX_POINTS / len(lights) points at most per light."""
+    ys, xs, excess = texels
+    if len(lights) <= 1:
+        return sun_points(texels, height, width, alpha)
+    phi = 2.0 * math.pi * ((xs + 0.5) / width - 0.5)
+    theta = math.pi * (ys + 0.5) / height
+    st = np.sin(theta)
+    dirs = np.stack([st * np.sin(phi), np.cos(theta), -st * np.cos(phi)], axis=-1)
+    owner = np.argmax(dirs @ np.array([li.direction for li in lights]).T, axis=1)
+    cap = SUN_MAX_POINTS // len(lights)
+    return np.concatenate([sun_points((ys[owner == i], xs[owner == i], excess[owner == i]),
+                                      height, width, alpha, max_points=cap)
+                           for i in range(len(lights))], axis=0)

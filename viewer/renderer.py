@@ -122,8 +122,10 @@ class Renderer:
         scene = gather_lights(scene, self.geometry)  # + the meshes' own lights
         # a sun to shade analytically (SUN_LIGHT): only looked for where the model can use it
         # (a classical model that does, or a student whose base does: viewer.neural.shades_sun)
-        sun = ((model_info(scene.render.model).analytic_sun or shades_sun(scene.render))
-               and scene.render.sun and self.resources.sun(scene.environment) is not None)
+        # (the count of the environment's compact lights: the sun and the others, ENV_LIGHTS)
+        sun = len(self.resources.env_lights(scene.environment)) \
+            if ((model_info(scene.render.model).analytic_sun or shades_sun(scene.render))
+                and scene.render.sun) else 0
         contact = contact_shadows(scene.render, any(o.type == "gbuffer" for o in scene.objects))
         if not scene.render.specialize:
             return specialise(None, scene.render, aovs, enabled=False, light=scene.light,

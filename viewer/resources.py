@@ -88,6 +88,10 @@ class GPUResources:
         """The environment's compact sun (:func:`viewer.sun.extract_sun`), or None."""
         return self.env.sun(spec)
 
+    def env_lights(self, spec: EnvironmentSpec) -> tuple[Sun, ...]:
+        """The environment's compact lights (:func:`viewer.sun.extract_lights`), the sun first."""
+        return self.env.lights(spec)
+
     def env_sampling(self, spec: EnvironmentSpec):
         """The environment's importance-sampling distribution."""
         return self.env.env_sampling(spec)

@@ -104,8 +104,9 @@ class RenderSettings:
 
     model: str = "ggx_split_sum"
     multiscatter: bool = True  # GGX multiple-scattering energy compensation
-    # the environment's compact sun as an analytic light (viewer/sun.py) in models that shade it
-    # (ggx_split_sum); false: the split-sum looks it up through the prefiltered chain like the sky
+    # the environment's compact lights (its sun first, viewer/sun.py) as analytic disc lights in
+    # models that shade them (ggx_split_sum, sun students); false: looked up through the
+    # prefiltered chain and the irradiance map like the rest of the environment
     sun: bool = True
     ao: bool = True  # apply the G-buffer's ambient occlusion to diffuse light
     precision: str = "fp32"  # G-buffer render targets: "fp32" | "fp16" (radiance stays fp32)

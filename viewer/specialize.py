@@ -108,12 +108,13 @@ _OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission
 
 
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
-               light=None, sun: bool = False, contact: bool = False) -> Specialization:
+               light=None, sun: int = 0, contact: bool = False) -> Specialization:
     """Layout and lighting-pass variant for ``settings.model`` on a scene with ``features`` and
     ``light`` (``Scene.light``: the lights to shade, or None; LIGHT_COUNT 0 compiles the light
-    loop out, LIGHT_POSITIONAL 0 the surface position); ``sun``: the environment has a sun
-    (:func:`viewer.sun.extract_sun`) for a model that shades it analytically; ``contact``: the
-    lights' screen-space contact shadows (:func:`viewer.models.contact_shadows`).
+    loop out, LIGHT_POSITIONAL 0 the surface position); ``sun``: how many compact lights the
+    environment has (:func:`viewer.sun.extract_lights`, 0 for none) for a model that shades them
+    analytically; ``contact``: the lights' screen-space contact shadows
+    (:func:`viewer.models.contact_shadows`).
 
     ``aovs`` are channels the caller will read back (always allocated). ``enabled=False`` gives
     the all-features path (every channel, every lobe), the baseline ``relight bench`` compares to.

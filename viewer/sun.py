@@ -1,4 +1,5 @@
-"""Extract a compact, very bright sun from an equirect environment, as an analytic disc light.
+"""Extract the compact, very bright lights of an equirect environment (its sun, lamps, a sun's
+reflection in a window) as analytic disc lights.
 
 The split-sum model looks the environment up through a round, pre-blurred lobe, which cannot follow
 the true GGX lobe where it is stretched and cut by the horizon (grazing angles): a small sun
@@ -7,10 +8,12 @@ Production renderers treat the sun as an analytic light instead (Lagarde & de Ro
 "Moving Frostbite to PBR", sec. 4.7 and 4.9: the sun as a disc light beside the distant light
 probe; Filament's sun: a directional light with an angular radius). We do the same, from the image
 itself: the texels of the compact region around the brightest texel that stand far above the sky
-are replaced by the sky around them, and the light they carried above it becomes one disc light
+are replaced by the sky around them, and the light they carried above it becomes a disc light
 (direction, irradiance, angular radius) that the shading passes evaluate with the full BRDF
-(``ggx_sun_light`` in ``lib/shading.glsl``). Energy is kept exactly: the residual environment plus
-the disc's irradiance sum to the original.
+(``ggx_environment_sun`` in ``lib/shading.glsl``). :func:`extract_lights` takes up to
+:data:`ENV_MAX_LIGHTS` such regions, each carrying at least SUN_MIN_SHARE of the environment's
+energy (the rule is in its docstring); :func:`extract_sun` the most energetic one. Energy is kept
+exactly: the residual environment plus the discs' irradiance sum to the original.
 
 No torch: the runtime (``viewer``) calls this when it builds the environment's IBL.
 """
@@ -32,6 +35,8 @@ SUN_MIN_PEAK = 1000.0
 SUN_MAX_SOLID_ANGLE = 0.02
 SUN_MIN_SHARE = 0.05
 _LUMA = np.array([0.2126, 0.7152, 0.0722], np.float64)
+# at most this many compact regions become lights (each a uniform array entry and a shadow map)
+ENV_MAX_LIGHTS = 4
 
 
 @dataclass(frozen=True)
@@ -49,32 +54,6 @@ def texel_solid_angles(height: int, width: int) -> np.ndarray:
     v0 = np.arange(height) / height
     v1 = (np.arange(height) + 1) / height
     return (2.0 * math.pi / width) * (np.cos(math.pi * v0) - np.cos(math.pi * v1))
-
-
-def _region(mask: np.ndarray, seed: tuple[int, int], row_solid_angle: np.ndarray,
-            limit: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(rows, columns)`` of the 8-connected flood fill of ``mask`` from ``seed`` (u wraps
-    around); None as soon as its solid angle exceeds ``limit`` (a large bright area is rejected
-    after visiting about ``limit`` of it, whatever the image's size)."""
-    h, w = mask.shape
-    seen = {seed}
-    stack = [seed]
-    out = []
-    area = 0.0
-    while stack:
-        y, x = stack.pop()
-        out.append((y, x))
-        area += float(row_solid_angle[y])
-        if area > limit:
-            return None
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                yy, xx = y + dy, (x + dx) % w
-                if 0 <= yy < h and (yy, xx) not in seen and mask[yy, xx]:
-                    seen.add((yy, xx))
-                    stack.append((yy, xx))
-    ys, xs = (np.array(c, np.int64) for c in zip(*out))
-    return ys, xs
 
 
 def _ring(ys: np.ndarray, xs: np.ndarray, h: int, w: int, width: int = 2
@@ -97,42 +76,100 @@ def _directions(ys: np.ndarray, xs: np.ndarray, h: int, w: int) -> np.ndarray:
     return np.stack([st * np.sin(phi), np.cos(theta), -st * np.cos(phi)], axis=-1)
 
 
-def extract_sun(env: np.ndarray) -> tuple[np.ndarray, Sun | None]:
-    """``(residual, sun)``: the environment with its sun replaced by the sky around it, and the
-    sun as a disc light; ``(env, None)`` when it has no compact sun (see the constants)."""
+def _components(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(rows, columns, label)`` of every texel of ``mask``, labelled by its 8-connected component
+    (u wraps around): min-label propagation over the neighbour pairs with pointer jumping, in
+    numpy (a handful of passes for compact regions)."""
+    h, w = mask.shape
+    ys, xs = np.nonzero(mask)
+    n = len(ys)
+    index = np.full(mask.shape, -1, np.int64)
+    index[ys, xs] = np.arange(n)
+    pairs_a, pairs_b = [], []
+    for dy, dx in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        yy, xx = ys + dy, (xs + dx) % w
+        ok = np.nonzero(yy < h)[0]
+        j = index[yy[ok], xx[ok]]
+        pairs_a.append(ok[j >= 0])
+        pairs_b.append(j[j >= 0])
+    a, b = np.concatenate(pairs_a), np.concatenate(pairs_b)
+    label = np.arange(n)
+    while True:
+        m = np.minimum(label[a], label[b])
+        new = label.copy()
+        np.minimum.at(new, a, m)
+        np.minimum.at(new, b, m)
+        new = new[new]
+        if np.array_equal(new, label):
+            return ys, xs, label
+        label = new
+
+
+def _light(env: np.ndarray, ys: np.ndarray, xs: np.ndarray, dw: np.ndarray, total: float
+           ) -> tuple[np.ndarray, Sun]:
+    """``(excess [n, 3], light)``: the light the region's texels carry above the mean of the ring
+    around them (the sky they hide), as a disc light."""
     h, w = env.shape[:2]
-    luma = env[..., :3].astype(np.float64) @ _LUMA
-    dw = texel_solid_angles(h, w)
-    median = float(np.median(luma))
-    peak_at = np.unravel_index(int(np.argmax(luma)), luma.shape)
-    floor = max(median, 1e-12)
-    if not (luma[peak_at] >= SUN_MIN_PEAK * floor):
-        return env, None
-    found = _region(luma >= SUN_THRESHOLD * floor, peak_at, dw, SUN_MAX_SOLID_ANGLE)
-    if found is None:
-        return env, None
-    ys, xs = found
     ry, rx = _ring(ys, xs, h, w)
     fill = (env[ry, rx, :3].astype(np.float64) * dw[ry, None]).sum(0) / float(dw[ry].sum())
     rgb = env[ys, xs, :3].astype(np.float64)
     excess = np.maximum(rgb - fill, 0.0)
     irradiance = (excess * dw[ys, None]).sum(0)
-    total = float((luma * dw[:, None]).sum())
     share = float(irradiance @ _LUMA) / max(total, 1e-30)
-    if share < SUN_MIN_SHARE:
-        return env, None
     dirs = _directions(ys, xs, h, w)  # the environment's frame
-    weight = (excess @ _LUMA) * dw[ys]
+    weight = np.maximum((excess @ _LUMA) * dw[ys], 1e-300)
     centre = (dirs * weight[:, None]).sum(0)
     centre /= np.linalg.norm(centre)
     cos = np.clip(dirs @ centre, -1.0, 1.0)
     # a uniform disc of radius t has <theta^2> = t^2 / 2; each texel adds its own extent (a square
     # of side pi / H: <theta^2> = (pi / H)^2 / 6), so a one-texel sun is not a point
     spread = float((np.arccos(cos) ** 2 * weight).sum() / weight.sum()) + (math.pi / h) ** 2 / 6.0
-    radius = math.sqrt(2.0 * spread)
+    return excess, Sun(direction=tuple(float(c) for c in centre),
+                       irradiance=tuple(float(c) for c in irradiance),
+                       angular_radius=math.sqrt(2.0 * spread), texels=int(len(ys)), share=share)
+
+
+def extract_lights(env: np.ndarray, max_lights: int = ENV_MAX_LIGHTS
+                   ) -> tuple[np.ndarray, tuple[Sun, ...]]:
+    """``(residual, lights)``: the environment with its compact lights replaced by the sky around
+    them, and those lights as disc lights, brightest (most energy) first.
+
+    The rule: a candidate is an 8-connected region of texels at least SUN_THRESHOLD times the
+    median luminance, around a peak at least SUN_MIN_PEAK times it, covering at most
+    SUN_MAX_SOLID_ANGLE; it becomes a light when the light it carries above the sky around it is
+    at least SUN_MIN_SHARE of the environment's radiant energy; at most ``max_lights`` of them
+    (the most energetic). Energy is kept exactly: per texel, residual + excess = original, and
+    each light's irradiance is the sum of its texels' excess times their solid angle."""
+    h, w = env.shape[:2]
+    luma = env[..., :3].astype(np.float64) @ _LUMA
+    dw = texel_solid_angles(h, w)
+    floor = max(float(np.median(luma)), 1e-12)
+    if not (float(luma.max()) >= SUN_MIN_PEAK * floor) or max_lights < 1:
+        return env, ()
+    total = float((luma * dw[:, None]).sum())
+    ys, xs, label = _components(luma >= SUN_THRESHOLD * floor)
+    area = np.bincount(label, weights=dw[ys], minlength=len(ys))
+    peak = np.zeros(len(ys))
+    np.maximum.at(peak, label, luma[ys, xs])
+    found = []
+    for root in np.nonzero((area > 0) & (area <= SUN_MAX_SOLID_ANGLE)
+                           & (peak >= SUN_MIN_PEAK * floor))[0]:
+        sel = label == root
+        excess, light = _light(env, ys[sel], xs[sel], dw, total)
+        if light.share >= SUN_MIN_SHARE:
+            found.append((light.share, ys[sel], xs[sel], excess, light))
+    found.sort(key=lambda f: -f[0])
+    found = found[:max_lights]
+    if not found:
+        return env, ()
     residual = env.copy()
-    residual[ys, xs, :3] = (rgb - excess).astype(env.dtype)
-    sun = Sun(direction=tuple(float(c) for c in centre),
-              irradiance=tuple(float(c) for c in irradiance),
-              angular_radius=radius, texels=int(len(ys)), share=share)
-    return residual, sun
+    for _, ry, rx, excess, _ in found:
+        residual[ry, rx, :3] = (env[ry, rx, :3].astype(np.float64) - excess).astype(env.dtype)
+    return residual, tuple(f[4] for f in found)
+
+
+def extract_sun(env: np.ndarray) -> tuple[np.ndarray, Sun | None]:
+    """``(residual, sun)``: :func:`extract_lights` with one light at most, the most energetic
+    compact region; ``(env, None)`` when there is none."""
+    residual, lights = extract_lights(env, 1)
+    return residual, (lights[0] if lights else None)

@@ -20,12 +20,11 @@ from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
 from learned.twins.equirect import equirect_uv, rotate_y
 from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radiance,
-                                ibl_specular_radiance_sun,
+                                ibl_specular_radiance_sun, irradiance_lookup,
                                sample_bilinear, specular_dominant_direction)
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
-from learned.twins.sh import sh_irradiance
-from learned.twins.shading import shading_normal, sun_specular_weight
+from learned.twins.shading import disc_light, shading_normal, sun_specular_weight
 from viewer.gl import make_current
 from viewer.scene import Scene
 
@@ -39,6 +38,7 @@ class Lighting:
     prefiltered: list  # [h_k, w_k, 4] per level
     levels: float
     sh: torch.Tensor  # [9, 3]
+    irradiance: torch.Tensor  # [h, w, 4] the irradiance map (lib/ibl.glsl irradiance_lookup)
     marginal: torch.Tensor  # [h + 1]
     conditional: torch.Tensor  # [h, w + 1]
     pdf: torch.Tensor  # [h, w] density on the uv square
@@ -50,6 +50,8 @@ class Lighting:
     # prefiltered levels and SH leave it out, lighting_from_gl(..., sun=True)), else None
     sun: object | None = None
     prefiltered_full: list | None = None  # with a sun: the whole environment's prefiltered chain
+    # every compact light taken out with the sun (viewer.sun.extract_lights), the sun first
+    lights: tuple = ()
 
     def with_light(self, intensity: float, rotation: float) -> "Lighting":
         return dataclasses.replace(self, intensity=float(intensity), rotation=float(rotation))
@@ -74,11 +76,12 @@ def lighting_from_gl(renderer, environment, sun: bool = False) -> Lighting:
         radiance=t(ibl.read_level("radiance", 0)),
         prefiltered=[t(ibl.read_level("prefiltered", k)) for k in range(ibl.levels)],
         levels=float(ibl.levels), sh=t(np.asarray(ibl.sh, np.float32)),
+        irradiance=t(ibl.read_level("irradiance", 0)),
         marginal=t(tables["marginal"]), conditional=t(tables["conditional"]), pdf=t(tables["pdf"]),
         intensity=float(environment.intensity), rotation=math.radians(environment.rotation_deg),
         dfg=t(ibl.read_level("dfg", 0)[..., :2].copy()),
         dominant=t(ibl.read_level("dominant", 0)) if ibl.dominant is not None else None,
-        sun=ibl.sun, prefiltered_full=full)
+        sun=ibl.sun, prefiltered_full=full, lights=tuple(ibl.lights))
 
 
 def env_radiance(lighting: Lighting, l_ws: torch.Tensor) -> torch.Tensor:
@@ -100,7 +103,7 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
 
     Returns ``x [N, 11]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis:
     :data:`learned.neural.student.ALL_INPUTS`; a student selects its own),
-    ``irradiance [N, 3]`` (SH, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
+    ``irradiance [N, 3]`` (the irradiance map's, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
     radiance along the mirror direction at the pixel's roughness, times intensity). ``ao [N]`` is
     the occlusion the pass uses, ``vis [N]`` the screen-space visibility of the environment's light
     (the g channel of the SSAO pass with ``SSAO_ENV_VIS``; 1 when None). ``dfg`` is the split-sum
@@ -109,15 +112,17 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     ``ggx_split_sum``) instead of the mirror direction.
 
     ``sun`` (a student whose base shades the environment's sun, ``shade_neural.frag`` with
-    ``SUN_LIGHT``): a fourth tensor ``sun [N, 13]`` (n, v, l world space, the sun's irradiance
-    times intensity, its specular weight w = ``sun_specular_weight``: the arguments of
+    ``SUN_LIGHT``): a fourth tensor ``sun [N, 13]`` (n, v, l world space - lifted above the
+    horizon where it cuts the sun, ``disc_light`` -, the sun's irradiance times intensity - times
+    the disc's horizon factor -, its specular weight w = ``sun_specular_weight``: the arguments of
     ``neural_student_sun_split``), and where w < 1 the prefiltered radiance mixes in the whole
     environment's chain as the pass does. Without a sun in ``lighting`` (the plain IBL) the
     irradiance is 0: no sun term.
     """
     n, nov = surface(gb, v)
     r = clamp_perceptual_roughness(gb["roughness"][..., 0])
-    irradiance = sh_irradiance(env_dir(n, lighting.rotation), lighting.sh) * lighting.intensity
+    irradiance = irradiance_lookup(lighting.irradiance, env_dir(n, lighting.rotation)) \
+        * lighting.intensity
     reflected = reflect(-v, n)
     if dominant:
         reflected = specular_dominant_direction(
@@ -125,7 +130,9 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     r_env = env_dir(reflected, lighting.rotation)
     sun_light = sun and lighting.sun is not None
     if sun_light:  # the sun's specular share w is analytic, the rest is in the whole chain
-        w = sun_specular_weight(r * r, torch.full_like(r, float(lighting.sun.angular_radius)))
+        # one weight for every light taken out: the widest's (IBL.bind's u_sun_radius)
+        radius = max(float(li.angular_radius) for li in (lighting.lights or (lighting.sun,)))
+        w = sun_specular_weight(r * r, torch.full_like(r, radius))
         prefiltered = ibl_specular_radiance_sun(lighting.prefiltered, lighting.prefiltered_full,
                                                 r_env, r, lighting.levels, w) * lighting.intensity
     else:
@@ -151,7 +158,34 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
                         torch.full(r.shape, lighting.rotation, dtype=torch.float32))
         e = (torch.tensor(s.irradiance, dtype=torch.float32)
              * torch.tensor(lighting.intensity, dtype=torch.float32)).expand_as(n)
+        # the sun as the disc it is, cut by the horizon (shade_neural.frag's disc_light)
+        disc = disc_light(n, l_ws, torch.full_like(r, float(s.angular_radius)))
+        l_ws, e = disc[..., :3], e * disc[..., 3:]
     return x, irradiance, prefiltered, torch.cat([n, v.expand_as(n), l_ws, e, w[..., None]], -1)
+
+
+def env_lights_base(gb: dict, x: torch.Tensor, sun_args: torch.Tensor, lighting: Lighting,
+                    multiscatter: bool, count: int | None = None) -> torch.Tensor:
+    """``[N, 3]``: the environment's compact lights besides its sun (``lighting.lights[1:]``, the
+    first ``count``; ENV_LIGHTS) through a sun student's classical base, as shade_neural.frag adds
+    them (``env_lights_ggx``, no learned factors): a term the network does not see, added to its
+    prediction in training as in the pass. ``x``, ``sun_args``: :func:`student_features`' first
+    and fourth tensors (ao is x[:, 6], dfg x[:, 8:10]; n, v, w are in sun_args). Their diffuse
+    part is scaled by ao, as ggx_split_sum scales its lights' (and a student its sun's)."""
+    from learned.twins.brdf import compute_f0
+    from learned.twins.shading import diffuse_color, env_lights_ggx
+
+    others = tuple(lighting.lights)[1:]
+    others = others[:count] if count is not None else others
+    if not others:
+        return torch.zeros(x.shape[0], 3)
+    metallic = gb["metallic"][:, 0]
+    r = clamp_perceptual_roughness(gb["roughness"][:, 0])
+    ms = torch.full_like(r, float(bool(multiscatter)))
+    return env_lights_ggx(others, diffuse_color(gb["albedo"], metallic) * x[:, 6:7],
+                          compute_f0(gb["albedo"], metallic, gb["specular"][:, 0]), r * r,
+                          x[:, 8:10], ms, sun_args[:, 0:3], sun_args[:, 3:6], sun_args[:, 12],
+                          lighting.intensity, lighting.rotation)
 
 
 def sample_lights(n: torch.Tensor, u: torch.Tensor, strategy: str, lighting: Lighting

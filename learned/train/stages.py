@@ -18,7 +18,7 @@ import torch
 from viewer.environment import EnvironmentSpec
 
 from ..data.reader import DatasetError, list_samples, load_sample
-from ..neural.lighting import Lighting, lighting_from_gl, student_features
+from ..neural.lighting import Lighting, env_lights_base, lighting_from_gl, student_features
 from ..neural.shadow import ShadowUNet
 from ..neural.student import Student
 from ..neural.teacher import Teacher
@@ -248,6 +248,11 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
     if feats is None:
         feats = design_features(model, images)
+    # a sun student's pass adds the environment's other compact lights through its classical
+    # base (env_lights_base): fixed terms, added to its prediction here as there
+    extra = [env_lights_base(img.gb, f[0], f[3], img.lighting_sun, model.multiscatter)
+             if model.sun and img.lighting_sun is not None and len(f) > 3 else None
+             for img, f in zip(images, feats)]
 
     def step(ddp, _):
         k = int(rng.integers(0, len(images)))
@@ -256,11 +261,12 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
         x, irr, pre, *sun = (t[idx] for t in feats[k])  # sun: [the sun's arguments] or []
         ind = images[k].indirect[idx] if model.learns_indirect else None
         args = (x, irr, pre, ind, *sun) if model.learns_indirect or sun else (x, irr, pre)
+        fixed = extra[k][idx] if extra[k] is not None else 0.0
         if cfg.student_gain_penalty > 0.0:  # + the penalty on brightening the direct light
             pred, gain = ddp(*args, with_gain=True)
-            return (distill_loss(pred, targets[k][idx], cfg.distill_loss)
+            return (distill_loss(pred + fixed, targets[k][idx], cfg.distill_loss)
                     + cfg.student_gain_penalty * gain)
-        return distill_loss(ddp(*args), targets[k][idx], cfg.distill_loss)
+        return distill_loss(ddp(*args) + fixed, targets[k][idx], cfg.distill_loss)
 
     losses = _loop(run, stage, model, cfg.student_steps, cfg.lr, step)
     return model.eval(), losses

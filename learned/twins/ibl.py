@@ -58,6 +58,16 @@ def ibl_specular_radiance_sun(sunless: list[torch.Tensor], full: list[torch.Tens
     return torch.where(w3 < 1.0, f * (1.0 - w3) + p * w3, p)
 
 
+def irradiance_lookup(irradiance: torch.Tensor, n_ws: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 irradiance_lookup(sampler2D irradiance, vec3 n_ws)``: the irradiance map
+    ``[h, w, C]`` (rows from pole to pole, :mod:`viewer.irradiance`) bilinear at the normal's
+    equirect uv with v moved onto those rows. n_ws ``[..., 3]`` -> ``[..., 3]``."""
+    uv = equirect_uv(n_ws)
+    h = float(irradiance.shape[0])
+    uv = torch.stack([uv[..., 0], (uv[..., 1] * (h - 1.0) + 0.5) / h], dim=-1)
+    return sample_bilinear(irradiance, uv)[..., :3]
+
+
 def prefilter_lod(perceptual_roughness: torch.Tensor, levels: torch.Tensor) -> torch.Tensor:
     """GLSL ``float prefilter_lod(float r, float levels)``: with alpha = r^2 and alpha_1 =
     2^(1 - (levels - 1)), alpha / alpha_1 min(levels - 1, 1) below alpha_1, else

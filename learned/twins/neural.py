@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import torch
 
-from learned.neural.lighting import STRATEGIES, env_radiance, student_features, surface
+from learned.neural.lighting import (STRATEGIES, env_lights_base, env_radiance,
+                                     student_features, surface)
 from learned.twins.deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from learned.twins.mc import mc_sample_2d
 
@@ -186,6 +187,10 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre, None, *sun_args)
+        if sun and defines.get("ENV_LIGHTS", 0):  # the other compact lights: the classical base
+            c = c + env_lights_base(flat, x, sun_args[0], lighting,
+                                    getattr(net_model, "multiscatter", False),
+                                    int(defines["ENV_LIGHTS"]))
         if outputs is not None and getattr(net_model, "learns_indirect", False):
             with torch.no_grad():
                 f = net_model.indirect_factor(x.detach())

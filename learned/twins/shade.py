@@ -20,17 +20,19 @@ from .ibl import (
     ibl_dominant_factor,
     ibl_specular_radiance,
     ibl_specular_radiance_sun,
+    irradiance_lookup,
     prefilter_lod,
     sample_bilinear,
     sample_trilinear_envelope,
     specular_dominant_direction,
 )
 from .lights import light_surface_position, lights_blinn_phong, lights_ggx
-from .sh import sh_irradiance
 from .shade_ggx_mc import shade_ggx_mc
 from .shading import (
     blinn_phong,
     diffuse_color,
+    disc_light,
+    env_lights_ggx,
     ggx_environment_sun,
     ggx_split_sum,
     shading_normal,
@@ -44,7 +46,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     """The lighting pass ``model`` on a G-buffer (channel -> [H, W, C], GL row order).
 
     ``env``: ``radiance`` (list of mips [h, w, 4]), ``prefiltered`` (list), ``dfg`` ([n, n, 2]),
-    ``sh`` ([9, 3]), ``levels``; for ``ggx_mc`` also the sampling distribution ``marginal``,
+    ``irradiance`` ([h, w, 4], the irradiance map), ``levels``; for ``ggx_mc`` also the sampling distribution ``marginal``,
     ``conditional``, ``pdf`` (:func:`learned.twins.env_sampling.env_distribution` layout).
     ``defines`` as in :func:`viewer.passes.shade.shade_defines`; ``ssao`` ([H, W], the occlusion
     texture) when ``USE_SSAO``; ``mc``: ``start``, ``count``, ``seed`` of the Monte-Carlo batch;
@@ -95,7 +97,10 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         v = -d
         n = shading_normal(g["normal"], v)
         r = clamp_perceptual_roughness(g["roughness"][..., 0])
-        irradiance = sh_irradiance(env_dir(n, rotation_rad), env["sh"]) * intensity
+        n_env = env_dir(n, rotation_rad)
+        irradiance = irradiance_lookup(env["irradiance"], n_env)
+        irradiance = traced("irradiance", irradiance, lambda: _irradiance_bound(
+            env["irradiance"], n_env, bits)) * intensity
         reflected = reflect(-v, n)
         direction_error = torch.full_like(r, 2.0 * DIRECTION_ABS_ERROR)
         if model == "ggx_split_sum":  # shade_ggx_split_sum.frag looks up the dominant direction
@@ -122,7 +127,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         if model == "ggx_split_sum" and defines.get("SUN_LIGHT", 0):
             # the sun's specular light: analytic for the share w (_shade_ggx_split_sum), looked up
             # in the chain of the whole environment for the rest; the bound mixes as the lookups
-            w = sun_specular_weight(r * r, torch.full_like(r, env["sun"].angular_radius))
+            w = sun_specular_weight(r * r, torch.full_like(r, _widest(env)))
             w3 = w[..., None]
             prefiltered = ibl_specular_radiance_sun(env["prefiltered"], env["prefiltered_full"],
                                                     r_env, r, env["levels"], w)
@@ -183,6 +188,22 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     return torch.cat([out, alpha[..., None]], dim=-1)
 
 
+def _widest(env: dict) -> float:
+    """``u_sun_radius`` as :meth:`viewer.ibl.IBL.bind` sets it: the widest extracted light's."""
+    return max(float(li.angular_radius) for li in env.get("lights", (env["sun"],)))
+
+
+def _irradiance_bound(irradiance: torch.Tensor, n_env: torch.Tensor, bits: int) -> torch.Tensor:
+    """The lookup envelope of ``irradiance_lookup`` at ``n_env`` (rows from pole to pole; at the
+    poles, where u is undefined, every texel of the row holds the pole's value: 0)."""
+    uv = equirect_uv(n_env)
+    h = float(irradiance.shape[0])
+    uv = torch.stack([uv[..., 0], (uv[..., 1] * (h - 1.0) + 0.5) / h], -1)
+    err = _uv_error(n_env, torch.full(n_env.shape[:-1], 2.0 * DIRECTION_ABS_ERROR)) + 1e-7
+    return torch.nan_to_num(sample_trilinear_envelope([irradiance], uv, torch.zeros(
+        n_env.shape[:-1]), err, weight_bits=bits)[..., :3], nan=0.0)
+
+
 def _uv_error(d: torch.Tensor, direction_error: torch.Tensor) -> torch.Tensor:
     """:func:`~learned.twins.ibl.equirect_uv_error` with a per-pixel direction error ``[...]``."""
     rho = torch.sqrt(d[..., 0] * d[..., 0] + d[..., 2] * d[..., 2])
@@ -200,7 +221,7 @@ class _Surface:
     v: torch.Tensor  # towards the viewer
     r: torch.Tensor  # clamped perceptual roughness
     ao: torch.Tensor  # G-buffer AO x SSAO (as enabled)
-    irradiance: torch.Tensor  # SH irradiance x intensity
+    irradiance: torch.Tensor  # the irradiance map's E(n) x intensity
     prefiltered: torch.Tensor  # prefiltered radiance along the mirror direction x intensity
     dfg: torch.Tensor  # DFG LUT at (n.v, r)
     diffuse: torch.Tensor
@@ -245,7 +266,7 @@ def _ggx_light(s: _Surface, f0, a, dfg, ms, light, defines) -> torch.Tensor:
 
 def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensity=1.0,
                          rotation_rad=0.0, **_) -> torch.Tensor:
-    """``shade_ggx_split_sum.frag``: split-sum GGX + SH diffuse, plus the punctual lights and
+    """``shade_ggx_split_sum.frag``: split-sum GGX + the irradiance map's diffuse, plus the punctual lights and
     (``SUN_LIGHT``) the environment's sun, ``env["sun"]`` (a :class:`viewer.sun.Sun`)."""
     c = ggx_split_sum(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
     f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
@@ -261,10 +282,15 @@ def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensit
         l_env = torch.tensor(sun.direction, dtype=torch.float32).expand_as(s.n)
         l_ws = rotate_y(l_env, torch.full(s.r.shape, rotation_rad, dtype=torch.float32))
         e = (torch.tensor(sun.irradiance, dtype=torch.float32) * intensity).expand_as(s.n)
-        w = sun_specular_weight(s.r * s.r, torch.full_like(s.r, sun.angular_radius)) \
+        others = tuple(env.get("lights", (sun,)))[1:int(defines.get("ENV_LIGHTS", 0)) + 1]
+        w = sun_specular_weight(s.r * s.r, torch.full_like(s.r, _widest(env))) \
             if specular else torch.ones_like(s.r)
         diffuse = s.diffuse * s.ao[..., None]
-        c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, l_ws, e, w)
+        disc = disc_light(s.n, l_ws, torch.full_like(s.r, float(sun.angular_radius)))
+        c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, disc[..., :3],
+                                    e * disc[..., 3:], w)
+        c = c + env_lights_ggx(others, diffuse, f0, a, dfg, ms, s.n, s.v, w, intensity,
+                               rotation_rad)
     return c
 
 

@@ -87,6 +87,35 @@ def sun_specular_weight(a: torch.Tensor, sun_radius: torch.Tensor) -> torch.Tens
     return saturate(2.0 * a / sun_radius.clamp_min(1e-6) - 1.0)
 
 
+def atan_minus_z(z: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float atan_minus_z(float z)``: atan(z) - z, by its Taylor series (Horner, to z^17)
+    below 0.35."""
+    z2 = z * z
+    p = torch.full_like(z, -1.0 / 17.0)
+    for c in (1.0 / 15.0, -1.0 / 13.0, 1.0 / 11.0, -1.0 / 9.0, 1.0 / 7.0, -1.0 / 5.0, 1.0 / 3.0):
+        p = c + z2 * p
+    return torch.where(z < 0.35, -z * z2 * p, torch.atan(z) - z)
+
+
+def disc_light(n: torch.Tensor, l: torch.Tensor, radius: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 disc_light(vec3 n, vec3 l, float radius)``: (l_b, s) for a disc light of
+    angular radius ``radius`` (Frostbite's illuminanceSphereOrDisk over its unclipped value, the
+    horizon-cut share; l lifted to n.l_b >= 1e-3 where the horizon cuts it). n, l [..., 3] unit,
+    radius [...] -> [..., 4]."""
+    NoL = _dot(n, l)
+    s2 = torch.sin(radius.clamp_max(1.5)).square().clamp_min(1e-12)
+    sin_t = (1.0 - NoL * NoL).clamp_min(0.0).sqrt()
+    x = (1.0 / s2 - 1.0).sqrt()
+    y = (-x * NoL / sin_t).clamp(-1.0, 1.0)
+    z = sin_t * (1.0 - y * y).clamp_min(0.0).sqrt() / x
+    cut = ((NoL * torch.acos(y) + z + atan_minus_z(z) / s2) * INV_PI).clamp_min(0.0)
+    c = torch.where(NoL * NoL < s2, cut, NoL.clamp_min(0.0))
+    lb = torch.where((NoL >= 1e-3)[..., None], l,
+                     torch.nn.functional.normalize(l + (1e-3 - NoL)[..., None] * n, dim=-1))
+    s = torch.where(c > 0.0, c / _dot(n, lb), torch.zeros_like(c))
+    return torch.cat([lb, s[..., None]], dim=-1)
+
+
 def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
                           dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
                           v: torch.Tensor, l: torch.Tensor, irradiance: torch.Tensor
@@ -112,3 +141,28 @@ def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: to
     return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
 
 
+
+
+def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+                   dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
+                   v: torch.Tensor, w: torch.Tensor, intensity: float,
+                   rotation_rad: float, p: torch.Tensor | None = None) -> torch.Tensor:
+    """GLSL ``vec3 env_lights_ggx(...)`` (passes/env_lights.glsl): the sum of
+    :func:`ggx_environment_sun` over ``lights`` (the environment's compact lights besides its sun,
+    :class:`viewer.sun.Sun` each; the uniforms ``u_env_light_*``), each turned by the
+    environment's rotation, scaled by its intensity and cut by the horizon (:func:`disc_light`).
+    ``p`` (the surface point) is where the GLSL reads each light's shadow map with SUN_SHADOW;
+    as ``light_visibility``'s twin, this one is unshadowed (the model parity checks render
+    without shadow maps; shadow_visibility and its parts are twinned in learned.twins.shadow). Shapes as ggx_environment_sun."""
+    from .equirect import rotate_y
+
+    c = torch.zeros_like(n)
+    angle = torch.full(a.shape, float(rotation_rad), dtype=torch.float32)
+    for light in lights:
+        l_env = torch.tensor(light.direction, dtype=torch.float32).expand_as(n)
+        disc = disc_light(n, rotate_y(l_env, angle),
+                          torch.full(a.shape, float(light.angular_radius), dtype=torch.float32))
+        e = torch.tensor(light.irradiance, dtype=torch.float32) \
+            * (torch.tensor(float(intensity), dtype=torch.float32) * disc[..., 3:])
+        c = c + ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, disc[..., :3], e, w)
+    return c

@@ -14,7 +14,8 @@ Rows (``case``):
   asks its store for the same file's IBLs; ``env_ms`` counts from the store's creation to both
   IBLs on the GPU: by the method before, by the current one without the disk cache, and with it.
 
-``relight bench`` runs it as its ``environments`` suite (a table in ``bench.md``); alone:
+``relight bench`` runs it as its ``environments`` suite (a table in ``bench.md``), with the rows of
+:mod:`relight.bench.env_diffuse` (the diffuse term against the exact convolution); alone:
 ``python -m relight.bench.environments --out DIR`` (``--width``, ``--runs``, ``--legacy-runs``).
 It is a benchmark: tests check the rows' correctness (every case measured, the disk cache hit where
 it should be), never the times.
@@ -61,6 +62,9 @@ class TimedStore(EnvironmentStore):
 
     def sun(self, spec):
         return self._timed(super().sun, spec)
+
+    def lights(self, spec):
+        return self._timed(super().lights, spec)
 
     def env_sampling(self, spec):
         return self._timed(super().env_sampling, spec)
@@ -211,9 +215,13 @@ def _empty(folder: Path) -> None:
 
 
 def suite(renderer, scenes, config, cache) -> list[dict]:
-    """``relight bench``'s ``environments`` suite (``--quick``: one run of each method)."""
+    """``relight bench``'s ``environments`` suite (``--quick``: one run of each method), then
+    the diffuse rows (:mod:`relight.bench.env_diffuse`)."""
+    from .env_diffuse import diffuse_rows
+
     return environment_rows(renderer.ctx, Path(cache), width=2048,
-                            runs=1 if config.quick else 3, legacy_runs=1, progress=True)
+                            runs=1 if config.quick else 3, legacy_runs=1,
+                            progress=True) + diffuse_rows()
 
 
 def table(rows: list[dict]) -> str:

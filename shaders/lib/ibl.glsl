@@ -42,6 +42,18 @@ vec3 ibl_specular_radiance_sun(sampler2D sunless, sampler2D full, vec3 r_ws,
     return mix(ibl_specular_radiance(full, r_ws, perceptual_roughness, levels), p, w);
 }
 
+// The diffuse term's irradiance E(n) at the (already environment-rotated) unit normal n_ws: the
+// exact cosine convolution of the environment (viewer/irradiance.py), an equirect map whose rows
+// run from pole to pole (row j at polar angle pi j / (h - 1): the poles are texels, so a floor's
+// normal reads its own value, not a ring half a texel away), bilinear in between. E = pi for a
+// unit constant environment; diffuse radiance is albedo / pi * E.
+vec3 irradiance_lookup(sampler2D irradiance, vec3 n_ws) {
+    vec2 uv = equirect_uv(n_ws);
+    float h = float(textureSize(irradiance, 0).y);
+    uv.y = (uv.y * (h - 1.0) + 0.5) / h;
+    return textureLod(irradiance, uv, 0.0).rgb;
+}
+
 // Karis 2013, split-sum second term: the DFG LUT at (n.v, perceptual roughness).
 vec2 ibl_dfg(sampler2D dfg, float NoV, float perceptual_roughness) {
     // the LUT's texel centres sit on the end points (passes/ibl_dfg.comp): map [0, 1] onto them

@@ -95,6 +95,47 @@ float sun_specular_weight(float a, float sun_radius) {
     return saturate(2.0 * a / max(sun_radius, 1e-6) - 1.0);
 }
 
+// atan(z) - z without the cancellation of the difference at small z: its Taylor series below
+// 0.35 (terms to z^17: 1e-7 relative), atan(z) - z above (every extracted light has z < 0.1).
+float atan_minus_z(float z) {
+    float z2 = z * z;
+    if (z >= 0.35) return atan(z) - z;
+    float p = -1.0 / 17.0;
+    p = 1.0 / 15.0 + z2 * p;
+    p = -1.0 / 13.0 + z2 * p;
+    p = 1.0 / 11.0 + z2 * p;
+    p = -1.0 / 9.0 + z2 * p;
+    p = 1.0 / 7.0 + z2 * p;
+    p = -1.0 / 5.0 + z2 * p;
+    p = 1.0 / 3.0 + z2 * p;
+    return -z * z2 * p;
+}
+
+// A disc light at infinity of angular radius t (an environment light, viewer/sun.py) as a
+// direction and a factor on its irradiance E: returns (l_b, s), shaded as a light from l_b of
+// irradiance E s. Its irradiance on a surface of normal n is E max(n.l, 0) while the disc is
+// wholly above the horizon (s = 1, l_b = l) and E c while the horizon cuts it, c the cut disc's
+// cosine-weighted share (Lagarde & de Rousiers 2014, "Moving Frostbite to PBR", sec. 4.7.2,
+// listing 7, illuminanceSphereOrDisk, divided by its unclipped pi sin^2 t; with x = cot t,
+// z = x^-1 sin(theta) sqrt(1 - y^2), its -x z sin^2 t (..) + atan(z) is rewritten
+// z sin^2 t + (atan(z) - z): no cancellation for small discs), there l_b is l lifted to
+// n.l_b >= 1e-3 for the BRDF (a point light at l gives 0 half a disc below the horizon, where
+// the floor of a sunset still sees half the sun).
+vec4 disc_light(vec3 n, vec3 l, float radius) {
+    float NoL = dot(n, l);
+    float s2 = max(sq(sin(min(radius, 1.5))), 1e-12);
+    float c = max(NoL, 0.0);  // wholly above (or below) the horizon
+    if (NoL * NoL < s2) {
+        float sin_t = sqrt(max(1.0 - NoL * NoL, 0.0));
+        float x = sqrt(1.0 / s2 - 1.0);
+        float y = clamp(-x * NoL / sin_t, -1.0, 1.0);
+        float z = sin_t * sqrt(max(1.0 - y * y, 0.0)) / x;
+        c = max((NoL * acos(y) + z + atan_minus_z(z) / s2) * INV_PI, 0.0);
+    }
+    vec3 lb = NoL >= 1e-3 ? l : normalize(l + (1e-3 - NoL) * n);
+    return vec4(lb, c > 0.0 ? c / dot(n, lb) : 0.0);
+}
+
 // The scene's [light]: the whole BRDF (w = 1).
 vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
                            vec3 v, vec3 l, vec3 irradiance) {

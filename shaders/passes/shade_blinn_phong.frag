@@ -3,14 +3,13 @@
 // LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, passes/lights.glsl).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
-#include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
 
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
-uniform vec3 u_sh[9];
+uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irradiance_lookup)
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
@@ -23,7 +22,7 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
-    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
     float ao = ambient_occlusion(pixel, g);
 #if SPECULAR_LOBE
     float r = clamp_perceptual_roughness(g.roughness);

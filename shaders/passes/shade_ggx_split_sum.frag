@@ -3,24 +3,26 @@
 // SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0),
 // LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, same BRDF: passes/lights.glsl),
 // SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/sun.py; the IBL bound then
-// leaves it out of the prefiltered chain and the SH, and u_env_prefiltered_full keeps it).
+// leaves it out of the prefiltered chain and the irradiance map, and u_env_prefiltered_full keeps
+// it), ENV_LIGHTS (its other compact lights, passes/env_lights.glsl; with SUN_LIGHT only).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
-#include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/env_lights.glsl"
 
 uniform sampler2D u_env_prefiltered;
 uniform sampler2D u_env_dfg;
 uniform sampler2D u_env_dominant;
 uniform float u_env_levels;
-uniform vec3 u_sh[9];
+uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irradiance_lookup)
 #if SUN_LIGHT
 uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
 uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
 uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
-uniform float u_sun_radius;     // angular radius, radians
+uniform float u_sun_radius;     // the widest extracted light's angular radius (radians): w
+uniform float u_sun_disc_radius;  // the sun's own angular radius (radians): its horizon
 #endif
 
 void main() {
@@ -34,7 +36,7 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
-    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
     float ao = ambient_occlusion(pixel, g);
 #if SPECULAR_LOBE
     float NoV = saturate(dot(n, v));
@@ -62,9 +64,12 @@ void main() {
 #if SUN_LIGHT
     // ao scales its diffuse part as it scales the rest of the environment's (SH) diffuse light
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
-    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, l_sun,
-                             u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
-                             w_sun);
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
+    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, disc.xyz,
+                             u_sun_irradiance * u_env_intensity * disc.w
+                             * sun_shadow(g, n, l_sun), w_sun);
+    c += env_lights_ggx(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, w_sun,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #else
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
@@ -77,8 +82,12 @@ void main() {
 #endif
 #if SUN_LIGHT
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
-    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, l_sun,
-                               u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun));
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
+    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, disc.xyz,
+                               u_sun_irradiance * u_env_intensity * disc.w
+                               * sun_shadow(g, n, l_sun));
+    c += env_lights_ggx(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

@@ -1,5 +1,5 @@
 // shade_neural.frag - the distilled neural shader (learned/neural/student.py): one MLP evaluation
-// per pixel on the material, n.v and the pre-integrated lighting (SH irradiance, GGX-prefiltered
+// per pixel on the material, n.v and the pre-integrated lighting (the exact irradiance map, GGX-prefiltered
 // radiance, and the split-sum DFG LUT for students with NEURAL_STUDENT_DFG) every classical model
 // reads. The network is generated code from an exported weights file (viewer/neural/ ->
 // "generated/neural_student.glsl": weights baked as constants, or read from the uniform/storage
@@ -16,16 +16,19 @@
 // "multiscatter": true), so an untrained student renders the classical model's default.
 // Defines: USE_AO, USE_SSAO (the occlusion input), BACKGROUND_ENVIRONMENT (0/1), SUN_LIGHT (0/1,
 // 0 when not given: a split3 student with NEURAL_STUDENT_SUN under an environment with a sun; the
-// IBL bound then leaves the sun out of the prefiltered chain and the SH, u_env_prefiltered_full
-// keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it, with the student's
-// corrections: lib/neural.glsl neural_student_sun_split), LIGHT_COUNT, LIGHT_POSITIONAL (the
+// IBL bound then leaves the sun out of the prefiltered chain and the irradiance map,
+// u_env_prefiltered_full keeps it, and the sun is shaded as shade_ggx_split_sum.frag shades it,
+// with the student's corrections: lib/neural.glsl neural_student_sun_split), ENV_LIGHTS (the
+// environment's other compact lights: the student's input takes one sun, so they go through its
+// classical base, passes/env_lights.glsl, without learned factors, diffuse times ao as the
+// base scales it), LIGHT_COUNT, LIGHT_POSITIONAL (the
 // scene's punctual lights through the student's classical base: passes/lights.glsl, main()).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
-#include "lib/sh.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/env_lights.glsl"
 #include "generated/neural_student.glsl"
 
 #ifndef SUN_LIGHT
@@ -40,7 +43,7 @@
 
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
-uniform vec3 u_sh[9];
+uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irradiance_lookup)
 #if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
 uniform sampler2D u_env_dfg;
 #endif
@@ -51,7 +54,8 @@ uniform sampler2D u_env_dominant;
 uniform sampler2D u_env_prefiltered_full;  // the prefiltered chain with the sun
 uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
 uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
-uniform float u_sun_radius;     // angular radius, radians
+uniform float u_sun_radius;     // the widest extracted light's angular radius (radians): w
+uniform float u_sun_disc_radius;  // the sun's own angular radius (radians): its horizon
 #endif
 #if NEURAL_STUDENT_INDIRECT
 layout(location = 1) out vec4 o_indirect_factor;  // r: the factor on L_ind (all four channels)
@@ -73,7 +77,7 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
-    vec3 irradiance = sh_irradiance(env_dir(n), u_sh) * u_env_intensity;
+    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
 #if NEURAL_STUDENT_SPLIT  // the split-sum model's lookup direction (shade_ggx_split_sum.frag)
     vec3 reflected = specular_dominant_direction(n, reflect(-v, n),
                                                  ibl_dominant_factor(u_env_dominant, NoV, r));
@@ -118,10 +122,14 @@ void main() {
                                            spec_scale);
 #if SUN_LIGHT
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
     c += neural_student_sun_split(k_0, diffuse_color(g.albedo, g.metallic), f0, f90_from_f0(f0),
-                                  dfg, r * r, n, v, l_sun,
-                                  u_sun_irradiance * u_env_intensity * sun_shadow(g, n, l_sun),
-                                  w_sun, spec_scale);
+                                  dfg, r * r, n, v, disc.xyz,
+                                  u_sun_irradiance * u_env_intensity * disc.w
+                                  * sun_shadow(g, n, l_sun), w_sun, spec_scale);
+    c += env_lights_ggx(diffuse_color(g.albedo, g.metallic) * ao, f0, r * r, dfg,
+                        float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #elif NEURAL_STUDENT_PBR
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);

@@ -141,3 +141,32 @@ def test_training_a_sun_student(tmp_path, ctx):
     net = load_network(res["student"], "student")
     assert net.sun and load_model(res["student"]).sun
     assert np.abs(net.tensors["mlp.2.weight"]).max() > 0.0  # moved off the zero start
+
+
+def test_sun_student_under_several_environment_lights(programs, tmp_path):
+    """Under a map of three compact lights the student's input takes the most energetic (its
+    sun); the other two go through its classical base (ENV_LIGHTS 2): untrained it is still
+    ``ggx_split_sum`` with all three lights, and GLSL and torch agree on a perturbed student."""
+    from tests.viewer.test_env_lights import three_discs
+    from viewer.imageio import write_exr
+    from viewer.scene import scene_from_dict
+
+    env_path = tmp_path / "discs.exr"
+    write_exr(env_path, three_discs(128))
+    environment = {"path": str(env_path), "rotation_deg": 25.0, "intensity": 0.8}
+    torch.manual_seed(6)
+    s = Student(hidden=(8, 8), features="vis", output="split3", sun=True)
+    path = tmp_path / "sun.safetensors"
+    export(s, path)
+    base = scene_from_dict(dict(tn.PARITY_SCENE, environment=environment)).with_render(
+        multiscatter=False, tonemap="none", ssao=True, shadows=False)
+    neural, defines = _render(programs, base.with_render(model="neural", weights=str(path)))
+    assert defines.get("SUN_LIGHT") == 1 and defines.get("ENV_LIGHTS") == 2
+    classical, cdef = _render(programs, base.with_render(model="ggx_split_sum"))
+    assert cdef.get("ENV_LIGHTS") == 2
+    np.testing.assert_allclose(neural, classical, rtol=2e-6, atol=2e-6)
+    with torch.no_grad():
+        s.layers[-1].weight.normal_(0.0, 2.0)
+    export(s, path)
+    r = tn.check_model(programs, "neural", {}, path, environment=environment)
+    assert r.passed, r

@@ -32,10 +32,12 @@ def _snapshot(store, spec):
            for n, ibl in (("plain", plain), ("sunless", sunless)) for k in range(plain.levels)}
     out["radiance"] = plain.read_level("radiance", 0)
     out["sh"], out["sh_sunless"] = plain.sh, sunless.sh
+    out["irradiance"] = plain.read_level("irradiance")
+    out["irradiance_sunless"] = sunless.read_level("irradiance")
     out["dirs"] = store.power_directions(spec)
     out["sampling"] = store.env_sampling(spec).read()["conditional"]
     out["dfg"] = plain.read_level("dfg")
-    return out, store.sun(spec)
+    return out, store.lights(spec)
 
 
 def _build(programs, disk, spec):

@@ -224,6 +224,12 @@ def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) 
         direction = env_to_world(sun.direction, scene.environment.rotation_deg)
         casters.append(("sun", directional_frame(bounds, direction, int(settings.shadow.size)),
                         float(sun.angular_radius)))
+        # the environment's other compact lights (ENV_LIGHTS): "env<k>", shadowenv<k>
+        others = renderer.resources.env_lights(scene.environment)[1:]
+        casters += [(f"env{k}", directional_frame(
+                         bounds, env_to_world(li.direction, scene.environment.rotation_deg),
+                         int(settings.shadow.size)), float(li.angular_radius))
+                    for k, li in enumerate(others[:defines.get("ENV_LIGHTS", 0)])]
     # what casts shadows: the objects without their materials (a material slider keeps the maps)
     shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
     out = {}

@@ -59,11 +59,12 @@ def forward_model(model: str) -> str:
 
 
 def forward_variant(settings: RenderSettings, light: Light | tuple[Light, ...] | None,
-                    sun: bool = False) -> ShadeVariant:
+                    sun: int = 0) -> ShadeVariant:
     """The lighting-pass variant that shades blended surfaces for ``settings.model``: the forward
     model's own variant (every lobe: blended surfaces are not specialised), without SSAO and
     without the background (the destination already holds it), and without the light when the
-    scene's model ignores it; ``sun``: the IBL bound leaves out a sun to shade (SUN_LIGHT)."""
+    scene's model ignores it; ``sun``: how many lights the IBL bound leaves out to shade
+    (SUN_LIGHT, ENV_LIGHTS)."""
     info = model_info(settings.model)
     shaded = light if info.lights == "shaded" else None
     defines = model_info(forward_model(settings.model)).variant(settings, shaded, specular=True,
@@ -114,7 +115,7 @@ class ForwardPass:
             raise ValueError("the forward pass depth-tests against the G-buffer's depth channel, "
                              "which this layout omits")
         _warn_fallback(settings.model)
-        variant = forward_variant(settings, light, sun=ibl.sun is not None)
+        variant = forward_variant(settings, light, sun=len(ibl.lights))
         ctx = self.ctx
         out_fbo.use()
         ctx.viewport = (0, 0, camera.width, camera.height)

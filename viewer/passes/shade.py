@@ -119,6 +119,7 @@ class ShadePass:
             prog["u_ssao"].value = unit
             unit += 1
         unit = self._bind_shadows(prog, light, shadows or {}, unit)
+        unit = self._bind_env_light_shadows(prog, shadows or {}, unit)
         if "u_sun_shadow_map" in prog:
             if sun_shadow is None:  # nothing casts one (an image stack alone): a map of depth 1
                 self._no_shadow().use(unit)
@@ -171,6 +172,32 @@ class ShadePass:
         _set(prog, "u_shadow_matrix", matrices.tobytes())
         _set(prog, "u_shadow_lens", lenses.tobytes())
         _set(prog, "u_shadow_offset", offsets.tobytes())
+        return unit
+
+    def _bind_env_light_shadows(self, prog, shadows: dict, unit: int) -> int:
+        """The environment's other lights' maps (passes/env_lights.glsl, ``shadows["env<k>"]``,
+        as ``sun_shadow``); a map of depth 1 mapped outside (lit) where one is missing."""
+        if "u_env_light_shadow_params" not in prog:
+            return unit
+        n = prog["u_env_light_shadow_params"].array_length
+        matrices = np.zeros((n, 4, 4), np.float32)
+        matrices[:, 3] = (-1.0, -1.0, -1.0, 1.0)  # no map: every point outside it, lit
+        normals = np.tile(np.eye(3, dtype=np.float32), (n, 1, 1))
+        params = np.tile(np.array([0.0, 1.0, 1.0, 0.0], np.float32), (n, 1))
+        units = np.zeros(n, np.int32)
+        for k in range(n):
+            entry = shadows.get(f"env{k}")
+            (self._no_shadow() if entry is None else entry[0]).use(unit)
+            units[k], unit = unit, unit + 1
+            if entry is not None:
+                _, frame, angle, offset = entry
+                matrices[k] = frame.matrix.T
+                normals[k] = np.linalg.inv(frame.matrix[:3, :3])
+                params[k] = (angle, frame.depth_range, max(frame.extent), offset)
+        _set(prog, "u_env_light_shadow_map", units.tobytes())
+        _set(prog, "u_env_light_shadow_matrix", matrices.tobytes())
+        _set(prog, "u_env_light_shadow_normal_matrix", normals.tobytes())
+        _set(prog, "u_env_light_shadow_params", params.tobytes())
         return unit
 
     def _no_shadow(self):

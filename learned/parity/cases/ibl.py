@@ -6,7 +6,7 @@ from .base import Arg, ParityCase
 
 # Functions taking samplers (or arrays) covered by the pass checks registered below.
 PASS_LEVEL = ("ibl_specular_radiance", "ibl_dfg", "ibl_dominant_factor",
-              "ibl_specular_radiance_sun")
+              "ibl_specular_radiance_sun", "irradiance_lookup")
 
 
 _DFG = Arg(lo=0.0, hi=1.0, components=2, adversarial=((0.0, 1.0), (1.0, 1.0), (0.5, 1e-6)))

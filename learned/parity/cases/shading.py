@@ -24,6 +24,23 @@ def _fix_dfg_at(index):
 _UNIT = Arg(kind="unit", components=3, adversarial=((0, 0, 1),))
 
 
+def _near_horizon(args):
+    """Put l (argument 1) within +-radius of n's horizon for three rows in four: the disc light's
+    clipped branch."""
+    import numpy as np
+
+    n, l, radius = args
+    rng = np.random.default_rng(5)
+    t = l - (l * n).sum(-1, keepdims=True) * n
+    norm = np.linalg.norm(t, axis=-1, keepdims=True)
+    t /= np.maximum(norm, 1e-6)
+    nol = rng.uniform(-1.0, 1.0, len(n)) * np.sin(radius)
+    moved = t * np.sqrt(1.0 - nol ** 2)[:, None] + nol[:, None] * n
+    pick = (rng.random(len(n)) < 0.75) & (norm[:, 0] > 1e-3)
+    l[pick] = (moved / np.linalg.norm(moved, axis=-1, keepdims=True))[pick].astype(l.dtype)
+    return args
+
+
 _UP = Arg(kind="hemisphere", components=3, adversarial=((0, 0, 1), (1, 0, 0)))
 
 
@@ -89,6 +106,22 @@ PARITY_CASES = [
                measured="max rel 7.0e-5 (seeds 0-3), as ggx_directional_light (the same body)",
                envelope="as ggx_directional_light: D_GGX's sensitivity to n.h at small alpha; "
                         "w adds one rounding"),
+    ParityCase("atan_minus_z", (Arg(lo=0.0, hi=0.5, adversarial=(0.0, 0.3499, 0.35, 1e-4, 5.0)),),
+               atol=2e-6, rtol=1e-5, measured="max abs 1.5e-6 (above 0.1: atan's own error)",
+               envelope="series below 0.35: 16 roundings in Horner form with terms "
+                        "alternating at ratio z^2 < 0.13 -> 20 ulp rel; above, atan's assumed "
+                        "1e-6 abs per side: 2e-6 abs"),
+    # the light near the normal's horizon for most draws (prepare), the radius up to 0.1 rad
+    # (extracted lights are below 0.08: SUN_MAX_SOLID_ANGLE)
+    ParityCase("disc_light", (_UNIT, _UNIT, Arg(lo=0.0, hi=0.1, adversarial=(0.0, 0.005, 0.08))),
+               atol=3e-3, rtol=5e-4, prepare=_near_horizon,
+               measured="max abs 2.1e-3 (seeds 0-3) where the disc is nearly set and s = c / "
+                        "1e-3; max rel 2.9e-4 elsewhere",
+               envelope="c: NoL acos(y) + z + .. cancel as the disc sets (terms ~100x the "
+                        "result): acos's and atan's assumed 1e-6 abs and the terms' roundings "
+                        "-> 3e-6 abs on c, over n.l_b = 1e-3 where lifted -> 3e-3 abs on s "
+                        "(3e-6 E on the irradiance); n.l_b = 1e-3 carries ~3 ulp of 1 (the "
+                        "normalize): 2e-4 rel on s; l_b: normalize, 4 ulp"),
     ParityCase("blinn_phong_directional_light",
                (_nonneg3(), _nonneg3(), _ALPHA_L, _UNIT, _UP, _UNIT,
                 _nonneg3(10.0, ((1e5, 0, 65504),))),

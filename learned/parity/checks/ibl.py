@@ -17,6 +17,7 @@ from learned.twins.ibl import (
     ibl_dominant_factor,
     ibl_specular_radiance,
     ibl_specular_radiance_sun,
+    irradiance_lookup,
     prefilter_environment,
     prefilter_level_envelope,
     prefilter_lod,
@@ -251,6 +252,34 @@ def checks() -> dict:
                     envelope="per lookup: sample_trilinear_envelope of the LUT (as ibl_dfg) "
                              "+ 1e-5")]
 
+    @register_pass_check("irradiance_lookup")
+    def check_irradiance_lookup(programs):
+        env, opts, ibl, bits = built(programs)
+        irr = ibl.read_level("irradiance")
+        rng = np.random.default_rng(3)
+        n = 4096
+        normals = rng.normal(size=(n, 3)).astype(np.float32)
+        normals[:4] = ((0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0))
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        gl = eval_irradiance_lookup(programs, ibl.irradiance, normals)
+        with torch.no_grad():
+            t = torch.from_numpy(irr)
+            d = torch.from_numpy(normals)
+            ref = irradiance_lookup(t, d).numpy()
+            uv = equirect_uv(d)
+            h = float(irr.shape[0])
+            uv = torch.stack([uv[..., 0], (uv[..., 1] * (h - 1.0) + 0.5) / h], -1)
+            # at the poles u is undefined (the envelope is NaN) and every texel of the first
+            # and last rows holds the pole's value: only the 4 ulp remain there
+            bound = (torch.nan_to_num(sample_trilinear_envelope(
+                [t], uv, torch.zeros(n), equirect_uv_error(d, 0.0) + 1e-7,
+                weight_bits=bits)[..., :3], nan=0.0)
+                + 4.0 * 2.0 ** -24 * torch.from_numpy(ref).abs()).numpy()
+        return [compare_envelope(
+            "irradiance_lookup", gl, ref, bound, measured="max abs 8.8e-6, max rel 3.3e-6 (llvmpipe)",
+            envelope="per lookup: sample_trilinear_envelope of the map (measured filter bits, "
+                     "atan error + 1e-7 for the row remap's fma) + 4 ulp")]
+
     @register_pass_check("sh_irradiance")
     def check_sh_irradiance(programs):
         rng = np.random.default_rng(2)
@@ -312,6 +341,15 @@ def _eval_lookups(programs, ibl, dirs, rough, nov, w):
     inputs = np.concatenate([dirs, rough[:, None], nov[:, None], w[:, None]], axis=1)
     out = run_kernel(programs, "passes/parity_ibl_lookups.comp", inputs, 9, setup)
     return out[:, :3], out[:, 3:5], out[:, 5], out[:, 6:9]
+
+
+def eval_irradiance_lookup(programs, texture, normals: np.ndarray) -> np.ndarray:
+    """GL ``irradiance_lookup`` of the irradiance map ``texture`` at unit normals ``[n, 3]``."""
+    def setup(prog):
+        texture.use(location=0)
+        prog["u_irradiance"].value = 0
+
+    return run_kernel(programs, "passes/parity_irradiance_lookup.comp", normals, 3, setup)
 
 
 def eval_sh_irradiance(programs, normals: np.ndarray, sh: np.ndarray) -> np.ndarray:

@@ -32,13 +32,14 @@ def gl_texture(texture) -> np.ndarray:
 
 def env_from_ibl(ibl) -> dict:
     """The GPU environment resources of :class:`viewer.ibl.IBL`, read back as the ``env`` dict
-    :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH)."""
+    :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH, the irradiance map)."""
     return {"radiance": [torch.from_numpy(ibl.read_level("radiance", 0))],
             "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))
                             for k in range(ibl.levels)],
             "dfg": torch.from_numpy(ibl.read_level("dfg", 0)),
             "dominant": torch.from_numpy(ibl.read_level("dominant", 0)),
             "sh": torch.from_numpy(np.asarray(ibl.sh, np.float32)),
+            "irradiance": torch.from_numpy(ibl.read_level("irradiance", 0)),
             "levels": float(ibl.levels)}
 
 
@@ -47,7 +48,7 @@ def env_for_pass(renderer, scene, sun: bool) -> dict:
     environment's sun, plus the sun (``"sun"``) and the whole environment's prefiltered chain
     (``"prefiltered_full"``); else the plain IBL (``"sun"`` None)."""
     ibl = renderer.resources.ibl(scene.environment, sun=sun)
-    env = {**env_from_ibl(ibl), "sun": ibl.sun}
+    env = {**env_from_ibl(ibl), "sun": ibl.sun, "lights": ibl.lights}
     if ibl.sun is not None:
         full = renderer.ibl(scene)
         env["prefiltered_full"] = [torch.from_numpy(full.read_level("prefiltered", k))
@@ -184,10 +185,13 @@ MC_LIGHT_VARIANTS = ({"samples": 2, "sampling": "mis"},
 
 
 def _check_model(programs, model: str, variant: dict, light: dict | list | None = None,
-                 emissive: bool = False):
-    # light: a [light] table (dict) or a [[lights]] array (list)
+                 emissive: bool = False, environment: dict | None = None):
+    # light: a [light] table (dict) or a [[lights]] array (list); environment: the scene's
+    # [environment] instead of the parity sky (a map with several compact lights: ENV_LIGHTS)
     doc = PARITY_SCENE if light is None else \
         {**PARITY_SCENE, ("lights" if isinstance(light, list) else "light"): light}
+    if environment is not None:
+        doc = {**doc, "environment": environment}
     if emissive:  # + an in-memory mesh object (emissive_quad)
         doc = {**doc, "objects": doc["objects"] + [{"type": "mesh", "path": "emissive.glb"}]}
     # shadow maps off: their lookups are the check shadow:lookups (checks/shadow.py); the twin of

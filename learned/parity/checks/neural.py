@@ -100,14 +100,17 @@ def check_network(programs, weights=None, storage: str = "const"):
                             "const/ubo/texture hold the exact float32 weights")
 
 
-def check_model(programs, model: str, variant: dict, weights=None, label: str = ""):
+def check_model(programs, model: str, variant: dict, weights=None, label: str = "",
+                environment: dict | None = None):
     """GL lighting pass of ``model`` on ``weights`` (default: the shipped file) vs its torch twin
-    :func:`learned.twins.neural.shade_neural`; named ``model:<model>[:<variant>][:<label>]``."""
+    :func:`learned.twins.neural.shade_neural`; named ``model:<model>[:<variant>][:<label>]``.
+    ``environment``: the scene's ``[environment]`` table instead of the parity scene's."""
     kind = MODEL_KINDS[model]
     path = weights or default_weights(kind)
     key = "weights" if kind == "student" else "teacher_weights"
-    scene = scene_from_dict(PARITY_SCENE).with_render(shadows=False, model=model,
-                                                      **{key: str(path)}, **variant)
+    table = dict(PARITY_SCENE, environment=environment) if environment else PARITY_SCENE
+    scene = scene_from_dict(table).with_render(shadows=False, model=model,
+                                               **{key: str(path)}, **variant)
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
     net_model = load_model(path, kind)
     renderer = Renderer(ctx=programs.ctx)
@@ -123,6 +126,8 @@ def check_model(programs, model: str, variant: dict, weights=None, label: str = 
         defines = dict(shade_defines(model, scene.render))
         if targets.variant.defines.get("SUN_LIGHT", 0):
             defines["SUN_LIGHT"] = 1
+        if targets.variant.defines.get("ENV_LIGHTS", 0):  # the environment's other lights
+            defines["ENV_LIGHTS"] = targets.variant.defines["ENV_LIGHTS"]
         lighting = lighting_from_gl(renderer, scene.environment,
                                     sun=bool(defines.get("SUN_LIGHT", 0)))
         ssao = None

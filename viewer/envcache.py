@@ -29,7 +29,7 @@ import numpy as np
 
 # Bump when what an entry holds or how it is computed changes (the loader's resampling, the
 # convolution, the sun extraction, the sampling tables): older entries are then stale.
-FORMAT = 2  # 2: the irradiance maps, several lights per environment
+FORMAT = 3  # 2: the irradiance maps, several lights per environment; 3: 512-wide irradiance
 DEFAULT_MAX_BYTES = 2048 << 20
 _SUFFIX = ".safetensors"
 _OFF = ("0", "off", "false", "no")

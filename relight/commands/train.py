@@ -34,9 +34,9 @@ def cmd_train(args) -> int:
         print(students.compare_table(res))
         return 0
     if args.stage == "student" and over.get("student_target", "target") != "target":
-        raise RelightError("the student stage alone learns from the dataset's targets: add "
-                           "--student-target target (a distilled student needs the teacher)",
-                           where="--stage")
+        raise RelightError("the student stage alone learns from the dataset's targets: drop "
+                           "--student-target teacher (a distilled student needs the teacher: "
+                           "--stage all)", where="--stage")
     train = _learned("learned.train")
     data = args.data
     if getattr(args, "targets", "rasteriser") == "reference":

@@ -3,7 +3,7 @@
     relight render [SCENE.toml] --out FILE [--model M] [--samples N] [--size WxH] [--aov a,b]
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
-    relight info [--json]
+    relight info [--json] [--weights [FILE ...]]
     relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--seed N] [--install]
                   [--compare-students]
     relight data OUT --preset truth-train|heldout-kinds|heldout-env [--count N] [--size S]
@@ -271,6 +271,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="GL renderer, version, extensions, float target precision")
     p.add_argument("--json", action="store_true")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
+    p.add_argument("--weights", nargs="*", metavar="FILE",
+                   help="instead: where neural-shader weights files come from (command, seed, "
+                        "dataset hash, val / test scores; default the shipped student and "
+                        "teacher)")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("view", help="the interactive viewer (glfw + Dear ImGui)")

@@ -1,5 +1,6 @@
 """Training on the tiny dataset: losses decrease, resume from checkpoints, ``relight train``'s
 options and stages, the learned indirect factor, DDP over two CPU processes."""
+import json
 import os
 import subprocess
 import sys
@@ -140,7 +141,7 @@ def test_relight_train_student_stage_alone(dataset, tmp_path, capsys):
 
 
 def test_train_defaults_are_the_shipped_student_and_teacher_and_seed_reaches_the_config(
-        dataset, tmp_path):
+        dataset, tmp_path, capsys):
     """TrainConfig's defaults are the design and training the shipped weights files record in
     their metadata (student: stage student on the targets; teacher: no light input), and
     ``relight train --seed`` reaches the run's config."""
@@ -161,6 +162,12 @@ def test_train_defaults_are_the_shipped_student_and_teacher_and_seed_reaches_the
                  "student", "--student-steps", "2", "--batch-pixels", "32", "--seed", "7",
                  "--quiet"]) == 0
     assert torch.load(out / "student.pt", weights_only=True)["config"]["seed"] == 7
+    # the file records its command, seed and dataset hash; relight info --weights shows them
+    capsys.readouterr()
+    assert main(["info", "--weights", str(out / "neural_student.safetensors"), "--json"]) == 0
+    (info,) = json.loads(capsys.readouterr().out)
+    assert info["seed"] == 7 and len(info["dataset_hash"]) == 64
+    assert info["command"]  # sys.argv of the process (here pytest's)
 
 
 @pytest.mark.slow

@@ -96,9 +96,11 @@ def _log(msg: str, quiet: bool) -> None:
         print(f"[{time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
-def train_seed(cfg: ProtocolConfig, seed: int, root: str, images: dict, digest: str,
+def train_seed(cfg: ProtocolConfig, seed: int, root: str, train: list, val_images, digest: str,
                quiet: bool = False) -> dict:
-    """The student of ``seed`` (trained, or loaded when finished) and its validation scores."""
+    """The student of ``seed`` (trained on the ``train`` images, or loaded when finished) and its
+    validation scores (``val_images()``: the val split's images, loaded when first needed);
+    ``digest``: the hash of the train split it learns from."""
     run_dir = _run_root(cfg) / f"seed-{seed}"
     weights = run_dir / "neural_student.safetensors"
     val_path = run_dir / "val.json"
@@ -109,17 +111,29 @@ def train_seed(cfg: ProtocolConfig, seed: int, root: str, images: dict, digest: 
                    student_steps=int(cfg.student_steps), seed=int(seed))
     run = Run(tcfg, 0, quiet)
     _log(f"seed {seed}: training the student ({tcfg.student_steps} steps) -> {run_dir}", quiet)
-    student, losses = distill_student(run, images["train"], [i.target for i in images["train"]])
-    val = student_scores(student, images["val"])
+    student, losses = distill_student(run, train, [i.target for i in train])
+    val = student_scores(student, val_images())
     command = (f"relight eval {cfg.data} --protocol --seeds {','.join(map(str, cfg.seeds))} "
                f"--degrade {cfg.level:g} --student-steps {cfg.student_steps}")
     export(student, weights, {
-        "command": command, "seed": int(seed), "dataset": str(cfg.data), "dataset_hash": digest,
+        "command": command, "seed": int(seed), "dataset": str(cfg.data),
+        "dataset_hash": digest, "dataset_hash_of": "the train split",
         "degrade": float(cfg.level), "config": asdict(tcfg), "stage": "student",
         "final_loss": losses[-1], "distilled_from": "the dataset's targets",
         "scores": {"val_psnr": float(np.mean(val)), "val_samples": len(val)}})
     _write_json(val_path, {"psnr": val})
     return {"weights": str(weights), "val": val}
+
+
+def _split_images(cfg, protocol, images: dict, split: str, renderer, quiet: bool):
+    """The inputs of ``split`` at the level, loaded once into ``images`` (the split complete,
+    its degraded copy written)."""
+    if split not in images:
+        _check_complete(cfg, protocol, split)
+        root = str(degraded_dataset(cfg.data, cfg.level, splits=(split,), progress=not quiet))
+        _log(f"loading {split} inputs (level {cfg.level:g})", quiet)
+        images[split] = load_images(root, split, renderer, sun=True, multiscatter=True)
+    return images[split]
 
 
 def pick_classical(cfg: ProtocolConfig, images: dict, quiet: bool = False) -> dict:
@@ -137,12 +151,23 @@ def pick_classical(cfg: ProtocolConfig, images: dict, quiet: bool = False) -> di
     return data
 
 
+def _check_complete(cfg: ProtocolConfig, protocol: dict, split: str) -> None:
+    """A one-line :class:`DatasetError` when ``split`` has fewer samples than its configuration
+    (a protocol dataset still being generated)."""
+    from ..data.reader import DatasetError, list_samples
+
+    want = int(protocol["splits"][split]["count"])
+    have = len(list_samples(cfg.data, split)) if (Path(cfg.data) / split).is_dir() else 0
+    if have < want:
+        raise DatasetError(f"the {split} split has {have} of its {want} samples: finish it with "
+                           "relight data OUT --protocol", where=cfg.data)
+
+
 def run_protocol(cfg: ProtocolConfig, quiet: bool = False, renderer=None) -> dict:
-    """Steps 1-4 of the module docstring; returns the report (:func:`format_report`)."""
+    """Steps 1-4 of the module docstring; returns the report (:func:`format_report`). The
+    train split is loaded and the students trained before the val and test splits are read."""
     protocol = load_protocol(cfg.data)
-    digest = protocol.get("hash") or dataset_hash(cfg.data)
     _run_root(cfg).mkdir(parents=True, exist_ok=True)
-    root = str(degraded_dataset(cfg.data, cfg.level, progress=not quiet))
     own = renderer is None
     if own:
         from viewer.renderer import Renderer
@@ -150,16 +175,26 @@ def run_protocol(cfg: ProtocolConfig, quiet: bool = False, renderer=None) -> dic
         renderer = Renderer()
     try:
         images = {}
-        for split in ("train", "val", "test"):
-            _log(f"loading {split} inputs (level {cfg.level:g})", quiet)
-            images[split] = load_images(root, split, renderer, sun=True, multiscatter=True)
+        _check_complete(cfg, protocol, "train")
+        train_hash = dataset_hash(cfg.data, ("train",))
+        root = str(degraded_dataset(cfg.data, cfg.level, splits=("train",), progress=not quiet))
+        _log(f"loading train inputs (level {cfg.level:g})", quiet)
+        images["train"] = load_images(root, "train", renderer, sun=True, multiscatter=True)
+        students = {}
+        for k, seed in enumerate(cfg.seeds):
+            _log(f"student {k + 1}/{len(cfg.seeds)} (seed {seed})", quiet)
+
+            def val_images():
+                return _split_images(cfg, protocol, images, "val", renderer, quiet)
+
+            students[seed] = train_seed(cfg, seed, root, images["train"], val_images,
+                                        train_hash, quiet)
+        for split in ("val", "test"):
+            _split_images(cfg, protocol, images, split, renderer, quiet)
     finally:
         if own:
             renderer.release()
-    students = {}
-    for k, seed in enumerate(cfg.seeds):
-        _log(f"student {k + 1}/{len(cfg.seeds)} (seed {seed})", quiet)
-        students[seed] = train_seed(cfg, seed, root, images, digest, quiet)
+    digest = protocol.get("hash") or dataset_hash(cfg.data)
     classical = pick_classical(cfg, images, quiet)
     best = Classical(**classical["best"]["model"])
     _log("scoring the test split", quiet)

@@ -188,7 +188,10 @@ def test_protocol_run_trains_caches_resumes_and_counts(protocol, tmp_path, ctx):
         np.mean(v["psnr"]) for v in json.loads(
             (tmp_path / "runs" / "level-0" / "classical-val.json").read_text())["variants"])
     training = load_network(w, "student").training
-    assert training["seed"] == 1 and training["dataset_hash"] == first["dataset_hash"]
+    from learned.protocol.data import dataset_hash
+
+    assert training["seed"] == 1 and training["dataset_hash"] == dataset_hash(protocol, ("train",))
+    assert first["dataset_hash"] == dataset_hash(protocol) != training["dataset_hash"]
     assert "relight eval" in training["command"] and "val_psnr" in training["scores"]
     beside = json.loads(w.with_suffix(".json").read_text())
     assert beside["test_scored"] == 2 and beside["seed"] == 1

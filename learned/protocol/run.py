@@ -5,7 +5,7 @@ at one degradation level (:mod:`learned.protocol.degrade`).
     report = run_protocol(ProtocolConfig(data="runs/protocol", seeds=(0, 1, 2), level=0.5))
     print(format_report(report))
 
-Steps (each cached under ``OUT/level-<L>/``, so an interrupted run resumes where it stopped):
+Steps (each cached under ``OUT/level-<L>-steps-<N>/``, so an interrupted run resumes where it stopped):
 
 1. the inputs of every split at the level (the degraded copy of the dataset; the targets are the
    true scene's), with the renderer's screen-space inputs (SSAO, S(x), L_ind) computed on them;
@@ -61,7 +61,8 @@ class ProtocolConfig:
 
 
 def _run_root(cfg: ProtocolConfig) -> Path:
-    return Path(cfg.out or Path(cfg.data) / "_protocol") / f"level-{cfg.level:g}"
+    return (Path(cfg.out or Path(cfg.data) / "_protocol")
+            / f"level-{cfg.level:g}-steps-{cfg.student_steps}")
 
 
 def _write_json(path: Path, data) -> None:

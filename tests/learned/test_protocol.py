@@ -173,7 +173,7 @@ def test_protocol_run_trains_caches_resumes_and_counts(protocol, tmp_path, ctx):
     r = Renderer(ctx=ctx)
     try:
         first = run_protocol(cfg, quiet=True, renderer=r)
-        w = tmp_path / "runs" / "level-0" / "seed-1" / "neural_student.safetensors"
+        w = tmp_path / "runs" / "level-0-steps-6" / "seed-1" / "neural_student.safetensors"
         mtime = w.stat().st_mtime_ns
         second = run_protocol(cfg, quiet=True, renderer=r)
     finally:
@@ -186,7 +186,7 @@ def test_protocol_run_trains_caches_resumes_and_counts(protocol, tmp_path, ctx):
     assert d["lo"] <= d["mean"] <= d["hi"] and d["seeds"] == 2 and d["samples"] == 3
     assert first["val"]["baseline"] == max(
         np.mean(v["psnr"]) for v in json.loads(
-            (tmp_path / "runs" / "level-0" / "classical-val.json").read_text())["variants"])
+            (tmp_path / "runs" / "level-0-steps-6" / "classical-val.json").read_text())["variants"])
     training = load_network(w, "student").training
     from learned.protocol.data import dataset_hash
 

@@ -97,6 +97,16 @@ def _log(msg: str, quiet: bool) -> None:
         print(f"[{time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
+def _train_config(cfg: ProtocolConfig, seed: int, root: str) -> TrainConfig:
+    return replace(TrainConfig.quick(root, str(_run_root(cfg) / f"seed-{seed}"), **SHIPPED_STUDENT),
+                   student_steps=int(cfg.student_steps), seed=int(seed))
+
+
+def _finished(cfg: ProtocolConfig, seed: int) -> bool:
+    return all((_run_root(cfg) / f"seed-{seed}" / f).is_file()
+               for f in ("neural_student.safetensors", "val.json"))
+
+
 def train_seed(cfg: ProtocolConfig, seed: int, root: str, train: list, val_images, digest: str,
                quiet: bool = False) -> dict:
     """The student of ``seed`` (trained on the ``train`` images, or loaded when finished) and its
@@ -108,11 +118,8 @@ def train_seed(cfg: ProtocolConfig, seed: int, root: str, train: list, val_image
     if weights.is_file() and val_path.is_file():
         _log(f"seed {seed}: finished, loaded ({weights})", quiet)
         return {"weights": str(weights), "val": json.loads(val_path.read_text())["psnr"]}
-    tcfg = replace(TrainConfig.quick(root, str(run_dir), **SHIPPED_STUDENT),
-                   student_steps=int(cfg.student_steps), seed=int(seed))
-    run = Run(tcfg, 0, quiet)
-    _log(f"seed {seed}: training the student ({tcfg.student_steps} steps) -> {run_dir}", quiet)
-    student, losses = distill_student(run, train, [i.target for i in train])
+    tcfg = _train_config(cfg, seed, root)
+    student, losses = distill_student(Run(tcfg, 0, quiet), train, [i.target for i in train])
     val = student_scores(student, val_images())
     command = (f"relight eval {cfg.data} --protocol --seeds {','.join(map(str, cfg.seeds))} "
                f"--degrade {cfg.level:g} --student-steps {cfg.student_steps}")
@@ -181,6 +188,13 @@ def run_protocol(cfg: ProtocolConfig, quiet: bool = False, renderer=None) -> dic
         root = str(degraded_dataset(cfg.data, cfg.level, splits=("train",), progress=not quiet))
         _log(f"loading train inputs (level {cfg.level:g})", quiet)
         images["train"] = load_images(root, "train", renderer, sun=True, multiscatter=True)
+        for k, seed in enumerate(cfg.seeds):  # every seed's training first (checkpointed)
+            if not _finished(cfg, seed):
+                _log(f"student {k + 1}/{len(cfg.seeds)} (seed {seed}): training "
+                     f"{cfg.student_steps} steps", quiet)
+                train = images["train"]
+                distill_student(Run(_train_config(cfg, seed, root), 0, quiet), train,
+                                [i.target for i in train])
         students = {}
         for k, seed in enumerate(cfg.seeds):
             _log(f"student {k + 1}/{len(cfg.seeds)} (seed {seed})", quiet)

@@ -210,11 +210,12 @@ def build_parser() -> argparse.ArgumentParser:
                        "i % WORLD_SIZE).")
     p.add_argument("out", help="dataset folder (created; an existing one of the same "
                                "configuration is completed)")
-    p.add_argument("--protocol", action="store_true",
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--protocol", action="store_true",
                    help="the protocol's dataset instead of a preset: train / val / test split by "
                         "scene seed and by environment (learned/protocol/data.py; --count gives "
                         "the train split's size, val and test a quarter and two fifths of it)")
-    p.add_argument("--preset", metavar="NAME",
+    which.add_argument("--preset", metavar="NAME",
                    help="truth-train: the path-traced training truth (480 samples; the shipped "
                         "student's); heldout-kinds: held-out scene kinds and environment (40 "
                         "samples); heldout-env: the training scene kinds under a held-out "

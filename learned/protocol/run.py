@@ -97,6 +97,15 @@ def _log(msg: str, quiet: bool) -> None:
         print(f"[{time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
+class _Run(Run):
+    """A training run whose log lines go to ``train.log`` only (stdout carries the report; the
+    step loop's progress bar stays on stderr)."""
+
+    def log(self, msg: str) -> None:
+        with open(self.out / "train.log", "a") as f:
+            f.write(f"[{time.strftime('%H:%M:%S')}] {msg}\n")
+
+
 def _train_config(cfg: ProtocolConfig, seed: int, root: str) -> TrainConfig:
     return replace(TrainConfig.quick(root, str(_run_root(cfg) / f"seed-{seed}"), **SHIPPED_STUDENT),
                    student_steps=int(cfg.student_steps), seed=int(seed))
@@ -119,7 +128,7 @@ def train_seed(cfg: ProtocolConfig, seed: int, root: str, train: list, val_image
         _log(f"seed {seed}: finished, loaded ({weights})", quiet)
         return {"weights": str(weights), "val": json.loads(val_path.read_text())["psnr"]}
     tcfg = _train_config(cfg, seed, root)
-    student, losses = distill_student(Run(tcfg, 0, quiet), train, [i.target for i in train])
+    student, losses = distill_student(_Run(tcfg, 0, quiet), train, [i.target for i in train])
     val = student_scores(student, val_images())
     command = (f"relight eval {cfg.data} --protocol --seeds {','.join(map(str, cfg.seeds))} "
                f"--degrade {cfg.level:g} --student-steps {cfg.student_steps}")
@@ -193,7 +202,7 @@ def run_protocol(cfg: ProtocolConfig, quiet: bool = False, renderer=None) -> dic
                 _log(f"student {k + 1}/{len(cfg.seeds)} (seed {seed}): training "
                      f"{cfg.student_steps} steps", quiet)
                 train = images["train"]
-                distill_student(Run(_train_config(cfg, seed, root), 0, quiet), train,
+                distill_student(_Run(_train_config(cfg, seed, root), 0, quiet), train,
                                 [i.target for i in train])
         students = {}
         for k, seed in enumerate(cfg.seeds):
@@ -258,6 +267,10 @@ def run_protocol(cfg: ProtocolConfig, quiet: bool = False, renderer=None) -> dic
     return report
 
 
+def _times(n: int) -> str:
+    return f"{n} time" if n == 1 else f"{n} times"
+
+
 def _ci(d: dict) -> str:
     return f"{d['mean']:+.2f} dB [{d['lo']:+.2f}, {d['hi']:+.2f}]"
 
@@ -269,7 +282,7 @@ def format_report(r: dict) -> str:
              f"{r['level']:g}; train {n['train']}, val {n['val']}, test {n['test']} samples",
              f"baseline (best of {r['val']['variants']} classical variants on val, "
              f"{r['val']['baseline']:.2f} dB there): {r['baseline']['name']}",
-             f"TEST (scored {r['test_scored']} times, this one included):",
+             f"TEST (scored {_times(r['test_scored'])}, this one included):",
              f"  {'model':<58} {'PSNR dB':>8}"]
     for s, v in t["students"].items():
         label = f"student seed {s} (val {r['val']['students'][s]:.2f})"
@@ -287,6 +300,6 @@ def format_report(r: dict) -> str:
         lines.append(f"    seed {s:<29} {_ci(d)}")
     if t.get("diff_shipped"):
         lines.append(f"    given weights - baseline          {_ci(t['diff_shipped'])}")
-    lines.append(f"(test split scored {r['test_scored']} times; ledger "
+    lines.append(f"(test split scored {_times(r['test_scored'])}; ledger "
                  f"{Path(r['data']) / 'test_ledger.json'})")
     return "\n".join(lines)

@@ -203,5 +203,7 @@ def test_protocol_cli_refuses_mixed_options(tmp_path):
     from relight.cli import main
 
     assert main(["eval", str(tmp_path), "--degrade", "0.5"]) == 2
-    assert main(["data", str(tmp_path / "d"), "--protocol", "--preset", "heldout-env"]) == 2
+    with pytest.raises(SystemExit) as exc:  # one dataset or the other
+        main(["data", str(tmp_path / "d"), "--protocol", "--preset", "heldout-env"])
+    assert exc.value.code == 2
     assert main(["eval", str(tmp_path), "--protocol"]) == 2  # not a protocol dataset

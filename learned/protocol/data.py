@@ -89,8 +89,7 @@ def generate_protocol(root, configs: dict[str, GeneratorConfig], tracer=None,
     path = root / PROTOCOL_FILE
     if path.is_file():
         old = json.loads(path.read_text())
-        if json.loads(json.dumps(record)) != old | {"hash": None} and \
-                json.loads(json.dumps(record)) != {k: v for k, v in old.items() if k != "hash"}:
+        if json.loads(json.dumps(record)) != {k: v for k, v in old.items() if k != "hash"}:
             raise DatasetError("was generated as another protocol; use a new folder "
                                "(nothing was overwritten)", where=path)
     path.write_text(json.dumps(record, indent=1))
@@ -132,6 +131,6 @@ def dataset_hash(root, splits=SPLITS) -> str:
     return h.hexdigest()
 
 
-def test_config(configs: dict[str, GeneratorConfig], **changes) -> dict[str, GeneratorConfig]:
+def with_changes(configs: dict[str, GeneratorConfig], **changes) -> dict[str, GeneratorConfig]:
     """``configs`` with ``changes`` on every split (e.g. ``targets="rasteriser"``)."""
     return {s: replace(c, **changes) for s, c in configs.items()}

@@ -13,10 +13,10 @@ from learned.data.reader import DatasetError, list_samples, load_sample
 
 
 def _configs(**counts):
-    from learned.protocol.data import protocol_configs, test_config
+    from learned.protocol.data import protocol_configs, with_changes
 
     counts = {"train": 3, "val": 2, "test": 3} | counts
-    return test_config(protocol_configs(counts, size=16, targets="rasteriser", seed=5),
+    return with_changes(protocol_configs(counts, size=16, targets="rasteriser", seed=5),
                        samples=4, env_width=32)
 
 
@@ -207,3 +207,20 @@ def test_protocol_cli_refuses_mixed_options(tmp_path):
         main(["data", str(tmp_path / "d"), "--protocol", "--preset", "heldout-env"])
     assert exc.value.code == 2
     assert main(["eval", str(tmp_path), "--protocol"]) == 2  # not a protocol dataset
+
+
+def test_shipped_weights_say_where_they_come_from(capsys):
+    """The shipped files' provenance (metadata + the JSON beside them): command, seed, and the
+    protocol's test scores with how often the test split had been scored."""
+    from relight.cli import main
+    from relight.commands.info import weights_provenance
+    from viewer.neural import default_weights
+
+    student = weights_provenance(default_weights("student"))
+    assert "relight train" in student["command"] and student["seed"] == 0
+    assert any(v["test_scored"] >= 1 for v in student["test"].values())
+    teacher = weights_provenance(default_weights("teacher"))
+    assert "--teacher-light-input off" in teacher["command"]
+    assert main(["info", "--weights"]) == 0
+    assert "command" in capsys.readouterr().out
+    assert main(["info", "--weights", "nope.safetensors"]) == 2

@@ -62,6 +62,10 @@ def test_splits_share_no_seed_and_no_environment(protocol):
     assert not seen["test"] & (seen["train"] | seen["val"])
     assert not seen["val"] & seen["train"]
     assert load_protocol(protocol)["hash"]
+    from learned.protocol.data import generate_protocol
+
+    with pytest.raises(DatasetError, match="another protocol"):  # nothing overwritten
+        generate_protocol(protocol, _configs(test=4), progress=False)
     bad = _configs()
     bad["test"] = replace(bad["test"], env_paths=bad["val"].env_paths)
     with pytest.raises(DatasetError, match="share the environment"):

@@ -5,12 +5,16 @@
     relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH] > scene.toml
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
-    relight info [--json]
-    relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--install] [--compare-students]
+    relight info [--json] [--weights [FILE ...]]
+    relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--seed N] [--install]
+                  [--compare-students]
     relight data OUT --preset truth-train|heldout-kinds|heldout-env [--count N] [--size S]
                  [--spp N] [--seed N]
+    relight data OUT --protocol [--count N] [--size S] [--spp N] [--seed N]
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
+    relight eval DATA --protocol [--seeds 0,1,2] [--degrade LEVEL] [--student-steps N]
+                 [--weights NAME=FILE]
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
     relight view [SCENE.toml | ASSET...] [--frames N] [--screenshot FILE [--screenshot-ui]]
                  [--offscreen] [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
@@ -37,6 +41,7 @@ from .commands import (
     _hidden,
     _nonnegative_float,
     _positive_int,
+    _seeds,
     cmd_bench,
     cmd_data,
     cmd_decompose,
@@ -162,6 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="every stage (default), the teacher alone, the teacher and the "
                         "shadow UNet (OUT/shadow_final.pt; no student), or the student alone "
                         "(with --student-target target; --install then installs it alone)")
+    p.add_argument("--seed", type=int, metavar="N",
+                   help="the training seed (default 0): network initialisation and batches")
     p.add_argument("--teacher-steps", type=_positive_int, metavar="N")
     p.add_argument("--shadow-steps", type=_positive_int, metavar="N")
     p.add_argument("--student-steps", type=_positive_int, metavar="N")
@@ -173,36 +180,37 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how the teacher samples light directions (default env)")
     p.add_argument("--teacher-light-input", choices=("on", "off"),
                    help="whether the teacher sees the light's radiance log(1 + L_in) as an input "
-                        "(default on, the thesis's eq. 4.2; off: rho from material and geometry "
-                        "only, exactly linear in the light; weights architecture "
-                        "\"light_input\": false)")
+                        "(default off, the shipped teacher's: rho from material and geometry "
+                        "only, exactly linear in the light; on: the thesis's eq. 4.2)")
     p.add_argument("--student-target", choices=("teacher", "target"),
-                   help="what the student learns from: the teacher x shadow map (default, the "
-                        "thesis's distillation) or the dataset's targets (truth for traced data)")
+                   help="what the student learns from: the dataset's targets (default, the "
+                        "shipped student's: truth for traced data) or the teacher x shadow map "
+                        "(the thesis's distillation)")
     p.add_argument("--student-output", choices=("free6", "pbr3", "split3"),
-                   help="the student's output form (default pbr3; split3: corrections of the "
-                        "split-sum model, which it starts from)")
+                   help="the student's output form (default split3, the shipped design: "
+                        "corrections of the split-sum model, which it starts from)")
     p.add_argument("--student-hidden", type=_hidden, metavar="W,W",
-                   help="the student's hidden layer widths (default 16,16)")
+                   help="the student's hidden layer widths (default 32,32)")
     p.add_argument("--student-features", choices=("base", "dfg", "vis", "dfg-vis"),
-                   help="the student's inputs (default base; vis: + the SSAO pass's visibility "
+                   help="the student's inputs (default vis: + the SSAO pass's visibility "
                         "of the environment's light, with which the renderer runs SSAO)")
     p.add_argument("--student-indirect", choices=("none", "factor"),
                    help="whether the student learns a factor on the screen-space indirect light "
-                        "(default none; factor: a second small network on the same inputs, "
+                        "(default factor: a second small network on the same inputs, "
                         "starting at the classical one-bounce term; the renderer then runs the "
                         "indirect pass)")
-    p.add_argument("--student-sun", action="store_true", default=None,
+    p.add_argument("--student-sun", action=argparse.BooleanOptionalAction, default=None,
                    help="a split3 student whose base shades the environment's sun analytically, "
                         "as ggx_split_sum does (the IBL without the sun + the sun as a light, "
-                        "with the student's corrections; weights architecture \"sun\": true)")
-    p.add_argument("--student-multiscatter", action="store_true", default=None,
+                        "with the student's corrections; weights architecture \"sun\": true; "
+                        "default on)")
+    p.add_argument("--student-multiscatter", action=argparse.BooleanOptionalAction, default=None,
                    help="a split3 student whose base has ggx_split_sum's multiple-scattering "
                         "compensation, the classical model's default (weights architecture "
-                        "\"multiscatter\": true)")
+                        "\"multiscatter\": true; default on)")
     p.add_argument("--student-gain-penalty", type=_nonnegative_float, metavar="W", default=None,
                    help="add W x how far the student's direct-light corrections brighten its "
-                        "split-sum base to its loss (default 0: off; the shipped student: 1)")
+                        "split-sum base to its loss (default 1, the shipped student's; 0: off)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "
@@ -232,7 +240,12 @@ def build_parser() -> argparse.ArgumentParser:
                        "i % WORLD_SIZE).")
     p.add_argument("out", help="dataset folder (created; an existing one of the same "
                                "configuration is completed)")
-    p.add_argument("--preset", required=True, metavar="NAME",
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--protocol", action="store_true",
+                   help="the protocol's dataset instead of a preset: train / val / test split by "
+                        "scene seed and by environment (learned/protocol/data.py; --count gives "
+                        "the train split's size, val and test a quarter and two fifths of it)")
+    which.add_argument("--preset", metavar="NAME",
                    help="truth-train: the path-traced training truth (480 samples; the shipped "
                         "student's); heldout-kinds: held-out scene kinds and environment (40 "
                         "samples); heldout-env: the training scene kinds under a held-out "
@@ -268,11 +281,31 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also break the means down by the samples' scene kind or environment "
                         "(meta.json), one row per group and model; group 'all' is every sample")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--protocol", action="store_true",
+                   help="the evaluation protocol on a protocol dataset (relight data OUT "
+                        "--protocol): students of --seeds trained on train, the strongest "
+                        "classical model given the same evidence picked on val, both scored on "
+                        "test with the paired difference's bootstrap interval; resumable, cached "
+                        "under DATA/_protocol; every test scoring counted in DATA/test_ledger.json")
+    p.add_argument("--seeds", type=_seeds, default=(0, 1, 2), metavar="S,S,...",
+                   help="--protocol: the students' training seeds (default 0,1,2)")
+    p.add_argument("--degrade", type=_nonnegative_float, default=0.0, metavar="LEVEL",
+                   help="--protocol: degrade every split's G-buffer inputs at LEVEL in [0, 1] "
+                        "(learned/protocol/degrade.py; the thesis's estimated G-buffers; "
+                        "targets stay true)")
+    p.add_argument("--student-steps", type=_positive_int, metavar="N",
+                   help="--protocol: training steps per student (default the shipped 24000)")
+    p.add_argument("--protocol-out", metavar="DIR",
+                   help="--protocol: where runs and results are cached (default DATA/_protocol)")
     p.set_defaults(func=cmd_eval)
 
     p = sub.add_parser("info", help="GL renderer, version, extensions, float target precision")
     p.add_argument("--json", action="store_true")
     p.add_argument("--software", action="store_true", help="force Mesa llvmpipe")
+    p.add_argument("--weights", nargs="*", metavar="FILE",
+                   help="instead: where neural-shader weights files come from (command, seed, "
+                        "dataset hash, val / test scores; default the shipped student and "
+                        "teacher)")
     p.set_defaults(func=cmd_info)
 
     from viewer.models import MODELS

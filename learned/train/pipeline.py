@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 from dataclasses import asdict
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from viewer.renderer import Renderer
 from ..data.generator import GeneratorConfig, generate
 from ..data.reader import summary as data_summary
 from ..export import export, network_tensors
+from ..protocol.data import dataset_hash
 from .config import QUICK_DATA, STUDENT_TARGETS, TrainConfig
 from .runner import Run, _close_dist, _dist
 from .stages import (distill_student, distillation_targets, load_images, teacher_images,
@@ -49,7 +51,10 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
         renderer.release()
     run.log(f"{len(images)} training images, {sum(i.v.shape[0] for i in images)} foreground pixels")
     result: dict = {"world": world}
-    training = {"data": data_summary(cfg.data), "config": asdict(cfg), "world": world}
+    training = {"data": data_summary(cfg.data), "config": asdict(cfg), "world": world,
+                "command": " ".join(sys.argv) if rank == 0 else None, "seed": cfg.seed,
+                # what the weights were trained on (learned.protocol.data.dataset_hash)
+                "dataset_hash": dataset_hash(cfg.data, ("train",)) if rank == 0 else None}
     if stages == "student":
         return result | _student(run, cfg, images, [img.target for img in images], training,
                                  "the dataset's targets")

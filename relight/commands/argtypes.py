@@ -34,3 +34,14 @@ def _hidden(text: str) -> tuple[int, ...]:
     if not widths or any(w < 1 or w > 256 for w in widths):
         raise argparse.ArgumentTypeError(f"widths must be 1..256, got {text!r}")
     return widths
+
+
+def _seeds(text: str) -> tuple[int, ...]:
+    """``--seeds 0,1,2`` -> (0, 1, 2): distinct integers."""
+    try:
+        seeds = tuple(int(w) for w in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not comma-separated integers: {text!r}") from None
+    if len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"seeds repeat: {text!r}")
+    return seeds

@@ -18,6 +18,28 @@ def _data_config(args):
                          seed=args.seed)
 
 
+def _protocol_data(args) -> int:
+    """``relight data OUT --protocol``: the protocol's dataset (:mod:`learned.protocol.data`):
+    ``--count`` train samples (default 120), a quarter of them val and two fifths test."""
+    from learned.protocol.data import DEFAULT_COUNTS, generate_protocol, protocol_configs
+
+    counts = DEFAULT_COUNTS
+    if args.count is not None:
+        counts = {"train": args.count, "val": max(1, args.count // 4),
+                  "test": max(1, (2 * args.count) // 5)}
+    configs = protocol_configs(counts, size=args.size or 64, reference_spp=args.spp or 256,
+                               seed=100 if args.seed is None else args.seed)
+    tracer = reference_tracer(where="relight data")
+    generate_protocol(args.out, configs, tracer=tracer, progress=not args.quiet)
+    if not args.quiet:
+        print(f"{args.out}: protocol dataset, "
+              + ", ".join(f"{s} {c.count} (seed {c.seed}, "
+                          f"{', '.join((*c.env_procedural, *c.env_paths))})"
+                          for s, c in configs.items()))
+        print(f"next: relight eval {args.out} --protocol [--degrade 0.5]")
+    return 0
+
+
 def cmd_data(args) -> int:
     """(Re)generate a named dataset (:mod:`learned.data.presets`: the path-traced training truth
     and the two held-out sets) under OUT: resumable (finished samples are kept, an interrupted
@@ -25,6 +47,14 @@ def cmd_data(args) -> int:
     rank i % WORLD_SIZE, every rank returning once all are written)."""
     from learned.data.generator import generate, split_of
     from learned.data.presets import PRESETS
+
+    if getattr(args, "protocol", False):
+        if args.preset:
+            raise RelightError("--protocol and --preset are two datasets: give one",
+                               where="--preset")
+        return _protocol_data(args)
+    if not args.preset:
+        raise RelightError("give --preset NAME or --protocol", where="relight data")
 
     config = _data_config(args)  # checked before Mitsuba loads or anything is written
     tracer = reference_tracer(where="relight data")

@@ -10,7 +10,14 @@ from .common import _learned
 
 
 def cmd_eval(args) -> int:
-    """PSNR, SSIM and HDR-FLIP of every model against the Monte-Carlo targets of a split."""
+    """PSNR, SSIM and HDR-FLIP of every model against the Monte-Carlo targets of a split, or
+    (``--protocol``) the evaluation protocol (:mod:`learned.protocol.run`)."""
+    if getattr(args, "protocol", False):
+        return _protocol(args)
+    for flag, value in (("--degrade", getattr(args, "degrade", 0.0)),
+                        ("--student-steps", getattr(args, "student_steps", None))):
+        if value:
+            raise RelightError(f"{flag} belongs to --protocol", where=flag)
     ev = _learned("learned.evaluate")
     students = {}
     for item in args.weights:
@@ -30,4 +37,28 @@ def cmd_eval(args) -> int:
         print(json.dumps(rows, indent=1))
     else:
         print(ev.format_table(rows))
+    return 0
+
+
+def _protocol(args) -> int:
+    """``relight eval DATA --protocol``: students of ``--seeds`` against the strongest classical
+    model given the same evidence, on the protocol dataset's test split (printed with how many
+    times it has been scored)."""
+    run = _learned("learned.protocol.run")
+    if args.degrade > 1.0:
+        raise RelightError(f"--degrade {args.degrade:g} is not in [0, 1]", where="--degrade")
+    if len(args.weights) > 1:
+        raise RelightError("--protocol scores one given weights file (--weights NAME=FILE)",
+                           where="--weights")
+    shipped = None
+    for item in args.weights:
+        _, sep, path = item.partition("=")
+        if not sep or not Path(path).is_file():
+            raise RelightError("weights file not found (expected NAME=FILE)", where=item)
+        shipped = path
+    kw = {"student_steps": args.student_steps} if args.student_steps else {}
+    cfg = run.ProtocolConfig(data=args.data, out=args.protocol_out, seeds=tuple(args.seeds),
+                             level=float(args.degrade), shipped=shipped, **kw)
+    report = run.run_protocol(cfg)
+    print(json.dumps(report, indent=1) if args.json else run.format_report(report))
     return 0

@@ -15,7 +15,7 @@ TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixe
                    "light_samples", "strategy", "student_target", "student_features",
                    "student_output", "student_hidden", "student_indirect",
                    "student_sun", "student_multiscatter", "student_gain_penalty",
-                   "teacher_light_input")
+                   "teacher_light_input", "seed")
 
 
 def cmd_train(args) -> int:
@@ -33,10 +33,10 @@ def cmd_train(args) -> int:
                                         quiet=args.quiet, **over)
         print(students.compare_table(res))
         return 0
-    if args.stage == "student" and over.get("student_target") != "target":
-        raise RelightError("the student stage alone learns from the dataset's targets: add "
-                           "--student-target target (a distilled student needs the teacher)",
-                           where="--stage")
+    if args.stage == "student" and over.get("student_target", "target") != "target":
+        raise RelightError("the student stage alone learns from the dataset's targets: drop "
+                           "--student-target teacher (a distilled student needs the teacher: "
+                           "--stage all)", where="--stage")
     train = _learned("learned.train")
     data = args.data
     if getattr(args, "targets", "rasteriser") == "reference":

@@ -241,3 +241,64 @@ def test_lambertian_estimator_is_unbiased(white):
     for strategy in ("uniform", "cosine", "env"):
         m = Lambert(8, 0)(gb, v, white, u, strategy).mean(0)
         assert torch.allclose(m, torch.full((3,), 0.8), rtol=5e-3), (strategy, m)
+
+
+# ---- the oracles can fail: a deliberately wrong network fails each one -----------------------------
+
+def _oracle_student(**kw):
+    from learned.neural.student import Student
+
+    torch.manual_seed(0)
+    return Student(**({"hidden": (8,), "output": "split3"} | kw)).eval()
+
+
+@pytest.mark.parametrize("path", [STUDENTS[0]], ids=lambda p: p.stem)
+def test_shipped_student_and_teacher_pass_the_oracle_module(white, path):
+    """learned.protocol.oracles (the oracles as functions, BOUNDS) on the shipped files."""
+    from learned.protocol.oracles import check, student_probe, teacher_probe
+
+    s = check(student_probe(load_model(path, "student"), white), "student")
+    t = check(teacher_probe(load_model(TEACHERS[0], "teacher"), white), "teacher")
+    assert all(r["passed"] for r in (*s.values(), *t.values())), (s, t)
+
+
+def test_a_student_that_brightens_fails_the_white_furnace(white):
+    """k_d = sigmoid(2) = 0.88 -> S k_d = 1.76: the furnace at ~1.4 for 0.8."""
+    from learned.protocol.oracles import check, student_probe
+
+    bright = _oracle_student()
+    with torch.no_grad():
+        bright.layers[-1].bias[0] = 2.0
+    res = check(student_probe(bright, white), "student")
+    assert not res["furnace"]["passed"] and res["furnace"]["error"] > 0.5, res
+    assert res["albedo"]["passed"] and res["linearity"]["passed"]  # only the furnace fails
+
+
+def test_a_student_whose_diffuse_factor_reads_the_albedo_fails_albedo_scaling(white):
+    """k_d driven by albedo.r (hidden = relu(10 - 20 a): 2 at a = 0.4, 0 at 0.8) breaks L ∝ a."""
+    from learned.protocol.oracles import check, student_probe
+
+    wrong = _oracle_student()
+    with torch.no_grad():
+        for p in wrong.parameters():
+            p.zero_()
+        wrong.layers[0].weight[0, 0] = -20.0
+        wrong.layers[0].bias[0] = 10.0
+        wrong.layers[-1].weight[0, 0] = 1.0
+    res = check(student_probe(wrong, white), "student")
+    assert not res["albedo"]["passed"] and res["albedo"]["error"] > 0.2, res
+
+
+def test_a_network_that_sees_the_light_fails_linearity(white):
+    """A teacher with the thesis's log(1 + L_in) input (random weights) is not linear in the
+    light: the linearity bound of the teachers without it (1e-5) catches it; so does a student
+    probe whose network output is squared in the light."""
+    from learned.neural.teacher import Teacher
+    from learned.protocol.oracles import BOUNDS, check, linearity_error, student_probe, teacher_probe
+
+    torch.manual_seed(3)
+    res = check(teacher_probe(Teacher(hidden=8, num_freqs=0, light_input=True), white, 32),
+                "teacher")
+    assert not res["linearity"]["passed"], res
+    probe = student_probe(_oracle_student(), white)
+    assert linearity_error(lambda a, i=1.0: probe(a, i) ** 2) > BOUNDS["student"]["linearity"]

@@ -1,5 +1,6 @@
 """Training on the tiny dataset: losses decrease, resume from checkpoints, ``relight train``'s
 options and stages, the learned indirect factor, DDP over two CPU processes."""
+import json
 import os
 import subprocess
 import sys
@@ -14,7 +15,8 @@ def _cfg(dataset, out, **kw):
 
     base = dict(teacher_steps=40, shadow_steps=30, student_steps=120, batch_pixels=256,
                 light_samples=8, teacher_hidden=16, teacher_freqs=1, student_hidden=(16, 16),
-                shadow_width=4, distill_samples=8, lr=3e-3, checkpoint_every=10, log_every=10)
+                shadow_width=4, distill_samples=8, lr=3e-3, checkpoint_every=10, log_every=10,
+                student_target="teacher")
     return TrainConfig(data=str(dataset), out=str(out), **(base | kw))
 
 
@@ -116,7 +118,7 @@ def test_relight_train_teacher_and_shadow_stage_without_the_light_input(dataset,
 
 def test_relight_train_student_stage_alone(dataset, tmp_path, capsys):
     """``--stage student`` trains no teacher and no shadow UNet: the student learns the dataset's
-    own targets (it needs ``--student-target target``, else a one-line error before any work),
+    own targets (``--student-target teacher`` is a one-line error before any work),
     and ``--install`` would install the student alone."""
     from learned.export import load_model
     from relight.cli import main
@@ -124,8 +126,8 @@ def test_relight_train_student_stage_alone(dataset, tmp_path, capsys):
 
     out = tmp_path / "student"
     assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
-                 "student", "--student-steps", "20"]) == 2
-    assert "--student-target target" in capsys.readouterr().err and not out.exists()
+                 "student", "--student-target", "teacher", "--student-steps", "20"]) == 2
+    assert "--student-target teacher" in capsys.readouterr().err and not out.exists()
     assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
                  "student", "--student-target", "target", "--student-steps", "20",
                  "--batch-pixels", "64", "--student-features", "vis", "--student-output",
@@ -136,6 +138,36 @@ def test_relight_train_student_stage_alone(dataset, tmp_path, capsys):
     net = load_network(out / "neural_student.safetensors", "student")
     assert net.multiscatter and load_model(out / "neural_student.safetensors").multiscatter
     assert net.training["config"]["student_gain_penalty"] == 1.0
+
+
+def test_train_defaults_are_the_shipped_student_and_teacher_and_seed_reaches_the_config(
+        dataset, tmp_path, capsys):
+    """TrainConfig's defaults are the design and training the shipped weights files record in
+    their metadata (student: stage student on the targets; teacher: no light input), and
+    ``relight train --seed`` reaches the run's config."""
+    from learned.train import TrainConfig
+    from learned.train.config import SHIPPED_STUDENT
+    from relight.cli import main
+    from viewer.neural import default_weights, load_network
+
+    cfg = TrainConfig.quick("d", "o")
+    shipped = load_network(default_weights("student"), "student").training["config"]
+    for key in SHIPPED_STUDENT:
+        want = shipped[key]
+        assert getattr(cfg, key) == (tuple(want) if isinstance(want, list) else want), key
+    teacher = load_network(default_weights("teacher"), "teacher").training["config"]
+    assert cfg.teacher_light_input == teacher["teacher_light_input"] is False
+    out = tmp_path / "seeded"
+    assert main(["train", "--data", str(dataset), "--out", str(out), "--quick", "--stage",
+                 "student", "--student-steps", "2", "--batch-pixels", "32", "--seed", "7",
+                 "--quiet"]) == 0
+    assert torch.load(out / "student.pt", weights_only=True)["config"]["seed"] == 7
+    # the file records its command, seed and dataset hash; relight info --weights shows them
+    capsys.readouterr()
+    assert main(["info", "--weights", str(out / "neural_student.safetensors"), "--json"]) == 0
+    (info,) = json.loads(capsys.readouterr().out)
+    assert info["seed"] == 7 and len(info["dataset_hash"]) == 64
+    assert info["command"]  # sys.argv of the process (here pytest's)
 
 
 @pytest.mark.slow

@@ -40,6 +40,10 @@ class GeneratorConfig:
     # are (noisy normals, shading baked into albedo, biased roughness) at this strength (<= 1);
     # the targets stay those of the true scene (degrade_inputs)
     degrade: float = 0.0
+    # "" (default): sample i goes to the split SPLIT_PATTERN[i % 10]; "train" | "val" | "test":
+    # every sample goes there (the protocol's datasets, learned.protocol.data: one configuration
+    # per split, its own seed and environments, its summary in dataset.<split>.json)
+    split: str = ""
 
 
 TARGETS = ("rasteriser", "reference")
@@ -70,7 +74,10 @@ HELD_OUT_ENV_PATHS = (ENVIRONMENTS["esplanade"],)
 PROCEDURAL_ENVIRONMENTS = ("sky", "studio")
 
 
-def split_of(index: int) -> str:
+def split_of(index: int, config: GeneratorConfig | None = None) -> str:
+    """The split of sample ``index``: ``config.split`` when set, else ``SPLIT_PATTERN[i % 10]``."""
+    if config is not None and config.split:
+        return config.split
     return SPLIT_PATTERN[index % len(SPLIT_PATTERN)]
 
 
@@ -167,6 +174,9 @@ def check_config(config: GeneratorConfig, tracer=None) -> None:
     for path in config.env_paths:
         if not env_file(path).is_file():
             raise DatasetError("environment file not found", where=path)
+    if config.split not in ("", "train", "val", "test"):
+        raise DatasetError(f"split {config.split!r} is not one of train, val, test (or '' for "
+                           "the fixed pattern)", where="split")
     if not 0.0 <= config.degrade <= 1.0:
         raise DatasetError(f"degrade {config.degrade} is not in [0, 1]", where="degrade")
     if config.targets == "reference":

@@ -62,7 +62,8 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
     if config.targets == "reference":
         info["targets"] = {"source": "reference", "spp": config.reference_spp,
                            "max_depth": config.reference_depth, "rays": "pixel centre"}
-    info_path = root / "dataset.json"
+    # a protocol dataset holds one configuration per split, each summarised on its own
+    info_path = root / (f"dataset.{config.split}.json" if config.split else "dataset.json")
     if info_path.is_file():
         old = json.loads(info_path.read_text())
         new = json.loads(json.dumps(info["config"]))
@@ -87,7 +88,7 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
                    unit="sample", disable=not progress)
         for i in bar:
             name = f"{i:06d}"
-            final = root / split_of(i) / name
+            final = root / split_of(i, config) / name
             if final.is_dir():
                 skipped += 1
                 continue
@@ -103,7 +104,7 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
         deadline = time.monotonic() + wait_s
         while True:
             missing = [i for i in range(config.count)
-                       if not (root / split_of(i) / f"{i:06d}").is_dir()]
+                       if not (root / split_of(i, config) / f"{i:06d}").is_dir()]
             if not missing:
                 break
             if time.monotonic() > deadline:

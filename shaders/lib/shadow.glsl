@@ -227,8 +227,8 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
 
 // PCSS visibility at the map point s = (u, v, depth) of a receiver (after shadow_receiver) whose
 // plane is `plane` (shadow_receiver_depth), for a light of lens (shadow_penumbra_uv); face: the
-// cube face s is on (-1: a 2D map; below -1: a cascade tile). The blocker search covers every occluder that can reach the
-// receiver (at most SHADOW_MAX_SEARCH_UV; for perspective and cube maps the occluders at least
+// cube face s is on (-1: a 2D map; below -1: a cascade tile). The blocker search covers every
+// occluder that can reach the receiver (at most SHADOW_MAX_SEARCH_UV; for perspective and cube maps the occluders at least
 // SHADOW_NEAREST_BLOCKER of its distance from the light); where none is, lit; where every search sample
 // occludes, in the umbra (the PCF disk is never wider than the search's); else PCF over the
 // penumbra's region, at least one texel wide (a hard shadow is still filtered over a texel so

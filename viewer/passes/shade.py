@@ -102,8 +102,8 @@ class ShadePass:
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
         unspecialised variant); ``light``: the lights to shade (``Scene.light``: a tuple, or ``None``);
         ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame` or
-        :class:`~viewer.shadows.ShadowCube` or :class:`~viewer.cascades.ShadowCascades`, the light's size (angular radius in radians, or
-        radius in world units), normal offset (world units; per unit of distance for perspective
+        :class:`~viewer.shadows.ShadowCube` or :class:`~viewer.cascades.ShadowCascades`, the
+        light's size (angular radius in radians, or radius in world units), normal offset (world units; per unit of distance for perspective
         and cube maps)) for the lights that cast one;
         ``sun_shadow``: the same for the environment's sun (SUN_SHADOW)."""
         if variant is None:

@@ -3,6 +3,8 @@ a large one 30 m away under a directional light. Both shadows land on their anal
 (the rays from the floor towards the light that meet a sphere), the near shadow's edge is sharper
 than one whole-scene map gives, a small-object scene keeps one map, and a small camera move does
 not move the shadow on the floor (texel snapping)."""
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -43,7 +45,7 @@ def visibility(renderer, sc):
     free = renderer.render(sc.with_render(shadows=False)).radiance[..., 0]
     return lit / np.maximum(free, 1e-6)
 
-def floor_and_truth(sc):
+def floor_and_truth(sc, light=LIGHT):
     """Per pixel (row 0 at the top): the floor point its view ray meets (NaN: none), whether the
     ray meets a sphere first, and which sphere's shadow the floor point is in (0 none, 1, 2)."""
     cam = sc.camera
@@ -54,7 +56,7 @@ def floor_and_truth(sc):
     p[(np.abs(p[..., 0]) > 49.0) | (np.abs(p[..., 2]) > 49.0)] = np.nan  # past the floor
     on_sphere = np.zeros(t.shape, bool)
     shadow = np.zeros(t.shape, int)
-    d = np.asarray(LIGHT) / np.linalg.norm(LIGHT)
+    d = np.asarray(light) / np.linalg.norm(light)
     for k, (c, r) in enumerate(SPHERES):
         oc = o - c
         b = (rays * oc).sum(-1)
@@ -147,3 +149,28 @@ def test_a_small_camera_move_does_not_move_the_shadow(renderer):
     for c in centres[1:]:
         print(f"shadow centre moved {np.linalg.norm(c - centres[0]) / pixel:.3f} px")
         assert np.linalg.norm(c - centres[0]) < 0.5 * pixel, (centres, pixel)
+
+
+def test_the_suns_map_is_cascaded_too(renderer):
+    """The environment's sun (a sky with one, no lights): ``shadowsun`` is cascaded (the camera
+    among its inputs) and the near sphere's shadow lands on its analytic projection."""
+    from viewer.graph.frame import env_to_world
+
+    sky = scene_from_dict({"environment": {"procedural": "sky", "width": 64},
+                           "objects": [FLOOR]}).environment
+    sc = dataclasses.replace(scene(), lights=(), environment=sky).with_render(
+        shadow_softness=0.2)  # a sharp sun: the test judges where the shadow is
+    passes = {p.name: p for p in renderer.graph(sc).passes}
+    assert passes["shadowsun"].inputs.get("camera") == sc.camera
+    sun = renderer.resources.sun(sky)
+    p, on_sphere, shadow = floor_and_truth(sc, env_to_world(sun.direction, sky.rotation_deg))
+    keep = np.isfinite(p[..., 0]) & ~ndimage.binary_dilation(on_sphere, iterations=1)
+    vis = visibility(renderer, sc)
+    truth = shadow == 1
+    assert truth[keep].sum() > 50
+    band = ndimage.binary_dilation(truth, iterations=2) & ~ndimage.binary_erosion(
+        truth, iterations=2)
+    region = ndimage.binary_dilation(truth, iterations=12) & keep & ~band
+    # the sky lights the shadow too: the sun's share of the light is what the shadow removes
+    dark = vis < 0.5 * (1.0 + np.median(vis[truth & keep & ~band]))
+    assert (dark != truth)[region].sum() == 0, np.argwhere((dark != truth) & region)[:10]

@@ -174,3 +174,14 @@ def test_the_suns_map_is_cascaded_too(renderer):
     # the sky lights the shadow too: the sun's share of the light is what the shadow removes
     dark = vis < 0.5 * (1.0 + np.median(vis[truth & keep & ~band]))
     assert (dark != truth)[region].sum() == 0, np.argwhere((dark != truth) & region)[:10]
+
+
+def test_a_camera_move_redraws_cascades_only(renderer):
+    small = scene(objects=[{**FLOOR, "center": [0, 0, -5], "size": [3.0, 3.0]},
+                           {"type": "sphere", "center": [0, 0.5, -4.0], "radius": 0.3}])
+    for sc, redrawn in ((scene(), True), (small, False)):
+        renderer.draw(sc)
+        moved = dataclasses.replace(sc, camera=dataclasses.replace(
+            sc.camera, position=(0.02, 3.0, 0.0)))
+        why = {p.name: p.why for p in renderer.graph(moved).passes}
+        assert (why["shadow0"] != "inputs unchanged") == redrawn, why["shadow0"]

@@ -34,6 +34,7 @@ from .bounds import Bounds
 from .shadows import SHADOW_ORTHO, ShadowFrame, light_basis
 
 MAX_CASCADES = 4
+MAX_TILE = 4096           # texels a side of a cascade's tile at most (the atlas is 2 tiles wide)
 SPLIT_LAMBDA = 0.7        # weight of the logarithmic split (the rest: uniform)
 TEXEL_PIXEL_RATIO = 2.0   # cascades when one map's texel exceeds this many pixel footprints
 NEAR_FRACTION = 0.05      # ... at this fraction of the way into the clipped frustum

@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from ..cascades import ShadowCascades, cascade_count, cascade_frames
+from ..cascades import MAX_TILE, ShadowCascades, cascade_count, cascade_frames
 from ..lights import as_lights, shadowing
 from ..models import ShadeVariant
 from ..scene import Scene
@@ -95,8 +95,8 @@ def _directional(bounds, direction, shadow, camera):
     ``camera`` sees where :func:`viewer.cascades.cascade_count` asks for more than one."""
     count = cascade_count(shadow.cascades, bounds, camera, int(shadow.size), direction) \
         if camera is not None else 1
-    if count > 1:
-        return cascade_frames(bounds, direction, camera, count, int(shadow.size))
+    if count > 1:  # tiles of at most MAX_TILE texels: the atlas is 2 tiles wide
+        return cascade_frames(bounds, direction, camera, count, min(int(shadow.size), MAX_TILE))
     return directional_frame(bounds, direction, int(shadow.size))
 
 

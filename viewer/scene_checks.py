@@ -125,7 +125,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "shadow_cascades" in t:
         v = t["shadow_cascades"]
         if v != "auto" and (isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 4):
-            raise SceneError(f'render.shadow_cascades must be "auto" or an integer 1..4, got {v!r}',
+            raise SceneError(f'render.shadow_cascades = {v!r} is not one of "auto", 1, 2, 3, 4',
                              where=file)
         kw["shadow_cascades"] = v
     for k in ("shadow_softness", "shadow_bias"):

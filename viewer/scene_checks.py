@@ -122,6 +122,12 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "shadow_cube_size" in t:
         kw["shadow_cube_size"] = _int(t["shadow_cube_size"], "render.shadow_cube_size", file, 32,
                                       4096)
+    if "shadow_cascades" in t:
+        v = t["shadow_cascades"]
+        if v != "auto" and (isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 4):
+            raise SceneError(f'render.shadow_cascades = {v!r} is not one of "auto", 1, 2, 3, 4',
+                             where=file)
+        kw["shadow_cascades"] = v
     for k in ("shadow_softness", "shadow_bias"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)

@@ -78,6 +78,10 @@ class ShadowSettings:
     # scales each light's angular size, so the penumbra (PCSS); 0: hard (shadow_softness)
     softness: float = 1.0
     bias: float = 1.0  # scales the receiver's normal offset (shadow_bias)
+    # a directional light's (and the sun's) cascaded maps (viewer/cascades.py): "auto" (only
+    # where one map's texels are coarse beside the pixels near the camera), or 1..4 (1: one map)
+    # (shadow_cascades)
+    cascades: str | int = "auto"
     # screen-space contact shadows (passes/lights.glsl contact_shadow: a march through the
     # G-buffer's depth towards each light): "auto" on image stacks (no shadow map holds them),
     # "on" every surface (meshes too: small-scale detail a map's texels miss), "off"
@@ -177,6 +181,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "shadow_cube_size": ("shadow", "cube_size"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),
+    "shadow_cascades": ("shadow", "cascades"),
     "contact_shadows": ("shadow", "contact"),
     "contact_length": ("shadow", "contact_length"),
 }

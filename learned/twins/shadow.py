@@ -14,6 +14,8 @@ SHADOW_MIN_SAMPLES = 4
 SHADOW_MAX_SEARCH_UV = 0.25
 SHADOW_NEAREST_BLOCKER = 0.25
 SHADOW_ORTHO, SHADOW_PERSPECTIVE, SHADOW_CUBE = 1, 2, 3
+SHADOW_MAX_CASCADES = 4
+SHADOW_CASCADE_MARGIN = 0.02
 _GOLDEN = (-0.73736888, 0.67549030)  # (cos, sin) of the golden angle 2.39996323
 
 
@@ -65,6 +67,27 @@ def shadow_depth_at(map_, uv) -> torch.Tensor:
     return map_[ty, tx]
 
 
+def shadow_map_size(map_, face) -> torch.Tensor:
+    """GLSL ``float shadow_map_size(sampler2D map, int face)``: texels a side of a 2D map (face
+    -1), a cube face (face >= 0: half the atlas's height), a cascade tile (face < -1: half the
+    atlas's width)."""
+    h, w = map_.shape[-2:]
+    face = torch.as_tensor(face)
+    return torch.where(face < -1, _f(float(w // 2)),
+                       torch.where(face < 0, _f(float(h)), _f(h / 2.0)))
+
+
+def shadow_tile_depth(map_, uv, k) -> torch.Tensor:
+    """GLSL ``float shadow_tile_depth(sampler2D map, vec2 uv, int k)``: cascade k's tile (2 tiles
+    wide), nearest texel, clamped to the tile."""
+    n = map_.shape[-1] // 2
+    k = torch.as_tensor(k).to(torch.int64).expand(uv.shape[:-1])
+    tx = torch.floor(uv[..., 0] * n).long().clamp(0, n - 1) + (k % 2) * n
+    ty = torch.floor(uv[..., 1] * n).long().clamp(0, n - 1) + torch.div(k, 2,
+                                                                        rounding_mode="floor") * n
+    return map_[ty.clamp(0, map_.shape[-2] - 1), tx]
+
+
 def shadow_cube_face(d) -> torch.Tensor:
     """GLSL ``vec3 shadow_cube_face(vec3 d)``: (u, v, face) of direction ``d``."""
     a = d.abs()
@@ -100,6 +123,8 @@ def shadow_sample(map_, uv, face) -> torch.Tensor:
     (face < 0) or the cube atlas texel of the direction through face ``face``'s plane at uv."""
     face = torch.as_tensor(face).to(torch.int64).expand(uv.shape[:-1])
     flat = shadow_depth_at(map_, uv)
+    if bool((face < -1).any()):
+        flat = torch.where(face < -1, shadow_tile_depth(map_, uv, (-2 - face).clamp_min(0)), flat)
     if bool((face < 0).all()):
         return flat
     fc = shadow_cube_face(shadow_cube_dir(face.clamp_min(0), uv))
@@ -147,17 +172,10 @@ def shadow_depth_slope(m) -> torch.Tensor:
     return torch.where(n > 4.0, g * (4.0 / n.clamp_min(1e-30)), g)
 
 
-def _map_size(map_, face) -> torch.Tensor:
-    """textureSize(map, 0).y, halved for a cube atlas (per face)."""
-    h = float(map_.shape[-2])
-    face = torch.as_tensor(face)
-    return torch.where(face < 0, _f(h), _f(h / 2.0))
-
-
 def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
     """The filters' common walk: (per-sample stored depth, receiver depth, active) for each tap
     of the Vogel spiral of radius ``radius`` (shadow_taps of them where adaptive, else n_max)."""
-    n = shadow_taps(radius, _map_size(map_, face), n_max) if adaptive else \
+    n = shadow_taps(radius, shadow_map_size(map_, face), n_max) if adaptive else \
         torch.full_like(radius, float(n_max))
     phi = _f(phi)
     dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1).expand(*radius.shape, 2)
@@ -175,7 +193,7 @@ def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=T
     search_uv = _f(search_uv).expand(uv.shape[:-1])
     total = torch.zeros_like(search_uv)
     count = torch.zeros_like(search_uv)
-    taps = shadow_taps(search_uv, _map_size(map_, face), SHADOW_SEARCH_SAMPLES) if adaptive \
+    taps = shadow_taps(search_uv, shadow_map_size(map_, face), SHADOW_SEARCH_SAMPLES) if adaptive \
         else torch.full_like(search_uv, float(SHADOW_SEARCH_SAMPLES))
     for d, z, active in _disk_loop(map_, uv, plane, search_uv, phi, lens, face,
                                    SHADOW_SEARCH_SAMPLES, adaptive):
@@ -191,7 +209,7 @@ def shadow_pcf(map_, uv, plane, r_uv, phi, lens, face, adaptive=True) -> torch.T
     vec4 lens, int face, bool adaptive)``."""
     r_uv = _f(r_uv).expand(uv.shape[:-1])
     lit = torch.zeros_like(r_uv)
-    taps = shadow_taps(r_uv, _map_size(map_, face), SHADOW_PCF_SAMPLES) if adaptive else \
+    taps = shadow_taps(r_uv, shadow_map_size(map_, face), SHADOW_PCF_SAMPLES) if adaptive else \
         torch.full_like(r_uv, float(SHADOW_PCF_SAMPLES))
     for d, z, active in _disk_loop(map_, uv, plane, r_uv, phi, lens, face, SHADOW_PCF_SAMPLES,
                                    adaptive):
@@ -204,7 +222,7 @@ def shadow_pcss(map_, s, plane, lens, phi, face, adaptive=True) -> torch.Tensor:
     int face, bool adaptive)``."""
     face_t = torch.as_tensor(face)
     outside = ((s < 0.0) | (s > 1.0)).any(-1)
-    texel_uv = torch.where(face_t < 0, 1.0, 2.0) / float(map_.shape[-2])
+    texel_uv = 1.0 / shadow_map_size(map_, face_t)
     z = s[..., 2]
     ortho = lens[..., 0] < 1.5
     nearest = torch.where(ortho, torch.zeros_like(z), torch.clamp_min(
@@ -282,3 +300,40 @@ def shadow_light_visibility(map_, m, lens, offset, light_pos, l, p, n, phi) -> t
     cz = torch.where(cz.abs() > 1e-30, cz, torch.full_like(cz, 1e-30))
     g = -c[..., :2] / cz[..., None]
     return shadow_pcss(map_, s, torch.cat([(1.0 / w)[..., None], g], -1), lens_b, phi, face)
+
+
+def shadow_cascade_uv(s, c) -> torch.Tensor:
+    """GLSL ``vec3 shadow_cascade_uv(vec3 s, vec4 c)``: ((uv - c.yz) c.x, depth)."""
+    return torch.cat([(s[..., :2] - c[..., 1:3]) * c[..., 0:1], s[..., 2:3]], -1)
+
+
+def shadow_cascade_index(uv, c0, c1, c2, c3, count) -> torch.Tensor:
+    """GLSL ``int shadow_cascade_index(vec2 uv, vec4 c0, vec4 c1, vec4 c2, vec4 c3, int count)``
+    (as int64)."""
+    count = torch.as_tensor(count).to(torch.int64).expand(uv.shape[:-1])
+    out = count - 1
+    for k, c in reversed(list(enumerate((c0, c1, c2)))):
+        t = (uv - c[..., 1:3]) * c[..., 0:1]
+        inside = ((t >= SHADOW_CASCADE_MARGIN) & (t <= 1.0 - SHADOW_CASCADE_MARGIN)).all(-1)
+        out = torch.where(inside & (k < count - 1), torch.full_like(out, k), out)
+    return out
+
+
+def shadow_cascade_visibility(map_, m, lens, offset, c0, c1, c2, c3, count, l, p, n, phi,
+                              adaptive=True) -> torch.Tensor:
+    """GLSL ``float shadow_cascade_visibility(sampler2D map, mat4 m, vec4 lens, float offset,
+    vec4 c0, vec4 c1, vec4 c2, vec4 c3, int count, vec3 l, vec3 p, vec3 n, float phi,
+    bool adaptive)`` for one light (``m`` [4, 4] rows as ``ShadowFrame.matrix``, ``lens`` [4],
+    ``c0..c3`` [4] each)."""
+    def xyz(q):
+        return q @ m[:3, :3].T + m[:3, 3]
+    k = shadow_cascade_index(xyz(p)[..., :2], c0, c1, c2, c3, count)
+    c = torch.stack([c0, c1, c2, c3])[k]  # [..., 4]
+    q = shadow_receiver(p, n, l, _f(offset) / c[..., 0])
+    s = shadow_cascade_uv(xyz(q), c)
+    du = m[0, :3] * c[..., 0:1]
+    dv = m[1, :3] * c[..., 0:1]
+    dz = shadow_depth_slope(shadow_plane_normal(du, dv, m[2, :3].expand_as(du), n))
+    lens_c = torch.stack(torch.broadcast_tensors(lens[0], lens[1] * c[..., 0], lens[2],
+                                                 lens[3]), -1)
+    return shadow_pcss(map_, s, torch.cat([s[..., 2:3], dz], -1), lens_c, phi, -2 - k, adaptive)

@@ -26,6 +26,13 @@
 #ifndef SHADOW_CUBE_MAPS
 #define SHADOW_CUBE_MAPS 1
 #endif
+// SHADOW_CASCADE_MAPS 1 when a map read is a cascade atlas (viewer/cascades.py): a face below -1
+// is then cascade -2 - face's tile (2 tiles wide); 0 compiles that branch out
+#ifndef SHADOW_CASCADE_MAPS
+#define SHADOW_CASCADE_MAPS 0
+#endif
+#define SHADOW_MAX_CASCADES 4
+#define SHADOW_CASCADE_MARGIN 0.02  // viewer/cascades.py SELECT_MARGIN
 #define SHADOW_IS_ORTHO(lens) (SHADOW_POSITIONAL == 0 || (lens).x < 1.5)
 #define SHADOW_IS_2D(face) (SHADOW_CUBE_MAPS == 0 || (face) < 0)
 
@@ -73,6 +80,21 @@ float shadow_depth_at(sampler2D map, vec2 uv) {
     return texelFetch(map, t, 0).r;
 }
 
+// Texels a side of the map region that `face` addresses: a 2D map's (face -1), a cube face's
+// (face >= 0: the atlas is 2 faces high), a cascade tile's (face < -1: the atlas is 2 tiles wide).
+float shadow_map_size(sampler2D map, int face) {
+    ivec2 size = textureSize(map, 0);
+    if (SHADOW_CASCADE_MAPS != 0 && face < -1) return float(size.x / 2);
+    return float(size.y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0);
+}
+
+// The depth stored at uv of cascade k's tile (nearest texel, clamped to the tile's edge).
+float shadow_tile_depth(sampler2D map, vec2 uv, int k) {
+    int n = textureSize(map, 0).x / 2;
+    ivec2 t = clamp(ivec2(floor(uv * float(n))), ivec2(0), ivec2(n - 1));
+    return texelFetch(map, t + ivec2(k % 2, k / 2) * n, 0).r;
+}
+
 // The cube face (0..5: +X, -X, +Y, -Y, +Z, -Z) holding direction d (from the light), and d's
 // (u, v) on it; the faces' axes are viewer/shadows.py CUBE_FACES.
 vec3 shadow_cube_face(vec3 d) {
@@ -105,6 +127,7 @@ vec3 shadow_cube_dir(int face, vec2 uv) {
 // the texel of the direction through (u, v) of face `face`'s plane, on whichever face holds it
 // (a filter disk crossing a face's edge reads the neighbour face).
 float shadow_sample(sampler2D map, vec2 uv, int face) {
+    if (SHADOW_CASCADE_MAPS != 0 && face < -1) return shadow_tile_depth(map, uv, -2 - face);
     if (SHADOW_IS_2D(face)) return shadow_depth_at(map, uv);
     vec3 fc = shadow_cube_face(shadow_cube_dir(face, uv));
     int f = int(fc.z);
@@ -167,7 +190,7 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 // cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes.
 float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
                            vec4 lens, int face, bool adaptive, out bool umbra) {
-    int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
+    int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, shadow_map_size(map, face),
                         SHADOW_SEARCH_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float sum = 0.0;
@@ -189,7 +212,7 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
 // of them where adaptive, else SHADOW_PCF_SAMPLES) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
 float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
                  int face, bool adaptive) {
-    int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, float(textureSize(map, 0).y) / (SHADOW_IS_2D(face) ? 1.0 : 2.0),
+    int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, shadow_map_size(map, face),
                         SHADOW_PCF_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
     float lit = 0.0;
@@ -204,8 +227,8 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
 
 // PCSS visibility at the map point s = (u, v, depth) of a receiver (after shadow_receiver) whose
 // plane is `plane` (shadow_receiver_depth), for a light of lens (shadow_penumbra_uv); face: the
-// cube face s is on (-1: a 2D map). The blocker search covers every occluder that can reach the
-// receiver (at most SHADOW_MAX_SEARCH_UV; for perspective and cube maps the occluders at least
+// cube face s is on (-1: a 2D map; below -1: a cascade tile). The blocker search covers every
+// occluder that can reach the receiver (at most SHADOW_MAX_SEARCH_UV; for perspective and cube maps the occluders at least
 // SHADOW_NEAREST_BLOCKER of its distance from the light); where none is, lit; where every search sample
 // occludes, in the umbra (the PCF disk is never wider than the search's); else PCF over the
 // penumbra's region, at least one texel wide (a hard shadow is still filtered over a texel so
@@ -213,7 +236,7 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
 float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face,
                   bool adaptive) {
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
-    float texel_uv = (SHADOW_IS_2D(face) ? 1.0 : 2.0) / float(textureSize(map, 0).y);
+    float texel_uv = 1.0 / shadow_map_size(map, face);
     float nearest = SHADOW_IS_ORTHO(lens) ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
                                                    * SHADOW_NEAREST_BLOCKER - lens.z) / lens.w);
     float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 1.5 * texel_uv,
@@ -273,4 +296,44 @@ float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, ve
     vec3 c = shadow_plane_normal(du, dv, -m3 / (h.w * h.w), n);
     vec2 g = -c.xy / (abs(c.z) > 1e-30 ? c.z : 1e-30);
     return shadow_pcss(map, s, vec3(1.0 / h.w, g), lens, phi, face, true);
+}
+
+// Cascade c's (u, v, depth) of the point s = (u, v, depth) of the whole-scene frame it shares
+// (viewer/cascades.py ShadowCascades): c = (scale, u0, v0, unused), uv_c = (uv - (u0, v0)) scale.
+vec3 shadow_cascade_uv(vec3 s, vec4 c) {
+    return vec3((s.xy - c.yz) * c.x, s.z);
+}
+
+// The first of `count` cascades whose tile holds the whole-scene frame's point uv at least
+// SHADOW_CASCADE_MARGIN inside its edges (cascades nearest the camera first); the last where none
+// does (its own lookup then finds the point outside: lit).
+int shadow_cascade_index(vec2 uv, vec4 c0, vec4 c1, vec4 c2, vec4 c3, int count) {
+    for (int k = 0; k < SHADOW_MAX_CASCADES; ++k) {
+        if (k >= count - 1) return k;
+        vec4 c = k == 0 ? c0 : (k == 1 ? c1 : c2);
+        vec2 t = (uv - c.yz) * c.x;
+        if (all(greaterThanEqual(t, vec2(SHADOW_CASCADE_MARGIN))) &&
+            all(lessThanEqual(t, vec2(1.0 - SHADOW_CASCADE_MARGIN)))) return k;
+    }
+    return count - 1;
+}
+
+// The fraction of a directional light reaching p (normal n; l the unit direction towards the
+// light) through its cascades: m the whole-scene (square) frame, lens its lens (shadow_penumbra_uv)
+// and offset its normal offset; c0..c3 the cascades' boxes (shadow_cascade_uv), count of them.
+// The cascade is chosen at the unbiased point, then the receiver is offset by that cascade's
+// texel (offset / scale) and looked up in its tile with the lens scaled to it: the penumbra is
+// the same in world units, its uv radius scale times larger. adaptive: shadow_pcss's.
+float shadow_cascade_visibility(sampler2D map, mat4 m, vec4 lens, float offset, vec4 c0, vec4 c1,
+                                vec4 c2, vec4 c3, int count, vec3 l, vec3 p, vec3 n, float phi,
+                                bool adaptive) {
+    int k = shadow_cascade_index((m * vec4(p, 1.0)).xy, c0, c1, c2, c3, count);
+    vec4 c = k == 0 ? c0 : (k == 1 ? c1 : (k == 2 ? c2 : c3));
+    vec3 q = shadow_receiver(p, n, l, offset / c.x);
+    vec3 s = shadow_cascade_uv((m * vec4(q, 1.0)).xyz, c);
+    vec3 du = vec3(m[0][0], m[1][0], m[2][0]) * c.x;
+    vec3 dv = vec3(m[0][1], m[1][1], m[2][1]) * c.x;
+    vec2 dz = shadow_depth_slope(shadow_plane_normal(du, dv, vec3(m[0][2], m[1][2], m[2][2]), n));
+    vec4 lens_c = vec4(lens.x, lens.y * c.x, lens.z, lens.w);
+    return shadow_pcss(map, s, vec3(s.z, dz), lens_c, phi, -2 - k, adaptive);
 }

@@ -18,6 +18,15 @@
 #ifndef SUN_SHADOW
 #define SUN_SHADOW 0  // 1: the environment's sun (SUN_LIGHT) reads a shadow map
 #endif
+#ifndef LIGHT_CASCADES
+#define LIGHT_CASCADES 0  // 1: some directional light's map is cascaded (viewer/cascades.py)
+#endif
+#ifndef SUN_CASCADES
+#define SUN_CASCADES 0  // 1: the sun's map is cascaded
+#endif
+#if LIGHT_CASCADES || SUN_CASCADES
+#define SHADOW_CASCADE_MAPS 1
+#endif
 #if LIGHT_SHADOWS || SUN_SHADOW
 #include "lib/shadow.glsl"
 #endif
@@ -46,9 +55,22 @@ uniform mat4 u_sun_shadow_matrix;         // world -> (u, v, depth)
 uniform mat3 u_sun_shadow_normal_matrix;  // world normal -> map-space plane normal
 uniform vec4 u_sun_shadow_params;         // angular radius, depth range, extent, normal offset
 
+#if SUN_CASCADES
+uniform vec4 u_sun_shadow_cascades[SHADOW_MAX_CASCADES];  // (scale, u0, v0, 0): shadow_cascade_uv
+uniform int u_sun_shadow_cascade_count;
+#endif
+
 // The fraction of the environment's sun (unit l towards it, world space) reaching p (normal n).
 float sun_visibility(vec3 p, vec3 n, vec3 l) {
     vec4 sp = u_sun_shadow_params;
+#if SUN_CASCADES
+    vec4 lens = vec4(1.0, tan(clamp(sp.x, 0.0, 0.3)) / sp.z, 0.0, sp.y);
+    return shadow_cascade_visibility(u_sun_shadow_map, u_sun_shadow_matrix, lens, sp.w,
+                                     u_sun_shadow_cascades[0], u_sun_shadow_cascades[1],
+                                     u_sun_shadow_cascades[2], u_sun_shadow_cascades[3],
+                                     u_sun_shadow_cascade_count, l, p, n,
+                                     shadow_phi(gl_FragCoord.xy), false);
+#endif
     vec3 q = shadow_receiver(p, n, l, sp.w);
     vec3 s = (u_sun_shadow_matrix * vec4(q, 1.0)).xyz;
     vec2 dz = shadow_depth_slope(u_sun_shadow_normal_matrix * n);
@@ -83,6 +105,11 @@ uniform sampler2D u_shadow_map[LIGHT_COUNT];
 uniform mat4 u_shadow_matrix[LIGHT_COUNT];
 uniform vec4 u_shadow_lens[LIGHT_COUNT];
 uniform float u_shadow_offset[LIGHT_COUNT];
+#if LIGHT_CASCADES
+// per light: its cascades' boxes (shadow_cascade_uv; 4 a light) and count (0: one map)
+uniform vec4 u_shadow_cascades[LIGHT_COUNT * SHADOW_MAX_CASCADES];
+uniform int u_shadow_cascade_count[LIGHT_COUNT];
+#endif
 #endif
 
 #if CONTACT_SHADOWS
@@ -127,6 +154,17 @@ float contact_shadow(vec3 p, vec3 n, vec3 l) {
 float light_visibility(int i, vec3 p, vec3 n, vec3 l) {
     float v = 1.0;
 #if LIGHT_SHADOWS
+#if LIGHT_CASCADES
+    int nc = u_shadow_cascade_count[i];
+    if (nc > 0) {
+        int c = i * SHADOW_MAX_CASCADES;
+        v = shadow_cascade_visibility(u_shadow_map[i], u_shadow_matrix[i], u_shadow_lens[i],
+                                      u_shadow_offset[i], u_shadow_cascades[c],
+                                      u_shadow_cascades[c + 1], u_shadow_cascades[c + 2],
+                                      u_shadow_cascades[c + 3], nc, l, p, n,
+                                      shadow_phi(gl_FragCoord.xy), true);
+    } else
+#endif
     v = shadow_light_visibility(u_shadow_map[i], u_shadow_matrix[i], u_shadow_lens[i],
                                 u_shadow_offset[i], u_light_position[i], l, p, n,
                                 shadow_phi(gl_FragCoord.xy));

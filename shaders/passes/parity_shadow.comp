@@ -1,7 +1,9 @@
 // parity_shadow.comp - lib/shadow.glsl's map lookups (shadow_sample, shadow_blocker_depth,
 // shadow_pcf, shadow_visibility, shadow_pcss) on a list of inputs, for the parity check against
 // learned.twins.shadow (learned/parity/checks/shadow.py). u_lens: the map's kind and lens
-// (shadow_penumbra_uv); a cube map is an atlas 3 x 2 faces.
+// (shadow_penumbra_uv); a cube map is an atlas 3 x 2 faces, a cascaded map one of 2 x 2 tiles
+// (face -2 - k: tile k).
+#define SHADOW_CASCADE_MAPS 1
 #include "lib/shadow.glsl"
 layout(local_size_x = 64) in;
 uniform uint u_count;
@@ -10,7 +12,7 @@ uniform float u_depth_range;
 uniform float u_extent;
 uniform vec4 u_lens;
 // [n][13]: s (u, v, depth), radius (uv: search and PCF), angle, phi, m (light-space normal),
-// face (-1: a 2D map), plane (shadow_receiver_depth)
+// face (-1: a 2D map; below -1: a cascade tile), plane (shadow_receiver_depth)
 layout(std430, binding = 0) readonly buffer In { float inv[]; };
 layout(std430, binding = 1) writeonly buffer Out { float outv[]; };  // [n][8]
 void main() {

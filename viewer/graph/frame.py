@@ -16,22 +16,21 @@ targets from the renderer's pool. Only the passes the scene's specialisation nee
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 from ..camera import Camera
-from ..lights import as_lights, shadowing
 from ..models import ShadingModel, model_info
 from ..neural import learns_indirect, reads_visibility
 from ..passes.forward import forward_model
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
-from ..shadows import ShadowCube, cube_frames, directional_frame, spot_frame
 from ..specialize import Specialization
 from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
-from .resources import GBufferDesc, ShadowMapDesc, TextureDesc
+from .resources import GBufferDesc, TextureDesc
+from .shadows import (cascade_variant, env_to_world, light_shadow_frame,  # noqa: F401
+                      shadow_passes)
 
 MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
 
@@ -69,7 +68,7 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
                         record_hits=settings.ssao.indirect,
                         blur=settings.ssao.blur) if settings.ssao.enabled else None
-    shadows = _shadow_passes(g, renderer, scene, spec)
+    shadows = shadow_passes(g, renderer, scene, spec, camera)
     _lighting_passes(g, renderer, req, ssao, shadows)
     blended = [] if spec.direct_stack else renderer.blended(scene)
     if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
@@ -192,90 +191,6 @@ def _ssao_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization, ca
     return SSAOOutputs("ssao", hits)
 
 
-# ---- shadows ----------------------------------------------------------------------------------
-def _shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization) -> dict:
-    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``: orthographic,
-    perspective for a spot light, a cube atlas for a point light) and for the environment's
-    analytic sun (``shadowsun``), fitted to the scene's bounds; only where the lighting pass reads
-    them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) -> (resource, frame,
-    light size: angular radius in radians or radius in world units, normal offset) for the
-    lighting pass."""
-    settings = scene.render
-    defines = dict(spec.variant.defines)
-    if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")):
-        return {}
-    lights = as_lights(scene.light)
-    bounds = renderer.bounds(scene)
-    if bounds is None:  # an image stack alone: nothing to cast a shadow map from
-        return {}
-    contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
-    meshes = [m for obj, c in contents if obj.type not in ("gbuffer", "splats") for m in c]
-    clouds = [c for obj, c in contents if obj.type == "splats"]
-    spass = renderer.resources.shadow_pass()
-    casters = []  # (light index or "sun", frame, penumbra size: angular or world radius)
-    if defines.get("LIGHT_SHADOWS"):
-        casters += [(i, light_shadow_frame(lights[i], bounds, settings.shadow),
-                     lights[i].radius if lights[i].positional
-                     else math.radians(lights[i].angular_diameter_deg) / 2.0)
-                    for i in shadowing(lights, settings.shadow.enabled)]
-    if defines.get("SUN_SHADOW"):
-        sun = renderer.resources.sun(scene.environment)
-        # the sun's direction is in the environment's frame: turned by its rotation
-        direction = env_to_world(sun.direction, scene.environment.rotation_deg)
-        casters.append(("sun", directional_frame(bounds, direction, int(settings.shadow.size)),
-                        float(sun.angular_radius)))
-        # the environment's other compact lights (ENV_LIGHTS): "env<k>", shadowenv<k>
-        others = renderer.resources.env_lights(scene.environment)[1:]
-        casters += [(f"env{k}", directional_frame(
-                         bounds, env_to_world(li.direction, scene.environment.rotation_deg),
-                         int(settings.shadow.size)), float(li.angular_radius))
-                    for k, li in enumerate(others[:defines.get("ENV_LIGHTS", 0)])]
-    # what casts shadows: the objects without their materials (a material slider keeps the maps)
-    shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
-    out = {}
-    for i, frame, size in casters:
-        cube = isinstance(frame, ShadowCube)
-        name = g.create(f"shadowmap{i}", ShadowMapDesc(frame.resolution, 6 if cube else 1),
-                        kept=True)
-
-        def draw(f, name=name, frame=frame):
-            spass.draw(f[name], frame, meshes, clouds)
-        # the light's colour and intensity do not enter: a light slider reuses the map
-        g.add_pass(f"shadow{i}", draw, writes=(name,),
-                   inputs={"shapes": shapes, "geometry": renderer.geometry_cache.version,
-                           "frame": _frame_key(frame)})
-        out[i] = (name, frame, size * settings.shadow.softness,
-                  frame.texel_world * settings.shadow.bias)
-    return out
-
-
-def light_shadow_frame(light, bounds, shadow):
-    """The shadow frame of ``light`` fitted to ``bounds`` (``shadow``: the render settings'
-    :class:`~viewer.settings.ShadowSettings`): orthographic, perspective (spot) or a cube
-    (point)."""
-    if light.type == "spot":
-        return spot_frame(bounds, light.position, light.direction, light.outer_cone_deg,
-                          int(shadow.size))
-    if light.type == "point":
-        return cube_frames(bounds, light.position, int(shadow.cube_size))
-    return directional_frame(bounds, light.direction, int(shadow.size))
-
-
-def _frame_key(frame) -> tuple:
-    """What a shadow map's contents depend on besides the shapes: its frame's numbers."""
-    faces = getattr(frame, "faces", (frame,))
-    return tuple((f.matrix.tobytes(), f.resolution, f.near, f.depth_range) for f in faces)
-
-
-def env_to_world(direction, rotation_deg: float) -> tuple[float, float, float]:
-    """A direction of the environment's frame in world space (``rotate_y`` of
-    ``lib/equirect.glsl`` by the environment's rotation)."""
-    a = math.radians(rotation_deg)
-    c, s = math.cos(a), math.sin(a)
-    x, y, z = (float(v) for v in direction)
-    return (c * x + s * z, y, -s * x + c * z)
-
-
 # ---- lighting ---------------------------------------------------------------------------------
 def _lighting_settings(settings):
     """The settings the lighting passes depend on: all but exposure, tone mapping and FXAA."""
@@ -302,6 +217,7 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
             outs = ("direct", "indirect_factor")
     reads = (("gbuffer",) + ((ssao.occlusion,) if ssao else ())
              + tuple(name for name, _, _, _ in shadows.values()))
+    variant = cascade_variant(spec.variant, shadows)
     env_sampling = renderer.env_sampling(scene) if "cdf" in model.needs else None
     # the IBL without the sun a SUN_LIGHT pass shades itself
     ibl = res.ibl(scene.environment, sun=bool(spec.variant.defines.get("SUN_LIGHT")))
@@ -310,14 +226,14 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     def shade_into(f, fbo, sample_range=(0, 1)):
         spass.run(f["gbuffer"].textures, fbo, camera, ibl, scene.environment, settings,
                   env_sampling=env_sampling, ssao=f[ssao.occlusion].texture if ssao else None,
-                  sample_range=sample_range, variant=spec.variant, light=scene.light,
+                  sample_range=sample_range, variant=variant, light=scene.light,
                   shadows={i: (f[name].texture, frame, angle, offset)
                            for i, (name, frame, angle, offset) in shadows.items() if i != "sun"},
                   sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
                               if "sun" in shadows else None))
 
     inputs = {"model": settings.model, "render": _lighting_settings(settings),
-              "environment": scene.environment, "light": scene.light, "variant": spec.variant}
+              "environment": scene.environment, "light": scene.light, "variant": variant}
     writes = outs
     if model.accumulates:
         g.create("mc_batch", TextureDesc(size, 4, "f4"))

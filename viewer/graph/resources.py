@@ -88,14 +88,19 @@ class ShadowTarget:
 @dataclass(frozen=True)
 class ShadowMapDesc:
     """A square shadow map of ``size`` texels a side, or (``faces=6``) a point light's cube map
-    as an atlas of six such faces, 3 wide and 2 high (viewer/shadows.py ShadowCube)."""
+    as an atlas of six such faces, 3 wide and 2 high (viewer/shadows.py ShadowCube), or
+    (``cascades`` 2..4) a directional light's cascades as an atlas of such tiles, 2 wide
+    (viewer/cascades.py)."""
 
     size: int
     faces: int = 1
+    cascades: int = 1
 
     @property
     def shape(self) -> tuple[int, int]:
         n = int(self.size)
+        if self.cascades > 1:
+            return (2 * n, n * ((self.cascades + 1) // 2))
         return (3 * n, 2 * n) if self.faces == 6 else (n, n)
 
     def create(self, ctx) -> ShadowTarget:
@@ -114,4 +119,6 @@ class ShadowMapDesc:
     def describe(self) -> str:
         if self.faces == 6:
             return f"6 x {self.size}x{self.size} cube shadow map R32F + depth"
+        if self.cascades > 1:
+            return f"{self.cascades} x {self.size}x{self.size} cascaded shadow map R32F + depth"
         return f"{self.size}x{self.size} shadow map R32F + depth"

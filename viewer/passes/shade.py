@@ -12,6 +12,7 @@ import numpy as np
 
 from ..cache import BoundedCache, CacheStats
 from ..camera import Camera
+from ..cascades import MAX_CASCADES, ShadowCascades
 from ..gbuffer import GBufferLayout
 from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network, virtual_files
@@ -101,8 +102,8 @@ class ShadePass:
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
         unspecialised variant); ``light``: the lights to shade (``Scene.light``: a tuple, or ``None``);
         ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame` or
-        :class:`~viewer.shadows.ShadowCube`, the light's size (angular radius in radians, or
-        radius in world units), normal offset (world units; per unit of distance for perspective
+        :class:`~viewer.shadows.ShadowCube` or :class:`~viewer.cascades.ShadowCascades`, the
+        light's size (angular radius in radians, or radius in world units), normal offset (world units; per unit of distance for perspective
         and cube maps)) for the lights that cast one;
         ``sun_shadow``: the same for the environment's sun (SUN_SHADOW)."""
         if variant is None:
@@ -139,6 +140,10 @@ class ShadePass:
             _set(prog, "u_sun_shadow_normal_matrix",
                  np.ascontiguousarray(normal, np.float32).tobytes())
             _set(prog, "u_sun_shadow_params", params)
+            if "u_sun_shadow_cascade_count" in prog:  # SUN_CASCADES: the sun's map is cascaded
+                frame = sun_shadow[1]
+                _set(prog, "u_sun_shadow_cascades", frame.uniforms().tobytes())
+                _set(prog, "u_sun_shadow_cascade_count", int(frame.count))
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))
         _set(prog, "u_seed", int(settings.mc.seed))
@@ -157,6 +162,8 @@ class ShadePass:
         lenses = np.zeros((n, 4), np.float32)
         offsets = np.zeros(n, np.float32)
         units = np.zeros(n, np.int32)
+        cascades = np.zeros((n, MAX_CASCADES, 4), np.float32)
+        counts = np.zeros(n, np.int32)  # 0: one map (shadow_light_visibility)
         for i in range(n):
             entry = shadows.get(i)
             tex = self._no_shadow() if entry is None else entry[0]
@@ -168,10 +175,15 @@ class ShadePass:
                 matrices[i] = frame.matrix.T  # column-major for GLSL
                 lenses[i] = shadow_lens(frame, size)
                 offsets[i] = offset
+                if isinstance(frame, ShadowCascades):
+                    cascades[i], counts[i] = frame.uniforms(), frame.count
         _set(prog, "u_shadow_map", units.tobytes())
         _set(prog, "u_shadow_matrix", matrices.tobytes())
         _set(prog, "u_shadow_lens", lenses.tobytes())
         _set(prog, "u_shadow_offset", offsets.tobytes())
+        if "u_shadow_cascade_count" in prog:  # LIGHT_CASCADES
+            _set(prog, "u_shadow_cascades", cascades.tobytes())
+            _set(prog, "u_shadow_cascade_count", counts.tobytes())
         return unit
 
     def _bind_env_light_shadows(self, prog, shadows: dict, unit: int) -> int:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.mesh import Mesh
+from ..cascades import ShadowCascades
 from ..shadows import SHADOW_ORTHO, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
@@ -85,7 +86,7 @@ class ShadowPass:
     def draw(self, target, frame: ShadowFrame | ShadowCube, meshes: list[Mesh],
              clouds: list[Splats]) -> None:
         """Clear ``target`` (a :class:`~viewer.graph.resources.ShadowTarget`) to depth 1 and draw
-        ``meshes`` and ``clouds`` into it (a cube: into each face's tile)."""
+        ``meshes`` and ``clouds`` into it (a cube or cascades: into each face's or cascade's tile)."""
         ctx = self.ctx
         target.fbo.use()
         ctx.viewport = (0, 0, *target.texture.size)
@@ -93,7 +94,7 @@ class ShadowPass:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
         try:
-            if isinstance(frame, ShadowCube):
+            if isinstance(frame, (ShadowCube, ShadowCascades)):
                 for face, f in enumerate(frame.faces):
                     ctx.viewport = frame.tile(face)
                     self._draw_frame(f, meshes, clouds)

@@ -1,7 +1,8 @@
 """Parity cases of ``shaders/lib/shadow.glsl`` against :mod:`learned.twins.shadow`. The lookups
 that read the map (``shadow_depth_at``, ``shadow_sample``, ``shadow_blocker_depth``,
 ``shadow_pcf``, ``shadow_pcss``, ``shadow_visibility``) are the pass check ``shadow:lookups``;
-``shadow_light_visibility`` (a mat4 argument) the pass check ``shadow:lights``."""
+``shadow_light_visibility`` and ``shadow_cascade_visibility`` (a mat4 argument) the pass check
+``shadow:lights``; ``shadow_map_size`` and ``shadow_tile_depth`` (a sampler) ``shadow:lookups``."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +10,8 @@ import numpy as np
 from .base import Arg, ParityCase
 
 PASS_LEVEL = ("shadow_depth_at", "shadow_sample", "shadow_blocker_depth", "shadow_pcf",
-              "shadow_pcss", "shadow_visibility", "shadow_light_visibility")
+              "shadow_pcss", "shadow_visibility", "shadow_light_visibility", "shadow_map_size",
+              "shadow_tile_depth", "shadow_cascade_visibility")
 
 
 def _receiver_planes(args):
@@ -22,6 +24,20 @@ def _receiver_planes(args):
     face = np.where(kind == 3.0, np.clip(np.floor(face), 0, 5), -1.0).astype(np.float32)
     plane[:, 0] = np.abs(plane[:, 0]) + 0.05
     return [plane, lens, face, uv, o * 0.05]
+
+def _cascade_boxes(args):
+    """Cascade boxes (scale, u0, v0, 0) of shadow_cascade_index: scales 1..20 (a cascade's tile
+    spans 1/scale of the whole-scene map), origins around the point so it falls inside some,
+    a count of 1..4."""
+    uv = np.array(args[0], np.float32, copy=True)
+    boxes = []
+    for c in args[1:5]:
+        c = np.array(c, np.float32, copy=True)
+        c[:, 0] = 1.0 + 19.0 * c[:, 0]
+        c[:, 1:3] = uv - (0.5 + (c[:, 1:3] - 0.5) * 1.6) / c[:, 0:1]
+        boxes.append(c)
+    return [uv] + boxes + [args[5]]
+
 
 PARITY_CASES = [
     ParityCase("vogel_disk", (Arg(kind="int", lo=0, hi=63), Arg(kind="int", lo=1, hi=64),
@@ -91,4 +107,17 @@ PARITY_CASES = [
                         "reciprocal of the plane's inverse distance (>= 0.25 of the centre's), "
                         "a length (sqrt 3 ulp) and a division by the range: ~10 ulp rel",
                prepare=_receiver_planes),
+    ParityCase("shadow_cascade_uv", (Arg(lo=-0.5, hi=1.5, components=3),
+                                     Arg(lo=0.0, hi=20.0, components=4)),
+               atol=1e-5, rtol=1e-6, measured="exact on llvmpipe",
+               envelope="(uv - c.yz) c.x: a difference and a product (or one fused) on values "
+                        "<= 40: 2 roundings, 5e-6 abs"),
+    ParityCase("shadow_cascade_index", (Arg(components=2), Arg(components=4),
+                                        Arg(components=4), Arg(components=4),
+                                        Arg(components=4), Arg(kind="int", lo=1, hi=4)),
+               atol=0.0, rtol=0.0, measured="exact on llvmpipe",
+               envelope="an integer: comparisons of (uv - c.yz) c.x with the margin: the same "
+                        "float32 expression both sides (a fused multiply-add could move a point "
+                        "within 1e-6 of a tile's margin: p ~ 1e-5 per draw)",
+               prepare=_cascade_boxes),
 ]

@@ -1,8 +1,9 @@
 """The shadow-map lookups of ``lib/shadow.glsl`` (``passes/parity_shadow.comp``) against
 :mod:`learned.twins.shadow` on the same maps: synthetic maps (a disk occluder, steps and noise,
-so blocker search and PCF see partial coverage) read as an orthographic map, a perspective one
-and a cube atlas (``shadow:lookups``); and the composed ``shadow_light_visibility`` of a rendered
-scene's lights, read from the lighting pass's output (``shadow:lights``, :mod:`.shadow_lights`)."""
+so blocker search and PCF see partial coverage) read as an orthographic map, a perspective one,
+a cube atlas and a cascade atlas of 2 x 2 tiles (``shadow:lookups``); and the composed
+``shadow_light_visibility`` of a rendered scene's lights, read from the lighting pass's output
+(``shadow:lights``, :mod:`.shadow_lights`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -41,7 +42,8 @@ def shadow_test_map(seed: int = 0) -> np.ndarray:
 # (name, lens (kind, scale, near, range), map tiles across, down): the three kinds of map
 KINDS = (("ortho", (1.0, 0.02, 0.0, DEPTH_RANGE), 1, 1),
          ("perspective", (2.0, 0.05, 0.5, DEPTH_RANGE), 1, 1),
-         ("cube", (3.0, 0.025, 0.5, DEPTH_RANGE), 3, 2))
+         ("cube", (3.0, 0.025, 0.5, DEPTH_RANGE), 3, 2),
+         ("cascade", (1.0, 0.02, 0.0, DEPTH_RANGE), 2, 2))
 ENVELOPE = ("texel indices from floor(uv size) of the same float32 uv: a sample's offset "
             "differs by the spiral's rounding (~1e-7 x r <= 0.15) -> 1e-5 texel, so a disk "
             "sample lands in another texel only within 1e-5 texel of a boundary (p ~ 2e-5 per "
@@ -60,7 +62,9 @@ def _inputs(kind: str, n: int, rng) -> np.ndarray:
     m[:, 2] = np.abs(m[:, 2]) * 3.0  # mostly facing the light; some grazing (clamped)
     m[: n // 8, :2] = 0.0  # facing it: no slope
     face = np.full(n, -1.0) if kind != "cube" else rng.integers(0, 6, n).astype(np.float64)
-    if kind == "ortho":
+    if kind == "cascade":  # tile k of a cascade atlas: face -2 - k
+        face = -2.0 - rng.integers(0, 4, n).astype(np.float64)
+    if kind in ("ortho", "cascade"):
         plane = np.concatenate([s[:, 2:3], np.asarray(shadow_depth_slope(
             torch.from_numpy(m.astype(np.float32))))], axis=1)
     else:  # 1 / distance along the axis at uv and its slope

@@ -2,8 +2,9 @@
 lighting pass evaluates it (``light_visibility`` of passes/lights.glsl) on a rendered scene,
 against :func:`learned.twins.shadow.shadow_light_visibility` computed from the same shadow map
 texture, read back from the frame. A floor and a sphere under one soft light of each kind
-(directional, spot, point); the GLSL's visibility is the lit radiance over the same frame without
-shadows (nothing but that light lights the scene), the twin's is evaluated at each pixel's
+(directional, spot, point), and a directional light's cascades (``shadow_cascade_visibility``
+against its twin) over a 100 m floor; the GLSL's visibility is the lit radiance over the same
+frame without shadows (nothing but that light lights the scene), the twin's is evaluated at each pixel's
 surface point rebuilt from the G-buffer's depth as the pass rebuilds it."""
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import numpy as np
 import torch
 
 from learned.twins.lights import light_surface_position
-from learned.twins.shadow import shadow_light_visibility, shadow_phi
+from learned.twins.shadow import (shadow_cascade_visibility, shadow_light_visibility,
+                                  shadow_phi)
 
 from ..results import compare
 from . import collector
@@ -21,27 +23,33 @@ LIGHTS = {"directional": {"type": "directional", "direction": [0.5, 1.0, 0.2],
                           "angular_diameter_deg": 6.0},
           "spot": {"type": "spot", "position": [0.6, 3.0, 0.3], "direction": [0.2, 1.0, 0.1],
                    "outer_cone_deg": 55, "inner_cone_deg": 45, "radius": 0.15},
-          "point": {"type": "point", "position": [-0.8, 2.4, 0.6], "radius": 0.15}}
+          "point": {"type": "point", "position": [-0.8, 2.4, 0.6], "radius": 0.15},
+          # 3 cascades over a 100 m floor (viewer/cascades.py)
+          "cascaded": {"type": "directional", "direction": [0.5, 1.0, 0.2],
+                       "angular_diameter_deg": 3.0}}
+CASCADED = {"floor": 100.0, "render": {"shadow_cascades": 3}}
 ENVELOPE = ("the surface point is rebuilt from depth by the same float32 expression on both "
             "sides up to contraction (~1e-7 relative), the lookups are exact (shadow:lookups): "
             "a pixel differs only where a tap's texel changes with that rounding; robust: 1 in "
             "100 pixels may differ, by at most one tap's share (1/4) where they do")
 
 
-def _scene(light: dict):
+def _scene(light: dict, floor: float = 8.0, render: dict | None = None):
     from viewer.scene import scene_from_dict
 
     return scene_from_dict({
         "camera": {"position": [0, 5, 0.01], "target": [0, 0, 0], "fov_y": 60, "size": [N, N]},
         "environment": {"procedural": "white", "width": 32, "intensity": 0.0},
         "lights": [{"intensity": 10.0, **light}],
-        "objects": [{"type": "plane", "center": [0, 0, 0], "size": [8, 8], "normal": [0, 1, 0],
+        "objects": [{"type": "plane", "center": [0, 0, 0], "size": [floor, floor],
+                     "normal": [0, 1, 0],
                      "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0,
                                   "specular": 0.0}},
                     {"type": "sphere", "center": [0, 1, 0], "radius": 0.5,
                      "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0,
                                   "specular": 0.0}}],
-        "render": {"tonemap": "none", "model": "ggx_split_sum", "multiscatter": False}})
+        "render": {"tonemap": "none", "model": "ggx_split_sum", "multiscatter": False,
+                   **(render or {})}})
 
 
 def _read_map(frame) -> torch.Tensor:
@@ -57,7 +65,7 @@ def _twin_visibility(renderer, scene, frame, depth_map, gbuffer) -> np.ndarray:
 
     light = scene.lights[0]
     settings = scene.render.shadow
-    sframe = light_shadow_frame(light, renderer.bounds(scene), settings)
+    sframe = light_shadow_frame(light, renderer.bounds(scene), settings, frame.camera)
     size = light.radius if light.positional else np.radians(light.angular_diameter_deg) / 2.0
     lens = torch.tensor(shadow_lens(sframe, size * settings.softness), dtype=torch.float32)
     offset = sframe.texel_world * settings.bias
@@ -76,6 +84,11 @@ def _twin_visibility(renderer, scene, frame, depth_map, gbuffer) -> np.ndarray:
     else:
         l = torch.tensor(light.direction, dtype=torch.float32).expand_as(p)
     m = torch.from_numpy(sframe.matrix.astype(np.float32))
+    if hasattr(sframe, "boxes"):  # cascades
+        c = torch.from_numpy(sframe.uniforms())
+        vis = shadow_cascade_visibility(depth_map, m, lens, offset, c[0], c[1], c[2], c[3],
+                                        sframe.count, l, p, normal, shadow_phi(frag))
+        return vis.numpy()[::-1]
     vis = shadow_light_visibility(depth_map, m, lens, offset, light.position, l, p, normal,
                                   shadow_phi(frag))
     return vis.numpy()[::-1]  # image rows (row 0 at the top)
@@ -92,7 +105,7 @@ def checks() -> dict:
         out = []
         try:
             for kind, light in LIGHTS.items():
-                scene = _scene(light)
+                scene = _scene(light, **(CASCADED if kind == "cascaded" else {}))
                 frame = renderer.draw(scene, aovs=("depth", "normal"))
                 depth_map = _read_map(frame)
                 lit = renderer.render(scene, aovs=("depth", "normal"))  # the same frame, reused
@@ -105,7 +118,9 @@ def checks() -> dict:
                 ref = twin[ok]
                 diff = np.abs(gl - ref)
                 bad = diff > 1e-4
-                res = compare(f"shadow_light_visibility ({kind})", gl[~bad], ref[~bad],
+                fn = "shadow_cascade_visibility" if kind == "cascaded" else \
+                    "shadow_light_visibility"
+                res = compare(f"{fn} ({kind})", gl[~bad], ref[~bad],
                               atol=1e-4, rtol=0.0, kind="pass",
                               measured=f"{int(bad.sum())} of {int(ok.sum())} pixels beyond 1e-4 "
                                        f"on llvmpipe; {int(((ref > 0) & (ref < 1)).sum())} in "
@@ -113,7 +128,10 @@ def checks() -> dict:
                               envelope=ENVELOPE)
                 res.passed = bool(res.passed and bad.mean() <= 0.01
                                   and (diff[bad] <= 0.25 + 1e-4).all()
-                                  and (ref == 0).sum() > 20)
+                                  and (ref == 0).sum() > 20
+                                  # the cascaded scene's map is the 3 cascades' 2 x 2 atlas
+                                  and (kind != "cascaded" or depth_map.shape[0]
+                                       == depth_map.shape[1] == 2 * scene.render.shadow.size))
                 out.append(res)
         finally:
             renderer.release()

@@ -1,0 +1,127 @@
+"""The frame's shadow passes: one map per shadowing light (``shadow<i>`` into ``shadowmap<i>``)
+and for the environment's sun and other compact lights (``shadowsun``, ``shadowenv<k>``); a
+directional light's or the sun's map is cascaded (:mod:`viewer.cascades`) where the scene needs
+it, and only then does the camera enter the pass's inputs."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from ..cascades import MAX_TILE, ShadowCascades, cascade_count, cascade_frames
+from ..lights import as_lights, shadowing
+from ..models import ShadeVariant
+from ..scene import Scene
+from ..shadows import ShadowCube, cube_frames, directional_frame, spot_frame
+from ..specialize import Specialization
+from .graph import FrameGraph
+from .resources import ShadowMapDesc
+
+
+def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
+                  camera=None) -> dict:
+    """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``: orthographic,
+    perspective for a spot light, a cube atlas for a point light) and for the environment's
+    analytic sun (``shadowsun``), fitted to the scene's bounds; only where the lighting pass reads
+    them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) -> (resource, frame,
+    light size: angular radius in radians or radius in world units, normal offset) for the
+    lighting pass; ``camera``: the view the cascades follow (None: one map each)."""
+    settings = scene.render
+    defines = dict(spec.variant.defines)
+    if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")):
+        return {}
+    lights = as_lights(scene.light)
+    bounds = renderer.bounds(scene)
+    if bounds is None:  # an image stack alone: nothing to cast a shadow map from
+        return {}
+    contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
+    meshes = [m for obj, c in contents if obj.type not in ("gbuffer", "splats") for m in c]
+    clouds = [c for obj, c in contents if obj.type == "splats"]
+    spass = renderer.resources.shadow_pass()
+    casters = []  # (light index or "sun", frame, penumbra size: angular or world radius)
+    if defines.get("LIGHT_SHADOWS"):
+        casters += [(i, light_shadow_frame(lights[i], bounds, settings.shadow, camera),
+                     lights[i].radius if lights[i].positional
+                     else math.radians(lights[i].angular_diameter_deg) / 2.0)
+                    for i in shadowing(lights, settings.shadow.enabled)]
+    if defines.get("SUN_SHADOW"):
+        sun = renderer.resources.sun(scene.environment)
+        # the sun's direction is in the environment's frame: turned by its rotation
+        direction = env_to_world(sun.direction, scene.environment.rotation_deg)
+        casters.append(("sun", _directional(bounds, direction, settings.shadow, camera),
+                        float(sun.angular_radius)))
+        # the environment's other compact lights (ENV_LIGHTS): "env<k>", shadowenv<k>
+        others = renderer.resources.env_lights(scene.environment)[1:]
+        casters += [(f"env{k}", directional_frame(
+                         bounds, env_to_world(li.direction, scene.environment.rotation_deg),
+                         int(settings.shadow.size)), float(li.angular_radius))
+                    for k, li in enumerate(others[:defines.get("ENV_LIGHTS", 0)])]
+    # what casts shadows: the objects without their materials (a material slider keeps the maps)
+    shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
+    out = {}
+    for i, frame, size in casters:
+        cube = isinstance(frame, ShadowCube)
+        cascaded = isinstance(frame, ShadowCascades)
+        name = g.create(f"shadowmap{i}", ShadowMapDesc(frame.resolution, 6 if cube else 1,
+                                                       frame.count if cascaded else 1),
+                        kept=True)
+        inputs = {"shapes": shapes, "geometry": renderer.geometry_cache.version,
+                  "frame": _frame_key(frame)}
+        if cascaded:  # the cascades follow the camera (their frames, so the key, already do)
+            inputs["camera"] = camera
+
+        def draw(f, name=name, frame=frame):
+            spass.draw(f[name], frame, meshes, clouds)
+        # the light's colour and intensity do not enter: a light slider reuses the map
+        g.add_pass(f"shadow{i}", draw, writes=(name,), inputs=inputs)
+        out[i] = (name, frame, size * settings.shadow.softness,
+                  frame.texel_world * settings.shadow.bias)
+    return out
+
+
+def cascade_variant(variant: ShadeVariant, shadows: dict) -> ShadeVariant:
+    """The lighting pass's ``variant`` with LIGHT_CASCADES / SUN_CASCADES set where a light's /
+    the sun's map in ``shadows`` (:func:`shadow_passes`) is cascaded; unchanged otherwise."""
+    extra = {}
+    for i, (_, frame, _, _) in shadows.items():
+        if isinstance(frame, ShadowCascades):
+            extra["SUN_CASCADES" if i == "sun" else "LIGHT_CASCADES"] = 1
+    if not extra:
+        return variant
+    return ShadeVariant(variant.model, tuple(sorted({**variant.defines, **extra}.items())))
+
+
+def _directional(bounds, direction, shadow, camera):
+    """A directional light's frame: one map fitted to ``bounds``, or its cascades over what
+    ``camera`` sees where :func:`viewer.cascades.cascade_count` asks for more than one."""
+    count = cascade_count(shadow.cascades, bounds, camera, int(shadow.size), direction) \
+        if camera is not None else 1
+    if count > 1:  # tiles of at most MAX_TILE texels: the atlas is 2 tiles wide
+        return cascade_frames(bounds, direction, camera, count, min(int(shadow.size), MAX_TILE))
+    return directional_frame(bounds, direction, int(shadow.size))
+
+
+def light_shadow_frame(light, bounds, shadow, camera=None):
+    """The shadow frame of ``light`` fitted to ``bounds`` (``shadow``: the render settings'
+    :class:`~viewer.settings.ShadowSettings`): orthographic (cascaded over what ``camera``
+    sees where the scene needs it), perspective (spot) or a cube (point)."""
+    if light.type == "spot":
+        return spot_frame(bounds, light.position, light.direction, light.outer_cone_deg,
+                          int(shadow.size))
+    if light.type == "point":
+        return cube_frames(bounds, light.position, int(shadow.cube_size))
+    return _directional(bounds, light.direction, shadow, camera)
+
+
+def _frame_key(frame) -> tuple:
+    """What a shadow map's contents depend on besides the shapes: its frame's numbers."""
+    faces = getattr(frame, "faces", (frame,))
+    return tuple((f.matrix.tobytes(), f.resolution, f.near, f.depth_range) for f in faces)
+
+
+def env_to_world(direction, rotation_deg: float) -> tuple[float, float, float]:
+    """A direction of the environment's frame in world space (``rotate_y`` of
+    ``lib/equirect.glsl`` by the environment's rotation)."""
+    a = math.radians(rotation_deg)
+    c, s = math.cos(a), math.sin(a)
+    x, y, z = (float(v) for v in direction)
+    return (c * x + s * z, y, -s * x + c * z)

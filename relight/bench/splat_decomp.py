@@ -5,13 +5,15 @@ table).
 Per scene of :func:`relight.bench.splat_scenes.decomp_scenes` (spheres of known materials on a
 floor):
 
-1. splats on the surfaces carry the true materials (:func:`~relight.bench.splat_scenes.surface_splats`);
+1. splats on the surfaces carry the true materials
+   (:func:`~relight.bench.splat_scenes.surface_splats`);
 2. their colours are baked under the capture's environment A
    (:func:`~relight.bench.splat_scenes.bake_traced`: per splat, path-traced outgoing radiance in
    16 directions, shadows and inter-reflection included, fitted with degree-2 SH) - a plain 3DGS
    cloud with no materials;
 3. :func:`learned.splats.decompose.decompose` estimates per-splat materials and a cubemap light
    from views of that cloud rendered from an upper ring of cameras (the capture);
+   :func:`align_albedo` adds the same materials with the albedo's unknowable scale removed;
 4. the estimated materials are relit by the project's renderer (GLSL splat pass,
    ``ggx_split_sum``) under environments B and C it never saw, from a held-out viewpoint, and
    scored against path-traced renders of the *mesh* scene under B and C (Mitsuba 3, our BSDF,
@@ -62,9 +64,9 @@ class SplatDecompConfig:
     truth_spp: int = 256
     max_depth: int = 4        # path depth of bake and truth (3 bounces)
     views: int = 6            # decomposition: capture views on an upper ring
-    view_size: int = 48
-    iterations: int = 150
-    light_res: int = 8
+    view_size: int = 40
+    iterations: int = 100
+    light_res: int = 6
     scenes: tuple[str, ...] = DECOMP_SCENES
     progress: bool = True
     relight: tuple[str, ...] = tuple(RELIGHT)  # environments of RELIGHT to relight under
@@ -104,7 +106,9 @@ def _key(*parts) -> str:
 def baked_cloud(scene: Scene, truth: Splats, config: SplatDecompConfig, folder: Path
                 ) -> Splats:
     """The capture: ``truth``'s colours baked under A (cached as a PLY)."""
-    path = folder / f"baked_{_key(scene.objects, CAPTURE, config.spacing, config.bake, config.bake_directions, config.bake_spp, config.max_depth)}.ply"
+    key = _key(scene.objects, CAPTURE, config.spacing, config.bake, config.bake_directions,
+               config.bake_spp, config.max_depth)
+    path = folder / f"baked_{key}.ply"
     if path.is_file():
         return read_ply(path)
     env = CAPTURE[1]
@@ -117,7 +121,8 @@ def baked_cloud(scene: Scene, truth: Splats, config: SplatDecompConfig, folder: 
                      f"(misses {100 * info['miss_fraction']:.2f} %)")
     elif config.bake == "shaded":
         out = bake_shaded(truth, env, config.bake_directions)
-        _log(config, f"baked {len(truth)} splats (torch shading) in {time.perf_counter() - t0:.0f} s")
+        _log(config, f"baked {len(truth)} splats (torch shading) in "
+                     f"{time.perf_counter() - t0:.0f} s")
     else:
         raise ValueError(f"bake must be 'traced' or 'shaded', not {config.bake!r}")
     write_ply(path, out)
@@ -220,6 +225,19 @@ def mean_row(rows: list[dict], methods=METHODS) -> dict:
     return out
 
 
+TABLE_KEYS = ("scene", "relit") + tuple(f"psnr_{m}" for m in METHODS) \
+    + tuple(f"psnr_ldr_{m}" for m in METHODS)
+
+
+def table_row(row: dict) -> dict:
+    """``row`` with the table's columns (:data:`TABLE_KEYS`, the mean row's differences) in
+    front and the rest (capture, sizes, biases, material errors) under ``details`` (in the
+    JSON, not the markdown table)."""
+    head = {k: row[k] for k in TABLE_KEYS if k in row}
+    head |= {k: v for k, v in row.items() if k.endswith("_db")}
+    return head | {"details": {k: v for k, v in row.items() if k not in head}}
+
+
 def splat_decomp_rows(renderer, cache: Path, config: SplatDecompConfig = SplatDecompConfig()
                       ) -> list[dict]:
     """Every scene's rows (module docstring) and the mean row; finished scenes are read back from
@@ -240,4 +258,4 @@ def splat_decomp_rows(renderer, cache: Path, config: SplatDecompConfig = SplatDe
         scene_r = scene_rows(renderer, name, scenes[name], config, folder)
         save_json(done, scene_r)
         rows += scene_r
-    return rows + [mean_row(rows)] if rows else rows
+    return [table_row(r) for r in rows + [mean_row(rows)]] if rows else rows

@@ -91,8 +91,8 @@ def _patch(means, normals, spacing: float, material: Material) -> Splats:
                        np.full(n, 0.02 * spacing)], -1)
     return make_splats(means, scales, matrix_to_quat(rot), np.full(n, 0.95),
                        albedo=np.tile(np.asarray(material.albedo, np.float32), (n, 1)),
-                       roughness=np.full(n, material.roughness), metallic=np.full(n,
-                                                                                   material.metallic),
+                       roughness=np.full(n, material.roughness),
+                       metallic=np.full(n, material.metallic),
                        normals=normals)
 
 

@@ -127,7 +127,7 @@ def _suite_splat_decomp(renderer, scenes, config, cache) -> list[dict]:
         return []
     cfg = SplatDecompConfig()
     if config.quick:
-        cfg = SplatDecompConfig(scenes=cfg.scenes[:1], bake_spp=16, truth_spp=64, iterations=150)
+        cfg = SplatDecompConfig(scenes=cfg.scenes[:1], bake_spp=16, truth_spp=64, iterations=60)
     return splat_decomp_rows(renderer, cache, cfg)
 
 

@@ -67,6 +67,7 @@ class SplatDecompConfig:
     view_size: int = 40
     iterations: int = 100
     light_res: int = 6
+    lambda_mat: float = 0.2   # eq. 6.24's lambda_M (decompose's default 0.02 relit worse here)
     scenes: tuple[str, ...] = DECOMP_SCENES
     progress: bool = True
     relight: tuple[str, ...] = tuple(RELIGHT)  # environments of RELIGHT to relight under
@@ -138,6 +139,7 @@ def decomposed(baked: Splats, config: SplatDecompConfig, folder: Path, key: str)
         return read_ply(path)
     options = DecomposeOptions(views=config.views, size=config.view_size,
                                iterations=config.iterations, light_res=config.light_res,
+                               lambda_mat=config.lambda_mat,
                                checkpoint=str(folder / f"decompose_{key}.pt"),
                                progress=config.progress)
     result = decompose(baked, options, capture_cameras(config.views, config.view_size))

@@ -77,9 +77,15 @@ def render_splats(renderer, scene: Scene, splats: Splats, environment: Environme
                   folder: Path, name: str, model: str = "ggx_split_sum") -> np.ndarray:
     """``[H, W, 4]`` linear radiance (alpha = coverage) of ``splats`` alone, seen by ``scene``'s
     camera under ``environment``, through the renderer's splat pass; the cloud is written to
-    ``folder/<name>.ply`` for it."""
-    path = Path(folder) / f"{name}.ply"
-    write_ply(path, splats)
+    ``folder/<name>_<content hash>.ply`` for it (the renderer caches a cloud by its path, so a
+    path is never reused for other content)."""
+    h = hashlib.sha256()
+    for a in (splats.means, splats.sh, splats.albedo, splats.roughness, splats.metallic,
+              splats.normals, splats.scales, splats.opacities):
+        h.update(np.ascontiguousarray(a).tobytes())
+    path = Path(folder) / f"{name}_{h.hexdigest()[:12]}.ply"
+    if not path.is_file():
+        write_ply(path, splats)
     s = dataclasses.replace(scene, environment=environment,
                             objects=(ObjectSpec("splats", path=str(path)),))
     return renderer.render(s.with_render(model=model)).radiance

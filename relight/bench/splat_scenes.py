@@ -197,10 +197,13 @@ def bake_traced(scene: Scene, splats: Splats, directions: int = 16, spp: int = 3
     inside another object - left at 0)."""
     import time
 
-    from relight.reference import load_mitsuba
+    from relight.reference import ReferenceError, load_mitsuba
     from relight.reference.scene import to_mitsuba
 
     mi, dr, variant = load_mitsuba(None)
+    if variant.startswith("scalar"):
+        raise ReferenceError("baking splats needs Mitsuba's LLVM variant (libLLVM >= 19): the "
+                             "scalar one would take hours", where="splat_decomp")
     t0 = time.perf_counter()
     mscene = mi.load_dict(to_mitsuba(scene, mi, dr, max_depth, "analytic"))
     integrator = mscene.integrator()
@@ -216,8 +219,6 @@ def bake_traced(scene: Scene, splats: Splats, directions: int = 16, spp: int = 3
         count = min(lanes, spp - done)
         o = np.repeat(origins, count, axis=0)
         v = np.repeat(rays_d, count, axis=0)
-        if variant.startswith("scalar"):
-            raise RuntimeError("bake_traced needs Mitsuba's LLVM variant (libLLVM >= 19)")
         ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(o.T, np.float32)),
                        mi.Vector3f(np.ascontiguousarray(v.T, np.float32)))
         sampler = mi.load_dict({"type": "independent"})

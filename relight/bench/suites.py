@@ -120,7 +120,8 @@ def _suite_splat_decomp(renderer, scenes, config, cache) -> list[dict]:
     try:
         from relight.reference import load_mitsuba
 
-        load_mitsuba(None)
+        if load_mitsuba(None)[2].startswith("scalar"):
+            raise RelightError("needs Mitsuba's LLVM variant (libLLVM >= 19)")
         from .splat_decomp import SplatDecompConfig, splat_decomp_rows
     except (ImportError, RelightError) as exc:
         warnings.warn(f"relight bench splat_decomp: left out ({exc})", stacklevel=2)

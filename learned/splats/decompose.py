@@ -177,10 +177,14 @@ def psnr(a: torch.Tensor, b: torch.Tensor, peak: float = 1.0) -> float:
 
 # ---- optimisation ---------------------------------------------------------------------------------
 
-def decompose(splats: Splats, options: DecomposeOptions = DecomposeOptions()) -> DecomposeResult:
-    """Estimate per-splat albedo, roughness, metallic and a cubemap light (module docstring)."""
+def decompose(splats: Splats, options: DecomposeOptions = DecomposeOptions(),
+              cameras: list[Camera] | None = None) -> DecomposeResult:
+    """Estimate per-splat albedo, roughness, metallic and a cubemap light (module docstring).
+    ``cameras``: the capture's views (default: :func:`orbit_cameras` from ``options``)."""
     torch.manual_seed(options.seed)
-    cameras = orbit_cameras(splats, options.views, options.size, options.fov_y, options.distance)
+    if cameras is None:
+        cameras = orbit_cameras(splats, options.views, options.size, options.fov_y,
+                                options.distance)
     views = _prepare_views(splats, cameras)
     n, res = len(splats), options.light_res
     params = {

@@ -2,8 +2,10 @@
 ``SUITES`` maps a name to ``callable(renderer, scenes, config, cache) -> list[row dict]``."""
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
+from viewer.errors import RelightError
 from viewer.models import MODELS
 
 from .clamps import clamp_costs
@@ -118,6 +120,26 @@ def _suite_penumbra(renderer, scenes, config, cache) -> list[dict]:
     return penumbra_rows(renderer)
 
 
+def _suite_splat_decomp(renderer, scenes, config, cache) -> list[dict]:
+    """The splat material/light decomposition relit under two unseen environments against
+    path-traced truth, beside the floor (baked colours) and the ceiling (true materials)
+    (:mod:`relight.bench.splat_decomp`); needs torch and Mitsuba. ``--quick``: one scene,
+    fewer samples and iterations."""
+    try:
+        from relight.reference import load_mitsuba
+
+        if load_mitsuba(None)[2].startswith("scalar"):
+            raise RelightError("needs Mitsuba's LLVM variant (libLLVM >= 19)")
+        from .splat_decomp import SplatDecompConfig, splat_decomp_rows
+    except (ImportError, RelightError) as exc:
+        warnings.warn(f"relight bench splat_decomp: left out ({exc})", stacklevel=2)
+        return []
+    cfg = SplatDecompConfig()
+    if config.quick:
+        cfg = SplatDecompConfig(scenes=cfg.scenes[:1], bake_spp=16, truth_spp=64, iterations=60)
+    return splat_decomp_rows(renderer, cache, cfg)
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
@@ -125,5 +147,5 @@ SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_spl
                                "heldout": _suite_heldout, "environments": _suite_environments,
                                "shadows": _suite_shadows, "antialias": _suite_antialias,
                                "memory": _suite_memory, "shadow_truth": _suite_shadow_truth,
-                               "penumbra": _suite_penumbra}
+                               "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp}
 

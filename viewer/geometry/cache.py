@@ -73,7 +73,7 @@ class GeometryCache:
         _CACHES.add(self)
 
     def get(self, obj: ObjectSpec):
-        key = _shape_key(obj)
+        key = _cache_key(obj)
         entry = self._cache.get(key)
         if entry is None:
             self._cache.misses += 1
@@ -93,7 +93,7 @@ class GeometryCache:
         """Use ``content`` for ``obj`` instead of loading ``obj.path`` (geometry made in memory:
         tests, benchmarks, generated data). Taken as given: the loaders' validation does not run.
         It counts towards the budget like loaded content (see the module docstring)."""
-        key = _shape_key(obj)
+        key = _cache_key(obj)
         self._store(key, content, added=True)
         self._evicted_added.pop(key)
         self.version += 1
@@ -101,7 +101,7 @@ class GeometryCache:
     def remove(self, obj: ObjectSpec) -> None:
         """Forget ``obj``'s content (added or loaded) and release its GPU copies; the next lookup
         loads it again."""
-        key = _shape_key(obj)
+        key = _cache_key(obj)
         self._cache.pop(key)
         self._evicted_added.pop(key)
         self.version += 1
@@ -249,6 +249,19 @@ def _load_object(obj: ObjectSpec):
 
         return load_splats(obj.path, transform=obj.transform, material=obj.material)
     raise SceneError(f"object type {obj.type!r} cannot be rendered")
+
+
+def _cache_key(obj: ObjectSpec) -> tuple:
+    """:func:`_shape_key` and the stamp (size, modification time) of the file it names: a file
+    rewritten at the same path is loaded again, not drawn from the cache as it was."""
+    stamp = None
+    if obj.path:
+        try:
+            st = Path(obj.path).stat()
+            stamp = (st.st_size, st.st_mtime_ns) if Path(obj.path).is_file() else None
+        except OSError:
+            stamp = None  # loading it says what is wrong
+    return _shape_key(obj), stamp
 
 
 def _shape_key(obj: ObjectSpec) -> ObjectSpec:

@@ -3,8 +3,7 @@
 :class:`EnvironmentStore` owns, per environment, everything derived from it: the IBL (radiance
 chain, prefiltered chain, irradiance map, SH), the IBL without its compact lights and the lights
 (:func:`viewer.sun.extract_lights`) where it has any, the importance-sampling tables (built on
-first use) and the equal-power directions.
-One entry per environment, keyed by its description with intensity and rotation left out (they are
+first use) and the equal-power directions. One entry per environment, keyed by its description with intensity and rotation left out (they are
 shader uniforms), sized by the real bytes of its textures and arrays, in a
 :class:`viewer.cache.BoundedCache`: least recently used environments are evicted beyond
 ``max_bytes`` and their GL textures released at once. The DFG LUTs do not depend on the
@@ -13,8 +12,8 @@ environment: the store builds them once.
 With ``IBLOptions.prefilter_method = "convolution"`` (the default) a new environment costs one
 convolution on the CPU for both IBLs (:mod:`viewer.ibl_build`), and what it computed is kept in the
 disk cache (:mod:`viewer.envcache`), keyed by the file's content: the same file in a new process
-uploads the stored results instead of decoding and computing. ``"fis"`` builds as before this
-store existed (two importance-sampled chains, no disk cache): the bench's baseline.
+uploads the stored results instead of decoding and computing. ``"fis"`` builds two
+importance-sampled chains with no disk cache: the bench's baseline.
 
 A caller must not keep an IBL of an environment beyond the frame that asked for it (a later
 environment may evict it); :meth:`EnvironmentStore.pinned` holds environments in use.
@@ -122,7 +121,7 @@ class EnvironmentStore:
                 else None
         self.disk: EnvCache | None = disk
         self.progress = progress
-        self._cache = BoundedCache("environments", max_bytes=max_bytes, release=_release)
+        self._cache = BoundedCache("environments", max_bytes=max_bytes, release=Environment.release)
         self._lut_textures: tuple | None = None
 
     # ---- the interface GPUResources delegates to ------------------------------------------------
@@ -397,7 +396,3 @@ class EnvironmentStore:
         s = self._cache.stats()
         return (f"EnvironmentStore({s.items} environments, {mib(s.bytes)} of "
                 f"{mib(s.max_bytes)})")
-
-
-def _release(entry: Environment) -> None:
-    entry.release()

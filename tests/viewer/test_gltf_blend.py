@@ -171,3 +171,30 @@ def test_models_that_cannot_run_forward_use_split_sum_and_warn_once(tmp_path, re
     assert len(messages) == 1 and "ggx_split_sum" in messages[0]
     split = renderer.render(_scene(path, model="ggx_split_sum", background="transparent"))
     np.testing.assert_allclose(mc.radiance[CENTRE], split.radiance[CENTRE], rtol=1e-6)
+
+
+def test_blended_surfaces_read_no_shadow_map_and_say_so_once(tmp_path, renderer):
+    """The forward pass binds no shadow map, so its variant compiles every shadow lookup out (an
+    unbound sampler would read whatever unit 0 holds), and a scene whose lights cast shadows
+    warns once that its transparent surfaces are not shadowed."""
+    from viewer.lights import as_lights
+    from viewer.passes import forward
+
+    path = _quad_file(tmp_path, "glass.gltf", [GREEN_WALL, (RED, 0.5, "BLEND", 0.5, 0.5)])
+    scene = _scene(path, model="ggx_split_sum", light={"direction": [0.3, 0.5, 1.0],
+                                                       "intensity": 2.0})
+    defines = dict(forward.forward_variant(scene.render, as_lights(scene.light), sun=1).defines)
+    assert defines.get("LIGHT_SHADOWS", 0) == 0 and defines.get("SUN_SHADOW", 0) == 0
+    assert defines.get("LIGHT_COUNT", 0) == 1 and defines.get("SUN_LIGHT", 0) == 1  # still lit
+    forward._UNSHADOWED_WARNED.clear()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer.render(scene)
+        renderer.render(scene)
+    messages = [str(w.message) for w in caught if "receive no shadows" in str(w.message)]
+    assert len(messages) == 1, messages
+    forward._UNSHADOWED_WARNED.clear()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer.render(scene.with_render(shadows=False))
+    assert not [w for w in caught if "receive no shadows" in str(w.message)]

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from ..camera import Camera
 from ..models import ShadingModel, model_info
 from ..neural import learns_indirect, reads_visibility
-from ..passes.forward import forward_model
+from ..passes.forward import forward_model, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
@@ -80,10 +80,11 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
             settings.shadow, enabled=False))
 
         def forward(f):
+            ibl = res.ibl(scene.environment, sun=sun)
+            warn_unshadowed(settings, scene.light, sun=len(ibl.lights))
             res.layout_pass("forward", spec.layout).run(
-                blended, f["gbuffer"].textures, f["radiance"].fbo, camera,
-                res.ibl(scene.environment, sun=sun), scene.environment, fwd_settings,
-                light=scene.light)
+                blended, f["gbuffer"].textures, f["radiance"].fbo, camera, ibl,
+                scene.environment, fwd_settings, light=scene.light)
         g.add_pass("forward", forward, reads=("gbuffer", "radiance"), writes=("radiance",),
                    inputs={"objects": scene.objects, "render": _lighting_settings(settings),
                            "environment": scene.environment, "light": scene.light})

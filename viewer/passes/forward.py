@@ -33,6 +33,7 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -67,7 +68,11 @@ def forward_variant(settings: RenderSettings, light: Light | tuple[Light, ...] |
     (SUN_LIGHT, ENV_LIGHTS)."""
     info = model_info(settings.model)
     shaded = light if info.lights == "shaded" else None
-    defines = model_info(forward_model(settings.model)).variant(settings, shaded, specular=True,
+    # blended surfaces receive no shadows: this pass binds no shadow map, and a sampler left
+    # unbound would read whatever texture unit 0 holds; the frame warns once: warn_unshadowed)
+    unshadowed = dataclasses.replace(settings, shadow=dataclasses.replace(
+        settings.shadow, enabled=False, contact="off"))
+    defines = model_info(forward_model(settings.model)).variant(unshadowed, shaded, specular=True,
                                                                 sun=sun).defines
     defines["BACKGROUND_ENVIRONMENT"] = 0
     if "USE_SSAO" in defines:
@@ -151,6 +156,20 @@ class ForwardPass:
 
 
 _FALLBACK_WARNED: set[str] = set()
+_UNSHADOWED_WARNED: list[bool] = []
+
+
+def warn_unshadowed(settings: RenderSettings, light, sun: int) -> None:
+    """Once per process, where the scene's ``settings`` cast shadows from ``light`` or the
+    environment's ``sun`` lights: transparent surfaces are drawn without them."""
+    from ..lights import as_lights, shadowing
+
+    casts = settings.shadow.enabled and (
+        bool(shadowing(as_lights(light), True)) or (sun > 0 and settings.sun))
+    if casts and not _UNSHADOWED_WARNED:
+        _UNSHADOWED_WARNED.append(True)
+        warnings.warn("transparent (blended) surfaces receive no shadows: the forward "
+                      "pass does not read the shadow maps", stacklevel=4)
 
 
 def _warn_fallback(model: str) -> None:

@@ -133,28 +133,25 @@ class SSAOPass:
                  settings: RenderSettings) -> None:
         """The occlusion pass's low-resolution result ``low`` (scale k > 1) to full resolution
         in ``out_fbo`` (``passes/ssao_upsample.frag``: joint bilateral, 1 on the background)."""
-        prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao_upsample.frag",
-                                      defines={"SSAO_SCALE": int(settings.ssao.scale),
-                                               "BACKGROUND_ENVIRONMENT": 0},
-                                      virtual=self.layout.virtual_files())
-        unit = bind_gbuffer(prog, gbuffer_textures)
-        low.use(unit)
-        prog["u_low"].value = unit
-        self._camera_uniforms(prog, camera)
-        out_fbo.use()
-        self.ctx.viewport = (0, 0, camera.width, camera.height)
-        self._draw(prog)
+        self._filter("passes/ssao_upsample.frag", {"SSAO_SCALE": int(settings.ssao.scale)},
+                     gbuffer_textures, low, "u_low", out_fbo, camera)
 
     def blur(self, gbuffer_textures: dict, ao, out_fbo, camera: Camera, env_vis: bool) -> None:
         """The full-resolution occlusion ``ao`` through the bilateral blur into ``out_fbo``
         (``passes/ssao_blur.frag``; ``env_vis``: the g channel, S(x), passed through)."""
-        prog = self.programs.graphics("passes/fullscreen.vert", "passes/ssao_blur.frag",
-                                      defines={"SSAO_ENV_VIS": int(env_vis),
-                                               "BACKGROUND_ENVIRONMENT": 0},
+        self._filter("passes/ssao_blur.frag", {"SSAO_ENV_VIS": int(env_vis)}, gbuffer_textures,
+                     ao, "u_ao", out_fbo, camera)
+
+    def _filter(self, frag: str, defines: dict, gbuffer_textures: dict, source, uniform: str,
+                out_fbo, camera: Camera) -> None:
+        """A full-resolution pass of ``frag`` over the G-buffer and the occlusion ``source``
+        (bound as ``uniform``) into ``out_fbo``: the upsample and the blur."""
+        prog = self.programs.graphics("passes/fullscreen.vert", frag,
+                                      defines={**defines, "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
         unit = bind_gbuffer(prog, gbuffer_textures)
-        ao.use(unit)
-        prog["u_ao"].value = unit
+        source.use(unit)
+        prog[uniform].value = unit
         self._camera_uniforms(prog, camera)
         out_fbo.use()
         self.ctx.viewport = (0, 0, camera.width, camera.height)

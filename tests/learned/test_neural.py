@@ -87,11 +87,17 @@ def test_shipped_weights_load_and_are_small():
 
 
 def test_parity_cli_neural_passes(capsys):
+    """``--model neural`` runs the neural checks and ``--skip`` leaves out the named ones (the
+    lighting passes, which tests/shaders/test_library_parity.py runs)."""
     from relight.cli import main
 
-    assert main(["parity", "--model", "neural", "--json"]) == 0
+    skipped = ("model:neural", "model:neural:ubo", "model:neural:texture")
+    assert main(["parity", "--model", "neural", "--json",
+                 *[a for name in skipped for a in ("--skip", name)]]) == 0
     rows = json.loads(capsys.readouterr().out)
     names = {r["name"] for r in rows}
-    assert {"neural:network", "model:neural"} <= names
+    assert {"neural:network", "neural:network:ubo", "neural:network:texture"} <= names
+    assert not any(n.startswith("model:neural") for n in names), names  # both --model neural
+    # and --skip leave out model:neural_teacher: another model's check
     net = next(r for r in rows if r["name"] == "neural:network")
     assert net["passed"] and net["max_abs"] <= 1e-4

@@ -353,10 +353,23 @@ def test_a_renderer_with_two_programs_renders_as_one_with_all(ctx):
 
 
 # ---- networks -----------------------------------------------------------------------------------
-def test_neural_weight_uploads_are_bounded_and_released(ctx, tracker):
+def _tiny_student(folder):
+    """A random one-hidden-layer student (4 units, no Fourier features) exported to ``folder``:
+    its uniform-block code compiles in a second on llvmpipe (the shipped student's, in ~30 s)."""
+    torch = pytest.importorskip("torch")
+    from learned.export import export
+    from learned.neural.student import Student
+
+    torch.manual_seed(0)
+    export(Student(hidden=(4,), num_freqs=0), folder / "tiny.safetensors")
+    return folder / "tiny.safetensors"
+
+
+def test_neural_weight_uploads_are_bounded_and_released(ctx, tracker, tmp_path):
     scene = scene_from_dict({**BASE, "objects": [
         {"type": "sphere", "center": [0, 0.4, 0], "radius": 0.4}],
-        "render": {**BASE["render"], "model": "neural"}})
+        "render": {**BASE["render"], "model": "neural",
+                   "weights": str(_tiny_student(tmp_path))}})
     ubo, tex = scene.with_render(neural_storage="ubo"), scene.with_render(neural_storage="texture")
     r = _renderer(ctx)
     try:

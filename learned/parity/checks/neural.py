@@ -284,15 +284,19 @@ def check_teachers(programs, weights=None) -> list:
 def checks() -> dict:
     """This module's pass checks: name -> (model or None, check(programs) -> results)."""
     found, register_pass_check = collector()
-
-
-
-    register_pass_check("neural:network", model="neural")(
-        lambda programs: [check_network(programs, storage=s) for s in WEIGHT_STORAGES])
+    # one check per weight storage (``neural:network[:<storage>]``, ``model:neural[:<storage>]``),
+    # so a run can leave one storage out by name (tests/shaders/test_float_paths.py: ubo)
+    for storage in WEIGHT_STORAGES:
+        suffix = "" if storage == "const" else f":{storage}"
+        register_pass_check("neural:network" + suffix, model="neural")(
+            lambda programs, storage=storage: [check_network(programs, storage=storage)])
+        if storage != "const":
+            register_pass_check("model:neural" + suffix, model="neural")(
+                lambda programs, storage=storage: [
+                    check_model(programs, "neural", {"neural_storage": storage})])
     register_pass_check("model:neural", model="neural")(
         lambda programs: [check_model(programs, "neural", v)
-                          for v in ({}, {"ao": False, "background": "transparent"},
-                                    {"neural_storage": "ubo"}, {"neural_storage": "texture"})]
+                          for v in ({}, {"ao": False, "background": "transparent"})]
         + check_indirect_factor(programs))
     register_pass_check("model:neural_teacher", model="neural_teacher")(check_teachers)
     return found

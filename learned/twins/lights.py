@@ -84,13 +84,15 @@ def _light_arrays(light) -> dict:
 
 def scene_light(light, i: int, p: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec4 scene_light(int i, vec3 p, vec3 n)`` for ``light`` (a viewer Light, the i-th
-    uniform entry): punctual_light times light_visibility. [..., 4]."""
+    uniform entry): punctual_light times light_visibility; 0 where n.l <= 0. [..., 4]."""
     a = _light_arrays(light)
     shape = p.shape[:-1]
     la = punctual_light(a["type"].expand(shape), a["position"].expand_as(p),
                         a["direction"].expand_as(p), a["cone_range"].expand(*shape, 4), p)
-    return torch.cat([la[..., :3], (la[..., 3] * light_visibility(i, p, n, la[..., :3]))[..., None]],
-                     -1)
+    facing = (n * la[..., :3]).sum(-1) > 0.0
+    w = torch.where(facing, la[..., 3] * light_visibility(i, p, n, la[..., :3]),
+                    torch.zeros_like(la[..., 3]))
+    return torch.cat([la[..., :3], w[..., None]], -1)
 
 
 def lights_ggx(lights, diffuse, f0, a, dfg, multiscatter, n, v, p) -> torch.Tensor:

@@ -1,7 +1,8 @@
 // shadow.glsl - shadow-map lookups: receiver bias, percentage-closer soft shadows (PCSS: blocker
 // search, then a PCF kernel whose radius follows the light's size). The map stores, per texel, the
-// normalised depth (0 nearest the light, 1 farthest) of the nearest occluder, in an R32F texture
-// read with texelFetch (nearest texel, clamped to the map); 1 where nothing is. Three kinds of map
+// normalised depth (0 nearest the light, 1 farthest) of the nearest occluder, in a depth texture
+// (24-bit) read with texelFetch (nearest texel, clamped to the map; no comparison mode); 1 where
+// nothing is. Three kinds of map
 // (viewer/shadows.py): orthographic (directional lights, the sun), perspective (spot lights:
 // depth linear along the axis) and cube (point lights: six faces in an atlas 3 x 2 faces, depth
 // the distance from the light). No uniforms, no main. Twins: learned/twins/shadow.py.

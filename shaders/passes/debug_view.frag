@@ -13,7 +13,7 @@ layout(location = 0) out vec4 o_color;  // sRGB-encoded display values
 #if VIEW_MODE == 0
 uniform sampler2D u_display;
 #elif VIEW_MODE == 4
-uniform sampler2D u_shadow_map;  // R32F, its own size (not the render's)
+uniform sampler2D u_shadow_map;  // a depth texture, its own size (not the render's)
 #elif VIEW_MODE == 1
 #define GBUFFER_READ
 #include "generated/gbuffer.glsl"

@@ -175,11 +175,14 @@ float light_visibility(int i, vec3 p, vec3 n, vec3 l) {
     return v;
 }
 
-// Light i at p: (l, irradiance scale): punctual_light's attenuation times light_visibility.
+// Light i at p: (l, irradiance scale): punctual_light's attenuation times light_visibility;
+// 0 where the surface faces away from the light (n.l <= 0: every BRDF of lights_* is 0 there),
+// without a shadow lookup.
 vec4 scene_light(int i, vec3 p, vec3 n) {
     vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
                              u_light_cone_range[i], p);
-    if (la.w > 0.0) la.w *= light_visibility(i, p, n, la.xyz);
+    if (!(dot(n, la.xyz) > 0.0)) la.w = 0.0;
+    else if (la.w > 0.0) la.w *= light_visibility(i, p, n, la.xyz);
     return la;
 }
 

@@ -1,9 +1,11 @@
-// shadow.frag - writes the normalised light-space depth of the nearest occluder (R32F; the
-// depth test keeps the nearest). Meshes pass v_depth (RADIAL: the distance from the light,
-// (|p - light| - near) / range); splats (SPLAT) discard where a Gaussian's opacity falls below
-// SPLAT_SHADOW_ALPHA and write the Gaussian's mean depth along the ray. An orthographic map's
-// meshes (WRITE_DEPTH 0) leave the depth test the rasterised depth, the same linear depth: no
-// gl_FragDepth write, so the rasteriser may test depth before shading.
+// shadow.frag - the depth of the nearest occluder, normalised in the light's frame (0 nearest
+// the light), into the map's depth texture (the depth test keeps the nearest; the map has no
+// colour attachment: viewer/graph/resources.py ShadowTarget). Meshes write v_depth (RADIAL: the
+// distance from the light, (|p - light| - near) / range); splats (SPLAT) discard where a
+// Gaussian's opacity falls below SPLAT_SHADOW_ALPHA and write the Gaussian's mean depth along the
+// ray. An orthographic map's meshes (WRITE_DEPTH 0) keep the rasterised depth, the same linear
+// depth: no gl_FragDepth write and nothing else, so the rasteriser tests depth early and the
+// fragment stage does no work.
 #ifndef SPLAT
 #define SPLAT 0
 #endif
@@ -24,10 +26,11 @@ flat in float v_opacity;
 in vec3 v_from_light;
 uniform vec2 u_near_range;  // world distance of depth 0, world distance from depth 0 to 1
 #endif
-layout(location = 0) out float o_depth;
 
 void main() {
+#if WRITE_DEPTH || SPLAT
     float depth = v_depth;
+#endif
 #if SPLAT
     vec2 d = v_offset;
     float power = -0.5 * (v_conic.x * d.x * d.x + 2.0 * v_conic.y * d.x * d.y
@@ -37,7 +40,6 @@ void main() {
 #if RADIAL
     depth = (length(v_from_light) - u_near_range.x) / u_near_range.y;
 #endif
-    o_depth = depth;
 #if WRITE_DEPTH
     gl_FragDepth = clamp(depth, 0.0, 1.0);
 #endif

@@ -25,7 +25,7 @@ class Target:
 
     def release(self) -> None:
         self.fbo.release()
-        self.texture.release()
+        self.texture.release()  # also self.depth
 
 
 @dataclass(frozen=True)
@@ -72,8 +72,13 @@ class GBufferDesc:
 
 @dataclass
 class ShadowTarget:
-    """A shadow map: an R32F texture of normalised light depth (1 where nothing is) and a depth
-    buffer for the depth test, in one framebuffer."""
+    """A shadow map: one depth texture (24-bit normalised light depth, 1 where nothing is) that
+    is both the depth test's buffer and what the lookups read (``texelFetch`` of a plain
+    ``sampler2D``: no comparison mode), in a framebuffer with no colour attachment. Every shadow
+    program's depth is the map's (``passes/shadow.frag``), so no colour copy is written: half the
+    bytes a texel costs, and llvmpipe skips the colour stage of the draw.
+
+    ``depth`` is ``texture`` (kept for code that releases both)."""
 
     texture: object
     depth: object
@@ -81,8 +86,7 @@ class ShadowTarget:
 
     def release(self) -> None:
         self.fbo.release()
-        self.depth.release()
-        self.texture.release()
+        self.texture.release()  # also self.depth
 
 
 @dataclass(frozen=True)
@@ -105,20 +109,19 @@ class ShadowMapDesc:
 
     def create(self, ctx) -> ShadowTarget:
         shape = self.shape
-        tex = ctx.texture(shape, 1, dtype="f4")
+        tex = ctx.depth_texture(shape)
+        tex.compare_func = ""
         tex.filter = (ctx.NEAREST, ctx.NEAREST)
         tex.repeat_x = tex.repeat_y = False
-        depth = ctx.depth_renderbuffer(shape)
-        return ShadowTarget(tex, depth, ctx.framebuffer(color_attachments=[tex],
-                                                        depth_attachment=depth))
+        return ShadowTarget(tex, tex, ctx.framebuffer(depth_attachment=tex))
 
     def bytes(self) -> int:
         w, h = self.shape
-        return w * h * 8
+        return w * h * 4
 
     def describe(self) -> str:
         if self.faces == 6:
-            return f"6 x {self.size}x{self.size} cube shadow map R32F + depth"
+            return f"6 x {self.size}x{self.size} cube shadow map, 24-bit depth"
         if self.cascades > 1:
-            return f"{self.cascades} x {self.size}x{self.size} cascaded shadow map R32F + depth"
-        return f"{self.size}x{self.size} shadow map R32F + depth"
+            return f"{self.cascades} x {self.size}x{self.size} cascaded shadow map, 24-bit depth"
+        return f"{self.size}x{self.size} shadow map, 24-bit depth"

@@ -1,0 +1,40 @@
+"""relight.bench.shadows: every frame of a shadowed row draws one shadow pass per light, and the
+ratios are consistent (the frame with its maps kept costs more than the unshadowed frame and less
+than the whole shadowed one); the suite is registered in ``relight bench``."""
+import math
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def rows(ctx):
+    from relight.bench.run import BenchConfig
+    from relight.bench.scenes import demo_scene
+    from relight.bench.shadows import shadow_rows
+    from viewer.renderer import Renderer
+
+    r = Renderer(ctx=ctx)
+    config = BenchConfig(quick=True, frames=2, warmup=1)
+    try:
+        yield shadow_rows(r, demo_scene().with_render(sun=False), config, counts=(1, 3),
+                          size=(48, 48))
+    finally:
+        r.release()
+
+
+def test_rows_draw_one_pass_per_light_every_frame(rows):
+    from relight.bench.run import SUITES
+
+    assert "shadows" in SUITES
+    assert [r["lights"] for r in rows] == [1, 3]
+    for r in rows:
+        assert r["shadow_passes"] == r["lights"], r
+        assert r["shadow_pass_ms"] > 0.0, r
+        assert all(math.isfinite(r[k]) and r[k] > 0 for k in ("ms_shadows", "ms_without")), r
+
+
+def test_kept_maps_ratio_leaves_out_only_the_shadow_passes(rows):
+    for r in rows:
+        kept = r["ratio_maps_kept"] * r["ms_without"]
+        assert kept == pytest.approx(r["ms_shadows"] - r["shadow_pass_ms"], rel=1e-9), r
+        assert r["ratio_maps_kept"] < r["ratio"], r

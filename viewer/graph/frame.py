@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from ..camera import Camera
 from ..models import ShadingModel, model_info
 from ..neural import learns_indirect, reads_visibility
-from ..passes.forward import forward_model, warn_unshadowed
+from ..passes.forward import forward_model, forward_variant, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ssao import hit_targets, low_resolution
 from ..scene import Scene
@@ -75,17 +75,21 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
         # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
         sun = settings.sun and model_info(forward_model(settings.model)).analytic_sun
 
-        # transparent surfaces are lit without shadow maps (their pass binds none)
-        fwd_settings = dataclasses.replace(settings, shadow=dataclasses.replace(
-            settings.shadow, enabled=False))
-
-        def forward(f):
+        def forward(f):  # receives the lighting pass's shadow maps (viewer/passes/forward.py)
             ibl = res.ibl(scene.environment, sun=sun)
-            warn_unshadowed(settings, scene.light, sun=len(ibl.lights))
+            variant = cascade_variant(forward_variant(settings, scene.light, sun=len(ibl.lights)),
+                                      shadows)
+            warn_unshadowed(variant, shadows, scene.light)
             res.layout_pass("forward", spec.layout).run(
                 blended, f["gbuffer"].textures, f["radiance"].fbo, camera, ibl,
-                scene.environment, fwd_settings, light=scene.light)
-        g.add_pass("forward", forward, reads=("gbuffer", "radiance"), writes=("radiance",),
+                scene.environment, settings, light=scene.light, variant=variant,
+                shadows={i: (f[name].texture, frame, size, offset)
+                         for i, (name, frame, size, offset) in shadows.items() if i != "sun"},
+                sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
+                            if "sun" in shadows else None))
+        g.add_pass("forward", forward,
+                   reads=("gbuffer", "radiance") + tuple(v[0] for v in shadows.values()),
+                   writes=("radiance",),
                    inputs={"objects": scene.objects, "render": _lighting_settings(settings),
                            "environment": scene.environment, "light": scene.light})
 

@@ -30,6 +30,14 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
   anything drawn later, and SSAO, screen-space indirect light, the G-buffer AOVs and a
   Monte-Carlo model's samples see only the opaque surfaces. SSAO does not darken blended
   surfaces (``USE_SSAO 0``); their own ambient occlusion (``u_ao``, occlusion maps) does.
+- **Shadows**: blended surfaces receive the shadows of the maps the frame drew for its lighting
+  pass (the same lookups, bound by :class:`~viewer.passes.shadow_bindings.ShadowBindings`) and
+  cast none (a glass pane does not darken the floor; ``viewer/passes/shadow.py``). Contact
+  shadows are left out: they march through the opaque G-buffer's depth, which is behind a
+  blended surface. Where the forward model reads a map the frame did not draw (the environment's
+  sun under a model that does not shade it analytically, whose pass draws no sun map), that
+  light is unshadowed on blended surfaces, and the frame says so once
+  (:func:`warn_unshadowed`).
 """
 from __future__ import annotations
 
@@ -47,6 +55,7 @@ from ..settings import RenderSettings
 from . import bind_gbuffer
 from .gbuffer import MeshUploads
 from .shade import set_view_and_lighting
+from .shadow_bindings import ShadowBindings
 
 FALLBACK_MODEL = "ggx_split_sum"  # shades blended surfaces for models that cannot run forward
 
@@ -68,11 +77,10 @@ def forward_variant(settings: RenderSettings, light: Light | tuple[Light, ...] |
     (SUN_LIGHT, ENV_LIGHTS)."""
     info = model_info(settings.model)
     shaded = light if info.lights == "shaded" else None
-    # blended surfaces receive no shadows: this pass binds no shadow map, and a sampler left
-    # unbound would read whatever texture unit 0 holds; the frame warns once: warn_unshadowed)
-    unshadowed = dataclasses.replace(settings, shadow=dataclasses.replace(
-        settings.shadow, enabled=False, contact="off"))
-    defines = model_info(forward_model(settings.model)).variant(unshadowed, shaded, specular=True,
+    # shadow maps as the lighting pass reads them; no contact shadows (module doc)
+    no_contact = dataclasses.replace(settings, shadow=dataclasses.replace(
+        settings.shadow, contact="off"))
+    defines = model_info(forward_model(settings.model)).variant(no_contact, shaded, specular=True,
                                                                 sun=sun).defines
     defines["BACKGROUND_ENVIRONMENT"] = 0
     if "USE_SSAO" in defines:
@@ -100,6 +108,7 @@ class ForwardPass:
         self.ctx = programs.ctx
         self.layout = layout
         self.uploads = MeshUploads(self.ctx, self._program)
+        self.shadow_maps = ShadowBindings(self.ctx)
         # the layout's loader renamed, then forward_surface.glsl's gbuffer_load in its place
         self._virtual = {"generated/gbuffer.glsl": layout.glsl(load_name="gbuffer_load_opaque")
                          + '#include "passes/forward_surface.glsl"\n'}
@@ -110,17 +119,22 @@ class ForwardPass:
                                       defines=defines, virtual=self._virtual)
 
     def run(self, meshes: list[Mesh], gbuffer_textures: dict, out_fbo, camera: Camera, ibl,
-            environment, settings: RenderSettings, light: Light | tuple[Light, ...] | None = None) -> None:
+            environment, settings: RenderSettings, light: Light | tuple[Light, ...] | None = None,
+            shadows: dict | None = None, sun_shadow: tuple | None = None,
+            variant: ShadeVariant | None = None) -> None:
         """Blend ``meshes`` over ``out_fbo`` (the RGBA32F radiance target of the camera's size),
         sorted back to front, depth-tested against ``gbuffer_textures`` (this layout's
-        attachments: the opaque G-buffer, which must hold the depth channel)."""
+        attachments: the opaque G-buffer, which must hold the depth channel). ``shadows`` and
+        ``sun_shadow``: the frame's maps (:meth:`viewer.passes.shade.ShadePass.run`'s);
+        ``variant``: the program (default: :func:`forward_variant`)."""
         if not meshes:
             return
         if "depth" in self.layout.omit:
             raise ValueError("the forward pass depth-tests against the G-buffer's depth channel, "
                              "which this layout omits")
         _warn_fallback(settings.model)
-        variant = forward_variant(settings, light, sun=len(ibl.lights))
+        if variant is None:
+            variant = forward_variant(settings, light, sun=len(ibl.lights))
         ctx = self.ctx
         out_fbo.use()
         ctx.viewport = (0, 0, camera.width, camera.height)
@@ -136,6 +150,7 @@ class ForwardPass:
                 prog = entry.vao.program
                 unit = bind_gbuffer(prog, gbuffer_textures)
                 unit = ibl.bind(prog, unit)
+                unit = self.shadow_maps.bind(prog, light, shadows or {}, sun_shadow, unit)
                 set_view_and_lighting(prog, camera, environment, light)
                 self.uploads.set_camera(prog, camera)
                 units = self.uploads.bind_material(prog, entry, unit)
@@ -153,23 +168,30 @@ class ForwardPass:
 
     def release(self) -> None:
         self.uploads.release()
+        self.shadow_maps.release()
 
 
 _FALLBACK_WARNED: set[str] = set()
 _UNSHADOWED_WARNED: list[bool] = []
 
 
-def warn_unshadowed(settings: RenderSettings, light, sun: int) -> None:
-    """Once per process, where the scene's ``settings`` cast shadows from ``light`` or the
-    environment's ``sun`` lights: transparent surfaces are drawn without them."""
+def warn_unshadowed(variant: ShadeVariant, shadows: dict, light) -> None:
+    """Once per process, where the forward ``variant`` reads a map the frame did not draw
+    (``shadows``: its maps by light index, ``"sun"``, ``"env<k>"``): the environment's sun, or a
+    shadowing light of ``light``, is then unshadowed on transparent surfaces."""
     from ..lights import as_lights, shadowing
 
-    casts = settings.shadow.enabled and (
-        bool(shadowing(as_lights(light), True)) or (sun > 0 and settings.sun))
-    if casts and not _UNSHADOWED_WARNED:
+    defines = dict(variant.defines)
+    missing = []
+    if defines.get("SUN_SHADOW") and "sun" not in shadows:
+        missing.append("the environment's sun")
+    if defines.get("LIGHT_SHADOWS"):
+        missing += [f"light {i}" for i in shadowing(as_lights(light), True) if i not in shadows]
+    if missing and not _UNSHADOWED_WARNED:
         _UNSHADOWED_WARNED.append(True)
-        warnings.warn("transparent (blended) surfaces receive no shadows: the forward "
-                      "pass does not read the shadow maps", stacklevel=4)
+        warnings.warn(f"transparent (blended) surfaces receive no shadow from {', '.join(missing)}"
+                      f": the frame draws no map for it under model {variant.model!r}'s lighting "
+                      "pass", stacklevel=4)
 
 
 def _warn_fallback(model: str) -> None:

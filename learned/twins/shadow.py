@@ -189,10 +189,12 @@ def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
 def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=True):
     """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv,
     float phi, vec4 lens, int face, bool adaptive, out bool umbra)``: (mean occluder depth or
-    -1, umbra)."""
+    -1, umbra): the receiver's own texel, then the disk's taps."""
     search_uv = _f(search_uv).expand(uv.shape[:-1])
-    total = torch.zeros_like(search_uv)
-    count = torch.zeros_like(search_uv)
+    centre = shadow_sample(map_, uv, face)
+    hit = centre < shadow_receiver_depth(plane, lens, face, uv, torch.zeros_like(uv))
+    total = torch.where(hit, centre, torch.zeros_like(centre))
+    count = hit.float()
     taps = shadow_taps(search_uv, shadow_map_size(map_, face), SHADOW_SEARCH_SAMPLES) if adaptive \
         else torch.full_like(search_uv, float(SHADOW_SEARCH_SAMPLES))
     for d, z, active in _disk_loop(map_, uv, plane, search_uv, phi, lens, face,
@@ -201,7 +203,7 @@ def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=T
         total = total + torch.where(hit, d, torch.zeros_like(d))
         count = count + hit.float()
     depth = torch.where(count > 0, total / count.clamp_min(1.0), torch.full_like(total, -1.0))
-    return depth, count == taps
+    return depth, count == taps + 1
 
 
 def shadow_pcf(map_, uv, plane, r_uv, phi, lens, face, adaptive=True) -> torch.Tensor:

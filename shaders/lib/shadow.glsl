@@ -188,14 +188,19 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 
 // PCSS step 1: mean depth of the occluders in front of the receiver (plane: see
 // shadow_receiver_depth) within radius search_uv of uv; -1 where none is (fully lit); face: the
-// cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes.
+// cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes. The receiver's own
+// texel is the first sample, then the disk's: an occluder that hides the light's centre is found
+// however far the search spreads its other samples (a small occluder under a wide light over a
+// large scene, whose search radius covers the whole scene's depth range, stays in its umbra).
 float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
                            vec4 lens, int face, bool adaptive, out bool umbra) {
     int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, shadow_map_size(map, face),
                         SHADOW_SEARCH_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
-    float sum = 0.0;
-    float count = 0.0;
+    float centre = shadow_sample(map, uv, face);
+    bool hit = centre < shadow_receiver_depth(plane, lens, face, uv, vec2(0.0));
+    float sum = hit ? centre : 0.0;
+    float count = hit ? 1.0 : 0.0;
     for (int i = 0; i < n; ++i) {
         vec2 o = sqrt((float(i) + 0.5) / float(n)) * search_uv * dir;
         float d = shadow_sample(map, uv + o, face);
@@ -205,7 +210,7 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
         }
         dir = vogel_turn(dir);
     }
-    umbra = count == float(n);
+    umbra = count == float(n + 1);
     return count > 0.0 ? sum / count : -1.0;
 }
 

@@ -271,3 +271,34 @@ def test_evicted_geometry_releases_its_shadow_copies(ctx):
     finally:
         tracker.uninstall()
         r.release()
+
+
+def umbra_points(direction, angular_radius, x, z, margin=0.05):
+    """Floor points (x, 0, z) from which the sphere hides the whole light disc (every ray within
+    ``angular_radius`` of ``direction``), with ``margin`` world units to spare: the distance from
+    the sphere's centre to the central ray is below R - margin - t sin(angular_radius) at the
+    ray's closest approach t."""
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    o = np.stack([x, np.zeros_like(x), z], axis=-1)
+    t = ((CENTER - o) * d).sum(-1)
+    closest = o + t[..., None] * d
+    dist = np.linalg.norm(closest - CENTER, axis=-1)
+    return (t > 0) & (dist < RADIUS - margin - t * np.sin(angular_radius))
+
+
+@pytest.mark.parametrize("cascades", [1, "auto"])
+def test_a_wide_light_over_a_large_floor_keeps_its_umbra(renderer, cascades):
+    """A 6.5-degree light over a 100 m floor: the map's depth range (so the blocker search's
+    radius, which must cover every occluder that could reach a receiver) is the whole scene's,
+    far wider than the small sphere's shadow. The receiver's own texel is searched too, so a point
+    whose light the sphere hides entirely is in the umbra, not taken for lit where the sparse
+    search misses the sphere."""
+    floor = {**FLOOR, "size": [100, 100]}
+    direction, diameter = (1.0, 1.0, 0.0), 6.5
+    vis = visibility(renderer, [floor, SPHERE], direction,
+                     light={"angular_diameter_deg": diameter},
+                     render={"shadow_cascades": cascades})
+    x, z = floor_points()
+    umbra = umbra_points(direction, np.radians(diameter / 2.0), x, z) & ~sphere_pixels(x, z)
+    assert umbra.sum() > 20, umbra.sum()
+    assert np.percentile(vis[umbra], 95) < 0.1, np.percentile(vis[umbra], [50, 95, 100])

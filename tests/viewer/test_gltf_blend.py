@@ -210,10 +210,11 @@ def test_blended_surfaces_receive_the_frames_shadows(tmp_path, renderer):
     np.testing.assert_allclose(shadowed[1] - shadowed[2], lit[1] - lit[2], rtol=1e-5)
 
 
-def test_a_map_the_frame_does_not_draw_is_warned_once(tmp_path, renderer):
-    """The environment's sun under ggx_mc, which draws no sun map (it samples the sun with the
-    environment): the forward pass's split-sum shades the sun analytically and would read its
-    map, so the frame warns once that blended surfaces are not shadowed by it."""
+def test_the_sun_map_is_drawn_for_blended_surfaces_alone(tmp_path, renderer):
+    """ggx_mc samples the environment's sun with the rest of the sky and draws no sun map for
+    itself; the forward pass's split-sum shades the sun analytically, so the frame draws the
+    sun's map for it (and nothing is warned), and a blended pane in a square's shadow is darker
+    than without shadows."""
     from viewer.passes import forward
 
     path = _quad_file(tmp_path, "glass.gltf", [GREEN_WALL, (RED, 0.5, "BLEND", 0.5, 0.5)])
@@ -221,12 +222,29 @@ def test_a_map_the_frame_does_not_draw_is_warned_once(tmp_path, renderer):
     forward._UNSHADOWED_WARNED.clear()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        renderer.render(scene)
-        renderer.render(scene)
-    messages = [str(w.message) for w in caught if "receive no shadow" in str(w.message)]
-    assert len(messages) == 1 and "sun" in messages[0], messages
+        targets = renderer.draw(scene)
+    assert "shadowmapsun" in targets.targets
+    assert not [w for w in caught if "receive no shadow" in str(w.message)]
+    opaque = _scene(_quad_file(tmp_path, "wall.gltf", [GREEN_WALL]), model="ggx_mc", samples=1)
+    assert "shadowmapsun" not in renderer.draw(opaque).targets  # only what the frame reads
+
+
+def test_a_map_the_frame_does_not_draw_is_warned_once():
+    """The safety net: a forward variant that reads a map absent from the frame's maps warns once,
+    naming the light; one whose maps are all there does not."""
+    from viewer.lights import Light
+    from viewer.models import ShadeVariant
+    from viewer.passes import forward
+
+    lights = (Light(direction=(0.0, 1.0, 0.0)), Light(direction=(1.0, 1.0, 0.0)))
+    variant = ShadeVariant("ggx_split_sum", (("LIGHT_SHADOWS", 1), ("SUN_SHADOW", 1)))
     forward._UNSHADOWED_WARNED.clear()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        renderer.render(scene.with_render(shadows=False))
-    assert not [w for w in caught if "receive no shadow" in str(w.message)]
+        forward.warn_unshadowed(variant, {0: None, 1: None, "sun": None}, lights)
+        assert not caught
+        forward.warn_unshadowed(variant, {0: None}, lights)
+        forward.warn_unshadowed(variant, {0: None}, lights)
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 1 and "sun" in messages[0] and "light 1" in messages[0], messages
+    forward._UNSHADOWED_WARNED.clear()

@@ -68,17 +68,20 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
                         record_hits=settings.ssao.indirect,
                         blur=settings.ssao.blur) if settings.ssao.enabled else None
-    shadows = shadow_passes(g, renderer, scene, spec, camera)
-    _lighting_passes(g, renderer, req, ssao, shadows)
     blended = [] if spec.direct_stack else renderer.blended(scene)
-    if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
+    fvariant = None
+    if blended:  # its program reads the maps too: the sun's where only it shades the sun
         # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
         sun = settings.sun and model_info(forward_model(settings.model)).analytic_sun
+        fvariant = forward_variant(settings, scene.light,
+                                   sun=len(res.ibl(scene.environment, sun=sun).lights))
+    shadows = shadow_passes(g, renderer, scene, spec, camera, also=fvariant)
+    _lighting_passes(g, renderer, req, ssao, shadows)
+    if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
 
-        def forward(f):  # receives the lighting pass's shadow maps (viewer/passes/forward.py)
+        def forward(f):  # receives the frame's shadow maps (viewer/passes/forward.py)
             ibl = res.ibl(scene.environment, sun=sun)
-            variant = cascade_variant(forward_variant(settings, scene.light, sun=len(ibl.lights)),
-                                      shadows)
+            variant = cascade_variant(fvariant, shadows)
             warn_unshadowed(variant, shadows, scene.light)
             res.layout_pass("forward", spec.layout).run(
                 blended, f["gbuffer"].textures, f["radiance"].fbo, camera, ibl,

@@ -18,15 +18,20 @@ from .resources import ShadowMapDesc
 
 
 def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
-                  camera=None) -> dict:
+                  camera=None, also: ShadeVariant | None = None) -> dict:
     """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``: orthographic,
     perspective for a spot light, a cube atlas for a point light) and for the environment's
     analytic sun (``shadowsun``), fitted to the scene's bounds; only where the lighting pass reads
     them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) -> (resource, frame,
     light size: angular radius in radians or radius in world units, normal offset) for the
-    lighting pass; ``camera``: the view the cascades follow (None: one map each)."""
+    lighting pass; ``camera``: the view the cascades follow (None: one map each); ``also``:
+    another program that reads the maps (the forward pass of transparent surfaces), whose
+    LIGHT_SHADOWS, SUN_SHADOW and ENV_LIGHTS add to the lighting pass's."""
     settings = scene.render
     defines = dict(spec.variant.defines)
+    for key, value in (also.define_items if also is not None else ()):
+        if key in ("LIGHT_SHADOWS", "SUN_SHADOW", "ENV_LIGHTS"):
+            defines[key] = max(int(defines.get(key, 0)), int(value))
     if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")):
         return {}
     lights = as_lights(scene.light)

@@ -30,14 +30,15 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
   anything drawn later, and SSAO, screen-space indirect light, the G-buffer AOVs and a
   Monte-Carlo model's samples see only the opaque surfaces. SSAO does not darken blended
   surfaces (``USE_SSAO 0``); their own ambient occlusion (``u_ao``, occlusion maps) does.
-- **Shadows**: blended surfaces receive the shadows of the maps the frame drew for its lighting
-  pass (the same lookups, bound by :class:`~viewer.passes.shadow_bindings.ShadowBindings`) and
-  cast none (a glass pane does not darken the floor; ``viewer/passes/shadow.py``). Contact
-  shadows are left out: they march through the opaque G-buffer's depth, which is behind a
-  blended surface. Where the forward model reads a map the frame did not draw (the environment's
-  sun under a model that does not shade it analytically, whose pass draws no sun map), that
-  light is unshadowed on blended surfaces, and the frame says so once
-  (:func:`warn_unshadowed`).
+- **Shadows**: blended surfaces receive the shadows of the frame's maps (the same lookups as
+  the lighting pass, bound by :class:`~viewer.passes.shadow_bindings.ShadowBindings`) and cast
+  none (a glass pane does not darken the floor; ``viewer/passes/shadow.py``). Contact shadows
+  are left out: they march through the opaque G-buffer's depth, which is behind a blended
+  surface. The frame draws every map this pass reads, also one the lighting pass does not (the
+  environment's sun under ``ggx_mc``, which samples the sun with the sky while the forward
+  split-sum shades it analytically: ``also`` of :func:`viewer.graph.shadows.shadow_passes`);
+  should one still be missing, that light is unshadowed on blended surfaces and the frame says
+  so once (:func:`warn_unshadowed`).
 """
 from __future__ import annotations
 

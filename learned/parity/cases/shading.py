@@ -37,7 +37,8 @@ def _near_horizon(args):
     nol = rng.uniform(-1.0, 1.0, len(n)) * np.sin(radius)
     moved = t * np.sqrt(1.0 - nol ** 2)[:, None] + nol[:, None] * n
     pick = (rng.random(len(n)) < 0.75) & (norm[:, 0] > 1e-3)
-    l[pick] = (moved / np.linalg.norm(moved, axis=-1, keepdims=True))[pick].astype(l.dtype)
+    length = np.maximum(np.linalg.norm(moved, axis=-1, keepdims=True), 1e-12)  # 0: not picked
+    l[pick] = (moved / length)[pick].astype(l.dtype)
     return args
 
 

@@ -9,15 +9,11 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from shadow_scenes import (CAMERA, CENTER, DARK, FLOOR, FOV, HEIGHT, N, RADIUS, SPHERE,
+                           floor_points, sphere_pixels)
+
 from viewer.renderer import Renderer
 from viewer.scene import ObjectSpec, scene_from_dict
-
-N = 128
-HEIGHT, FOV = 6.0, 60.0  # a camera looking straight down at the floor
-CENTER, RADIUS = np.array([0.0, 1.0, 0.0]), 0.5
-FLOOR = {"type": "plane", "center": [0, 0, 0], "size": [10, 10], "normal": [0, 1, 0],
-         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.9}}
-SPHERE = {"type": "sphere", "center": CENTER.tolist(), "radius": RADIUS}
 
 
 @pytest.fixture(scope="module")
@@ -29,22 +25,10 @@ def renderer(ctx):
 
 def scene(objects, direction, render=None, light=None):
     return scene_from_dict({
-        "camera": {"position": [0, HEIGHT, 0], "target": [0, 0, 0], "up": [0, 0, -1],
-                   "fov_y": FOV, "size": [N, N]},
-        "environment": {"procedural": "white", "width": 32, "intensity": 0.0},
+        "camera": CAMERA, "environment": DARK,
         "lights": [{"type": "directional", "direction": list(direction), "intensity": 3.0,
                     **(light or {})}],
         "objects": objects, "render": {"tonemap": "none", **(render or {})}})
-
-
-def floor_points():
-    """World (x, z) of every pixel's floor point (row 0 at the top): the camera looks down -Y
-    with +X to the right and -Z up the image (up = -Z)."""
-    half = HEIGHT * np.tan(np.radians(FOV) / 2.0)
-    c = (np.arange(N) + 0.5) / N * 2.0 - 1.0
-    x = c[None, :] * half
-    z = c[:, None] * half
-    return np.broadcast_to(x, (N, N)), np.broadcast_to(z, (N, N))
 
 
 def analytic_shadow(direction, x, z):
@@ -55,11 +39,6 @@ def analytic_shadow(direction, x, z):
     c = (o * o).sum(-1) - RADIUS ** 2
     disc = b * b - c
     return (disc > 0) & (-b - np.sqrt(np.maximum(disc, 0)) > 0)
-
-
-def sphere_pixels(x, z):
-    """Pixels whose view ray (straight down, near enough) meets the sphere first."""
-    return (x - CENTER[0]) ** 2 + (z - CENTER[2]) ** 2 < (RADIUS * 1.25) ** 2
 
 
 def visibility(renderer, objects, direction, **kw):

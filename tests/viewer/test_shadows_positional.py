@@ -9,15 +9,10 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from shadow_scenes import CAMERA, CENTER, DARK, FLOOR, RADIUS, SPHERE, floor_points, sphere_pixels
+
 from viewer.renderer import Renderer
 from viewer.scene import scene_from_dict
-
-N = 128
-HEIGHT, FOV = 6.0, 60.0  # a camera looking straight down at the floor
-CENTER, RADIUS = np.array([0.0, 1.0, 0.0]), 0.5
-FLOOR = {"type": "plane", "center": [0, 0, 0], "size": [10, 10], "normal": [0, 1, 0],
-         "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.9}}
-SPHERE = {"type": "sphere", "center": CENTER.tolist(), "radius": RADIUS}
 
 
 @pytest.fixture(scope="module")
@@ -29,18 +24,9 @@ def renderer(ctx):
 
 def scene(objects, light, render=None):
     return scene_from_dict({
-        "camera": {"position": [0, HEIGHT, 0], "target": [0, 0, 0], "up": [0, 0, -1],
-                   "fov_y": FOV, "size": [N, N]},
-        "environment": {"procedural": "white", "width": 32, "intensity": 0.0},
+        "camera": CAMERA, "environment": DARK,
         "lights": [{"intensity": 20.0, **light}],
         "objects": objects, "render": {"tonemap": "none", **(render or {})}})
-
-
-def floor_points():
-    """World (x, z) of every pixel's floor point (row 0 at the top; +X right, -Z up)."""
-    half = HEIGHT * np.tan(np.radians(FOV) / 2.0)
-    c = (np.arange(N) + 0.5) / N * 2.0 - 1.0
-    return np.broadcast_to(c[None, :] * half, (N, N)), np.broadcast_to(c[:, None] * half, (N, N))
 
 
 def analytic_shadow(light_pos, x, z):
@@ -55,11 +41,6 @@ def analytic_shadow(light_pos, x, z):
     disc = b * b - c
     t = -b - np.sqrt(np.maximum(disc, 0))
     return (disc > 0) & (t > 0) & (t < length)
-
-
-def sphere_pixels(x, z):
-    """Pixels whose view ray (straight down, near enough) meets the sphere first."""
-    return (x - CENTER[0]) ** 2 + (z - CENTER[2]) ** 2 < (RADIUS * 1.25) ** 2
 
 
 def visibility(renderer, objects, light, **kw):

@@ -53,7 +53,7 @@ def write_report(report: dict, out: Path) -> list[Path]:
         scenes = list(dict.fromkeys(r["scene"] for r in spheres))
         md += ["**The fidelity scenes** (`assets/scenes/reference`, 64 x 64) against their stored "
                "4,096-spp references (`assets/references`); the same three numbers. These scenes "
-               "trace single scattering (`multiscatter = false`).", ""]
+               "trace the multiple-scattering BSDF, as every truth here does.", ""]
         half = (len(scenes) + 1) // 2
         for part in (scenes[:half], scenes[half:]):
             if part:

@@ -4,8 +4,8 @@
   pass ``shade``) and PSNR against a Monte-Carlo reference (``ggx_mc``, many samples) of the
   student (``neural``), the GLSL teacher at ``teacher_samples`` samples (``neural_teacher``) and
   ``ggx_split_sum`` on one scene, at each size of ``sizes``. The teacher is no reference of
-  accuracy: against path-traced truth it is 68 % too dark on the rough conductor of the
-  reference scenes (bench "against truth": worst bias -68.4 % at 8, 32 and 128 spp), so the
+  accuracy: against path-traced truth it is 70 % too dark on the rough conductor of the
+  reference scenes (bench "against truth": worst bias -70 % at 8, 32 and 128 spp), so the
   ratios teacher / student are timings of two models, not a speed-up at equal accuracy; a
   speed claim is made against truth at equal accuracy (the "against truth" table, where the
   split-sum model with SSAO and indirect light is both faster and closer to the truth than

@@ -19,7 +19,7 @@ from ..lights import Light, light_uniforms
 from ..settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
-from .shadow_bindings import ShadowBindings, shadow_lens  # noqa: F401 (shadow_lens: API)
+from .shadow_bindings import ShadowBindings
 
 
 def shade_defines(model: str, settings: RenderSettings,

@@ -61,7 +61,7 @@ def _read_map(frame) -> torch.Tensor:
 
 def _twin_visibility(renderer, scene, frame, depth_map, gbuffer) -> np.ndarray:
     from viewer.graph.frame import light_shadow_frame
-    from viewer.passes.shade import shadow_lens
+    from viewer.passes.shadow_bindings import shadow_lens
 
     light = scene.lights[0]
     settings = scene.render.shadow

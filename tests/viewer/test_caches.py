@@ -2,7 +2,6 @@
 (counted for real: viewer.gl.tracking wraps the context's factories), evicted content comes back
 identical, and an upload is never handed out for a new object that reused a dead one's id()."""
 import dataclasses
-import shutil
 
 import numpy as np
 import pytest
@@ -350,55 +349,3 @@ def test_a_renderer_with_two_programs_renders_as_one_with_all(ctx):
     finally:
         small.release()
         full.release()
-
-
-# ---- networks -----------------------------------------------------------------------------------
-def _tiny_student(folder):
-    """A random one-hidden-layer student (4 units, no Fourier features) exported to ``folder``:
-    its uniform-block code compiles in a second on llvmpipe (the shipped student's, in ~30 s)."""
-    torch = pytest.importorskip("torch")
-    from learned.export import export
-    from learned.neural.student import Student
-
-    torch.manual_seed(0)
-    export(Student(hidden=(4,), num_freqs=0), folder / "tiny.safetensors")
-    return folder / "tiny.safetensors"
-
-
-def test_neural_weight_uploads_are_bounded_and_released(ctx, tracker, tmp_path):
-    scene = scene_from_dict({**BASE, "objects": [
-        {"type": "sphere", "center": [0, 0.4, 0], "radius": 0.4}],
-        "render": {**BASE["render"], "model": "neural",
-                   "weights": str(_tiny_student(tmp_path))}})
-    ubo, tex = scene.with_render(neural_storage="ubo"), scene.with_render(neural_storage="texture")
-    r = _renderer(ctx)
-    try:
-        first = r.render(ubo).radiance
-        shade = r.resources.layout_pass("shade", r.layout_for(ubo))
-        shade.weights.resize(max_items=1)
-        level = tracker.live()
-        r.render(tex)  # its weights texture evicts the uniform buffer of the ubo storage
-        assert len(shade.weights) == 1 and shade.weights.stats().evictions == 1
-        assert tracker.live()["Buffer"] == level["Buffer"] - 1
-        np.testing.assert_array_equal(r.render(ubo).radiance, first)
-    finally:
-        r.release()
-
-
-def test_loaded_networks_are_bounded(tmp_path):
-    from viewer.neural import network
-    from viewer.neural.format import default_weights
-
-    saved = network._CACHE.max_items
-    network._CACHE.clear()
-    network._CACHE.resize(max_items=2)
-    before = network.cache_stats().evictions  # counters are the process's, not this test's
-    try:
-        for i in range(3):
-            path = shutil.copy(default_weights("student"), tmp_path / f"w{i}.safetensors")
-            network.load_network(path, "student")
-        stats = network.cache_stats()
-        assert stats.items == 2 and stats.evictions - before == 1
-    finally:
-        network._CACHE.resize(max_items=saved)
-        network._CACHE.clear()

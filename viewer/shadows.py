@@ -66,6 +66,40 @@ class ShadowFrame:
             out[:, 2] = (dist - self.near) / self.depth_range
         return out
 
+    @property
+    def origin(self) -> np.ndarray | None:
+        """The light's position: where a perspective frame's u w, v w and w all vanish; None for
+        an orthographic frame (a light at infinity)."""
+        if self.kind == SHADOW_ORTHO:
+            return None
+        m = self.matrix[[0, 1, 3]]
+        return np.linalg.solve(m[:, :3], -m[:, 3])
+
+    def facing_winding(self) -> str:
+        """``"ccw"`` or ``"cw"``: how a triangle that faces the light (counter-clockwise around
+        a normal turned towards it) winds in the map, i.e. whether the rasteriser sees the faces
+        turned towards the light as its front faces (``"ccw"``) or its back faces."""
+        m = self.matrix
+        if self.kind == SHADOW_ORTHO:
+            c = np.linalg.solve(m[:3, :3], np.full(3, 0.5) - m[:3, 3])  # the frame's middle
+            towards = -m[2, :3]
+            eps = 1e-3 * max(self.extent)
+        else:
+            o = self.origin
+            axis = m[3, :3] / np.linalg.norm(m[3, :3])
+            dist = self.near + 0.5 * self.depth_range
+            c = o + axis * dist
+            towards = o - c
+            eps = 1e-3 * dist
+        towards = towards / np.linalg.norm(towards)
+        helper = np.array([0.0, 1.0, 0.0]) if abs(towards[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        t = np.cross(helper, towards)
+        t /= np.linalg.norm(t)
+        b = np.cross(towards, t)  # t x b = towards: the triangle (c, c + t, c + b) faces the light
+        uv = self.project(np.stack([c, c + eps * t, c + eps * b]))[:, :2]
+        e1, e2 = uv[1] - uv[0], uv[2] - uv[0]
+        return "ccw" if e1[0] * e2[1] - e1[1] * e2[0] > 0.0 else "cw"
+
     def jacobian(self, points: np.ndarray) -> np.ndarray:
         """``[N, 3, 3]``: rows d(u, v, depth)/d(world) at each point (the map's local affine
         approximation: how a splat's covariance projects into it)."""

@@ -4,8 +4,10 @@ the nearest occluder seen from a light, in the light's fitted frame
 lights; a point light's :class:`~viewer.shadows.ShadowCube` is six perspective faces drawn into
 the tiles of one atlas), rendered from the scene's meshes and Gaussian splats.
 
-Meshes are drawn with both faces (a closed mesh's back faces keep light from leaking through a
-thin wall); the receiver's normal-offset bias (``shadow_receiver`` in ``lib/shadow.glsl``) keeps
+A mesh that bounds a solid (:func:`viewer.geometry.solid.solid_orientation`) is drawn with only
+its faces turned towards the light, which hold the nearest occluder of every ray from a light
+outside it (a light inside its bounds, or an open mesh: both faces, which keep light from leaking
+through a thin wall): the same map for half the rasterised triangles. The receiver's normal-offset bias (``shadow_receiver`` in ``lib/shadow.glsl``) keeps
 lit surfaces from shadowing themselves. A splat is a quad over its projected 3-sigma ellipse in
 the light's frame, cut where the Gaussian's opacity falls below 0.5, at its mean depth along each light ray: a
 splat surface dense enough to look opaque casts a shadow, a haze of faint splats does not.
@@ -16,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.mesh import Mesh
+from ..geometry.solid import OPEN, OUTWARD, solid_orientation
 from ..cascades import ShadowCascades
 from ..shadows import SHADOW_ORTHO, ShadowCube, ShadowFrame
 from ..splats.data import Splats
@@ -65,8 +68,9 @@ class ShadowPass:
     def __init__(self, programs):
         self.programs = programs
         self.ctx = programs.ctx
-        # mesh -> (vertex array, position buffer, index buffer): positions only
-        self.meshes = UploadCache(self.ctx, "shadow mesh uploads", release=_release_arrays)
+        # mesh -> ((vertex array, position buffer, index buffer), solid orientation): positions
+        self.meshes = UploadCache(self.ctx, "shadow mesh uploads",
+                                  release=lambda entry: _release_arrays(entry[0]))
         # (cloud, frame matrix) -> (vertex array, instance buffer): rebuilt when the light turns
         self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
                                   release=_release_arrays)
@@ -93,6 +97,7 @@ class ShadowPass:
         target.fbo.clear(1.0, 1.0, 1.0, 1.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.front_face = "ccw"
         try:
             if isinstance(frame, (ShadowCube, ShadowCascades)):
                 for face, f in enumerate(frame.faces):
@@ -102,7 +107,8 @@ class ShadowPass:
                 ctx.viewport = (0, 0, frame.resolution, frame.resolution)
                 self._draw_frame(frame, meshes, clouds)
         finally:
-            ctx.disable(ctx.DEPTH_TEST)
+            ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
+            ctx.cull_face = "back"
 
     def _draw_frame(self, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats]) -> None:
         n = int(frame.resolution)
@@ -110,10 +116,17 @@ class ShadowPass:
         variant = "radial" if radial else ("ortho" if frame.kind == SHADOW_ORTHO
                                            else "perspective")
         matrix = np.ascontiguousarray(frame.matrix.T, np.float32).tobytes()
+        facing, origin = frame.facing_winding(), frame.origin
         for mesh in meshes:
             if mesh.alpha_mode == "BLEND":
                 continue
-            vao = self._mesh_array(mesh, variant)
+            vao, orientation = self._mesh_array(mesh, variant)
+            cull = culled_faces(orientation, facing, mesh, origin)
+            if cull is None:
+                self.ctx.disable(self.ctx.CULL_FACE)
+            else:
+                self.ctx.enable(self.ctx.CULL_FACE)
+                self.ctx.cull_face = cull
             vao.program["u_light_matrix"].write(matrix)
             if radial:
                 vao.program["u_light_center"].value = frame.center
@@ -128,17 +141,19 @@ class ShadowPass:
 
     def _mesh_array(self, mesh: Mesh, variant: str = "ortho"):
         """The mesh's positions and indices with the shadow program of ``variant``
-        (:meth:`_mesh_program`; remade if the program was evicted and compiled again)."""
+        (:meth:`_mesh_program`; remade if the program was evicted and compiled again), and its
+        :func:`~viewer.geometry.solid.solid_orientation`."""
         prog = self._mesh_program(variant)
         entry = self.meshes.get(mesh, variant)
-        if entry is None or entry[0].program is not prog:
+        if entry is None or entry[0][0].program is not prog:
             mesh.validated()
             pos = self.ctx.buffer(np.ascontiguousarray(mesh.positions, np.float32).tobytes())
             idx = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
             vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
                                         index_element_size=4)
-            entry = self.meshes.put(mesh, variant, (vao, pos, idx), pos.size + idx.size)
-        return entry[0]
+            entry = self.meshes.put(mesh, variant, ((vao, pos, idx), solid_orientation(
+                mesh.positions, mesh.indices)), pos.size + idx.size)
+        return entry[0][0], entry[1]
 
     def _splat_array(self, cloud: Splats, frame: ShadowFrame):
         key = (frame.matrix.tobytes(), frame.resolution)
@@ -155,6 +170,24 @@ class ShadowPass:
     def release(self) -> None:
         self.meshes.release()
         self.splats.release()
+
+
+def culled_faces(orientation: int, facing: str, mesh: Mesh, origin) -> str | None:
+    """The faces (``"front"`` or ``"back"``, GL's counter-clockwise front) a shadow pass culls
+    from ``mesh`` of :func:`~viewer.geometry.solid.solid_orientation` ``orientation``: those
+    turned away from the light, whose faces turned towards it wind ``facing`` in the map
+    (:meth:`~viewer.shadows.ShadowFrame.facing_winding`); None (both faces drawn) for an open
+    mesh or a light at ``origin`` inside the mesh's bounds (a lamp in a room: its rays leave
+    the solid first)."""
+    if orientation == OPEN:
+        return None
+    if origin is not None:
+        lo, hi = mesh.bounds()
+        if np.all(np.asarray(origin) >= lo) and np.all(np.asarray(origin) <= hi):
+            return None
+    # an outward solid's faces towards the light are counter-clockwise about their normals
+    keep_ccw = (facing == "ccw") == (orientation == OUTWARD)
+    return "back" if keep_ccw else "front"
 
 
 def _release_arrays(value) -> None:

@@ -10,7 +10,9 @@ shadows on and with ``[render] shadows = false``, and scored against the referen
 pixels). A row per scene gives the case that scores best *with* shadows, beside the same case
 without: ``gain_db`` is what the shadow maps buy against truth. ``casters`` says what casts a
 shadow map there (the environment's sun, directional lights); where nothing does, the two renders
-are the same image and the gain is 0 by construction.
+are the same image and the gain is 0 by construction. ``psnr_map<n>`` scores the same case with
+shadow maps of ``n`` texels a side instead of the default (:data:`MAP_SIZES`): the accuracy side of
+the map size's speed/accuracy trade, whose cost the ``shadows`` suite measures.
 
 ``penumbra``: the 10-90 % width of a directional light's penumbra (2 and 8 deg) in the PCSS shadow
 and in the path tracer (:mod:`relight.bench.penumbra`), traced live at 128^2, 256 spp (left out,
@@ -37,6 +39,7 @@ CANDIDATES = (("ggx_split_sum", "default", {}),
               ("ggx_split_sum", "+ssao", {"ssao": True}),
               ("ggx_split_sum", "+ssao +indirect", {"ssao": True, "indirect": True}),
               ("blinn_phong", "default", {}))
+MAP_SIZES = (512, 1024, 4096)  # besides the default 2048
 
 
 def _casters(scene) -> str:
@@ -56,7 +59,8 @@ def _casters(scene) -> str:
     return ", ".join(parts) or "nothing"
 
 
-def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES) -> list[dict]:
+def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES,
+                      map_sizes=MAP_SIZES) -> list[dict]:
     """One row per scene of ``names`` with a stored reference (module docstring)."""
     from relight.reference import read_reference
     from relight.reference.compare import score
@@ -84,10 +88,14 @@ def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES) -> l
             if best is None or scores[True].psnr > best[2][True].psnr:
                 best = (model, variant, scores)
         model, variant, s = best
+        changes = dict(next(c for m, v, c in candidates if (m, v) == (model, variant)))
+        by_size = {f"psnr_map{n}": score(renderer.render(scene.with_render(
+            model=model, shadows=True, shadow_size=n, **changes), size=(w, h)).radiance,
+            truth).psnr for n in map_sizes}
         rows.append({"scene": name, "casters": _casters(scene), "size": f"{w}x{h}",
                      "spp": truth.meta.get("spp"), "model": model, "variant": variant,
                      "psnr_shadows": s[True].psnr, "psnr_without": s[False].psnr,
-                     "gain_db": s[True].psnr - s[False].psnr,
+                     "gain_db": s[True].psnr - s[False].psnr, **by_size,
                      "median_rel_shadows_%": 100 * s[True].median_rel,
                      "median_rel_without_%": 100 * s[False].median_rel,
                      "bias_shadows_%": 100 * s[True].bias, "bias_without_%": 100 * s[False].bias})

@@ -49,17 +49,19 @@ def test_transition_width_noise_follows_the_slope():
 def test_shadow_truth_row_on_a_committed_reference(renderer):
     """park_sphere_on_plane (the park sun casts the sphere's shadow): one row with the best of two
     cases, finite scores, and shadows on scoring above shadows off (the reference has the
-    shadow)."""
+    shadow); the same case with a 64-texel map (15 cm texels under a 0.5 m sphere) scores
+    lower than with the default map."""
     from relight.bench.shadow_truth import shadow_truth_rows
 
     rows = shadow_truth_rows(renderer, names=("park_sphere_on_plane",),
                              candidates=(("ggx_split_sum", "default", {}),
-                                         ("unlit", "default", {})))
+                                         ("unlit", "default", {})), map_sizes=(64,))
     assert len(rows) == 1
     row = rows[0]
     assert row["model"] == "ggx_split_sum" and row["casters"].startswith("sun")
     assert all(math.isfinite(row[k]) for k in ("psnr_shadows", "psnr_without", "gain_db"))
     assert row["gain_db"] > 0.0, row
+    assert math.isfinite(row["psnr_map64"]) and row["psnr_map64"] < row["psnr_shadows"], row
 
 
 def test_bench_unknown_suite_is_one_line_error(tmp_path, capsys):

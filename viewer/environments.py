@@ -31,7 +31,7 @@ import numpy as np
 from .cache import BoundedCache, Budgets, CacheStats, array_bytes, mib, texture_bytes
 from .envcache import EnvCache, _one_line, digest_key, file_digest
 from .environment import DISPLAY_TYPES, EnvironmentSpec, load_environment
-from .envsampling import EnvSampling, build_env_sampling, power_directions
+from .envsampling import EnvSampling, build_env_sampling, median_cut, power_directions
 from .ibl import IBL, IBLOptions, build_ibl, build_luts, mip_sizes
 from .ibl_build import EnvironmentIBLs, build_environment_ibls
 from .imageio import pixel_type
@@ -52,6 +52,8 @@ class Environment:
         self.lights = tuple(lights)       # its compact lights (viewer.sun.extract_lights)
         self.sun = self.lights[0] if self.lights else None  # the most energetic one
         self.power_directions = directions  # None until asked for (EnvironmentStore)
+        # (count, sunless) -> median_cut's arrays: the shadow directions (EnvironmentStore)
+        self.shadow_lights: dict[tuple[int, bool], tuple[np.ndarray, ...]] = {}
         self.disk_key = disk_key          # the disk cache's key, or None
         self.sampling: EnvSampling | None = None
         # "fis": the plain IBL, the sun-less one built on first use from the (env, residual) kept
@@ -91,7 +93,8 @@ class Environment:
         sh = [self.plain.sh] + ([] if self.ibls is None or self.ibls.sunless is None
                                 else [self.ibls.sunless.sh])
         return (sum(texture_bytes(t) for t in self.textures())
-                + array_bytes(self.power_directions, sh, self._arrays))
+                + array_bytes(self.power_directions, sh, self._arrays)
+                + sum(a.nbytes for v in self.shadow_lights.values() for a in v))
 
     def release(self) -> None:
         if self.ibls is not None:
@@ -169,6 +172,27 @@ class EnvironmentStore:
             entry.power_directions = self._directions(entry)
             self._resize(spec, entry)
         return entry.power_directions
+
+    def shadow_lights(self, spec: EnvironmentSpec, count: int, sunless: bool
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The environment's light as ``count`` directional lights that cast its shadows
+        (:func:`viewer.envsampling.median_cut`: directions in the environment frame, shares,
+        angular radii), of the image without its compact lights where ``sunless`` (the light
+        the irradiance map holds when the compact lights are shaded analytically); computed on
+        first use from the radiance texture's level 0."""
+        entry = self._entry(spec)
+        key = (int(count), bool(sunless and entry.lights))
+        got = entry.shadow_lights.get(key)
+        if got is None:
+            radiance = entry.plain.radiance
+            env = np.frombuffer(radiance.read(), np.float32).reshape(
+                radiance.height, radiance.width, 4)[..., :3]
+            if key[1]:
+                env = extract_lights(env)[0]
+            got = median_cut(env, key[0])
+            entry.shadow_lights[key] = got
+            self._resize(spec, entry)
+        return got
 
     @property
     def environments(self) -> int:  # how many environments are held

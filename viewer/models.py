@@ -59,6 +59,9 @@ class ShadingModel:
     # SUN_LIGHT: shades the environment's extracted sun analytically (viewer/sun.py) and reads
     # the IBL of the environment without it (GPUResources.ibl(..., sun=True))
     analytic_sun: bool = False
+    # ENV_SHADOWS: the environment's shadow directions occlude its irradiance-map diffuse light
+    # ([render] env_shadows; passes/lights.glsl env_shadow)
+    env_shadows: bool = False
 
     def variant(self, settings, light=None, specular: bool = True,
                 sun: int = 0, contact: bool = False) -> ShadeVariant:
@@ -94,6 +97,8 @@ class ShadingModel:
             d["SUN_LIGHT"] = 1
         if d.get("SUN_LIGHT") and int(sun) > 1:
             d["ENV_LIGHTS"] = int(sun) - 1  # the environment's other compact lights
+        if self.env_shadows and settings.shadow.enabled and settings.shadow.environment > 0:
+            d["ENV_SHADOWS"] = int(settings.shadow.environment)
         if d.get("SUN_LIGHT") and settings.shadow.enabled:
             d["SUN_SHADOW"] = 1  # the analytic sun reads a shadow map (viewer/passes/shadow.py)
         return ShadeVariant(self.name, tuple(sorted(d.items())))
@@ -111,14 +116,15 @@ MODELS: dict[str, ShadingModel] = {
                      "the thesis baseline: Lambert diffuse from the irradiance map + a "
                      "Fresnel-free normalised Blinn-Phong lobe from the prefiltered environment",
                      frozenset({"irradiance", "prefiltered", "radiance"}), reads=_LIT,
-                     specular_lobe=True),
+                     specular_lobe=True, env_shadows=True),
         ShadingModel("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
                      "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
                      "prefiltered specular + irradiance-map diffuse; the environment's compact "
                      "lights, when it has any, as analytic lights; optional multiple-scattering "
                      "compensation",
                      frozenset({"irradiance", "prefiltered", "dfg", "radiance"}), reads=_LIT,
-                     multiscatter=True, specular_lobe=True, analytic_sun=True),
+                     multiscatter=True, specular_lobe=True, analytic_sun=True,
+                     env_shadows=True),
         ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
                      "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
                      "environment: `samples` per pixel, `sampling` = uniform | cosine | env | "

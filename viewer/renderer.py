@@ -290,13 +290,16 @@ def check_aovs(aovs) -> None:
     unknown = [a for a in aovs if a not in AOV_NAMES and not _is_shadow_aov(a)]
     if unknown:
         raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
-                         f"(known: {', '.join(AOV_NAMES)}, shadow<i>, shadowsun)", where="--aov")
+                         f"(known: {', '.join(AOV_NAMES)}, shadow<i>, shadowsun, shadowenv<k>, "
+                         f"shadowenvdirs)", where="--aov")
 
 
 def _is_shadow_aov(name: str) -> bool:
-    """``shadow<i>`` (light i's map) or ``shadowsun`` (the environment's sun's)."""
+    """``shadow<i>`` (light i's map), ``shadowsun`` (the environment's sun's), ``shadowenv<k>``
+    (its other compact lights') or ``shadowenvdirs`` (the atlas of its shadow directions)."""
     rest = name[len("shadow"):] if name.startswith("shadow") else None
-    return rest is not None and (rest == "sun" or rest.isdigit())
+    return rest is not None and (rest in ("sun", "envdirs") or rest.isdigit()
+                                 or (rest.startswith("env") and rest[3:].isdigit()))
 
 
 def _read_shadow_map(targets: FrameTargets, name: str):

@@ -100,6 +100,10 @@ class GPUResources:
         """The environment's equal-power directions (environment frame)."""
         return self.env.power_directions(spec)
 
+    def env_shadow_lights(self, spec: EnvironmentSpec, count: int, sunless: bool):
+        """The environment's shadow directions (:meth:`EnvironmentStore.shadow_lights`)."""
+        return self.env.shadow_lights(spec, count, sunless)
+
     @property
     def environments(self) -> int:
         """How many environments the store holds."""

@@ -13,7 +13,7 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import (AA_MODES, CONTACT_SHADOWS, RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX,
+from .settings import (AA_MODES, CONTACT_SHADOWS, ENV_SHADOWS_MAX, RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX,
                        SSAO_SCALE_MAX)
 
 
@@ -119,6 +119,8 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
             kw[k] = _num(t[k], f"render.{k}", file, 1e-6, 1e6)
     if "shadow_size" in t:
         kw["shadow_size"] = _int(t["shadow_size"], "render.shadow_size", file, 64, 8192)
+    if "env_shadows" in t:
+        kw["env_shadows"] = _int(t["env_shadows"], "render.env_shadows", file, 0, ENV_SHADOWS_MAX)
     if "shadow_cube_size" in t:
         kw["shadow_cube_size"] = _int(t["shadow_cube_size"], "render.shadow_cube_size", file, 32,
                                       4096)

@@ -88,12 +88,17 @@ class ShadowSettings:
     # (contact_shadows)
     contact: str = "auto"
     contact_length: float = 0.3  # world units the march covers (contact_length)
+    # the environment's light as this many directional lights (viewer/envsampling.py median_cut)
+    # whose soft shadow maps occlude its diffuse light (passes/lights.glsl env_shadow), in the
+    # models that look it up from the irradiance map; 0: none (env_shadows, 0..ENV_SHADOWS_MAX)
+    environment: int = 0
 
     def __bool__(self):
         raise TypeError("ShadowSettings has no truth value: use settings.shadow.enabled")
 
 
 CONTACT_SHADOWS = ("auto", "on", "off")  # [render] contact_shadows
+ENV_SHADOWS_MAX = 16  # [render] env_shadows: 0..16 (tiles of one shadow atlas, 2 wide)
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
 AA_MODES = ("fxaa", "none")  # [render] aa
@@ -179,6 +184,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "shadows": ("shadow", "enabled"),
     "shadow_size": ("shadow", "size"),
     "shadow_cube_size": ("shadow", "cube_size"),
+    "env_shadows": ("shadow", "environment"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),
     "shadow_cascades": ("shadow", "cascades"),

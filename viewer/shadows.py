@@ -232,3 +232,47 @@ def cube_frames(bounds: Bounds, position, resolution: int = 1024) -> ShadowCube:
     return ShadowCube(faces=faces, center=tuple(float(v) for v in position), near=near,
                       depth_range=far - near, resolution=int(resolution))
 
+
+@dataclass(frozen=True)
+class EnvShadowFrames:
+    """The environment's shadow directions (:func:`viewer.envsampling.median_cut`), each an
+    orthographic frame fitted to the scene's bounds, drawn into a tile of one atlas 2 tiles wide
+    (the addressing of cascade tiles: ``lib/shadow.glsl`` ``shadow_tile_visibility``).
+    ``directions`` unit, world space, towards each light; ``shares`` each one's part of the
+    light; ``radii`` angular radii (radians)."""
+
+    faces: tuple[ShadowFrame, ...]
+    directions: tuple[tuple[float, float, float], ...]
+    shares: tuple[float, ...]
+    radii: tuple[float, ...]
+    resolution: int  # texels a side of each tile
+
+    kind = SHADOW_ORTHO
+
+    @property
+    def count(self) -> int:
+        return len(self.faces)
+
+    @property
+    def texel_world(self) -> float:
+        return max(f.texel_world for f in self.faces)
+
+    @property
+    def matrix(self) -> np.ndarray:  # not read: each tile has its own (faces)
+        return np.eye(4)
+
+    def tile(self, k: int) -> tuple[int, int, int, int]:
+        """The atlas viewport (x, y, width, height) of direction ``k``."""
+        n = self.resolution
+        return (k % 2 * n, k // 2 * n, n, n)
+
+
+def env_shadow_frames(bounds: Bounds, directions, shares, radii,
+                      resolution: int) -> EnvShadowFrames:
+    """One orthographic frame per direction (world space, towards the light) fitted to
+    ``bounds`` (:func:`directional_frame`), ``resolution`` texels a side."""
+    dirs = tuple(tuple(float(x) for x in d) for d in directions)
+    return EnvShadowFrames(
+        faces=tuple(directional_frame(bounds, d, int(resolution)) for d in dirs),
+        directions=dirs, shares=tuple(float(x) for x in shares),
+        radii=tuple(float(x) for x in radii), resolution=int(resolution))

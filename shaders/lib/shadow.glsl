@@ -343,3 +343,17 @@ float shadow_cascade_visibility(sampler2D map, mat4 m, vec4 lens, float offset, 
     vec4 lens_c = vec4(lens.x, lens.y * c.x, lens.z, lens.w);
     return shadow_pcss(map, s, vec3(s.z, dz), lens_c, phi, -2 - k, adaptive);
 }
+
+// The fraction of a directional light (unit l towards it) reaching p (normal n) through one tile
+// of an atlas 2 tiles wide (the environment's shadow directions: viewer/shadows.py
+// EnvShadowFrames): tile `tile`, whose frame m maps world -> (u, v, depth) within the tile, lens
+// its lens (shadow_penumbra_uv) and offset its normal offset (world units). PCSS as
+// shadow_light_visibility's orthographic case, every tap adaptive.
+float shadow_tile_visibility(sampler2D map, mat4 m, vec4 lens, float offset, int tile, vec3 l,
+                             vec3 p, vec3 n, float phi) {
+    vec3 s = (m * vec4(shadow_receiver(p, n, l, offset), 1.0)).xyz;
+    vec3 du = vec3(m[0][0], m[1][0], m[2][0]);
+    vec3 dv = vec3(m[0][1], m[1][1], m[2][1]);
+    vec2 dz = shadow_depth_slope(shadow_plane_normal(du, dv, vec3(m[0][2], m[1][2], m[2][2]), n));
+    return shadow_pcss(map, s, vec3(s.z, dz), lens, phi, -2 - tile, true);
+}

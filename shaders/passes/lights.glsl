@@ -24,16 +24,19 @@
 #ifndef SUN_CASCADES
 #define SUN_CASCADES 0  // 1: the sun's map is cascaded
 #endif
-#if LIGHT_CASCADES || SUN_CASCADES
+#ifndef ENV_SHADOWS
+#define ENV_SHADOWS 0  // the environment's shadow directions (env_shadow); 0: none
+#endif
+#if LIGHT_CASCADES || SUN_CASCADES || ENV_SHADOWS > 0
 #define SHADOW_CASCADE_MAPS 1
 #endif
-#if LIGHT_SHADOWS || SUN_SHADOW
+#if LIGHT_SHADOWS || SUN_SHADOW || ENV_SHADOWS > 0
 #include "lib/shadow.glsl"
 #endif
 #ifndef CONTACT_SHADOWS
 #define CONTACT_SHADOWS 0  // 1: screen-space contact shadows ([render] contact_shadows)
 #endif
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS || ENV_SHADOWS > 0
 uniform vec3 u_camera_position;                // world space
 #endif
 
@@ -41,7 +44,7 @@ uniform vec3 u_camera_position;                // world space
 // distance along the view axis) at fragment frag_coord; 0 without positional lights or
 // shadow maps.
 vec3 light_surface_position(vec2 frag_coord, float depth) {
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS || ENV_SHADOWS > 0
     vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
     return u_camera_position + u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0) * depth;
 #else
@@ -78,6 +81,43 @@ float sun_visibility(vec3 p, vec3 n, vec3 l) {
                              shadow_phi(gl_FragCoord.xy));
 }
 #endif
+
+#if ENV_SHADOWS > 0
+// the environment's light as ENV_SHADOWS directional lights (viewer/envsampling.py median_cut),
+// each with a tile of one shadow atlas (viewer/passes/shadow_bindings.py): per direction its
+// tile's world -> (u, v, depth), (unit direction towards it in world space, its share of the
+// light), lens (shadow_penumbra_uv) and normal offset
+uniform sampler2D u_env_shadow_map;
+uniform mat4 u_env_shadow_matrix[ENV_SHADOWS];
+uniform vec4 u_env_shadow_dir[ENV_SHADOWS];
+uniform vec4 u_env_shadow_lens[ENV_SHADOWS];
+uniform float u_env_shadow_offset[ENV_SHADOWS];
+#endif
+
+// The fraction of the environment's diffuse light (what the irradiance map holds) reaching the
+// pixel whose G-buffer is g (normal n) past the scene's occluders (ENV_SHADOWS; 1 without): the
+// mean of the shadow directions' visibilities (shadow_tile_visibility) weighted by the light each
+// brings to a surface facing n, its share times max(n.l, 0). Where nothing occludes, exactly 1.
+float env_shadow(GBuffer g, vec3 n) {
+#if ENV_SHADOWS > 0
+    vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
+    float phi = shadow_phi(gl_FragCoord.xy);
+    float total = 0.0;
+    float seen = 0.0;
+    for (int k = 0; k < ENV_SHADOWS; ++k) {
+        vec4 d = u_env_shadow_dir[k];
+        float w = d.w * max(dot(n, d.xyz), 0.0);
+        if (!(w > 0.0)) continue;
+        total += w;
+        seen += w * shadow_tile_visibility(u_env_shadow_map, u_env_shadow_matrix[k],
+                                           u_env_shadow_lens[k], u_env_shadow_offset[k], k,
+                                           d.xyz, p, n, phi);
+    }
+    return total > 0.0 ? seen / total : 1.0;
+#else
+    return 1.0;
+#endif
+}
 
 // The sun's visibility at the pixel whose G-buffer is g (SUN_SHADOW; 1 without).
 float sun_shadow(GBuffer g, vec3 n, vec3 l) {

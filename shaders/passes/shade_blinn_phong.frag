@@ -24,20 +24,23 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
     float ao = ambient_occlusion(pixel, g);
+    // the environment's shadows (ENV_SHADOWS) darken the light the irradiance map holds, not the
+    // analytic lights (which have their own maps)
+    float ao_env = ao * env_shadow(g, n);
 #if SPECULAR_LOBE
     float r = clamp_perceptual_roughness(g.roughness);
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflect(-v, n)), r,
                                              u_env_levels) * u_env_intensity;
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
-    vec3 c = blinn_phong(diffuse, f0, ao, irradiance, prefiltered);
+    vec3 c = blinn_phong(diffuse, f0, ao_env, irradiance, prefiltered);
 #if LIGHT_COUNT > 0
     c += lights_blinn_phong(diffuse, f0, r * r, n, v,
                             light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #else
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
-    vec3 c = blinn_phong(diffuse, vec3(0.0), ao, irradiance, vec3(0.0));
+    vec3 c = blinn_phong(diffuse, vec3(0.0), ao_env, irradiance, vec3(0.0));
 #if LIGHT_COUNT > 0  // f0 = 0: the lobe's weight is exactly 0 (any alpha)
     c += lights_blinn_phong(diffuse, vec3(0.0), 1.0, n, v,
                             light_surface_position(gl_FragCoord.xy, g.depth));

@@ -38,6 +38,9 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
     float ao = ambient_occlusion(pixel, g);
+    // the environment's shadows (ENV_SHADOWS) darken the light the irradiance map holds, not the
+    // analytic lights (which have their own maps)
+    float ao_env = ao * env_shadow(g, n);
 #if SPECULAR_LOBE
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
@@ -56,7 +59,7 @@ void main() {
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
-    vec3 c = ggx_split_sum(diffuse, f0, ao, irradiance, prefiltered, dfg, float(MULTISCATTER));
+    vec3 c = ggx_split_sum(diffuse, f0, ao_env, irradiance, prefiltered, dfg, float(MULTISCATTER));
 #if LIGHT_COUNT > 0
     c += lights_ggx(diffuse, f0, r * r, dfg, float(MULTISCATTER), n, v,
                     light_surface_position(gl_FragCoord.xy, g.depth));
@@ -75,7 +78,7 @@ void main() {
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
     // does the light's BRDF (F = 0; any alpha)
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
-    vec3 c = ggx_split_sum(diffuse, vec3(0.0), ao, irradiance, vec3(0.0), vec2(0.0, 1.0), 0.0);
+    vec3 c = ggx_split_sum(diffuse, vec3(0.0), ao_env, irradiance, vec3(0.0), vec2(0.0, 1.0), 0.0);
 #if LIGHT_COUNT > 0
     c += lights_ggx(diffuse, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
                     light_surface_position(gl_FragCoord.xy, g.depth));

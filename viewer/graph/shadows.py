@@ -11,7 +11,8 @@ from ..cascades import MAX_TILE, ShadowCascades, cascade_count, cascade_frames
 from ..lights import as_lights, shadowing
 from ..models import ShadeVariant
 from ..scene import Scene
-from ..shadows import ShadowCube, cube_frames, directional_frame, spot_frame
+from ..shadows import (EnvShadowFrames, ShadowCube, cube_frames, directional_frame,
+                       env_shadow_frames, spot_frame)
 from ..specialize import Specialization
 from .graph import FrameGraph
 from .resources import ShadowMapDesc
@@ -21,18 +22,22 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
                   camera=None, also: ShadeVariant | None = None) -> dict:
     """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``: orthographic,
     perspective for a spot light, a cube atlas for a point light) and for the environment's
-    analytic sun (``shadowsun``), fitted to the scene's bounds; only where the lighting pass reads
-    them (LIGHT_SHADOWS, SUN_SHADOW). Returns light index (or ``"sun"``) -> (resource, frame,
-    light size: angular radius in radians or radius in world units, normal offset) for the
-    lighting pass; ``camera``: the view the cascades follow (None: one map each); ``also``:
-    another program that reads the maps (the forward pass of transparent surfaces), whose
-    LIGHT_SHADOWS, SUN_SHADOW and ENV_LIGHTS add to the lighting pass's."""
+    analytic sun (``shadowsun``), fitted to the scene's bounds, and the environment's shadow
+    directions' atlas (``shadowenvdirs`` into ``shadowmapenvdirs``, ENV_SHADOWS); only where the
+    lighting pass reads them (LIGHT_SHADOWS, SUN_SHADOW, ENV_SHADOWS). Returns light index (or
+    ``"sun"``, ``"env<k>"``) -> (resource, frame, light size: angular radius in radians or
+    radius in world units, normal offset) for the lighting pass, and ``"envdirs"`` ->
+    (resource, :class:`~viewer.shadows.EnvShadowFrames`, softness, bias); ``camera``: the view
+    the cascades follow (None: one map each); ``also``: another program that reads the maps
+    (the forward pass of transparent surfaces), whose LIGHT_SHADOWS, SUN_SHADOW, ENV_LIGHTS and
+    ENV_SHADOWS add to the lighting pass's."""
     settings = scene.render
     defines = dict(spec.variant.defines)
     for key, value in (also.define_items if also is not None else ()):
-        if key in ("LIGHT_SHADOWS", "SUN_SHADOW", "ENV_LIGHTS"):
+        if key in ("LIGHT_SHADOWS", "SUN_SHADOW", "ENV_LIGHTS", "ENV_SHADOWS"):
             defines[key] = max(int(defines.get(key, 0)), int(value))
-    if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")):
+    if not (defines.get("LIGHT_SHADOWS") or defines.get("SUN_SHADOW")
+            or defines.get("ENV_SHADOWS")):
         return {}
     lights = as_lights(scene.light)
     bounds = renderer.bounds(scene)
@@ -63,6 +68,18 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
     # what casts shadows: the objects without their materials (a material slider keeps the maps)
     shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
     out = {}
+    if defines.get("ENV_SHADOWS"):  # the environment's shadow directions: one atlas
+        frames = _env_frames(renderer, scene, bounds, int(defines["ENV_SHADOWS"]),
+                             sunless=bool(defines.get("SUN_LIGHT")))
+        name = g.create("shadowmapenvdirs", ShadowMapDesc(frames.resolution, 1,
+                                                          max(2, frames.count)), kept=True)
+
+        def draw_env(f, name=name, frames=frames):
+            spass.draw(f[name], frames, meshes, clouds)
+        g.add_pass("shadowenvdirs", draw_env, writes=(name,),
+                   inputs={"shapes": shapes, "geometry": renderer.geometry_cache.version,
+                           "frame": _frame_key(frames)})
+        out["envdirs"] = (name, frames, settings.shadow.softness, settings.shadow.bias)
     for i, frame, size in casters:
         cube = isinstance(frame, ShadowCube)
         cascaded = isinstance(frame, ShadowCascades)
@@ -81,6 +98,23 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
         out[i] = (name, frame, size * settings.shadow.softness,
                   frame.texel_world * settings.shadow.bias)
     return out
+
+
+def env_shadow_tile(size: int) -> int:
+    """Texels a side of each tile of the environment's shadow atlas: a quarter of the lights'
+    maps (``shadow_size``; the broad lights' penumbrae are wide), 64 to 1024."""
+    return max(64, min(1024, int(size) // 4))
+
+
+def _env_frames(renderer, scene: Scene, bounds, count: int, sunless: bool) -> EnvShadowFrames:
+    """The environment's ``count`` shadow directions (:func:`viewer.envsampling.median_cut` of
+    the light its irradiance map holds: without its compact lights where ``sunless``), turned
+    by its rotation, each a frame fitted to ``bounds``."""
+    env = scene.environment
+    dirs, shares, radii = renderer.resources.env_shadow_lights(env, count, sunless)
+    world = [env_to_world(d, env.rotation_deg) for d in dirs]
+    return env_shadow_frames(bounds, world, shares, radii,
+                             env_shadow_tile(scene.render.shadow.size))
 
 
 def cascade_variant(variant: ShadeVariant, shadows: dict) -> ShadeVariant:

@@ -20,7 +20,7 @@ import numpy as np
 from ..geometry.mesh import Mesh
 from ..geometry.solid import OPEN, OUTWARD, solid_orientation
 from ..cascades import ShadowCascades
-from ..shadows import SHADOW_ORTHO, ShadowCube, ShadowFrame
+from ..shadows import SHADOW_ORTHO, EnvShadowFrames, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
 
@@ -99,7 +99,7 @@ class ShadowPass:
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
         ctx.front_face = "ccw"
         try:
-            if isinstance(frame, (ShadowCube, ShadowCascades)):
+            if isinstance(frame, (ShadowCube, ShadowCascades, EnvShadowFrames)):
                 for face, f in enumerate(frame.faces):
                     ctx.viewport = frame.tile(face)
                     self._draw_frame(f, meshes, clouds)

@@ -42,7 +42,37 @@ class ShadowBindings:
         environment's sun, or None."""
         unit = self._bind_shadows(prog, light, shadows, unit)
         unit = self._bind_env_light_shadows(prog, shadows, unit)
+        unit = self._bind_env_shadows(prog, shadows.get("envdirs"), unit)
         return self._bind_sun_shadow(prog, sun_shadow, unit)
+
+    def _bind_env_shadows(self, prog, entry, unit: int) -> int:
+        """The environment's shadow directions (ENV_SHADOWS, ``passes/lights.glsl``
+        ``env_shadow``): their atlas and per direction its tile's frame, direction and share,
+        lens and normal offset. ``entry``: (atlas texture, EnvShadowFrames, softness, bias), or
+        None (the 1x1 map of depth 1 and shares of 0: every direction skipped, unshadowed)."""
+        if "u_env_shadow_dir" not in prog:
+            return unit
+        n = prog["u_env_shadow_dir"].array_length
+        matrices = np.zeros((n, 4, 4), np.float32)
+        dirs = np.zeros((n, 4), np.float32)
+        lenses = np.zeros((n, 4), np.float32)
+        offsets = np.zeros(n, np.float32)
+        if entry is None:
+            self._no_shadow().use(unit)
+        else:
+            tex, frames, softness, bias = entry
+            tex.use(unit)
+            for k, face in enumerate(frames.faces[:n]):
+                matrices[k] = face.matrix.T
+                dirs[k] = (*frames.directions[k], frames.shares[k])
+                lenses[k] = shadow_lens(face, frames.radii[k] * softness)
+                offsets[k] = face.texel_world * bias
+        prog["u_env_shadow_map"].value = unit
+        _set(prog, "u_env_shadow_matrix", matrices.tobytes())
+        _set(prog, "u_env_shadow_dir", dirs.tobytes())
+        _set(prog, "u_env_shadow_lens", lenses.tobytes())
+        _set(prog, "u_env_shadow_offset", offsets.tobytes())
+        return unit + 1
 
     def _bind_sun_shadow(self, prog, sun_shadow, unit: int) -> int:
         """The sun's map (SUN_SHADOW), or a map of depth 1 that every point falls outside."""

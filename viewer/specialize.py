@@ -146,6 +146,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
                                      or shadowing(light, settings.shadow.enabled)) or \
             (sun and settings.sun and settings.shadow.enabled):
         needed.add("depth")  # point and spot lights, shadow maps: the position from its depth
+    if model.env_shadows and settings.shadow.enabled and settings.shadow.environment > 0:
+        needed.add("depth")  # the environment's shadows: the position from its depth
     if contact and model.lights == "shaded" and as_lights(light):
         needed |= {"depth", "alpha"}  # contact shadows march through the depth
     needed |= set(aovs) | {"albedo", "alpha"}

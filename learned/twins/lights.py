@@ -116,3 +116,25 @@ def lights_blinn_phong(lights, diffuse, f0, a, n, v, p) -> torch.Tensor:
         term = blinn_phong_directional_light(diffuse, f0, a, n, v, la[..., :3], e)
         c = c + torch.where(la[..., 3:] > 0.0, term, torch.zeros_like(term))
     return c
+
+
+def env_shadow(map_, matrices, dirs, lenses, offsets, p, n, phi) -> torch.Tensor:
+    """GLSL ``float env_shadow(GBuffer g, vec3 n)`` (passes/lights.glsl, ENV_SHADOWS) at the
+    surface point ``p`` (rebuilt from g's depth: :func:`light_surface_position`): the tiles'
+    :func:`~learned.twins.shadow.shadow_tile_visibility` weighted by share x max(n.l, 0);
+    ``matrices`` [K, 4, 4] (rows as ``ShadowFrame.matrix``), ``dirs`` [K, 4] (direction, share),
+    ``lenses`` [K, 4], ``offsets`` [K]: the uniforms; 1 where no direction lights n."""
+    from .shadow import shadow_tile_visibility
+
+    total = torch.zeros(p.shape[:-1])
+    seen = torch.zeros(p.shape[:-1])
+    for k in range(len(dirs)):
+        d = dirs[k]
+        w = d[3] * torch.clamp_min((n * d[:3]).sum(-1), 0.0)
+        lit = w > 0.0
+        v = shadow_tile_visibility(map_, matrices[k], lenses[k], offsets[k], k,
+                                   d[:3].expand_as(p), p, n, phi)
+        total = total + torch.where(lit, w, torch.zeros_like(w))
+        seen = seen + torch.where(lit, w * v, torch.zeros_like(w))
+    return torch.where(total > 0.0, seen / torch.where(total > 0.0, total, torch.ones_like(total)),
+                       torch.ones_like(total))

@@ -339,3 +339,16 @@ def shadow_cascade_visibility(map_, m, lens, offset, c0, c1, c2, c3, count, l, p
     lens_c = torch.stack(torch.broadcast_tensors(lens[0], lens[1] * c[..., 0], lens[2],
                                                  lens[3]), -1)
     return shadow_pcss(map_, s, torch.cat([s[..., 2:3], dz], -1), lens_c, phi, -2 - k, adaptive)
+
+
+def shadow_tile_visibility(map_, m, lens, offset, tile, l, p, n, phi) -> torch.Tensor:
+    """GLSL ``float shadow_tile_visibility(sampler2D map, mat4 m, vec4 lens, float offset,
+    int tile, vec3 l, vec3 p, vec3 n, float phi)`` for one tile (``m`` [4, 4] rows as
+    ``ShadowFrame.matrix``, ``lens`` [4])."""
+    q = shadow_receiver(p, n, l, _f(offset))
+    s = q @ m[:3, :3].T + m[:3, 3]
+    du, dv, dd = (m[i, :3].expand_as(q) for i in range(3))
+    dz = shadow_depth_slope(shadow_plane_normal(du, dv, dd, n))
+    lens_b = lens.expand(*p.shape[:-1], 4)
+    face = torch.full(p.shape[:-1], -2 - int(tile), dtype=torch.int64)
+    return shadow_pcss(map_, s, torch.cat([s[..., 2:3], dz], -1), lens_b, phi, face, True)

@@ -5,7 +5,11 @@ texture, read back from the frame. A floor and a sphere under one soft light of 
 (directional, spot, point), and a directional light's cascades (``shadow_cascade_visibility``
 against its twin) over a 100 m floor; the GLSL's visibility is the lit radiance over the same
 frame without shadows (nothing but that light lights the scene), the twin's is evaluated at each pixel's
-surface point rebuilt from the G-buffer's depth as the pass rebuilds it."""
+surface point rebuilt from the G-buffer's depth as the pass rebuilds it. ``shadow:environment``:
+the environment's shadow directions (``env_shadow`` of passes/lights.glsl, composing
+``shadow_tile_visibility``) on a floor and a sphere in the procedural studio, the GLSL's being the
+floor's radiance with them over the same frame without (its diffuse environment light is all of
+it), against :func:`learned.twins.lights.env_shadow` of the atlas read back."""
 from __future__ import annotations
 
 import numpy as np
@@ -34,20 +38,20 @@ ENVELOPE = ("the surface point is rebuilt from depth by the same float32 express
             "100 pixels may differ, by at most one tap's share (1/4) where they do")
 
 
-def _scene(light: dict, floor: float = 8.0, render: dict | None = None):
+GREY = {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0, "specular": 0.0}
+
+
+def _scene(light: dict | None, floor: float = 8.0, render: dict | None = None,
+           environment: dict | None = None):
     from viewer.scene import scene_from_dict
 
     return scene_from_dict({
         "camera": {"position": [0, 5, 0.01], "target": [0, 0, 0], "fov_y": 60, "size": [N, N]},
-        "environment": {"procedural": "white", "width": 32, "intensity": 0.0},
-        "lights": [{"intensity": 10.0, **light}],
+        "environment": environment or {"procedural": "white", "width": 32, "intensity": 0.0},
+        "lights": [{"intensity": 10.0, **light}] if light else [],
         "objects": [{"type": "plane", "center": [0, 0, 0], "size": [floor, floor],
-                     "normal": [0, 1, 0],
-                     "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0,
-                                  "specular": 0.0}},
-                    {"type": "sphere", "center": [0, 1, 0], "radius": 0.5,
-                     "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0,
-                                  "specular": 0.0}}],
+                     "normal": [0, 1, 0], "material": GREY},
+                    {"type": "sphere", "center": [0, 1, 0], "radius": 0.5, "material": GREY}],
         "render": {"tonemap": "none", "model": "ggx_split_sum", "multiscatter": False,
                    **(render or {})}})
 
@@ -57,6 +61,20 @@ def _read_map(frame) -> torch.Tensor:
     tex = frame.targets["shadowmap0"].texture
     w, h = tex.size
     return torch.from_numpy(np.frombuffer(tex.read(), np.float32).reshape(h, w).copy())
+
+
+def _surface(gbuffer, cam):
+    """Each pixel's surface point rebuilt from the G-buffer's depth as the lighting pass
+    rebuilds it, its normal and fragment coordinates ([N, N, ...], GL rows)."""
+    ys, xs = np.mgrid[0:N, 0:N]
+    frag = torch.from_numpy(np.stack([xs + 0.5, ys + 0.5], -1).astype(np.float32))
+    depth = torch.from_numpy(gbuffer["depth"][::-1, :, 0].copy())
+    normal = torch.from_numpy(gbuffer["normal"][::-1].copy())
+    p = light_surface_position(frag, depth, cam.position,
+                               torch.from_numpy(cam.basis().astype(np.float32).T.copy()),
+                               torch.tensor(cam.tan_half_fov(), dtype=torch.float32),
+                               torch.tensor([N, N], dtype=torch.float32))
+    return p, normal, frag
 
 
 def _twin_visibility(renderer, scene, frame, depth_map, gbuffer) -> np.ndarray:
@@ -69,15 +87,7 @@ def _twin_visibility(renderer, scene, frame, depth_map, gbuffer) -> np.ndarray:
     size = light.radius if light.positional else np.radians(light.angular_diameter_deg) / 2.0
     lens = torch.tensor(shadow_lens(sframe, size * settings.softness), dtype=torch.float32)
     offset = sframe.texel_world * settings.bias
-    cam = frame.camera
-    ys, xs = np.mgrid[0:N, 0:N]
-    frag = torch.from_numpy(np.stack([xs + 0.5, ys + 0.5], -1).astype(np.float32))  # GL rows
-    depth = torch.from_numpy(gbuffer["depth"][::-1, :, 0].copy())
-    normal = torch.from_numpy(gbuffer["normal"][::-1].copy())
-    p = light_surface_position(frag, depth, cam.position,
-                               torch.from_numpy(cam.basis().astype(np.float32).T.copy()),
-                               torch.tensor(cam.tan_half_fov(), dtype=torch.float32),
-                               torch.tensor([N, N], dtype=torch.float32))
+    p, normal, frag = _surface(gbuffer, frame.camera)
     if light.positional:
         to = torch.tensor(light.position, dtype=torch.float32) - p
         l = to / torch.linalg.vector_norm(to, dim=-1, keepdim=True)
@@ -136,5 +146,54 @@ def checks() -> dict:
         finally:
             renderer.release()
         return out
+
+    @register_pass_check("shadow:environment")
+    def check_environment(programs):
+        from learned.twins.lights import env_shadow
+        from viewer.graph.shadows import _env_frames
+        from viewer.passes.shadow_bindings import shadow_lens
+        from viewer.renderer import Renderer
+
+        renderer = Renderer(ctx=programs.ctx)
+        try:
+            scene = _scene(None, render={"env_shadows": 8, "sun": False, "ao": False},
+                           environment={"procedural": "studio", "width": 64})
+            frame = renderer.draw(scene, aovs=("depth", "normal"))
+            tex = frame.targets["shadowmapenvdirs"].texture
+            w, h = tex.size
+            atlas = torch.from_numpy(np.frombuffer(tex.read(), np.float32).reshape(h, w).copy())
+            lit = renderer.render(scene, aovs=("depth", "normal"))
+            free = renderer.render(scene.with_render(env_shadows=0)).radiance[..., 0]
+            frames = _env_frames(renderer, scene, renderer.bounds(scene), 8, sunless=False)
+            settings = scene.render.shadow
+            k = frames.count
+            matrices = torch.from_numpy(np.stack([f.matrix for f in frames.faces]).astype(
+                np.float32))
+            dirs = torch.tensor([(*d, s) for d, s in zip(frames.directions, frames.shares)],
+                                dtype=torch.float32)
+            lenses = torch.tensor([shadow_lens(f, r * settings.softness)
+                                   for f, r in zip(frames.faces, frames.radii)],
+                                  dtype=torch.float32)
+            offsets = torch.tensor([f.texel_world * settings.bias for f in frames.faces],
+                                   dtype=torch.float32)
+            p, normal, frag = _surface(lit.aovs, frame.camera)
+            with torch.no_grad():
+                twin = env_shadow(atlas, matrices, dirs, lenses, offsets, p, normal,
+                                  shadow_phi(frag)).numpy()[::-1]
+            ok = (free > 1e-4) & (lit.aovs["normal"][..., 1] > 0.99)  # the floor
+            gl = lit.radiance[..., 0][ok] / free[ok]
+            ref = twin[ok]
+            diff = np.abs(gl - ref)
+            bad = diff > 1e-4
+            res = compare(f"env_shadow ({k} directions)", gl[~bad], ref[~bad], atol=1e-4,
+                          rtol=0.0, kind="pass",
+                          measured=f"{int(bad.sum())} of {int(ok.sum())} pixels beyond 1e-4 "
+                                   f"on llvmpipe; {int((ref < 0.9).sum())} below 0.9",
+                          envelope=ENVELOPE)
+            res.passed = bool(res.passed and bad.mean() <= 0.01
+                              and (diff[bad] <= 0.25 + 1e-4).all() and (ref < 0.9).sum() > 20)
+            return [res]
+        finally:
+            renderer.release()
 
     return found

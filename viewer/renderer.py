@@ -197,6 +197,11 @@ class Renderer:
         scene = gather_lights(scene, self.geometry)  # + the meshes' own lights
         if scene.light is not None and model.lights == "ignored":
             _warn_light_ignored(settings.model)
+        if settings.shadow.environment > 0 and not model.env_shadows:
+            _warn_once(f"env_shadows:{settings.model}",
+                       f"model {settings.model!r} does not use env_shadows (the environment's "
+                       f"shadows occlude the irradiance-map diffuse light of ggx_split_sum and "
+                       f"blinn_phong); rendered without them")
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
         self._pass_begin("ibl")  # precomputation, only when the environment is new
@@ -315,6 +320,13 @@ def _read_shadow_map(targets: FrameTargets, name: str):
 
 
 _LIGHT_WARNED: set[str] = set()
+
+
+def _warn_once(key: str, message: str) -> None:
+    """Once per ``key`` and process."""
+    if key not in _LIGHT_WARNED:
+        _LIGHT_WARNED.add(key)
+        warnings.warn(message, stacklevel=4)
 
 
 def _warn_light_ignored(model: str) -> None:

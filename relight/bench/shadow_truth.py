@@ -34,10 +34,15 @@ SHADOW_SCENE_DIR = ASSET_ROOT / "scenes" / "shadows"  # apart from the fidelity 
 
 SHADOW_SCENES = ("sky_shadow_spheres", "esplanade_shadow_spheres", "park_sphere_on_plane",
                  "studio_key_spheres", "studio_sphere_on_plane")
-# the classical models and the rasteriser's screen-space visibility knobs (model, variant, changes)
+ENV_SHADOW_DIRECTIONS = 8  # [render] env_shadows of the cases that use them
+# the classical models and the rasteriser's visibility knobs (model, variant, changes): screen
+# space (ssao, indirect) and the environment's shadows (shadows = false turns those off too)
 CANDIDATES = (("ggx_split_sum", "default", {}),
               ("ggx_split_sum", "+ssao", {"ssao": True}),
               ("ggx_split_sum", "+ssao +indirect", {"ssao": True, "indirect": True}),
+              ("ggx_split_sum", "+env shadows", {"env_shadows": ENV_SHADOW_DIRECTIONS}),
+              ("ggx_split_sum", "+env shadows +ssao +indirect",
+               {"env_shadows": ENV_SHADOW_DIRECTIONS, "ssao": True, "indirect": True}),
               ("blinn_phong", "default", {}))
 MAP_SIZES = (512, 1024, 4096)  # besides the default 2048
 

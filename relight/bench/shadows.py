@@ -9,12 +9,15 @@ or light-colour slider costs, since the frame graph keeps a map whose light and 
 change (a cascaded map follows the camera and is redrawn). Absolute milliseconds on a shared CPU
 are noise; the ratios measured in one run are the numbers to quote. What the map size costs in
 accuracy is the ``shadow_truth`` suite's ``psnr_map<n>`` (:mod:`relight.bench.shadow_truth`).
+The ``env_shadows`` rows time the environment's shadows (:mod:`viewer.envsampling`
+``median_cut`` directions, one atlas of maps) the same way.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 
+from viewer.graph.shadows import env_shadow_tile
 from viewer.lights import Light
 
 from .timing import time_frames
@@ -34,10 +37,12 @@ def _lights(n: int) -> tuple[Light, ...]:
 
 
 def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
-                map_sizes=MAP_SIZES) -> list[dict]:
+                map_sizes=MAP_SIZES, env_counts=(8,)) -> list[dict]:
     """One row per light count and map size: ms per frame with and without shadow maps, their
     ratio, the ratio with the maps kept (module doc), the shadow passes' own share and how many
-    were drawn per frame."""
+    were drawn per frame; then one per count of ``env_counts``: the environment's shadows
+    (``env_shadows``) without lights, against the same frame without them (``shadow_size``:
+    their atlas's tile)."""
     rows = []
     for n, map_size in ((n, m) for n in counts for m in map_sizes):
         lit = dataclasses.replace(scene, lights=_lights(n)).with_camera(size=size)
@@ -51,5 +56,17 @@ def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
                      "ratio": on_ms / max(off_ms, 1e-9),
                      "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
                      "shadow_pass_ms": shadow_ms, "shadow_passes": len(shadow_passes),
-                     "shadow_size": map_size})
+                     "shadow_size": map_size, "env_shadows": 0})
+    for k in env_counts:  # the environment's shadows alone (no light), default maps
+        scene_k = dataclasses.replace(scene, lights=()).with_camera(size=size)
+        on_ms, on_pass = time_frames(renderer, scene_k.with_render(env_shadows=k), size, config)
+        off_ms, _ = time_frames(renderer, scene_k, size, config)
+        shadow_passes = [p for p in on_pass if p.startswith("shadow")]
+        shadow_ms = sum(on_pass[p] for p in shadow_passes)
+        rows.append({"kind": "env_shadows", "lights": 0, "size": f"{size[0]}x{size[1]}",
+                     "model": scene.render.model, "ms_shadows": on_ms, "ms_without": off_ms,
+                     "ratio": on_ms / max(off_ms, 1e-9),
+                     "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
+                     "shadow_pass_ms": shadow_ms, "shadow_passes": len(shadow_passes),
+                     "shadow_size": env_shadow_tile(scene.render.shadow.size), "env_shadows": k})
     return rows

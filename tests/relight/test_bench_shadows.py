@@ -18,7 +18,7 @@ def rows(ctx):
     config = BenchConfig(quick=True, frames=2, warmup=1)
     try:
         yield shadow_rows(r, demo_scene().with_render(sun=False), config, counts=(1, 3),
-                          size=(48, 48), map_sizes=(256, 128))
+                          size=(48, 48), map_sizes=(256, 128), env_counts=(2,))
     finally:
         r.release()
 
@@ -27,9 +27,10 @@ def test_rows_draw_one_pass_per_light_every_frame(rows):
     from relight.bench.run import SUITES
 
     assert "shadows" in SUITES
-    assert [(r["lights"], r["shadow_size"]) for r in rows] == [(1, 256), (1, 128), (3, 256),
-                                                                (3, 128)]
-    for r in rows:
+    assert [(r["lights"], r["shadow_size"], r["env_shadows"]) for r in rows] == [
+        (1, 256, 0), (1, 128, 0), (3, 256, 0), (3, 128, 0), (0, 512, 2)]
+    assert rows[-1]["shadow_passes"] == 1  # the environment's directions: one atlas pass
+    for r in rows[:-1]:
         assert r["shadow_passes"] == r["lights"], r
         assert r["shadow_pass_ms"] > 0.0, r
         assert all(math.isfinite(r[k]) and r[k] > 0 for k in ("ms_shadows", "ms_without")), r

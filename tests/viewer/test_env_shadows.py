@@ -154,3 +154,17 @@ def test_median_cut_of_a_black_environment_spreads_over_the_sphere():
     d, shares, _ = median_cut(np.zeros((32, 64, 3), np.float32), 4)
     assert shares.sum() == pytest.approx(1.0, abs=1e-5)
     assert np.abs(d.mean(axis=0)).max() < 0.5
+
+
+def test_a_model_without_environment_shadows_says_so(renderer, panel):
+    """ggx_mc integrates the environment by sampling it: env_shadows is named as unused."""
+    import warnings
+
+    from viewer import renderer as renderer_module
+
+    renderer_module._LIGHT_WARNED.discard("env_shadows:ggx_mc")
+    sc = scene(panel, ("sphere",), env_shadows=4, model="ggx_mc", samples=1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer.render(sc)
+    assert any("env_shadows" in str(w.message) and "ggx_mc" in str(w.message) for w in caught)

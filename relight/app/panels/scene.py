@@ -109,7 +109,8 @@ class ScenePanels:
             changes["intensity"] = max(0.0, float(intensity))
         if changes:
             state.light = replace(light, **changes)
-        imgui.text_disabled("irradiance at normal incidence; azimuth 0 = -Z, 90 = +X; no shadows")
+        imgui.text_disabled("irradiance at normal incidence; azimuth 0 = -Z, 90 = +X; casts a "
+                            "shadow map (shadows, shadow_* in Shading)")
         self._other_lights(state)
 
     def _other_lights(self, state) -> None:

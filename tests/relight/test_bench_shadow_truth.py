@@ -59,7 +59,9 @@ def test_shadow_truth_row_on_a_committed_reference(renderer):
     assert len(rows) == 1
     row = rows[0]
     assert row["model"] == "ggx_split_sum" and row["casters"].startswith("sun")
-    assert all(math.isfinite(row[k]) for k in ("psnr_shadows", "psnr_without", "gain_db"))
+    assert all(math.isfinite(row[k]) for k in ("psnr_shadows", "psnr_without", "gain_db",
+                                               "gain_vs_best_without_db"))
+    assert row["gain_vs_best_without_db"] <= row["gain_db"] + 1e-9  # its baseline is the best
     assert row["gain_db"] > 0.0, row
     assert math.isfinite(row["psnr_map64"]) and row["psnr_map64"] < row["psnr_shadows"], row
 

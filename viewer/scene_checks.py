@@ -13,8 +13,8 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import (AA_MODES, CONTACT_SHADOWS, ENV_SHADOWS_MAX, RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX,
-                       SSAO_SCALE_MAX)
+from .settings import (AA_MODES, CONTACT_SHADOWS, ENV_SHADOWS_MAX, RENDER_KEYS, SPLAT_DEPTHS,
+                       SSAA_MAX, SSAO_SCALE_MAX)
 
 
 TONEMAPS = ("pbr_neutral", "aces", "agx", "reinhard", "none")

@@ -1,17 +1,16 @@
 """``relight bench``'s shadow suite: what shadow maps cost per frame.
 
 The bench's mesh scene at 512^2 with 1 and 4 shadowing directional lights and maps of 2048 (the
-default) and 1024 texels a side, each frame timed with shadows on and off in the same run (whole frames: nothing reused), so a row's ``ratio`` is
-the cost of the shadow passes and lookups relative to the same frame without them: a frame in
-which a light or the geometry moved. ``ratio_maps_kept`` is the same shadowed frame without its
-shadow passes (their fenced times taken out of the same frames): what a camera move or a material
-or light-colour slider costs, since the frame graph keeps a map whose light and casters did not
-change (a cascaded map follows the camera and is redrawn). Absolute milliseconds on a shared CPU
-are noise; the ratios measured in one run are the numbers to quote. What the map size costs in
-accuracy is the ``shadow_truth`` suite's ``psnr_map<n>`` (:mod:`relight.bench.shadow_truth`).
-The ``env_shadows`` rows time the environment's shadows (:mod:`viewer.envsampling`
-``median_cut`` directions, one atlas of maps) the same way.
-"""
+default) and 1024 texels a side, each frame timed with shadows on and off in the same run (whole
+frames: nothing reused), so a row's ``ratio`` is the cost of the shadow passes and lookups relative
+to the same frame without them: a frame in which a light or the geometry moved. ``ratio_maps_kept``
+is the same shadowed frame without its shadow passes (their fenced times taken out of the same
+frames): what a camera move or a material or light-colour slider costs, since the frame graph keeps
+a map whose light and casters did not change (a cascaded map follows the camera and is redrawn).
+Absolute milliseconds on a shared CPU are noise; the ratios measured in one run are the numbers to
+quote. What the map size costs in accuracy is the ``shadow_truth`` suite's ``psnr_map<n>``
+(:mod:`relight.bench.shadow_truth`). The ``env_shadows`` rows time the environment's shadows
+(:mod:`viewer.envsampling` ``median_cut`` directions, one atlas of maps) the same way."""
 from __future__ import annotations
 
 import dataclasses
@@ -46,27 +45,27 @@ def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
     rows = []
     for n, map_size in ((n, m) for n in counts for m in map_sizes):
         lit = dataclasses.replace(scene, lights=_lights(n)).with_camera(size=size)
-        on_ms, on_pass = time_frames(renderer, lit.with_render(shadows=True, shadow_size=map_size),
-                                     size, config)
-        off_ms, _ = time_frames(renderer, lit.with_render(shadows=False), size, config)
-        shadow_passes = [k for k in on_pass if k.startswith("shadow")]
-        shadow_ms = sum(on_pass[k] for k in shadow_passes)
-        rows.append({"kind": "shadows", "lights": n, "size": f"{size[0]}x{size[1]}",
-                     "model": scene.render.model, "ms_shadows": on_ms, "ms_without": off_ms,
-                     "ratio": on_ms / max(off_ms, 1e-9),
-                     "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
-                     "shadow_pass_ms": shadow_ms, "shadow_passes": len(shadow_passes),
-                     "shadow_size": map_size, "env_shadows": 0})
+        rows.append(_row(renderer, lit.with_render(shadows=True, shadow_size=map_size),
+                         lit.with_render(shadows=False), size, config,
+                         kind="shadows", lights=n, shadow_size=map_size, env_shadows=0))
     for k in env_counts:  # the environment's shadows alone (no light), default maps
-        scene_k = dataclasses.replace(scene, lights=()).with_camera(size=size)
-        on_ms, on_pass = time_frames(renderer, scene_k.with_render(env_shadows=k), size, config)
-        off_ms, _ = time_frames(renderer, scene_k, size, config)
-        shadow_passes = [p for p in on_pass if p.startswith("shadow")]
-        shadow_ms = sum(on_pass[p] for p in shadow_passes)
-        rows.append({"kind": "env_shadows", "lights": 0, "size": f"{size[0]}x{size[1]}",
-                     "model": scene.render.model, "ms_shadows": on_ms, "ms_without": off_ms,
-                     "ratio": on_ms / max(off_ms, 1e-9),
-                     "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
-                     "shadow_pass_ms": shadow_ms, "shadow_passes": len(shadow_passes),
-                     "shadow_size": env_shadow_tile(scene.render.shadow.size), "env_shadows": k})
+        dark = dataclasses.replace(scene, lights=()).with_camera(size=size)
+        rows.append(_row(renderer, dark.with_render(env_shadows=k), dark, size, config,
+                         kind="env_shadows", lights=0,
+                         shadow_size=env_shadow_tile(scene.render.shadow.size), env_shadows=k))
     return rows
+
+
+def _row(renderer, shadowed, plain, size, config, *, kind, lights, shadow_size,
+         env_shadows) -> dict:
+    """The timings of ``shadowed`` beside ``plain`` (the same scene without its shadow maps)."""
+    on_ms, on_pass = time_frames(renderer, shadowed, size, config)
+    off_ms, _ = time_frames(renderer, plain, size, config)
+    passes = [p for p in on_pass if p.startswith("shadow")]
+    shadow_ms = sum(on_pass[p] for p in passes)
+    return {"kind": kind, "lights": lights, "size": f"{size[0]}x{size[1]}",
+            "model": shadowed.render.model, "ms_shadows": on_ms, "ms_without": off_ms,
+            "ratio": on_ms / max(off_ms, 1e-9),
+            "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
+            "shadow_pass_ms": shadow_ms, "shadow_passes": len(passes),
+            "shadow_size": shadow_size, "env_shadows": env_shadows}

@@ -43,11 +43,12 @@ def solid_orientation(positions: np.ndarray, indices: np.ndarray) -> int:
     n = int(t.max()) + 1
     a = t.reshape(-1)
     b = t[:, [1, 2, 0]].reshape(-1)
-    edges = a * n + b
-    unique = np.unique(edges)
-    if len(unique) != len(edges):  # a directed edge twice: non-manifold or inconsistent winding
+    edges = np.sort(a * n + b)
+    if (np.diff(edges) == 0).any():  # a directed edge twice: non-manifold or inconsistent winding
         return OPEN
-    if not np.isin(b * n + a, unique).all():
+    reverse = b * n + a
+    found = np.minimum(np.searchsorted(edges, reverse), len(edges) - 1)
+    if not np.array_equal(edges[found], reverse):  # an edge without its reverse: a border
         return OPEN
     v0, v1, v2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
     volume = float(np.einsum("ij,ij->", v0, np.cross(v1, v2))) / 6.0
@@ -62,14 +63,16 @@ def weld(positions: np.ndarray, tol: float) -> np.ndarray:
     every axis (and of whatever such pairs chain to): points sharing a cell of any of eight grids
     of cell ``tol``, shifted by half a cell on each combination of axes, are joined. Two points
     nearer than half a cell on an axis straddle a cell edge of at most one of that axis's two
-    shifts, so some grid holds both."""
-    pos = np.asarray(positions, np.float64).reshape(-1, 3) / tol
-    n = len(pos)
+    shifts, so some grid holds both. The points must span fewer than 2^21 cells a side."""
+    pos = np.asarray(positions, np.float64).reshape(-1, 3)
+    pos = (pos - pos.min(axis=0)) / tol  # cells from 0; under 2^21 a side where tol is at
+    n = len(pos)                          # least a millionth of the extent (solid_orientation)
     labels = np.arange(n)
     cells = []
     for shift in itertools.product((0.0, 0.5), repeat=3):
-        cell = np.floor(pos + np.asarray(shift)).astype(np.int64)
-        cells.append(np.unique(cell, axis=0, return_inverse=True)[1].reshape(-1))
+        c = np.floor(pos + np.asarray(shift)).astype(np.int64)
+        key = (c[:, 0] << 42) | (c[:, 1] << 21) | c[:, 2]
+        cells.append(np.unique(key, return_inverse=True)[1].reshape(-1))
     while True:  # propagate each group's smallest index until no group changes
         before = labels
         for cell in cells:

@@ -1,18 +1,18 @@
 """Shadow maps (``passes/shadow_mesh.vert``, ``shadow_splat.vert``, ``shadow.frag``): the depth of
 the nearest occluder seen from a light, in the light's fitted frame
 (:class:`viewer.shadows.ShadowFrame`: orthographic for directional lights, perspective for spot
-lights; a point light's :class:`~viewer.shadows.ShadowCube` is six perspective faces drawn into
-the tiles of one atlas), rendered from the scene's meshes and Gaussian splats.
+lights; a point light's :class:`~viewer.shadows.ShadowCube` is six perspective faces drawn into the
+tiles of one atlas), rendered from the scene's meshes and Gaussian splats.
 
-A mesh that bounds a solid (:func:`viewer.geometry.solid.solid_orientation`) is drawn with only
-its faces turned towards the light, which hold the nearest occluder of every ray from a light
-outside it (a light inside its bounds, or an open mesh: both faces, which keep light from leaking
-through a thin wall): the same map for half the rasterised triangles. The receiver's normal-offset bias (``shadow_receiver`` in ``lib/shadow.glsl``) keeps
-lit surfaces from shadowing themselves. A splat is a quad over its projected 3-sigma ellipse in
-the light's frame, cut where the Gaussian's opacity falls below 0.5, at its mean depth along each light ray: a
-splat surface dense enough to look opaque casts a shadow, a haze of faint splats does not.
-Transparent (alphaMode BLEND) meshes cast no shadow.
-"""
+A mesh that bounds a solid (:func:`viewer.geometry.solid.solid_orientation`) is drawn with only its
+faces turned towards the light, which hold the nearest occluder of every ray from a light outside it
+(a light inside its bounds, or an open mesh: both faces, which keep light from leaking through a
+thin wall): the same map for half the rasterised triangles. The receiver's normal-offset bias
+(``shadow_receiver`` in ``lib/shadow.glsl``) keeps lit surfaces from shadowing themselves. A splat
+is a quad over its projected 3-sigma ellipse in the light's frame, cut where the Gaussian's opacity
+falls below 0.5, at its mean depth along each light ray: a splat surface dense enough to look opaque
+casts a shadow, a haze of faint splats does not. Transparent (alphaMode BLEND) meshes cast no
+shadow."""
 from __future__ import annotations
 
 import numpy as np
@@ -90,7 +90,8 @@ class ShadowPass:
     def draw(self, target, frame: ShadowFrame | ShadowCube, meshes: list[Mesh],
              clouds: list[Splats]) -> None:
         """Clear ``target`` (a :class:`~viewer.graph.resources.ShadowTarget`) to depth 1 and draw
-        ``meshes`` and ``clouds`` into it (a cube or cascades: into each face's or cascade's tile)."""
+        ``meshes`` and ``clouds`` into it (a cube, cascades or the environment's directions: into
+        each face's, cascade's or direction's tile)."""
         ctx = self.ctx
         target.fbo.use()
         ctx.viewport = (0, 0, *target.texture.size)

@@ -1,8 +1,9 @@
-"""Parity cases of ``shaders/lib/shadow.glsl`` against :mod:`learned.twins.shadow`. The lookups
-that read the map (``shadow_depth_at``, ``shadow_sample``, ``shadow_blocker_depth``,
-``shadow_pcf``, ``shadow_pcss``, ``shadow_visibility``) are the pass check ``shadow:lookups``;
+"""Parity cases of ``shaders/lib/shadow.glsl`` against :mod:`learned.twins.shadow`. The lookups that
+read the map (``shadow_depth_at``, ``shadow_sample``, ``shadow_blocker_depth``, ``shadow_pcf``,
+``shadow_pcss``, ``shadow_visibility``) are the pass check ``shadow:lookups``;
 ``shadow_light_visibility``, ``shadow_cascade_visibility`` and ``shadow_tile_visibility`` (a mat4
-argument) the pass check ``shadow:lights``; ``shadow_map_size`` and ``shadow_tile_depth`` (a sampler) ``shadow:lookups``."""
+argument) the pass check ``shadow:lights``; ``shadow_map_size`` and ``shadow_tile_depth`` (a
+sampler) ``shadow:lookups``."""
 from __future__ import annotations
 
 import numpy as np

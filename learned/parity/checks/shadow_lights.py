@@ -1,15 +1,15 @@
 """``shadow:lights``: the composed ``shadow_light_visibility`` of ``lib/shadow.glsl`` as the
-lighting pass evaluates it (``light_visibility`` of passes/lights.glsl) on a rendered scene,
-against :func:`learned.twins.shadow.shadow_light_visibility` computed from the same shadow map
-texture, read back from the frame. A floor and a sphere under one soft light of each kind
-(directional, spot, point), and a directional light's cascades (``shadow_cascade_visibility``
-against its twin) over a 100 m floor; the GLSL's visibility is the lit radiance over the same
-frame without shadows (nothing but that light lights the scene), the twin's is evaluated at each pixel's
-surface point rebuilt from the G-buffer's depth as the pass rebuilds it. ``shadow:environment``:
-the environment's shadow directions (``env_shadow`` of passes/lights.glsl, composing
-``shadow_tile_visibility``) on a floor and a sphere in the procedural studio, the GLSL's being the
-floor's radiance with them over the same frame without (its diffuse environment light is all of
-it), against :func:`learned.twins.lights.env_shadow` of the atlas read back."""
+lighting pass evaluates it (``light_visibility`` of passes/lights.glsl) on a rendered scene, against
+:func:`learned.twins.shadow.shadow_light_visibility` computed from the same shadow map texture, read
+back from the frame. A floor and a sphere under one soft light of each kind (directional, spot,
+point), and a directional light's cascades (``shadow_cascade_visibility`` against its twin) over a
+100 m floor; the GLSL's visibility is the lit radiance over the same frame without shadows (nothing
+but that light lights the scene), the twin's is evaluated at each pixel's surface point rebuilt from
+the G-buffer's depth as the pass rebuilds it. ``shadow:environment``: the environment's shadow
+directions (``env_shadow`` of passes/lights.glsl, composing ``shadow_tile_visibility``) on a floor
+and a sphere in the procedural studio, the GLSL's being the floor's radiance with them over the same
+frame without (its diffuse environment light is all of it), against
+:func:`learned.twins.lights.env_shadow` of the atlas read back."""
 from __future__ import annotations
 
 import numpy as np

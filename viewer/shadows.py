@@ -233,6 +233,13 @@ def cube_frames(bounds: Bounds, position, resolution: int = 1024) -> ShadowCube:
                       depth_range=far - near, resolution=int(resolution))
 
 
+# The widest PCSS disc an environment shadow direction gets (radians, 8.6 deg): a median-cut
+# region can spread over +-40 deg, and a filter that wide breaks PCSS's assumption of one planar
+# blocker (a floor seen edge-on from a direction at the horizon becomes a blocker for every
+# receiver whose filter reaches its row of texels: dark blotches low on objects standing on it)
+ENV_SHADOW_MAX_RADIUS = 0.15
+
+
 @dataclass(frozen=True)
 class EnvShadowFrames:
     """The environment's shadow directions (:func:`viewer.envsampling.median_cut`), each an
@@ -260,6 +267,11 @@ class EnvShadowFrames:
     @property
     def matrix(self) -> np.ndarray:  # not read: each tile has its own (faces)
         return np.eye(4)
+
+    def penumbra_radius(self, k: int, softness: float = 1.0) -> float:
+        """The angular radius (radians) of direction ``k``'s PCSS disc: its region's spread
+        times ``softness``, at most :data:`ENV_SHADOW_MAX_RADIUS`."""
+        return min(self.radii[k] * float(softness), ENV_SHADOW_MAX_RADIUS)
 
     def tile(self, k: int) -> tuple[int, int, int, int]:
         """The atlas viewport (x, y, width, height) of direction ``k``."""

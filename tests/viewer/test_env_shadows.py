@@ -97,11 +97,11 @@ def test_floor_occlusion_matches_brute_force(renderer, panel, model):
     """Eight directions against the exact ratio on the floor (the sphere's own pixels aside).
     Where the sphere hides some of the light (truth below 0.95, down to 0.16), the estimate's
     error is the median cut's (eight lights for a panel and a sky) and PCSS's (a disc's penumbra
-    standing for each region's): measured mean |error| 0.044, mean +0.024 (a little light
-    too much), 95th percentile 0.105; elsewhere mean 0.007, 99th percentile 0.083 (the discs'
-    penumbrae reach a little past the truth's). The bounds are about 1.5x those: the error is
-    the method's, and moves with rounding only in the last digits. Without any occlusion (an
-    estimate of 1) the mean error where the sphere hides light would be 0.31."""
+    standing for each region's, at most 8.6 deg): measured mean |error| 0.038, mean 0.000,
+    95th percentile 0.105; elsewhere mean 0.007 (the discs' penumbrae reach a little past the
+    truth's). The bounds are about 1.5x to 2x those: the error is the method's, and moves with
+    rounding only in the last digits. Without any occlusion (an estimate of 1) the mean error
+    where the sphere hides light would be 0.31."""
     x, z = floor_points()
     truth = truth_ratio(panel_environment(), x, z)
     sc = scene(panel, ("sphere",), model=model)
@@ -111,8 +111,8 @@ def test_floor_occlusion_matches_brute_force(renderer, panel, model):
     shade = m & (truth < 0.95)  # where the sphere hides some of the light
     err = ours - truth
     assert truth[shade].min() < 0.6 and shade.sum() > 500
-    assert np.abs(err[shade]).mean() < 0.07
-    assert abs(err[shade].mean()) < 0.05
+    assert np.abs(err[shade]).mean() < 0.06
+    assert abs(err[shade].mean()) < 0.03
     assert np.percentile(np.abs(err[shade]), 95) < 0.16
     away = np.abs(err[m & ~shade])
     assert away.mean() < 0.015 and np.percentile(away, 99) < 0.12  # no false shadow elsewhere

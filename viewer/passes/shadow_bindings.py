@@ -65,7 +65,7 @@ class ShadowBindings:
             for k, face in enumerate(frames.faces[:n]):
                 matrices[k] = face.matrix.T
                 dirs[k] = (*frames.directions[k], frames.shares[k])
-                lenses[k] = shadow_lens(face, frames.radii[k] * softness)
+                lenses[k] = shadow_lens(face, frames.penumbra_radius(k, softness))
                 offsets[k] = face.texel_world * bias
         prog["u_env_shadow_map"].value = unit
         _set(prog, "u_env_shadow_matrix", matrices.tobytes())

@@ -171,9 +171,8 @@ def checks() -> dict:
                 np.float32))
             dirs = torch.tensor([(*d, s) for d, s in zip(frames.directions, frames.shares)],
                                 dtype=torch.float32)
-            lenses = torch.tensor([shadow_lens(f, r * settings.softness)
-                                   for f, r in zip(frames.faces, frames.radii)],
-                                  dtype=torch.float32)
+            lenses = torch.tensor([shadow_lens(f, frames.penumbra_radius(i, settings.softness))
+                                   for i, f in enumerate(frames.faces)], dtype=torch.float32)
             offsets = torch.tensor([f.texel_world * settings.bias for f in frames.faces],
                                    dtype=torch.float32)
             p, normal, frag = _surface(lit.aovs, frame.camera)

@@ -142,3 +142,29 @@ def test_an_inward_solid_keeps_its_faces_turned_towards_the_light():
     out = shadow_module.culled_faces(OUTWARD, f.facing_winding(), s, None)
     inward = shadow_module.culled_faces(INWARD, f.facing_winding(), s, None)
     assert {out, inward} == {"front", "back"}
+
+
+def test_a_mesh_is_tested_once_for_every_kind_of_map(ctx, monkeypatch):
+    """A directional and a point light draw the same sphere with two programs (orthographic,
+    cube faces); whether it bounds a solid is the mesh's, found once."""
+    from shadow_scenes import CAMERA, DARK, FLOOR, SPHERE
+
+    from viewer.scene import scene_from_dict
+
+    calls = []
+
+    def counted(positions, indices):
+        calls.append(len(positions))
+        return solid_orientation(positions, indices)
+
+    monkeypatch.setattr(shadow_module, "solid_orientation", counted)
+    r = Renderer(ctx=ctx)
+    try:
+        r.render(scene_from_dict({
+            "camera": CAMERA, "environment": DARK, "objects": [FLOOR, SPHERE],
+            "lights": [{"type": "directional", "direction": [0.3, 1.0, 0.2]},
+                       {"type": "point", "position": [1.0, 3.0, 0.5], "intensity": 20.0}],
+            "render": {"tonemap": "none"}}))
+    finally:
+        r.release()
+    assert len(calls) == 2, calls  # the floor and the sphere, once each

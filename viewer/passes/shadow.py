@@ -24,6 +24,7 @@ from ..shadows import SHADOW_ORTHO, EnvShadowFrames, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
 
+MESH_VARIANTS = ("ortho", "perspective", "radial")  # ShadowPass._mesh_program's
 SPLAT_FLOATS = 10  # center (3), conic (3), radius, opacity, depth slope (2)
 
 
@@ -152,8 +153,13 @@ class ShadowPass:
             idx = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
             vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
                                         index_element_size=4)
-            entry = self.meshes.put(mesh, variant, ((vao, pos, idx), solid_orientation(
-                mesh.positions, mesh.indices)), pos.size + idx.size)
+            # the orientation is the mesh's, whichever program draws it: one test a mesh
+            known = (self.meshes.get(mesh, v) for v in MESH_VARIANTS if v != variant)
+            orientation = next((e[1] for e in known if e is not None), None)
+            if orientation is None:
+                orientation = solid_orientation(mesh.positions, mesh.indices)
+            entry = self.meshes.put(mesh, variant, ((vao, pos, idx), orientation),
+                                    pos.size + idx.size)
         return entry[0][0], entry[1]
 
     def _splat_array(self, cloud: Splats, frame: ShadowFrame):

@@ -105,7 +105,8 @@ def test_culled_maps_are_the_maps_of_both_faces(renderer, kind):
     frame = FRAMES[kind]()
     sphere, floor = _sphere(), primitives.plane(center=(0.0, 0.0, 0.0), size=(4.0, 4.0))
     faces = frame.faces if hasattr(frame, "faces") else (frame,)
-    chosen = {shadow_module.culled_faces(OUTWARD, f.facing_winding(), sphere, f.origin)
+    box = sphere.bounds()
+    chosen = {shadow_module.culled_faces(OUTWARD, f.facing_winding(), box, f.origin)
               for f in faces}
     assert None not in chosen  # the light is outside the sphere: every face culls
     both = _maps(renderer, frame, [sphere, floor], cull=lambda *a: None)
@@ -116,8 +117,8 @@ def test_culled_maps_are_the_maps_of_both_faces(renderer, kind):
     differ = np.abs(culled - both) > 1e-6
     assert differ.sum() <= max(2, 0.002 * covered.sum()), differ.sum()
 
-    def opposite(orientation, facing, mesh, origin):
-        c = CULLED_FACES(orientation, facing, mesh, origin)
+    def opposite(orientation, facing, bounds, origin):
+        c = CULLED_FACES(orientation, facing, bounds, origin)
         return None if c is None else {"back": "front", "front": "back"}[c]
     wrong = _maps(renderer, frame, [sphere, floor], cull=opposite)
     assert (np.abs(wrong - both) > 1e-4).sum() > 0.5 * covered.sum()
@@ -131,7 +132,8 @@ def test_a_light_inside_a_solid_draws_both_faces():
     frame = cube_frames(Bounds((-3.0,) * 3, (3.0,) * 3), (0.2, 0.1, 0.0), 64)
     assert solid_orientation(room.positions, room.indices) == INWARD
     for f in frame.faces:
-        assert shadow_module.culled_faces(INWARD, f.facing_winding(), room, f.origin) is None
+        assert shadow_module.culled_faces(INWARD, f.facing_winding(), room.bounds(),
+                                          f.origin) is None
 
 
 def test_an_inward_solid_keeps_its_faces_turned_towards_the_light():
@@ -139,8 +141,8 @@ def test_an_inward_solid_keeps_its_faces_turned_towards_the_light():
     (inward) normal turns away from the light, the ones a ray from outside enters by."""
     f = directional_frame(SCENE_BOUNDS, (0.0, 1.0, 0.0), 64)
     s = _sphere()
-    out = shadow_module.culled_faces(OUTWARD, f.facing_winding(), s, None)
-    inward = shadow_module.culled_faces(INWARD, f.facing_winding(), s, None)
+    out = shadow_module.culled_faces(OUTWARD, f.facing_winding(), s.bounds(), None)
+    inward = shadow_module.culled_faces(INWARD, f.facing_winding(), s.bounds(), None)
     assert {out, inward} == {"front", "back"}
 
 

@@ -122,8 +122,8 @@ class ShadowPass:
         for mesh in meshes:
             if mesh.alpha_mode == "BLEND":
                 continue
-            vao, orientation = self._mesh_array(mesh, variant)
-            cull = culled_faces(orientation, facing, mesh, origin)
+            vao, (orientation, box) = self._mesh_array(mesh, variant)
+            cull = culled_faces(orientation, facing, box, origin)
             if cull is None:
                 self.ctx.disable(self.ctx.CULL_FACE)
             else:
@@ -143,8 +143,9 @@ class ShadowPass:
 
     def _mesh_array(self, mesh: Mesh, variant: str = "ortho"):
         """The mesh's positions and indices with the shadow program of ``variant``
-        (:meth:`_mesh_program`; remade if the program was evicted and compiled again), and its
-        :func:`~viewer.geometry.solid.solid_orientation`."""
+        (:meth:`_mesh_program`; remade if the program was evicted and compiled again), and
+        (its :func:`~viewer.geometry.solid.solid_orientation`, its bounds): found at upload, not
+        on each draw."""
         prog = self._mesh_program(variant)
         entry = self.meshes.get(mesh, variant)
         if entry is None or entry[0][0].program is not prog:
@@ -153,12 +154,13 @@ class ShadowPass:
             idx = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
             vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
                                         index_element_size=4)
-            # the orientation is the mesh's, whichever program draws it: one test a mesh
+            # the solid's orientation and bounds are the mesh's, whichever program draws it:
+            # found once a mesh
             known = (self.meshes.get(mesh, v) for v in MESH_VARIANTS if v != variant)
-            orientation = next((e[1] for e in known if e is not None), None)
-            if orientation is None:
-                orientation = solid_orientation(mesh.positions, mesh.indices)
-            entry = self.meshes.put(mesh, variant, ((vao, pos, idx), orientation),
+            solid = next((e[1] for e in known if e is not None), None)
+            if solid is None:
+                solid = (solid_orientation(mesh.positions, mesh.indices), mesh.bounds())
+            entry = self.meshes.put(mesh, variant, ((vao, pos, idx), solid),
                                     pos.size + idx.size)
         return entry[0][0], entry[1]
 
@@ -179,17 +181,17 @@ class ShadowPass:
         self.splats.release()
 
 
-def culled_faces(orientation: int, facing: str, mesh: Mesh, origin) -> str | None:
+def culled_faces(orientation: int, facing: str, bounds, origin) -> str | None:
     """The faces (``"front"`` or ``"back"``, GL's counter-clockwise front) a shadow pass culls
-    from ``mesh`` of :func:`~viewer.geometry.solid.solid_orientation` ``orientation``: those
-    turned away from the light, whose faces turned towards it wind ``facing`` in the map
-    (:meth:`~viewer.shadows.ShadowFrame.facing_winding`); None (both faces drawn) for an open
-    mesh or a light at ``origin`` inside the mesh's bounds (a lamp in a room: its rays leave
-    the solid first)."""
+    from a mesh of :func:`~viewer.geometry.solid.solid_orientation` ``orientation`` and
+    ``bounds`` (lo, hi): those turned away from the light, whose faces turned towards it wind
+    ``facing`` in the map (:meth:`~viewer.shadows.ShadowFrame.facing_winding`); None (both
+    faces drawn) for an open mesh or a light at ``origin`` inside the mesh's bounds (a lamp in
+    a room: its rays leave the solid first)."""
     if orientation == OPEN:
         return None
     if origin is not None:
-        lo, hi = mesh.bounds()
+        lo, hi = bounds
         if np.all(np.asarray(origin) >= lo) and np.all(np.asarray(origin) <= hi):
             return None
     # an outward solid's faces towards the light are counter-clockwise about their normals

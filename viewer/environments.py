@@ -184,9 +184,7 @@ class EnvironmentStore:
         key = (int(count), bool(sunless and entry.lights))
         got = entry.shadow_lights.get(key)
         if got is None:
-            radiance = entry.plain.radiance
-            env = np.frombuffer(radiance.read(), np.float32).reshape(
-                radiance.height, radiance.width, 4)[..., :3]
+            env = _level0(entry)
             if key[1]:
                 env = extract_lights(env)[0]
             got = median_cut(env, key[0])
@@ -390,10 +388,7 @@ class EnvironmentStore:
             got = self.disk.load(entry.disk_key, "directions", {"power_directions": (8, 3)})
             if got is not None:
                 return got[0]["power_directions"]
-        radiance = entry.plain.radiance
-        env = np.frombuffer(radiance.read(), np.float32).reshape(
-            radiance.height, radiance.width, 4)[..., :3]
-        directions = power_directions(env)
+        directions = power_directions(_level0(entry))
         if entry.disk_key is not None and self.disk is not None:
             self.disk.save(entry.disk_key, "directions",
                            {"power_directions": directions.astype(np.float32)}, {})
@@ -420,3 +415,11 @@ class EnvironmentStore:
         s = self._cache.stats()
         return (f"EnvironmentStore({s.items} environments, {mib(s.bytes)} of "
                 f"{mib(s.max_bytes)})")
+
+
+def _level0(entry: Environment) -> np.ndarray:
+    """The environment's radiance texture's level 0 (the loaded image, exactly), ``[H, W, 3]``
+    float32, read back once for what is computed from it on first use."""
+    radiance = entry.plain.radiance
+    return np.frombuffer(radiance.read(), np.float32).reshape(
+        radiance.height, radiance.width, 4)[..., :3]

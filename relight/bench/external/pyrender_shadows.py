@@ -5,10 +5,10 @@ demo scene rebuilt in pyrender (ten UV spheres of 9,216 triangles, radius 0.9, 2
 maps (``RenderFlags.SHADOWS_DIRECTIONAL``, its 2048^2 maps) and without, in the same run.
 
 Standalone: pyrender pins PyOpenGL 3.1.0 and needs numpy < 2, which this project's environment does
-not hold, so it runs in its own::
+not hold, so it runs in its own, whose requirements are ``requirements-pyrender.txt`` beside it::
 
     python -m venv /tmp/pyrender-venv
-    /tmp/pyrender-venv/bin/pip install pyrender "numpy<2"
+    /tmp/pyrender-venv/bin/pip install -r relight/bench/external/requirements-pyrender.txt
     /tmp/pyrender-venv/bin/python relight/bench/external/pyrender_shadows.py --frames 30
 
 It prints one markdown row per light count (medians of ``--frames`` frames after 3 warm-up

@@ -67,6 +67,15 @@ def shadow_depth_at(map_, uv) -> torch.Tensor:
     return map_[ty, tx]
 
 
+def shadow_atlas_depth(map_, t, size) -> torch.Tensor:
+    """GLSL ``float shadow_atlas_depth(sampler2D map, vec2 t, vec2 size)``: the texel floor(t)
+    (texel units) of the atlas, clamped to it."""
+    h, w = map_.shape[-2:]
+    tx = torch.floor(t[..., 0]).long().clamp(0, w - 1)
+    ty = torch.floor(t[..., 1]).long().clamp(0, h - 1)
+    return map_[ty, tx]
+
+
 def shadow_map_size(map_, face) -> torch.Tensor:
     """GLSL ``float shadow_map_size(sampler2D map, int face)``: texels a side of a 2D map (face
     -1), a cube face (face >= 0: half the atlas's height), a cascade tile (face < -1: half the
@@ -80,12 +89,11 @@ def shadow_map_size(map_, face) -> torch.Tensor:
 def shadow_tile_depth(map_, uv, k) -> torch.Tensor:
     """GLSL ``float shadow_tile_depth(sampler2D map, vec2 uv, int k)``: cascade k's tile (2 tiles
     wide), nearest texel, clamped to the tile."""
-    n = map_.shape[-1] // 2
+    n = map_.shape[-1] / 2
     k = torch.as_tensor(k).to(torch.int64).expand(uv.shape[:-1])
-    tx = torch.floor(uv[..., 0] * n).long().clamp(0, n - 1) + (k % 2) * n
-    ty = torch.floor(uv[..., 1] * n).long().clamp(0, n - 1) + torch.div(k, 2,
-                                                                        rounding_mode="floor") * n
-    return map_[ty.clamp(0, map_.shape[-2] - 1), tx]
+    t = torch.minimum(torch.clamp_min(uv * n, 0.0), _f(n - 1.0))
+    corner = torch.stack([(k % 2).float(), torch.div(k, 2, rounding_mode="floor").float()], -1)
+    return shadow_atlas_depth(map_, t + corner * n, None)
 
 
 def shadow_cube_face(d) -> torch.Tensor:
@@ -129,10 +137,10 @@ def shadow_sample(map_, uv, face) -> torch.Tensor:
         return flat
     fc = shadow_cube_face(shadow_cube_dir(face.clamp_min(0), uv))
     f = fc[..., 2].long()
-    n = map_.shape[-2] // 2
-    tx = torch.floor(fc[..., 0] * n).long().clamp(0, n - 1) + (f % 3) * n
-    ty = torch.floor(fc[..., 1] * n).long().clamp(0, n - 1) + (f // 3) * n
-    return torch.where(face < 0, flat, map_[ty, tx])
+    n = map_.shape[-2] / 2
+    t = torch.minimum(torch.clamp_min(fc[..., :2] * n, 0.0), _f(n - 1.0))
+    corner = torch.stack([(f % 3).float(), (f // 3).float()], -1)
+    return torch.where(face < 0, flat, shadow_atlas_depth(map_, t + corner * n, None))
 
 
 def shadow_plane_normal(du, dv, dd, n) -> torch.Tensor:
@@ -178,9 +186,10 @@ def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
     n = shadow_taps(radius, shadow_map_size(map_, face), n_max) if adaptive else \
         torch.full_like(radius, float(n_max))
     phi = _f(phi)
+    inv_n = 1.0 / n
     dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1).expand(*radius.shape, 2)
     for i in range(int(n.max().item()) if n.numel() else 0):
-        o = (torch.sqrt((i + 0.5) / n) * radius)[..., None] * dir_
+        o = (torch.sqrt((i + 0.5) * inv_n) * radius)[..., None] * dir_
         yield (shadow_sample(map_, uv + o, face),
                shadow_receiver_depth(plane, lens, face, uv, o), i < n)
         dir_ = vogel_turn(dir_)
@@ -216,7 +225,7 @@ def shadow_pcf(map_, uv, plane, r_uv, phi, lens, face, adaptive=True) -> torch.T
     for d, z, active in _disk_loop(map_, uv, plane, r_uv, phi, lens, face, SHADOW_PCF_SAMPLES,
                                    adaptive):
         lit = lit + (active & (d >= z)).float()
-    return lit / taps
+    return lit * (1.0 / taps)
 
 
 def shadow_pcss(map_, s, plane, lens, phi, face, adaptive=True) -> torch.Tensor:

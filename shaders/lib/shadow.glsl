@@ -1,7 +1,7 @@
 // shadow.glsl - shadow-map lookups: receiver bias, percentage-closer soft shadows (PCSS: blocker
 // search, then a PCF kernel whose radius follows the light's size). The map stores, per texel, the
 // normalised depth (0 nearest the light, 1 farthest) of the nearest occluder, in a depth texture
-// (24-bit) read with texelFetch (nearest texel, clamped to the map; no comparison mode); 1 where
+// (24-bit) read through a NEAREST sampler clamped to its edge (no comparison mode); 1 where
 // nothing is. Three kinds of map
 // (viewer/shadows.py): orthographic (directional lights, the sun), perspective (spot lights:
 // depth linear along the axis) and cube (point lights: six faces in an atlas 3 x 2 faces, depth
@@ -74,11 +74,18 @@ vec3 shadow_receiver(vec3 p_ws, vec3 n_ws, vec3 l_ws, float texel_world) {
     return p_ws + n_ws * texel_world * (1.5 + 3.0 * (1.0 - NoL));
 }
 
-// The depth stored at uv (nearest texel, clamped to the map's edge).
+// The depth stored at uv (nearest texel, clamped to the map's edge): the map's sampler is
+// NEAREST and clamps to its edge (viewer/graph/resources.py ShadowMapDesc), so a sampled read
+// is the texel floor(uv size), clamped. (On llvmpipe a sampled read costs about half a
+// texelFetch with its index arithmetic, and the filters' taps are most of a lookup's cost.)
 float shadow_depth_at(sampler2D map, vec2 uv) {
-    ivec2 size = textureSize(map, 0);
-    ivec2 t = clamp(ivec2(floor(uv * vec2(size))), ivec2(0), size - 1);
-    return texelFetch(map, t, 0).r;
+    return textureLod(map, uv, 0.0).r;
+}
+
+// The texel t (texel units: floor(t) is its index) of an atlas of `size` texels, sampled at
+// its centre (shadow_depth_at's NEAREST read: no index arithmetic, exact at any precision).
+float shadow_atlas_depth(sampler2D map, vec2 t, vec2 size) {
+    return textureLod(map, (floor(t) + 0.5) / size, 0.0).r;
 }
 
 // Texels a side of the map region that `face` addresses: a 2D map's (face -1), a cube face's
@@ -91,9 +98,10 @@ float shadow_map_size(sampler2D map, int face) {
 
 // The depth stored at uv of cascade k's tile (nearest texel, clamped to the tile's edge).
 float shadow_tile_depth(sampler2D map, vec2 uv, int k) {
-    int n = textureSize(map, 0).x / 2;
-    ivec2 t = clamp(ivec2(floor(uv * float(n))), ivec2(0), ivec2(n - 1));
-    return texelFetch(map, t + ivec2(k % 2, k / 2) * n, 0).r;
+    vec2 size = vec2(textureSize(map, 0));
+    float n = 0.5 * size.x;
+    vec2 t = clamp(uv * n, vec2(0.0), vec2(n - 1.0));
+    return shadow_atlas_depth(map, t + vec2(k % 2, k / 2) * n, size);
 }
 
 // The cube face (0..5: +X, -X, +Y, -Y, +Z, -Z) holding direction d (from the light), and d's
@@ -132,9 +140,10 @@ float shadow_sample(sampler2D map, vec2 uv, int face) {
     if (SHADOW_IS_2D(face)) return shadow_depth_at(map, uv);
     vec3 fc = shadow_cube_face(shadow_cube_dir(face, uv));
     int f = int(fc.z);
-    int n = textureSize(map, 0).y / 2;
-    ivec2 t = clamp(ivec2(floor(fc.xy * float(n))), ivec2(0), ivec2(n - 1));
-    return texelFetch(map, t + ivec2(f % 3, f / 3) * n, 0).r;
+    vec2 size = vec2(textureSize(map, 0));
+    float n = 0.5 * size.y;
+    vec2 t = clamp(fc.xy * n, vec2(0.0), vec2(n - 1.0));
+    return shadow_atlas_depth(map, t + vec2(f % 3, f / 3) * n, size);
 }
 
 // The receiver's depth gradient in the map (receiver-plane depth bias): a planar receiver of
@@ -197,12 +206,13 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
     int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, shadow_map_size(map, face),
                         SHADOW_SEARCH_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
+    float inv_n = 1.0 / float(n);
     float centre = shadow_sample(map, uv, face);
     bool hit = centre < shadow_receiver_depth(plane, lens, face, uv, vec2(0.0));
     float sum = hit ? centre : 0.0;
     float count = hit ? 1.0 : 0.0;
     for (int i = 0; i < n; ++i) {
-        vec2 o = sqrt((float(i) + 0.5) / float(n)) * search_uv * dir;
+        vec2 o = sqrt((float(i) + 0.5) * inv_n) * search_uv * dir;
         float d = shadow_sample(map, uv + o, face);
         if (d < shadow_receiver_depth(plane, lens, face, uv, o)) {
             sum += d;
@@ -221,14 +231,15 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
     int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, shadow_map_size(map, face),
                         SHADOW_PCF_SAMPLES);
     vec2 dir = vec2(cos(phi), sin(phi));
+    float inv_n = 1.0 / float(n);
     float lit = 0.0;
     for (int i = 0; i < n; ++i) {
-        vec2 o = sqrt((float(i) + 0.5) / float(n)) * r_uv * dir;
+        vec2 o = sqrt((float(i) + 0.5) * inv_n) * r_uv * dir;
         lit += shadow_sample(map, uv + o, face) >= shadow_receiver_depth(plane, lens, face, uv, o)
             ? 1.0 : 0.0;
         dir = vogel_turn(dir);
     }
-    return lit / float(n);
+    return lit * inv_n;
 }
 
 // PCSS visibility at the map point s = (u, v, depth) of a receiver (after shadow_receiver) whose

@@ -226,31 +226,54 @@ vec4 scene_light(int i, vec3 p, vec3 n) {
     return la;
 }
 
+// FOR_EACH_LIGHT(S): S(0) S(1) ... S(LIGHT_COUNT - 1), the lights' loop unrolled so that each
+// light's index is a constant: its shadow map u_shadow_map[i] is then one sampler, where a loop
+// variable would index the sampler array at every texture read (on llvmpipe a switch over all
+// the maps per read: a fifth of a four-light frame's shadow lookups). One copy of a light's
+// code per light.
+#if LIGHT_COUNT >= 8
+#define FOR_EACH_LIGHT(S) S(0) S(1) S(2) S(3) S(4) S(5) S(6) S(7)
+#elif LIGHT_COUNT == 7
+#define FOR_EACH_LIGHT(S) S(0) S(1) S(2) S(3) S(4) S(5) S(6)
+#elif LIGHT_COUNT == 6
+#define FOR_EACH_LIGHT(S) S(0) S(1) S(2) S(3) S(4) S(5)
+#elif LIGHT_COUNT == 5
+#define FOR_EACH_LIGHT(S) S(0) S(1) S(2) S(3) S(4)
+#elif LIGHT_COUNT == 4
+#define FOR_EACH_LIGHT(S) S(0) S(1) S(2) S(3)
+#elif LIGHT_COUNT == 3
+#define FOR_EACH_LIGHT(S) S(0) S(1) S(2)
+#elif LIGHT_COUNT == 2
+#define FOR_EACH_LIGHT(S) S(0) S(1)
+#else
+#define FOR_EACH_LIGHT(S) S(0)
+#endif
+
 // Every light through ggx_directional_light (Cook-Torrance GGX + Lambert with ggx_split_sum's
 // energy split): the BRDF the environment sees in ggx_split_sum, ggx_mc and the split students.
 vec3 lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n, vec3 v,
                 vec3 p) {
     vec3 c = vec3(0.0);
-    for (int i = 0; i < LIGHT_COUNT; ++i) {
-        vec4 la = scene_light(i, p, n);
-        if (la.w > 0.0) {
-            c += ggx_directional_light(diffuse, f0, a, dfg, multiscatter, n, v, la.xyz,
-                                       u_light_intensity[i] * la.w);
-        }
+#define LIGHT_GGX(i) {                                                                        \
+        vec4 la = scene_light(i, p, n);                                                     \
+        if (la.w > 0.0) c += ggx_directional_light(diffuse, f0, a, dfg, multiscatter, n, v,  \
+                                                   la.xyz, u_light_intensity[i] * la.w);    \
     }
+    FOR_EACH_LIGHT(LIGHT_GGX)
+#undef LIGHT_GGX
     return c;
 }
 
 // Every light through blinn_phong_directional_light (the Blinn-Phong model's BRDF).
 vec3 lights_blinn_phong(vec3 diffuse, vec3 f0, float a, vec3 n, vec3 v, vec3 p) {
     vec3 c = vec3(0.0);
-    for (int i = 0; i < LIGHT_COUNT; ++i) {
-        vec4 la = scene_light(i, p, n);
-        if (la.w > 0.0) {
-            c += blinn_phong_directional_light(diffuse, f0, a, n, v, la.xyz,
-                                               u_light_intensity[i] * la.w);
-        }
+#define LIGHT_BLINN_PHONG(i) {                                                                \
+        vec4 la = scene_light(i, p, n);                                                     \
+        if (la.w > 0.0) c += blinn_phong_directional_light(diffuse, f0, a, n, v, la.xyz,     \
+                                                           u_light_intensity[i] * la.w);    \
     }
+    FOR_EACH_LIGHT(LIGHT_BLINN_PHONG)
+#undef LIGHT_BLINN_PHONG
     return c;
 }
 #endif

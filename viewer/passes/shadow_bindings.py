@@ -166,6 +166,7 @@ class ShadowBindings:
             self._empty_shadow = self.ctx.texture((1, 1), 1, np.ones(1, np.float32).tobytes(),
                                                   dtype="f4")
             self._empty_shadow.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            self._empty_shadow.repeat_x = self._empty_shadow.repeat_y = False
         return self._empty_shadow
 
     def release(self) -> None:

@@ -2,8 +2,8 @@
 read the map (``shadow_depth_at``, ``shadow_sample``, ``shadow_blocker_depth``, ``shadow_pcf``,
 ``shadow_pcss``, ``shadow_visibility``) are the pass check ``shadow:lookups``;
 ``shadow_light_visibility``, ``shadow_cascade_visibility`` and ``shadow_tile_visibility`` (a mat4
-argument) the pass check ``shadow:lights``; ``shadow_map_size`` and ``shadow_tile_depth`` (a
-sampler) ``shadow:lookups``."""
+argument) the pass check ``shadow:lights``; ``shadow_map_size``, ``shadow_tile_depth`` and
+``shadow_atlas_depth`` (a sampler: the cube and cascade atlases' reads) ``shadow:lookups``."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,7 +12,8 @@ from .base import Arg, ParityCase
 
 PASS_LEVEL = ("shadow_depth_at", "shadow_sample", "shadow_blocker_depth", "shadow_pcf",
               "shadow_pcss", "shadow_visibility", "shadow_light_visibility", "shadow_map_size",
-              "shadow_tile_depth", "shadow_cascade_visibility", "shadow_tile_visibility")
+              "shadow_tile_depth", "shadow_atlas_depth", "shadow_cascade_visibility",
+              "shadow_tile_visibility")
 
 
 def _receiver_planes(args):

@@ -108,7 +108,8 @@ def checks() -> dict:
             inputs = _inputs(kind, n, rng)
             tex = ctx.texture((depth_map.shape[1], depth_map.shape[0]), 1, depth_map.tobytes(),
                               dtype="f4")
-            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)  # a shadow map's sampler (ShadowMapDesc)
+            tex.repeat_x = tex.repeat_y = False
 
             def setup(prog, tex=tex, lens=lens):
                 tex.use(location=0)

@@ -56,6 +56,19 @@ class ShadowFrame:
         distance from the light."""
         return max(self.extent) / float(self.resolution)
 
+    def texel_at(self, bounds) -> float:
+        """World size of the smallest texel this frame lays on the box ``bounds`` (lo, hi): an
+        orthographic frame's one size; a perspective or cube face's at the box's corner nearest
+        the light along its axis (w, the distance along the axis, is affine: its least over a
+        box is at a corner), at least ``near`` (a light inside the box: its texels at ``near``)."""
+        if self.kind == SHADOW_ORTHO:
+            return self.texel_world
+        lo, hi = (np.asarray(b, np.float64) for b in bounds)
+        corners = np.array([[(lo, hi)[(k >> a) & 1][a] for a in range(3)] + [1.0]
+                            for k in range(8)])
+        nearest = float((corners @ self.matrix[3]).min())
+        return self.texel_world * max(nearest, self.near)
+
     def project(self, points: np.ndarray) -> np.ndarray:
         """``[N, 3]`` world points -> ``[N, 3]`` (u, v, depth)."""
         p = np.asarray(points, np.float64).reshape(-1, 3)

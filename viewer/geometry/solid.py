@@ -81,3 +81,23 @@ def weld(positions: np.ndarray, tol: float) -> np.ndarray:
             labels = least[cell]
         if np.array_equal(labels, before):
             return labels
+
+
+def plane_of(positions: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """``(n, c)``: the plane n . p = c (n unit) holding every position, within a millionth of
+    their extent; None where they do not lie on one plane (or are fewer than three, or not
+    finite). A flat mesh cannot shadow itself, and occludes nothing that lies on its light's
+    side (:mod:`viewer.passes.shadow`)."""
+    pos = np.asarray(positions, np.float64).reshape(-1, 3)
+    if len(pos) < 3 or not np.isfinite(pos).all():
+        return None
+    extent = float(np.max(pos.max(axis=0) - pos.min(axis=0)))
+    if not extent > 0.0:
+        return None
+    centre = pos.mean(axis=0)
+    x = pos - centre
+    _, vectors = np.linalg.eigh(x.T @ x)
+    n = vectors[:, 0]  # the direction of least spread
+    if float(np.abs(x @ n).max()) > 1e-6 * extent:
+        return None
+    return n, float(n @ centre)

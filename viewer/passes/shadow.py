@@ -12,13 +12,19 @@ thin wall): the same map for half the rasterised triangles. The receiver's norma
 is a quad over its projected 3-sigma ellipse in the light's frame, cut where the Gaussian's opacity
 falls below 0.5, at its mean depth along each light ray: a splat surface dense enough to look opaque
 casts a shadow, a haze of faint splats does not. Transparent (alphaMode BLEND) meshes cast no
-shadow."""
+shadow.
+
+Each mesh is drawn at the coarsest level of detail (:mod:`viewer.geometry.simplify`) whose error
+is at most ``caster_error`` texels of the map where the mesh lies (``[render]
+shadow_caster_error``, 0.5 by default; 0: whole meshes): the map cannot resolve the difference,
+and a software rasteriser's shadow pass costs per triangle."""
 from __future__ import annotations
 
 import numpy as np
 
 from ..geometry.mesh import Mesh
-from ..geometry.solid import OPEN, OUTWARD, solid_orientation
+from ..geometry.simplify import SimplifiedMesh, lod_level, simplify, whole
+from ..geometry.solid import OPEN, OUTWARD, plane_of
 from ..cascades import ShadowCascades
 from ..shadows import SHADOW_ORTHO, EnvShadowFrames, ShadowCube, ShadowFrame
 from ..splats.data import Splats
@@ -69,9 +75,12 @@ class ShadowPass:
     def __init__(self, programs):
         self.programs = programs
         self.ctx = programs.ctx
-        # mesh -> ((vertex array, position buffer, index buffer), solid orientation): positions
+        # (mesh, (variant, level)) -> ((vertex array, position buffer, index buffer), caster)
         self.meshes = UploadCache(self.ctx, "shadow mesh uploads",
                                   release=lambda entry: _release_arrays(entry[0]))
+        # (mesh, level) -> its SimplifiedMesh (level None: the whole mesh), or None where a level
+        # saves too little (the whole mesh is drawn): shared by the programs that draw it
+        self.casters = UploadCache(self.ctx, "shadow caster levels", release=lambda value: None)
         # (cloud, frame matrix) -> (vertex array, instance buffer): rebuilt when the light turns
         self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
                                   release=_release_arrays)
@@ -89,10 +98,15 @@ class ShadowPass:
                                       defines={"SPLAT": 1})
 
     def draw(self, target, frame: ShadowFrame | ShadowCube, meshes: list[Mesh],
-             clouds: list[Splats]) -> None:
+             clouds: list[Splats], caster_error: float = 0.0,
+             flat_receivers: bool = False) -> None:
         """Clear ``target`` (a :class:`~viewer.graph.resources.ShadowTarget`) to depth 1 and draw
         ``meshes`` and ``clouds`` into it (a cube, cascades or the environment's directions: into
-        each face's, cascade's or direction's tile)."""
+        each face's, cascade's or direction's tile); each mesh at the coarsest level of detail
+        whose error is at most ``caster_error`` of the tile's texels where it lies (0: whole).
+        ``flat_receivers``: ``meshes`` and ``clouds`` are every surface that reads the map, so a
+        flat mesh that hides none of them from the light (:func:`occludes_nothing`: a floor under
+        the scene, lit from above) is left out."""
         ctx = self.ctx
         target.fbo.use()
         ctx.viewport = (0, 0, *target.texture.size)
@@ -104,26 +118,37 @@ class ShadowPass:
             if isinstance(frame, (ShadowCube, ShadowCascades, EnvShadowFrames)):
                 for face, f in enumerate(frame.faces):
                     ctx.viewport = frame.tile(face)
-                    self._draw_frame(f, meshes, clouds)
+                    self._draw_frame(f, meshes, clouds, caster_error, flat_receivers)
             else:
                 ctx.viewport = (0, 0, frame.resolution, frame.resolution)
-                self._draw_frame(frame, meshes, clouds)
+                self._draw_frame(frame, meshes, clouds, caster_error, flat_receivers)
         finally:
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
             ctx.cull_face = "back"
 
-    def _draw_frame(self, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats]) -> None:
+    def _draw_frame(self, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats],
+                    caster_error: float = 0.0, flat_receivers: bool = False) -> None:
         n = int(frame.resolution)
         radial = frame.center is not None
         variant = "radial" if radial else ("ortho" if frame.kind == SHADOW_ORTHO
                                            else "perspective")
         matrix = np.ascontiguousarray(frame.matrix.T, np.float32).tobytes()
         facing, origin = frame.facing_winding(), frame.origin
-        for mesh in meshes:
+        # every caster's and surface's box (transparent meshes receive shadows too), for the
+        # flat meshes that hide nothing in this frame
+        boxes = [self._whole(m)[1] for m in meshes] + [self._cloud_box(c) for c in clouds
+                                                        if len(c)] if flat_receivers else []
+        for k, mesh in enumerate(meshes):
             if mesh.alpha_mode == "BLEND":
                 continue
-            vao, (orientation, box) = self._mesh_array(mesh, variant)
-            cull = culled_faces(orientation, facing, box, origin)
+            _, box, plane = self._whole(mesh)
+            if plane is not None and flat_receivers and occludes_nothing(
+                    plane, frame, boxes[:k] + boxes[k + 1:], box):
+                continue
+            level = None if caster_error <= 0.0 else lod_level(
+                float(np.max(box[1] - box[0])), caster_error * frame.texel_at(box))
+            vao, caster = self._mesh_array(mesh, variant, level)
+            cull = culled_faces(caster.orientation, facing, box, origin)
             if cull is None:
                 self.ctx.disable(self.ctx.CULL_FACE)
             else:
@@ -141,28 +166,60 @@ class ShadowPass:
             vao.program["u_map_size"].value = (float(n), float(n))
             vao.render(self.ctx.TRIANGLE_STRIP, vertices=4, instances=len(cloud))
 
-    def _mesh_array(self, mesh: Mesh, variant: str = "ortho"):
-        """The mesh's positions and indices with the shadow program of ``variant``
-        (:meth:`_mesh_program`; remade if the program was evicted and compiled again), and
-        (its :func:`~viewer.geometry.solid.solid_orientation`, its bounds): found at upload, not
-        on each draw."""
+    def _mesh_array(self, mesh: Mesh, variant: str = "ortho", level: int | None = None):
+        """The vertex array of the mesh at ``level`` (:meth:`_caster`) with the shadow program
+        of ``variant`` (:meth:`_mesh_program`; remade if the program was evicted and compiled
+        again), and that :class:`~viewer.geometry.simplify.SimplifiedMesh` (its solid
+        orientation found once, whichever program draws it)."""
+        caster, level = self._caster(mesh, level)
         prog = self._mesh_program(variant)
-        entry = self.meshes.get(mesh, variant)
+        entry = self.meshes.get(mesh, (variant, level))
         if entry is None or entry[0][0].program is not prog:
-            mesh.validated()
-            pos = self.ctx.buffer(np.ascontiguousarray(mesh.positions, np.float32).tobytes())
-            idx = self.ctx.buffer(np.ascontiguousarray(mesh.indices, np.uint32).tobytes())
+            pos = self.ctx.buffer(np.ascontiguousarray(caster.positions, np.float32).tobytes())
+            idx = self.ctx.buffer(np.ascontiguousarray(caster.indices, np.uint32).tobytes())
             vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
                                         index_element_size=4)
-            # the solid's orientation and bounds are the mesh's, whichever program draws it:
-            # found once a mesh
-            known = (self.meshes.get(mesh, v) for v in MESH_VARIANTS if v != variant)
-            solid = next((e[1] for e in known if e is not None), None)
-            if solid is None:
-                solid = (solid_orientation(mesh.positions, mesh.indices), mesh.bounds())
-            entry = self.meshes.put(mesh, variant, ((vao, pos, idx), solid),
+            entry = self.meshes.put(mesh, (variant, level), ((vao, pos, idx), caster),
                                     pos.size + idx.size)
         return entry[0][0], entry[1]
+
+    def _caster(self, mesh: Mesh, level: int | None) -> tuple[SimplifiedMesh, int | None]:
+        """The mesh at ``level`` (None: whole) and the level it is drawn at: None where the
+        level would keep most of its triangles (:func:`~viewer.geometry.simplify.simplify`)."""
+        if level is not None:
+            found = self.casters.get(mesh, level)
+            if found is None:
+                simplified = simplify(mesh.positions, mesh.indices, level)
+                found = self.casters.put(mesh, level, (simplified,),
+                                         simplified.nbytes if simplified is not None else 0)
+            if found[0] is not None:
+                return found[0], level
+        return self._whole(mesh)[0], None
+
+    def _whole(self, mesh: Mesh) -> tuple[SimplifiedMesh, tuple, tuple | None]:
+        """The whole mesh as a caster, its bounds and its plane where it is flat
+        (:func:`~viewer.geometry.solid.plane_of`): found once a mesh, not on each draw."""
+        found = self.casters.get(mesh, None)
+        if found is None:
+            mesh.validated()
+            found = self.casters.put(mesh, None, (whole(mesh.positions, mesh.indices),
+                                                  mesh.bounds(), plane_of(mesh.positions)),
+                                     0)  # the mesh's own arrays
+        return found
+
+    def _cloud_box(self, cloud: Splats) -> tuple[np.ndarray, np.ndarray]:
+        """Every splat's 3-sigma box (not the robust bounds that frame a camera: an outlier
+        below a floor still receives its shadow), found once a cloud."""
+        found = self.casters.get(cloud, "box")
+        if found is None:
+            means = np.asarray(cloud.means, np.float64).reshape(-1, 3)
+            grow = 3.0 * np.asarray(cloud.scales, np.float64).reshape(-1, 3).max(axis=1,
+                                                                                keepdims=True)
+            ok = np.isfinite(means).all(axis=1) & np.isfinite(grow[:, 0])
+            lo = (means - grow)[ok].min(axis=0) if ok.any() else np.zeros(3)
+            hi = (means + grow)[ok].max(axis=0) if ok.any() else np.zeros(3)
+            found = self.casters.put(cloud, "box", (lo, hi), 0)
+        return found
 
     def _splat_array(self, cloud: Splats, frame: ShadowFrame):
         key = (frame.matrix.tobytes(), frame.resolution)
@@ -178,6 +235,7 @@ class ShadowPass:
 
     def release(self) -> None:
         self.meshes.release()
+        self.casters.release()
         self.splats.release()
 
 
@@ -197,6 +255,34 @@ def culled_faces(orientation: int, facing: str, bounds, origin) -> str | None:
     # an outward solid's faces towards the light are counter-clockwise about their normals
     keep_ccw = (facing == "ccw") == (orientation == OUTWARD)
     return "back" if keep_ccw else "front"
+
+
+def occludes_nothing(plane, frame: ShadowFrame, boxes, own_box) -> bool:
+    """Whether a flat mesh on ``plane`` (n, c: n . p = c) hides nothing from ``frame``'s light:
+    the light lies off the plane, on one side, and so does every box of ``boxes`` (lo, hi: the
+    other surfaces that read the map). A ray from the light to a point on its side of the plane
+    never crosses it, and a flat mesh cannot shadow itself. Points on the plane count as on the
+    light's side (a sphere resting on a floor), within a hundred-thousandth of ``own_box``'s
+    size; a light in the plane's own direction (grazing it) does not."""
+    n, c = np.asarray(plane[0], np.float64), float(plane[1])
+    lo, hi = (np.asarray(b, np.float64) for b in own_box)
+    tol = 1e-5 * max(float(np.max(hi - lo)), 1e-30)
+    if frame.kind == SHADOW_ORTHO:
+        towards = -np.asarray(frame.matrix[2, :3], np.float64)  # depth grows away from the light
+        side = float(n @ towards) / max(float(np.linalg.norm(towards)), 1e-30)
+        if abs(side) <= 1e-6:
+            return False
+    else:
+        side = float(n @ frame.origin) - c
+        if abs(side) <= tol:
+            return False
+    sign = 1.0 if side > 0.0 else -1.0
+    for b_lo, b_hi in boxes:
+        corners = np.where(np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], bool),
+                           np.asarray(b_hi, np.float64), np.asarray(b_lo, np.float64))
+        if float((sign * (corners @ n - c)).min()) < -tol:
+            return False
+    return True
 
 
 def _release_arrays(value) -> None:

@@ -2,8 +2,9 @@
 
 The bench's mesh scene at 512^2 with 1 and 4 shadowing directional lights and maps of 2048 (the
 default) and 1024 texels a side, each frame timed with shadows on and off in the same run (whole
-frames: nothing reused), so a row's ``ratio`` is the cost of the shadow passes and lookups relative
-to the same frame without them: a frame in which a light or the geometry moved. ``ratio_maps_kept``
+frames: nothing reused; the two in alternating blocks, :func:`~relight.bench.timing.time_pair`),
+so a row's ``ratio`` is the cost of the shadow passes and lookups relative to the same frame
+without them: a frame in which a light or the geometry moved. ``ratio_maps_kept``
 is the same shadowed frame without its shadow passes (their fenced times taken out of the same
 frames): what a camera move or a material or light-colour slider costs, since the frame graph keeps
 a map whose light and casters did not change (a cascaded map follows the camera and is redrawn).
@@ -19,7 +20,7 @@ import math
 from viewer.graph.shadows import env_shadow_tile
 from viewer.lights import Light
 
-from .timing import time_frames
+from .timing import time_pair
 
 SIZE = (512, 512)
 MAP_SIZES = (2048, 1024)
@@ -39,13 +40,20 @@ def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
                 map_sizes=MAP_SIZES, env_counts=(8,)) -> list[dict]:
     """One row per light count and map size: ms per frame with and without shadow maps, their
     ratio, the ratio with the maps kept (module doc), the shadow passes' own share and how many
-    were drawn per frame; then one per count of ``env_counts``: the environment's shadows
+    were drawn per frame; one per light count with whole meshes in the maps (``caster_error``
+    0); then one per count of ``env_counts``: the environment's shadows
     (``env_shadows``) without lights, against the same frame without them (``shadow_size``:
     their atlas's tile)."""
     rows = []
-    for n, map_size in ((n, m) for n in counts for m in map_sizes):
+    default_error = scene.render.shadow.caster_error
+    # each light count at each map size, then at the default size with the whole meshes drawn
+    # into the maps (shadow_caster_error = 0): what the casters' levels of detail save
+    cases = [(n, m, default_error) for n in counts for m in map_sizes]
+    cases += [(n, map_sizes[0], 0.0) for n in counts] if default_error > 0.0 else []
+    for n, map_size, error in cases:
         lit = dataclasses.replace(scene, lights=_lights(n)).with_camera(size=size)
-        rows.append(_row(renderer, lit.with_render(shadows=True, shadow_size=map_size),
+        rows.append(_row(renderer, lit.with_render(shadows=True, shadow_size=map_size,
+                                                   shadow_caster_error=error),
                          lit.with_render(shadows=False), size, config,
                          kind="shadows", lights=n, shadow_size=map_size, env_shadows=0))
     for k in env_counts:  # the environment's shadows alone (no light), default maps
@@ -59,8 +67,7 @@ def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
 def _row(renderer, shadowed, plain, size, config, *, kind, lights, shadow_size,
          env_shadows) -> dict:
     """The timings of ``shadowed`` beside ``plain`` (the same scene without its shadow maps)."""
-    on_ms, on_pass = time_frames(renderer, shadowed, size, config)
-    off_ms, _ = time_frames(renderer, plain, size, config)
+    (on_ms, on_pass), (off_ms, _) = time_pair(renderer, shadowed, plain, size, config)
     passes = [p for p in on_pass if p.startswith("shadow")]
     shadow_ms = sum(on_pass[p] for p in passes)
     return {"kind": kind, "lights": lights, "size": f"{size[0]}x{size[1]}",
@@ -68,4 +75,5 @@ def _row(renderer, shadowed, plain, size, config, *, kind, lights, shadow_size,
             "ratio": on_ms / max(off_ms, 1e-9),
             "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
             "shadow_pass_ms": shadow_ms, "shadow_passes": len(passes),
-            "shadow_size": shadow_size, "env_shadows": env_shadows}
+            "shadow_size": shadow_size, "env_shadows": env_shadows,
+            "caster_error": shadowed.render.shadow.caster_error}

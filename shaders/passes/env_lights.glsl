@@ -45,14 +45,27 @@ vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter
                     float w, vec3 p) {
     vec3 c = vec3(0.0);
 #if ENV_LIGHTS > 0
-    for (int i = 0; i < ENV_LIGHTS; ++i) {
-        vec3 l = rotate_y(u_env_light_direction[i], u_env_rotation);
-        vec4 disc = disc_light(n, l, u_env_light_radius[i]);
-        if (!(disc.w > 0.0)) continue;
-        c += ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, disc.xyz,
-                                 u_env_light_irradiance[i] * (u_env_intensity * disc.w
-                                 * env_light_visibility(i, p, n, l)), w);
+    // unrolled, as passes/lights.glsl's FOR_EACH_LIGHT: each light's shadow map one sampler
+#define ENV_LIGHT_GGX(i) {                                                                    \
+        vec3 l = rotate_y(u_env_light_direction[i], u_env_rotation);                        \
+        vec4 disc = disc_light(n, l, u_env_light_radius[i]);                                \
+        if (disc.w > 0.0) {                                                                 \
+            c += ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, disc.xyz,      \
+                                     u_env_light_irradiance[i] * (u_env_intensity * disc.w   \
+                                     * env_light_visibility(i, p, n, l)), w);                \
+        }                                                                                   \
     }
+    ENV_LIGHT_GGX(0)
+#if ENV_LIGHTS > 1
+    ENV_LIGHT_GGX(1)
+#endif
+#if ENV_LIGHTS > 2
+    ENV_LIGHT_GGX(2)
+#endif
+#if ENV_LIGHTS > 3
+#error "ENV_LIGHTS > 3: unroll env_lights_ggx further (viewer/sun.py ENV_MAX_LIGHTS)"
+#endif
+#undef ENV_LIGHT_GGX
 #endif
     return c;
 }

@@ -13,7 +13,7 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import (AA_MODES, CASTER_ERROR_MAX, CONTACT_SHADOWS, ENV_SHADOWS_MAX,
+from .settings import (AA_MODES, LOD_ERROR_MAX, CONTACT_SHADOWS, ENV_SHADOWS_MAX,
                        RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX, SSAO_SCALE_MAX)
 
 
@@ -133,9 +133,9 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     for k in ("shadow_softness", "shadow_bias"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)
-    if "shadow_caster_error" in t:
-        kw["shadow_caster_error"] = _num(t["shadow_caster_error"], "render.shadow_caster_error",
-                                         file, 0.0, CASTER_ERROR_MAX)
+    if "shadow_lod_error" in t:
+        kw["shadow_lod_error"] = _num(t["shadow_lod_error"], "render.shadow_lod_error", file,
+                                      0.0, LOD_ERROR_MAX)
     if "contact_shadows" in t:
         kw["contact_shadows"] = _str(t["contact_shadows"], "render.contact_shadows", file,
                                      CONTACT_SHADOWS)

@@ -81,8 +81,8 @@ class ShadowSettings:
     # the error a mesh drawn into a shadow map may carry, in the map's texels where it lies:
     # each is drawn at the coarsest level of detail within it (viewer/geometry/simplify.py:
     # meshoptimizer's measure; a silhouette moves about twice as far); 0: whole meshes
-    # (shadow_caster_error, 0..CASTER_ERROR_MAX)
-    caster_error: float = 0.5
+    # (shadow_lod_error, 0..LOD_ERROR_MAX)
+    lod_error: float = 0.5
     # a directional light's (and the sun's) cascaded maps (viewer/cascades.py): "auto" (only
     # where one map's texels are coarse beside the pixels near the camera), or 1..4 (1: one map)
     # (shadow_cascades)
@@ -103,7 +103,7 @@ class ShadowSettings:
 
 
 CONTACT_SHADOWS = ("auto", "on", "off")  # [render] contact_shadows
-CASTER_ERROR_MAX = 4.0  # [render] shadow_caster_error: 0..4 texels
+LOD_ERROR_MAX = 4.0  # [render] shadow_lod_error: 0..4 texels
 ENV_SHADOWS_MAX = 16  # [render] env_shadows: 0..16 (tiles of one shadow atlas, 2 wide)
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
@@ -193,7 +193,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "env_shadows": ("shadow", "environment"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),
-    "shadow_caster_error": ("shadow", "caster_error"),
+    "shadow_lod_error": ("shadow", "lod_error"),
     "shadow_cascades": ("shadow", "cascades"),
     "contact_shadows": ("shadow", "contact"),
     "contact_length": ("shadow", "contact_length"),

@@ -18,7 +18,7 @@ scores, not a tuned model's generalisation). ``psnr_map<n>`` scores the same cas
 shadow maps of ``n`` texels a side instead of the default (:data:`MAP_SIZES`): the accuracy side of
 the map size's speed/accuracy trade, whose cost the ``shadows`` suite measures;
 ``psnr_whole_casters`` the same case with whole meshes drawn into its maps
-(``shadow_caster_error = 0``: no levels of detail).
+(``shadow_lod_error = 0``: no levels of detail).
 
 ``penumbra``: the 10-90 % width of a directional light's penumbra (2 and 8 deg) in the PCSS shadow
 and in the path tracer (:mod:`relight.bench.penumbra`), traced live at 128^2, 256 spp (left out,
@@ -110,7 +110,7 @@ def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES,
             truth).psnr for n in map_sizes}
         # the same case with whole meshes in its maps (no levels of detail)
         by_size["psnr_whole_casters"] = score(renderer.render(scene.with_render(
-            model=model, shadows=True, shadow_caster_error=0.0, **changes), size=(w, h)).radiance,
+            model=model, shadows=True, shadow_lod_error=0.0, **changes), size=(w, h)).radiance,
             truth).psnr
         rows.append({"scene": name, "casters": _casters(scene, changes), "size": f"{w}x{h}",
                      "spp": truth.meta.get("spp"), "model": model, "variant": variant,

@@ -40,20 +40,20 @@ def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
                 map_sizes=MAP_SIZES, env_counts=(8,)) -> list[dict]:
     """One row per light count and map size: ms per frame with and without shadow maps, their
     ratio, the ratio with the maps kept (module doc), the shadow passes' own share and how many
-    were drawn per frame; one per light count with whole meshes in the maps (``caster_error``
+    were drawn per frame; one per light count with whole meshes in the maps (``lod_error``
     0); then one per count of ``env_counts``: the environment's shadows
     (``env_shadows``) without lights, against the same frame without them (``shadow_size``:
     their atlas's tile)."""
     rows = []
-    default_error = scene.render.shadow.caster_error
+    default_error = scene.render.shadow.lod_error
     # each light count at each map size, then at the default size with the whole meshes drawn
-    # into the maps (shadow_caster_error = 0): what the casters' levels of detail save
+    # into the maps (shadow_lod_error = 0): what the casters' levels of detail save
     cases = [(n, m, default_error) for n in counts for m in map_sizes]
     cases += [(n, map_sizes[0], 0.0) for n in counts] if default_error > 0.0 else []
     for n, map_size, error in cases:
         lit = dataclasses.replace(scene, lights=_lights(n)).with_camera(size=size)
         rows.append(_row(renderer, lit.with_render(shadows=True, shadow_size=map_size,
-                                                   shadow_caster_error=error),
+                                                   shadow_lod_error=error),
                          lit.with_render(shadows=False), size, config,
                          kind="shadows", lights=n, shadow_size=map_size, env_shadows=0))
     for k in env_counts:  # the environment's shadows alone (no light), default maps
@@ -76,4 +76,4 @@ def _row(renderer, shadowed, plain, size, config, *, kind, lights, shadow_size,
             "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
             "shadow_pass_ms": shadow_ms, "shadow_passes": len(passes),
             "shadow_size": shadow_size, "env_shadows": env_shadows,
-            "caster_error": shadowed.render.shadow.caster_error}
+            "lod_error": shadowed.render.shadow.lod_error}

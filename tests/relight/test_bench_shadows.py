@@ -27,8 +27,9 @@ def test_rows_draw_one_pass_per_light_every_frame(rows):
     from relight.bench.run import SUITES
 
     assert "shadows" in SUITES
-    assert [(r["lights"], r["shadow_size"], r["env_shadows"]) for r in rows] == [
-        (1, 256, 0), (1, 128, 0), (3, 256, 0), (3, 128, 0), (0, 512, 2)]
+    assert [(r["lights"], r["shadow_size"], r["env_shadows"], r["lod_error"]) for r in rows] == [
+        (1, 256, 0, 0.5), (1, 128, 0, 0.5), (3, 256, 0, 0.5), (3, 128, 0, 0.5),
+        (1, 256, 0, 0.0), (3, 256, 0, 0.0), (0, 512, 2, 0.5)]  # whole meshes at the first size
     assert rows[-1]["shadow_passes"] == 1  # the environment's directions: one atlas pass
     for r in rows[:-1]:
         assert r["shadow_passes"] == r["lights"], r

@@ -1,5 +1,5 @@
 """What a shadow pass draws of each mesh (viewer/passes/shadow.py): the coarsest level of detail
-within ``shadow_caster_error`` texels of the map (viewer/geometry/simplify.py), judged against the
+within ``shadow_lod_error`` texels of the map (viewer/geometry/simplify.py), judged against the
 analytic sphere it approximates and against the shadow of the whole mesh; and no flat mesh that
 hides nothing from the light (a floor under the scene, lit from above)."""
 import numpy as np
@@ -127,7 +127,7 @@ def test_a_simplified_caster_moves_only_the_shadows_edge(renderer, kind):
     camera a 512 map's texel is under a pixel) of the whole mesh's penumbra (0 < v < 1); the
     umbra and the lit floor are untouched. And it is a coarser mesh: the level drawn keeps at
     most half the triangles."""
-    whole = _visibility(renderer, _scene(LIGHTS[kind], shadow_caster_error=0.0))
+    whole = _visibility(renderer, _scene(LIGHTS[kind], shadow_lod_error=0.0))
     lod = _visibility(renderer, _scene(LIGHTS[kind]))
     ok = np.isfinite(whole) & np.isfinite(lod)
     assert (whole[ok] < 0.05).sum() > 30  # a shadow is there to compare
@@ -197,10 +197,10 @@ def test_a_floor_left_out_of_the_map_changes_no_pixel(renderer, kind, monkeypatc
     assert np.array_equal(left_out, with_floor)
 
 
-def test_caster_error_is_checked(tmp_path):
+def test_lod_error_is_checked(tmp_path):
     path = tmp_path / "s.toml"
-    path.write_text("[render]\nshadow_caster_error = 5\n")
-    with pytest.raises(SceneError, match="shadow_caster_error"):
+    path.write_text("[render]\nshadow_lod_error = 5\n")
+    with pytest.raises(SceneError, match="shadow_lod_error"):
         load_scene(path)
-    path.write_text("[render]\nshadow_caster_error = 0\n")
-    assert load_scene(path).render.shadow.caster_error == 0.0
+    path.write_text("[render]\nshadow_lod_error = 0\n")
+    assert load_scene(path).render.shadow.lod_error == 0.0

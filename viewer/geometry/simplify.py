@@ -1,7 +1,7 @@
 """Simplified copies of a mesh for its shadow maps: a map whose texels are w wide cannot tell a
 caster from one whose surface lies within a fraction of w of it, so the shadow pass draws each
 mesh at the coarsest level of detail whose error stays under that fraction
-(:mod:`viewer.passes.shadow`, ``[render] shadow_caster_error``). A shadow pass on a software
+(:mod:`viewer.passes.shadow`, ``[render] shadow_lod_error``). A shadow pass on a software
 rasteriser costs per triangle drawn, not per texel, and scanned or finely tessellated meshes carry
 far more triangles than a map resolves.
 

@@ -67,7 +67,7 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
                     for k, li in enumerate(others[:defines.get("ENV_LIGHTS", 0)])]
     # what casts shadows: the objects without their materials (a material slider keeps the maps)
     shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
-    error = float(settings.shadow.caster_error)  # each mesh's level of detail in the maps
+    error = float(settings.shadow.lod_error)  # each mesh's level of detail in the maps
     # meshes and clouds are every surface that reads the maps unless an image stack does too
     # (its pixels have no box): a flat mesh hiding none of them is then left out
     flat = not any(obj.type == "gbuffer" for obj in scene.objects)
@@ -82,7 +82,7 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
             spass.draw(f[name], frames, meshes, clouds, error, flat)
         g.add_pass("shadowenvdirs", draw_env, writes=(name,),
                    inputs={"shapes": shapes, "geometry": renderer.geometry_cache.version,
-                           "frame": _frame_key(frames), "caster_error": error})
+                           "frame": _frame_key(frames), "lod_error": error})
         out["envdirs"] = (name, frames, settings.shadow.softness, settings.shadow.bias)
     for i, frame, size in casters:
         cube = isinstance(frame, ShadowCube)
@@ -91,7 +91,7 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
                                                        frame.count if cascaded else 1),
                         kept=True)
         inputs = {"shapes": shapes, "geometry": renderer.geometry_cache.version,
-                  "frame": _frame_key(frame), "caster_error": error}
+                  "frame": _frame_key(frame), "lod_error": error}
         if cascaded:  # the cascades follow the camera (their frames, so the key, already do)
             inputs["camera"] = camera
 

@@ -15,8 +15,8 @@ casts a shadow, a haze of faint splats does not. Transparent (alphaMode BLEND) m
 shadow.
 
 Each mesh is drawn at the coarsest level of detail (:mod:`viewer.geometry.simplify`) whose error
-is at most ``caster_error`` texels of the map where the mesh lies (``[render]
-shadow_caster_error``, 0.5 by default; 0: whole meshes): the map cannot resolve the difference,
+is at most ``lod_error`` texels of the map where the mesh lies (``[render]
+shadow_lod_error``, 0.5 by default; 0: whole meshes): the map cannot resolve the difference,
 and a software rasteriser's shadow pass costs per triangle."""
 from __future__ import annotations
 
@@ -98,12 +98,12 @@ class ShadowPass:
                                       defines={"SPLAT": 1})
 
     def draw(self, target, frame: ShadowFrame | ShadowCube, meshes: list[Mesh],
-             clouds: list[Splats], caster_error: float = 0.0,
+             clouds: list[Splats], lod_error: float = 0.0,
              flat_receivers: bool = False) -> None:
         """Clear ``target`` (a :class:`~viewer.graph.resources.ShadowTarget`) to depth 1 and draw
         ``meshes`` and ``clouds`` into it (a cube, cascades or the environment's directions: into
         each face's, cascade's or direction's tile); each mesh at the coarsest level of detail
-        whose error is at most ``caster_error`` of the tile's texels where it lies (0: whole).
+        whose error is at most ``lod_error`` of the tile's texels where it lies (0: whole).
         ``flat_receivers``: ``meshes`` and ``clouds`` are every surface that reads the map, so a
         flat mesh that hides none of them from the light (:func:`occludes_nothing`: a floor under
         the scene, lit from above) is left out."""
@@ -118,16 +118,16 @@ class ShadowPass:
             if isinstance(frame, (ShadowCube, ShadowCascades, EnvShadowFrames)):
                 for face, f in enumerate(frame.faces):
                     ctx.viewport = frame.tile(face)
-                    self._draw_frame(f, meshes, clouds, caster_error, flat_receivers)
+                    self._draw_frame(f, meshes, clouds, lod_error, flat_receivers)
             else:
                 ctx.viewport = (0, 0, frame.resolution, frame.resolution)
-                self._draw_frame(frame, meshes, clouds, caster_error, flat_receivers)
+                self._draw_frame(frame, meshes, clouds, lod_error, flat_receivers)
         finally:
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
             ctx.cull_face = "back"
 
     def _draw_frame(self, frame: ShadowFrame, meshes: list[Mesh], clouds: list[Splats],
-                    caster_error: float = 0.0, flat_receivers: bool = False) -> None:
+                    lod_error: float = 0.0, flat_receivers: bool = False) -> None:
         n = int(frame.resolution)
         radial = frame.center is not None
         variant = "radial" if radial else ("ortho" if frame.kind == SHADOW_ORTHO
@@ -145,8 +145,8 @@ class ShadowPass:
             if plane is not None and flat_receivers and occludes_nothing(
                     plane, frame, boxes[:k] + boxes[k + 1:], box):
                 continue
-            level = None if caster_error <= 0.0 else lod_level(
-                float(np.max(box[1] - box[0])), caster_error * frame.texel_at(box))
+            level = None if lod_error <= 0.0 else lod_level(
+                float(np.max(box[1] - box[0])), lod_error * frame.texel_at(box))
             vao, caster = self._mesh_array(mesh, variant, level)
             cull = culled_faces(caster.orientation, facing, box, origin)
             if cull is None:

@@ -39,8 +39,9 @@ def _lights(n: int) -> tuple[Light, ...]:
 def shadow_rows(renderer, scene, config, counts=(1, 4), size=SIZE,
                 map_sizes=MAP_SIZES, env_counts=(8,)) -> list[dict]:
     """One row per light count and map size: ms per frame with and without shadow maps, their
-    ratio, the ratio with the maps kept (module doc), the shadow passes' own share and how many
-    were drawn per frame; one per light count with whole meshes in the maps (``lod_error``
+    ratio, the ratio with the maps kept (module doc), the shadow passes' own share, how many
+    were drawn per frame and the mesh triangles they drew (``map_triangles``: the casters'
+    levels of detail); one per light count with whole meshes in the maps (``lod_error``
     0); then one per count of ``env_counts``: the environment's shadows
     (``env_shadows``) without lights, against the same frame without them (``shadow_size``:
     their atlas's tile)."""
@@ -68,6 +69,10 @@ def _row(renderer, shadowed, plain, size, config, *, kind, lights, shadow_size,
          env_shadows) -> dict:
     """The timings of ``shadowed`` beside ``plain`` (the same scene without its shadow maps)."""
     (on_ms, on_pass), (off_ms, _) = time_pair(renderer, shadowed, plain, size, config)
+    spass = renderer.resources.shadow_pass()
+    spass.triangles = 0
+    with renderer.every_pass():  # one more frame, to count what its maps drew
+        renderer.draw(shadowed, size)
     passes = [p for p in on_pass if p.startswith("shadow")]
     shadow_ms = sum(on_pass[p] for p in passes)
     return {"kind": kind, "lights": lights, "size": f"{size[0]}x{size[1]}",
@@ -75,5 +80,6 @@ def _row(renderer, shadowed, plain, size, config, *, kind, lights, shadow_size,
             "ratio": on_ms / max(off_ms, 1e-9),
             "ratio_maps_kept": (on_ms - shadow_ms) / max(off_ms, 1e-9),
             "shadow_pass_ms": shadow_ms, "shadow_passes": len(passes),
+            "map_triangles": spass.triangles,  # mesh triangles drawn into its maps a frame
             "shadow_size": shadow_size, "env_shadows": env_shadows,
             "lod_error": shadowed.render.shadow.lod_error}

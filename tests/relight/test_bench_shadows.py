@@ -31,6 +31,10 @@ def test_rows_draw_one_pass_per_light_every_frame(rows):
         (1, 256, 0, 0.5), (1, 128, 0, 0.5), (3, 256, 0, 0.5), (3, 128, 0, 0.5),
         (1, 256, 0, 0.0), (3, 256, 0, 0.0), (0, 512, 2, 0.5)]  # whole meshes at the first size
     assert rows[-1]["shadow_passes"] == 1  # the environment's directions: one atlas pass
+    # the spheres' levels of detail: fewer triangles than the whole meshes, a floor left out
+    by_case = {(r["lights"], r["shadow_size"], r["lod_error"]): r["map_triangles"] for r in rows}
+    assert 0 < by_case[(1, 256, 0.5)] < by_case[(1, 256, 0.0)]
+    assert by_case[(3, 256, 0.0)] == 3 * by_case[(1, 256, 0.0)]
     for r in rows[:-1]:
         assert r["shadow_passes"] == r["lights"], r
         assert r["shadow_pass_ms"] > 0.0, r

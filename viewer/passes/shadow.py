@@ -81,6 +81,7 @@ class ShadowPass:
         # (mesh, level) -> its SimplifiedMesh (level None: the whole mesh), or None where a level
         # saves too little (the whole mesh is drawn): shared by the programs that draw it
         self.casters = UploadCache(self.ctx, "shadow caster levels", release=lambda value: None)
+        self.triangles = 0  # mesh triangles drawn into maps since created (a caller may reset it)
         # (cloud, frame matrix) -> (vertex array, instance buffer): rebuilt when the light turns
         self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
                                   release=_release_arrays)
@@ -159,6 +160,7 @@ class ShadowPass:
                 vao.program["u_light_center"].value = frame.center
                 vao.program["u_near_range"].value = (frame.near, frame.depth_range)
             vao.render(self.ctx.TRIANGLES)
+            self.triangles += len(caster.indices)
         for cloud in clouds:
             if len(cloud) == 0:
                 continue

@@ -63,10 +63,8 @@ class ShadowFrame:
         box is at a corner), at least ``near`` (a light inside the box: its texels at ``near``)."""
         if self.kind == SHADOW_ORTHO:
             return self.texel_world
-        lo, hi = (np.asarray(b, np.float64) for b in bounds)
-        corners = np.array([[(lo, hi)[(k >> a) & 1][a] for a in range(3)] + [1.0]
-                            for k in range(8)])
-        nearest = float((corners @ self.matrix[3]).min())
+        corners = Bounds(*bounds).corners()
+        nearest = float((corners @ self.matrix[3, :3] + self.matrix[3, 3]).min())
         return self.texel_world * max(nearest, self.near)
 
     def project(self, points: np.ndarray) -> np.ndarray:

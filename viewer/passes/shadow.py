@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bounds import Bounds
 from ..geometry.mesh import Mesh
 from ..geometry.simplify import SimplifiedMesh, lod_level, simplify, whole
 from ..geometry.solid import OPEN, OUTWARD, plane_of
@@ -30,7 +31,6 @@ from ..shadows import SHADOW_ORTHO, EnvShadowFrames, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
 
-MESH_VARIANTS = ("ortho", "perspective", "radial")  # ShadowPass._mesh_program's
 SPLAT_FLOATS = 10  # center (3), conic (3), radius, opacity, depth slope (2)
 
 
@@ -279,10 +279,8 @@ def occludes_nothing(plane, frame: ShadowFrame, boxes, own_box) -> bool:
         if abs(side) <= tol:
             return False
     sign = 1.0 if side > 0.0 else -1.0
-    for b_lo, b_hi in boxes:
-        corners = np.where(np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], bool),
-                           np.asarray(b_hi, np.float64), np.asarray(b_lo, np.float64))
-        if float((sign * (corners @ n - c)).min()) < -tol:
+    for box in boxes:
+        if float((sign * (Bounds(*box).corners() @ n - c)).min()) < -tol:
             return False
     return True
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from viewer import scene as scene_module
 from viewer.models import MODELS, SAMPLINGS
 from viewer.scene import BACKGROUNDS, TONEMAPS
-from viewer.settings import AA_MODES, LOD_ERROR_MAX, ENV_SHADOWS_MAX, SSAA_MAX, SSAO_SCALE_MAX
+from viewer.settings import AA_MODES, ENV_SHADOWS_MAX, LOD_ERROR_MAX, SSAA_MAX, SSAO_SCALE_MAX
 
 # RenderSettings fields with a fixed set of values (others get a text field)
 CHOICES = {"model": lambda: tuple(MODELS), "sampling": lambda: SAMPLINGS,

@@ -182,7 +182,8 @@ def shadow_depth_slope(m) -> torch.Tensor:
 
 def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
     """The filters' common walk: (per-sample stored depth, receiver depth, active) for each tap
-    of the Vogel spiral of radius ``radius`` (shadow_taps of them where adaptive, else n_max)."""
+    of the Vogel spiral of radius ``radius`` (shadow_taps of them where adaptive, else n_max);
+    the receiver's depth at most 1 (a texel of depth 1 holds nothing and never occludes)."""
     n = shadow_taps(radius, shadow_map_size(map_, face), n_max) if adaptive else \
         torch.full_like(radius, float(n_max))
     phi = _f(phi)
@@ -191,7 +192,7 @@ def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
     for i in range(int(n.max().item()) if n.numel() else 0):
         o = (torch.sqrt((i + 0.5) * inv_n) * radius)[..., None] * dir_
         yield (shadow_sample(map_, uv + o, face),
-               shadow_receiver_depth(plane, lens, face, uv, o), i < n)
+               shadow_receiver_depth(plane, lens, face, uv, o).clamp_max(1.0), i < n)
         dir_ = vogel_turn(dir_)
 
 
@@ -201,7 +202,8 @@ def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=T
     -1, umbra): the receiver's own texel, then the disk's taps."""
     search_uv = _f(search_uv).expand(uv.shape[:-1])
     centre = shadow_sample(map_, uv, face)
-    hit = centre < shadow_receiver_depth(plane, lens, face, uv, torch.zeros_like(uv))
+    zc = shadow_receiver_depth(plane, lens, face, uv, torch.zeros_like(uv)).clamp_max(1.0)
+    hit = centre < zc
     total = torch.where(hit, centre, torch.zeros_like(centre))
     count = hit.float()
     taps = shadow_taps(search_uv, shadow_map_size(map_, face), SHADOW_SEARCH_SAMPLES) if adaptive \

@@ -196,7 +196,8 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 }
 
 // PCSS step 1: mean depth of the occluders in front of the receiver (plane: see
-// shadow_receiver_depth) within radius search_uv of uv; -1 where none is (fully lit); face: the
+// shadow_receiver_depth; a texel of depth 1 holds nothing and never occludes, however far the
+// receiver's plane extends) within radius search_uv of uv; -1 where none is (fully lit); face: the
 // cube face uv is on (-1: a 2D map). Sets umbra when every sample occludes. The receiver's own
 // texel is the first sample, then the disk's: an occluder that hides the light's centre is found
 // however far the search spreads its other samples (a small occluder under a wide light over a
@@ -208,13 +209,13 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
     vec2 dir = vec2(cos(phi), sin(phi));
     float inv_n = 1.0 / float(n);
     float centre = shadow_sample(map, uv, face);
-    bool hit = centre < shadow_receiver_depth(plane, lens, face, uv, vec2(0.0));
+    bool hit = centre < min(shadow_receiver_depth(plane, lens, face, uv, vec2(0.0)), 1.0);
     float sum = hit ? centre : 0.0;
     float count = hit ? 1.0 : 0.0;
     for (int i = 0; i < n; ++i) {
         vec2 o = sqrt((float(i) + 0.5) * inv_n) * search_uv * dir;
         float d = shadow_sample(map, uv + o, face);
-        if (d < shadow_receiver_depth(plane, lens, face, uv, o)) {
+        if (d < min(shadow_receiver_depth(plane, lens, face, uv, o), 1.0)) {
             sum += d;
             count += 1.0;
         }
@@ -225,7 +226,8 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
 }
 
 // Percentage-closer filter: the fraction of disk samples of radius r_uv around uv (shadow_taps
-// of them where adaptive, else SHADOW_PCF_SAMPLES) whose stored depth does not occlude the receiver's plane (shadow_receiver_depth).
+// of them where adaptive, else SHADOW_PCF_SAMPLES) whose stored depth does not occlude the
+// receiver's plane (shadow_receiver_depth; depth 1, nothing, never occludes).
 float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
                  int face, bool adaptive) {
     int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, shadow_map_size(map, face),
@@ -235,7 +237,8 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
     float lit = 0.0;
     for (int i = 0; i < n; ++i) {
         vec2 o = sqrt((float(i) + 0.5) * inv_n) * r_uv * dir;
-        lit += shadow_sample(map, uv + o, face) >= shadow_receiver_depth(plane, lens, face, uv, o)
+        lit += shadow_sample(map, uv + o, face) >= min(shadow_receiver_depth(plane, lens, face,
+                                                                             uv, o), 1.0)
             ? 1.0 : 0.0;
         dir = vogel_turn(dir);
     }

@@ -283,3 +283,27 @@ def test_a_wide_light_over_a_large_floor_keeps_its_umbra(renderer, cascades):
     umbra = umbra_points(direction, np.radians(diameter / 2.0), x, z) & ~sphere_pixels(x, z)
     assert umbra.sum() > 20, umbra.sum()
     assert np.percentile(vis[umbra], 95) < 0.1, np.percentile(vis[umbra], [50, 95, 100])
+
+
+def test_an_empty_texel_never_occludes():
+    """A map texel of depth 1 holds nothing: a receiver near the map's far end whose plane, tilted
+    towards grazing, passes depth 1 within the filters' reach is lit over an empty map (it once
+    counted the empty texels beyond depth 1 as occluders), and a real occluder still shadows it.
+    The lighting pass's lookups are these functions (their parity check compares the two)."""
+    import torch
+
+    from learned.twins.shadow import shadow_pcss
+
+    n = 64
+    empty = torch.ones(n, n)
+    # receivers at depths 0.990 .. 0.999, the plane's depth rising 4 per uv unit (the clamp's
+    # steepest) along u: 8 texels away it lies beyond 1
+    z = torch.linspace(0.990, 0.999, 10)
+    s = torch.stack([torch.full_like(z, 0.5), torch.full_like(z, 0.5), z], -1)
+    plane = torch.stack([z, torch.full_like(z, 4.0), torch.zeros_like(z)], -1)
+    lens = torch.tensor([1.0, 0.1, 0.0, 1.0])  # a wide light: search and PCF reach far
+    lit = shadow_pcss(empty, s, plane, lens, 0.3, -1)
+    assert torch.equal(lit, torch.ones_like(lit))
+    blocked = empty.clone()
+    blocked[28:36, 28:36] = 0.5  # an occluder over the receivers' own texels
+    assert (shadow_pcss(blocked, s, plane, lens, 0.3, -1) < 0.5).all()

@@ -209,3 +209,60 @@ def test_lod_error_is_checked(tmp_path):
         load_scene(path)
     path.write_text("[render]\nshadow_lod_error = 0\n")
     assert load_scene(path).render.shadow.lod_error == 0.0
+
+
+BATCH_OBJECTS = [FLOOR, SPHERE,
+                 {"type": "sphere", "center": [1.6, 0.8, 0.4], "radius": 0.5},
+                 {"type": "sphere", "center": [-1.4, 0.6, -0.8], "radius": 0.4},
+                 {"type": "plane", "center": [0.0, 1.0, -2.0], "size": [2.0, 2.0],
+                  "normal": [0.0, 0.0, 1.0]}]  # an open mesh: both faces drawn
+
+
+@pytest.mark.parametrize("kind", ["sun", "point"])
+def test_a_maps_casters_are_drawn_in_one_call_per_culling(ctx, kind, monkeypatch):
+    """A map's casters are joined into one draw per way of culling them (the spheres' faces
+    turned from the light culled, the open wall's both faces drawn): the same maps, texel for
+    texel, as one draw a mesh; joined once for a set of meshes and levels, and released with
+    the meshes' geometry."""
+    lights = {"sun": LIGHTS["sun"], "point": LIGHTS["point"]}[kind]
+    sc = scene_from_dict({"camera": CAMERA, "environment": DARK, "objects": BATCH_OBJECTS,
+                          "lights": lights, "render": {"tonemap": "none", "shadow_size": 512,
+                                                        "shadow_cube_size": 256}})
+    original = shadow_module.ShadowPass._batch_array
+    calls = []
+
+    def spy(self, batch, variant):
+        calls.append(len(batch))
+        return original(self, batch, variant)
+
+    class Each:  # the vertex arrays of a batch's meshes, drawn one after another
+        def __init__(self, arrays):
+            self.arrays, self.program = arrays, arrays[0].program
+
+        def render(self, mode):
+            for vao in self.arrays:
+                vao.render(mode)
+
+    def apart(self, batch, variant):  # one draw a mesh, as before the casters were joined
+        arrays = [original(self, [item], variant)[0] for item in batch]
+        return Each(arrays), sum(len(c.indices) for _, _, c in batch)
+
+    maps = {}
+    for mode, method in (("joined", spy), ("apart", apart)):
+        monkeypatch.setattr(shadow_module.ShadowPass, "_batch_array", method)
+        r = Renderer(ctx=ctx)
+        try:
+            frame = r.draw(sc, tuple(CAMERA["size"]))
+            tex = frame.targets["shadowmap0"].texture
+            maps[mode] = np.frombuffer(tex.read(), np.float32).copy()
+            if mode == "joined":
+                spass = r.resources.shadow_pass()
+                assert len(spass.batches) >= 1
+                faces = 6 if kind == "point" else 1
+                assert len(calls) <= 2 * faces and max(calls) >= 3, calls
+                r.geometry_cache.clear()
+                assert len(spass.batches) == 0
+        finally:
+            r.release()
+    assert (maps["joined"] < 1.0).sum() > 1000  # the casters are in it
+    assert np.array_equal(maps["joined"], maps["apart"])

@@ -17,7 +17,9 @@ shadow.
 Each mesh is drawn at the coarsest level of detail (:mod:`viewer.geometry.simplify`) whose error
 is at most ``lod_error`` texels of the map where the mesh lies (``[render]
 shadow_lod_error``, 0.5 by default; 0: whole meshes): the map cannot resolve the difference,
-and a software rasteriser's shadow pass costs per triangle."""
+and a software rasteriser's shadow pass costs per triangle. A map's meshes are drawn in one call
+per way of culling them, their levels joined into one buffer (kept for that set of meshes and
+levels): a software rasteriser pays for each draw call too."""
 from __future__ import annotations
 
 import numpy as np
@@ -82,6 +84,11 @@ class ShadowPass:
         # saves too little (the whole mesh is drawn): shared by the programs that draw it
         self.casters = UploadCache(self.ctx, "shadow caster levels", release=lambda value: None)
         self.triangles = 0  # mesh triangles drawn into maps since created (a caller may reset it)
+        # (meshes, (variant, levels)) -> (vertex array, position buffer, index buffer): the
+        # casters of a map drawn in one call (_batch_array); a few sets a scene, bounded also
+        # by the meshes' lifetime and geometry budget
+        self.batches = UploadCache(self.ctx, "shadow caster batches", max_items=32,
+                                   release=_release_arrays)
         # (cloud, frame matrix) -> (vertex array, instance buffer): rebuilt when the light turns
         self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
                                   release=_release_arrays)
@@ -139,6 +146,7 @@ class ShadowPass:
         # flat meshes that hide nothing in this frame
         boxes = [self._whole(m)[1] for m in meshes] + [self._cloud_box(c) for c in clouds
                                                         if len(c)] if flat_receivers else []
+        batches: dict = {}  # faces culled -> [(mesh, level, caster)]: one draw each
         for k, mesh in enumerate(meshes):
             if mesh.alpha_mode == "BLEND":
                 continue
@@ -148,8 +156,13 @@ class ShadowPass:
                 continue
             level = None if lod_error <= 0.0 else lod_level(
                 float(np.max(box[1] - box[0])), lod_error * frame.texel_at(box))
-            vao, caster = self._mesh_array(mesh, variant, level)
+            caster, level = self._caster(mesh, level)
+            if len(caster.indices) == 0:
+                continue
             cull = culled_faces(caster.orientation, facing, box, origin)
+            batches.setdefault(cull, []).append((mesh, level, caster))
+        for cull, batch in batches.items():
+            vao, triangles = self._batch_array(batch, variant)
             if cull is None:
                 self.ctx.disable(self.ctx.CULL_FACE)
             else:
@@ -160,13 +173,41 @@ class ShadowPass:
                 vao.program["u_light_center"].value = frame.center
                 vao.program["u_near_range"].value = (frame.near, frame.depth_range)
             vao.render(self.ctx.TRIANGLES)
-            self.triangles += len(caster.indices)
+            self.triangles += triangles
         for cloud in clouds:
             if len(cloud) == 0:
                 continue
             vao = self._splat_array(cloud, frame)
             vao.program["u_map_size"].value = (float(n), float(n))
             vao.render(self.ctx.TRIANGLE_STRIP, vertices=4, instances=len(cloud))
+
+    def _batch_array(self, batch: list, variant: str):
+        """One vertex array drawing every (mesh, level, caster) of ``batch`` (the casters of a
+        map whose faces are culled alike) with the program of ``variant``, and its triangle
+        count: a lone mesh's own (:meth:`_mesh_array`), else the casters' levels joined into
+        one buffer, made once for that set of meshes at those levels (a software rasteriser
+        pays for each draw call: the bench's four maps of ten spheres take about a third less
+        time drawn this way than one call a sphere)."""
+        if len(batch) == 1:
+            mesh, level, caster = batch[0]
+            return self._mesh_array(mesh, variant, level)[0], len(caster.indices)
+        prog = self._mesh_program(variant)
+        parts = tuple(mesh for mesh, _, _ in batch)
+        key = (variant, tuple(level for _, level, _ in batch))
+        entry = self.batches.get(parts, key)
+        if entry is None or entry[0].program is not prog:
+            casters = [caster for _, _, caster in batch]
+            starts = np.cumsum([0] + [len(c.positions) for c in casters[:-1]])
+            pos = np.concatenate([np.asarray(c.positions, np.float32).reshape(-1, 3)
+                                  for c in casters])
+            idx = np.concatenate([np.asarray(c.indices, np.int64).reshape(-1, 3) + start
+                                  for c, start in zip(casters, starts)]).astype(np.uint32)
+            pbuf = self.ctx.buffer(np.ascontiguousarray(pos).tobytes())
+            ibuf = self.ctx.buffer(np.ascontiguousarray(idx).tobytes())
+            vao = self.ctx.vertex_array(prog, [(pbuf, "3f", "in_position")], index_buffer=ibuf,
+                                        index_element_size=4)
+            entry = self.batches.put(parts, key, (vao, pbuf, ibuf), pbuf.size + ibuf.size)
+        return entry[0], entry[2].size // 12  # 3 uint32 indices a triangle
 
     def _mesh_array(self, mesh: Mesh, variant: str = "ortho", level: int | None = None):
         """The vertex array of the mesh at ``level`` (:meth:`_caster`) with the shadow program
@@ -236,6 +277,7 @@ class ShadowPass:
         return entry[0]
 
     def release(self) -> None:
+        self.batches.release()
         self.meshes.release()
         self.casters.release()
         self.splats.release()

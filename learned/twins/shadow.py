@@ -180,15 +180,14 @@ def shadow_depth_slope(m) -> torch.Tensor:
     return torch.where(n > 4.0, g * (4.0 / n.clamp_min(1e-30)), g)
 
 
-def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
+def _disk_loop(map_, uv, plane, radius, dir_, size, lens, face, n_max, adaptive):
     """The filters' common walk: (per-sample stored depth, receiver depth, active) for each tap
-    of the Vogel spiral of radius ``radius`` (shadow_taps of them where adaptive, else n_max);
-    the receiver's depth at most 1 (a texel of depth 1 holds nothing and never occludes)."""
-    n = shadow_taps(radius, shadow_map_size(map_, face), n_max) if adaptive else \
-        torch.full_like(radius, float(n_max))
-    phi = _f(phi)
+    of the Vogel spiral of radius ``radius`` from the unit direction ``dir_`` (shadow_taps of them
+    on a map region ``size`` texels a side where adaptive, else n_max); the receiver's depth at
+    most 1 (a texel of depth 1 holds nothing and never occludes)."""
+    n = shadow_taps(radius, size, n_max) if adaptive else torch.full_like(radius, float(n_max))
     inv_n = 1.0 / n
-    dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1).expand(*radius.shape, 2)
+    dir_ = _f(dir_).expand(*radius.shape, 2)
     for i in range(int(n.max().item()) if n.numel() else 0):
         o = (torch.sqrt((i + 0.5) * inv_n) * radius)[..., None] * dir_
         yield (shadow_sample(map_, uv + o, face),
@@ -196,19 +195,19 @@ def _disk_loop(map_, uv, plane, radius, phi, lens, face, n_max, adaptive):
         dir_ = vogel_turn(dir_)
 
 
-def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=True):
+def shadow_blocker_depth(map_, uv, plane, search_uv, dir_, size, lens, face, adaptive=True):
     """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv,
-    float phi, vec4 lens, int face, bool adaptive, out bool umbra)``: (mean occluder depth or
-    -1, umbra): the receiver's own texel, then the disk's taps."""
+    vec2 dir, float size, vec4 lens, int face, bool adaptive, out bool umbra)``: (mean occluder
+    depth or -1, umbra): the receiver's own texel, then the disk's taps."""
     search_uv = _f(search_uv).expand(uv.shape[:-1])
     centre = shadow_sample(map_, uv, face)
     zc = shadow_receiver_depth(plane, lens, face, uv, torch.zeros_like(uv)).clamp_max(1.0)
     hit = centre < zc
     total = torch.where(hit, centre, torch.zeros_like(centre))
     count = hit.float()
-    taps = shadow_taps(search_uv, shadow_map_size(map_, face), SHADOW_SEARCH_SAMPLES) if adaptive \
+    taps = shadow_taps(search_uv, size, SHADOW_SEARCH_SAMPLES) if adaptive \
         else torch.full_like(search_uv, float(SHADOW_SEARCH_SAMPLES))
-    for d, z, active in _disk_loop(map_, uv, plane, search_uv, phi, lens, face,
+    for d, z, active in _disk_loop(map_, uv, plane, search_uv, dir_, size, lens, face,
                                    SHADOW_SEARCH_SAMPLES, adaptive):
         hit = active & (d < z)
         total = total + torch.where(hit, d, torch.zeros_like(d))
@@ -217,15 +216,15 @@ def shadow_blocker_depth(map_, uv, plane, search_uv, phi, lens, face, adaptive=T
     return depth, count == taps + 1
 
 
-def shadow_pcf(map_, uv, plane, r_uv, phi, lens, face, adaptive=True) -> torch.Tensor:
-    """GLSL ``float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi,
-    vec4 lens, int face, bool adaptive)``."""
+def shadow_pcf(map_, uv, plane, r_uv, dir_, size, lens, face, adaptive=True) -> torch.Tensor:
+    """GLSL ``float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, vec2 dir,
+    float size, vec4 lens, int face, bool adaptive)``."""
     r_uv = _f(r_uv).expand(uv.shape[:-1])
     lit = torch.zeros_like(r_uv)
-    taps = shadow_taps(r_uv, shadow_map_size(map_, face), SHADOW_PCF_SAMPLES) if adaptive else \
+    taps = shadow_taps(r_uv, size, SHADOW_PCF_SAMPLES) if adaptive else \
         torch.full_like(r_uv, float(SHADOW_PCF_SAMPLES))
-    for d, z, active in _disk_loop(map_, uv, plane, r_uv, phi, lens, face, SHADOW_PCF_SAMPLES,
-                                   adaptive):
+    for d, z, active in _disk_loop(map_, uv, plane, r_uv, dir_, size, lens, face,
+                                   SHADOW_PCF_SAMPLES, adaptive):
         lit = lit + (active & (d >= z)).float()
     return lit * (1.0 / taps)
 
@@ -235,7 +234,10 @@ def shadow_pcss(map_, s, plane, lens, phi, face, adaptive=True) -> torch.Tensor:
     int face, bool adaptive)``."""
     face_t = torch.as_tensor(face)
     outside = ((s < 0.0) | (s > 1.0)).any(-1)
-    texel_uv = 1.0 / shadow_map_size(map_, face_t)
+    size = shadow_map_size(map_, face_t)
+    texel_uv = 1.0 / size
+    phi = _f(phi)
+    dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1)
     z = s[..., 2]
     ortho = lens[..., 0] < 1.5
     nearest = torch.where(ortho, torch.zeros_like(z), torch.clamp_min(
@@ -243,10 +245,10 @@ def shadow_pcss(map_, s, plane, lens, phi, face, adaptive=True) -> torch.Tensor:
         / lens[..., 3], 0.0))
     search = torch.minimum(torch.maximum(shadow_penumbra_uv(lens, z, nearest), 1.5 * texel_uv),
                            _f(SHADOW_MAX_SEARCH_UV))
-    blocker, umbra = shadow_blocker_depth(map_, s[..., :2], plane, search, phi, lens, face,
-                                          adaptive)
+    blocker, umbra = shadow_blocker_depth(map_, s[..., :2], plane, search, dir_, size, lens,
+                                          face, adaptive)
     r = torch.maximum(shadow_penumbra_uv(lens, z, blocker), texel_uv)
-    vis = shadow_pcf(map_, s[..., :2], plane, r, phi, lens, face, adaptive)
+    vis = shadow_pcf(map_, s[..., :2], plane, r, dir_, size, lens, face, adaptive)
     if adaptive:
         vis = torch.where(umbra, torch.zeros_like(vis), vis)
     vis = torch.where(blocker < 0.0, torch.ones_like(vis), vis)

@@ -202,11 +202,13 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 // texel is the first sample, then the disk's: an occluder that hides the light's centre is found
 // however far the search spreads its other samples (a small occluder under a wide light over a
 // large scene, whose search radius covers the whole scene's depth range, stays in its umbra).
-float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, float phi,
-                           vec4 lens, int face, bool adaptive, out bool umbra) {
-    int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, shadow_map_size(map, face),
-                        SHADOW_SEARCH_SAMPLES);
-    vec2 dir = vec2(cos(phi), sin(phi));
+// dir: the unit direction of the spiral's first sample (the pixel's rotation, shadow_phi, as
+// (cos, sin)); size: texels a side of the map region face addresses (shadow_map_size). Both are
+// found once a lookup, for both filters.
+float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, vec2 dir,
+                           float size, vec4 lens, int face, bool adaptive, out bool umbra) {
+    int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, size,
+                                                           SHADOW_SEARCH_SAMPLES);
     float inv_n = 1.0 / float(n);
     float centre = shadow_sample(map, uv, face);
     bool hit = centre < min(shadow_receiver_depth(plane, lens, face, uv, vec2(0.0)), 1.0);
@@ -227,12 +229,11 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
 
 // Percentage-closer filter: the fraction of disk samples of radius r_uv around uv (shadow_taps
 // of them where adaptive, else SHADOW_PCF_SAMPLES) whose stored depth does not occlude the
-// receiver's plane (shadow_receiver_depth; depth 1, nothing, never occludes).
-float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4 lens,
-                 int face, bool adaptive) {
-    int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, shadow_map_size(map, face),
-                        SHADOW_PCF_SAMPLES);
-    vec2 dir = vec2(cos(phi), sin(phi));
+// receiver's plane (shadow_receiver_depth; depth 1, nothing, never occludes); dir and size as
+// shadow_blocker_depth's.
+float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, vec2 dir, float size,
+                 vec4 lens, int face, bool adaptive) {
+    int n = !adaptive ? SHADOW_PCF_SAMPLES : shadow_taps(r_uv, size, SHADOW_PCF_SAMPLES);
     float inv_n = 1.0 / float(n);
     float lit = 0.0;
     for (int i = 0; i < n; ++i) {
@@ -256,18 +257,20 @@ float shadow_pcf(sampler2D map, vec2 uv, vec3 plane, float r_uv, float phi, vec4
 float shadow_pcss(sampler2D map, vec3 s, vec3 plane, vec4 lens, float phi, int face,
                   bool adaptive) {
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
-    float texel_uv = 1.0 / shadow_map_size(map, face);
+    float size = shadow_map_size(map, face);
+    float texel_uv = 1.0 / size;
+    vec2 dir = vec2(cos(phi), sin(phi));  // the spiral's first direction, both filters
     float nearest = SHADOW_IS_ORTHO(lens) ? 0.0 : max(0.0, ((lens.z + s.z * lens.w)
                                                    * SHADOW_NEAREST_BLOCKER - lens.z) / lens.w);
     float search = clamp(shadow_penumbra_uv(lens, s.z, nearest), 1.5 * texel_uv,
                          SHADOW_MAX_SEARCH_UV);
     bool umbra;
-    float blocker = shadow_blocker_depth(map, s.xy, plane, search, phi, lens, face, adaptive,
-                                         umbra);
+    float blocker = shadow_blocker_depth(map, s.xy, plane, search, dir, size, lens, face,
+                                         adaptive, umbra);
     if (blocker < 0.0) return 1.0;
     if (adaptive && umbra) return 0.0;
     float r = max(shadow_penumbra_uv(lens, s.z, blocker), texel_uv);
-    return shadow_pcf(map, s.xy, plane, r, phi, lens, face, adaptive);
+    return shadow_pcf(map, s.xy, plane, r, dir, size, lens, face, adaptive);
 }
 
 // Visibility of a directional light of angular radius `angle` (radians) at the light-space point

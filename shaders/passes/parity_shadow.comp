@@ -29,10 +29,12 @@ void main() {
     bool umbra;
     uint o = 8u * i;
     outv[o] = shadow_sample(u_map, s.xy, face);
-    outv[o + 1u] = shadow_blocker_depth(u_map, s.xy, plane, radius, phi, u_lens, face, true,
-                                        umbra);
+    vec2 dir = vec2(cos(phi), sin(phi));
+    float size = shadow_map_size(u_map, face);
+    outv[o + 1u] = shadow_blocker_depth(u_map, s.xy, plane, radius, dir, size, u_lens, face,
+                                        true, umbra);
     outv[o + 2u] = umbra ? 1.0 : 0.0;
-    outv[o + 3u] = shadow_pcf(u_map, s.xy, plane, radius, phi, u_lens, face, true);
+    outv[o + 3u] = shadow_pcf(u_map, s.xy, plane, radius, dir, size, u_lens, face, true);
     outv[o + 4u] = face < 0 ? shadow_visibility(u_map, s, dz, angle, u_depth_range, u_extent, phi)
                             : 0.0;
     outv[o + 5u] = shadow_pcss(u_map, s, plane, u_lens, phi, face, true);

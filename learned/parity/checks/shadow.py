@@ -12,6 +12,7 @@ import torch
 from learned.twins.shadow import (
     shadow_blocker_depth,
     shadow_depth_slope,
+    shadow_map_size,
     shadow_pcf,
     shadow_pcss,
     shadow_sample,
@@ -84,11 +85,13 @@ def _twins(depth_map, inputs, lens, kind):
     plane = t[:, 10:13]
     lens_t = torch.tensor(lens, dtype=torch.float32).expand(len(t), 4)
     uv = s[:, :2]
-    blocker, umbra = shadow_blocker_depth(m, uv, plane, r, phi, lens_t, face)
+    dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1)
+    size = shadow_map_size(m, face)
+    blocker, umbra = shadow_blocker_depth(m, uv, plane, r, dir_, size, lens_t, face)
     vis = (shadow_visibility(m, s, dz, a, DEPTH_RANGE, EXTENT, phi) if kind == "ortho"
            else torch.zeros(len(t)))
     return [shadow_sample(m, uv, face), blocker, umbra.float(),
-            shadow_pcf(m, uv, plane, r, phi, lens_t, face), vis,
+            shadow_pcf(m, uv, plane, r, dir_, size, lens_t, face), vis,
             shadow_pcss(m, s, plane, lens_t, phi, face), dz[:, 0], dz[:, 1]]
 
 

@@ -242,11 +242,11 @@ def test_evicted_geometry_releases_its_shadow_copies(ctx):
         r.render(sc)
         spass = r.resources.shadow_pass()
         # the sphere's level of detail (the floor under it, lit from above, is left out)
-        copies = len(spass.meshes)
+        copies = len(spass.batches)
         assert copies >= 1 and len(spass.casters) >= 2
         before = tracker.live()
         r.geometry_cache.clear()
-        assert len(spass.meshes) == 0 and len(spass.casters) == 0
+        assert len(spass.batches) == 0 and len(spass.casters) == 0
         after = tracker.live()
         assert after["VertexArray"] <= before["VertexArray"] - copies
     finally:

@@ -29,10 +29,15 @@ from ..geometry.mesh import Mesh
 from ..geometry.simplify import SimplifiedMesh, lod_level, simplify, whole
 from ..geometry.solid import OPEN, OUTWARD, plane_of
 from ..cascades import ShadowCascades
+from ..lights import MAX_LIGHTS
 from ..shadows import SHADOW_ORTHO, EnvShadowFrames, ShadowCube, ShadowFrame
 from ..splats.data import Splats
 from .uploads import UploadCache
 
+# caster sets ShadowPass.batches keeps: a set per cube face and way of culling (front, back,
+# neither) for MAX_LIGHTS point lights, and 64 more for the sun's, the environment's lights' and
+# its directions' maps: a frame's every set stays uploaded, none is made again each frame
+MAX_BATCHES = MAX_LIGHTS * 6 * 3 + 64
 SPLAT_FLOATS = 10  # center (3), conic (3), radius, opacity, depth slope (2)
 
 
@@ -77,17 +82,14 @@ class ShadowPass:
     def __init__(self, programs):
         self.programs = programs
         self.ctx = programs.ctx
-        # (mesh, (variant, level)) -> ((vertex array, position buffer, index buffer), caster)
-        self.meshes = UploadCache(self.ctx, "shadow mesh uploads",
-                                  release=lambda entry: _release_arrays(entry[0]))
         # (mesh, level) -> its SimplifiedMesh (level None: the whole mesh), or None where a level
         # saves too little (the whole mesh is drawn): shared by the programs that draw it
         self.casters = UploadCache(self.ctx, "shadow caster levels", release=lambda value: None)
         self.triangles = 0  # mesh triangles drawn into maps since created (a caller may reset it)
         # (meshes, (variant, levels)) -> (vertex array, position buffer, index buffer): the
-        # casters of a map drawn in one call (_batch_array); a few sets a scene, bounded also
-        # by the meshes' lifetime and geometry budget
-        self.batches = UploadCache(self.ctx, "shadow caster batches", max_items=32,
+        # casters of a map drawn in one call (_batch_array), one mesh or several; at most
+        # MAX_BATCHES sets, and bounded also by the meshes' lifetime and geometry budget
+        self.batches = UploadCache(self.ctx, "shadow caster batches", max_items=MAX_BATCHES,
                                    release=_release_arrays)
         # (cloud, frame matrix) -> (vertex array, instance buffer): rebuilt when the light turns
         self.splats = UploadCache(self.ctx, "splat shadow instances", max_items=16,
@@ -183,14 +185,11 @@ class ShadowPass:
 
     def _batch_array(self, batch: list, variant: str):
         """One vertex array drawing every (mesh, level, caster) of ``batch`` (the casters of a
-        map whose faces are culled alike) with the program of ``variant``, and its triangle
-        count: a lone mesh's own (:meth:`_mesh_array`), else the casters' levels joined into
-        one buffer, made once for that set of meshes at those levels (a software rasteriser
-        pays for each draw call: the bench's four maps of ten spheres take about a third less
-        time drawn this way than one call a sphere)."""
-        if len(batch) == 1:
-            mesh, level, caster = batch[0]
-            return self._mesh_array(mesh, variant, level)[0], len(caster.indices)
+        map whose faces are culled alike) with the program of ``variant`` (:meth:`_mesh_program`;
+        remade if the program was evicted and compiled again), and its triangle count: the
+        casters' levels joined into one buffer, made once for that set of meshes at those
+        levels (a software rasteriser pays for each draw call: the bench's four maps of ten
+        spheres take about a third less time drawn this way than one call a sphere)."""
         prog = self._mesh_program(variant)
         parts = tuple(mesh for mesh, _, _ in batch)
         key = (variant, tuple(level for _, level, _ in batch))
@@ -208,23 +207,6 @@ class ShadowPass:
                                         index_element_size=4)
             entry = self.batches.put(parts, key, (vao, pbuf, ibuf), pbuf.size + ibuf.size)
         return entry[0], entry[2].size // 12  # 3 uint32 indices a triangle
-
-    def _mesh_array(self, mesh: Mesh, variant: str = "ortho", level: int | None = None):
-        """The vertex array of the mesh at ``level`` (:meth:`_caster`) with the shadow program
-        of ``variant`` (:meth:`_mesh_program`; remade if the program was evicted and compiled
-        again), and that :class:`~viewer.geometry.simplify.SimplifiedMesh` (its solid
-        orientation found once, whichever program draws it)."""
-        caster, level = self._caster(mesh, level)
-        prog = self._mesh_program(variant)
-        entry = self.meshes.get(mesh, (variant, level))
-        if entry is None or entry[0][0].program is not prog:
-            pos = self.ctx.buffer(np.ascontiguousarray(caster.positions, np.float32).tobytes())
-            idx = self.ctx.buffer(np.ascontiguousarray(caster.indices, np.uint32).tobytes())
-            vao = self.ctx.vertex_array(prog, [(pos, "3f", "in_position")], index_buffer=idx,
-                                        index_element_size=4)
-            entry = self.meshes.put(mesh, (variant, level), ((vao, pos, idx), caster),
-                                    pos.size + idx.size)
-        return entry[0][0], entry[1]
 
     def _caster(self, mesh: Mesh, level: int | None) -> tuple[SimplifiedMesh, int | None]:
         """The mesh at ``level`` (None: whole) and the level it is drawn at: None where the
@@ -278,7 +260,6 @@ class ShadowPass:
 
     def release(self) -> None:
         self.batches.release()
-        self.meshes.release()
         self.casters.release()
         self.splats.release()
 

@@ -198,7 +198,8 @@ def _disk_loop(map_, uv, plane, radius, dir_, size, lens, face, n_max, adaptive)
 def shadow_blocker_depth(map_, uv, plane, search_uv, dir_, size, lens, face, adaptive=True):
     """GLSL ``float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv,
     vec2 dir, float size, vec4 lens, int face, bool adaptive, out bool umbra)``: (mean occluder
-    depth or -1, umbra): the receiver's own texel, then the disk's taps."""
+    depth or -1, umbra): the receiver's own texel, then the disk's even taps, then its odd taps
+    where the centre or an even tap occluded (summed in that order)."""
     search_uv = _f(search_uv).expand(uv.shape[:-1])
     centre = shadow_sample(map_, uv, face)
     zc = shadow_receiver_depth(plane, lens, face, uv, torch.zeros_like(uv)).clamp_max(1.0)
@@ -207,9 +208,15 @@ def shadow_blocker_depth(map_, uv, plane, search_uv, dir_, size, lens, face, ada
     count = hit.float()
     taps = shadow_taps(search_uv, size, SHADOW_SEARCH_SAMPLES) if adaptive \
         else torch.full_like(search_uv, float(SHADOW_SEARCH_SAMPLES))
-    for d, z, active in _disk_loop(map_, uv, plane, search_uv, dir_, size, lens, face,
-                                   SHADOW_SEARCH_SAMPLES, adaptive):
+    walk = list(_disk_loop(map_, uv, plane, search_uv, dir_, size, lens, face,
+                           SHADOW_SEARCH_SAMPLES, adaptive))
+    for d, z, active in walk[0::2]:
         hit = active & (d < z)
+        total = total + torch.where(hit, d, torch.zeros_like(d))
+        count = count + hit.float()
+    found = count > 0
+    for d, z, active in walk[1::2]:
+        hit = found & active & (d < z)
         total = total + torch.where(hit, d, torch.zeros_like(d))
         count = count + hit.float()
     depth = torch.where(count > 0, total / count.clamp_min(1.0), torch.full_like(total, -1.0))

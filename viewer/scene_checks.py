@@ -13,8 +13,8 @@ from typing import Any
 from .errors import SceneError
 from .models import MODELS, SAMPLINGS
 from .neural.glsl import WEIGHT_STORAGES
-from .settings import (AA_MODES, LOD_ERROR_MAX, CONTACT_SHADOWS, ENV_SHADOWS_MAX,
-                       RENDER_KEYS, SPLAT_DEPTHS, SSAA_MAX, SSAO_SCALE_MAX)
+from .settings import (AA_MODES, LOD_ERROR_MAX, CONTACT_SHADOWS, ENV_SHADOWS_MAX, RENDER_KEYS,
+                       SHADOW_BUDGET_MAX, SPLAT_DEPTHS, SSAA_MAX, SSAO_SCALE_MAX)
 
 
 TONEMAPS = ("pbr_neutral", "aces", "agx", "reinhard", "none")
@@ -124,6 +124,12 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "shadow_cube_size" in t:
         kw["shadow_cube_size"] = _int(t["shadow_cube_size"], "render.shadow_cube_size", file, 32,
                                       4096)
+    if "shadow_budget" in t:
+        v = _num(t["shadow_budget"], "render.shadow_budget", file, 0.0, SHADOW_BUDGET_MAX)
+        if 0.0 < v < 1.0:
+            raise SceneError(f"render.shadow_budget = {v!r} is below 1 map (0: no limit)",
+                             where=file)
+        kw["shadow_budget"] = v
     if "shadow_cascades" in t:
         v = t["shadow_cascades"]
         if v != "auto" and (isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 4):

@@ -75,6 +75,12 @@ class ShadowSettings:
     # texels a side of each of a point light's six cube faces (shadow_cube_size, 32..4096): six
     # faces of half the 2D map's side hold 1.5 x its texels
     cube_size: int = 1024
+    # the texels a frame's light maps share, in maps of the sizes above: where more lights cast
+    # shadows than that, every light map's side (cube faces too) shrinks by the same factor,
+    # sqrt(budget / maps) (viewer/graph/shadows.py budgeted), so the passes draw about one
+    # map's texels however many lights there are (four lights: maps of half the side); a lone
+    # light keeps its size; 0: no limit (shadow_budget, 0 or 1..SHADOW_BUDGET_MAX)
+    budget: float = 1.0
     # scales each light's angular size, so the penumbra (PCSS); 0: hard (shadow_softness)
     softness: float = 1.0
     bias: float = 1.0  # scales the receiver's normal offset (shadow_bias)
@@ -104,6 +110,7 @@ class ShadowSettings:
 
 CONTACT_SHADOWS = ("auto", "on", "off")  # [render] contact_shadows
 LOD_ERROR_MAX = 4.0  # [render] shadow_lod_error: 0..4 texels
+SHADOW_BUDGET_MAX = 64.0  # [render] shadow_budget: 0 (no limit) or 1..64 maps
 ENV_SHADOWS_MAX = 16  # [render] env_shadows: 0..16 (tiles of one shadow atlas, 2 wide)
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
@@ -190,6 +197,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "shadows": ("shadow", "enabled"),
     "shadow_size": ("shadow", "size"),
     "shadow_cube_size": ("shadow", "cube_size"),
+    "shadow_budget": ("shadow", "budget"),
     "env_shadows": ("shadow", "environment"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),

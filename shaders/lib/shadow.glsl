@@ -207,9 +207,9 @@ float shadow_receiver_depth(vec3 plane, vec4 lens, int face, vec2 uv, vec2 o) {
 // found once a lookup, for both filters. The spiral's even taps are read first (a sparser spiral
 // over the whole disk), its odd taps only where they or the centre found an occluder: a receiver
 // with nothing in reach (most of a lit frame) reads half the taps, and wherever an occluder is
-// found the mean and the umbra are the whole spiral's. (Two loops, not one with a break: on
-// llvmpipe a loop costs what its longest pixel in a block needs, so the second loop is skipped
-// where a block is lit; the same walk in one loop saved a third as much.)
+// found the mean and the umbra are the whole spiral's. One loop, which a block of lit pixels
+// leaves halfway (a second loop for the odd taps saved more on llvmpipe, but made a program
+// with three lights' perspective or cube lookups take minutes to compile).
 float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, vec2 dir,
                            float size, vec4 lens, int face, bool adaptive, out bool umbra) {
     int n = !adaptive ? SHADOW_SEARCH_SAMPLES : shadow_taps(search_uv, size,
@@ -219,19 +219,14 @@ float shadow_blocker_depth(sampler2D map, vec2 uv, vec3 plane, float search_uv, 
     bool hit = centre < min(shadow_receiver_depth(plane, lens, face, uv, vec2(0.0)), 1.0);
     float sum = hit ? centre : 0.0;
     float count = hit ? 1.0 : 0.0;
+    int even = (n + 1) / 2;  // taps 0, 2, 4, ... first
     vec2 d = dir;
-    for (int i = 0; i < n; i += 2) {  // taps 0, 2, 4, ...
-        vec2 o = sqrt((float(i) + 0.5) * inv_n) * search_uv * d;
-        float z = shadow_sample(map, uv + o, face);
-        if (z < min(shadow_receiver_depth(plane, lens, face, uv, o), 1.0)) {
-            sum += z;
-            count += 1.0;
+    for (int k = 0; k < n; ++k) {
+        if (k == even) {
+            if (count == 0.0) break;  // neither they nor the centre occlude: lit
+            d = vogel_turn(dir);      // then taps 1, 3, 5, ...
         }
-        d = vogel_turn(vogel_turn(d));
-    }
-    int odd = count > 0.0 ? n : 0;  // nothing found: lit, the odd taps left unread
-    d = vogel_turn(dir);
-    for (int i = 1; i < odd; i += 2) {  // taps 1, 3, 5, ...
+        int i = k < even ? 2 * k : 2 * (k - even) + 1;
         vec2 o = sqrt((float(i) + 0.5) * inv_n) * search_uv * d;
         float z = shadow_sample(map, uv + o, face);
         if (z < min(shadow_receiver_depth(plane, lens, face, uv, o), 1.0)) {

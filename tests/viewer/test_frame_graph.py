@@ -205,7 +205,9 @@ CHANGES = {
     "environment rotation": (_env(rotation_deg=30.0), LIGHTING | {"shadowsun"}),
     "light intensity": (lambda s: dataclasses.replace(
         s, lights=(dataclasses.replace(s.lights[0], intensity=3.0),)), LIGHTING),
-    "model": (lambda s: s.with_render(model="blinn_phong"), LIGHTING),
+    # blinn_phong shades no analytic sun: the sun's map goes, and light 0's, which shared the
+    # shadow budget with it, is drawn again at the full size
+    "model": (lambda s: s.with_render(model="blinn_phong"), LIGHTING | {"shadow0"}),
     "ssao radius": (lambda s: s.with_render(ssao_radius=0.9), SSAO | LIGHTING),
     "seed": (lambda s: s.with_render(seed=7), SSAO | LIGHTING),
     # splats are composited into the G-buffer in place: redrawing them starts from the meshes

@@ -161,7 +161,10 @@ def test_environment_rotation_does_not_turn_the_light(renderer):
 @pytest.mark.parametrize("model", LIT_MODELS)
 def test_light_adds_to_the_environment_and_scales_linearly(renderer, model):
     sphere = ObjectSpec("sphere", material=Material(albedo=(0.6, 0.4, 0.2), roughness=0.4))
-    base = dark_scene([sphere], None, model).with_environment(intensity=1.0)
+    # the sky's sun keeps one map size with or without the light (shadow_budget 0: under the
+    # budget, a light joining it would share its texels, tests/viewer/test_shadow_budget.py)
+    base = dark_scene([sphere], None, model).with_environment(intensity=1.0).with_render(
+        shadow_budget=0)
     light = {"direction": [0.3, 0.8, 0.6], "color": [1.0, 0.5, 0.25]}
     none = renderer.render(base).radiance[..., :3]
     one = renderer.render(dataclasses.replace(

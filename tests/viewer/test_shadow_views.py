@@ -23,7 +23,9 @@ def scene():
                    {"type": "point", "position": [0.5, 3, 0.0]}],
         "objects": [{"type": "plane", "center": [0, 0, 0], "size": [10, 10], "normal": [0, 1, 0]},
                     {"type": "sphere", "center": [0, 1, 0], "radius": 0.5}],
-        "render": {"shadow_size": 256, "shadow_cube_size": 64}})
+        # every map at its set size (the shadow budget would share one map's texels between the
+        # two lights: tests/viewer/test_shadow_budget.py)
+        "render": {"shadow_size": 256, "shadow_cube_size": 64, "shadow_budget": 0}})
 
 
 def test_shadow_maps_as_aovs(renderer):

@@ -11,6 +11,7 @@ from ..cascades import MAX_TILE, ShadowCascades, cascade_count, cascade_frames
 from ..lights import as_lights, shadowing
 from ..models import ShadeVariant
 from ..scene import Scene
+from ..settings import ShadowSettings
 from ..shadows import (EnvShadowFrames, ShadowCube, cube_frames, directional_frame,
                        env_shadow_frames, spot_frame)
 from ..specialize import Specialization
@@ -22,7 +23,8 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
                   camera=None, also: ShadeVariant | None = None) -> dict:
     """One shadow map per shadowing light (``shadow<i>`` into ``shadowmap<i>``: orthographic,
     perspective for a spot light, a cube atlas for a point light) and for the environment's
-    analytic sun (``shadowsun``), fitted to the scene's bounds, and the environment's shadow
+    analytic sun (``shadowsun``), fitted to the scene's bounds and sized by the shadow budget
+    (:func:`budgeted`), and the environment's shadow
     directions' atlas (``shadowenvdirs`` into ``shadowmapenvdirs``, ENV_SHADOWS); only where the
     lighting pass reads them (LIGHT_SHADOWS, SUN_SHADOW, ENV_SHADOWS). Returns light index (or
     ``"sun"``, ``"env<k>"``) -> (resource, frame, light size: angular radius in radians or
@@ -47,24 +49,28 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
     meshes = [m for obj, c in contents if obj.type not in ("gbuffer", "splats") for m in c]
     clouds = [c for obj, c in contents if obj.type == "splats"]
     spass = renderer.resources.shadow_pass()
+    # the light maps this frame draws, each at the size the shadow budget leaves it
+    lit = shadowing(lights, settings.shadow.enabled) if defines.get("LIGHT_SHADOWS") else ()
+    others = renderer.resources.env_lights(scene.environment)[1:] \
+        if defines.get("SUN_SHADOW") else []  # the environment's other compact lights
+    others = others[:defines.get("ENV_LIGHTS", 0)]
+    maps = len(lit) + (1 + len(others) if defines.get("SUN_SHADOW") else 0)
+    shadow = budgeted(settings.shadow, maps)
     casters = []  # (light index or "sun", frame, penumbra size: angular or world radius)
-    if defines.get("LIGHT_SHADOWS"):
-        casters += [(i, light_shadow_frame(lights[i], bounds, settings.shadow, camera),
-                     lights[i].radius if lights[i].positional
-                     else math.radians(lights[i].angular_diameter_deg) / 2.0)
-                    for i in shadowing(lights, settings.shadow.enabled)]
+    casters += [(i, light_shadow_frame(lights[i], bounds, shadow, camera),
+                 lights[i].radius if lights[i].positional
+                 else math.radians(lights[i].angular_diameter_deg) / 2.0) for i in lit]
     if defines.get("SUN_SHADOW"):
         sun = renderer.resources.sun(scene.environment)
         # the sun's direction is in the environment's frame: turned by its rotation
         direction = env_to_world(sun.direction, scene.environment.rotation_deg)
-        casters.append(("sun", _directional(bounds, direction, settings.shadow, camera),
+        casters.append(("sun", _directional(bounds, direction, shadow, camera),
                         float(sun.angular_radius)))
         # the environment's other compact lights (ENV_LIGHTS): "env<k>", shadowenv<k>
-        others = renderer.resources.env_lights(scene.environment)[1:]
         casters += [(f"env{k}", directional_frame(
                          bounds, env_to_world(li.direction, scene.environment.rotation_deg),
-                         int(settings.shadow.size)), float(li.angular_radius))
-                    for k, li in enumerate(others[:defines.get("ENV_LIGHTS", 0)])]
+                         int(shadow.size)), float(li.angular_radius))
+                    for k, li in enumerate(others)]
     # what casts shadows: the objects without their materials (a material slider keeps the maps)
     shapes = tuple(dataclasses.replace(o, material=None) for o in scene.objects)
     error = float(settings.shadow.lod_error)  # each mesh's level of detail in the maps
@@ -102,6 +108,27 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
         out[i] = (name, frame, size * settings.shadow.softness,
                   frame.texel_world * settings.shadow.bias)
     return out
+
+
+def budgeted(shadow: ShadowSettings, maps: int) -> ShadowSettings:
+    """``shadow`` with the sizes each of a frame's ``maps`` light maps gets (its lights', the
+    environment's sun's and other compact lights'; the environment's shadow directions have an
+    atlas of their own): where there are more maps than ``shadow.budget``, every map's side and
+    cube face shrinks by sqrt(budget / maps), down to a multiple of 16 texels (at least 64, or
+    32 for a cube face, or the set size where that is smaller), so that together they hold
+    about ``budget`` maps' texels: four lights under the default budget of one map get maps of
+    half the side. A shadow pass on a software rasteriser costs about its map's texels, and a
+    budget is how a shadow atlas shares its texels among lights (Unity's). Unchanged for
+    ``budget`` 0 (no limit) or ``maps <= budget``."""
+    budget = float(shadow.budget)
+    if budget <= 0.0 or maps <= budget:
+        return shadow
+    scale = math.sqrt(budget / maps)
+
+    def side(n: int, least: int) -> int:
+        return max(min(int(n), least), int(n * scale) // 16 * 16)
+    return dataclasses.replace(shadow, size=side(shadow.size, 64),
+                               cube_size=side(shadow.cube_size, 32))
 
 
 def env_shadow_tile(size: int) -> int:

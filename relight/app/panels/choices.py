@@ -4,7 +4,8 @@ from __future__ import annotations
 from viewer import scene as scene_module
 from viewer.models import MODELS, SAMPLINGS
 from viewer.scene import BACKGROUNDS, TONEMAPS
-from viewer.settings import AA_MODES, ENV_SHADOWS_MAX, LOD_ERROR_MAX, SSAA_MAX, SSAO_SCALE_MAX
+from viewer.settings import (AA_MODES, ENV_SHADOWS_MAX, LOD_ERROR_MAX, SHADOW_BUDGET_MAX,
+                             SSAA_MAX, SSAO_SCALE_MAX)
 
 # RenderSettings fields with a fixed set of values (others get a text field)
 CHOICES = {"model": lambda: tuple(MODELS), "sampling": lambda: SAMPLINGS,
@@ -16,5 +17,6 @@ LIMITS = {"exposure": (-10.0, 10.0), "samples": (1, 1 << 16), "seed": (0, (1 << 
           # the ranges viewer.scene_checks.validate_render accepts
           "ssao_rays": (1, 1024), "ssao_steps": (1, 256), "ssao_scale": (1, SSAO_SCALE_MAX),
           "ssaa": (1, SSAA_MAX), "shadow_size": (64, 8192), "shadow_cube_size": (32, 4096),
-          "env_shadows": (0, ENV_SHADOWS_MAX), "shadow_lod_error": (0.0, LOD_ERROR_MAX)}
+          "env_shadows": (0, ENV_SHADOWS_MAX), "shadow_lod_error": (0.0, LOD_ERROR_MAX),
+          "shadow_budget": (0.0, SHADOW_BUDGET_MAX)}
 ERROR_COLOUR = (1.0, 0.45, 0.4, 1.0)

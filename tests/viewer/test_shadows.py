@@ -307,3 +307,52 @@ def test_an_empty_texel_never_occludes():
     blocked = empty.clone()
     blocked[28:36, 28:36] = 0.5  # an occluder over the receivers' own texels
     assert (shadow_pcss(blocked, s, plane, lens, 0.3, -1) < 0.5).all()
+
+
+def test_the_blocker_search_reads_its_odd_taps_wherever_an_occluder_is_found():
+    """The search reads the spiral's even taps, and its odd taps only where the receiver's texel
+    or an even tap occluded: wherever the search finds an occluder, its mean depth and umbra are
+    those of the whole spiral (every tap read, the same order of sums), and a receiver it calls
+    lit has no occluder under the receiver's texel or any even tap. Random maps of small
+    occluders, random receivers: exact equality (the same float32 operations)."""
+    import torch
+
+    from learned.twins.shadow import (SHADOW_SEARCH_SAMPLES, _disk_loop, shadow_blocker_depth,
+                                      shadow_sample, shadow_taps)
+
+    g = torch.Generator().manual_seed(3)
+    n = 128
+    m = torch.ones(n, n)
+    blobs = (torch.rand(n // 8, n // 8, generator=g) < 0.15).float()  # 8-texel occluders
+    m = torch.where(blobs.repeat_interleave(8, 0).repeat_interleave(8, 1) > 0,
+                    0.2 + 0.3 * torch.rand(n, n, generator=g), m)
+    k = 4000
+    uv = torch.rand(k, 2, generator=g)
+    plane = torch.stack([0.6 + 0.3 * torch.rand(k, generator=g), torch.zeros(k),
+                         torch.zeros(k)], -1)
+    lens = torch.tensor([1.0, 0.01, 0.0, 10.0]).expand(k, 4)
+    phi = 6.2831853 * torch.rand(k, generator=g)
+    dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1)
+    search = 0.002 + 0.05 * torch.rand(k, generator=g)
+    size = torch.tensor(float(n))
+    depth, umbra = shadow_blocker_depth(m, uv, plane, search, dir_, size, lens, -1)
+    # the whole spiral, every tap, summed centre, even taps, odd taps
+    centre = shadow_sample(m, uv, -1)
+    walk = list(_disk_loop(m, uv, plane, search, dir_, size, lens, -1, SHADOW_SEARCH_SAMPLES,
+                           True))
+    hits = [centre < plane[:, 0].clamp_max(1.0)] + [a & (d < z) for d, z, a in walk]
+    vals = [centre] + [d for d, _, _ in walk]
+    order = [0] + [1 + i for i in range(0, len(walk), 2)] + [1 + i for i in range(1, len(walk), 2)]
+    total = torch.zeros(k)
+    count = torch.zeros(k)
+    for i in order:
+        total = total + torch.where(hits[i], vals[i], torch.zeros_like(vals[i]))
+        count = count + hits[i].float()
+    found = count > 0
+    even_found = hits[0] | torch.stack([hits[1 + i] for i in range(0, len(walk), 2)]).any(0)
+    taps = shadow_taps(search, size, SHADOW_SEARCH_SAMPLES)
+    assert 200 < int(even_found.sum()) < k - 200  # both outcomes are common
+    assert (found & ~even_found).any()  # where only odd taps occlude: what the search skips
+    assert torch.equal(depth[even_found], (total / count.clamp_min(1.0))[even_found])
+    assert torch.equal(umbra[even_found], (count == taps + 1)[even_found])
+    assert (depth[~even_found] == -1.0).all() and not umbra[~even_found].any()

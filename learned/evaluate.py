@@ -28,7 +28,7 @@ from tqdm import tqdm
 
 from viewer.models import MODELS
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from .data.reader import list_samples, load_sample
 from .export import load_model
@@ -217,7 +217,7 @@ def evaluate(root: str, split: str = "test", teacher_samples: int = 128, limit: 
                     ms = 1e3 * (time.perf_counter() - t0)
                 score((model, variant, render.get("samples", 1)), frame.radiance[..., :3], ms)
             if two_stage is not None:
-                from viewer.environment import EnvironmentSpec
+                from viewer.environment.maps import EnvironmentSpec
 
                 from .neural.lighting import lighting_from_gl
 

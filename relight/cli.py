@@ -21,7 +21,7 @@
                  [--env E] [--up AXIS] [--floor]
 
 An ASSET is a glTF/GLB, OBJ, STL, OFF or PLY mesh, a splat cloud (3DGS PLY, .splat) or an image
-G-buffer stack (a folder, a 12-channel .exr): the scene is made for it (viewer.assets).
+G-buffer stack (a folder, a 12-channel .exr): the scene is made for it (viewer.scene.assets).
 
 Errors a user can cause print one line, ``relight: error: <file>: <problem>``, and exit with 2,
 writing nothing; warnings print one line each, ``relight: warning: <file>: <problem>`` (what was

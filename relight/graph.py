@@ -50,7 +50,7 @@ def parse_change(text: str) -> tuple[str, object]:
 
 def cmd_graph(args) -> int:
     from viewer.renderer import Renderer
-    from viewer.scene import load_scene, validate_render
+    from viewer.scene.description import load_scene, validate_render
 
     from .commands import _context_options, _demo_path, _parse_size
 

@@ -4,7 +4,7 @@ import os
 import pytest
 
 # the suite is hermetic: no environment is read from or written to the user's disk cache
-# (viewer.envcache; the cache's own tests pass an explicit cache)
+# (viewer.environment.disk_cache; the cache's own tests pass an explicit cache)
 os.environ.setdefault("RELIGHT_ENV_CACHE", "0")
 
 

@@ -7,6 +7,7 @@ only torch and itself: the GL side of every comparison is ``learned.parity``."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -132,4 +133,69 @@ def test_the_rules_see_real_imports():
     assert "viewer.renderer" in graph["relight.cli"] or any(
         d.startswith("viewer") for d in graph["relight.cli"])
     assert "torch" in graph["learned.twins.brdf"]
-    assert "viewer.scene" in graph["viewer.renderer"]
+    assert "viewer.scene.description" in graph["viewer.renderer"]
+
+
+# ---- the rooms ----------------------------------------------------------------------------------
+# viewer/ is grouped by domain (scene, environment, lighting, geometry, ...): each package's
+# docstring says what it holds and, in a paragraph starting "Imports:", which other rooms of viewer
+# it may import. The rule below holds the code to what the docstrings say.
+
+def _room(module: str) -> str:
+    """``viewer.scene.checks`` -> ``viewer.scene``; a top-level module is a room of its own."""
+    parts = module.split(".")
+    return ".".join(parts[:2])
+
+
+def _rooms() -> list[Path]:
+    return sorted(p for p in (ROOT / "viewer").iterdir() if (p / "__init__.py").is_file())
+
+
+def _declared_imports(package: Path) -> set[str]:
+    doc = ast.get_docstring(ast.parse((package / "__init__.py").read_text())) or ""
+    paragraph = doc.split("Imports:", 1)[1].split("\n\n", 1)[0] if "Imports:" in doc else ""
+    return {_room(name) for name in re.findall(r"viewer(?:\.\w+)+", paragraph)}
+
+
+def test_every_room_says_what_it_holds_and_imports():
+    missing = [str(p.relative_to(ROOT)) for p in _rooms() if "Imports:" not in (
+        ast.get_docstring(ast.parse((p / "__init__.py").read_text())) or "")]
+    assert not missing, f"package docstrings without an 'Imports:' paragraph: {missing}"
+    undocumented = [name for name, path in _modules().items()
+                    if path.name == "__init__.py" and not ast.get_docstring(
+                        ast.parse(path.read_text()))]
+    assert not undocumented, f"packages without a docstring: {undocumented}"
+
+
+def test_rooms_import_only_what_their_docstrings_say():
+    graph = _graph()
+    bad = []
+    for package in _rooms():
+        room = f"viewer.{package.name}"
+        allowed = _declared_imports(package) | {room}
+        for name, deps in graph.items():
+            if _room(name) != room:
+                continue
+            for dep in deps:
+                if dep.startswith("viewer.") and _room(dep) not in allowed:
+                    bad.append(f"{name} imports {dep} ({room}'s docstring does not name "
+                               f"{_room(dep)})")
+    assert not bad, "\n".join(sorted(bad))
+
+
+def test_the_room_rule_sees_real_imports():
+    """The rule above must see a room's imports, or it would pass vacuously."""
+    assert _declared_imports(ROOT / "viewer" / "passes") >= {"viewer.gl", "viewer.gbuffer"}
+    assert "viewer.environment.sun" in _graph()["viewer.environment.irradiance"]
+
+
+MAX_MODULE_LINES = 400  # a module longer than this holds more than one job
+MAX_RENDERER_LINES = 300  # the renderer only declares the frame; the rooms do the work
+
+
+def test_modules_stay_small():
+    long = {str(p.relative_to(ROOT)): n for p in _modules().values()
+            if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES}
+    assert not long, f"modules over {MAX_MODULE_LINES} lines: {long}"
+    renderer = len((ROOT / "viewer" / "renderer.py").read_text().splitlines())
+    assert renderer <= MAX_RENDERER_LINES, f"viewer/renderer.py has {renderer} lines"

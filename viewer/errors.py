@@ -38,4 +38,4 @@ class ShaderCompileError(RelightError):
 
 class AssetNote(UserWarning):
     """A warning that says what was assumed about an input rather than read from it (an asset's
-    up axis: :mod:`viewer.assets`); the CLI prints it as ``relight: note: <message>``."""
+    up axis: :mod:`viewer.scene.assets`); the CLI prints it as ``relight: note: <message>``."""

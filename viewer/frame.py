@@ -1,14 +1,19 @@
 """What a render produces: :class:`Frame` (read back to numpy) and :class:`FrameTargets` (left on
-the GPU), and the read-back helper."""
+the GPU), the read-back of one to the other, and the AOV names a render can read back."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .camera import Camera
+from .errors import SceneError
+from .gbuffer import CHANNEL_NAMES
 from .models import ShadeVariant
 from .passes.gbuffer import GBufferTargets
+from .scene.camera import Camera
+
+
+AOV_NAMES = CHANNEL_NAMES  # albedo, alpha, normal, roughness, metallic, specular, ao, depth, color
 
 
 @dataclass
@@ -69,3 +74,52 @@ def downsample_aov(channel: np.ndarray, n: int, name: str) -> np.ndarray:
         length = np.linalg.norm(mean, axis=-1, keepdims=True)
         mean = np.where(length > 1e-6, mean / np.maximum(length, 1e-6), 0.0)
     return mean.astype(channel.dtype)
+
+
+def read_frame(targets: FrameTargets, aovs, ssaa: int = 1) -> Frame:
+    """A drawn frame read back: radiance, display pixels and the requested ``aovs`` (G-buffer
+    channels brought to the output size from ``ssaa`` x it, shadow maps at their own size)."""
+    radiance = read_texture(targets.radiance, "f4")
+    display = read_texture(targets.display, "f1")
+    frame = Frame(radiance=radiance, display=display, camera=targets.camera)
+    if aovs:
+        channels = targets.gbuffer.read()
+        for name in aovs:
+            if is_shadow_aov(name):  # a shadow map, at its own size
+                frame.aovs[name] = read_shadow_map(targets, name)
+                continue
+            if name == "color" and "color" not in channels:
+                # meshes: the unlit colour is the albedo, premultiplied by coverage
+                channels["color"] = channels["albedo"] * channels["alpha"]
+            frame.aovs[name] = downsample_aov(channels[name], ssaa, name)
+    return frame
+
+
+def check_aovs(aovs) -> None:
+    """Every name in ``aovs`` is a G-buffer channel (:data:`AOV_NAMES`) or a shadow map
+    (``shadow<i>``, ``shadowsun``), or a one-line error."""
+    unknown = [a for a in aovs if a not in AOV_NAMES and not is_shadow_aov(a)]
+    if unknown:
+        raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
+                         f"(known: {', '.join(AOV_NAMES)}, shadow<i>, shadowsun, shadowenv<k>, "
+                         f"shadowenvdirs)", where="--aov")
+
+
+def is_shadow_aov(name: str) -> bool:
+    """``shadow<i>`` (light i's map), ``shadowsun`` (the environment's sun's), ``shadowenv<k>``
+    (its other compact lights') or ``shadowenvdirs`` (the atlas of its shadow directions)."""
+    rest = name[len("shadow"):] if name.startswith("shadow") else None
+    return rest is not None and (rest in ("sun", "envdirs") or rest.isdigit()
+                                 or (rest.startswith("env") and rest[3:].isdigit()))
+
+
+def read_shadow_map(targets: FrameTargets, name: str):
+    """The shadow map ``name`` of a frame, ``[H, W, 1]`` float32 normalised depth (row 0 at the
+    top; a point light's: its atlas of six faces), or a one-line error naming those it has."""
+    target = targets.targets.get("shadowmap" + name[len("shadow"):])
+    if target is None:
+        have = sorted("shadow" + k[len("shadowmap"):] for k in targets.targets
+                      if k.startswith("shadowmap"))
+        raise SceneError(f"this scene draws no shadow map {name!r} (it draws: "
+                         f"{', '.join(have) or 'none'})", where="--aov")
+    return read_texture(target.texture, "f4")

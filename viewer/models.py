@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .errors import SceneError
-from .lights import light_defines
+from .lighting.lights import light_defines
 
 SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
 SAMPLING_IDS = {name: i for i, name in enumerate(SAMPLINGS)}  # the SAMPLING define
@@ -45,7 +45,7 @@ class ShadingModel:
     reads: frozenset[str] | None = ALL_CHANNELS
     accumulates: bool = False  # Monte Carlo: `samples` accumulate in batches and over frames
     network: str | None = None  # "student" | "teacher": the weights file the model loads
-    # how the model treats a scene's punctual lights (viewer.lights): "shaded" (the analytic
+    # how the model treats a scene's punctual lights (viewer.lighting.lights): "shaded" (the analytic
     # direct term of each: LIGHT_COUNT, LIGHT_POSITIONAL), "unlit" (no lighting at all) or
     # "ignored" (the neural teacher: trained under environment light only; the renderer warns
     # once when a scene with lights is rendered with it)
@@ -56,7 +56,7 @@ class ShadingModel:
     # prefix falls back to its last entry: the teacher has no BRDF pdf, brdf and mis use env)
     samplings: tuple[str, ...] = ()
     specular_lobe: bool = False  # SPECULAR_LOBE 0 compiles out its specular lookups (specialise)
-    # SUN_LIGHT: shades the environment's extracted sun analytically (viewer/sun.py) and reads
+    # SUN_LIGHT: shades the environment's extracted sun analytically (viewer/environment/sun.py) and reads
     # the IBL of the environment without it (GPUResources.ibl(..., sun=True))
     analytic_sun: bool = False
     # ENV_SHADOWS: the environment's shadow directions occlude its irradiance-map diffuse light
@@ -66,9 +66,9 @@ class ShadingModel:
     def variant(self, settings, light=None, specular: bool = True,
                 sun: int = 0, contact: bool = False) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
-        :class:`~viewer.lights.Light`, a tuple of them or None), whether any surface has a specular
+        :class:`~viewer.lighting.lights.Light`, a tuple of them or None), whether any surface has a specular
         lobe (:class:`viewer.specialize.SceneFeatures`) and how many compact lights the environment
-        has (``sun``: :func:`viewer.sun.extract_lights`, the sun first; a bool counts as one;
+        has (``sun``: :func:`viewer.environment.sun.extract_lights`, the sun first; a bool counts as one;
         shaded analytically when ``settings.sun``: SUN_LIGHT for the first, ENV_LIGHTS = the
         others' count, compiled in only when there are others); ``contact``: the lights'
         screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`)."""

@@ -27,28 +27,25 @@ import dataclasses
 import warnings
 from contextlib import contextmanager
 
-from .camera import Camera
+from .cache import BoundedCache, Budgets, CacheStats
 from .errors import SceneError
-from .frame import Frame, FrameTargets, downsample_aov, read_texture
-from .gbuffer import CHANNEL_NAMES, GBufferLayout
+from .frame import Frame, FrameTargets, check_aovs, is_shadow_aov, read_frame
+from .gbuffer import GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
-from .bounds import scene_bounds
-from .cache import BoundedCache
-from .models import ShadingModel, contact_shadows, model_info
-from .neural import learns_indirect, required_settings, shades_sun
-from .cache import Budgets, CacheStats
 from .graph.display import output_radiance, ssaa_factor
 from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
-from .lights import gather_lights
+from .lighting.lights import gather_lights
+from .models import contact_shadows, model_info
+from .neural import learns_indirect, required_settings, shades_sun
 from .resources import GPUResources
-from .scene import ObjectSpec, Scene
+from .scene.bounds import scene_bounds
+from .scene.camera import Camera
+from .scene.description import ObjectSpec, Scene
 from .specialize import analyse, specialise
 
-__all__ = ["AOV_NAMES", "Frame", "FrameTargets", "Renderer", "check_aovs", "read_texture"]
-
-AOV_NAMES = CHANNEL_NAMES  # albedo, alpha, normal, roughness, metallic, specular, ao, depth, color
+__all__ = ["Frame", "FrameTargets", "Renderer"]
 
 
 class Renderer:
@@ -236,7 +233,7 @@ class Renderer:
         return build_frame(self, request, reuse=self.reuse_passes).compile()
 
     def bounds(self, scene: Scene):
-        """World bounds of what ``scene`` contains (:func:`viewer.bounds.scene_bounds`; robust
+        """World bounds of what ``scene`` contains (:func:`viewer.scene.bounds.scene_bounds`; robust
         for splats), cached per scene content; None for image stacks alone."""
         key = (scene.objects, self.geometry_cache.version)
         return self._bounds.get_or_create(key, lambda: scene_bounds(self, scene))
@@ -261,23 +258,8 @@ class Renderer:
         make_current(self.ctx)
         check_aovs(aovs)
         targets = self.draw(scene, size, aovs=tuple(a for a in aovs
-                                                    if a != "color" and not _is_shadow_aov(a)))
-        radiance = read_texture(targets.radiance, "f4")
-        display = read_texture(targets.display, "f1")
-        frame = Frame(radiance=radiance, display=display, camera=targets.camera)
-        if aovs:
-            gb = targets.gbuffer
-            channels = gb.read()
-            n = ssaa_factor(scene)  # supersampled: the G-buffer is n x the size
-            for name in aovs:
-                if _is_shadow_aov(name):  # a shadow map, at its own size
-                    frame.aovs[name] = _read_shadow_map(targets, name)
-                    continue
-                if name == "color" and "color" not in channels:
-                    # meshes: the unlit colour is the albedo, premultiplied by coverage
-                    channels["color"] = channels["albedo"] * channels["alpha"]
-                frame.aovs[name] = downsample_aov(channels[name], n, name)
-        return frame
+                                                    if a != "color" and not is_shadow_aov(a)))
+        return read_frame(targets, aovs, ssaa_factor(scene))
 
     def release(self) -> None:
         """Free every GPU resource (and the context, if this renderer created it)."""
@@ -287,36 +269,6 @@ class Renderer:
         self.programs.release()
         if self._owns_context:
             self.ctx.release()
-
-
-def check_aovs(aovs) -> None:
-    """Every name in ``aovs`` is a G-buffer channel (:data:`AOV_NAMES`) or a shadow map
-    (``shadow<i>``, ``shadowsun``), or a one-line error."""
-    unknown = [a for a in aovs if a not in AOV_NAMES and not _is_shadow_aov(a)]
-    if unknown:
-        raise SceneError(f"unknown AOV {', '.join(map(repr, unknown))} "
-                         f"(known: {', '.join(AOV_NAMES)}, shadow<i>, shadowsun, shadowenv<k>, "
-                         f"shadowenvdirs)", where="--aov")
-
-
-def _is_shadow_aov(name: str) -> bool:
-    """``shadow<i>`` (light i's map), ``shadowsun`` (the environment's sun's), ``shadowenv<k>``
-    (its other compact lights') or ``shadowenvdirs`` (the atlas of its shadow directions)."""
-    rest = name[len("shadow"):] if name.startswith("shadow") else None
-    return rest is not None and (rest in ("sun", "envdirs") or rest.isdigit()
-                                 or (rest.startswith("env") and rest[3:].isdigit()))
-
-
-def _read_shadow_map(targets: FrameTargets, name: str):
-    """The shadow map ``name`` of a frame, ``[H, W, 1]`` float32 normalised depth (row 0 at the
-    top; a point light's: its atlas of six faces), or a one-line error naming those it has."""
-    target = targets.targets.get("shadowmap" + name[len("shadow"):])
-    if target is None:
-        have = sorted("shadow" + k[len("shadowmap"):] for k in targets.targets
-                      if k.startswith("shadowmap"))
-        raise SceneError(f"this scene draws no shadow map {name!r} (it draws: "
-                         f"{', '.join(have) or 'none'})", where="--aov")
-    return read_texture(target.texture, "f4")
 
 
 _LIGHT_WARNED: set[str] = set()

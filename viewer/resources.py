@@ -1,6 +1,6 @@
 """The GPU resources a :class:`~viewer.renderer.Renderer` keeps between frames, each bounded: the
 render-target pool of the frame graph (:class:`viewer.graph.pool.TargetPool`, by bytes and age),
-the passes per G-buffer layout (by count), and the environments (:class:`viewer.environments.
+the passes per G-buffer layout (by count), and the environments (:class:`viewer.environment.store.
 EnvironmentStore`, by bytes: loaded maps, prefiltered chains, suns, sampling tables; intensity and
 rotation are uniforms, so light sliders never recompute them)."""
 from __future__ import annotations
@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from .cache import BoundedCache, Budgets, CacheStats
-from .environment import EnvironmentSpec
-from .environments import EnvironmentStore
+from .environment.maps import EnvironmentSpec
+from .environment.store import EnvironmentStore
+from .environment.sun import Sun
 from .gbuffer import GBufferLayout
 from .graph.pool import TargetPool
 from .passes.accumulate import AccumulatePass
@@ -21,7 +22,6 @@ from .passes.shadow import ShadowPass
 from .passes.splats import SplatPass
 from .passes.ssao import SSAOPass
 from .passes.tonemap import TonemapPass
-from .sun import Sun
 
 # the passes that are built per G-buffer layout
 LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
@@ -40,7 +40,7 @@ class GPUResources:
         # (kind, layout) -> pass: a few per layout, each owning vertex arrays and uploads
         self._passes = BoundedCache("passes", max_items=4 * len(LAYOUT_PASSES),
                                     release=lambda p: p.release())
-        # environments by bytes (and the user's disk cache: viewer.envcache)
+        # environments by bytes (and the user's disk cache: viewer.environment.disk_cache)
         self.env = EnvironmentStore(programs, budgets.environment_bytes)
         self._tonemap: TonemapPass | None = None
         self._accumulate: AccumulatePass | None = None
@@ -79,17 +79,17 @@ class GPUResources:
             self._accumulate = AccumulatePass(self.programs)
         return self._accumulate
 
-    # ---- environments (viewer.environments.EnvironmentStore) ------------------------------------
+    # ---- environments (viewer.environment.store.EnvironmentStore) ------------------------------------
     def ibl(self, spec: EnvironmentSpec, sun: bool = False):
         """The environment's IBL; ``sun=True``: the one without its sun (SUN_LIGHT passes)."""
         return self.env.ibl(spec, sun=sun)
 
     def sun(self, spec: EnvironmentSpec) -> Sun | None:
-        """The environment's compact sun (:func:`viewer.sun.extract_sun`), or None."""
+        """The environment's compact sun (:func:`viewer.environment.sun.extract_sun`), or None."""
         return self.env.sun(spec)
 
     def env_lights(self, spec: EnvironmentSpec) -> tuple[Sun, ...]:
-        """The environment's compact lights (:func:`viewer.sun.extract_lights`), the sun first."""
+        """The environment's compact lights (:func:`viewer.environment.sun.extract_lights`), the sun first."""
         return self.env.lights(spec)
 
     def env_sampling(self, spec: EnvironmentSpec):

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .gbuffer import CHANNEL_NAMES, CHANNELS, GBufferLayout
-from .lights import as_lights, shadowing
+from .lighting.lights import as_lights, shadowing
 from .models import ShadeVariant, model_info
 
 
@@ -112,7 +112,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     """Layout and lighting-pass variant for ``settings.model`` on a scene with ``features`` and
     ``light`` (``Scene.light``: the lights to shade, or None; LIGHT_COUNT 0 compiles the light
     loop out, LIGHT_POSITIONAL 0 the surface position); ``sun``: how many compact lights the
-    environment has (:func:`viewer.sun.extract_lights`, 0 for none) for a model that shades them
+    environment has (:func:`viewer.environment.sun.extract_lights`, 0 for none) for a model that shades them
     analytically; ``contact``: the lights' screen-space contact shadows
     (:func:`viewer.models.contact_shadows`).
 

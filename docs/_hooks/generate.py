@@ -7,6 +7,7 @@
   the dataclass fields the tables load into;
 * ``reference/models.md`` from ``viewer.models.MODELS``, ``reference/gbuffer.md`` from
   ``viewer.gbuffer.CHANNELS``;
+* ``explanation/architecture.md`` (:mod:`architecture`): the rooms and their imports;
 * ``reference/api.md``: mkdocstrings directives for the public names, each resolved to the module
   that defines it at build time (so moving a class between modules cannot break the page);
 * the pictures the measurement pages show, copied from where the commands write them
@@ -32,6 +33,7 @@ HOOKS = str(Path(__file__).resolve().parent)
 if HOOKS not in sys.path:  # the sibling modules of this hook
     sys.path.insert(0, HOOKS)
 
+from architecture import architecture_markdown  # noqa: E402
 from common import _code, _esc  # noqa: E402
 from scene_page import _toml, scene_markdown  # noqa: E402
 
@@ -143,17 +145,17 @@ API = (
     ("Rendering", ("viewer.Renderer", "viewer.Frame", "viewer.renderer.FrameTargets"),
      "One `Renderer` owns one headless GL context and every GPU resource made from the scenes "
      "it renders."),
-    ("Scenes", ("viewer.load_scene", "viewer.scene_from_dict", "viewer.scene_io.save_scene",
-                "viewer.Scene", "viewer.scene.ObjectSpec", "viewer.lights.Light",
-                "viewer.camera.Camera", "viewer.material.Material",
-                "viewer.environment.EnvironmentSpec", "viewer.assets.open_assets",
-                "viewer.assets.scene_from_assets", "viewer.assets.OpenedAssets"),
+    ("Scenes", ("viewer.load_scene", "viewer.scene_from_dict", "viewer.scene.files.save_scene",
+                "viewer.Scene", "viewer.scene.description.ObjectSpec", "viewer.lighting.lights.Light",
+                "viewer.scene.camera.Camera", "viewer.scene.material.Material",
+                "viewer.environment.maps.EnvironmentSpec", "viewer.scene.assets.open_assets",
+                "viewer.scene.assets.scene_from_assets", "viewer.scene.assets.OpenedAssets"),
      "Scene files load into frozen dataclasses; change them with `dataclasses.replace` or the "
      "`with_*` helpers. The file format: [Scene files](scene-file.md). Asset files without a "
      "scene file: `open_assets` ([Open an asset](../how-to/open-an-asset.md))."),
-    ("Render settings", ("viewer.settings.RenderSettings", "viewer.settings.MonteCarloSettings",
-                         "viewer.settings.SSAOSettings", "viewer.settings.NeuralSettings",
-                         "viewer.settings.DisplaySettings"), ""),
+    ("Render settings", ("viewer.scene.settings.RenderSettings", "viewer.scene.settings.MonteCarloSettings",
+                         "viewer.scene.settings.SSAOSettings", "viewer.scene.settings.NeuralSettings",
+                         "viewer.scene.settings.DisplaySettings"), ""),
     ("Shading models", ("viewer.models.ShadingModel", "viewer.models.model_info"), ""),
     ("Errors", ("viewer.RelightError", "viewer.errors.SceneError", "viewer.errors.InputError"),
      "Everything a user can cause raises a `RelightError` whose message is one line naming the "
@@ -204,6 +206,7 @@ PAGES = {
     "reference/models.md": models_markdown,
     "reference/gbuffer.md": gbuffer_markdown,
     "reference/api.md": api_markdown,
+    "explanation/architecture.md": architecture_markdown,
 }
 
 

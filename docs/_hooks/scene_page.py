@@ -175,7 +175,7 @@ def _plain(value):
 def _render_keys(settings_cls) -> dict:
     """The TOML key -> (group, field) table of ``[render]`` (``RENDER_KEYS``), wherever the
     settings module or the scene package keeps it; else each group's fields by name."""
-    for name in (settings_cls.__module__, "viewer.settings", "viewer.scene"):
+    for name in (settings_cls.__module__, "viewer.scene.settings", "viewer.scene.description"):
         try:
             module = sys.modules.get(name) or importlib.import_module(name)
         except ImportError:
@@ -205,7 +205,7 @@ def scene_markdown() -> str:
            "unless it says otherwise; paths are relative to the scene file. Unknown keys, "
            "wrong types and out-of-range values are errors that name the file and the key. "
            "`relight render`, `relight view`, `relight reference` and the Python API "
-           "(`viewer.load_scene`) read the same files; `viewer.scene_io.save_scene` writes "
+           "(`viewer.load_scene`) read the same files; `viewer.scene.files.save_scene` writes "
            "them back.", ""]
     tables = probe.known({"\u00bfprobe": {}})
     out += ["Top-level tables: " + ", ".join(f"`[{t}]`" if t != "objects" else "`[[objects]]`"
@@ -238,7 +238,7 @@ def scene_markdown() -> str:
                    lambda k, v: {"environment": {k: v}}, where="environment",
                    intro="An equirectangular HDR/EXR file (`path`) or a procedural environment "
                          "(`procedural`); with neither, the procedural studio.")
-    from viewer.lights import Light
+    from viewer.lighting.lights import Light
 
     spot = {"type": "spot", "position": [0.0, 2.0, 0.0], "direction": [0.0, 1.0, 0.0]}
     out += section("[[lights]]", Light, Light(),

@@ -1,5 +1,5 @@
 """Griffe extension (mkdocs.yml: mkdocstrings' ``extensions``): the docstrings are written with
-Sphinx cross-reference roles (``:class:`~viewer.scene.Scene```), which Markdown would print
+Sphinx cross-reference roles (``:class:`~viewer.scene.description.Scene```), which Markdown would print
 verbatim; turn each into inline code of its target (the last component for ``~`` targets)."""
 from __future__ import annotations
 

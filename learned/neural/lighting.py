@@ -1,6 +1,6 @@
 """Environment lighting for the neural shaders, in torch: the same resources the GLSL passes read.
 
-A :class:`Lighting` holds what ``viewer.ibl.build_ibl`` and ``viewer.envsampling`` computed on the
+A :class:`Lighting` holds what ``viewer.environment.ibl.build_ibl`` and ``viewer.environment.sampling`` computed on the
 GPU, read back (so torch and GLSL see identical textures): level 0 of the equirect radiance, the
 prefiltered chain, SH irradiance coefficients and the importance-sampling tables. Per-pixel inputs
 are flattened: a G-buffer is a dict channel -> ``[N, C]`` and ``v`` the unit directions towards the
@@ -19,14 +19,20 @@ from learned.twins.brdf import clamp_perceptual_roughness
 from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
 from learned.twins.equirect import equirect_uv, rotate_y
-from learned.twins.ibl import (ibl_dfg, ibl_dominant_factor, ibl_specular_radiance,
-                                ibl_specular_radiance_sun, irradiance_lookup,
-                               sample_bilinear, specular_dominant_direction)
+from learned.twins.ibl import (
+    ibl_dfg,
+    ibl_dominant_factor,
+    ibl_specular_radiance,
+    ibl_specular_radiance_sun,
+    irradiance_lookup,
+    sample_bilinear,
+    specular_dominant_direction,
+)
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
 from learned.twins.shading import disc_light, shading_normal, sun_specular_weight
 from viewer.gl import make_current
-from viewer.scene import Scene
+from viewer.scene.description import Scene
 
 # sampling strategy ids of shade_neural_teacher.frag (SAMPLING define)
 STRATEGIES = {"uniform": 0, "cosine": 1, "env": 2}
@@ -46,11 +52,11 @@ class Lighting:
     rotation: float = 0.0  # radians about +Y
     dfg: torch.Tensor | None = None  # [n, n, 2] split-sum LUT (x = n.v, y = perceptual roughness)
     dominant: torch.Tensor | None = None  # [n, n, 1] the dominant direction's lerp factor LUT
-    # the environment's compact sun (viewer.sun.Sun) when this is the IBL without it (SUN_LIGHT:
+    # the environment's compact sun (viewer.environment.sun.Sun) when this is the IBL without it (SUN_LIGHT:
     # prefiltered levels and SH leave it out, lighting_from_gl(..., sun=True)), else None
     sun: object | None = None
     prefiltered_full: list | None = None  # with a sun: the whole environment's prefiltered chain
-    # every compact light taken out with the sun (viewer.sun.extract_lights), the sun first
+    # every compact light taken out with the sun (viewer.environment.sun.extract_lights), the sun first
     lights: tuple = ()
 
     def with_light(self, intensity: float, rotation: float) -> "Lighting":
@@ -59,7 +65,7 @@ class Lighting:
 
 def lighting_from_gl(renderer, environment, sun: bool = False) -> Lighting:
     """Build (or reuse the renderer's cached) IBL and sampling tables of the
-    :class:`~viewer.environment.EnvironmentSpec` ``environment`` on the GPU and read them back.
+    :class:`~viewer.environment.maps.EnvironmentSpec` ``environment`` on the GPU and read them back.
     ``sun``: the IBL a ``SUN_LIGHT`` pass binds (``GPUResources.ibl(..., sun=True)``: without the
     environment's sun, which ``Lighting.sun`` then holds, with the whole environment's chain in
     ``prefiltered_full``); the plain IBL when the environment has no sun."""

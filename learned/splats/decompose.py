@@ -29,9 +29,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from viewer.camera import Camera
 from viewer.errors import InputError
 from viewer.imageio import write_exr
+from viewer.scene.camera import Camera
 from viewer.splats.data import Splats, make_splats, sh_basis_3dgs
 from viewer.splats.generate import (
     cube_directions,

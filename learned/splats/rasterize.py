@@ -22,13 +22,24 @@ from typing import Iterator
 import numpy as np
 import torch
 
-from learned.twins.splat import (MEDIAN_SPLITS, splat_alpha, splat_conic, splat_cov2d,
-                                 splat_cov2d_det, splat_depth_refine, splat_depth_threshold,
-                                 splat_face_forward, splat_mahalanobis2, splat_median_target,
-                                 splat_min_axis, splat_rotation, splat_sh_basis_all,
-                                 splat_view_depth)
-from viewer.camera import Camera
+from learned.twins.splat import (
+    MEDIAN_SPLITS,
+    splat_alpha,
+    splat_conic,
+    splat_cov2d,
+    splat_cov2d_det,
+    splat_depth_refine,
+    splat_depth_threshold,
+    splat_face_forward,
+    splat_mahalanobis2,
+    splat_median_target,
+    splat_min_axis,
+    splat_rotation,
+    splat_sh_basis_all,
+    splat_view_depth,
+)
 from viewer.gbuffer import GBufferLayout
+from viewer.scene.camera import Camera
 from viewer.splats.data import Splats
 from viewer.splats.sort import depth_order
 

@@ -15,15 +15,19 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from viewer.environment import EnvironmentSpec
+from viewer.environment.maps import EnvironmentSpec
 
 from ..data.reader import DatasetError, list_samples, load_sample
-from ..neural.lighting import Lighting, env_lights_base, lighting_from_gl, student_features
+from ..neural.lighting import (
+    Lighting,
+    env_lights_base,
+    lighting_from_gl,
+    student_features,
+)
 from ..neural.shadow import ShadowUNet
 from ..neural.student import Student
 from ..neural.teacher import Teacher
 from .runner import Run, _loop
-
 
 # ---- data ----------------------------------------------------------------------------------------
 

@@ -1,5 +1,5 @@
 """Twins of ``shaders/lib/env_sampling.glsl`` and of the distribution build
-(``shaders/passes/env_cdf_{rows,marginal,pdf}.comp``, driven by :mod:`viewer.envsampling`).
+(``shaders/passes/env_cdf_{rows,marginal,pdf}.comp``, driven by :mod:`viewer.environment.sampling`).
 
 Textures are tensors with row 0 first, as uploaded: ``marginal [H + 1]``, ``conditional
 [H, W + 1]``, ``pdf [H, W]``. Registers the pass checks ``env_distribution`` and ``env_sampling``.
@@ -73,7 +73,7 @@ def env_pdf(pdf_uv: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
 
 
 def env_distribution(env: torch.Tensor) -> dict:
-    """Twin of :func:`viewer.envsampling.build_env_sampling` (the three ``env_cdf_*.comp``
+    """Twin of :func:`viewer.environment.sampling.build_env_sampling` (the three ``env_cdf_*.comp``
     passes): ``env [H, W, >=3]`` -> ``marginal [H + 1]``, ``conditional [H, W + 1]``,
     ``pdf [H, W]`` and ``fallback`` (bool). Sums run sequentially in float32, as on the GPU."""
     h, w = env.shape[:2]

@@ -60,7 +60,7 @@ def ibl_specular_radiance_sun(sunless: list[torch.Tensor], full: list[torch.Tens
 
 def irradiance_lookup(irradiance: torch.Tensor, n_ws: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 irradiance_lookup(sampler2D irradiance, vec3 n_ws)``: the irradiance map
-    ``[h, w, C]`` (rows from pole to pole, :mod:`viewer.irradiance`) bilinear at the normal's
+    ``[h, w, C]`` (rows from pole to pole, :mod:`viewer.environment.irradiance`) bilinear at the normal's
     equirect uv with v moved onto those rows. n_ws ``[..., 3]`` -> ``[..., 3]``."""
     uv = equirect_uv(n_ws)
     h = float(irradiance.shape[0])

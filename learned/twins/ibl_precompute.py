@@ -140,8 +140,8 @@ def prefilter_environment(chain: list[torch.Tensor], roughness: list[float],
                           samples: list[int]) -> list[torch.Tensor]:
     """Twin of the prefiltered chain of ``build_ibl``: level 0 = ``chain[0]``, level k >= 1 = GGX
     prefiltered at perceptual roughness ``roughness[k]`` with ``samples[k]`` Hammersley points
-    (the pass's uniforms: the renderer uses ``viewer.ibl.prefilter_roughness(k, levels)`` and
-    ``viewer.ibl.prefilter_samples(k, options.prefilter_samples)``)."""
+    (the pass's uniforms: the renderer uses ``viewer.environment.ibl.prefilter_roughness(k, levels)`` and
+    ``viewer.environment.ibl.prefilter_samples(k, options.prefilter_samples)``)."""
     out = [chain[0]]
     for k in range(1, len(roughness)):
         out.append(prefilter_level(chain, tuple(chain[k].shape[:2]), roughness[k], samples[k]))
@@ -208,7 +208,7 @@ def dominant_lut(size: int, samples: int) -> torch.Tensor:
 
 
 # ---------------------------------------------------------------------------------------------
-# ibl_compose.comp: a convolved level (viewer/prefilter.py) resampled, plus the sun as points
+# ibl_compose.comp: a convolved level (viewer/environment/prefilter.py) resampled, plus the sun as points
 # ---------------------------------------------------------------------------------------------
 
 def compose_sample(work: torch.Tensor, uv: torch.Tensor) -> torch.Tensor:

@@ -50,7 +50,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
     ``conditional``, ``pdf`` (:func:`learned.twins.env_sampling.env_distribution` layout).
     ``defines`` as in :func:`viewer.passes.shade.shade_defines`; ``ssao`` ([H, W], the occlusion
     texture) when ``USE_SSAO``; ``mc``: ``start``, ``count``, ``seed`` of the Monte-Carlo batch;
-    ``light``: the scene's lights (``Scene.light``: a tuple of :class:`~viewer.lights.Light` or
+    ``light``: the scene's lights (``Scene.light``: a tuple of :class:`~viewer.lighting.lights.Light` or
     None), shaded when ``LIGHT_COUNT`` > 0 (as the GLSL, the define decides, not the argument).
     Returns [H, W, 4]: composited radiance and coverage.
 
@@ -189,7 +189,7 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
 
 
 def _widest(env: dict) -> float:
-    """``u_sun_radius`` as :meth:`viewer.ibl.IBL.bind` sets it: the widest extracted light's."""
+    """``u_sun_radius`` as :meth:`viewer.environment.ibl.IBL.bind` sets it: the widest extracted light's."""
     return max(float(li.angular_radius) for li in env.get("lights", (env["sun"],)))
 
 
@@ -267,7 +267,7 @@ def _ggx_light(s: _Surface, f0, a, dfg, ms, light, defines) -> torch.Tensor:
 def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensity=1.0,
                          rotation_rad=0.0, **_) -> torch.Tensor:
     """``shade_ggx_split_sum.frag``: split-sum GGX + the irradiance map's diffuse, plus the punctual lights and
-    (``SUN_LIGHT``) the environment's sun, ``env["sun"]`` (a :class:`viewer.sun.Sun`)."""
+    (``SUN_LIGHT``) the environment's sun, ``env["sun"]`` (a :class:`viewer.environment.sun.Sun`)."""
     c = ggx_split_sum(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
     f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
     specular = defines.get("SPECULAR_LOBE", 1)

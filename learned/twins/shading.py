@@ -63,7 +63,7 @@ def ggx_environment_sun(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor
                         specular_weight: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 ggx_environment_sun(...)``: (f_d + w f_s)(v, l) E (n.l) for the GGX + Lambert
     BRDF with ggx_split_sum's energy split, the specular term weighted by ``specular_weight`` w
-    (the environment's sun, viewer/sun.py). diffuse, f0, n, v, l, irradiance [..., 3]; a,
+    (the environment's sun, viewer/environment/sun.py). diffuse, f0, n, v, l, irradiance [..., 3]; a,
     multiscatter, specular_weight [...]; dfg [..., 2] -> [..., 3]; 0 where n.l <= 0."""
     NoL = _dot(n, l)
     h = half_vector(v, l)
@@ -149,7 +149,7 @@ def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Ten
                    rotation_rad: float, p: torch.Tensor | None = None) -> torch.Tensor:
     """GLSL ``vec3 env_lights_ggx(...)`` (passes/env_lights.glsl): the sum of
     :func:`ggx_environment_sun` over ``lights`` (the environment's compact lights besides its sun,
-    :class:`viewer.sun.Sun` each; the uniforms ``u_env_light_*``), each turned by the
+    :class:`viewer.environment.sun.Sun` each; the uniforms ``u_env_light_*``), each turned by the
     environment's rotation, scaled by its intensity and cut by the horizon (:func:`disc_light`).
     ``p`` (the surface point) is where the GLSL reads each light's shadow map with SUN_SHADOW;
     as ``light_visibility``'s twin, this one is unshadowed (the model parity checks render

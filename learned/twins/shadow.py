@@ -277,7 +277,7 @@ def shadow_visibility(map_, s, dz, angle, depth_range, extent, phi) -> torch.Ten
 def shadow_light_visibility(map_, m, lens, offset, light_pos, l, p, n, phi) -> torch.Tensor:
     """GLSL ``float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset,
     vec3 light_pos, vec3 l, vec3 p, vec3 n, float phi)`` for one map (``m``: [4, 4] with rows
-    as in :class:`viewer.shadows.ShadowFrame.matrix`; ``lens`` [4]; a single kind per call)."""
+    as in :class:`viewer.lighting.shadow_frames.ShadowFrame.matrix`; ``lens`` [4]; a single kind per call)."""
     kind = int(round(float(lens[0])))
     lens_b = lens.expand(*p.shape[:-1], 4)
     if kind == 0:

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from viewer.camera import Camera
+from viewer.scene.camera import Camera
 
 ORBIT_DEG_PER_PIXEL = 0.3
 MAX_PITCH_DEG = 89.0  # from the plane orthogonal to ``up``

@@ -9,7 +9,7 @@ import numpy as np
 
 from viewer.errors import SceneError
 from viewer.gl.context import make_current
-from viewer.renderer import read_texture
+from viewer.frame import read_texture
 
 
 class Capture:

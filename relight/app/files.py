@@ -13,13 +13,13 @@ import numpy as np
 
 from viewer.errors import InputError, RelightError
 from viewer.gl.context import make_current
-from viewer.scene import load_scene
+from viewer.scene.description import load_scene
 
 from .state import load_into, with_environment_file
 
 SCENE_SUFFIXES = (".toml",)
 IMAGE_SUFFIXES = (".hdr", ".exr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
-ASSET_SUFFIXES = (".gltf", ".glb", ".obj", ".ply", ".splat")  # opened by viewer.assets
+ASSET_SUFFIXES = (".gltf", ".glb", ".obj", ".ply", ".splat")  # opened by viewer.scene.assets
 
 
 class FileActions:
@@ -48,11 +48,11 @@ class FileActions:
             self.set_environment_file(path)
 
     def open_assets(self, paths: list[str]) -> bool:
-        """A scene framing ``paths`` (``viewer.assets.scene_from_assets``) at the current render
+        """A scene framing ``paths`` (``viewer.scene.assets.scene_from_assets``) at the current render
         size, lit by the current environment. A file that cannot be read keeps the scene on
         screen (its geometry loads on the first draw: a failure there is rejected like any
         other)."""
-        from viewer.assets import scene_from_assets
+        from viewer.scene.assets import scene_from_assets
 
         where = paths[0]
         try:
@@ -111,7 +111,7 @@ class FileActions:
 
     def save_scene(self, path: str) -> bool:
         """Write what is shown as a scene TOML that ``relight render`` renders identically."""
-        from viewer.scene_io import save_scene
+        from viewer.scene.files import save_scene
 
         try:
             save_scene(self.current_scene(), path)

@@ -18,12 +18,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
-from viewer.camera import Camera
-from viewer.environment import EnvironmentSpec
-from viewer.material import Material
+from viewer.environment.maps import EnvironmentSpec
 from viewer.passes.debug_view import VIEWS  # noqa: F401  (re-exported)
-from viewer.scene import DirectionalLight, Light, Scene
-from viewer.settings import RenderSettings
+from viewer.scene.camera import Camera
+from viewer.scene.description import DirectionalLight, Light, Scene
+from viewer.scene.material import Material
+from viewer.scene.settings import RenderSettings
 
 # What the view shows (VIEWS): the tone-mapped image, one G-buffer channel, or the error against a
 # reference render ("difference": |render - reference| exposed like the image; "error": relative

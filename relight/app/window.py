@@ -43,7 +43,8 @@ from viewer.gl.context import ContextOptions, create_window, make_current
 from viewer.gl.timing import PassTimer
 from viewer.models import SAMPLING_MODELS
 from viewer.renderer import FrameTargets, Renderer
-from viewer.scene import Scene
+from viewer.scene.description import Scene
+
 from . import camera_control
 from .capture import Capture
 from .files import IMAGE_SUFFIXES, SCENE_SUFFIXES, FileActions
@@ -76,6 +77,7 @@ class Viewer(FileActions, Capture):
         import glfw
 
         from viewer.passes.debug_view import DebugViewPass
+
         from .panels import ViewerUI
 
         self._glfw, self._imgui = glfw, imgui

@@ -25,9 +25,9 @@ import math
 
 import numpy as np
 
+from viewer.environment.ibl import prefilter_lod
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
-from viewer.ibl import prefilter_lod
-from viewer.scene import ObjectSpec, Scene, scene_from_dict
+from viewer.scene.description import ObjectSpec, Scene, scene_from_dict
 
 from . import metrics
 from .scenes import bench_scene, with_material
@@ -132,7 +132,7 @@ def _roughness_rows(renderer, env: str, size) -> list[dict]:
                          "includes the split-sum mip blend between the prefiltered levels "
                          "around prefilter_lod(0.045)"))
     # where the error comes from: the split sum reads the prefiltered chain at
-    # viewer.ibl.prefilter_lod(0.045, levels) (shaders/lib/ibl.glsl's), a blend of two levels
+    # viewer.environment.ibl.prefilter_lod(0.045, levels) (shaders/lib/ibl.glsl's), a blend of two levels
     ibl = renderer.ibl(scene)
     lod = prefilter_lod(0.045, ibl.levels)
     lo, frac = int(math.floor(lod)), lod - math.floor(lod)

@@ -1,16 +1,16 @@
 """``relight bench``'s environment suite, diffuse rows: a flat Lambertian floor (and every normal
 of the upper hemisphere) under each real HDRI of ``assets/environments``, the diffuse irradiance
 each method shades against the exact cosine convolution of the same map (the sum over every
-texel, :func:`viewer.irradiance.irradiance_brute`).
+texel, :func:`viewer.environment.irradiance.irradiance_brute`).
 
 Methods, with the passes' arithmetic (their torch twins, which the tests hold to the GL passes):
 
-* ``SH9 + 1 sun (before)``: the most energetic compact light taken out (:func:`viewer.sun.
+* ``SH9 + 1 sun (before)``: the most energetic compact light taken out (:func:`viewer.environment.sun.
   extract_sun`) and shaded as a point light, max(n.l, 0) E; the rest projected on 9 SH
   coefficients (Ramamoorthi & Hanrahan 2001), what every model shaded before the irradiance map.
-* ``irradiance map + lights``: up to 4 compact lights taken out (:func:`viewer.sun.extract_lights`)
+* ``irradiance map + lights``: up to 4 compact lights taken out (:func:`viewer.environment.sun.extract_lights`)
   and shaded as discs cut by the horizon (``disc_light``), the rest from the exact irradiance map
-  (:func:`viewer.irradiance.irradiance_map`, ``irradiance_lookup``).
+  (:func:`viewer.environment.irradiance.irradiance_map`, ``irradiance_lookup``).
 
 Alone: ``python -m relight.bench.env_diffuse`` (a table on stdout).
 """
@@ -40,8 +40,8 @@ def _sh9(env: np.ndarray) -> np.ndarray:
     import torch
 
     from learned.twins.sh import sh_basis_all
-    from viewer.environment import texel_directions
-    from viewer.sun import texel_solid_angles
+    from viewer.environment.maps import texel_directions
+    from viewer.environment.sun import texel_solid_angles
 
     h, w = env.shape[:2]
     d = torch.from_numpy(texel_directions(w).reshape(-1, 3).astype(np.float64))
@@ -57,8 +57,8 @@ def diffuse_methods(env: np.ndarray, normals: np.ndarray) -> dict[str, tuple[np.
     from learned.twins.ibl import irradiance_lookup
     from learned.twins.sh import sh_irradiance
     from learned.twins.shading import disc_light
-    from viewer.irradiance import IRRADIANCE_WIDTH, irradiance_map
-    from viewer.sun import extract_lights, extract_sun
+    from viewer.environment.irradiance import IRRADIANCE_WIDTH, irradiance_map
+    from viewer.environment.sun import extract_lights, extract_sun
 
     n32 = torch.from_numpy(normals.astype(np.float32))
     out = {}
@@ -84,8 +84,8 @@ def diffuse_methods(env: np.ndarray, normals: np.ndarray) -> dict[str, tuple[np.
 def diffuse_rows(paths=None) -> list[dict]:
     """One row per (map, method): the floor's error and the largest over the hemisphere, in %
     of the exact convolution (luminance)."""
-    from viewer.environment import EnvironmentSpec, load_environment
-    from viewer.irradiance import irradiance_brute
+    from viewer.environment.irradiance import irradiance_brute
+    from viewer.environment.maps import EnvironmentSpec, load_environment
 
     rows = []
     normals = _normals()

@@ -1,13 +1,13 @@
 """``relight bench``'s environment-loading suite: what a new environment costs before its first
 frame, by the current method (the GGX prefilter by convolution, one chain for both IBLs, the disk
-cache: :mod:`viewer.environments`) and by the method before it (two chains by importance sampling
+cache: :mod:`viewer.environment.store`) and by the method before it (two chains by importance sampling
 with 1024-65536 samples per texel, no disk cache: ``IBLOptions.legacy()``), in the same run.
 
 Rows (``case``):
 
 * ``warm process, new file, first frame``: a renderer that has drawn a frame under another
   environment draws the demo scene (256x256, ``ggx_split_sum`` with its sun light) under an EXR it
-  has never seen, a 2048x1024 sky with a sun (:func:`viewer.environment.sky_environment`, each run
+  has never seen, a 2048x1024 sky with a sun (:func:`viewer.environment.maps.sky_environment`, each run
   a new file: another sun azimuth); ``ms`` is that first frame, ``env_ms`` the part spent in the
   environment store. The current method writes the disk cache (an empty one) as it goes.
 * ``new process, same file, environment part``: a new Python process (context, shaders and all)
@@ -31,10 +31,10 @@ import sys
 import time
 from pathlib import Path
 
-from viewer.environment import EnvironmentSpec, sky_environment
-from viewer.environments import EnvironmentStore
-from viewer.envcache import EnvCache
-from viewer.ibl import IBLOptions
+from viewer.environment.disk_cache import EnvCache
+from viewer.environment.ibl import IBLOptions
+from viewer.environment.maps import EnvironmentSpec, sky_environment
+from viewer.environment.store import EnvironmentStore
 from viewer.imageio import write_exr
 
 SIZE = (256, 256)

@@ -59,7 +59,7 @@ if __name__ == "__main__":  # python -m relight.bench.mc [scene.toml]: a quick t
     import sys
 
     from viewer.renderer import Renderer
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     from .scenes import bench_scene
 

@@ -61,7 +61,7 @@ def sweep_widths(make_renderer, scene, steps: int = 150, progress=None) -> dict:
 
 def sweep_environments(make_renderer, scene, folder: Path, steps: int = 20, progress=None) -> dict:
     """``steps`` distinct 1k x 512 environment files (a sky with the sun moved each time)."""
-    from viewer.environment import EnvironmentSpec, sky_environment
+    from viewer.environment.maps import EnvironmentSpec, sky_environment
     from viewer.imageio import write_exr
 
     def draw(renderer, i):
@@ -76,7 +76,7 @@ def sweep_environments(make_renderer, scene, folder: Path, steps: int = 20, prog
 def sweep_meshes(make_renderer, scene, steps: int = 50, progress=None) -> dict:
     """``steps`` distinct meshes (in memory, 65k triangles each), one at a time."""
     from viewer.geometry.primitives import sphere
-    from viewer.scene import ObjectSpec
+    from viewer.scene.description import ObjectSpec
 
     def draw(renderer, i):
         obj = ObjectSpec(type="mesh", path=f"in-memory-mesh-{i}")

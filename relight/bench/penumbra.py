@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from viewer.scene import Scene, scene_from_dict
+from viewer.scene.description import Scene, scene_from_dict
 
 ALBEDO = 0.6
 THETA_DEG = 30.0       # the light's angle from the zenith
@@ -136,8 +136,8 @@ def pcss_bias_bound(diameter_deg: float, shadow_size: int = 2048) -> float:
     ``sqrt(2 r s - s^2)`` nearer the light than its silhouette, so no mean lies farther in front of
     the silhouette than that: the width is at most that over ``D`` (the silhouette's distance to
     the floor) too wide, and never narrower from this cause."""
-    from viewer.bounds import Bounds
-    from viewer.shadows import directional_frame
+    from viewer.lighting.shadow_frames import directional_frame
+    from viewer.scene.bounds import Bounds
 
     t = math.radians(THETA_DEG)
     light = np.array([math.sin(t), math.cos(t), 0.0])

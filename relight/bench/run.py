@@ -41,7 +41,7 @@ from viewer.gl import gl_info
 from viewer.imageio import read_image, write_exr
 from viewer.models import MODELS
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, Scene
+from viewer.scene.description import ObjectSpec, Scene
 from viewer.splats.generate import sphere_splats
 from viewer.splats.ply import write_ply
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 import dataclasses
 
 from assets import ASSET_ROOT
-from viewer.material import Material
-from viewer.scene import ObjectSpec, Scene, load_scene
+from viewer.scene.description import ObjectSpec, Scene, load_scene
+from viewer.scene.material import Material
 
 BENCH_SCENES = ASSET_ROOT / "scenes" / "bench"
 

@@ -30,9 +30,9 @@ import math
 import warnings
 
 from assets import ASSET_ROOT
-from viewer.environment import load_environment
+from viewer.environment.maps import load_environment
+from viewer.environment.sun import extract_sun
 from viewer.errors import RelightError
-from viewer.sun import extract_sun
 
 from .truth import REFERENCE_SCENES, REFERENCES, TruthScene
 

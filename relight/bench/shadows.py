@@ -14,14 +14,14 @@ a map whose light and casters did not change (a cascaded map follows the camera 
 Absolute milliseconds on a shared CPU are noise; the ratios measured in one run are the numbers to
 quote. What the map size costs in accuracy is the ``shadow_truth`` suite's ``psnr_map<n>``
 (:mod:`relight.bench.shadow_truth`). The ``env_shadows`` rows time the environment's shadows
-(:mod:`viewer.envsampling` ``median_cut`` directions, one atlas of maps) the same way."""
+(:mod:`viewer.environment.sampling` ``median_cut`` directions, one atlas of maps) the same way."""
 from __future__ import annotations
 
 import dataclasses
 import math
 
 from viewer.graph.shadows import budgeted, env_shadow_tile
-from viewer.lights import Light
+from viewer.lighting.lights import Light
 
 from .timing import time_pair
 

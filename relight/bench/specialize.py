@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 
 from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
-from viewer.scene import ObjectSpec
+from viewer.scene.description import ObjectSpec
 
 from .scenes import bench_scene, demo_scene
 from .timing import time_frames

@@ -38,14 +38,20 @@ from pathlib import Path
 import numpy as np
 
 from assets import ASSET_ROOT
-from viewer.camera import Camera
-from viewer.environment import EnvironmentSpec
-from viewer.scene import Scene
+from viewer.environment.maps import EnvironmentSpec
+from viewer.scene.camera import Camera
+from viewer.scene.description import Scene
 from viewer.splats.data import Splats
 from viewer.splats.ply import read_ply, write_ply
 
 from .splat_relight import coverage, render_splats, save_json, score_relit, truth_render
-from .splat_scenes import DECOMP_SCENES, bake_shaded, bake_traced, decomp_scenes, surface_splats
+from .splat_scenes import (
+    DECOMP_SCENES,
+    bake_shaded,
+    bake_traced,
+    decomp_scenes,
+    surface_splats,
+)
 
 ENV = ASSET_ROOT / "environments"
 CAPTURE = ("park", EnvironmentSpec(path=str(ENV / "park.exr")))  # environment A

@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from viewer.environment import EnvironmentSpec, load_environment, texel_directions
-from viewer.scene import ObjectSpec, Scene
+from viewer.environment.maps import EnvironmentSpec, load_environment, texel_directions
+from viewer.environment.sun import texel_solid_angles
+from viewer.scene.description import ObjectSpec, Scene
 from viewer.splats.data import Splats
 from viewer.splats.generate import cube_solid_angles
 from viewer.splats.ply import write_ply
-from viewer.sun import texel_solid_angles
 
 
 def environment_cubemap(spec: EnvironmentSpec, res: int = 16) -> np.ndarray:
@@ -101,8 +101,12 @@ def truth_render(scene: Scene, environment: EnvironmentSpec, folder: Path, name:
     """The path-traced :class:`~relight.reference.Reference` of ``scene`` under ``environment``,
     read from ``folder/<name>_<key>.exr`` when already made there (key: a hash of the camera,
     objects, environment and options)."""
-    from relight.reference import (ReferenceOptions, read_reference, render_reference,
-                                   write_reference)
+    from relight.reference import (
+        ReferenceOptions,
+        read_reference,
+        render_reference,
+        write_reference,
+    )
 
     key = truth_key(scene, environment, spp, max_depth)
     out = Path(folder) / f"{name}_{key}.exr"

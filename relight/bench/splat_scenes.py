@@ -2,7 +2,7 @@
 them (the inputs of the ``splat_decomp`` suite, :mod:`relight.bench.splat_decomp`).
 
 * :data:`DECOMP_SCENES` - spheres of different materials on a bounded floor, as
-  :class:`~viewer.scene.Scene` objects (analytic spheres and a plane, so the path tracer and the
+  :class:`~viewer.scene.description.Scene` objects (analytic spheres and a plane, so the path tracer and the
   splats see the same surfaces).
 * :func:`surface_splats` - flat Gaussians tiling every sphere (Fibonacci lattice) and the floor
   (a square grid), each with its surface's true albedo, roughness, metallic and normal.
@@ -21,11 +21,17 @@ from dataclasses import replace
 
 import numpy as np
 
-from viewer.camera import Camera
-from viewer.environment import EnvironmentSpec
-from viewer.material import Material
-from viewer.scene import ObjectSpec, Scene
-from viewer.splats.data import Splats, concat, make_splats, matrix_to_quat, sh_basis_3dgs
+from viewer.environment.maps import EnvironmentSpec
+from viewer.scene.camera import Camera
+from viewer.scene.description import ObjectSpec, Scene
+from viewer.scene.material import Material
+from viewer.splats.data import (
+    Splats,
+    concat,
+    make_splats,
+    matrix_to_quat,
+    sh_basis_3dgs,
+)
 
 SH_DEGREE = 2
 RIDGE = 1e-2  # SH fit regularisation, relative to the mean squared basis value

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 
-from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
+from viewer.scene.camera import Camera
 
 
 def _orbit(i: int, size: int) -> Camera:

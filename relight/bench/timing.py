@@ -5,7 +5,7 @@ import math
 import statistics
 
 from viewer.gl.timing import PassTimer
-from viewer.scene import Scene
+from viewer.scene.description import Scene
 
 
 def time_frames(renderer, scene: Scene, size, config) -> tuple[float, dict]:

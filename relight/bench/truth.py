@@ -35,7 +35,7 @@ from assets import ASSET_ROOT
 from relight.reference import Reference, read_reference, write_reference
 from relight.reference.compare import score
 from viewer.errors import RelightError
-from viewer.scene import Scene, load_scene
+from viewer.scene.description import Scene, load_scene
 
 REFERENCE_SCENES = ASSET_ROOT / "scenes" / "reference"
 REFERENCES = ASSET_ROOT / "references"

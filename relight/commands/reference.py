@@ -16,7 +16,7 @@ def cmd_reference(args) -> int:
     is skipped; an interrupted one resumes from ``<out>.partial.npz``."""
     import os
 
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     from ..reference import (
         ReferenceOptions,

@@ -11,8 +11,9 @@ from .scene import hand_over, open_input
 
 def cmd_render(args) -> int:
     from viewer.imageio import write_exr, write_png
-    from viewer.renderer import Renderer, check_aovs
-    from viewer.scene import validate_render
+    from viewer.frame import check_aovs
+    from viewer.renderer import Renderer
+    from viewer.scene.description import validate_render
 
     out = Path(args.out)
     if out.suffix.lower() not in (".exr", ".png"):

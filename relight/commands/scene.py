@@ -1,5 +1,5 @@
 """Opening what ``relight render``, ``relight view`` and ``relight scene`` are given: a scene
-file, or asset files made into a scene (:func:`viewer.assets.open_assets`); and ``relight
+file, or asset files made into a scene (:func:`viewer.scene.assets.open_assets`); and ``relight
 scene``, which prints that scene as TOML to continue from."""
 from __future__ import annotations
 
@@ -50,11 +50,11 @@ def glue_up_values(argv: list[str]) -> list[str]:
 
 def open_input(args):
     """``(scene, contents)`` of the command line's positionals: none (the built-in demo), one
-    scene file, or asset files; ``contents`` is what :func:`viewer.assets.open_assets` loaded
+    scene file, or asset files; ``contents`` is what :func:`viewer.scene.assets.open_assets` loaded
     (hand it to the renderer with :func:`hand_over`). ``--env`` replaces a scene file's
     environment; ``--up`` and ``--floor`` are for assets only."""
-    from viewer.assets import environment_spec, is_scene_file, open_assets
-    from viewer.scene import load_scene
+    from viewer.scene.assets import environment_spec, is_scene_file, open_assets
+    from viewer.scene.description import load_scene
 
     inputs = args.scene or []
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
@@ -109,7 +109,7 @@ def apply_model(scene, model):
     """``--model`` checked as a scene file's ``[render] model`` is, named by the option."""
     if model is None:
         return scene
-    from viewer.scene import validate_render
+    from viewer.scene.description import validate_render
 
     validate_render({"model": model}, "--model")
     return scene.with_render(model=model)
@@ -118,7 +118,7 @@ def apply_model(scene, model):
 def cmd_scene(args) -> int:
     import sys
 
-    from viewer.scene_io import scene_toml
+    from viewer.scene.files import scene_toml
 
     scene, _ = open_input(args)
     scene = apply_model(scene, args.model)

@@ -1,6 +1,6 @@
 """``relight reference``: path-traced ground truth with Mitsuba 3 and our own BSDF.
 
-:func:`render_reference` renders a :class:`~viewer.scene.Scene` (spheres, planes, the material
+:func:`render_reference` renders a :class:`~viewer.scene.description.Scene` (spheres, planes, the material
 grid, glTF/OBJ meshes; the environment and every punctual light, :mod:`relight.reference.lights`)
 with the rasteriser's per-pixel rays and returns the mean radiance with its per-pixel standard
 error; :func:`write_reference` / :func:`read_reference` store it beside its metadata. :mod:`relight.reference.compare` scores a

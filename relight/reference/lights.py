@@ -1,5 +1,5 @@
 """The scene's punctual lights (``[[lights]]``, ``[light]``, glTF ``KHR_lights_punctual``) as
-Mitsuba 3 emitters, in the units the rasteriser shades them with (:mod:`viewer.lights`,
+Mitsuba 3 emitters, in the units the rasteriser shades them with (:mod:`viewer.lighting.lights`,
 ``shaders/lib/lights.glsl``): a directional light's ``intensity`` is its irradiance on a surface
 facing it (W/m^2, the "lux" of the scene file), a point or spot light's its radiant intensity
 (W/sr, the "candela"); glTF's photometric numbers are read as these radiometric ones with no
@@ -35,8 +35,8 @@ import warnings
 
 import numpy as np
 
-from viewer.bounds import Bounds
-from viewer.lights import Light
+from viewer.lighting.lights import Light
+from viewer.scene.bounds import Bounds
 
 FAR = 1.0e4        # a directional disc's distance, in scene radii (direction error 1e-4 rad)
 SPOT_TEXELS = 512  # the spot cone's projected bitmap, texels a side

@@ -2,7 +2,7 @@
 ``path`` integrator, our BSDF (:mod:`relight.reference.bsdf`), and per-pixel standard errors.
 
 Rays: by default every sample of pixel (i, j) starts at the camera position along
-:meth:`viewer.camera.Camera.view_rays_ws` of that pixel, the ray through its centre, so the
+:meth:`viewer.scene.camera.Camera.view_rays_ws` of that pixel, the ray through its centre, so the
 reference compares pixel by pixel with the rasteriser (which shades each pixel at its centre).
 ``antialias=True`` jitters the ray uniformly over the pixel instead (the box-filtered image).
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viewer.scene import Scene
+from viewer.scene.description import Scene
 
 from .scene import ReferenceError, check_traceable, to_mitsuba
 

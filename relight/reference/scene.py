@@ -1,4 +1,4 @@
-"""A workbench :class:`~viewer.scene.Scene` as a Mitsuba 3 scene: the same environment (texels,
+"""A workbench :class:`~viewer.scene.description.Scene` as a Mitsuba 3 scene: the same environment (texels,
 orientation, rotation, intensity), analytic spheres, planes and the
 material-ball grid as the rasteriser builds them, glTF/OBJ meshes through the project's own
 loader (so the reference sees exactly the triangles, normals, UVs and texture maps the G-buffer
@@ -11,14 +11,14 @@ import warnings
 
 import numpy as np
 
-from viewer.environment import load_environment
+from viewer.environment.maps import load_environment
 from viewer.errors import RelightError
 from viewer.geometry import primitives
 from viewer.geometry.cache import GeometryCache
-from viewer.material import Material
-from viewer.bounds import points_bounds
-from viewer.lights import gather_lights
-from viewer.scene import Scene
+from viewer.lighting.lights import gather_lights
+from viewer.scene.bounds import points_bounds
+from viewer.scene.description import Scene
+from viewer.scene.material import Material
 
 from .bsdf import bsdf_class
 from .lights import mitsuba_light

@@ -2,7 +2,7 @@
 // distribution (Pharr, Jakob & Humphreys, PBR 3rd ed. sec. 13.6.7 and 14.2.4): the density on the
 // uv square is proportional to luminance x sin(theta), sampled with a marginal CDF over rows and
 // one conditional CDF per row. Textures (R32F, NEAREST, texelFetch only), built by
-// viewer/envsampling.py (passes/env_cdf_*.comp):
+// viewer/environment/sampling.py (passes/env_cdf_*.comp):
 //   marginal    [(H + 1) x 1]  cdf over rows, texel 0 = 0, texel H = 1
 //   conditional [(W + 1) x H]  per row: cdf over columns, texel 0 = 0, texel W = 1
 //   pdf         [W x H]        p_uv of each texel (density on [0, 1]^2, mean 1)

@@ -1,5 +1,5 @@
 // ibl.glsl - image-based lighting lookups used by the shading passes (split-sum, Karis 2013).
-// Textures are built by viewer/ibl.py: the prefiltered chain is an equirect float texture whose
+// Textures are built by viewer/environment/ibl.py: the prefiltered chain is an equirect float texture whose
 // mip level k holds radiance prefiltered with GGX at perceptual roughness k / (levels - 1)
 // (GL_REPEAT in u, CLAMP_TO_EDGE in v, LINEAR_MIPMAP_LINEAR); the DFG LUT is RG float with
 // x = n.v and y = perceptual roughness at texel centres (CLAMP_TO_EDGE, LINEAR).
@@ -8,7 +8,7 @@
 #include "lib/equirect.glsl"
 
 // The prefiltered level holding perceptual roughness r. Level k >= 1 was filtered at alpha_k =
-// 2^(k - (levels - 1)) (viewer/ibl.py: prefilter_roughness): alpha doubles per level as the texel
+// 2^(k - (levels - 1)) (viewer/environment/ibl.py: prefilter_roughness): alpha doubles per level as the texel
 // size does, so every level's lobe spans the same number of its texels (Krivanek & Colbert 2008's
 // rule, texel solid angle ~ lobe solid angle, applied to the chain itself: UE4's log2 roughness
 // <-> mip map is the same idea). The last level is alpha = 1; below level 1 (alpha < alpha_1) the
@@ -32,7 +32,7 @@ vec3 ibl_specular_radiance(sampler2D prefiltered, vec3 r_ws, float perceptual_ro
 }
 
 // The split-sum lookup of a pass that shades the environment's sun as a light (SUN_LIGHT,
-// viewer/sun.py): `sunless`, the chain without the sun, and where the light shades only the share
+// viewer/environment/sun.py): `sunless`, the chain without the sun, and where the light shades only the share
 // w < 1 of the sun's specular light (lib/shading.glsl sun_specular_weight) the whole environment's
 // chain `full` mixed back in for the rest, mix(full, sunless, w); one lookup where w = 1.
 vec3 ibl_specular_radiance_sun(sampler2D sunless, sampler2D full, vec3 r_ws,
@@ -43,7 +43,7 @@ vec3 ibl_specular_radiance_sun(sampler2D sunless, sampler2D full, vec3 r_ws,
 }
 
 // The diffuse term's irradiance E(n) at the (already environment-rotated) unit normal n_ws: the
-// exact cosine convolution of the environment (viewer/irradiance.py), an equirect map whose rows
+// exact cosine convolution of the environment (viewer/environment/irradiance.py), an equirect map whose rows
 // run from pole to pole (row j at polar angle pi j / (h - 1): the poles are texels, so a floor's
 // normal reads its own value, not a ring half a texel away), bilinear in between. E = pi for a
 // unit constant environment; diffuse radiance is albedo / pi * E.

@@ -75,7 +75,7 @@ vec3 neural_student_radiance_split(vec3 k, vec3 diffuse, vec3 f0, float f90, vec
 }
 
 // The environment's sun under a "split3" student whose base shades it (architecture "sun": true,
-// SUN_LIGHT; viewer/sun.py): lib/shading.glsl ggx_environment_sun (its multiple-scattering
+// SUN_LIGHT; viewer/environment/sun.py): lib/shading.glsl ggx_environment_sun (its multiple-scattering
 // compensation as spec_scale, as in neural_student_radiance_split) with the student's corrections c = S k on the same terms as neural_student_radiance_split,
 // F_schlick = f0 (1 - Fc) + f90 Fc split into its f0 and f90 parts:
 // L_sun = [c_d diffuse / pi (1 - e_spec m) + (c_a f0 (1 - Fc) + c_b f90 Fc) D V m w] E (n.l),

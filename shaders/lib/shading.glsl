@@ -63,7 +63,7 @@ vec3 blinn_phong(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefilte
 // c_ms = 1 + f0 (1/dfg.y - 1) (1 without multiscatter) from the DFG terms at (n.v, r): the energy
 // split of ggx_split_sum and of shade_ggx_mc.frag's Surface, so light and environment see one BRDF.
 //
-// ggx_environment_sun: that BRDF under the environment's sun (viewer/sun.py: a compact, very bright
+// ggx_environment_sun: that BRDF under the environment's sun (viewer/environment/sun.py: a compact, very bright
 // region taken out of the environment as a light at infinity, irradiance E from l), its specular
 // term weighted by w = sun_specular_weight (the diffuse term is whole: the SH irradiance leaves the
 // sun out). Shaded as a point, which is right for a lobe wider than the sun: at the grazing angles
@@ -111,7 +111,7 @@ float atan_minus_z(float z) {
     return -z * z2 * p;
 }
 
-// A disc light at infinity of angular radius t (an environment light, viewer/sun.py) as a
+// A disc light at infinity of angular radius t (an environment light, viewer/environment/sun.py) as a
 // direction and a factor on its irradiance E: returns (l_b, s), shaded as a light from l_b of
 // irradiance E s. Its irradiance on a surface of normal n is E max(n.l, 0) while the disc is
 // wholly above the horizon (s = 1, l_b = l) and E c while the horizon cuts it, c the cut disc's

@@ -3,7 +3,7 @@
 // normalised depth (0 nearest the light, 1 farthest) of the nearest occluder, in a depth texture
 // (24-bit) read through a NEAREST sampler clamped to its edge (no comparison mode); 1 where
 // nothing is. Three kinds of map
-// (viewer/shadows.py): orthographic (directional lights, the sun), perspective (spot lights:
+// (viewer/lighting/shadow_frames.py): orthographic (directional lights, the sun), perspective (spot lights:
 // depth linear along the axis) and cube (point lights: six faces in an atlas 3 x 2 faces, depth
 // the distance from the light). No uniforms, no main. Twins: learned/twins/shadow.py.
 #include "lib/common.glsl"
@@ -19,7 +19,7 @@
 #define SHADOW_ORTHO 1
 #define SHADOW_PERSPECTIVE 2
 #define SHADOW_CUBE 3
-// what a program compiles (viewer/lights.py light_defines): SHADOW_POSITIONAL 0 when every map it
+// what a program compiles (viewer/lighting/lights.py light_defines): SHADOW_POSITIONAL 0 when every map it
 // reads is orthographic, SHADOW_CUBE_MAPS 0 when none is a cube map (their branches compile out)
 #ifndef SHADOW_POSITIONAL
 #define SHADOW_POSITIONAL 1
@@ -27,13 +27,13 @@
 #ifndef SHADOW_CUBE_MAPS
 #define SHADOW_CUBE_MAPS 1
 #endif
-// SHADOW_CASCADE_MAPS 1 when a map read is a cascade atlas (viewer/cascades.py): a face below -1
+// SHADOW_CASCADE_MAPS 1 when a map read is a cascade atlas (viewer/lighting/cascades.py): a face below -1
 // is then cascade -2 - face's tile (2 tiles wide); 0 compiles that branch out
 #ifndef SHADOW_CASCADE_MAPS
 #define SHADOW_CASCADE_MAPS 0
 #endif
 #define SHADOW_MAX_CASCADES 4
-#define SHADOW_CASCADE_MARGIN 0.02  // viewer/cascades.py SELECT_MARGIN
+#define SHADOW_CASCADE_MARGIN 0.02  // viewer/lighting/cascades.py SELECT_MARGIN
 #define SHADOW_IS_ORTHO(lens) (SHADOW_POSITIONAL == 0 || (lens).x < 1.5)
 #define SHADOW_IS_2D(face) (SHADOW_CUBE_MAPS == 0 || (face) < 0)
 
@@ -105,7 +105,7 @@ float shadow_tile_depth(sampler2D map, vec2 uv, int k) {
 }
 
 // The cube face (0..5: +X, -X, +Y, -Y, +Z, -Z) holding direction d (from the light), and d's
-// (u, v) on it; the faces' axes are viewer/shadows.py CUBE_FACES.
+// (u, v) on it; the faces' axes are viewer/lighting/shadow_frames.py CUBE_FACES.
 vec3 shadow_cube_face(vec3 d) {
     vec3 a = abs(d);
     if (a.x >= a.y && a.x >= a.z) {
@@ -334,7 +334,7 @@ float shadow_light_visibility(sampler2D map, mat4 m, vec4 lens, float offset, ve
 }
 
 // Cascade c's (u, v, depth) of the point s = (u, v, depth) of the whole-scene frame it shares
-// (viewer/cascades.py ShadowCascades): c = (scale, u0, v0, unused), uv_c = (uv - (u0, v0)) scale.
+// (viewer/lighting/cascades.py ShadowCascades): c = (scale, u0, v0, unused), uv_c = (uv - (u0, v0)) scale.
 vec3 shadow_cascade_uv(vec3 s, vec4 c) {
     return vec3((s.xy - c.yz) * c.x, s.z);
 }
@@ -374,7 +374,7 @@ float shadow_cascade_visibility(sampler2D map, mat4 m, vec4 lens, float offset, 
 }
 
 // The fraction of a directional light (unit l towards it) reaching p (normal n) through one tile
-// of an atlas 2 tiles wide (the environment's shadow directions: viewer/shadows.py
+// of an atlas 2 tiles wide (the environment's shadow directions: viewer/lighting/shadow_frames.py
 // EnvShadowFrames): tile `tile`, whose frame m maps world -> (u, v, depth) within the tile, lens
 // its lens (shadow_penumbra_uv) and offset its normal offset (world units). PCSS as
 // shadow_light_visibility's orthographic case, every tap adaptive.

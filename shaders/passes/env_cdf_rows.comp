@@ -1,4 +1,4 @@
-// env_cdf_rows.comp - step 1 of the environment sampling distribution (viewer/envsampling.py):
+// env_cdf_rows.comp - step 1 of the environment sampling distribution (viewer/environment/sampling.py):
 // one invocation per equirect row. The unnormalised density of texel (c, r) is
 //   f(c, r) = max of the luminance over the 3x3 texels around (c, r) (u wraps, v clamps) x sin(theta_r)
 // (the dilation keeps f > 0 wherever the bilinear radiance lookup is > 0, so sampling only the

@@ -1,5 +1,5 @@
 // env_lights.glsl (pass chunk) - the environment's compact lights besides its sun
-// (viewer/sun.py extract_lights: a studio's lamps, a second bright window), shaded as the sun is
+// (viewer/environment/sun.py extract_lights: a studio's lamps, a second bright window), shaded as the sun is
 // (SUN_LIGHT): ggx_environment_sun with the same specular share w, since the prefiltered lookup
 // mixes the whole environment's chain back in for all of them with that one weight
 // (lib/ibl.glsl ibl_specular_radiance_sun; IBL.bind sets u_sun_radius to the widest light's
@@ -63,7 +63,7 @@ vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter
     ENV_LIGHT_GGX(2)
 #endif
 #if ENV_LIGHTS > 3
-#error "ENV_LIGHTS > 3: unroll env_lights_ggx further (viewer/sun.py ENV_MAX_LIGHTS)"
+#error "ENV_LIGHTS > 3: unroll env_lights_ggx further (viewer/environment/sun.py ENV_MAX_LIGHTS)"
 #endif
 #undef ENV_LIGHT_GGX
 #endif

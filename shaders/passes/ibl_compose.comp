@@ -1,9 +1,9 @@
 // ibl_compose.comp - one level k >= 1 of a prefiltered chain from the CPU convolution
-// (viewer/prefilter.py, IBLOptions.prefilter_method = "convolution"): the level computed at the
+// (viewer/environment/prefilter.py, IBLOptions.prefilter_method = "convolution"): the level computed at the
 // working width (u_work, GL_LINEAR, REPEAT u, CLAMP v) read at this level's texel centres (an
 // exact copy where the sizes match, a bilinear upsampling, continuous across the poles, where the
 // level was computed at a lower resolution: maps wider than the working width),
-// plus the environment's sun as points (viewer.prefilter.sun_points) convolved with the level's
+// plus the environment's sun as points (viewer.environment.prefilter.sun_points) convolved with the level's
 // GGX kernel k(n.l) = D(h) max(n.l, 0), h = normalize(n + l), at this texel's full resolution:
 // the sun-less chain takes 0 points, the whole environment's chain the sun's. Each point's energy
 // is already divided by the kernel's integral Z(alpha), so this is the CPU sum's normalisation.
@@ -14,11 +14,11 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) writeonly uniform image2D u_dst;  // level k of the chain
 // [2 i]: direction, [2 i + 1]: energy / Z; a uniform block (an SSBO read in the loop was 12x
-// slower on llvmpipe), at most 256 points (viewer.prefilter.SUN_MAX_POINTS)
+// slower on llvmpipe), at most 256 points (viewer.environment.prefilter.SUN_MAX_POINTS)
 layout(std140, binding = 1) uniform Points { vec4 points[512]; };
 uniform sampler2D u_work;  // level k at the working width
 uniform int u_points;      // how many sun points (0: the sun-less chain)
-uniform float u_a2;        // alpha^2 of this level (viewer.ibl.prefilter_roughness^4)
+uniform float u_a2;        // alpha^2 of this level (viewer.environment.ibl.prefilter_roughness^4)
 
 // k(n.l) / (a^2 / pi) for unit n, l: with u = 1 - n.l = |n - l|^2 / 2 (no cancellation where the
 // sharp kernels live, n ~ l), n.h^2 = 1 - u / 2 and the GGX bracket n.h^2 (a^2 - 1) + 1 =

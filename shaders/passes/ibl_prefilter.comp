@@ -15,7 +15,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) writeonly uniform image2D u_dst;
 uniform sampler2D u_radiance;  // box-filtered radiance chain (REPEAT u, CLAMP v, trilinear)
-uniform float u_roughness;     // perceptual roughness of this level (viewer.ibl.prefilter_roughness)
+uniform float u_roughness;     // perceptual roughness of this level (viewer.environment.ibl.prefilter_roughness)
 uniform uint u_samples;        // Hammersley points per texel
 uniform float u_omega_p;       // mean solid angle of a level-0 radiance texel, 4 pi / (W H)
 uniform float u_max_lod;       // last level of the radiance chain

@@ -1,7 +1,7 @@
 // ibl_sh.comp - partial sums of the radiance SH projection L_lm = sum L(w) Y_lm(w) dw over a run of
 // up to 64 texels of one row (Ramamoorthi & Hanrahan 2001 eq. 10 as a quadrature over texels). The
 // texel solid angle is exact for an equirect row: (2 pi / W)(cos theta0 - cos theta1), written as
-// (2 pi / W) 2 sin(theta_c) sin(pi / 2H) to avoid cancellation. viewer/ibl.py sums the runs in
+// (2 pi / W) 2 sin(theta_c) sin(pi / 2H) to avoid cancellation. viewer/environment/ibl.py sums the runs in
 // float64. Each invocation sums its run in registers, in order: no shared memory and no barriers
 // (the 8x8-tile tree reduction before took 1.3 s for a 2048x1024 map on llvmpipe, this 0.05 s).
 // Twin: learned.twins.ibl_precompute.sh_project.

@@ -1,7 +1,7 @@
 // lights.glsl (pass chunk) - the scene's punctual lights as uniform arrays and every model's sum
 // over them. Included by the lighting passes after lib/shading.glsl (and so by the forward pass of
 // transparent surfaces, which compiles the same passes). The maths is lib/lights.glsl.
-// LIGHT_COUNT: the number of lights (0 compiles everything out; at most viewer.lights.MAX_LIGHTS);
+// LIGHT_COUNT: the number of lights (0 compiles everything out; at most viewer.lighting.lights.MAX_LIGHTS);
 // LIGHT_POSITIONAL: 1 when one of them is a point or spot light (the surface position is then
 // rebuilt from the G-buffer's depth); LIGHT_SHADOWS / SUN_SHADOW: lights / the environment's sun
 // read shadow maps (viewer/passes/shadow.py). Uniforms are set by viewer/passes/shade.py.
@@ -19,7 +19,7 @@
 #define SUN_SHADOW 0  // 1: the environment's sun (SUN_LIGHT) reads a shadow map
 #endif
 #ifndef LIGHT_CASCADES
-#define LIGHT_CASCADES 0  // 1: some directional light's map is cascaded (viewer/cascades.py)
+#define LIGHT_CASCADES 0  // 1: some directional light's map is cascaded (viewer/lighting/cascades.py)
 #endif
 #ifndef SUN_CASCADES
 #define SUN_CASCADES 0  // 1: the sun's map is cascaded
@@ -83,7 +83,7 @@ float sun_visibility(vec3 p, vec3 n, vec3 l) {
 #endif
 
 #if ENV_SHADOWS > 0
-// the environment's light as ENV_SHADOWS directional lights (viewer/envsampling.py median_cut),
+// the environment's light as ENV_SHADOWS directional lights (viewer/environment/sampling.py median_cut),
 // each with a tile of one shadow atlas (viewer/passes/shadow_bindings.py): per direction its
 // tile's world -> (u, v, depth), (unit direction towards it in world space, its share of the
 // light), lens (shadow_penumbra_uv) and normal offset

@@ -2,7 +2,7 @@
 // Defines: MULTISCATTER (0/1), USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1),
 // SPECULAR_LOBE (0/1: 0 compiles the specular lookups out for scenes without any f0 > 0),
 // LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, same BRDF: passes/lights.glsl),
-// SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/sun.py; the IBL bound then
+// SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/environment/sun.py; the IBL bound then
 // leaves it out of the prefiltered chain and the irradiance map, and u_env_prefiltered_full keeps
 // it), ENV_LIGHTS (its other compact lights, passes/env_lights.glsl; with SUN_LIGHT only).
 #include "passes/deferred.glsl"

@@ -1,5 +1,5 @@
 // shadow_mesh.vert - a shadow map of triangle meshes (world-space vertices): each vertex to the
-// light's frame (viewer/shadows.py ShadowFrame.matrix): (u w, v w, depth, w), w = 1 for an
+// light's frame (viewer/lighting/shadow_frames.py ShadowFrame.matrix): (u w, v w, depth, w), w = 1 for an
 // orthographic map, the distance along the axis for a perspective one. depth is linear in world
 // space, so its perspective-correct interpolation is exact. RADIAL (a point light's cube faces):
 // shadow.frag writes the distance from the light instead.

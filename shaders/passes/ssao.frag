@@ -19,7 +19,7 @@
 // viewer.passes.ssao.HIT_TARGETS_MAX); without SSAO_HITS, all of them.
 // SSAO_ENV_VIS = 1 (occlusion mode) also writes, to the g channel, the screen-space visibility
 // of the environment's light: S(x) = sum_k V_k max(n.l_k, 0) / sum_k max(n.l_k, 0) over the
-// ENV_VIS_DIRS directions u_vis_dirs (environment frame; viewer.envsampling.power_directions: each
+// ENV_VIS_DIRS directions u_vis_dirs (environment frame; viewer.environment.sampling.power_directions: each
 // carries an equal share of the environment's power, so a small bright sun gets most of them),
 // each marched u_vis_steps steps up to u_vis_radius; 1 where no direction is above the horizon.
 // It is the cast-shadow evidence (a sun shadow on a floor) that cosine-weighted SSAO averages away;

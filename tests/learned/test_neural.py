@@ -60,7 +60,7 @@ def test_weights_over_16_kib_go_to_a_storage_block(programs, weights, monkeypatc
 
 def test_unknown_weight_storage_is_a_scene_error():
     from viewer.errors import SceneError
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     with pytest.raises(SceneError, match="render.neural_storage = 'ssbo' is not one of"):
         scene_from_dict({"render": {"model": "neural", "neural_storage": "ssbo"}})

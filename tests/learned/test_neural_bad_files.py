@@ -3,9 +3,9 @@ overwritten; files written before a key existed load with its old default."""
 import json
 
 import pytest
+from neural_weights import tamper
 
 from learned.export import load_model
-from neural_weights import tamper
 from viewer.neural import WeightsError, load_network
 
 
@@ -69,7 +69,7 @@ def test_bad_weights_are_one_line_errors_naming_the_file(tmp_path, weights, case
 
 def test_render_with_bad_weights_is_a_scene_level_error(tmp_path, ctx):
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     missing = tmp_path / "none.safetensors"
     scene = scene_from_dict({"camera": {"size": [8, 8]},

@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 import torch
+from neural_weights import tamper
 
 from learned.export import export, load_model
 from learned.neural.student import Student
 from learned.parity.checks import neural as tn
-from neural_weights import tamper
 from viewer.neural import WEIGHT_STORAGES, WeightsError, load_network
 
 
@@ -21,7 +21,7 @@ def test_indirect_student_starts_at_split_sum_with_ssao_and_indirect(programs, t
     forces both on for it, and allocates the factor's target only for such a student."""
     from viewer.neural import learns_indirect, required_settings
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     torch.manual_seed(5)
     s = Student(hidden=(8, 8), features="vis", output="split3", indirect="factor")

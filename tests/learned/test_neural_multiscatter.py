@@ -29,7 +29,7 @@ def test_multiscatter_student_starts_at_the_classical_default(programs, tmp_path
     sun) + SSAO + indirect: equal to float rounding. The single-scattering student differs from
     it (the compensation brightens the parity scene's rough metal by percents), so the
     comparison can fail. Then torch and GLSL agree on a perturbed student (``model:neural``)."""
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     torch.manual_seed(5)
     s = Student(hidden=(8, 8), features="vis", output="split3", indirect="factor", sun=True,
@@ -61,7 +61,7 @@ def test_multiscatter_student_starts_at_the_classical_default(programs, tmp_path
 def test_files_without_the_multiscatter_key_keep_single_scattering(programs, tmp_path):
     """A split3 student written without ``"multiscatter"`` loads as false and renders
     ``ggx_split_sum`` with multiscatter off, as before the key existed."""
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     torch.manual_seed(5)
     path = tmp_path / "plain.safetensors"

@@ -26,7 +26,7 @@ import torch
 from assets import ASSET_ROOT
 from learned.export import load_model
 from learned.neural.lighting import lighting_from_gl, student_features
-from viewer.environment import EnvironmentSpec
+from viewer.environment.maps import EnvironmentSpec
 from viewer.neural import default_weights
 
 STUDENTS = [default_weights("student"), *sorted((ASSET_ROOT / "weights" / "students")
@@ -93,7 +93,7 @@ STUDENT_LINEARITY_TOL = 1e-5  # exact up to float32: intensity scales E and P ou
 
 
 def _sphere_scene(model: str, albedo: float = 0.8, intensity: float = 1.0, **render):
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     return scene_from_dict({
         "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "fov_y": 30, "size": [32, 32]},
@@ -294,7 +294,13 @@ def test_a_network_that_sees_the_light_fails_linearity(white):
     light: the linearity bound of the teachers without it (1e-5) catches it; so does a student
     probe whose network output is squared in the light."""
     from learned.neural.teacher import Teacher
-    from learned.protocol.oracles import BOUNDS, check, linearity_error, student_probe, teacher_probe
+    from learned.protocol.oracles import (
+        BOUNDS,
+        check,
+        linearity_error,
+        student_probe,
+        teacher_probe,
+    )
 
     torch.manual_seed(3)
     res = check(teacher_probe(Teacher(hidden=8, num_freqs=0, light_input=True), white, 32),

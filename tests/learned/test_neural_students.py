@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 import torch
+from neural_weights import student_file
 
 from learned.export import export, load_model
 from learned.neural.student import Student
 from learned.parity.checks import neural as tn
-from neural_weights import student_file
 from viewer.neural import load_network
 
 
@@ -139,7 +139,7 @@ def test_vis_student_round_trip_parity_and_its_ssao_pass(programs, vis_weights):
     runs SSAO with SSAO_ENV_VIS for it although the scene did not ask for SSAO), and the input
     changes the output (a vis of 0 and of 1 give different factors)."""
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     net = load_network(vis_weights, "student")
     assert net.features == "vis" and "mlp 27-8-12-3" in net.glsl  # 9 inputs x (1 + 2)
@@ -175,7 +175,7 @@ def test_split3_student_starts_at_the_split_sum_model(programs, tmp_path):
     rounding (an identity between two independent passes, not a twin), with and without SSAO in
     its inputs; then torch and GLSL agree on a perturbed one."""
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     torch.manual_seed(5)
     s = Student(hidden=(8, 8), features="vis", output="split3")

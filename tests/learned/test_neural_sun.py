@@ -30,7 +30,7 @@ def test_sun_student_starts_at_the_split_sum_model_with_the_sun(programs, tmp_pa
     """k = 0.5 everywhere (zero-initialised last layer) is ``ggx_split_sum`` with the analytic
     sun (single scattering): the two passes agree to float rounding, the neural one compiled
     with SUN_LIGHT; then torch and GLSL agree on a perturbed student (``model:neural``)."""
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     torch.manual_seed(5)
     s = Student(hidden=(8, 8), features="vis", output="split3", sun=True)
@@ -63,7 +63,7 @@ def test_sun_student_starts_at_the_split_sum_model_with_the_sun(programs, tmp_pa
 def test_files_without_the_sun_key_render_as_before(programs, tmp_path):
     """A split3 student written without ``"sun"`` loads as false, compiles no SUN_LIGHT and
     renders bit-identically whatever ``render.sun`` says (its base is the plain split-sum)."""
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     torch.manual_seed(5)
     s = Student(hidden=(8, 8), features="vis", output="split3")
@@ -149,7 +149,7 @@ def test_sun_student_under_several_environment_lights(programs, tmp_path):
     ``ggx_split_sum`` with all three lights, and GLSL and torch agree on a perturbed student."""
     from tests.viewer.test_env_lights import three_discs
     from viewer.imageio import write_exr
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     env_path = tmp_path / "discs.exr"
     write_exr(env_path, three_discs(128))

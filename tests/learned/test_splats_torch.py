@@ -3,9 +3,14 @@ import numpy as np
 import pytest
 import torch
 
-from learned.parity.checks.splats import PARITY_ATOL, parity_camera, parity_check, random_scene
+from learned.parity.checks.splats import (
+    PARITY_ATOL,
+    parity_camera,
+    parity_check,
+    random_scene,
+)
 from learned.splats.rasterize import rasterize, splat_tensors, weight_matrix
-from viewer.camera import Camera
+from viewer.scene.camera import Camera
 from viewer.splats.data import make_splats
 
 

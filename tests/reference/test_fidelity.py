@@ -22,7 +22,7 @@ from scipy import stats
 from assets import ASSET_ROOT
 from relight.reference import read_reference
 from relight.reference.compare import coverage_mask, score, z_test
-from viewer.scene import load_scene
+from viewer.scene.description import load_scene
 
 SCENES = ASSET_ROOT / "scenes" / "reference"
 REFS = ASSET_ROOT / "references"
@@ -83,7 +83,7 @@ TERMINATOR_BAND_DEG = 5.0
 
 def _sun_direction(scene) -> np.ndarray:
     """World direction of the environment's brightest texel (rotation 0 in these scenes)."""
-    from viewer.environment import load_environment, texel_directions
+    from viewer.environment.maps import load_environment, texel_directions
 
     env = load_environment(scene.environment)
     lum = env.sum(axis=-1)
@@ -145,7 +145,7 @@ def test_missing_visibility_overestimates_and_ssao_moves_towards_truth(renderer,
 # standard errors of the reference's own noise (Score.bias_noise) to the bound.
 SPLIT_SUM_BIAS_GOAL = {"005": 3.0, "03": 3.0, "08": 8.0}
 SPLIT_SUM_MEDIAN_GOAL = {"005": 5.0, "03": 8.0}
-# All are met since the split-sum shades the environment's sun analytically (viewer/sun.py): with
+# All are met since the split-sum shades the environment's sun analytically (viewer/environment/sun.py): with
 # render.sun = false, park at 0.3 measures -7.3 % and procsky at 0.3 -4.8 %, the sun's reflection
 # near the grazing rim, where one lookup of a round pre-blurred lobe cannot follow the stretched,
 # horizon-clipped lobe (test_the_analytic_sun_is_what_meets_the_rim_goals).
@@ -177,7 +177,7 @@ def test_the_analytic_sun_is_what_meets_the_rim_goals(renderer, name):
 
 def test_exact_irradiance_diffuse_against_truth(renderer):
     """A Lambert sphere under a real HDRI, diffuse from the exact irradiance map (the cosine
-    convolution of every texel, viewer/irradiance.py): the sun inside the map (render.sun = false)
+    convolution of every texel, viewer/environment/irradiance.py): the sun inside the map (render.sun = false)
     or taken out and shaded as a light (the default), bias within 1 % and median per-pixel error
     within 3 % either way (measured 0.0 % and 0.8 % both). Nine SH coefficients, the method the map
     replaced, rang and blurred at the sun's terminator: 10.2 % median with the sun inside."""

@@ -12,8 +12,8 @@ import pytest
 from relight.reference import ReferenceOptions, render_reference
 from relight.reference.compare import Reference, score, z_test
 from relight.reference.lights import mitsuba_light, spot_cone_factor
-from viewer.lights import Light
-from viewer.scene import scene_from_dict
+from viewer.lighting.lights import Light
+from viewer.scene.description import scene_from_dict
 
 ALBEDO = 0.5
 ENV = 0.1       # a dim white environment: its share is ALBEDO x ENV on an upward floor

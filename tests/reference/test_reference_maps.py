@@ -11,7 +11,7 @@ from scipy import stats
 
 from relight.reference import ReferenceOptions, render_reference
 from relight.reference.compare import z_test
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 # a metal: its reflection follows the mapped normal up into the sky or down to the ground
 MATERIAL = {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1],

@@ -14,7 +14,7 @@ from relight.reference import ReferenceOptions, read_reference, render_reference
 from relight.reference import render as render_module
 from relight.reference.bsdf import brdf_cos_numpy, directional_albedo_table
 from relight.reference.compare import Reference, z_test
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 
 def _scene(env, material, size=24, light=None, center=(0.0, 0.0, 0.0), ms=False, objects=None,
@@ -58,7 +58,7 @@ def test_bsdf_plugin_matches_independent_numpy_evaluation(mitsuba_llvm):
     docstring of relight.reference.bsdf) at random directions: float32 rounding only (1e-4)."""
     mi, dr, _ = mitsuba_llvm
     from relight.reference.bsdf import bsdf_class
-    from viewer.material import Material
+    from viewer.scene.material import Material
 
     rng = np.random.default_rng(3)
     for mat in (Material(albedo=(0.9, 0.5, 0.2), roughness=0.4, metallic=0.3, specular=0.6),
@@ -87,7 +87,7 @@ def test_bsdf_plugin_is_exact_at_a_near_mirror_peak(mitsuba_llvm):
     numpy evaluation of the same directions: 1e-3."""
     mi, dr, _ = mitsuba_llvm
     from relight.reference.bsdf import bsdf_class
-    from viewer.material import Material
+    from viewer.scene.material import Material
 
     mat = Material(albedo=(0.95, 0.64, 0.54), roughness=0.05, metallic=1.0)
     a = mat.roughness ** 2
@@ -114,7 +114,7 @@ def test_dfg_table_matches_the_renderers_lut(programs):
     Hammersley samples per texel on the GPU): two independent estimates of one integral. The LUT's
     own error is below 1e-2 (tests/shaders/test_ibl.py); grazing n.v < 0.06 is left out as there.
     Also the closed limit: a smooth conductor at normal incidence reflects everything."""
-    from viewer.ibl import IBLOptions, build_ibl
+    from viewer.environment.ibl import IBLOptions, build_ibl
 
     t = directional_albedo_table()
     assert abs(t[3, -1, 1] - 1.0) < 2e-3  # r = 0.047 (the roughness clamp), n.v = 1
@@ -254,7 +254,7 @@ def test_mitsuba_environment_equals_the_rasterisers_lookup(mitsuba_llvm):
     only (1e-4 relative at the 99th percentile; the first, naive conversion erred by 26 %)."""
     mi, dr, _ = mitsuba_llvm
     from relight.reference.scene import environment_bitmap
-    from viewer.environment import load_environment
+    from viewer.environment.maps import load_environment
 
     scene = _scene({"procedural": "sky", "width": 64, "sun_radiance": 2e4}, {})
     env = load_environment(scene.environment).astype(np.float64)
@@ -282,7 +282,7 @@ def test_textured_mesh_reads_its_texture_the_right_way_up(mitsuba_llvm, renderer
     the rasteriser shows there (a flipped v or u would swap them)."""
     from PIL import Image
 
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     img = np.zeros((8, 8, 3), np.uint8)
     img[:4, :4], img[:4, 4:] = (255, 0, 0), (0, 255, 0)

@@ -3,10 +3,10 @@ state and image, a saved scene renders what the window shows, loader warnings re
 line) and ``relight view``'s screenshot."""
 import numpy as np
 import pytest
-
-from viewer.material import Material
-from viewer.scene import load_scene
 from viewer_helpers import headless, shown
+
+from viewer.scene.description import load_scene
+from viewer.scene.material import Material
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
@@ -73,9 +73,8 @@ def test_cli_view_offscreen_screenshot(tmp_path, ctx):
     out = tmp_path / "view.png"
     assert main(["view", "--offscreen", "--frames", "2", "--size", "64x40",
                  "--screenshot", str(out), "-q"]) == 0
-    from viewer.imageio import read_image
-
     from assets import ASSET_ROOT
+    from viewer.imageio import read_image
 
     png, _ = read_image(out)
     truth = headless(ctx, load_scene(ASSET_ROOT / "scenes" / "demo.toml"), size=(64, 40))
@@ -86,8 +85,8 @@ def test_cli_view_offscreen_screenshot(tmp_path, ctx):
 
 
 def test_cli_view_help_lists_models_and_views(capsys):
-    from relight.cli import main
     from relight.app.state import VIEWS
+    from relight.cli import main
     from viewer.models import MODELS
 
     with pytest.raises(SystemExit):
@@ -145,8 +144,9 @@ def test_files_dropped_through_glfw_open_and_a_bad_one_keeps_the_scene(fresh, tm
     """The drop callback registered with glfw: a scene opens, an environment replaces the
     environment, a corrupt file or an asset this build cannot open says so in one line and the
     scene on screen stays."""
-    from viewer.imageio import write_exr
     from viewer_helpers import drop_files
+
+    from viewer.imageio import write_exr
 
     (tmp_path / "s.toml").write_text(
         '[camera]\nsize = [64, 48]\n[[objects]]\ntype = "sphere"\n[render]\nmodel = "unlit"\n')
@@ -170,7 +170,7 @@ def test_files_dropped_through_glfw_open_and_a_bad_one_keeps_the_scene(fresh, tm
 
 
 def test_a_dropped_asset_opens_framed_in_the_current_environment(fresh, tmp_path):
-    """Assets go to ``viewer.assets.scene_from_assets`` at the current render size, lit by the
+    """Assets go to ``viewer.scene.assets.scene_from_assets`` at the current render size, lit by the
     current environment; a corrupt one gives one line and keeps the scene."""
     import sys
     from pathlib import Path

@@ -2,7 +2,7 @@
 against its budget (Renderer.memory)."""
 from relight.app.panels import frame_lines
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 SCENE = {"camera": {"size": [24, 16]}, "environment": {"procedural": "white", "width": 32},
          "objects": [{"type": "sphere"}]}

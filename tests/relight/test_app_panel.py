@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from viewer.scene import scene_from_dict
 from viewer_helpers import click, drag_to, release, sphere_scene
+
+from viewer.scene.description import scene_from_dict
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")

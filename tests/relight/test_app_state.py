@@ -6,14 +6,19 @@ import numpy as np
 import pytest
 
 from relight.app import camera_control as cc
-from relight.app.state import MaterialOverride, reset_camera, scene_from_state, state_from_scene, \
-    with_environment_file
-from viewer.camera import Camera
+from relight.app.state import (
+    MaterialOverride,
+    reset_camera,
+    scene_from_state,
+    state_from_scene,
+    with_environment_file,
+)
 from viewer.errors import SceneError
-from viewer.material import Material
 from viewer.renderer import Renderer
-from viewer.scene import load_scene, scene_from_dict
-from viewer.scene_io import save_scene, scene_to_dict
+from viewer.scene.camera import Camera
+from viewer.scene.description import load_scene, scene_from_dict
+from viewer.scene.files import save_scene, scene_to_dict
+from viewer.scene.material import Material
 
 
 def demo():

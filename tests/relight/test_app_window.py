@@ -6,10 +6,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-
-from viewer.material import Material
-from viewer.scene import load_scene
 from viewer_helpers import SIZE, headless, shown, to_linear
+
+from viewer.scene.description import load_scene
+from viewer.scene.material import Material
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
@@ -116,7 +116,7 @@ def test_directional_light_through_the_state_adds_lambert_and_saves(fresh, ctx, 
     white Lambertian sphere's linear radiance; the saved scene renders the same pixels."""
     from relight.app.state import light_direction
     from viewer.imageio import read_image
-    from viewer.scene import DirectionalLight
+    from viewer.scene.description import DirectionalLight
 
     fresh.state.object_materials = (Material(albedo=(1.0, 1.0, 1.0), roughness=0.5,
                                              specular=0.0),)

@@ -54,7 +54,7 @@ def test_diffuse_rows_compare_both_methods_with_the_exact_sum(tmp_path):
     2.2 % at worst)."""
     pytest.importorskip("torch")
     from relight.bench.env_diffuse import diffuse_rows
-    from viewer.environment import sky_environment
+    from viewer.environment.maps import sky_environment
     from viewer.imageio import write_exr
 
     path = tmp_path / "sky.exr"

@@ -9,7 +9,7 @@ pytest.importorskip("torch")
 from relight.bench.splat_decomp import SplatDecompConfig, invert, scene_rows, scramble  # noqa: E402
 from relight.bench.splat_relight import environment_cubemap, shaded_truth  # noqa: E402
 from relight.bench.splat_scenes import decomp_scenes, surface_splats  # noqa: E402
-from viewer.environment import EnvironmentSpec  # noqa: E402
+from viewer.environment.maps import EnvironmentSpec  # noqa: E402
 from viewer.splats.generate import cube_solid_angles  # noqa: E402
 
 # ~200 splats, 4 capture views of 24^2, 40 steps; relit under the procedural studio, whose
@@ -40,8 +40,8 @@ def row(ctx, tmp_path_factory):
 def test_environment_cubemap_keeps_the_energy():
     """The cubemap bins the equirect map's energy: its integral over the sphere equals the
     map's (to float32 rounding)."""
-    from viewer.environment import load_environment
-    from viewer.sun import texel_solid_angles
+    from viewer.environment.maps import load_environment
+    from viewer.environment.sun import texel_solid_angles
 
     spec = EnvironmentSpec(procedural="sky")
     env = load_environment(spec).astype(np.float64)

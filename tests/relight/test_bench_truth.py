@@ -58,7 +58,7 @@ def measured(ctx, tmp_path_factory):
     from relight.bench.truth import converged_mc, truth_row, truth_scenes
     from relight.reference import Reference, read_reference, write_reference
     from viewer.renderer import Renderer
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     folder = tmp_path_factory.mktemp("reference")
     toml = TOML.format(env=ASSET_ROOT / "environments" / "park.exr")
@@ -142,7 +142,7 @@ def test_the_reference_scores_itself_perfectly(measured):
 def test_scene_lists_and_cases():
     from relight.bench.run import BenchConfig, _cases
     from relight.bench.truth import QUICK_SCENES, REFERENCE_SCENES, truth_cases
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     committed = {p.stem for p in REFERENCE_SCENES.glob("*.toml")}
     assert set(QUICK_SCENES) < committed  # --quick is a proper subset of the committed scenes

@@ -6,7 +6,7 @@ window shows (:func:`shown`, :func:`to_linear`) and the headless render to compa
 import numpy as np
 
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 SIZE = (96, 96)
 

@@ -1,4 +1,4 @@
-"""IBL precomputation (viewer/ibl.py, shaders/passes/ibl_*.comp) and lib/ibl.glsl, lib/sh.glsl:
+"""IBL precomputation (viewer/environment/ibl.py, shaders/passes/ibl_*.comp) and lib/ibl.glsl, lib/sh.glsl:
 pass-level parity with the torch twins and physical properties."""
 import math
 
@@ -8,9 +8,9 @@ import pytest
 import learned.twins.ibl as twins
 from learned.parity import pass_checks
 from learned.parity.checks.ibl import eval_sh_irradiance, parity_environment
-from viewer.environment import texel_directions
+from viewer.environment.ibl import IBLOptions, build_ibl, mip_sizes
+from viewer.environment.maps import texel_directions
 from viewer.errors import InputError
-from viewer.ibl import IBLOptions, build_ibl, mip_sizes
 
 SMALL = IBLOptions(prefilter_levels=4, prefilter_method="fis", prefilter_samples=16, dfg_size=16,
                    dfg_samples=64)
@@ -57,7 +57,7 @@ def test_prefilter_envelope_covers_a_gpu_texture_unit():
     """The same for a whole prefiltered level: the twin run with an 8-bit filter lands inside
     prefilter_level_envelope, a 4-bit one does not."""
     torch = pytest.importorskip("torch")
-    from viewer.ibl import prefilter_roughness
+    from viewer.environment.ibl import prefilter_roughness
 
     chain = twins.radiance_chain(torch.from_numpy(parity_environment()))
     for k in (1, 2):

@@ -118,9 +118,9 @@ def test_vndf_is_finite_at_the_extremes(programs):
 
 @pytest.fixture(scope="module")
 def sky_sampling(programs):
-    from viewer.environment import sky_environment
-    from viewer.envsampling import build_env_sampling
-    from viewer.ibl import IBLOptions, build_ibl
+    from viewer.environment.ibl import IBLOptions, build_ibl
+    from viewer.environment.maps import sky_environment
+    from viewer.environment.sampling import build_env_sampling
 
     ibl = build_ibl(programs, sky_environment(64), IBLOptions(prefilter_levels=1,
                                                               prefilter_samples=1, dfg_size=4,

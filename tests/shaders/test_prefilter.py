@@ -1,4 +1,4 @@
-"""The GGX prefilter by convolution (viewer/prefilter.py, passes/ibl_compose.comp): against a brute-
+"""The GGX prefilter by convolution (viewer/environment/prefilter.py, passes/ibl_compose.comp): against a brute-
 force float64 sum over every texel, through the GLSL lookups for a narrow (128-wide) map, and the
 compose pass's GPU envelope."""
 import math
@@ -6,9 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from viewer.environment import EnvironmentSpec, load_environment, resample, studio_environment
-from viewer.ibl import IBLOptions, build_ibl, prefilter_roughness
-from viewer.prefilter import (
+from viewer.environment.ibl import IBLOptions, build_ibl, prefilter_roughness
+from viewer.environment.maps import (
+    EnvironmentSpec,
+    load_environment,
+    resample,
+    studio_environment,
+)
+from viewer.environment.prefilter import (
     box_down,
     box_down_sparse,
     ggx_normalisation,
@@ -18,7 +23,7 @@ from viewer.prefilter import (
     sun_texels,
     working_map,
 )
-from viewer.sun import extract_sun, texel_solid_angles
+from viewer.environment.sun import extract_sun, texel_solid_angles
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
@@ -168,7 +173,11 @@ def test_narrow_map_lookups_stay_in_the_envelope(programs):
     the measured bias and median before comparing them with the envelope."""
     torch = pytest.importorskip("torch")
     from learned.twins.equirect import equirect_uv
-    from learned.twins.ibl import equirect_uv_error, prefilter_lod, sample_trilinear_envelope
+    from learned.twins.ibl import (
+        equirect_uv_error,
+        prefilter_lod,
+        sample_trilinear_envelope,
+    )
 
     for name, env in _narrow_maps().items():
         ibl = build_ibl(programs, env, IBLOptions(dfg_size=16, dfg_samples=64))

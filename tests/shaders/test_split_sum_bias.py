@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 ESPLANADE = "assets/environments/esplanade.exr"  # real HDRI, sun 7 degrees from the zenith
 PARK = "assets/environments/park.exr"            # real HDRI, low sun behind the sphere
@@ -28,7 +28,7 @@ MEDIAN_GOAL = {0.05: 5.0, 0.3: 8.0}              # median per-pixel relative err
 # a pixel, and at 96 x 96 one pixel carries 59 % of the image's energy, so the bias is that one
 # pixel's lookup error; it moves with the resolution (64: +1.1 %, 128: +5.5 %, 160: +2.6 %, 256:
 # +1.3 %) and is +1.0 % against the path tracer at 64 x 64 (tests/reference/test_fidelity.py).
-# The sun is shaded analytically at 0.3 and 0.8 (viewer/sun.py; park at 0.3 was -9.0 % without),
+# The sun is shaded analytically at 0.3 and 0.8 (viewer/environment/sun.py; park at 0.3 was -9.0 % without),
 # not at 0.05, where the lobe is narrower than the sun and the prefiltered chain resolves it.
 SHORT_OF_GOAL = {
     (PARK, 0.05): ("bias", 5.79, "a sub-pixel sun reflection on the rim"),

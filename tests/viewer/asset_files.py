@@ -2,9 +2,9 @@
 and a splat capture - a grey ground of discs with a ball on it, red above its equator and blue
 below, plus far outliers - written in any up-axis convention."""
 import numpy as np
-
 from gltf_builder import GltfBuilder
-from viewer.orientation import up_matrix
+
+from viewer.scene.orientation import up_matrix
 from viewer.splats import make_splats, transform_splats, write_ply
 from viewer.splats.formats import write_splat
 from viewer.splats.generate import sphere_splats

@@ -8,10 +8,11 @@ def gbuffer_of(ctx, programs):
     """``gbuffer_of(path)``: load a glTF and draw it from (0, 0, 3) towards the origin, 64x64;
     returns the channels, row 0 at the top."""
     from gltf_builder import SIZE
-    from viewer.camera import Camera
+
     from viewer.gbuffer import GBufferLayout
     from viewer.geometry.loaders import load_mesh
     from viewer.passes.gbuffer import GBufferPass, GBufferTargets
+    from viewer.scene.camera import Camera
 
     layout = GBufferLayout(with_emission=True)
     targets = GBufferTargets.create(ctx, layout, (SIZE, SIZE))

@@ -1,7 +1,7 @@
 """Scenes and read-back shared by the SSAO tests (test_ssao.py, test_ssao_scale.py)."""
 import numpy as np
 
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 SIZE = [48, 48]
 FLOOR = {"type": "plane", "center": [0, 0, 0], "size": [8, 8], "normal": [0, 1, 0],

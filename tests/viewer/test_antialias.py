@@ -17,7 +17,7 @@ from scipy import ndimage
 from learned.twins.tonemap import srgb_to_linear
 from viewer.errors import SceneError
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 WHITE = {"albedo": [0.9, 0.9, 0.9]}
 SHAPES = {

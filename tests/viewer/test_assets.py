@@ -1,16 +1,23 @@
-"""Assets opened without a scene file (viewer.assets): kinds, up axes (markers, detection,
+"""Assets opened without a scene file (viewer.scene.assets): kinds, up axes (markers, detection,
 conventions), framing, floors, and 8-bit environments decoded from sRGB."""
 import warnings
 
 import numpy as np
 import pytest
+from asset_files import (
+    BOX_HI,
+    BOX_LO,
+    box_gltf,
+    capture,
+    capture_ply,
+    to_file_convention,
+)
 
-from asset_files import BOX_HI, BOX_LO, box_gltf, capture, capture_ply, to_file_convention
-from viewer.assets import asset_kind, is_scene_file, open_assets
-from viewer.bounds import Bounds
 from viewer.errors import AssetNote, InputError, SceneError
-from viewer.framing import FILL, frame_camera
-from viewer.orientation import UP_AXES, detect_splat_up, marked_up, up_matrix
+from viewer.scene.assets import asset_kind, is_scene_file, open_assets
+from viewer.scene.bounds import Bounds
+from viewer.scene.framing import FILL, frame_camera
+from viewer.scene.orientation import UP_AXES, detect_splat_up, marked_up, up_matrix
 from viewer.splats import make_splats
 
 
@@ -137,7 +144,7 @@ def test_shapeless_cloud_falls_back_to_the_capture_convention(tmp_path):
 
 
 def test_8bit_environment_is_decoded_from_srgb(tmp_path):
-    from viewer.environment import EnvironmentSpec, load_environment
+    from viewer.environment.maps import EnvironmentSpec, load_environment
     from viewer.geometry.mesh import srgb_to_linear
     from viewer.imageio import write_exr, write_png
 

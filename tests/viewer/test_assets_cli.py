@@ -3,8 +3,8 @@ an 8-bit environment renders as its linear EXR twin; ``relight scene`` round-tri
 one line."""
 import numpy as np
 import pytest
-
 from asset_files import GREEN, box_gltf, capture_ply, capture_splat
+
 from relight.cli import main
 from viewer.imageio import read_image
 
@@ -31,7 +31,7 @@ def _extent(mask):
 def test_gltf_renders_framed_without_a_scene_file(tmp_path, capsys):
     glb = box_gltf(tmp_path / "model.glb")
     env = tmp_path / "env.exr"
-    from viewer.environment import sky_environment
+    from viewer.environment.maps import sky_environment
     from viewer.imageio import write_exr
 
     write_exr(env, sky_environment(64))

@@ -4,9 +4,9 @@ falls where the analytic projection along the light puts it."""
 import numpy as np
 import pytest
 
-from viewer.bounds import Bounds, content_bounds, points_bounds, splat_bounds
 from viewer.geometry.primitives import plane, sphere
-from viewer.shadows import directional_frame, light_basis
+from viewer.lighting.shadow_frames import directional_frame, light_basis
+from viewer.scene.bounds import Bounds, content_bounds, points_bounds, splat_bounds
 
 
 def test_mesh_bounds_union():

@@ -6,20 +6,20 @@ import dataclasses
 import numpy as np
 import pytest
 
-from viewer.camera import Camera
 from viewer.errors import SceneError
 from viewer.gbuffer import GBufferLayout
 from viewer.geometry.cache import GeometryCache
 from viewer.geometry.primitives import sphere
 from viewer.gl import Programs
 from viewer.gl.tracking import track_objects
-from viewer.material import Material
 from viewer.passes import FullscreenDraw
 from viewer.passes.gbuffer import GBufferPass, GBufferTargets
 from viewer.passes.splats import SplatPass
 from viewer.passes.uploads import UploadCache
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, scene_from_dict
+from viewer.scene.camera import Camera
+from viewer.scene.description import ObjectSpec, scene_from_dict
+from viewer.scene.material import Material
 from viewer.splats.data import make_splats
 
 BASE = {

@@ -7,7 +7,7 @@ import pytest
 
 from viewer.gl.tracking import track_objects
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 BASE = {
     "camera": {"position": [0, 0.4, 2.4], "target": [0, 0.2, 0], "fov_y": 45, "size": [32, 24]},

@@ -13,7 +13,7 @@ from scipy import ndimage
 
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, scene_from_dict
+from viewer.scene.description import ObjectSpec, scene_from_dict
 
 W, H, FOV = 128, 96, 50.0
 LENGTH = 0.8  # contact_length: world units the march covers

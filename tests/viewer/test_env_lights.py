@@ -1,7 +1,7 @@
 """The diffuse term against the exact cosine convolution, and the environment's compact lights as
-analytic lights (viewer/irradiance.py, viewer/sun.py extract_lights).
+analytic lights (viewer/environment/irradiance.py, viewer/environment/sun.py extract_lights).
 
-Truth is the brute-force sum over every texel of the same map (viewer.irradiance.irradiance_brute,
+Truth is the brute-force sum over every texel of the same map (viewer.environment.irradiance.irradiance_brute,
 float64). The rendered diffuse is read back from a Lambertian sphere seen from above (its normals
 run from the zenith - a floor's - through tilted ones to grazing ones at the rim), shaded by
 ggx_split_sum with f0 = 0: the irradiance map of the environment without its compact lights plus
@@ -12,13 +12,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from viewer.environment import EnvironmentSpec, load_environment
+from viewer.environment.irradiance import irradiance_brute, irradiance_map
+from viewer.environment.maps import EnvironmentSpec, load_environment
+from viewer.environment.prefilter import box_down
+from viewer.environment.sun import ENV_MAX_LIGHTS, extract_lights, texel_solid_angles
 from viewer.imageio import write_exr
-from viewer.irradiance import irradiance_brute, irradiance_map
-from viewer.prefilter import box_down
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
-from viewer.sun import ENV_MAX_LIGHTS, extract_lights, texel_solid_angles
+from viewer.scene.description import scene_from_dict
 
 ASSETS = Path(__file__).resolve().parents[2] / "assets" / "environments"
 ALBEDO = 0.5

@@ -1,4 +1,4 @@
-"""The environment's shadows ([render] env_shadows; viewer/envsampling.py median_cut,
+"""The environment's shadows ([render] env_shadows; viewer/environment/sampling.py median_cut,
 passes/lights.glsl env_shadow) against brute force: a sphere above a Lambertian floor under an
 environment with one broad bright panel, the floor's diffuse light with the sphere's occlusion
 over the same without (the render with env_shadows over the one without), against the exact
@@ -6,14 +6,13 @@ visibility-weighted irradiance ratio integrated over every environment texel (nu
 tests); and what must not change."""
 import numpy as np
 import pytest
-
 from shadow_scenes import CAMERA, CENTER, HEIGHT, RADIUS, floor_points
 
-from viewer.envsampling import median_cut
+from viewer.environment.sampling import median_cut
+from viewer.environment.sun import texel_solid_angles
 from viewer.imageio import write_exr
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
-from viewer.sun import texel_solid_angles
+from viewer.scene.description import scene_from_dict
 
 EH, EW = 64, 128
 

@@ -1,4 +1,4 @@
-"""viewer.envcache: the on-disk cache of environment precomputation. A hit rebuilds the same
+"""viewer.environment.disk_cache: the on-disk cache of environment precomputation. A hit rebuilds the same
 textures without decoding the file; corrupt, truncated, stale or ill-fitting entries are rebuilt
 with a one-line warning naming the file; the folder stays within its cap (LRU by mtime); the
 environment variables choose, size or turn off the cache."""
@@ -8,12 +8,12 @@ import time
 import numpy as np
 import pytest
 
-import viewer.environments as environments
-from viewer import envcache
-from viewer.envcache import EnvCache, cache_root
-from viewer.environment import EnvironmentSpec, sky_environment
-from viewer.environments import EnvironmentStore
-from viewer.ibl import IBLOptions
+import viewer.environment.store as environments
+from viewer.environment import disk_cache as envcache
+from viewer.environment.disk_cache import EnvCache, cache_root
+from viewer.environment.ibl import IBLOptions
+from viewer.environment.maps import EnvironmentSpec, sky_environment
+from viewer.environment.store import EnvironmentStore
 from viewer.imageio import write_exr
 
 OPTS = IBLOptions(prefilter_width=128, dfg_size=16, dfg_samples=64)

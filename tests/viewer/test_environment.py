@@ -1,11 +1,16 @@
-"""viewer.environment: loading equirect files and procedural environments."""
+"""viewer.environment.maps: loading equirect files and procedural environments."""
 import warnings
 
 import numpy as np
 import pytest
 
-from viewer.environment import (EnvironmentSpec, _pow2, load_environment, resample,
-                                texel_directions)
+from viewer.environment.maps import (
+    EnvironmentSpec,
+    _pow2,
+    load_environment,
+    resample,
+    texel_directions,
+)
 from viewer.errors import InputError, SceneError
 from viewer.imageio import write_exr
 

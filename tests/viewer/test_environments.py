@@ -1,4 +1,4 @@
-"""viewer.environments.EnvironmentStore: the semantics GPUResources had (IBL, sun-less IBL, sun,
+"""viewer.environment.store.EnvironmentStore: the semantics GPUResources had (IBL, sun-less IBL, sun,
 sampling tables, equal-power directions, one entry per environment whatever its intensity and
 rotation), a byte bound with LRU eviction that releases GL textures at once, pinning, and the
 method before ("fis") still reachable."""
@@ -8,11 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from viewer.environment import EnvironmentSpec, load_environment
-from viewer.environments import EnvironmentStore
-from viewer.envsampling import build_env_sampling, power_directions
-from viewer.ibl import IBLOptions, build_ibl
-from viewer.sun import extract_sun
+from viewer.environment.ibl import IBLOptions, build_ibl
+from viewer.environment.maps import EnvironmentSpec, load_environment
+from viewer.environment.sampling import build_env_sampling, power_directions
+from viewer.environment.store import EnvironmentStore
+from viewer.environment.sun import extract_sun
 
 OPTS = IBLOptions(prefilter_width=128, dfg_size=16, dfg_samples=64)
 
@@ -23,7 +23,7 @@ def sky(azimuth=30.0, width=128):
 
 def _live(textures) -> int:
     """How many of ``textures`` are still GL textures (glIsTexture on their names)."""
-    from viewer.ibl_build import _gl
+    from viewer.environment.ibl_build import _gl
 
     if _gl() is None:
         pytest.skip("no GL dispatch library to ask glIsTexture")

@@ -149,7 +149,7 @@ def test_dot_names_every_pass_and_resource(pool):
 # ---- the renderer's frame ----------------------------------------------------------------------
 from viewer.gl.timing import PassTimer  # noqa: E402
 from viewer.renderer import Renderer  # noqa: E402
-from viewer.scene import ObjectSpec, scene_from_dict  # noqa: E402
+from viewer.scene.description import ObjectSpec, scene_from_dict  # noqa: E402
 
 BASE = {
     "camera": {"position": [0, 1.2, 2.6], "target": [0, 0.3, 0], "fov_y": 45, "size": [40, 32]},

@@ -2,12 +2,12 @@
 import numpy as np
 import pytest
 
-from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
 from viewer.geometry.imagespace import ImageGBuffer
 from viewer.geometry.primitives import plane, sphere
-from viewer.material import Material
 from viewer.passes.gbuffer import GBufferPass, GBufferTargets
+from viewer.scene.camera import Camera
+from viewer.scene.material import Material
 
 LAYOUT = GBufferLayout()
 SIZE = 64

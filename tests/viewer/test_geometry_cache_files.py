@@ -8,7 +8,7 @@ def test_a_file_rewritten_at_the_same_path_is_loaded_again(tmp_path):
     import os
 
     from viewer.geometry.cache import GeometryCache
-    from viewer.scene import ObjectSpec
+    from viewer.scene.description import ObjectSpec
     from viewer.splats import write_ply
     from viewer.splats.generate import sphere_splats
 

@@ -6,11 +6,10 @@ import warnings
 
 import numpy as np
 import pytest
-
 from gltf_builder import QUAD_POS, GltfBuilder, image, quad
 
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 SIZE = 48
 CENTRE = (SIZE // 2, SIZE // 2)  # (row, column): the point (0, 0) of every quad below
@@ -232,7 +231,7 @@ def test_the_sun_map_is_drawn_for_blended_surfaces_alone(tmp_path, renderer):
 def test_a_map_the_frame_does_not_draw_is_warned_once():
     """The safety net: a forward variant that reads a map absent from the frame's maps warns once,
     naming the light; one whose maps are all there does not."""
-    from viewer.lights import Light
+    from viewer.lighting.lights import Light
     from viewer.models import ShadeVariant
     from viewer.passes import forward
 

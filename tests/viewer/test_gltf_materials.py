@@ -4,8 +4,16 @@ doubleSided, alphaMode MASK, emission, and the warnings for what is not used. Te
 samplers: test_gltf_textures.py; quantised, sparse and Draco data: test_gltf_accessors.py."""
 import numpy as np
 import pytest
-
-from gltf_builder import NEAREST, QUAD_POS, SIZE, GltfBuilder, image, load_warnings, px, quad
+from gltf_builder import (
+    NEAREST,
+    QUAD_POS,
+    SIZE,
+    GltfBuilder,
+    image,
+    load_warnings,
+    px,
+    quad,
+)
 
 
 # ---- warnings for everything not used ------------------------------------------------------------
@@ -112,7 +120,7 @@ def _emissive_file(tmp_path, strength=None, texture=True):
 @pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum", "ggx_mc", "neural"])
 def test_emitted_radiance_under_a_black_environment(tmp_path, ctx, model):
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     path = _emissive_file(tmp_path, strength=4.0)
     scene = scene_from_dict({
@@ -138,7 +146,7 @@ def test_emitted_radiance_under_a_black_environment(tmp_path, ctx, model):
 
 def test_emission_channel_only_where_a_scene_emits(tmp_path, ctx):
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     b = GltfBuilder()
     quad(b, b.material(doubleSided=True))

@@ -23,7 +23,7 @@ from PIL import Image
 from viewer.geometry.loaders import load_mesh
 from viewer.geometry.mesh import srgb_to_linear
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 MODELS = Path(__file__).resolve().parents[2] / "assets" / "models"
 TT = MODELS / "texture_transform_test" / "TextureTransformTest.gltf"

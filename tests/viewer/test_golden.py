@@ -12,7 +12,7 @@ import pytest
 from assets import ASSET_ROOT
 from viewer.imageio import read_image, write_exr, write_png
 from viewer.renderer import Renderer
-from viewer.scene import load_scene
+from viewer.scene.description import load_scene
 
 try:
     import tomllib

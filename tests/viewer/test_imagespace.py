@@ -8,12 +8,17 @@ from viewer.gbuffer import CHANNELS
 CHANNEL_BACKGROUND = {c.name: c.background[0] for c in CHANNELS}
 import pytest
 
-from viewer.camera import Camera
 from viewer.errors import InputError
-from viewer.geometry.imagespace import (ImageGBuffer, load_ffhq_pbr, load_stack_exr,
-                                        save_stack_exr, view_dirs_cs)
+from viewer.geometry.imagespace import (
+    ImageGBuffer,
+    load_ffhq_pbr,
+    load_stack_exr,
+    save_stack_exr,
+    view_dirs_cs,
+)
 from viewer.geometry.mesh import srgb_to_linear
 from viewer.imageio import read_image, write_exr, write_png
+from viewer.scene.camera import Camera
 
 H, W = 12, 16
 

@@ -11,7 +11,7 @@ from relight.cli import main
 from viewer.geometry.imagespace import ImageGBuffer, save_stack_exr
 from viewer.imageio import read_image, write_exr, write_png
 from viewer.renderer import Renderer
-from viewer.scene import load_scene
+from viewer.scene.description import load_scene
 
 MESH_SCENE = """
 [camera]

@@ -8,10 +8,16 @@ import numpy as np
 import pytest
 
 from viewer.errors import SceneError
-from viewer.material import Material
 from viewer.renderer import Renderer
-from viewer.scene import DirectionalLight, ObjectSpec, Scene, load_scene, scene_from_dict
-from viewer.scene_io import save_scene
+from viewer.scene.description import (
+    DirectionalLight,
+    ObjectSpec,
+    Scene,
+    load_scene,
+    scene_from_dict,
+)
+from viewer.scene.files import save_scene
+from viewer.scene.material import Material
 
 LIT_MODELS = ("ggx_split_sum", "blinn_phong", "ggx_mc")
 
@@ -234,8 +240,15 @@ def test_scene_type_keeps_the_light_optional():
 # ---- viewer state --------------------------------------------------------------------------------
 
 def test_viewer_state_carries_the_light():
-    from relight.app.state import DEFAULT_LIGHT, light_angles, light_direction, load_into, \
-        scene_from_state, state_from_scene, with_light_angles
+    from relight.app.state import (
+        DEFAULT_LIGHT,
+        light_angles,
+        light_direction,
+        load_into,
+        scene_from_state,
+        state_from_scene,
+        with_light_angles,
+    )
 
     scene = scene_from_dict({"light": {"direction": [0.0, 1.0, 1.0], "intensity": 2.0}})
     state = state_from_scene(scene)

@@ -6,12 +6,11 @@ import warnings
 
 import numpy as np
 import pytest
+from gltf_builder import GltfBuilder, quad
 
 from viewer.errors import SceneError
 from viewer.renderer import Renderer
-from viewer.scene import load_scene, scene_from_dict
-
-from gltf_builder import GltfBuilder, quad
+from viewer.scene.description import load_scene, scene_from_dict
 
 ALBEDO = 0.5
 SIZE = 48

@@ -8,7 +8,7 @@ import pytest
 from viewer.errors import InputError
 from viewer.geometry.loaders import load_mesh
 from viewer.geometry.mesh import srgb_to_linear
-from viewer.material import Material
+from viewer.scene.material import Material
 
 
 def _png_bytes(rgb_u8: np.ndarray) -> bytes:

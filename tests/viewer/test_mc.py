@@ -9,9 +9,9 @@ import pytest
 
 from viewer.errors import SceneError
 from viewer.imageio import write_exr
-from viewer.material import Material
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, Scene, scene_from_dict
+from viewer.scene.description import ObjectSpec, Scene, scene_from_dict
+from viewer.scene.material import Material
 
 SIZE = (40, 40)
 STRATEGIES = ("uniform", "cosine", "env", "brdf", "mis")

@@ -9,7 +9,7 @@ def test_viewer_runtime_does_not_import_torch(tmp_path):
         "import viewer, viewer.renderer, relight.cli, viewer.neural, viewer.specialize\n"
         "import relight.app.state, viewer.splats, relight.bench.run\n"
         "from viewer.renderer import Renderer\n"
-        "from viewer.scene import scene_from_dict\n"
+        "from viewer.scene.description import scene_from_dict\n"
         "r = Renderer()\n"
         "for model in ('unlit', 'ggx_split_sum', 'ggx_mc', 'neural'):\n"
         "    r.render(scene_from_dict({'camera': {'size': [16, 16]}, 'objects': [{'type': 'sphere'}],\n"

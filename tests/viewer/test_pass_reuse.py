@@ -9,7 +9,7 @@ import pytest
 
 from viewer.gl.timing import PassTimer
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 BASE = {
     "camera": {"position": [0, 1.2, 2.6], "target": [0, 0.3, 0], "fov_y": 45, "size": [40, 32]},
@@ -118,7 +118,7 @@ def test_what_enters_the_gbuffer_or_ssao_redraws_them(renderer, change):
 def test_replaced_geometry_content_redraws(renderer):
     """In-memory geometry (add_geometry) replaced under the same object: not the old G-buffer."""
     from viewer.geometry.primitives import sphere
-    from viewer.scene import ObjectSpec
+    from viewer.scene.description import ObjectSpec
 
     scene = _scene({"ssao": True})
     scene = dataclasses.replace(scene, objects=scene.objects + (

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from viewer.material import Material
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, Scene, scene_from_dict
+from viewer.scene.description import ObjectSpec, Scene, scene_from_dict
+from viewer.scene.material import Material
 
 SIZE = (64, 64)
 

@@ -4,7 +4,7 @@ from pathlib import Path
 import pytest
 
 from viewer.errors import SceneError
-from viewer.scene import load_scene, scene_from_dict
+from viewer.scene.description import load_scene, scene_from_dict
 
 FULL = """
 [camera]

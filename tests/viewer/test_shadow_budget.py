@@ -6,14 +6,13 @@ import dataclasses
 
 import numpy as np
 import pytest
-
 from shadow_scenes import CAMERA, DARK, FLOOR, SPHERE
 
 from viewer.errors import SceneError
 from viewer.graph.shadows import budgeted
 from viewer.renderer import Renderer
-from viewer.scene import load_scene, scene_from_dict
-from viewer.settings import ShadowSettings
+from viewer.scene.description import load_scene, scene_from_dict
+from viewer.scene.settings import ShadowSettings
 
 SUN_LIKE = {"type": "directional", "intensity": 2.0, "angular_diameter_deg": 2.0}
 

@@ -1,4 +1,4 @@
-"""Cascaded shadow maps (viewer/cascades.py) on a 100 m floor: a small sphere near the camera and
+"""Cascaded shadow maps (viewer/lighting/cascades.py) on a 100 m floor: a small sphere near the camera and
 a large one 30 m away under a directional light. Both shadows land on their analytic projections
 (the rays from the floor towards the light that meet a sphere), the near shadow's edge is sharper
 than one whole-scene map gives, a small-object scene keeps one map, and a small camera move does
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from viewer.bounds import Bounds
-from viewer.cascades import cascade_count, cascade_frames, practical_splits
 from viewer.errors import SceneError
+from viewer.lighting.cascades import cascade_count, cascade_frames, practical_splits
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.bounds import Bounds
+from viewer.scene.description import scene_from_dict
 
 N = 128
 LIGHT = (0.7, 1.0, -0.5)

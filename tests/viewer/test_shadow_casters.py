@@ -4,17 +4,17 @@ analytic sphere it approximates and against the shadow of the whole mesh; and no
 hides nothing from the light (a floor under the scene, lit from above)."""
 import numpy as np
 import pytest
-
 from shadow_scenes import CAMERA, DARK, FLOOR, SPHERE
-from viewer.bounds import Bounds
+
 from viewer.errors import SceneError
 from viewer.geometry import primitives
 from viewer.geometry.simplify import lod_level, simplify
 from viewer.geometry.solid import OUTWARD, plane_of
+from viewer.lighting.shadow_frames import cube_frames, directional_frame, spot_frame
 from viewer.passes import shadow as shadow_module
 from viewer.renderer import Renderer
-from viewer.scene import load_scene, scene_from_dict
-from viewer.shadows import cube_frames, directional_frame, spot_frame
+from viewer.scene.bounds import Bounds
+from viewer.scene.description import load_scene, scene_from_dict
 
 RADIUS = 0.9
 

@@ -6,15 +6,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from viewer.bounds import Bounds
 from viewer.geometry import primitives
 from viewer.geometry import simplify as simplify_module
 from viewer.geometry.solid import INWARD, OPEN, OUTWARD, solid_orientation, weld
 from viewer.graph.resources import ShadowMapDesc
+from viewer.lighting.shadow_frames import cube_frames, directional_frame, spot_frame
 from viewer.passes import shadow as shadow_module
 from viewer.renderer import Renderer
-from viewer.shadows import cube_frames, directional_frame, spot_frame
-
+from viewer.scene.bounds import Bounds
 
 CULLED_FACES = shadow_module.culled_faces  # the pass's rule, before a test replaces it
 
@@ -152,7 +151,7 @@ def test_a_mesh_is_tested_once_for_every_kind_of_map(ctx, monkeypatch):
     cube faces); whether it bounds a solid is the mesh's, found once."""
     from shadow_scenes import CAMERA, DARK, FLOOR, SPHERE
 
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     calls = []
 

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from viewer.errors import SceneError
-from viewer.renderer import Renderer, check_aovs
-from viewer.scene import scene_from_dict
+from viewer.frame import check_aovs
+from viewer.renderer import Renderer
+from viewer.scene.description import scene_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +50,8 @@ def test_shadow_maps_as_aovs(renderer):
 
 
 def test_the_debug_view_shows_a_shadow_map(renderer):
-    from viewer.passes.debug_view import DebugViewPass, shadow_views
     from viewer.frame import read_texture
+    from viewer.passes.debug_view import DebugViewPass, shadow_views
 
     ctx = renderer.ctx
     targets = renderer.draw(scene())

@@ -8,12 +8,22 @@ import dataclasses
 import numpy as np
 import pytest
 from scipy import ndimage
-
-from shadow_scenes import (CAMERA, CENTER, DARK, FLOOR, FOV, HEIGHT, N, RADIUS, SPHERE,
-                           floor_points, sphere_pixels)
+from shadow_scenes import (
+    CAMERA,
+    CENTER,
+    DARK,
+    FLOOR,
+    FOV,
+    HEIGHT,
+    RADIUS,
+    SPHERE,
+    N,
+    floor_points,
+    sphere_pixels,
+)
 
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, scene_from_dict
+from viewer.scene.description import ObjectSpec, scene_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -317,8 +327,13 @@ def test_the_blocker_search_reads_its_odd_taps_wherever_an_occluder_is_found():
     occluders, random receivers: exact equality (the same float32 operations)."""
     import torch
 
-    from learned.twins.shadow import (SHADOW_SEARCH_SAMPLES, _disk_loop, shadow_blocker_depth,
-                                      shadow_sample, shadow_taps)
+    from learned.twins.shadow import (
+        SHADOW_SEARCH_SAMPLES,
+        _disk_loop,
+        shadow_blocker_depth,
+        shadow_sample,
+        shadow_taps,
+    )
 
     g = torch.Generator().manual_seed(3)
     n = 128

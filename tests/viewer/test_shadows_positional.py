@@ -8,11 +8,19 @@ import dataclasses
 import numpy as np
 import pytest
 from scipy import ndimage
-
-from shadow_scenes import CAMERA, CENTER, DARK, FLOOR, RADIUS, SPHERE, floor_points, sphere_pixels
+from shadow_scenes import (
+    CAMERA,
+    CENTER,
+    DARK,
+    FLOOR,
+    RADIUS,
+    SPHERE,
+    floor_points,
+    sphere_pixels,
+)
 
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -143,7 +151,7 @@ def test_bad_shadow_keys_are_one_line_errors(tmp_path, doc, needle):
     import tomli_w
 
     from viewer.errors import SceneError
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     p = tmp_path / "s.toml"
     p.write_text(tomli_w.dumps(doc))
@@ -153,8 +161,8 @@ def test_bad_shadow_keys_are_one_line_errors(tmp_path, doc, needle):
 
 
 def test_a_lights_radius_and_shadow_round_trip():
-    from viewer.light_tables import light_table, parse_lights_entry
-    from viewer.lights import DEFAULT_RADIUS, Light
+    from viewer.lighting.lights import DEFAULT_RADIUS, Light
+    from viewer.lighting.tables import light_table, parse_lights_entry
 
     spot = Light(type="spot", position=(0.0, 2.0, 0.0), radius=0.2, shadow=False,
                  inner_cone_deg=10.0, outer_cone_deg=30.0)

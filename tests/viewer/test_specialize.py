@@ -4,7 +4,7 @@ import pytest
 
 from relight.bench.scenes import bench_scene
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def test_diffuse_only_scene_drops_specular_channels_and_lobe(renderer):
 @pytest.mark.parametrize("which", ["diffuse", "demo"])
 def test_specialised_output_equals_the_all_features_path(renderer, model, which):
     from assets import ASSET_ROOT
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     scene = diffuse_scene() if which == "diffuse" else \
         load_scene(ASSET_ROOT / "scenes" / "demo.toml").with_camera(size=(96, 60))

@@ -4,7 +4,7 @@ plumbing (scene validation, renderer)."""
 import numpy as np
 import pytest
 
-from viewer.camera import Camera
+from viewer.scene.camera import Camera
 from viewer.splats import concat
 from viewer.splats.data import make_splats
 from viewer.splats.generate import sphere_splats
@@ -92,7 +92,7 @@ def test_median_depth_of_two_layers_picks_the_half_coverage_layer(programs):
 
 def test_splat_depth_is_a_validated_render_key(tmp_path):
     from viewer.errors import SceneError
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     s = scene_from_dict({"render": {"splat_depth": "median"}})
     assert s.render.splat_depth == "median" and s.render.flat()["splat_depth"] == "median"
@@ -102,7 +102,7 @@ def test_splat_depth_is_a_validated_render_key(tmp_path):
 
 def test_renderer_uses_the_option(ctx, tmp_path):
     from viewer.renderer import Renderer
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
     from viewer.splats import write_ply
 
     write_ply(tmp_path / "s.ply", concat([sphere_splats(800, radius=RADIUS), floaters()]))

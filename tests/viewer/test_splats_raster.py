@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from viewer.camera import Camera
 from relight.cli import main
+from viewer.scene.camera import Camera
 from viewer.splats import write_ply
 from viewer.splats.data import make_splats
 
@@ -74,7 +74,7 @@ def test_compositing_order_and_expected_depth(programs):
 def test_splats_behind_a_mesh_are_hidden(programs):
     from learned.parity.checks.splats import render_gl
     from viewer.geometry import primitives
-    from viewer.material import Material
+    from viewer.scene.material import Material
 
     wall = primitives.plane(center=(0, 0, 0.0), size=(4, 4), normal=(0, 0, 1),
                             material=Material(albedo=(0.2, 0.7, 0.2)))
@@ -114,7 +114,7 @@ def splat_scene(tmp_path):
 @pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum"])
 def test_render_splat_scene_every_model(ctx, splat_scene, model):
     from viewer.renderer import Renderer
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
 
     scene = load_scene(splat_scene).with_render(model=model, background="transparent")
     r = Renderer(ctx=ctx)
@@ -143,7 +143,7 @@ def test_cli_render_and_bad_ply(tmp_path, splat_scene, capsys):
 
 def test_empty_splat_file_renders_the_rest(ctx, tmp_path):
     from viewer.renderer import Renderer
-    from viewer.scene import load_scene
+    from viewer.scene.description import load_scene
     from viewer.splats.data import empty_splats
 
     write_ply(tmp_path / "s.ply", empty_splats())

@@ -3,11 +3,11 @@ plane is unoccluded, a crease darkens towards its edge, AO multiplies only diffu
 model, indirect light brightens creases and leaves flat planes alone."""
 import numpy as np
 import pytest
+from ssao_scenes import FLOOR, SIZE, SSAO, WALL, _read, scene
 
 from viewer.errors import SceneError
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
-from ssao_scenes import FLOOR, SIZE, SSAO, WALL, _read, scene
+from viewer.scene.description import scene_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -204,7 +204,7 @@ def _sun_only_environment(path, width=64):
 def test_power_directions_follow_the_light():
     """Equal-power directions: all on a lone sun, spread (but above/below evenly) on a white
     environment, finite on a black one."""
-    from viewer.envsampling import power_directions
+    from viewer.environment.sampling import power_directions
 
     env = np.zeros((32, 64, 3), np.float32)
     env[5, 40] = 50.0

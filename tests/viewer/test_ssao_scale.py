@@ -3,12 +3,12 @@ bilateral filter brings O(x) and S(x) to full resolution, the indirect light is 
 resolution and composited at full resolution."""
 import numpy as np
 import pytest
+from ssao_scenes import FLOOR, SSAO, WALL, _read, scene
 
 from viewer.errors import SceneError
 from viewer.passes.ssao import low_resolution
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
-from ssao_scenes import FLOOR, SSAO, WALL, _read, scene
+from viewer.scene.description import scene_from_dict
 
 
 @pytest.fixture(scope="module")

@@ -15,13 +15,18 @@ import numpy as np
 import pytest
 import torch
 
-from learned.parity.checks.models import MODEL_ATOL, MODEL_RTOL, env_from_ibl, gl_gbuffer
+from learned.parity.checks.models import (
+    MODEL_ATOL,
+    MODEL_RTOL,
+    env_from_ibl,
+    gl_gbuffer,
+)
 from learned.twins.shade import shade
 from viewer.geometry.imagespace import ImageGBuffer, view_dirs_cs
 from viewer.imageio import write_exr
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
-from viewer.scene import ObjectSpec, Scene, scene_from_dict
+from viewer.scene.description import ObjectSpec, Scene, scene_from_dict
 
 ROUGHNESS = (0.0, 1e-4, 0.045, 1.0)
 METALLIC = (0.0, 1.0)

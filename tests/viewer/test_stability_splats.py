@@ -19,7 +19,7 @@ import torch
 
 from learned.parity.checks.splats import PARITY_ATOL, ambiguous_pixels, render_gl
 from learned.splats.rasterize import rasterize, splat_tensors
-from viewer.camera import Camera
+from viewer.scene.camera import Camera
 from viewer.splats import concat, write_ply
 from viewer.splats.data import make_splats
 
@@ -167,7 +167,7 @@ def renderer(ctx):
 
 
 def _scene(tmp_path, model, splats_obj, **render):
-    from viewer.scene import Scene, scene_from_dict
+    from viewer.scene.description import Scene, scene_from_dict
 
     base = scene_from_dict({
         "camera": {"position": list(CAMERA.position), "target": [0, 0, 0], "fov_y": 50.0,
@@ -181,10 +181,15 @@ def _scene(tmp_path, model, splats_obj, **render):
 
 @pytest.mark.parametrize("model", ["unlit", "blinn_phong", "ggx_split_sum", "ggx_mc"])
 def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
-    from learned.parity.checks.models import MODEL_ATOL, MODEL_RTOL, env_from_ibl, gl_gbuffer
+    from learned.parity.checks.models import (
+        MODEL_ATOL,
+        MODEL_RTOL,
+        env_from_ibl,
+        gl_gbuffer,
+    )
     from learned.twins.shade import shade
     from viewer.passes.shade import shade_defines
-    from viewer.scene import ObjectSpec
+    from viewer.scene.description import ObjectSpec
 
     splats = concat([_cloud(np.random.default_rng(7), 300)] + [degenerate(k) for k in KINDS])
     obj = ObjectSpec("splats", path=str(tmp_path / "in_memory.ply"))
@@ -217,7 +222,7 @@ def test_every_kind_at_once_through_the_renderer(renderer, tmp_path, model):
 def test_degenerate_ply_through_the_loader(renderer, tmp_path):
     """The same kinds written to a PLY (where the format can hold them) and loaded: the loader
     drops or clamps what it must, with warnings; the render is finite."""
-    from viewer.scene import ObjectSpec
+    from viewer.scene.description import ObjectSpec
 
     parts = [degenerate(k) for k in ("sigma_1e-8", "sigma_1e4", "zero_quaternion",
                                      "opacity_0_and_1", "straddling_near", "extreme_sh")]

@@ -1,4 +1,4 @@
-"""The environment's sun as an analytic light (viewer/sun.py): what is extracted, that nothing is
+"""The environment's sun as an analytic light (viewer/environment/sun.py): what is extracted, that nothing is
 lost, when nothing is extracted, and that the split-sum with it agrees with the Monte-Carlo
 reference (ggx_mc integrates the whole environment, sun included, with the exact BRDF)."""
 import math
@@ -6,10 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from viewer.environment import sky_environment, studio_environment, white_environment
+from viewer.environment.maps import (
+    sky_environment,
+    studio_environment,
+    white_environment,
+)
+from viewer.environment.sun import SUN_MAX_SOLID_ANGLE, extract_sun, texel_solid_angles
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
-from viewer.sun import SUN_MAX_SOLID_ANGLE, extract_sun, texel_solid_angles
+from viewer.scene.description import scene_from_dict
 
 
 def _energy(env: np.ndarray) -> np.ndarray:

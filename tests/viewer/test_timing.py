@@ -3,7 +3,7 @@ import math
 
 from viewer.gl.timing import PassTimer
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 
 def test_renderer_profiler_times_every_pass(ctx):

@@ -16,7 +16,7 @@ import torch
 
 from learned.twins.tonemap import srgb_to_linear, tonemap_pbr_neutral
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 
 def _spec_pbr_neutral(r, g, b):

@@ -21,8 +21,8 @@ import numpy as np
 
 from ..cache import BoundedCache, Budgets, CacheStats, mib
 from ..errors import InputError, SceneError
-from ..material import Material
-from ..scene import ObjectSpec
+from ..scene.description import ObjectSpec
+from ..scene.material import Material
 from ..splats import load_splats
 from ..splats.data import Splats
 from . import imagespace, primitives

@@ -53,10 +53,10 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from ..camera import Camera
 from ..errors import InputError
 from ..gbuffer import CHANNELS
 from ..imageio import read_image, write_exr
+from ..scene.camera import Camera
 from .mesh import srgb_to_linear
 
 STACK_CHANNELS = ("albedo.R", "albedo.G", "albedo.B", "roughness", "specular",
@@ -97,7 +97,7 @@ def view_dirs_cs(width: int, height: int, fov_y: float) -> np.ndarray:
     """``[H, W, 3]`` float32 unit camera-space directions from the eye through pixel centres.
 
     Row 0 is the top of the image; the camera looks down -Z with +Y up. Identical to
-    :meth:`viewer.camera.Camera.view_rays_ws` for a camera at the origin looking at -Z.
+    :meth:`viewer.scene.camera.Camera.view_rays_ws` for a camera at the origin looking at -Z.
     """
     cam = Camera(position=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0),
                  fov_y=float(fov_y), size=(int(width), int(height)))

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from ..material import Material
+from ..scene.material import Material
 
 TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive")
 WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
@@ -238,9 +238,9 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 
 class MeshList(list):
     """What a mesh file loads as: its meshes (a list) and the lights it places, ``lights``
-    (:class:`viewer.lights.Light`, world space after every transform; glTF
+    (:class:`viewer.lighting.lights.Light`, world space after every transform; glTF
     ``KHR_lights_punctual``), which the renderer shades with the scene's own
-    (:func:`viewer.lights.gather_lights`)."""
+    (:func:`viewer.lighting.lights.gather_lights`)."""
 
     def __init__(self, meshes=(), lights=()):
         super().__init__(meshes)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..material import Material
+from ..scene.material import Material
 from .mesh import Mesh
 
 

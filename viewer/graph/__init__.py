@@ -1,7 +1,14 @@
 """The frame graph (Filament's FrameGraph as the model): passes declare what they read and write,
 the graph culls, reuses and allocates (:mod:`.graph`); render targets come from a bounded pool
 (:mod:`.pool`) by descriptor (:mod:`.resources`); the renderer's own frame is declared in
-:mod:`.frame`."""
+:mod:`.frame`.
+
+The shadow passes a frame declares: :mod:`.shadows`; the display chain (supersampling, tone
+mapping): :mod:`.display`.
+
+Imports: :mod:`viewer.cache`, :mod:`viewer.gbuffer`, :mod:`viewer.models`, :mod:`viewer.specialize`,
+:mod:`viewer.scene`, :mod:`viewer.lighting`, :mod:`viewer.neural`, :mod:`viewer.passes`.
+"""
 from .graph import FrameGraph, FrameResources, PassNode, ResourceNode
 from .pool import TargetPool
 from .resources import GBufferDesc, Target, TextureDesc

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import warnings
 
-from ..scene import Scene
+from ..scene.description import Scene
 from .graph import FrameGraph
 from .resources import TextureDesc
 

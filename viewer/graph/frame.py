@@ -18,19 +18,18 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..camera import Camera
 from ..models import ShadingModel, model_info
 from ..neural import learns_indirect, reads_visibility
 from ..passes.forward import forward_model, forward_variant, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ssao import hit_targets, low_resolution
-from ..scene import Scene
+from ..scene.camera import Camera
+from ..scene.description import Scene
 from ..specialize import Specialization
 from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
 from .resources import GBufferDesc, TextureDesc
-from .shadows import (cascade_variant, env_to_world, light_shadow_frame,  # noqa: F401
-                      shadow_passes)
+from .shadows import cascade_variant, env_to_world, light_shadow_frame, shadow_passes  # noqa: F401
 
 MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
 

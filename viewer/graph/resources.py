@@ -92,9 +92,9 @@ class ShadowTarget:
 @dataclass(frozen=True)
 class ShadowMapDesc:
     """A square shadow map of ``size`` texels a side, or (``faces=6``) a point light's cube map
-    as an atlas of six such faces, 3 wide and 2 high (viewer/shadows.py ShadowCube), or
+    as an atlas of six such faces, 3 wide and 2 high (viewer/lighting/shadow_frames.py ShadowCube), or
     (``cascades`` 2..4) a directional light's cascades as an atlas of such tiles, 2 wide
-    (viewer/cascades.py)."""
+    (viewer/lighting/cascades.py)."""
 
     size: int
     faces: int = 1

@@ -1,19 +1,25 @@
 """The frame's shadow passes: one map per shadowing light (``shadow<i>`` into ``shadowmap<i>``)
 and for the environment's sun and other compact lights (``shadowsun``, ``shadowenv<k>``); a
-directional light's or the sun's map is cascaded (:mod:`viewer.cascades`) where the scene needs
+directional light's or the sun's map is cascaded (:mod:`viewer.lighting.cascades`) where the scene needs
 it, and only then does the camera enter the pass's inputs."""
 from __future__ import annotations
 
 import dataclasses
 import math
 
-from ..cascades import MAX_TILE, ShadowCascades, cascade_count, cascade_frames
-from ..lights import as_lights, shadowing
+from ..lighting.cascades import MAX_TILE, ShadowCascades, cascade_count, cascade_frames
+from ..lighting.lights import as_lights, shadowing
+from ..lighting.shadow_frames import (
+    EnvShadowFrames,
+    ShadowCube,
+    cube_frames,
+    directional_frame,
+    env_shadow_frames,
+    spot_frame,
+)
 from ..models import ShadeVariant
-from ..scene import Scene
-from ..settings import ShadowSettings
-from ..shadows import (EnvShadowFrames, ShadowCube, cube_frames, directional_frame,
-                       env_shadow_frames, spot_frame)
+from ..scene.description import Scene
+from ..scene.settings import ShadowSettings
 from ..specialize import Specialization
 from .graph import FrameGraph
 from .resources import ShadowMapDesc
@@ -29,7 +35,7 @@ def shadow_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
     lighting pass reads them (LIGHT_SHADOWS, SUN_SHADOW, ENV_SHADOWS). Returns light index (or
     ``"sun"``, ``"env<k>"``) -> (resource, frame, light size: angular radius in radians or
     radius in world units, normal offset) for the lighting pass, and ``"envdirs"`` ->
-    (resource, :class:`~viewer.shadows.EnvShadowFrames`, softness, bias); ``camera``: the view
+    (resource, :class:`~viewer.lighting.shadow_frames.EnvShadowFrames`, softness, bias); ``camera``: the view
     the cascades follow (None: one map each); ``also``: another program that reads the maps
     (the forward pass of transparent surfaces), whose LIGHT_SHADOWS, SUN_SHADOW, ENV_LIGHTS and
     ENV_SHADOWS add to the lighting pass's."""
@@ -138,7 +144,7 @@ def env_shadow_tile(size: int) -> int:
 
 
 def _env_frames(renderer, scene: Scene, bounds, count: int, sunless: bool) -> EnvShadowFrames:
-    """The environment's ``count`` shadow directions (:func:`viewer.envsampling.median_cut` of
+    """The environment's ``count`` shadow directions (:func:`viewer.environment.sampling.median_cut` of
     the light its irradiance map holds: without its compact lights where ``sunless``), turned
     by its rotation, each a frame fitted to ``bounds``."""
     env = scene.environment
@@ -162,7 +168,7 @@ def cascade_variant(variant: ShadeVariant, shadows: dict) -> ShadeVariant:
 
 def _directional(bounds, direction, shadow, camera):
     """A directional light's frame: one map fitted to ``bounds``, or its cascades over what
-    ``camera`` sees where :func:`viewer.cascades.cascade_count` asks for more than one."""
+    ``camera`` sees where :func:`viewer.lighting.cascades.cascade_count` asks for more than one."""
     count = cascade_count(shadow.cascades, bounds, camera, int(shadow.size), direction) \
         if camera is not None else 1
     if count > 1:  # tiles of at most MAX_TILE texels: the atlas is 2 tiles wide
@@ -172,7 +178,7 @@ def _directional(bounds, direction, shadow, camera):
 
 def light_shadow_frame(light, bounds, shadow, camera=None):
     """The shadow frame of ``light`` fitted to ``bounds`` (``shadow``: the render settings'
-    :class:`~viewer.settings.ShadowSettings`): orthographic (cascaded over what ``camera``
+    :class:`~viewer.scene.settings.ShadowSettings`): orthographic (cascaded over what ``camera``
     sees where the scene needs it), perspective (spot) or a cube (point)."""
     if light.type == "spot":
         return spot_frame(bounds, light.position, light.direction, light.outer_cone_deg,

@@ -20,6 +20,8 @@ module       job
 ============ ======================================================================================
 
 Every name below is importable from ``viewer.neural`` itself.
+
+Imports: :mod:`viewer.errors`, :mod:`viewer.cache`; never torch.
 """
 from .contract import (DEFAULT_FEATURES, DEFAULT_LIGHT_INPUT, DEFAULT_OUTPUT, INDIRECT_HIDDEN,
                        STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS,

@@ -28,7 +28,7 @@ architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [..
                 writes the factor for it, :data:`STUDENT_INDIRECT`); ``"sun": true | false``, no
                 key = false (``split3`` only): the student's split-sum base is the IBL without the
                 environment's compact sun plus that sun as an analytic light, as ``ggx_split_sum``
-                shades it (``SUN_LIGHT``, viewer/sun.py), the sun's light with the same learned
+                shades it (``SUN_LIGHT``, viewer/environment/sun.py), the sun's light with the same learned
                 corrections (``lib/neural.glsl`` ``neural_student_sun_split``);
                 ``"multiscatter": true | false``, no key = false (``split3`` only): the base is
                 ``ggx_split_sum`` with its multiple-scattering compensation (``ibl_energy_

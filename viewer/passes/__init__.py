@@ -1,6 +1,17 @@
 """Render passes, one module per ``shaders/passes`` entry point: G-buffer fill (:mod:`.gbuffer`),
 lighting (:mod:`.shade`), transparent surfaces after lighting (:mod:`.forward`), tone mapping
-(:mod:`.tonemap`)."""
+(:mod:`.tonemap`).
+
+Also SSAO (:mod:`.ssao`), shadow maps (:mod:`.shadow`, :mod:`.shadow_bindings`), splats
+(:mod:`.splats`), accumulation (:mod:`.accumulate`), antialiasing (:mod:`.antialias`), debug views
+(:mod:`.debug_view`) and the bounded GPU uploads they draw from (:mod:`.uploads`,
+:mod:`.mesh_uploads`, :mod:`.splat_resources`). A pass never allocates its targets: the frame
+graph (:mod:`viewer.graph`) hands them over.
+
+Imports: :mod:`viewer.errors`, :mod:`viewer.cache`, :mod:`viewer.gl`, :mod:`viewer.gbuffer`,
+:mod:`viewer.models`, :mod:`viewer.scene`, :mod:`viewer.lighting`, :mod:`viewer.geometry`,
+:mod:`viewer.splats`, :mod:`viewer.neural`; never the graph or the renderer.
+"""
 from ..cache import BoundedCache
 from ..gl.programs import on_release
 

@@ -47,12 +47,12 @@ import warnings
 
 import numpy as np
 
-from ..camera import Camera
 from ..gbuffer import GBufferLayout
 from ..geometry.mesh import Mesh
+from ..lighting.lights import Light
 from ..models import ShadeVariant, model_info
-from ..lights import Light
-from ..settings import RenderSettings
+from ..scene.camera import Camera
+from ..scene.settings import RenderSettings
 from . import bind_gbuffer
 from .gbuffer import MeshUploads
 from .shade import set_view_and_lighting
@@ -180,7 +180,7 @@ def warn_unshadowed(variant: ShadeVariant, shadows: dict, light) -> None:
     """Once per process, where the forward ``variant`` reads a map the frame did not draw
     (``shadows``: its maps by light index, ``"sun"``, ``"env<k>"``): the environment's sun, or a
     shadowing light of ``light``, is then unshadowed on transparent surfaces."""
-    from ..lights import as_lights, shadowing
+    from ..lighting.lights import as_lights, shadowing
 
     defines = dict(variant.defines)
     missing = []

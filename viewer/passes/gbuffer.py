@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..cache import CacheStats, texture_bytes
-from ..camera import Camera, gl_bytes
 from ..errors import InputError
 from ..gbuffer import CHANNELS, GBufferLayout
 from ..geometry.imagespace import ImageGBuffer
 from ..geometry.mesh import Mesh
+from ..scene.camera import Camera, gl_bytes
 from . import FullscreenDraw
 from . import set_uniform as _set
 from .mesh_uploads import ANISOTROPY, MeshDraw, MeshUploads, mesh_defines

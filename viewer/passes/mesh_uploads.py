@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cache import BoundedCache, CacheStats, texture_bytes
-from ..camera import Camera, gl_bytes
 from ..geometry.mesh import Mesh, TextureSampling
 from ..gl.programs import on_release
+from ..scene.camera import Camera, gl_bytes
 from . import set_uniform as _set
 from .uploads import UploadCache
 

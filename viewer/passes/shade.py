@@ -11,12 +11,12 @@ import math
 import numpy as np
 
 from ..cache import BoundedCache, CacheStats
-from ..camera import Camera
 from ..gbuffer import GBufferLayout
+from ..lighting.lights import Light, light_uniforms
 from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network, virtual_files
-from ..lights import Light, light_uniforms
-from ..settings import RenderSettings
+from ..scene.camera import Camera
+from ..scene.settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
 from .shadow_bindings import ShadowBindings
@@ -32,7 +32,7 @@ def shade_defines(model: str, settings: RenderSettings,
 def set_view_and_lighting(prog, camera, environment, light) -> None:
     """The view and lighting uniforms of ``passes/deferred.glsl`` and ``passes/lights.glsl``
     (camera frame and position, resolution, environment intensity and rotation, the punctual
-    lights' arrays: ``light`` is a :class:`~viewer.lights.Light`, a tuple of them or None), for
+    lights' arrays: ``light`` is a :class:`~viewer.lighting.lights.Light`, a tuple of them or None), for
     every pass that includes them: the lighting passes and the forward pass of transparent
     surfaces."""
     basis = camera.basis()  # rows: right, up, back
@@ -83,13 +83,13 @@ class ShadePass:
             sun_shadow: tuple | None = None) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
-        ``env_sampling``: the :class:`~viewer.envsampling.EnvSampling` of sampling models;
+        ``env_sampling``: the :class:`~viewer.environment.sampling.EnvSampling` of sampling models;
         ``ssao``: the occlusion texture when ``settings.ssao.enabled``; ``sample_range``: (first index,
         count) of the Monte-Carlo samples this call averages (sampling models only);
         ``variant``: the program (:func:`viewer.specialize.specialise`; default: the model's
         unspecialised variant); ``light``: the lights to shade (``Scene.light``: a tuple, or ``None``);
-        ``shadows``: light index -> (shadow map texture, :class:`~viewer.shadows.ShadowFrame` or
-        :class:`~viewer.shadows.ShadowCube` or :class:`~viewer.cascades.ShadowCascades`, the
+        ``shadows``: light index -> (shadow map texture, :class:`~viewer.lighting.shadow_frames.ShadowFrame` or
+        :class:`~viewer.lighting.shadow_frames.ShadowCube` or :class:`~viewer.lighting.cascades.ShadowCascades`, the
         light's size (angular radius in radians, or radius in world units), normal offset (world units; per unit of distance for perspective
         and cube maps)) for the lights that cast one;
         ``sun_shadow``: the same for the environment's sun (SUN_SHADOW)."""

@@ -1,7 +1,7 @@
 """Shadow maps (``passes/shadow_mesh.vert``, ``shadow_splat.vert``, ``shadow.frag``): the depth of
 the nearest occluder seen from a light, in the light's fitted frame
-(:class:`viewer.shadows.ShadowFrame`: orthographic for directional lights, perspective for spot
-lights; a point light's :class:`~viewer.shadows.ShadowCube` is six perspective faces drawn into the
+(:class:`viewer.lighting.shadow_frames.ShadowFrame`: orthographic for directional lights, perspective for spot
+lights; a point light's :class:`~viewer.lighting.shadow_frames.ShadowCube` is six perspective faces drawn into the
 tiles of one atlas), rendered from the scene's meshes and Gaussian splats.
 
 A mesh that bounds a solid (:func:`viewer.geometry.solid.solid_orientation`) is drawn with only its
@@ -24,13 +24,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bounds import Bounds
 from ..geometry.mesh import Mesh
 from ..geometry.simplify import SimplifiedMesh, lod_level, simplify, whole
 from ..geometry.solid import OPEN, OUTWARD, plane_of
-from ..cascades import ShadowCascades
-from ..lights import MAX_LIGHTS
-from ..shadows import SHADOW_ORTHO, EnvShadowFrames, ShadowCube, ShadowFrame
+from ..lighting.cascades import ShadowCascades
+from ..lighting.lights import MAX_LIGHTS
+from ..lighting.shadow_frames import (
+    SHADOW_ORTHO,
+    EnvShadowFrames,
+    ShadowCube,
+    ShadowFrame,
+)
+from ..scene.bounds import Bounds
 from ..splats.data import Splats
 from .uploads import UploadCache
 
@@ -47,7 +52,7 @@ def splat_shadow_instances(splats: Splats, frame: ShadowFrame) -> np.ndarray:
     depth's slope per texel of offset (the Gaussian's conditional mean depth along each light
     ray, Sigma_zuv Sigma_uv^-1: a flat splat lit at a slant is a slanted surface in the map, not
     one depth). A perspective frame is taken as its affine approximation at each splat's centre
-    (:meth:`~viewer.shadows.ShadowFrame.jacobian`, as EWA splatting projects a Gaussian); splats
+    (:meth:`~viewer.lighting.shadow_frames.ShadowFrame.jacobian`, as EWA splatting projects a Gaussian); splats
     behind a perspective frame's light get opacity 0 (drawn nowhere)."""
     means = splats.means.astype(np.float64)
     centers = frame.project(means)
@@ -268,7 +273,7 @@ def culled_faces(orientation: int, facing: str, bounds, origin) -> str | None:
     """The faces (``"front"`` or ``"back"``, GL's counter-clockwise front) a shadow pass culls
     from a mesh of :func:`~viewer.geometry.solid.solid_orientation` ``orientation`` and
     ``bounds`` (lo, hi): those turned away from the light, whose faces turned towards it wind
-    ``facing`` in the map (:meth:`~viewer.shadows.ShadowFrame.facing_winding`); None (both
+    ``facing`` in the map (:meth:`~viewer.lighting.shadow_frames.ShadowFrame.facing_winding`); None (both
     faces drawn) for an open mesh or a light at ``origin`` inside the mesh's bounds (a lamp in
     a room: its rays leave the solid first)."""
     if orientation == OPEN:

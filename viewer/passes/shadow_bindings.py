@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 
-from ..cascades import MAX_CASCADES, ShadowCascades
-from ..lights import as_lights
-from ..shadows import SHADOW_ORTHO
+from ..lighting.cascades import MAX_CASCADES, ShadowCascades
+from ..lighting.lights import as_lights
+from ..lighting.shadow_frames import SHADOW_ORTHO
 from . import set_uniform as _set
 
 

@@ -33,9 +33,9 @@ from __future__ import annotations
 import dataclasses
 
 from ..cache import BoundedCache, CacheStats, array_bytes
-from ..camera import Camera, gl_bytes
 from ..gbuffer import GBufferLayout
-from ..settings import SPLAT_DEPTHS
+from ..scene.camera import Camera, gl_bytes
+from ..scene.settings import SPLAT_DEPTHS
 from ..splats.data import Splats, concat
 from ..splats.sort import depth_order
 from . import FullscreenDraw

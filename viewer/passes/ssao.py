@@ -10,7 +10,7 @@ learned one (``SSAO_INDIRECT_FACTOR``). The rays are marched once per frame when
 targets (``SSAO_HITS``), and the indirect pass given them reads the hits instead of marching the
 same rays again (the same light, bit for bit; it marches only rays beyond
 :data:`HIT_TARGETS_MAX` targets, and all of them without the occlusion pass). With ``vis_dirs`` (the
-environment's :func:`~viewer.envsampling.power_directions`) the occlusion pass also writes the
+environment's :func:`~viewer.environment.sampling.power_directions`) the occlusion pass also writes the
 screen-space visibility of the environment's light to the g channel (``SSAO_ENV_VIS``), the input
 of the students that see visibility; it marches :data:`ENV_VIS_STEPS` steps up to
 :data:`ENV_VIS_RADIUS` towards each of the :data:`ENV_VIS_DIRECTIONS` directions. These are
@@ -30,9 +30,9 @@ import math
 
 import numpy as np
 
-from ..camera import Camera
 from ..gbuffer import GBufferLayout
-from ..settings import RenderSettings
+from ..scene.camera import Camera
+from ..scene.settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
 

@@ -2,7 +2,10 @@
 PLY I/O (:mod:`.ply`; SuperSplat's compressed PLY: :mod:`.compressed`), the validation every
 reader's fields go through (:mod:`.validate`), the :class:`Splats` arrays (:mod:`.data`), depth
 sorting (:mod:`.sort`) and synthetic scenes with known materials and light (:mod:`.generate`).
-Rendering: :mod:`viewer.passes.splats` (GLSL) and :mod:`learned.splats.rasterize` (torch twin)."""
+Rendering: :mod:`viewer.passes.splats` (GLSL) and :mod:`learned.splats.rasterize` (torch twin).
+
+Imports: :mod:`viewer.errors`; no GL.
+"""
 from __future__ import annotations
 
 import dataclasses

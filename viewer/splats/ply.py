@@ -245,7 +245,7 @@ def _compact(names: list[str]) -> str:
 def write_ply(path, splats: Splats, text: bool = False, comments=()) -> None:
     """Write the relightable layout: 3DGS properties plus ``normal_*``, ``albedo_*``,
     ``roughness``, ``metallic`` (binary little-endian unless ``text``); ``comments``: header
-    comment lines (e.g. ``"up +Z"``, the up-axis marker :mod:`viewer.orientation` reads)."""
+    comment lines (e.g. ``"up +Z"``, the up-axis marker :mod:`viewer.scene.orientation` reads)."""
     n, k = len(splats), splats.sh.shape[1]
     names = ["x", "y", "z", "normal_0", "normal_1", "normal_2", "f_dc_0", "f_dc_1", "f_dc_2"]
     names += [f"f_rest_{i}" for i in range(3 * (k - 1))]

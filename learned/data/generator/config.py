@@ -8,10 +8,9 @@ from pathlib import Path
 
 from assets import ASSET_ROOT
 from viewer.models import MODELS
-from viewer.settings import RenderSettings
+from viewer.scene.settings import RenderSettings
 
 from ..reader import DatasetError
-
 
 SPLIT_PATTERN = ("train",) * 8 + ("val", "test")  # sample i -> SPLIT_PATTERN[i % 10]
 FORMAT = "relight-ffhq-pbr-synthetic/1"

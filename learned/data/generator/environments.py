@@ -6,7 +6,7 @@ import functools
 
 import numpy as np
 
-from viewer.environment import EnvironmentSpec, load_environment, resample
+from viewer.environment.maps import EnvironmentSpec, load_environment, resample
 
 from .config import PROCEDURAL_ENVIRONMENTS, GeneratorConfig, env_file
 

@@ -1,4 +1,4 @@
-"""The generator's scene dicts (``viewer.scene.scene_from_dict`` format, without an environment):
+"""The generator's scene dicts (``viewer.scene.description.scene_from_dict`` format, without an environment):
 random materials and placements, bodies resting on a floor, and one builder per scene kind
 (:func:`random_scene`, :func:`kind_scene`)."""
 from __future__ import annotations
@@ -189,7 +189,7 @@ def _concave_scene(kind: str, rng, config: GeneratorConfig, shapes: dict[str, Pa
 
 
 def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
-    """A scene dict (``viewer.scene.scene_from_dict`` format) without its environment."""
+    """A scene dict (``viewer.scene.description.scene_from_dict`` format) without its environment."""
     objects = []
     for k in range(int(rng.integers(1, 4))):
         center = [float(rng.uniform(-1.0, 1.0)), float(rng.uniform(-0.4, 0.6)),

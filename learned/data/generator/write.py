@@ -13,7 +13,7 @@ from tqdm import tqdm
 
 from viewer.imageio import write_exr
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from ..reader import STDERR_FILE, DatasetError
 from .config import (

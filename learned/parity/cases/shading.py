@@ -98,7 +98,7 @@ PARITY_CASES = [
     ParityCase("sun_specular_weight", (Arg(lo=0.0, hi=1.0), Arg(lo=0.0, hi=0.2)),
                atol=1e-6, rtol=1e-6, measured="exact (seeds 0-3)",
                envelope="one division and one fma before the clamp: 2 ulp of values <= 1"),
-    # the same with the specular weight w in [0, 1] (the environment's sun, viewer/sun.py)
+    # the same with the specular weight w in [0, 1] (the environment's sun, viewer/environment/sun.py)
     ParityCase("ggx_environment_sun",
                (_nonneg3(), _nonneg3(), _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
                 Arg(kind="int", lo=0, hi=1), _UNIT, _UP, _UNIT, _nonneg3(10.0, ((1e5, 0, 65504),)),

@@ -8,7 +8,7 @@ import torch
 
 from learned.twins.antialias import fxaa, ssaa_resolve
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from ..results import ParityResult, compare
 from . import collector

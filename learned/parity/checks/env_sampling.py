@@ -6,9 +6,9 @@ import numpy as np
 import torch
 
 from learned.twins.env_sampling import env_distribution, env_pdf, sample_env
-from viewer.envsampling import build_env_sampling
+from viewer.environment.ibl import IBLOptions, build_ibl
+from viewer.environment.sampling import build_env_sampling
 from viewer.gl.kernels import run_kernel
-from viewer.ibl import IBLOptions, build_ibl
 
 from ..results import compare
 from . import collector

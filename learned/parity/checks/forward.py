@@ -15,12 +15,19 @@ from learned.twins.forward import ForwardLayer, shade_forward
 from viewer.models import model_info
 from viewer.passes.forward import forward_model, forward_variant
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from ..results import compare_envelope, device_filter_bits
 from . import collector
-from .models import MODEL_ATOL, MODEL_RTOL, PARITY_LIGHT, PARITY_SCENE, env_for_pass, \
-    gl_gbuffer, gl_texture
+from .models import (
+    MODEL_ATOL,
+    MODEL_RTOL,
+    PARITY_LIGHT,
+    PARITY_SCENE,
+    env_for_pass,
+    gl_gbuffer,
+    gl_texture,
+)
 
 # (model, render settings, with the [light]): every model that runs forward, and ggx_mc, whose
 # blended surfaces fall back to ggx_split_sum over its own Monte-Carlo opaque radiance
@@ -45,7 +52,7 @@ def blended_quads():
     spheres (one double-sided with a constant COLOR_0 alpha, one emissive metal), one behind the
     left sphere (hidden there by the depth test)."""
     from viewer.geometry.primitives import plane
-    from viewer.material import Material
+    from viewer.scene.material import Material
 
     a = plane(center=(-0.2, 0.1, 0.9), size=(1.2, 0.9), normal=(0.0, 0.1, 1.0),
               material=Material(albedo=(0.9, 0.2, 0.1), roughness=0.3, specular=0.5))

@@ -25,12 +25,17 @@ from learned.twins.ibl import (
     sample_trilinear_envelope,
     sh_project,
 )
-from learned.twins.sh import sh_irradiance
 from learned.twins.ibl_precompute import compose_level as compose_level_twin
 from learned.twins.ibl_precompute import compose_level_envelope
+from learned.twins.sh import sh_irradiance
+from viewer.environment.ibl import (
+    IBLOptions,
+    build_ibl,
+    prefilter_roughness,
+    prefilter_samples,
+)
+from viewer.environment.ibl_build import compose_level, mip_texture
 from viewer.gl.kernels import run_kernel
-from viewer.ibl import IBLOptions, build_ibl, prefilter_roughness, prefilter_samples
-from viewer.ibl_build import compose_level, mip_texture
 
 from ..results import compare, compare_envelope, device_filter_bits
 from . import collector

@@ -10,7 +10,7 @@ import torch
 
 from learned.twins.shade import shade
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from ..results import compare_envelope, device_filter_bits
 from . import collector
@@ -31,7 +31,7 @@ def gl_texture(texture) -> np.ndarray:
 
 
 def env_from_ibl(ibl) -> dict:
-    """The GPU environment resources of :class:`viewer.ibl.IBL`, read back as the ``env`` dict
+    """The GPU environment resources of :class:`viewer.environment.ibl.IBL`, read back as the ``env`` dict
     :func:`shade` takes (level 0 of the radiance, every prefiltered level, the DFG LUT, SH, the irradiance map)."""
     return {"radiance": [torch.from_numpy(ibl.read_level("radiance", 0))],
             "prefiltered": [torch.from_numpy(ibl.read_level("prefiltered", k))

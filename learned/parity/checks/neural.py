@@ -25,7 +25,7 @@ from viewer.neural import (
 )
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from ..results import compare, compare_envelope, device_filter_bits
 from . import collector

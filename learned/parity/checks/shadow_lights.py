@@ -16,8 +16,11 @@ import numpy as np
 import torch
 
 from learned.twins.lights import light_surface_position
-from learned.twins.shadow import (shadow_cascade_visibility, shadow_light_visibility,
-                                  shadow_phi)
+from learned.twins.shadow import (
+    shadow_cascade_visibility,
+    shadow_light_visibility,
+    shadow_phi,
+)
 
 from ..results import compare
 from . import collector
@@ -28,7 +31,7 @@ LIGHTS = {"directional": {"type": "directional", "direction": [0.5, 1.0, 0.2],
           "spot": {"type": "spot", "position": [0.6, 3.0, 0.3], "direction": [0.2, 1.0, 0.1],
                    "outer_cone_deg": 55, "inner_cone_deg": 45, "radius": 0.15},
           "point": {"type": "point", "position": [-0.8, 2.4, 0.6], "radius": 0.15},
-          # 3 cascades over a 100 m floor (viewer/cascades.py)
+          # 3 cascades over a 100 m floor (viewer/lighting/cascades.py)
           "cascaded": {"type": "directional", "direction": [0.5, 1.0, 0.2],
                        "angular_diameter_deg": 3.0}}
 CASCADED = {"floor": 100.0, "render": {"shadow_cascades": 3}}
@@ -43,7 +46,7 @@ GREY = {"albedo": [0.5, 0.5, 0.5], "roughness": 1.0, "specular": 0.0}
 
 def _scene(light: dict | None, floor: float = 8.0, render: dict | None = None,
            environment: dict | None = None):
-    from viewer.scene import scene_from_dict
+    from viewer.scene.description import scene_from_dict
 
     return scene_from_dict({
         "camera": {"position": [0, 5, 0.01], "target": [0, 0, 0], "fov_y": 60, "size": [N, N]},

@@ -5,15 +5,20 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from learned.splats.rasterize import (_pixel_centres, alpha_chunks, project, rasterize,
-                                      splat_tensors)
+from learned.splats.rasterize import (
+    _pixel_centres,
+    alpha_chunks,
+    project,
+    rasterize,
+    splat_tensors,
+)
 from learned.twins.splat import splat_mahalanobis2, splat_median_target
-from viewer.camera import Camera
 from viewer.gbuffer import GBufferLayout
 from viewer.geometry import primitives
-from viewer.material import Material
 from viewer.passes.gbuffer import GBufferPass, GBufferTargets
 from viewer.passes.splats import SplatPass
+from viewer.scene.camera import Camera
+from viewer.scene.material import Material
 from viewer.splats.data import Splats, make_splats
 
 from ..results import compare

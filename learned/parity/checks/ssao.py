@@ -9,7 +9,7 @@ import torch
 from learned.twins.ssao import ssao_blur, ssao_pass, ssao_upsample
 from viewer.passes.ssao import ENV_VIS_RADIUS, ENV_VIS_STEPS
 from viewer.renderer import Renderer
-from viewer.scene import scene_from_dict
+from viewer.scene.description import scene_from_dict
 
 from ..results import ParityResult
 from . import collector

@@ -10,7 +10,7 @@ each other and the panel scrolls within itself.
 
 Built from the registries, so new models and knobs appear without changes here: the model list is
 :data:`viewer.models.MODELS`; the "Shading" section has one widget per field of
-:class:`~viewer.scene.RenderSettings` (bool: checkbox, int: input, float: drag, str: a combo when
+:class:`~viewer.scene.description.RenderSettings` (bool: checkbox, int: input, float: drag, str: a combo when
 the field's choices are known, else a text field); views are :data:`relight.app.state.VIEWS`.
 Sections: :mod:`.scene` (top rows, Camera, Light), :mod:`.material`, :mod:`.settings` (Shading,
 Inspect, Output); :mod:`.overlay` the overlay; :mod:`.layout` sizes widgets so labels show and

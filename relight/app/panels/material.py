@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from viewer.material import Material
+from viewer.scene.material import Material
 
 from ..state import MATERIAL_FIELDS, MaterialOverride
 

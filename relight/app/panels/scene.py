@@ -3,12 +3,17 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from viewer.environment import PROCEDURAL
-from viewer.lights import unit_direction
+from viewer.environment.maps import PROCEDURAL
+from viewer.lighting.lights import unit_direction
 from viewer.models import MODELS
 
-from ..state import DEFAULT_LIGHT, light_angles, light_direction, reset_camera, \
-    with_procedural_environment
+from ..state import (
+    DEFAULT_LIGHT,
+    light_angles,
+    light_direction,
+    reset_camera,
+    with_procedural_environment,
+)
 from .choices import CHOICES, LIMITS
 
 

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ...material import Material
+from ...scene.material import Material
 from ..mesh import Mesh, MeshList
 from .gltf import GLTF_ATTRIBUTES, GLTF_EXTENSIONS, _load_gltf
 from .trimesh_files import _load_trimesh

@@ -1,12 +1,12 @@
 """glTF ``KHR_lights_punctual``: the lights a file's nodes place, as world-space
-:class:`viewer.lights.Light` (the node's transform applied; the mesh object's transform is applied
+:class:`viewer.lighting.lights.Light` (the node's transform applied; the mesh object's transform is applied
 after, by :func:`viewer.geometry.loaders.load_mesh`). Intensities are used as they are: candela as
 W/sr and lux as W/m^2, the project's radiometric convention (docs/explanation/conventions.md)."""
 from __future__ import annotations
 
 import math
 
-from ...lights import Light
+from ...lighting.lights import Light
 
 EXTENSION = "KHR_lights_punctual"
 _USED = {"type", "color", "intensity", "range", "spot", "name"}  # of a light

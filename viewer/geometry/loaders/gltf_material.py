@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InputError
-from ...material import Material
+from ...scene.material import Material
 from ..mesh import TextureSampling
 from .gltf_reader import _GltfReader
 from .images import _color_texture
-
 
 _WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
 _MAG = {9728: "nearest", 9729: "linear"}

@@ -9,7 +9,7 @@ import numpy as np
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
-from ...material import Material
+from ...scene.material import Material
 from ..mesh import Mesh, _normalize, smooth_normals
 from .images import _color_texture, _pil_to_float
 

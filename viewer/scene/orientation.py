@@ -15,7 +15,7 @@ axis comes from, first match wins:
    identity), STL is +Z up (CAD and 3D printing), OBJ, OFF and PLY meshes +Y.
 
 Steps 3-5 are said in one line naming the file, what was assumed and ``--up`` (see
-:mod:`viewer.assets`).
+:mod:`viewer.scene.assets`).
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 UP_AXES = ("+Y", "+Z", "-Y", "-Z", "+X", "-X")
 
@@ -117,7 +117,7 @@ def detect_splat_up(splats) -> tuple[str, str] | None:
     the discs' positions along the axis) where the rest of the content lies: the median of the
     other splats. Far outliers are left out first (per-axis 1 % quantiles, as the bounds do).
     """
-    from .splats.data import quat_to_matrix
+    from ..splats.data import quat_to_matrix
 
     means = np.asarray(splats.means, np.float64)
     if len(means) < 16:

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
 # A sun is a region whose every texel is at least SUN_THRESHOLD times the environment's median
 # luminance, around a peak at least SUN_MIN_PEAK times that median, covering at most
 # SUN_MAX_SOLID_ANGLE sr (the real sun is 6.8e-5 sr; 0.02 sr is a disc of 4.6 degrees radius) and
@@ -69,7 +68,7 @@ def _ring(ys: np.ndarray, xs: np.ndarray, h: int, w: int, width: int = 2
 
 
 def _directions(ys: np.ndarray, xs: np.ndarray, h: int, w: int) -> np.ndarray:
-    """Directions of texel centres, as :func:`viewer.environment.texel_directions`."""
+    """Directions of texel centres, as :func:`viewer.environment.maps.texel_directions`."""
     phi = 2.0 * math.pi * ((xs + 0.5) / w - 0.5)
     theta = math.pi * (ys + 0.5) / h
     st = np.sin(theta)

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError, SceneError
-from .imageio import pixel_type, read_image
+from ..errors import InputError, SceneError
+from ..imageio import pixel_type, read_image
 
 PROCEDURAL = ("sky", "studio", "white")
 MAX_WIDTH = 2048
@@ -86,7 +86,7 @@ def _load_file(path: str) -> np.ndarray:
         raise InputError(f"an equirect environment must be 2:1, this one is {w}x{h}", where=path)
     kind = pixel_type(path)
     if kind in DISPLAY_TYPES:  # PNG, JPEG, 8/16-bit TIFF: display-encoded sRGB, clipped at 1
-        from .geometry.mesh import srgb_to_linear
+        from ..geometry.mesh import srgb_to_linear
 
         arr = srgb_to_linear(arr)
         bits = "".join(ch for ch in kind if ch.isdigit())

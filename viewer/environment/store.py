@@ -2,7 +2,7 @@
 
 :class:`EnvironmentStore` owns, per environment, everything derived from it: the IBL (radiance
 chain, prefiltered chain, irradiance map, SH), the IBL without its compact lights and the lights
-(:func:`viewer.sun.extract_lights`) where it has any, the importance-sampling tables (built on
+(:func:`viewer.environment.sun.extract_lights`) where it has any, the importance-sampling tables (built on
 first use) and the equal-power directions. One entry per environment, keyed by its description with intensity and rotation left out (they are
 shader uniforms), sized by the real bytes of its textures and arrays, in a
 :class:`viewer.cache.BoundedCache`: least recently used environments are evicted beyond
@@ -10,8 +10,8 @@ shader uniforms), sized by the real bytes of its textures and arrays, in a
 environment: the store builds them once.
 
 With ``IBLOptions.prefilter_method = "convolution"`` (the default) a new environment costs one
-convolution on the CPU for both IBLs (:mod:`viewer.ibl_build`), and what it computed is kept in the
-disk cache (:mod:`viewer.envcache`), keyed by the file's content: the same file in a new process
+convolution on the CPU for both IBLs (:mod:`viewer.environment.ibl_build`), and what it computed is kept in the
+disk cache (:mod:`viewer.environment.disk_cache`), keyed by the file's content: the same file in a new process
 uploads the stored results instead of decoding and computing. ``"fis"`` builds two
 importance-sampled chains with no disk cache: the bench's baseline.
 
@@ -28,84 +28,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .cache import BoundedCache, Budgets, CacheStats, array_bytes, mib, texture_bytes
-from .envcache import EnvCache, _one_line, digest_key, file_digest
-from .environment import DISPLAY_TYPES, EnvironmentSpec, load_environment
-from .envsampling import EnvSampling, build_env_sampling, median_cut, power_directions
+from ..cache import BoundedCache, Budgets, CacheStats, mib, texture_bytes
+from ..imageio import pixel_type
+from .disk_cache import EnvCache, _one_line, digest_key, file_digest
+from .entry import Environment, level0
 from .ibl import IBL, IBLOptions, build_ibl, build_luts, mip_sizes
-from .ibl_build import EnvironmentIBLs, build_environment_ibls
-from .imageio import pixel_type
+from .ibl_build import build_environment_ibls
+from .maps import DISPLAY_TYPES, EnvironmentSpec, load_environment
 from .prefilter import level_widths, spectra_bytes
+from .sampling import EnvSampling, build_env_sampling, median_cut, power_directions
 from .sun import Sun, extract_lights
 
 _DEFAULT = object()
-
-
-class Environment:
-    """One environment's derived data (an entry of :class:`EnvironmentStore`)."""
-
-    def __init__(self, source: str, ibls: EnvironmentIBLs | None, lights: tuple[Sun, ...],
-                 directions: np.ndarray | None = None, disk_key: str | None = None,
-                 plain: IBL | None = None, arrays: tuple | None = None):
-        self.source = source              # the file or procedural name (for memory reports)
-        self.ibls = ibls                  # "convolution": both IBLs and their textures
-        self.lights = tuple(lights)       # its compact lights (viewer.sun.extract_lights)
-        self.sun = self.lights[0] if self.lights else None  # the most energetic one
-        self.power_directions = directions  # None until asked for (EnvironmentStore)
-        # (count, sunless) -> median_cut's arrays: the shadow directions (EnvironmentStore)
-        self.shadow_lights: dict[tuple[int, bool], tuple[np.ndarray, ...]] = {}
-        self.disk_key = disk_key          # the disk cache's key, or None
-        self.sampling: EnvSampling | None = None
-        # "fis": the plain IBL, the sun-less one built on first use from the (env, residual) kept
-        self._plain = plain
-        self._sunless: IBL | None = None
-        self._arrays = arrays
-
-    @property
-    def plain(self) -> IBL:
-        return self.ibls.plain if self.ibls is not None else self._plain
-
-    def sunless(self, programs, options: IBLOptions) -> IBL | None:
-        """The IBL without its lights (None without any); "fis" builds it now."""
-        if self.sun is None:
-            return None
-        if self.ibls is not None:
-            return self.ibls.sunless
-        if self._sunless is None:
-            env, residual = self._arrays
-            ibl = build_ibl(programs, env, options, sun=self.sun, residual=residual,
-                            lights=self.lights)
-            ibl.full_prefiltered = self._plain.prefiltered  # owned by the plain IBL
-            self._sunless = ibl
-        return self._sunless
-
-    def textures(self) -> list:
-        out = list(self.ibls.textures) if self.ibls is not None else []
-        for ibl in (self._plain, self._sunless):
-            if ibl is not None:
-                out += list(ibl._owned)
-        if self.sampling is not None:
-            out += [self.sampling.marginal, self.sampling.conditional, self.sampling.pdf]
-        return [t for t in out if t is not None]
-
-    @property
-    def nbytes(self) -> int:
-        sh = [self.plain.sh] + ([] if self.ibls is None or self.ibls.sunless is None
-                                else [self.ibls.sunless.sh])
-        return (sum(texture_bytes(t) for t in self.textures())
-                + array_bytes(self.power_directions, sh, self._arrays)
-                + sum(a.nbytes for v in self.shadow_lights.values() for a in v))
-
-    def release(self) -> None:
-        if self.ibls is not None:
-            self.ibls.release()
-        for ibl in (self._plain, self._sunless):
-            if ibl is not None:
-                ibl.release()
-        if self.sampling is not None:
-            self.sampling.release()
-        self.ibls = self._plain = self._sunless = self.sampling = None
-        self._arrays = None
 
 
 class EnvironmentStore:
@@ -135,7 +69,7 @@ class EnvironmentStore:
 
     def ibl(self, spec: EnvironmentSpec, sun: bool = False) -> IBL:
         """The environment's IBL. ``sun=True``: the one whose prefiltered levels >= 1, irradiance
-        map and SH leave out its compact lights (:func:`viewer.sun.extract_lights`), for passes
+        map and SH leave out its compact lights (:func:`viewer.environment.sun.extract_lights`), for passes
         that shade them (``SUN_LIGHT``, ``ENV_LIGHTS``); the plain IBL where it has none."""
         entry = self._entry(spec)
         if sun and entry.sun is not None:
@@ -151,7 +85,7 @@ class EnvironmentStore:
         return self._entry(spec).sun
 
     def lights(self, spec: EnvironmentSpec) -> tuple[Sun, ...]:
-        """Its compact lights (:func:`viewer.sun.extract_lights`), the sun first, or ()."""
+        """Its compact lights (:func:`viewer.environment.sun.extract_lights`), the sun first, or ()."""
         return self._entry(spec).lights
 
     def env_sampling(self, spec: EnvironmentSpec) -> EnvSampling:
@@ -164,7 +98,7 @@ class EnvironmentStore:
         return entry.sampling
 
     def power_directions(self, spec: EnvironmentSpec) -> np.ndarray:
-        """The environment's equal-power directions (:func:`viewer.envsampling.power_directions`,
+        """The environment's equal-power directions (:func:`viewer.environment.sampling.power_directions`,
         environment frame ``[8, 3]``): computed on first use from the radiance texture's level 0
         (the loaded image, exactly), or read from the disk cache."""
         entry = self._entry(spec)
@@ -176,7 +110,7 @@ class EnvironmentStore:
     def shadow_lights(self, spec: EnvironmentSpec, count: int, sunless: bool
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The environment's light as ``count`` directional lights that cast its shadows
-        (:func:`viewer.envsampling.median_cut`: directions in the environment frame, shares,
+        (:func:`viewer.environment.sampling.median_cut`: directions in the environment frame, shares,
         angular radii), of the image without its compact lights where ``sunless`` (the light
         the irradiance map holds when the compact lights are shaded analytically); computed on
         first use from the radiance texture's level 0."""
@@ -184,7 +118,7 @@ class EnvironmentStore:
         key = (int(count), bool(sunless and entry.lights))
         got = entry.shadow_lights.get(key)
         if got is None:
-            env = _level0(entry)
+            env = level0(entry)
             if key[1]:
                 env = extract_lights(env)[0]
             got = median_cut(env, key[0])
@@ -201,7 +135,7 @@ class EnvironmentStore:
 
     def memory(self) -> dict:
         """What the store holds: the cache's stats, each environment's bytes, the shared LUTs,
-        the process's kernel spectra (:mod:`viewer.prefilter`) and the disk cache's stats."""
+        the process's kernel spectra (:mod:`viewer.environment.prefilter`) and the disk cache's stats."""
         return {"environments": self._cache.stats().as_dict(),
                 "entries": [{"source": e.source, "bytes": e.nbytes,
                              "sampling": e.sampling is not None}
@@ -388,7 +322,7 @@ class EnvironmentStore:
             got = self.disk.load(entry.disk_key, "directions", {"power_directions": (8, 3)})
             if got is not None:
                 return got[0]["power_directions"]
-        directions = power_directions(_level0(entry))
+        directions = power_directions(level0(entry))
         if entry.disk_key is not None and self.disk is not None:
             self.disk.save(entry.disk_key, "directions",
                            {"power_directions": directions.astype(np.float32)}, {})
@@ -416,10 +350,3 @@ class EnvironmentStore:
         return (f"EnvironmentStore({s.items} environments, {mib(s.bytes)} of "
                 f"{mib(s.max_bytes)})")
 
-
-def _level0(entry: Environment) -> np.ndarray:
-    """The environment's radiance texture's level 0 (the loaded image, exactly), ``[H, W, 3]``
-    float32, read back once for what is computed from it on first use."""
-    radiance = entry.plain.radiance
-    return np.frombuffer(radiance.read(), np.float32).reshape(
-        radiance.height, radiance.width, 4)[..., :3]

@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .errors import SceneError
+from ..errors import SceneError
 
 MAX_LIGHTS = 8  # uniform array entries a lighting pass compiles at most (LIGHT_COUNT)
 LIGHT_TYPES = ("directional", "point", "spot")
@@ -112,7 +112,7 @@ def as_lights(light) -> tuple[Light, ...]:
 def shadowing(light, shadows: bool = True) -> tuple[int, ...]:
     """Indices of the lights that cast a shadow map (those with ``shadow`` set), when shadows are
     on (``[render] shadows``): directional lights an orthographic map, spot lights a perspective
-    one, point lights a cube map (:mod:`viewer.shadows`)."""
+    one, point lights a cube map (:mod:`viewer.lighting.shadow_frames`)."""
     if not shadows:
         return ()
     return tuple(i for i, li in enumerate(as_lights(light)) if li.shadow)

@@ -1,5 +1,5 @@
 """The on-disk cache of environment precomputation: what
-:class:`viewer.environments.EnvironmentStore` computes for an environment (the loaded image, its sun, the convolved prefiltered levels, SH
+:class:`viewer.environment.store.EnvironmentStore` computes for an environment (the loaded image, its sun, the convolved prefiltered levels, SH
 coefficients, equal-power directions, later its importance-sampling tables; the DFG LUTs once), so
 the same file in a new process skips the file's decoding and every CPU and GPU precomputation.
 

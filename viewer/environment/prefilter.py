@@ -1,12 +1,12 @@
 """The GGX-prefiltered chain by exact convolution on the CPU (``IBLOptions.prefilter_method =
-"convolution"``, the default; :mod:`viewer.ibl_build` puts the result on the GPU).
+"convolution"``, the default; :mod:`viewer.environment.ibl_build` puts the result on the GPU).
 
 Level k >= 1 of the chain holds, at each texel direction n, the split-sum's first term with
 n = v = r (Karis 2013): the radiance weighted by the GGX kernel
 
     k(n.l) = D(h) max(n.l, 0),  h = normalize(n + l),  alpha = alpha_k
 
-(:func:`viewer.ibl.prefilter_roughness`), normalised by its integral. It depends on n.l alone (a
+(:func:`viewer.environment.ibl.prefilter_roughness`), normalised by its integral. It depends on n.l alone (a
 zonal kernel), so on an equirect map it is a convolution along each row: output row o and source
 row s interact through a kernel row K_os(dphi), and the sum over every source texel is, per
 frequency of an FFT along the rows, one matrix product (rows_out x rows_src) @ (rows_src x
@@ -67,7 +67,7 @@ def working_map(env: np.ndarray, width: int) -> np.ndarray:
     """``env [H, W, 3]`` at ``width`` (a power of two): solid-angle-weighted 2x2 means down to it
     (the radiance chain's own rule), or bilinear upsampling (u wraps, v clamps: what GL's LINEAR
     filter reads at the new texel centres) up to it."""
-    from .environment import resample
+    from .maps import resample
 
     env = np.ascontiguousarray(env[..., :3], dtype=np.float32)
     while env.shape[1] > width:
@@ -229,7 +229,7 @@ def prefilter_levels(work: np.ndarray, roughness: list[float], widths: list[int]
 # ---- the sun, as points ---------------------------------------------------------------------
 
 def sun_texels(env: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(rows, columns, excess [n, 3] float64)``: the texels :func:`viewer.sun.extract_sun` took
+    """``(rows, columns, excess [n, 3] float64)``: the texels :func:`viewer.environment.sun.extract_sun` took
     the sun out of and the light it took (``env - residual`` there; zero everywhere else)."""
     ys, xs = np.nonzero((env[..., :3] != residual[..., :3]).any(axis=-1))
     excess = env[ys, xs, :3].astype(np.float64) - residual[ys, xs, :3].astype(np.float64)

@@ -28,7 +28,7 @@ Example::
     metallic = 0.0
     specular = 0.5
 
-    [[lights]]                       # optional, up to 8 (viewer.lights); absent: none
+    [[lights]]                       # optional, up to 8 (viewer.lighting.lights); absent: none
     type = "directional"             # directional | point | spot
     direction = [0.3, 1.0, 0.5]      # towards the light, world space; normalised on load
     color = [1.0, 0.95, 0.9]         # linear RGB
@@ -48,7 +48,7 @@ Example::
     splat_depth = "expected"         # splat depth: expected (eq. 6.10) | median (robust to floaters)
 
 The typed readers of one value and the ``[render]`` table's validation (:func:`validate_render`)
-are in :mod:`viewer.scene_checks`; writing scenes back to TOML is :mod:`viewer.scene_io`.
+are in :mod:`viewer.scene.checks`; writing scenes back to TOML is :mod:`viewer.scene.files`.
 """
 from __future__ import annotations
 
@@ -58,13 +58,12 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from ..environment.maps import EnvironmentSpec
+from ..errors import SceneError
+from ..lighting.lights import DirectionalLight, Light, check_count, unit_direction
+from ..lighting.tables import parse_light, parse_lights
 from .camera import Camera
-from .environment import EnvironmentSpec
-from .errors import SceneError
-from .light_tables import parse_light, parse_lights
-from .lights import DirectionalLight, Light, check_count, unit_direction
-from .material import Material
-from .scene_checks import (
+from .checks import (
     BACKGROUNDS,
     MIS_HEURISTICS,
     PRECISIONS,
@@ -77,6 +76,7 @@ from .scene_checks import (
     _vec,
     validate_render,
 )
+from .material import Material
 from .settings import RenderSettings
 
 try:
@@ -84,7 +84,7 @@ try:
 except ImportError:  # pragma: no cover - Python < 3.11
     import tomli as tomllib  # type: ignore[no-redef]
 
-# BACKGROUNDS, MIS_HEURISTICS, PRECISIONS, TONEMAPS and validate_render live in viewer.scene_checks
+# BACKGROUNDS, MIS_HEURISTICS, PRECISIONS, TONEMAPS and validate_render live in viewer.scene.checks
 __all__ = ["BACKGROUNDS", "MIS_HEURISTICS", "OBJECT_TYPES", "PRECISIONS", "TONEMAPS",
            "DirectionalLight", "Light", "ObjectSpec", "Scene", "load_scene", "parse_camera",
            "parse_environment", "parse_light", "parse_lights", "parse_material", "parse_object", "parse_render",
@@ -121,9 +121,9 @@ class Scene:
     objects: tuple[ObjectSpec, ...] = ()
     render: RenderSettings = RenderSettings()
     source: str | None = None  # the TOML file it came from
-    lights: tuple[Light, ...] = ()  # ``[light]`` then ``[[lights]]`` (viewer.lights), world space
+    lights: tuple[Light, ...] = ()  # ``[light]`` then ``[[lights]]`` (viewer.lighting.lights), world space
     # the mesh objects' own lights (glTF KHR_lights_punctual, world space): None until the
-    # renderer gathers them (viewer.lights.gather_lights), never written to a scene file
+    # renderer gathers them (viewer.lighting.lights.gather_lights), never written to a scene file
     object_lights: tuple[Light, ...] | None = None
 
     @property

@@ -1,6 +1,6 @@
 """Environment importance sampling: the 2D distribution ``luminance x sin(theta)`` built on the GPU.
 
-:func:`build_env_sampling` turns the level-0 radiance texture of an :class:`~viewer.ibl.IBL` (an
+:func:`build_env_sampling` turns the level-0 radiance texture of an :class:`~viewer.environment.ibl.IBL` (an
 equirect ``W x H`` RGBA32F texture) into three R32F textures that ``lib/env_sampling.glsl`` samples
 (marginal + conditional CDFs and the per-texel density), in three compute passes:
 
@@ -88,7 +88,7 @@ def _r32f(ctx, width: int, height: int):
 
 def build_env_sampling(programs, radiance) -> EnvSampling:
     """The sampling distribution of the equirect ``radiance`` texture (level 0 is read; W x H with
-    W = 2H, as :func:`viewer.ibl.build_ibl` makes it), computed on the GPU of ``programs.ctx``."""
+    W = 2H, as :func:`viewer.environment.ibl.build_ibl` makes it), computed on the GPU of ``programs.ctx``."""
     ctx = programs.ctx
     w, h = radiance.width, radiance.height
     func = _r32f(ctx, w, h)

@@ -1,10 +1,10 @@
 """Assets opened without a scene file: ``relight render model.glb`` builds the scene itself.
 
-:func:`open_assets` turns asset files into a :class:`~viewer.scene.Scene`: one object per file,
+:func:`open_assets` turns asset files into a :class:`~viewer.scene.description.Scene`: one object per file,
 its kind told from the extension and, for PLY, the header (a mesh, or a Gaussian-splat cloud of
 any :mod:`viewer.splats.ply` layout); each rotated so that its up is the scene's +Y
-(:mod:`viewer.orientation`); a camera framed on the union of their bounds
-(:mod:`viewer.framing`; splat clouds by their robust bounds, :mod:`viewer.bounds`); an
+(:mod:`viewer.scene.orientation`); a camera framed on the union of their bounds
+(:mod:`viewer.scene.framing`; splat clouds by their robust bounds, :mod:`viewer.scene.bounds`); an
 environment (a procedural name or a file) and, on request, a floor plane under them.
 
 ==========================================  =========  =============================================
@@ -28,14 +28,21 @@ import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from ..environment.maps import PROCEDURAL, EnvironmentSpec
+from ..errors import AssetNote, InputError, SceneError
 from .bounds import Bounds, content_bounds, points_bounds
 from .camera import Camera
-from .environment import PROCEDURAL, EnvironmentSpec
-from .errors import AssetNote, InputError, SceneError
+from .description import ObjectSpec, Scene
 from .framing import floor_object, frame_camera, object_bounds
-from .orientation import (UP_AXES, detect_splat_up, is_splat_ply, marked_up, normalize_up,
-                          ply_header, up_matrix)
-from .scene import ObjectSpec, Scene
+from .orientation import (
+    UP_AXES,
+    detect_splat_up,
+    is_splat_ply,
+    marked_up,
+    normalize_up,
+    ply_header,
+    up_matrix,
+)
 
 MESH_SUFFIXES = (".gltf", ".glb", ".obj", ".off", ".stl")
 SPLAT_SUFFIXES = (".splat", ".spz", ".ksplat")
@@ -112,7 +119,7 @@ def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool =
                 size: tuple[int, int] | None = None, fov_y: float | None = None) -> OpenedAssets:
     """The scene of the asset files ``paths`` (module docstring).
 
-    ``env``: a procedural name (:data:`viewer.environment.PROCEDURAL`) or an environment file;
+    ``env``: a procedural name (:data:`viewer.environment.maps.PROCEDURAL`) or an environment file;
     ``up``: one of :data:`UP_AXES` for every asset (wins over markers and detection); ``floor``:
     a plane under the bounds; ``size``: the camera's (W, H); ``fov_y``: degrees (default the
     scene's). Errors are one-line :class:`InputError` / :class:`SceneError` naming the file.
@@ -189,7 +196,7 @@ def _load(path: Path, absolute: str, kind: str, forced: str | None):
     if forced is None and suffix == ".ply":
         marker = marked_up(ply_header(path)[0])
     if kind == "mesh":
-        from .geometry.loaders import load_mesh
+        from ..geometry.loaders import load_mesh
 
         if forced is not None:
             up, why = forced, None
@@ -202,7 +209,7 @@ def _load(path: Path, absolute: str, kind: str, forced: str | None):
         content = load_mesh(absolute, transform=None if transform is None else
                             _matrix(transform))
     else:
-        from .splats import read_splats, transform_splats
+        from ..splats import read_splats, transform_splats
 
         raw = read_splats(absolute)
         if forced is not None:

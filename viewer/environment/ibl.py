@@ -1,15 +1,15 @@
 """Image-based lighting precomputation (compute shaders in ``shaders/passes/ibl_*.comp``).
 
 :func:`build_ibl` turns an equirect environment ``[H, W, 3]`` (from
-:func:`viewer.environment.load_environment`) into what the shading passes sample:
+:func:`viewer.environment.maps.load_environment`) into what the shading passes sample:
 
 * ``radiance``: RGBA32F equirect texture with a box-filtered mip chain made by our own
   ``ibl_downsample.comp`` (level k is ``W >> k`` by ``max(H >> k, 1)``, down to 1x1).
 * ``prefiltered``: RGBA32F chain of ``levels`` mips; level k >= 1 holds the radiance prefiltered
   with the GGX lobe at alpha = ``2^(k - (levels - 1))`` (:func:`prefilter_roughness`; level 0
   is the radiance itself). ``IBLOptions.prefilter_method`` says how: ``"convolution"`` (the
-  default) sums every texel exactly on the CPU (:mod:`viewer.prefilter`) at a working width and
-  composes the levels on the GPU with the sun added at full resolution (:mod:`viewer.ibl_build`);
+  default) sums every texel exactly on the CPU (:mod:`viewer.environment.prefilter`) at a working width and
+  composes the levels on the GPU with the sun added at full resolution (:mod:`viewer.environment.ibl_build`);
   a map narrower than ``prefilter_width`` gets a chain that wide. ``"fis"`` (the method before)
   is filtered importance sampling (Krivanek & Colbert 2008) with Hammersley points
   (``ibl_prefilter``), in compute, one full chain per IBL.
@@ -17,7 +17,7 @@
   exact texel solid angle, reduced on the CPU in float64): kept for analyses; the passes read
   ``irradiance`` instead.
 * ``irradiance``: RGBA32F equirect map of the exact cosine convolution of the environment (the
-  residual's with a sun), :func:`viewer.irradiance.irradiance_map`, looked up per normal by
+  residual's with a sun), :func:`viewer.environment.irradiance.irradiance_map`, looked up per normal by
   ``irradiance_lookup`` in ``lib/ibl.glsl``: the diffuse term of every model.
 * ``dfg``: RG32F split-sum LUT, x = n.v, y = perceptual roughness (``ibl_dfg.comp``).
 * ``dominant``: R32F LUT on the same grid, the specular dominant direction's lerp factor
@@ -34,7 +34,8 @@ import math
 
 import numpy as np
 
-from .ibl_core import (  # noqa: F401 - re-exported: viewer.ibl is the public module
+from .ibl_build import build_environment_ibls
+from .ibl_core import (  # noqa: F401 - re-exported: viewer.environment.ibl is the public module
     _GROUP,
     _SH_RUN,
     IBL,
@@ -45,14 +46,13 @@ from .ibl_core import (  # noqa: F401 - re-exported: viewer.ibl is the public mo
     _groups,
     _validate,
     build_luts,
+    irradiance_texture,
     mip_sizes,
     prefilter_lod,
     prefilter_roughness,
     prefilter_samples,
     sh_project,
 )
-from .ibl_build import build_environment_ibls
-from .ibl_core import irradiance_texture
 from .irradiance import IRRADIANCE_WIDTH, irradiance_map
 from .sun import extract_lights
 
@@ -62,14 +62,14 @@ def build_ibl(programs, env: np.ndarray, options: IBLOptions = IBLOptions(),
     """Precompute the IBL resources of ``env`` (``[H, W, 3]`` float32 linear radiance, H = W / 2,
     W a power of two) on the GPU of ``programs.ctx``; the IBL owns its textures.
 
-    With ``sun`` and ``residual`` (:func:`viewer.sun.extract_sun` of ``env``), the prefiltered
+    With ``sun`` and ``residual`` (:func:`viewer.environment.sun.extract_sun` of ``env``), the prefiltered
     chain and the SH are computed from ``residual``, the environment without its sun, which the
     passes then shade analytically; the radiance chain (background, Monte-Carlo models) keeps
     ``env``. With the ``"convolution"`` method that IBL also owns the whole environment's chain
     (``full_prefiltered``), made from the same convolution with the sun added back; without
     ``residual`` the environment's compact sun is found here (the chain is the residual's
-    convolution plus the sun, as :class:`viewer.environments.EnvironmentStore` builds it).
-    ``lights``: every light ``residual`` leaves out (:func:`viewer.sun.extract_lights`; default
+    convolution plus the sun, as :class:`viewer.environment.store.EnvironmentStore` builds it).
+    ``lights``: every light ``residual`` leaves out (:func:`viewer.environment.sun.extract_lights`; default
     ``(sun,)``)."""
     if options.prefilter_method == "convolution":
         plain_only = residual is None

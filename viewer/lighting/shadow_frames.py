@@ -3,7 +3,7 @@
 Three kinds, one per light type (the ``SHADOW_*`` constants of ``lib/shadow.glsl``):
 
 * **orthographic** (directional lights, the environment's sun): a view along the light fitted to
-  the scene's bounds (:mod:`viewer.bounds`): the box's corners projected onto the light's axes
+  the scene's bounds (:mod:`viewer.scene.bounds`): the box's corners projected onto the light's axes
   give the map's extent in x and y (no texel is spent outside the scene) and its depth range
   (depth precision is spent only where there is geometry);
 * **perspective** (spot lights): a square frustum from the light's position along its axis whose
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bounds import Bounds
+from ..scene.bounds import Bounds
 
 SHADOW_ORTHO, SHADOW_PERSPECTIVE, SHADOW_CUBE = 1, 2, 3  # lib/shadow.glsl's kinds (0: none)
 MAX_SPOT_HALF_ANGLE_DEG = 80.0  # a wider spot's map is clamped to this (tan grows without bound)
@@ -253,7 +253,7 @@ ENV_SHADOW_MAX_RADIUS = 0.15
 
 @dataclass(frozen=True)
 class EnvShadowFrames:
-    """The environment's shadow directions (:func:`viewer.envsampling.median_cut`), each an
+    """The environment's shadow directions (:func:`viewer.environment.sampling.median_cut`), each an
     orthographic frame fitted to the scene's bounds, drawn into a tile of one atlas 2 tiles wide
     (the addressing of cascade tiles: ``lib/shadow.glsl`` ``shadow_tile_visibility``).
     ``directions`` unit, world space, towards each light; ``shares`` each one's part of the

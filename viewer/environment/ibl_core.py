@@ -1,7 +1,7 @@
 """The IBL's data (:class:`IBLOptions`, :class:`IBL`, the level <-> roughness map) and the GPU
 passes both prefilter methods share: the radiance chain's downsampling, the SH projection and the DFG /
-dominant-direction LUTs. :mod:`viewer.ibl` builds IBLs from them (and re-exports every name here);
-:mod:`viewer.ibl_build` is the convolution method's builder.
+dominant-direction LUTs. :mod:`viewer.environment.ibl` builds IBLs from them (and re-exports every name here);
+:mod:`viewer.environment.ibl_build` is the convolution method's builder.
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 _GROUP = 8  # local size of the 2D ibl_*.comp passes (8 x 8)
 _SH_RUN = 64  # texels of a row one ibl_sh.comp invocation sums (SH_RUN there)
@@ -23,7 +23,7 @@ PREFILTER_METHODS = ("convolution", "fis")
 @dataclass(frozen=True)
 class IBLOptions:
     prefilter_levels: int = 6     # mips of the prefiltered chain (capped at the full chain length)
-    # "convolution": exact sum over every texel on the CPU (viewer.prefilter), one chain for an
+    # "convolution": exact sum over every texel on the CPU (viewer.environment.prefilter), one chain for an
     # environment and its sun-less IBL (the sun added as points); "fis": filtered importance
     # sampling in compute with prefilter_samples, one full chain per IBL (the method before)
     prefilter_method: str = "convolution"
@@ -100,21 +100,21 @@ class IBL:
         self.dfg = dfg                  # moderngl.Texture, RG32F, [dfg_size, dfg_size]
         self.dominant = dominant        # moderngl.Texture, R32F, [dfg_size, dfg_size]
         self.sh = sh                    # [9, 3] float32 radiance SH coefficients
-        # moderngl.Texture, RGBA32F: the exact irradiance map (viewer.irradiance; rows from pole
+        # moderngl.Texture, RGBA32F: the exact irradiance map (viewer.environment.irradiance; rows from pole
         # to pole), of the same environment as the prefiltered chain (the residual with a sun)
         self.irradiance = irradiance
         self.levels = levels            # mips in `prefiltered`
         self.options = options
-        # viewer.sun.Sun: taken out of the prefiltered chain and the SH (the radiance chain keeps
+        # viewer.environment.sun.Sun: taken out of the prefiltered chain and the SH (the radiance chain keeps
         # it), shaded analytically by passes with SUN_LIGHT; None: not taken out
         self.sun = sun
-        # every light taken out (viewer.sun.extract_lights), the sun first; () without a sun
+        # every light taken out (viewer.environment.sun.extract_lights), the sun first; () without a sun
         self.lights = tuple(lights) if lights else ((sun,) if sun is not None else ())
         # with a sun: the prefiltered chain of the whole environment (the plain IBL's, not owned),
         # which SUN_LIGHT passes read where the lobe is narrower than the sun
         self.full_prefiltered = None
         # the textures release() frees (default: radiance, prefiltered, dfg, dominant); an IBL of a
-        # viewer.environments.EnvironmentStore owns none: the store frees them on eviction
+        # viewer.environment.store.EnvironmentStore owns none: the store frees them on eviction
         self._owned = (list(owned) if owned is not None else
                        [t for t in (radiance, prefiltered, dfg, dominant, irradiance)
                         if t is not None])
@@ -183,7 +183,7 @@ class IBL:
 
 
 def irradiance_texture(ctx, irradiance: np.ndarray):
-    """The RGBA32F texture of an irradiance map ``[h, w, 3]`` (:func:`viewer.irradiance.
+    """The RGBA32F texture of an irradiance map ``[h, w, 3]`` (:func:`viewer.environment.irradiance.
     irradiance_map`): LINEAR, REPEAT in u, CLAMP in v (``irradiance_lookup`` in lib/ibl.glsl)."""
     h, w = irradiance.shape[:2]
     rgba = np.concatenate([np.asarray(irradiance[..., :3], np.float32),
@@ -259,7 +259,7 @@ def sh_project(programs, texture) -> np.ndarray:
 def build_luts(programs, options: IBLOptions = IBLOptions()) -> tuple:
     """``(dfg, dominant)``: the split-sum DFG LUT (RG32F) and the dominant-direction LUT (R32F),
     ``options.dfg_size`` square, from ``ibl_dfg.comp`` (independent of the environment: an
-    :class:`viewer.environments.EnvironmentStore` builds them once)."""
+    :class:`viewer.environment.store.EnvironmentStore` builds them once)."""
     ctx = programs.ctx
     n = int(options.dfg_size)
     dfg = ctx.texture((n, n), 2, dtype="f4")

@@ -64,10 +64,10 @@ def frame_camera(bounds: Bounds, fov_y: float, size: tuple[int, int],
 
 
 def floor_object(bounds: Bounds):
-    """A ``plane`` :class:`~viewer.scene.ObjectSpec` (normal +Y, :data:`FLOOR_MATERIAL`)
+    """A ``plane`` :class:`~viewer.scene.description.ObjectSpec` (normal +Y, :data:`FLOOR_MATERIAL`)
     touching the bounds' bottom, :data:`FLOOR_EXTENT` x their larger horizontal side across,
     so shadows have somewhere to fall."""
-    from .scene import ObjectSpec
+    from .description import ObjectSpec
 
     lo, hi = np.asarray(bounds.lo), np.asarray(bounds.hi)
     side = float(max(hi[0] - lo[0], hi[2] - lo[2], 1e-3 * max(bounds.radius, 1e-6)))

@@ -2,7 +2,7 @@
 :func:`_int`, :func:`_str`, :func:`_path`, unknown keys :func:`_check_keys`), each a one-line
 :class:`~viewer.errors.SceneError` naming the file and the key, and the ``[render]`` table's
 validation (:func:`validate_render`), shared by scene files, ``Scene.with_render`` and the CLI.
-The tables themselves become dataclasses in :mod:`viewer.scene`."""
+The tables themselves become dataclasses in :mod:`viewer.scene.description`."""
 from __future__ import annotations
 
 import math
@@ -10,12 +10,20 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .errors import SceneError
-from .models import MODELS, SAMPLINGS
-from .neural.glsl import WEIGHT_STORAGES
-from .settings import (AA_MODES, LOD_ERROR_MAX, CONTACT_SHADOWS, ENV_SHADOWS_MAX, RENDER_KEYS,
-                       SHADOW_BUDGET_MAX, SPLAT_DEPTHS, SSAA_MAX, SSAO_SCALE_MAX)
-
+from ..errors import SceneError
+from ..models import MODELS, SAMPLINGS
+from ..neural.glsl import WEIGHT_STORAGES
+from .settings import (
+    AA_MODES,
+    CONTACT_SHADOWS,
+    ENV_SHADOWS_MAX,
+    LOD_ERROR_MAX,
+    RENDER_KEYS,
+    SHADOW_BUDGET_MAX,
+    SPLAT_DEPTHS,
+    SSAA_MAX,
+    SSAO_SCALE_MAX,
+)
 
 TONEMAPS = ("pbr_neutral", "aces", "agx", "reinhard", "none")
 BACKGROUNDS = ("environment", "transparent")

@@ -1,6 +1,6 @@
 """Cascaded shadow maps of directional lights (and the environment's sun) over large scenes.
 
-One orthographic map fitted to the whole scene (:func:`viewer.shadows.directional_frame`) spends
+One orthographic map fitted to the whole scene (:func:`viewer.lighting.shadow_frames.directional_frame`) spends
 its texels evenly over the scene: on a 100 m floor a 2048 map's texel is 5 cm, coarse beside the
 pixels of what is near the camera. Cascades split the view frustum, clipped to the scene's bounds,
 by view depth and give each slice its own map (Filament's and Engel's scheme):
@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bounds import Bounds
-from .shadows import SHADOW_ORTHO, ShadowFrame, light_basis
+from ..scene.bounds import Bounds
+from .shadow_frames import SHADOW_ORTHO, ShadowFrame, light_basis
 
 MAX_CASCADES = 4
 MAX_TILE = 4096           # texels a side of a cascade's tile at most (the atlas is 2 tiles wide)
@@ -92,7 +92,7 @@ class ShadowCascades:
 
 def square_frame(bounds: Bounds, direction, resolution: int, margin: float = 0.01
                  ) -> ShadowFrame:
-    """:func:`~viewer.shadows.directional_frame` with a square extent (the larger side's), so
+    """:func:`~viewer.lighting.shadow_frames.directional_frame` with a square extent (the larger side's), so
     a cascade's scale is the same along u and v."""
     basis = light_basis(direction)
     corners = bounds.corners() @ basis.T
@@ -126,7 +126,7 @@ def _clip(poly: list, n: np.ndarray, d: float) -> list:
 
 def _faces(corners: np.ndarray) -> list:
     """The six quads of a hexahedron whose corners are indexed by bits (x, y, z) as
-    :meth:`viewer.bounds.Bounds.corners` orders them."""
+    :meth:`viewer.scene.bounds.Bounds.corners` orders them."""
     quads = ((0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5))
     return [[corners[i] for i in q] for q in quads]
 

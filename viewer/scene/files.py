@@ -1,4 +1,4 @@
-"""Writing scenes back to TOML: the inverse of :func:`viewer.scene.load_scene`.
+"""Writing scenes back to TOML: the inverse of :func:`viewer.scene.description.load_scene`.
 
     save_scene(scene, "edited.toml")
     load_scene("edited.toml") == scene      # up to ``source``: equal dataclasses, equal pixels
@@ -17,9 +17,9 @@ from typing import Any
 
 import tomli_w
 
-from .errors import SceneError
-from .light_tables import light_table
-from .scene import ObjectSpec, Scene
+from ..errors import SceneError
+from ..lighting.tables import light_table
+from .description import ObjectSpec, Scene
 
 
 def _plain(value: Any) -> Any:

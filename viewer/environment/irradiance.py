@@ -5,7 +5,7 @@ the surface normal. Nine SH coefficients (Ramamoorthi & Hanrahan 2001) hold it o
 environment has no compact bright light: a light of a few degrees projects onto every band, the
 truncation rings, and the floor of a studio (several lamps, max / mean radiance ~1000) came out
 25 % bright against the exact sum (``relight bench environments``, "diffuse floor" rows). Here the
-sum is taken over every texel instead, as :mod:`viewer.prefilter` does for the GGX lobe: the kernel
+sum is taken over every texel instead, as :mod:`viewer.environment.prefilter` does for the GGX lobe: the kernel
 max(n.l, 0) depends on n.l alone, so on an equirect map it is a convolution along each row, one
 matrix product per frequency of an FFT along the rows (no samples, no band limit).
 
@@ -73,7 +73,7 @@ def irradiance_map(env: np.ndarray, width: int = IRRADIANCE_WIDTH,
     ``env [H, W, 3]`` of L max(n.l, 0) dw at the texel centres of an equirect map ``width`` wide
     (a power of two >= 4; a narrower environment is first upsampled bilinearly to it). A unit
     constant environment gives pi. With ``texels = (rows, columns, excess [n, 3])`` (the light
-    :func:`viewer.sun.extract_lights` took out), ``(E of env, E of env minus the excess)`` from
+    :func:`viewer.environment.sun.extract_lights` took out), ``(E of env, E of env minus the excess)`` from
     one convolution."""
     from .prefilter import box_down_sparse, working_map
 

@@ -1,13 +1,13 @@
 """The scene file's light tables: ``[[lights]]`` entries and the older ``[light]`` parsed into
-:class:`viewer.lights.Light` (one-line :class:`~viewer.errors.SceneError` s naming the key), and
+:class:`viewer.lighting.lights.Light` (one-line :class:`~viewer.errors.SceneError` s naming the key), and
 written back (:func:`light_table`)."""
 from __future__ import annotations
 
 from typing import Any
 
-from .errors import SceneError
+from ..errors import SceneError
+from ..scene.checks import _check_keys, _num, _str, _vec
 from .lights import LIGHT_TYPES, Light, check_count, unit_direction
-from .scene_checks import _check_keys, _num, _str, _vec
 
 # keys each type takes in [[lights]] (besides type, color, intensity)
 _KEYS = {"directional": {"direction", "angular_diameter_deg", "shadow"},

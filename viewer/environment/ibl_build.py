@@ -1,6 +1,6 @@
 """An environment's IBLs with ``IBLOptions.prefilter_method = "convolution"``: one prefiltered
-convolution (:mod:`viewer.prefilter`, on the CPU) serves both the whole environment's IBL and, when
-it has a compact sun (:func:`viewer.sun.extract_sun`), the sun-less one.
+convolution (:mod:`viewer.environment.prefilter`, on the CPU) serves both the whole environment's IBL and, when
+it has a compact sun (:func:`viewer.environment.sun.extract_sun`), the sun-less one.
 
 The convolution runs on the residual (the environment without its sun, or the environment when it
 has none) at the working width; ``ibl_compose.comp`` writes each level into the sun-less chain as is
@@ -12,9 +12,9 @@ Textures are allocated with their mip levels directly (:func:`mip_texture`): mod
 levels only through glGenerateMipmap, which on llvmpipe costs 0.2-0.4 s for a 2048-wide map and
 computes levels the passes overwrite anyway.
 
-:func:`build_environment_ibls` returns the textures, the two :class:`~viewer.ibl.IBL` objects (which
+:func:`build_environment_ibls` returns the textures, the two :class:`~viewer.environment.ibl.IBL` objects (which
 own none of them: :class:`EnvironmentIBLs` does) and the CPU results the disk cache keeps
-(:mod:`viewer.envcache`), from which a later build skips the convolution and the SH passes.
+(:mod:`viewer.environment.disk_cache`), from which a later build skips the convolution and the SH passes.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from .cache import texture_bytes
+from ..cache import texture_bytes
 from .ibl_core import (
     IBL,
     IBLOptions,
@@ -208,7 +208,7 @@ class EnvironmentIBLs:
 def compose_level(programs, dst, level: int, work: np.ndarray, points: np.ndarray,
                   a2: float) -> None:
     """``ibl_compose.comp``: level ``level`` of ``dst`` (an RGBA32F chain) = ``work [h, w, 3]``
-    resampled to its size + the sun ``points [P, 6]`` (:func:`viewer.prefilter.sun_points`)."""
+    resampled to its size + the sun ``points [P, 6]`` (:func:`viewer.environment.prefilter.sun_points`)."""
     ctx = programs.ctx
     h, w = work.shape[:2]
     if len(points) > SUN_MAX_POINTS:
@@ -243,7 +243,7 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
                            cached: dict | None = None, progress=None,
                            sun_patch: tuple | None = None, keep: bool = False,
                            sunless: bool = True, lights: tuple = ()) -> EnvironmentIBLs:
-    """The IBLs of ``env [H, W, 3]`` (and, with a ``sun`` from :func:`viewer.sun.extract_sun` and
+    """The IBLs of ``env [H, W, 3]`` (and, with a ``sun`` from :func:`viewer.environment.sun.extract_sun` and
     its ``residual`` - or ``sun_patch = (rows, columns, residual rgb)``, the residual's texels
     that differ from ``env`` -, the sun-less one) by the convolution method.
 
@@ -254,7 +254,7 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
     cache). ``sunless=False``: the whole environment's IBL only (its chain still made from the
     residual's convolution plus the sun). ``progress(step)`` is called after each step
     ("radiance", "convolution", "chains", "sh"). ``lights``: every light taken out
-    (:func:`viewer.sun.extract_lights`, ``sun`` their first; default ``(sun,)``): the residual
+    (:func:`viewer.environment.sun.extract_lights`, ``sun`` their first; default ``(sun,)``): the residual
     leaves them all out, and each is added back to the whole environment's chain as points."""
     want_sunless = sunless
     if sun is not None and not lights:

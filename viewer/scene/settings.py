@@ -1,6 +1,6 @@
 """The ``[render]`` table as frozen dataclasses, grouped by the part of the renderer each setting
 steers (Monte Carlo, SSAO, the neural models, the display), with the flat TOML keys mapped onto
-them (:data:`RENDER_KEYS`). Parsing and validation: :func:`viewer.scene_checks.validate_render`."""
+them (:data:`RENDER_KEYS`). Parsing and validation: :func:`viewer.scene.checks.validate_render`."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -54,7 +54,7 @@ class DisplaySettings:
     """The last pass: linear radiance -> the displayed image."""
 
     # pbr_neutral (Khronos PBR Neutral: keeps base colours) | aces (Hill's fit) | agx (three.js)
-    # | reinhard | none (viewer.scene_checks.TONEMAPS)
+    # | reinhard | none (viewer.scene.checks.TONEMAPS)
     tonemap: str = "pbr_neutral"
     exposure: float = 0.0  # EV stops: radiance * 2^exposure before tone mapping
     background: str = "environment"  # "environment" | "transparent"
@@ -89,7 +89,7 @@ class ShadowSettings:
     # meshoptimizer's measure; a silhouette moves about twice as far); 0: whole meshes
     # (shadow_lod_error, 0..LOD_ERROR_MAX)
     lod_error: float = 0.5
-    # a directional light's (and the sun's) cascaded maps (viewer/cascades.py): "auto" (only
+    # a directional light's (and the sun's) cascaded maps (viewer/lighting/cascades.py): "auto" (only
     # where one map's texels are coarse beside the pixels near the camera), or 1..4 (1: one map)
     # (shadow_cascades)
     cascades: str | int = "auto"
@@ -99,7 +99,7 @@ class ShadowSettings:
     # (contact_shadows)
     contact: str = "auto"
     contact_length: float = 0.3  # world units the march covers (contact_length)
-    # the environment's light as this many directional lights (viewer/envsampling.py median_cut)
+    # the environment's light as this many directional lights (viewer/environment/sampling.py median_cut)
     # whose soft shadow maps occlude its diffuse light (passes/lights.glsl env_shadow), in the
     # models that look it up from the irradiance map; 0: none (env_shadows, 0..ENV_SHADOWS_MAX)
     environment: int = 0
@@ -126,7 +126,7 @@ class RenderSettings:
 
     model: str = "ggx_split_sum"
     multiscatter: bool = True  # GGX multiple-scattering energy compensation
-    # the environment's compact lights (its sun first, viewer/sun.py) as analytic disc lights in
+    # the environment's compact lights (its sun first, viewer/environment/sun.py) as analytic disc lights in
     # models that shade them (ggx_split_sum, sun students); false: looked up through the
     # prefiltered chain and the irradiance map like the rest of the environment
     sun: bool = True

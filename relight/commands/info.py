@@ -77,6 +77,8 @@ def cmd_info(args) -> int:
         print(json.dumps(info, indent=1))
         return 0
     exts = info.pop("extensions")
+    if info.get("glsl") is None:  # glGetString through EGL failed: say so, not "None"
+        info["glsl"] = "unknown (GL_SHADING_LANGUAGE_VERSION could not be read through EGL)"
     for k, v in info.items():
         print(f"{k:>26}: {v}")
     print(f"{'extensions':>26}: {len(exts)} ({', '.join(exts[:6])}, ...)")

@@ -123,6 +123,30 @@ def texture_filter_bits(ctx, probes: int = 1 << 16) -> dict[str, int]:
     return bits
 
 
+_GL_SHADING_LANGUAGE_VERSION = 0x8B8C
+
+
+def glsl_version(ctx) -> str | None:
+    """The driver's ``GL_SHADING_LANGUAGE_VERSION`` string (``"4.50"``), or None where it cannot
+    be read. moderngl's ``ctx.info`` does not query it, so this asks ``glGetString`` itself,
+    through EGL's entry points (headless and window contexts are both EGL here), with ``ctx``
+    made current."""
+    import ctypes
+
+    egl = _egl_lib()
+    if egl is None:
+        return None
+    make_current(ctx)
+    egl.eglGetProcAddress.restype = ctypes.c_void_p
+    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+    address = egl.eglGetProcAddress(b"glGetString")
+    if not address:
+        return None
+    value = ctypes.CFUNCTYPE(ctypes.c_char_p, ctypes.c_uint)(address)(
+        _GL_SHADING_LANGUAGE_VERSION)
+    return value.decode("ascii", "replace").strip() if value else None
+
+
 def gl_info(ctx) -> dict:
     """Renderer, version, extensions and the measured precision of float render targets."""
     info = ctx.info
@@ -130,7 +154,7 @@ def gl_info(ctx) -> dict:
         "renderer": info.get("GL_RENDERER"),
         "vendor": info.get("GL_VENDOR"),
         "version": info.get("GL_VERSION"),
-        "glsl": info.get("GL_SHADING_LANGUAGE_VERSION"),
+        "glsl": glsl_version(ctx),
         "version_code": ctx.version_code,
         "software": "llvmpipe" in str(info.get("GL_RENDERER", "")).lower(),
         "max_texture_size": info.get("GL_MAX_TEXTURE_SIZE"),

@@ -20,6 +20,19 @@ def test_a_frame_larger_than_the_budget_keeps_its_content():
     assert c.keys() == ["big"] and released == ["s"]
 
 
+def _lru_survivors(order, sizes, budget, working):
+    """The survivors an LRU cache must keep, computed here from the known order of use (least
+    recent first) and the known sizes: drop the least recently used entry outside the working
+    set until the total fits the budget. Independent of BoundedCache's byte count."""
+    kept = list(order)
+    for key in list(order):
+        if sum(sizes[k] for k in kept) <= budget:
+            break
+        if key not in working:
+            kept.remove(key)
+    return kept
+
+
 def test_older_entries_go_first_and_the_bound_returns():
     c, released = _cache()
     with c.frame():
@@ -29,7 +42,58 @@ def test_older_entries_go_first_and_the_bound_returns():
     assert c.keys() == ["b"] and released == ["A"]
     with c.frame():
         c.put("c", "C", 30)
-    assert c.bytes <= 100 and set(c.keys()) == {"c"} | ({"b"} if c.bytes == 90 else set())
+    assert c.keys() == ["b", "c"] and released == ["A"] and c.bytes == 90  # 60 + 30 fit in 100
+
+
+SIZES = {"a": 40, "b": 30, "c": 20, "d": 40}
+
+
+def _fill(c):
+    """a, b, c stored in frames of their own (90 of 100 bytes), then a looked up again: the use
+    order is b, c, a (least recent first); then a frame stores d (40), 130 > 100 bytes."""
+    for key in ("a", "b", "c"):
+        with c.frame():
+            c.put(key, key.upper(), SIZES[key])
+    with c.frame():
+        assert c.get("a") == "A"
+    with c.frame():
+        c.put("d", "D", SIZES["d"])
+
+
+def test_the_least_recently_used_entry_is_evicted_not_the_most_recent():
+    """The survivors are computed from the use order and sizes alone (:func:`_lru_survivors`):
+    b (least recent, 30) goes and 100 bytes stay. A cache that evicted the most recently used
+    entry first would drop a (40) and keep b, c, d; one that went by insertion order would drop
+    a too (it was stored first); both fail here."""
+    c, released = _cache()
+    _fill(c)
+    expected = _lru_survivors(["b", "c", "a", "d"], SIZES, 100, working={"d"})
+    assert expected == ["c", "a", "d"]
+    assert c.keys() == expected
+    assert released == ["B"] and c.bytes == sum(SIZES[k] for k in expected) == 100
+
+
+def test_the_eviction_check_fails_on_most_recently_used_eviction(monkeypatch):
+    """The check above against a deliberately broken cache whose trim walks the entries most
+    recent first: it keeps b and evicts a, and the expected survivors no longer match."""
+    from collections import OrderedDict
+
+    import viewer.cache as cache
+
+    real_trim = cache.BoundedCache.trim
+
+    def mru_trim(self, keep=()):
+        self._entries = OrderedDict(reversed(list(self._entries.items())))
+        try:
+            return real_trim(self, keep)
+        finally:
+            self._entries = OrderedDict(reversed(list(self._entries.items())))
+
+    monkeypatch.setattr(cache.BoundedCache, "trim", mru_trim)
+    c, released = _cache()
+    _fill(c)
+    assert released == ["A"] and c.keys() == ["b", "c", "d"]
+    assert c.keys() != _lru_survivors(["b", "c", "a", "d"], SIZES, 100, working={"d"})
 
 
 def test_pinned_keys_stay_after_the_pin_and_go_when_something_new_needs_room():

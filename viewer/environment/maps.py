@@ -90,9 +90,10 @@ def _load_file(path: str) -> np.ndarray:
 
         arr = srgb_to_linear(arr)
         bits = "".join(ch for ch in kind if ch.isdigit())
-        warnings.warn(f"{path}: a {bits}-bit image, decoded from sRGB to linear; its dynamic "
-                      f"range is clipped (nothing brighter than 1: no sun, weak highlights and "
-                      f"shadows) - an HDR or EXR environment lights a scene properly",
+        article = "an" if bits == "8" else "a"  # "an 8-bit", "a 16-bit"
+        warnings.warn(f"{path}: {article} {bits}-bit image, decoded from sRGB to linear; its "
+                      f"dynamic range is clipped (nothing brighter than 1: no sun, weak highlights "
+                      f"and shadows) - an HDR or EXR environment lights a scene properly",
                       stacklevel=3)
     bad = ~np.isfinite(arr) | (arr < 0)
     count = int(bad.sum())

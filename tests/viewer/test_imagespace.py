@@ -1,5 +1,6 @@
 """Image-space G-buffer stacks: the 12-channel EXR round trip and FFHQ256-PBR sample folders."""
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -16,7 +17,6 @@ from viewer.geometry.imagespace import (
     save_stack_exr,
     view_dirs_cs,
 )
-from viewer.geometry.mesh import srgb_to_linear
 from viewer.imageio import read_image, write_exr, write_png
 from viewer.scene.camera import Camera
 
@@ -95,6 +95,58 @@ def test_stack_exr_validation(tmp_path):
         load_stack_exr(nan)
 
 
+def _albedo_u8(w, h) -> np.ndarray:
+    """8-bit sRGB albedo whose R, G and B differ everywhere: R rises left to right, G top to
+    bottom, B is a constant 40 (a channel swap or a flipped axis changes every pixel)."""
+    a = np.empty((h, w, 3), np.uint8)
+    a[..., 0] = np.round(np.linspace(120, 250, w))[None, :]
+    a[..., 1] = np.round(np.linspace(10, 90, h))[:, None]
+    a[..., 2] = 40
+    return a
+
+
+def _normal_xyz(w, h) -> np.ndarray:
+    """A bulge's unit normals, camera space (+X right, +Y up, +Z towards the camera): x from
+    -0.6 at the left column to +0.6 at the right, y from +0.5 in the top row (row 0) to -0.5."""
+    x = np.linspace(-0.6, 0.6, w)[None, :].repeat(h, 0)
+    y = np.linspace(0.5, -0.5, h)[:, None].repeat(w, 1)
+    return np.stack([x, y, np.sqrt(1.0 - x * x - y * y)], -1)
+
+
+def _normal_u8(w, h) -> np.ndarray:
+    return np.round((_normal_xyz(w, h) * 0.5 + 0.5) * 255).astype(np.uint8)
+
+
+def _srgb_decode(u8: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1's sRGB decoding, written here (not the loader's srgb_to_linear)."""
+    c = u8.astype(np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _check_ffhq_gbuffer(g, w=W, h=H):
+    """The loaded G-buffer of :func:`_write_ffhq`'s files, channel by channel, against the values
+    written: linear albedo R, G, B each (8-bit sRGB decoded: float32 rounding, 1e-6), and the
+    normal's x, y, z each (n = 2 u8 / 255 - 1 renormalised: the 8-bit step is 0.0078, the written
+    unit normals come back within 0.005 of each component), with their signs where they must be
+    (right columns +x, top rows +y)."""
+    fg = g.channels["alpha"][..., 0] > 0
+    albedo = _srgb_decode(_albedo_u8(w, h))
+    for c, name in enumerate("RGB"):
+        np.testing.assert_allclose(g.channels["albedo"][..., c][fg], albedo[..., c][fg],
+                                   atol=1e-6, err_msg=f"albedo {name}")
+    n = g.channels["normal"]
+    decoded = _normal_u8(w, h).astype(np.float64) / 255.0 * 2.0 - 1.0
+    decoded /= np.linalg.norm(decoded, axis=-1, keepdims=True)
+    want = _normal_xyz(w, h)
+    for c, name in enumerate("xyz"):
+        np.testing.assert_allclose(n[..., c][fg], decoded[..., c][fg], atol=1e-6,
+                                   err_msg=f"normal {name}")
+        np.testing.assert_allclose(n[..., c][fg], want[..., c][fg], atol=0.005,
+                                   err_msg=f"normal {name}")
+    assert (n[:, -1, 0] > 0.5).all() and (n[0, fg[0], 1] > 0.4).all()
+    assert (n[-1, fg[-1], 1] < -0.4).all()
+
+
 def _write_ffhq(folder, size=(W, H), **overrides):
     folder.mkdir(exist_ok=True)
     w, h = size
@@ -102,8 +154,8 @@ def _write_ffhq(folder, size=(W, H), **overrides):
     u8 = lambda a: np.clip(np.round(a * 255), 0, 255).astype(np.uint8)  # noqa: E731
     files = {
         "rgb.png": lambda p: write_png(p, u8(rng.random((h, w, 3)))),
-        "albedo.png": lambda p: write_png(p, u8(np.full((h, w, 3), 0.5))),
-        "normal.png": lambda p: write_png(p, u8(np.full((h, w, 3), (0.5, 0.5, 1.0)))),
+        "albedo.png": lambda p: write_png(p, _albedo_u8(w, h)),
+        "normal.png": lambda p: write_png(p, _normal_u8(w, h)),
         "roughness.png": lambda p: write_png(p, u8(np.full((h, w, 1), 0.4))),
         "specular.png": lambda p: write_png(p, u8(np.full((h, w, 1), 0.6))),
         "depth.exr": lambda p: write_exr(p, np.full((h, w, 1), 3.5, np.float32)),
@@ -126,16 +178,41 @@ def test_ffhq_folder(tmp_path):
     assert g.target.shape == (H, W, 3)
     fg = g.channels["alpha"][..., 0] > 0
     assert fg.sum() == (W - 4) * H and (g.channels["alpha"][fg] == 1).all()
-    np.testing.assert_allclose(g.channels["albedo"][fg], srgb_to_linear(np.float32(128 / 255)),
-                               atol=1e-6)
-    np.testing.assert_allclose(g.channels["normal"][fg], np.tile([0, 0, 1], (fg.sum(), 1)),
-                               atol=0.005)  # 8-bit 128 decodes to 2 * 128 / 255 - 1 = 0.0039
+    _check_ffhq_gbuffer(g)
     np.testing.assert_allclose(np.linalg.norm(g.channels["normal"][fg], axis=-1), 1, atol=1e-6)
     np.testing.assert_allclose(g.channels["depth"][fg], 3.5)
     np.testing.assert_allclose(g.channels["roughness"][fg], 102 / 255, atol=1e-6)
     np.testing.assert_allclose(g.channels["ao"], 1.0)
     # background takes the G-buffer background values
     assert (g.channels["depth"][~fg] == 0).all() and (g.channels["normal"][~fg] == 0).all()
+
+
+@pytest.mark.parametrize("mutation", ["rgb_swap", "flip_normal_y", "flip_rows"])
+def test_the_ffhq_check_fails_on_a_broken_loader(tmp_path, monkeypatch, mutation):
+    """The channel-by-channel check above against deliberately broken PNG decoding: albedo and
+    normal read as BGR (an RGB swap), the normal's y negated (a flipped axis), every image read
+    upside down. Each is rejected (the constant grey albedo and flat normals the fixture had
+    before passed all three)."""
+    import viewer.geometry.imagespace as imagespace
+
+    real = imagespace.read_image
+
+    def broken(path, *args, **kwargs):
+        arr, names = real(path, *args, **kwargs)
+        name = Path(path).name
+        if mutation == "rgb_swap" and name in ("albedo.png", "normal.png"):
+            arr = arr[..., ::-1].copy()
+        elif mutation == "flip_normal_y" and name == "normal.png":
+            arr = arr.copy()
+            arr[..., 1] = 1.0 - arr[..., 1]
+        elif mutation == "flip_rows":
+            arr = arr[::-1].copy()
+        return arr, names
+
+    monkeypatch.setattr(imagespace, "read_image", broken)
+    g = load_ffhq_pbr(_write_ffhq(tmp_path / "m"))
+    with pytest.raises(AssertionError):
+        _check_ffhq_gbuffer(g)
 
 
 def test_ffhq_depth_png_is_denormalised(tmp_path):

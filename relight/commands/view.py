@@ -54,7 +54,8 @@ def cmd_view(args) -> int:
         if shot is not None:
             viewer.screenshot(shot, ui=args.screenshot_ui)
             if not args.quiet:
-                print(f"{viewer.frames} frames -> {shot}")
+                frames = viewer.frames
+                print(f"{frames} frame{'' if frames == 1 else 's'} -> {shot}")
     finally:
         viewer.close()
     return 0

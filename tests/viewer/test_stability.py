@@ -131,11 +131,12 @@ def test_extremes_are_finite_bounded_and_match_the_twin(renderer, tmp_path, env_
 # each axis (GLSL 4.60: normalize's inversesqrt 2 ulp, + the dot and the products). Why a term:
 # shading_normal bends a back-facing normal n = -v to n + (1e-4 - n.v) v, whose direction is
 # (n + v) / 1e-4, so the last ulp of n and of the view ray (computed by different float32
-# operations on the two sides) turns it by ~6e-8 / 1e-4 = 6e-4 rad, the reflected lookup with it. Measured on llvmpipe (the sun's 1e5 texels, fov 170): GLSL 10.338 vs
-# twin 10.446 at a back-facing pixel, 11.7x the model envelope alone; the twin itself spans
-# 10.16-10.67 when that normal is turned by 1e-7 (1.7 ulp) in its tangent plane. With 1 / 2 / 4
-# ulp the worst case uses 43 / 25 / 12.7 % of the bound on llvmpipe: 4 leaves ~8x for a device
-# whose view ray rounds differently.
+# operations on the two sides) turns it by ~6e-8 / 1e-4 = 6e-4 rad, the reflected lookup with it.
+# Measured on llvmpipe (the sun's 1e5 texels, fov 170): GLSL 10.338 vs twin 10.446 at a
+# back-facing pixel, 11.7x the model envelope alone; the twin itself spans 10.16-10.67 when that
+# normal is turned by 1e-7 (1.7 ulp) in its tangent plane. With 1 / 2 / 4 ulp the worst case uses
+# 43 / 25 / 12.7 % of the bound on llvmpipe: 4 leaves ~8x for a device whose view ray rounds
+# differently.
 NORMAL_ULPS = 4 * 2.0 ** -23
 
 

@@ -7,6 +7,9 @@ Every field is written from the dataclasses themselves (``dataclasses.fields``),
 settings or environment knobs added later are saved without changes here. Floats are written with
 ``repr`` precision (tomli-w), paths as the absolute paths the loader resolved, and fields that hold
 ``None`` or an object type's defaults are left out (the loader rejects keys a type does not take).
+A file environment is written without the procedural sky's ``width`` and ``sun_*`` keys: they do
+nothing there, and load back as their defaults (so a scene that holds the defaults, as every scene
+``relight scene`` makes does, loads back equal; one that holds other values renders the same).
 """
 from __future__ import annotations
 
@@ -63,11 +66,26 @@ def _object_table(obj: ObjectSpec) -> dict:
     return out
 
 
+# the procedural environments' own knobs: a file environment (``path``) does not use them
+_PROCEDURAL_ONLY = ("width", "sun_elevation_deg", "sun_azimuth_deg", "sun_radiance")
+
+
+def _environment_table(env) -> dict:
+    """``[environment]``: every field, except that a file environment leaves out the procedural
+    sky's ``width`` and ``sun_*`` keys, which mean nothing for a file (they load back as their
+    defaults)."""
+    out = _table(env)
+    if env.path is not None:
+        for name in _PROCEDURAL_ONLY:
+            out.pop(name, None)
+    return out
+
+
 def scene_to_dict(scene: Scene) -> dict:
     """The TOML document of ``scene`` as plain dicts and lists (what ``scene_from_dict`` reads)."""
     doc = {
         "camera": _table(scene.camera),
-        "environment": _table(scene.environment),
+        "environment": _environment_table(scene.environment),
         "objects": [_object_table(o) for o in scene.objects],
         "render": {k: _plain(v) for k, v in scene.render.flat().items() if v is not None},
     }

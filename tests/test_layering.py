@@ -7,6 +7,7 @@ only torch and itself: the GL side of every comparison is ``learned.parity``."""
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -53,7 +54,9 @@ def _imports(name: str, path: Path, known: set[str]) -> set[str]:
     return found
 
 
+@functools.lru_cache(maxsize=1)
 def _graph() -> dict[str, set[str]]:
+    """The module graph (parsed once per session: no test changes it)."""
     mods = _modules()
     known = set(mods)
     graph = {}
@@ -74,18 +77,73 @@ def _graph() -> dict[str, set[str]]:
     return graph
 
 
-def test_layers_import_only_downwards():
+def _reach(graph: dict[str, set[str]], start: str) -> dict[str, str | None]:
+    """Every module importing ``start`` loads, directly or through others (the closure over the
+    module graph, with the packages each imported module sits in: importing ``a.b.c`` runs
+    ``a/__init__`` and ``a/b/__init__``), each mapped to the module that imports it (``start``
+    to None), so a chain can be shown."""
+    via: dict[str, str | None] = {start: None}
+    todo = [start]
+    while todo:
+        v = todo.pop()
+        parts = v.split(".")
+        parents = {".".join(parts[:i]) for i in range(1, len(parts))} & graph.keys()
+        for w in sorted(graph.get(v, set()) | parents):
+            if w not in via:
+                via[w] = v
+                todo.append(w)
+    return via
+
+
+def _chain(via: dict[str, str | None], end: str) -> str:
+    out = [end]
+    while via[out[-1]] is not None:
+        out.append(via[out[-1]])
+    return " -> ".join(reversed(out))
+
+
+def _forbidden(graph: dict[str, set[str]]) -> list[str]:
+    """The breaches of FORBIDDEN (direct imports: every internal module a layer imports is
+    itself held to its own rule, so the direct rule is closed already) and of
+    FORBIDDEN_SUBPACKAGE, transitively: a twin that reaches ``viewer`` through a module of
+    ``learned`` that imports it breaks the rule as a direct import would."""
     bad = []
-    for name, deps in _graph().items():
+    for name, deps in graph.items():
         top = name.split(".")[0]
         for dep in deps:
             if dep.split(".")[0] in FORBIDDEN.get(top, ()):
                 bad.append(f"{name} imports {dep}")
-            for sub, banned in FORBIDDEN_SUBPACKAGE.items():
-                if (name == sub or name.startswith(sub + ".")) and any(
-                        dep == b or dep.startswith(b + ".") for b in banned):
-                    bad.append(f"{name} imports {dep}")
-    assert not bad, "upward imports:\n" + "\n".join(sorted(bad))
+        for sub, banned in FORBIDDEN_SUBPACKAGE.items():
+            if not (name == sub or name.startswith(sub + ".")):
+                continue
+            via = _reach(graph, name)
+            hits = sorted(d for d in via if any(d == b or d.startswith(b + ".") for b in banned))
+            if hits:
+                bad.append(f"{name} loads {len(hits)} modules of {', '.join(banned)}, e.g. "
+                           f"{_chain(via, hits[0])}")
+    return sorted(bad)
+
+
+def test_layers_import_only_downwards():
+    bad = _forbidden(_graph())
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_the_twin_rule_is_transitive():
+    """The rule catches a twin that reaches ``viewer`` only through another module (as
+    ``learned.twins.neural`` did, through ``learned.neural.lighting``'s ``viewer.gl``), and a
+    package ``__init__`` on the way; a rule over direct imports alone passed both."""
+    graph = _graph()
+    broken = {**graph, "learned.twins.neural": graph["learned.twins.neural"]
+              | {"learned.neural.lighting"}}
+    bad = _forbidden(broken)
+    assert any(b.startswith("learned.twins.neural loads") and "learned.neural.lighting -> viewer"
+               in b for b in bad), bad
+    assert "viewer" in graph["learned.neural.lighting"] or any(
+        d.startswith("viewer.") for d in graph["learned.neural.lighting"])
+    via_init = {**graph, "learned.twins.brdf": graph["learned.twins.brdf"] | {"learned.x.y"},
+                "learned.x": {"viewer.gl"}, "learned.x.y": set()}
+    assert any(b.startswith("learned.twins.brdf loads") for b in _forbidden(via_init))
 
 
 def test_no_import_cycles():

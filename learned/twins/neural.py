@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import torch
 
-from learned.neural.lighting import (STRATEGIES, env_lights_base, env_radiance,
+from learned.neural.torch_lighting import (STRATEGIES, env_lights_base, env_radiance,
                                      student_features, surface)
 from learned.twins.deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from learned.twins.mc import mc_sample_2d

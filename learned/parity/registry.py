@@ -12,6 +12,7 @@ from .checks import (
     ibl,
     models,
     neural,
+    raytrace,
     shadow,
     shadow_lights,
     splats,
@@ -19,7 +20,7 @@ from .checks import (
 )
 
 CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow, shadow_lights,
-                 antialias)
+                 antialias, raytrace)
 
 _REGISTRY: dict[str, tuple[str | None, Callable]] = {}
 

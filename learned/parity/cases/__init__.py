@@ -8,6 +8,7 @@ from __future__ import annotations
 from . import (
     antialias,
     brdf,
+    bvh,
     common,
     contact,
     env_sampling,
@@ -26,7 +27,7 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (antialias, brdf, common, contact, env_sampling, equirect, ibl, lights, mc, neural,
+MODULES = (antialias, brdf, bvh, common, contact, env_sampling, equirect, ibl, lights, mc, neural,
            sampling, sh, shading, shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]

@@ -1,0 +1,131 @@
+"""Twins of ``shaders/lib/bvh.glsl`` (a ray against a box and a triangle) and of the traversal in
+``shaders/passes/raytrace.glsl`` (closest and any hit over the BVH of :mod:`viewer.raytrace.bvh`,
+handed in as the arrays the GL buffers hold)."""
+from __future__ import annotations
+
+import torch
+
+RAY_MISS = 3.0e38
+
+
+def safe_inverse(d: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 safe_inverse(vec3 d)``: ``[..., 3]`` -> 1 / d, a zero component as +-1e30."""
+    tiny = torch.where(d >= 0.0, torch.full_like(d, 1.0e-30), torch.full_like(d, -1.0e-30))
+    return 1.0 / torch.where(d.abs() < 1.0e-30, tiny, d)
+
+
+def ray_aabb(o: torch.Tensor, inv_d: torch.Tensor, lo: torch.Tensor, hi: torch.Tensor,
+             t_max: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float ray_aabb(vec3 o, vec3 inv_d, vec3 lo, vec3 hi, float t_max)``: the entry
+    distance in [0, t_max] or RAY_MISS."""
+    t0 = (lo - o) * inv_d
+    t1 = (hi - o) * inv_d
+    near = torch.minimum(t0, t1)
+    far = torch.maximum(t0, t1)
+    t_near = torch.maximum(torch.maximum(near[..., 0], near[..., 1]),
+                           torch.clamp(near[..., 2], min=0.0))
+    t_far = torch.minimum(torch.minimum(far[..., 0], far[..., 1]),
+                          torch.minimum(far[..., 2], t_max))
+    return torch.where(t_near <= t_far, t_near, torch.full_like(t_near, RAY_MISS))
+
+
+def ray_triangle(o: torch.Tensor, d: torch.Tensor, p0: torch.Tensor, p1: torch.Tensor,
+                 p2: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2)`` (Moller-Trumbore):
+    ``(t, b1, b2)``, ``(-1, 0, 0)`` for a miss."""
+    e1 = p1 - p0
+    e2 = p2 - p0
+    pv = torch.cross(d, e2, dim=-1)
+    det = (e1 * pv).sum(-1)
+    ok = det != 0.0
+    inv_det = 1.0 / torch.where(ok, det, torch.ones_like(det))
+    tv = o - p0
+    b1 = (tv * pv).sum(-1) * inv_det
+    qv = torch.cross(tv, e1, dim=-1)
+    b2 = (d * qv).sum(-1) * inv_det
+    t = (e2 * qv).sum(-1) * inv_det
+    hit = ok & (b1 >= 0.0) & (b1 <= 1.0) & (b2 >= 0.0) & (b1 + b2 <= 1.0)
+    zero = torch.zeros_like(t)
+    return torch.stack([torch.where(hit, t, zero - 1.0), torch.where(hit, b1, zero),
+                        torch.where(hit, b2, zero)], dim=-1)
+
+
+def ray_offset(p: torch.Tensor, ng: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ray_offset(vec3 p, vec3 ng, vec3 d)``: p moved off the surface towards d."""
+    scale = 1.0e-4 * torch.clamp(p.abs().amax(-1), min=1.0)
+    side = torch.where((ng * d).sum(-1) >= 0.0, scale, -scale)
+    return p + ng * side[..., None]
+
+
+# ---- the traversal (passes/raytrace.glsl) -------------------------------------------------------
+
+def _node(nodes: torch.Tensor, i: int):
+    a, c = nodes[2 * i], nodes[2 * i + 1]
+    first = int(a[3:4].view(torch.int32))
+    count = int(c[3:4].view(torch.int32))
+    return a[:3], c[:3], first, count
+
+
+def _solid(tri, b, materials, maps, vertices) -> bool:
+    """``rt_solid`` for the masks of the parity scenes: a MASK material's base alpha factor
+    against its cutoff (the parity scenes have no maps)."""
+    rows = materials[int(tri[3]) * 9: int(tri[3]) * 9 + 9]
+    cutoff = float(rows[1, 3])
+    if cutoff < 0.0:
+        return True
+    if float(rows[3, 3]) >= 0.0:
+        raise NotImplementedError("the twin tests masks by their factor only (no maps)")
+    return float(rows[0, 3]) >= cutoff
+
+
+def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
+                    vertices, materials) -> torch.Tensor:
+    """``RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max)`` over the buffers (``nodes [2M, 4]``
+    float32 as uploaded, ``triangles [N, 4]`` int, ``vertices [2V, 4]``, ``materials [9K, 4]``),
+    ray by ray in the GLSL's order: ``[R, 4]`` (t, triangle index as float, b1, b2)."""
+    out = torch.zeros(o.shape[0], 4, dtype=torch.float32)
+    pos = vertices[0::2, :3]
+    for r in range(o.shape[0]):
+        oo, dd, best = o[r], d[r], float(t_max[r])
+        tri_best, bb = -1, (0.0, 0.0)
+        if nodes.shape[0] > 0:
+            inv = safe_inverse(dd)
+            lo, hi, _, _ = _node(nodes, 0)
+            stack = []
+            node = 0 if float(ray_aabb(oo, inv, lo, hi, torch.tensor(best))) < RAY_MISS else None
+            while node is not None:
+                lo, hi, first, count = _node(nodes, node)
+                nxt = None
+                if count > 0:
+                    for i in range(first, first + count):
+                        tri = triangles[i]
+                        h = ray_triangle(oo, dd, pos[int(tri[0])], pos[int(tri[1])],
+                                         pos[int(tri[2])])
+                        if 0.0 < float(h[0]) < best and _solid(tri, h[1:], materials, None,
+                                                              vertices):
+                            best, tri_best, bb = float(h[0]), i, (float(h[1]), float(h[2]))
+                else:
+                    tb = torch.tensor(best)
+                    tl = float(ray_aabb(oo, inv, *_node(nodes, first)[:2], tb))
+                    tr = float(ray_aabb(oo, inv, *_node(nodes, first + 1)[:2], tb))
+                    near = first if tl <= tr else first + 1
+                    if min(tl, tr) < RAY_MISS:
+                        if max(tl, tr) < RAY_MISS:
+                            stack.append((first + 1 if near == first else first, max(tl, tr)))
+                        nxt = near
+                if nxt is None:
+                    while stack:
+                        cand, t_near = stack.pop()
+                        if t_near < best:
+                            nxt = cand
+                            break
+                node = nxt
+        out[r] = torch.tensor([best, float(tri_best), bb[0], bb[1]])
+    return out
+
+
+def bvh_any_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
+                vertices, materials) -> torch.Tensor:
+    """``bool bvh_any_hit(vec3 o, vec3 d, float t_max)``: ``[R]`` float (1 hit, 0 clear)."""
+    hits = bvh_closest_hit(o, d, t_max, nodes, triangles, vertices, materials)
+    return (hits[:, 1] >= 0.0).to(torch.float32)

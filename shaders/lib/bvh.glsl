@@ -1,0 +1,55 @@
+// bvh.glsl - the pure functions of ray casting: a ray against one triangle and against one box.
+// The traversal that uses them over the scene's BVH (its buffers are pass state) is
+// passes/raytrace.glsl. No uniforms, no main. Twins: learned/twins/bvh.py.
+#include "lib/common.glsl"
+
+#define RAY_MISS 3.0e38  // ray_aabb's answer for a box the ray does not enter
+
+// 1 / d per component, with a zero component replaced by a tiny number of its sign: the slab
+// test then sees +-3e30 instead of an infinity whose product with a zero distance is NaN.
+vec3 safe_inverse(vec3 d) {
+    vec3 s = mix(vec3(-1.0e-30), vec3(1.0e-30), greaterThanEqual(d, vec3(0.0)));
+    return 1.0 / mix(d, s, lessThan(abs(d), vec3(1.0e-30)));
+}
+
+// Kay & Kajiya 1986, "Ray Tracing Complex Scenes" (the slab test): the distance at which the
+// ray o + t d (inv_d = safe_inverse(d)) enters the box [lo, hi] within [0, t_max], or RAY_MISS.
+// A ray starting inside the box enters at 0.
+float ray_aabb(vec3 o, vec3 inv_d, vec3 lo, vec3 hi, float t_max) {
+    vec3 t0 = (lo - o) * inv_d;
+    vec3 t1 = (hi - o) * inv_d;
+    vec3 near = min(t0, t1);
+    vec3 far = max(t0, t1);
+    float t_near = max(max(near.x, near.y), max(near.z, 0.0));
+    float t_far = min(min(far.x, far.y), min(far.z, t_max));
+    return t_near <= t_far ? t_near : RAY_MISS;
+}
+
+// Moller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection": the hit of the ray
+// o + t d with the triangle (p0, p1, p2) as (t, b1, b2), b1 and b2 the barycentric weights of p1
+// and p2; t = -1 where the ray is parallel to the triangle's plane or passes outside it. Both
+// faces are hit (culling is the caller's). A hit behind the origin has t < 0.
+vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
+    vec3 e1 = p1 - p0;
+    vec3 e2 = p2 - p0;
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    if (det == 0.0) return vec3(-1.0, 0.0, 0.0);
+    float inv_det = 1.0 / det;
+    vec3 tv = o - p0;
+    float b1 = dot(tv, pv) * inv_det;
+    if (b1 < 0.0 || b1 > 1.0) return vec3(-1.0, 0.0, 0.0);
+    vec3 qv = cross(tv, e1);
+    float b2 = dot(d, qv) * inv_det;
+    if (b2 < 0.0 || b1 + b2 > 1.0) return vec3(-1.0, 0.0, 0.0);
+    return vec3(dot(e2, qv) * inv_det, b1, b2);
+}
+
+// Where a ray leaving surface point p (geometric normal ng) along d starts: p moved off the
+// surface towards d's side by a distance that scales with p's magnitude (float32 positions
+// carry a relative error of ~1e-7; 1e-4 relative clears it with a margin), so the ray does not
+// hit the surface it leaves.
+vec3 ray_offset(vec3 p, vec3 ng, vec3 d) {
+    float scale = 1.0e-4 * max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
+    return p + ng * (dot(ng, d) >= 0.0 ? scale : -scale);
+}

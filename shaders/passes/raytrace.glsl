@@ -1,0 +1,204 @@
+// raytrace.glsl (pass chunk) - rays against the scene's triangles: the BVH and triangle buffers
+// viewer/raytrace uploads (viewer/raytrace/scene.py says what they hold), its traversal (closest
+// hit, any hit), alpha-masked surfaces, and the surface a ray hits. The pure maths is
+// lib/bvh.glsl. Buffers bind at RAYTRACE_BINDING .. + 3 (viewer/raytrace/upload.py).
+#include "lib/bvh.glsl"
+#ifndef RAYTRACE_STACK
+#define RAYTRACE_STACK 42  // viewer.raytrace.bvh.MAX_DEPTH + 2: the deepest path's far children
+#endif
+
+layout(std430, binding = 2) readonly buffer RaytraceNodes { vec4 rt_nodes[]; };       // 2 a node
+layout(std430, binding = 3) readonly buffer RaytraceTriangles { uvec4 rt_triangles[]; };
+layout(std430, binding = 4) readonly buffer RaytraceVertices { vec4 rt_vertices[]; }; // 2 a vertex
+layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_materials[]; }; // 9 each
+uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
+uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
+
+#define RT_MATERIAL_ROWS 9
+
+struct RayHit {
+    float t;        // distance along the (unit) ray; t_max where nothing was hit
+    int triangle;   // index into rt_triangles, -1 for a miss
+    vec2 b;         // barycentric weights of the triangle's 2nd and 3rd vertices
+};
+
+vec3 rt_position(uint v) { return rt_vertices[2u * v].xyz; }
+
+// A traced map's coordinate: u, v through the map's KHR_texture_transform rows and its wrap
+// modes (code = wrap_s + 3 wrap_t: 0 repeat, 1 clamp, 2 mirrored repeat).
+vec2 rt_map_uv(vec2 uv, vec4 row0, vec4 row1) {
+    vec2 t = vec2(dot(row0.xyz, vec3(uv, 1.0)), dot(row1.xyz, vec3(uv, 1.0)));
+    int code = int(row1.w + 0.5);
+    ivec2 w = ivec2(code % 3, code / 3);
+    vec2 rep = fract(t);
+    vec2 mir = 1.0 - abs(mod(t, 2.0) - 1.0);
+    vec2 cl = clamp(t, 0.0, 1.0);
+    return vec2(w.x == 0 ? rep.x : (w.x == 1 ? cl.x : mir.x),
+                w.y == 0 ? rep.y : (w.y == 1 ? cl.y : mir.y));
+}
+
+// Map k (0 base colour, 1 metallic-roughness, 2 emissive) of material m at texture coordinate
+// uv; `fallback` where the material has no such map.
+vec4 rt_map(int m, int k, vec2 uv, vec4 fallback) {
+    vec4 row0 = rt_materials[m * RT_MATERIAL_ROWS + 3 + 2 * k];
+    vec4 row1 = rt_materials[m * RT_MATERIAL_ROWS + 4 + 2 * k];
+    if (row0.w < 0.0) return fallback;
+    return textureLod(u_rt_maps, vec3(rt_map_uv(uv, row0, row1), row0.w), 0.0);
+}
+
+vec2 rt_uv(uvec4 tri, vec2 b) {
+    vec2 t0 = vec2(rt_vertices[2u * tri.x].w, rt_vertices[2u * tri.x + 1u].w);
+    vec2 t1 = vec2(rt_vertices[2u * tri.y].w, rt_vertices[2u * tri.y + 1u].w);
+    vec2 t2 = vec2(rt_vertices[2u * tri.z].w, rt_vertices[2u * tri.z + 1u].w);
+    return t0 * (1.0 - b.x - b.y) + t1 * b.x + t2 * b.y;
+}
+
+// Whether triangle `tri` is solid at barycentrics b: alphaMode MASK cuts it where the base
+// colour's alpha (factor x map) is below the cutoff; every other surface is solid.
+bool rt_solid(uvec4 tri, vec2 b) {
+    int m = int(tri.w);
+    float cutoff = rt_materials[m * RT_MATERIAL_ROWS + 1].w;
+    if (cutoff < 0.0) return true;
+    float alpha = rt_materials[m * RT_MATERIAL_ROWS].w
+                  * rt_map(m, 0, rt_uv(tri, b), vec4(1.0)).a;
+    return alpha >= cutoff;
+}
+
+// The nearest solid triangle the ray o + t d (d unit) hits for 0 < t < t_max.
+RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
+    RayHit hit;
+    hit.t = t_max;
+    hit.triangle = -1;
+    hit.b = vec2(0.0);
+    if (u_rt_node_count == 0) return hit;
+    vec3 inv_d = safe_inverse(d);
+    int stack[RAYTRACE_STACK];
+    float stack_t[RAYTRACE_STACK];
+    int sp = 0;
+    int node = 0;
+    if (ray_aabb(o, inv_d, rt_nodes[0].xyz, rt_nodes[1].xyz, hit.t) == RAY_MISS) return hit;
+    for (;;) {
+        vec4 a = rt_nodes[2 * node];
+        vec4 c = rt_nodes[2 * node + 1];
+        int first = floatBitsToInt(a.w);
+        int count = floatBitsToInt(c.w);
+        if (count > 0) {
+            for (int i = first; i < first + count; ++i) {
+                uvec4 tri = rt_triangles[i];
+                vec3 r = ray_triangle(o, d, rt_position(tri.x), rt_position(tri.y),
+                                      rt_position(tri.z));
+                if (r.x > 0.0 && r.x < hit.t && rt_solid(tri, r.yz)) {
+                    hit.t = r.x;
+                    hit.triangle = i;
+                    hit.b = r.yz;
+                }
+            }
+        } else {
+            int l = first;
+            float tl = ray_aabb(o, inv_d, rt_nodes[2 * l].xyz, rt_nodes[2 * l + 1].xyz, hit.t);
+            float tr = ray_aabb(o, inv_d, rt_nodes[2 * l + 2].xyz, rt_nodes[2 * l + 3].xyz, hit.t);
+            int near = tl <= tr ? l : l + 1;
+            float t_far = max(tl, tr);
+            if (min(tl, tr) != RAY_MISS) {
+                if (t_far != RAY_MISS && sp < RAYTRACE_STACK) {
+                    stack[sp] = near == l ? l + 1 : l;
+                    stack_t[sp] = t_far;
+                    ++sp;
+                }
+                node = near;
+                continue;
+            }
+        }
+        // pop the next box still nearer than the nearest hit
+        bool found = false;
+        while (sp > 0) {
+            --sp;
+            if (stack_t[sp] < hit.t) {
+                node = stack[sp];
+                found = true;
+                break;
+            }
+        }
+        if (!found) break;
+    }
+    return hit;
+}
+
+// Whether any solid triangle lies on the ray o + t d for 0 < t < t_max (shadow rays).
+bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
+    if (u_rt_node_count == 0) return false;
+    vec3 inv_d = safe_inverse(d);
+    int stack[RAYTRACE_STACK];
+    int sp = 0;
+    int node = 0;
+    if (ray_aabb(o, inv_d, rt_nodes[0].xyz, rt_nodes[1].xyz, t_max) == RAY_MISS) return false;
+    for (;;) {
+        vec4 a = rt_nodes[2 * node];
+        vec4 c = rt_nodes[2 * node + 1];
+        int first = floatBitsToInt(a.w);
+        int count = floatBitsToInt(c.w);
+        if (count > 0) {
+            for (int i = first; i < first + count; ++i) {
+                uvec4 tri = rt_triangles[i];
+                vec3 r = ray_triangle(o, d, rt_position(tri.x), rt_position(tri.y),
+                                      rt_position(tri.z));
+                if (r.x > 0.0 && r.x < t_max && rt_solid(tri, r.yz)) return true;
+            }
+        } else {
+            int l = first;
+            float tl = ray_aabb(o, inv_d, rt_nodes[2 * l].xyz, rt_nodes[2 * l + 1].xyz, t_max);
+            float tr = ray_aabb(o, inv_d, rt_nodes[2 * l + 2].xyz, rt_nodes[2 * l + 3].xyz, t_max);
+            if (tl != RAY_MISS || tr != RAY_MISS) {
+                if (tl != RAY_MISS && tr != RAY_MISS && sp < RAYTRACE_STACK) {
+                    stack[sp++] = l + 1;
+                }
+                node = tl != RAY_MISS ? l : l + 1;
+                continue;
+            }
+        }
+        if (sp == 0) break;
+        node = stack[--sp];
+    }
+    return false;
+}
+
+// The surface a ray hit: what the path tracer shades at a secondary vertex (the material's
+// factors times its maps at TEXCOORD_0; the interpolated vertex normal; no normal map).
+struct TracedSurface {
+    vec3 p;           // world position
+    vec3 ng;          // geometric normal (the triangle's winding: front face)
+    vec3 n;           // shading normal (interpolated, unit)
+    vec3 albedo;
+    float roughness;  // perceptual
+    float metallic;
+    float specular;
+    vec3 emission;    // radiance it emits
+    bool double_sided;
+};
+
+TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
+    TracedSurface s;
+    uvec4 tri = rt_triangles[hit.triangle];
+    int m = int(tri.w);
+    vec3 p0 = rt_position(tri.x), p1 = rt_position(tri.y), p2 = rt_position(tri.z);
+    float w0 = 1.0 - hit.b.x - hit.b.y;
+    s.p = o + d * hit.t;
+    s.ng = normalize(cross(p1 - p0, p2 - p0));
+    vec3 n = rt_vertices[2u * tri.x + 1u].xyz * w0 + rt_vertices[2u * tri.y + 1u].xyz * hit.b.x
+             + rt_vertices[2u * tri.z + 1u].xyz * hit.b.y;
+    float len = length(n);
+    s.n = len > 1e-12 ? n / len : s.ng;
+    vec2 uv = rt_uv(tri, hit.b);
+    int base = m * RT_MATERIAL_ROWS;
+    vec4 f0 = rt_materials[base];
+    vec4 f1 = rt_materials[base + 1];
+    vec4 f2 = rt_materials[base + 2];
+    s.albedo = f0.rgb * rt_map(m, 0, uv, vec4(1.0)).rgb;
+    vec4 mr = rt_map(m, 1, uv, vec4(1.0));
+    s.roughness = clamp(f1.x * mr.g, 0.0, 1.0);
+    s.metallic = clamp(f1.y * mr.b, 0.0, 1.0);
+    s.specular = f1.z;
+    s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
+    s.double_sided = f2.w > 0.5;
+    return s;
+}

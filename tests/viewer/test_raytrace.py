@@ -1,0 +1,159 @@
+"""The ray-tracing core (viewer/raytrace, passes/raytrace.glsl): the BVH's structure, and the GL
+traversal against a brute-force search over every triangle in float64 (the truth: an independent
+computation, not the twin), on a sphere resting on a floor, a soup of random triangles with
+masked-out ones, a degenerate pile of coincident centroids, and bad geometry."""
+import warnings
+
+import numpy as np
+import pytest
+
+from learned.parity.checks.raytrace import parity_rays, parity_scenes, trace_gl
+from viewer.geometry import primitives
+from viewer.geometry.mesh import Mesh
+from viewer.raytrace.bvh import MAX_DEPTH, MAX_LEAF, build_bvh, triangle_boxes
+from viewer.raytrace.scene import build_trace_geometry
+from viewer.raytrace.upload import TraceBuffers
+
+# float32 positions and arithmetic against float64: distances to ~1e-6 relative of the scene's
+# size (measured: max 2.6e-5 over 2,000 rays on the sphere and floor, t <= 7)
+T_TOL = 1e-4
+
+
+def _brute(meshes, rays):
+    """(t, mesh, solid) of the nearest hit of each ray in float64 over every triangle, honouring
+    the masks of parity_scenes (base_alpha below the cutoff: no hit), and whether anything is hit."""
+    tris, solid = [], []
+    for m in meshes:
+        p = np.asarray(m.positions, np.float64)[np.asarray(m.indices, np.int64)]
+        tris.append(p)
+        cut = m.alpha_mode == "MASK" and m.base_alpha < m.alpha_cutoff
+        solid.append(np.full(len(p), not cut))
+    v = np.concatenate(tris)
+    solid = np.concatenate(solid)
+    v0, e1, e2 = v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+    out = np.full(len(rays), np.inf)
+    for i, r in enumerate(rays.astype(np.float64)):
+        o, d, t_max = r[:3], r[3:6], r[6]
+        pv = np.cross(d, e2)
+        det = (e1 * pv).sum(1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tv = o - v0
+            b1 = (tv * pv).sum(1) / det
+            qv = np.cross(tv, e1)
+            b2 = (qv * d).sum(1) / det
+            t = (e2 * qv).sum(1) / det
+        ok = solid & (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & (t < t_max)
+        if ok.any():
+            out[i] = t[ok].min()
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(parity_scenes()))
+def test_traversal_finds_the_nearest_hit_of_a_brute_force_search(programs, name):
+    meshes = parity_scenes()[name]
+    geo = build_trace_geometry(meshes)
+    buffers = TraceBuffers(programs.ctx, geo)
+    try:
+        buffers.set_materials(meshes)
+        rays = parity_rays(1500, seed=3)
+        gl = trace_gl(programs, buffers, rays)
+    finally:
+        buffers.release()
+    truth = _brute(meshes, rays)
+    hit = np.isfinite(truth)
+    assert 0.2 < hit.mean() < 0.95  # the rays meet the scene and also miss it
+    assert np.array_equal(gl[:, 1] >= 0, hit)
+    assert np.array_equal(gl[:, 4] > 0.5, hit)  # any hit
+    assert np.abs(gl[hit, 0] - truth[hit]).max() < T_TOL * max(1.0, truth[hit].max())
+    # misses keep t_max
+    assert np.array_equal(gl[~hit, 0], rays[~hit, 6])
+
+
+def test_a_mask_made_solid_stops_the_rays_without_a_rebuild(programs):
+    """Rays aimed down at the masked mesh's triangles pass through them while its alpha is below
+    the cutoff, and stop at them once a material change (a slider: the same geometry, new
+    material rows) makes it solid; both times as the brute-force search says."""
+    import dataclasses
+
+    meshes = parity_scenes()["soup_masked"]
+    masked = meshes[1]
+    c = np.asarray(masked.positions)[np.asarray(masked.indices)].mean(axis=1)
+    rays = np.concatenate([c + [0.0, 5.0, 0.0], np.tile([0.0, -1.0, 0.0], (len(c), 1)),
+                           np.full((len(c), 1), 100.0)], 1).astype(np.float32)
+    geo = build_trace_geometry(meshes)
+    buffers = TraceBuffers(programs.ctx, geo)
+    try:
+        buffers.set_materials(meshes)
+        cut = trace_gl(programs, buffers, rays)
+        solid_meshes = [meshes[0], dataclasses.replace(masked, base_alpha=0.9)]
+        buffers.set_materials(solid_meshes)
+        solid = trace_gl(programs, buffers, rays)
+    finally:
+        buffers.release()
+    mesh_of = geo.triangles[:, 3]
+    hit_masked = lambda gl: np.array([t >= 0 and mesh_of[int(t)] == 1 for t in gl[:, 1]])
+    assert not hit_masked(cut).any()
+    assert hit_masked(solid).mean() > 0.5
+    for gl, ms in ((cut, meshes), (solid, solid_meshes)):
+        truth = _brute(ms, rays)
+        hit = np.isfinite(truth)
+        assert np.array_equal(gl[:, 1] >= 0, hit)
+        assert np.abs(gl[hit, 0] - truth[hit]).max() < T_TOL * 10
+
+
+def test_bvh_structure():
+    rng = np.random.default_rng(1)
+    n = 5000
+    p = (rng.uniform(-5, 5, (n, 1, 3)) + rng.normal(0, 0.1, (n, 3, 3))).reshape(-1, 3)
+    lo, hi = triangle_boxes(p.astype(np.float32), np.arange(3 * n).reshape(n, 3))
+    bvh = build_bvh(lo, hi)
+    # every triangle in exactly one leaf, each leaf's box holding its triangles
+    leaves = np.where(bvh.count > 0)[0]
+    seen = np.concatenate([bvh.order[bvh.first[i]:bvh.first[i] + bvh.count[i]] for i in leaves])
+    assert np.array_equal(np.sort(seen), np.arange(n))
+    for i in leaves:
+        t = bvh.order[bvh.first[i]:bvh.first[i] + bvh.count[i]]
+        assert (lo[t] >= bvh.lo[i]).all() and (hi[t] <= bvh.hi[i]).all()
+    # children inside their parent, adjacent
+    inner = np.where(bvh.count == 0)[0]
+    for i in inner:
+        for c in (bvh.first[i], bvh.first[i] + 1):
+            assert (bvh.lo[c] >= bvh.lo[i]).all() and (bvh.hi[c] <= bvh.hi[i]).all()
+    assert bvh.count.max() <= MAX_LEAF and bvh.depth <= MAX_DEPTH
+    # SAH quality: far below a single leaf (cost n) and below a median split's tree, roughly
+    assert bvh.sah_cost() < 0.02 * n
+
+
+def test_coincident_centroids_and_empty_input():
+    """Triangles whose centroids coincide cannot be split: one leaf holds them (no endless
+    recursion); no triangles: no nodes, and every ray misses."""
+    p = np.tile(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), (50, 1))
+    lo, hi = triangle_boxes(p, np.arange(150).reshape(50, 3))
+    bvh = build_bvh(lo, hi)
+    assert bvh.node_count == 1 and bvh.count[0] == 50
+    empty = build_bvh(np.zeros((0, 3)), np.zeros((0, 3)))
+    assert empty.node_count == 0
+
+
+def test_bad_geometry_is_skipped_with_a_warning(programs):
+    good = primitives.sphere(radius=1.0, segments=12, rings=6)
+    p = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 0, 0], [np.nan, 0, 0], [0, 1, 0]],
+                 np.float32)
+    bad = Mesh(positions=p, normals=np.tile([[0, 1, 0]], (6, 1)).astype(np.float32),
+               indices=np.arange(6, dtype=np.uint32).reshape(2, 3), name="broken")
+    with pytest.warns(UserWarning, match="broken: 2 of 2 triangles are degenerate"):
+        geo = build_trace_geometry([good, bad])
+    assert geo.skipped == 2 and geo.triangle_count == good.triangle_count
+    with pytest.warns(UserWarning, match="no triangles"):
+        empty = build_trace_geometry([])
+    buffers = TraceBuffers(programs.ctx, empty)
+    try:
+        buffers.set_materials([])
+        rays = parity_rays(16)
+        gl = trace_gl(programs, buffers, rays)
+    finally:
+        buffers.release()
+    assert (gl[:, 1] == -1).all() and (gl[:, 4] == 0).all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        build_trace_geometry([good])  # clean geometry warns of nothing

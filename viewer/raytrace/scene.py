@@ -1,0 +1,175 @@
+"""A scene's triangles as rays see them, on the CPU: every mesh and tessellated primitive of the
+scene (the rasteriser's own triangles, so a difference against it is shading, never geometry)
+gathered into one vertex and triangle array, their materials in a table and their maps in one
+texture array, and the BVH (:mod:`.bvh`) over them.
+
+What rays see, and what they do not (the reference's choices, :mod:`relight.reference.scene`):
+
+* meshes and primitives; **image-space stacks** have no geometry off-screen and **splat clouds**
+  no triangles: neither is traced (their shadows stay the shadow maps' and contact shadows');
+* alphaMode MASK surfaces are cut where the base colour's alpha is below the cutoff; **BLEND**
+  surfaces are left out (they cast no shadow in the shadow maps either);
+* at a secondary hit: the material's factors, its base-colour, metallic-roughness and emissive
+  maps (``TEXCOORD_0``, ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`),
+  the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
+  ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
+* degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bvh import BVH, build_bvh, triangle_boxes
+
+MAP_SIZE = 256  # every map of a traced material, resampled to this square size
+MAPS = ("base_color", "metallic_roughness", "emissive")
+MATERIAL_VEC4S = 9  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+_WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
+
+
+@dataclass
+class TraceGeometry:
+    """The traced triangles of a set of meshes (their geometry only: materials are
+    :func:`material_rows`, set every frame)."""
+
+    vertices: np.ndarray   # [V, 8] float32: position xyz, u, normal xyz, v (TEXCOORD_0)
+    triangles: np.ndarray  # [N, 4] uint32: vertex indices, mesh index; in BVH leaf order
+    nodes: np.ndarray      # [M, 8] float32: lo xyz, first (int bits), hi xyz, count (int bits)
+    maps: np.ndarray       # [L, MAP_SIZE, MAP_SIZE, 4] float32: every mesh's maps, one layer each
+    layers: list           # per mesh: {map key: layer}
+    bvh: BVH
+    skipped: int           # triangles left out (degenerate or non-finite)
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.vertices.nbytes + self.triangles.nbytes + self.nodes.nbytes
+                   + self.maps.nbytes // 2)  # maps are uploaded as half floats
+
+    @property
+    def triangle_count(self) -> int:
+        return int(self.triangles.shape[0])
+
+
+def traced_meshes(contents) -> list:
+    """The meshes rays see among ``(obj, content)`` pairs: meshes and primitives, not splats,
+    image stacks or alphaMode BLEND surfaces."""
+    out = []
+    for obj, content in contents:
+        if obj.type in ("splats", "gbuffer"):
+            continue
+        out.extend(m for m in content if m.alpha_mode != "BLEND")
+    return out
+
+
+def build_trace_geometry(meshes) -> TraceGeometry:
+    """Gather ``meshes`` (world space) and build the BVH over their triangles."""
+    verts, tris, layers, maps = [], [], [], []
+    base, skipped = 0, 0
+    for k, mesh in enumerate(meshes):
+        p = np.asarray(mesh.positions, np.float32)
+        idx = np.asarray(mesh.indices, np.int64).reshape(-1, 3)
+        keep = _good_triangles(p, idx)
+        if not keep.all():
+            bad = int((~keep).sum())
+            skipped += bad
+            warnings.warn(f"{mesh.source or mesh.name or 'a mesh'}: {bad} of {len(idx)} "
+                          f"triangles are degenerate or not finite; rays do not see them",
+                          stacklevel=3)
+        idx = idx[keep]
+        uv = (np.asarray(mesh.uvs, np.float32) if mesh.uvs is not None
+              else np.zeros((len(p), 2), np.float32))
+        nrm = np.asarray(mesh.normals, np.float32)
+        v = np.concatenate([p, uv[:, :1], nrm, uv[:, 1:2]], axis=1)
+        verts.append(np.nan_to_num(v, nan=0.0, posinf=0.0, neginf=0.0))
+        tris.append(np.concatenate([idx + base, np.full((len(idx), 1), k)], axis=1))
+        base += len(p)
+        mine = {}
+        for key in MAPS:
+            if key in mesh.textures:
+                mine[key] = len(maps)
+                maps.append(resample_map(mesh.textures[key], MAP_SIZE))
+        layers.append(mine)
+    vertices = (np.concatenate(verts).astype(np.float32) if verts
+                else np.zeros((0, 8), np.float32))
+    triangles = (np.concatenate(tris).astype(np.uint32) if tris
+                 else np.zeros((0, 4), np.uint32))
+    if len(triangles) == 0:
+        warnings.warn("the scene has no triangles for rays to hit: every ray misses",
+                      stacklevel=3)
+    lo, hi = triangle_boxes(vertices[:, :3], triangles[:, :3].astype(np.int64))
+    bvh = build_bvh(lo, hi)
+    triangles = triangles[bvh.order]
+    nodes = np.zeros((bvh.node_count, 8), np.float32)
+    nodes[:, 0:3] = bvh.lo
+    nodes[:, 3] = bvh.first.view(np.float32)
+    nodes[:, 4:7] = bvh.hi
+    nodes[:, 7] = bvh.count.view(np.float32)
+    stack = (np.stack(maps).astype(np.float32) if maps
+             else np.zeros((0, MAP_SIZE, MAP_SIZE, 4), np.float32))
+    return TraceGeometry(vertices, triangles, nodes, stack, layers, bvh, skipped)
+
+
+def material_rows(meshes, layers) -> np.ndarray:
+    """``[K * MATERIAL_VEC4S, 4]`` float32: each mesh's material as ``raytrace.glsl`` reads it
+    (factors, alpha, emission, sidedness, each map's layer, uv transform and wrap modes)."""
+    rows = np.zeros((max(len(meshes), 1) * MATERIAL_VEC4S, 4), np.float32)
+    for k, mesh in enumerate(meshes):
+        m = mesh.material
+        r = rows[k * MATERIAL_VEC4S:(k + 1) * MATERIAL_VEC4S]
+        r[0] = (*m.albedo, mesh.base_alpha)
+        cutoff = float(mesh.alpha_cutoff) if mesh.alpha_mode == "MASK" else -1.0
+        r[1] = (m.roughness, m.metallic, m.specular, cutoff)
+        r[2] = (*mesh.emissive, float(mesh.double_sided))
+        for j, key in enumerate(MAPS):
+            layer = layers[k].get(key, -1) if k < len(layers) else -1
+            sampling = mesh.sampling.get(key)
+            mat = sampling.uv_matrix() if sampling is not None else np.eye(3)
+            wrap = sampling.wrap if sampling is not None else ("repeat", "repeat")
+            r[3 + 2 * j] = (mat[0, 0], mat[0, 1], mat[0, 2], float(layer))
+            r[4 + 2 * j] = (mat[1, 0], mat[1, 1], mat[1, 2],
+                            float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
+    return rows
+
+
+def resample_map(image: np.ndarray, size: int) -> np.ndarray:
+    """``image [H, W, C]`` (C = 1..4, linear) as ``[size, size, 4]`` float32: box-averaged by
+    halves while more than twice the size, then bilinear at the new texel centres; missing
+    channels are 0 (alpha: 1), a single channel is repeated into RGB."""
+    img = np.asarray(image, np.float32)
+    if img.ndim == 2:
+        img = img[..., None]
+    c = img.shape[-1]
+    rgba = np.zeros(img.shape[:2] + (4,), np.float32)
+    rgba[..., 3] = 1.0
+    if c == 1:
+        rgba[..., :3] = img[..., :1]
+    else:
+        rgba[..., :min(c, 4)] = img[..., :min(c, 4)]
+    img = np.nan_to_num(rgba)
+    while img.shape[0] >= 2 * size * 2 or img.shape[1] >= 2 * size * 2:
+        h, w = img.shape[0] // 2 * 2, img.shape[1] // 2 * 2
+        img = img[:h, :w].reshape(h // 2, 2, w // 2, 2, 4).mean(axis=(1, 3))
+    h, w = img.shape[:2]
+    y = np.clip((np.arange(size) + 0.5) * h / size - 0.5, 0, h - 1)
+    x = np.clip((np.arange(size) + 0.5) * w / size - 0.5, 0, w - 1)
+    y0, x0 = np.floor(y).astype(int), np.floor(x).astype(int)
+    y1, x1 = np.minimum(y0 + 1, h - 1), np.minimum(x0 + 1, w - 1)
+    fy, fx = (y - y0)[:, None, None], (x - x0)[None, :, None]
+    top = img[y0][:, x0] * (1 - fx) + img[y0][:, x1] * fx
+    bot = img[y1][:, x0] * (1 - fx) + img[y1][:, x1] * fx
+    return (top * (1 - fy) + bot * fy).astype(np.float32)
+
+
+def _good_triangles(p: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    if len(idx) == 0:
+        return np.zeros(0, bool)
+    inside = (idx >= 0).all(axis=1) & (idx < len(p)).all(axis=1)
+    safe = np.where(inside[:, None], idx, 0)
+    v = p[safe].astype(np.float64)
+    finite = np.isfinite(v).all(axis=(1, 2))
+    area2 = np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+    scale = np.abs(v).max(axis=(1, 2)) + 1e-30
+    return inside & finite & (area2 > 1e-12 * scale * scale)

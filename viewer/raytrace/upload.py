@@ -1,0 +1,106 @@
+"""The traced scene on the GPU: the buffers ``shaders/passes/raytrace.glsl`` reads, kept per set of
+meshes in a bounded cache (:class:`TraceStore`), so a BVH is built and uploaded once for the
+geometry it covers and again only when that geometry changes (a material slider re-uploads the
+small material table, nothing else)."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..cache import BoundedCache, CacheStats
+from .scene import MAP_SIZE, TraceGeometry, build_trace_geometry, material_rows, traced_meshes
+
+BINDINGS = (2, 3, 4, 5)  # nodes, triangles, vertices, materials (raytrace.glsl)
+
+
+class TraceBuffers:
+    """One :class:`~viewer.raytrace.scene.TraceGeometry` uploaded: SSBOs and the map array."""
+
+    def __init__(self, ctx, geometry: TraceGeometry):
+        self.ctx = ctx
+        self.geometry = geometry
+        self.node_count = int(geometry.nodes.shape[0])
+        self.nodes = ctx.buffer(_bytes(geometry.nodes))
+        self.triangles = ctx.buffer(_bytes(geometry.triangles))
+        self.vertices = ctx.buffer(_bytes(geometry.vertices))
+        self.materials = ctx.buffer(reserve=16)
+        self._material_key = None
+        layers = max(int(geometry.maps.shape[0]), 1)
+        data = (geometry.maps.astype(np.float16) if geometry.maps.shape[0]
+                else np.ones((1, MAP_SIZE, MAP_SIZE, 4), np.float16))
+        self.maps = ctx.texture_array((MAP_SIZE, MAP_SIZE, layers), 4, data.tobytes(), dtype="f2")
+        self.maps.repeat_x = self.maps.repeat_y = False  # wrap modes: rt_map_uv
+        self.seconds = geometry.bvh.seconds
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.nodes.size + self.triangles.size + self.vertices.size
+                   + self.materials.size + self.maps.width * self.maps.height
+                   * self.maps.layers * 8)
+
+    def set_materials(self, meshes) -> None:
+        """Upload the meshes' materials when they changed since the last call (sliders)."""
+        rows = material_rows(meshes, self.geometry.layers)
+        key = rows.tobytes()
+        if key != self._material_key:
+            if self.materials.size != len(key):
+                self.materials.orphan(len(key))
+            self.materials.write(key)
+            self._material_key = key
+
+    def bind(self, prog, unit: int) -> int:
+        """Bind the buffers to raytrace.glsl's points and the map array to ``unit``."""
+        for buf, point in zip((self.nodes, self.triangles, self.vertices, self.materials),
+                              BINDINGS):
+            buf.bind_to_storage_buffer(point)
+        if "u_rt_maps" in prog:
+            self.maps.use(unit)
+            prog["u_rt_maps"].value = unit
+            unit += 1
+        if "u_rt_node_count" in prog:
+            prog["u_rt_node_count"].value = self.node_count
+        return unit
+
+    def release(self) -> None:
+        for obj in (self.nodes, self.triangles, self.vertices, self.materials, self.maps):
+            obj.release()
+
+
+class TraceStore:
+    """Traced scenes by the meshes they hold (and the geometry cache's version), at most
+    ``max_bytes`` of GPU memory (least recently used released first)."""
+
+    def __init__(self, ctx, max_bytes: int | None):
+        self.ctx = ctx
+        self._cache = BoundedCache("traced scenes", max_bytes=max_bytes,
+                                   release=lambda b: b.release())
+        self.build_seconds = 0.0  # the last build's time (the bench reads it)
+
+    def get(self, contents, version: int) -> TraceBuffers:
+        """The traced scene of ``(obj, content)`` pairs, materials as they are now."""
+        meshes = traced_meshes(contents)
+        key = (version, tuple(id(m) for m in meshes))
+
+        def build():
+            t0 = time.perf_counter()
+            buffers = TraceBuffers(self.ctx, build_trace_geometry(meshes))
+            self.build_seconds = time.perf_counter() - t0
+            return buffers
+        buffers = self._cache.get_or_create(key, build, nbytes=lambda b: b.nbytes)
+        buffers.set_materials(meshes)
+        return buffers
+
+    def stats(self) -> CacheStats:
+        return self._cache.stats()
+
+    def resize(self, max_bytes: int | None) -> None:
+        self._cache.resize(max_bytes)
+
+    def release(self) -> None:
+        self._cache.clear()
+
+
+def _bytes(a: np.ndarray) -> bytes:
+    data = np.ascontiguousarray(a).tobytes()
+    return data if data else bytes(16)  # a GL buffer holds at least something

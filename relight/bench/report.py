@@ -1,6 +1,7 @@
 """``relight bench``'s reports: ``bench.json``, ``bench.csv``, ``bench.md`` (the results table with
 the Pareto front marked, the tables against truth, specialisation and every extra suite) and
-``pareto.png``."""
+``pareto.png``, which ``python -m relight.bench.report BENCH.json PARETO.png`` redraws from a
+``bench.json`` without measuring again."""
 from __future__ import annotations
 
 import csv
@@ -147,25 +148,47 @@ def write_reports(out: Path, report: dict) -> None:
 
 
 def _plot(path: Path, rows: list[dict]) -> None:
-    """pareto.png: a panel per bench scene (PSNR vs converged ``ggx_mc`` against time) and, with
-    truth rows, a second row of two panels over the reference scenes: mean median relative error
-    against the path-traced reference and against converged ``ggx_mc``, against time."""
+    """Write :func:`pareto_figure` to ``path`` (nothing without matplotlib: tables only)."""
+    fig = pareto_figure(rows)
+    if fig is None:
+        return
+    import matplotlib.pyplot as plt
+
+    fig.savefig(path, dpi=fig.dpi)  # the dpi the labels were placed at
+    plt.close(fig)
+
+
+def redraw(bench_json: str | Path, png: str | Path) -> None:
+    """Draw ``pareto.png`` again from a ``bench.json`` (its ``results``), without measuring:
+    ``python -m relight.bench.report assets/bench/bench.json assets/bench/pareto.png``."""
+    _plot(Path(png), json.loads(Path(bench_json).read_text())["results"])
+
+
+def pareto_figure(rows: list[dict]):
+    """pareto.png's figure (None without matplotlib or points): a panel per bench scene (PSNR vs
+    converged ``ggx_mc`` against time) and, with truth rows, a second row of two panels over the
+    reference scenes: mean median relative error against the path-traced reference and against
+    converged ``ggx_mc``, against time, each Pareto-front point labelled where no label overlaps
+    another or the legend (:func:`relight.bench.labels.place_labels`)."""
     try:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:  # the bench extra is not installed: tables only
-        return
+        return None
+    from .labels import place_labels
+
     pts = [r for r in rows if r.get("kind") != "truth" and math.isfinite(r.get("ms", math.nan))
            and math.isfinite(r.get("psnr", math.nan))]
     summary = [e for e in truth_summary(rows) if math.isfinite(e["ms"])]
     if not pts and not summary:
-        return
+        return None
     scenes = sorted({(r["scene"], tuple(r["size"])) for r in pts})
     ncols = max(len(scenes), 2 if summary else 1)
     nrows = int(bool(scenes)) + int(bool(summary))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(5.5 * ncols, 4.5 * nrows), squeeze=False)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.5 * ncols, 4.5 * nrows), squeeze=False,
+                             dpi=110)
     models = sorted({r["model"] for r in pts} | {e["model"] for e in summary})
     colours = {m: plt.cm.tab10(i % 10) for i, m in enumerate(models)}
     front = {id(r) for r in pareto_front(rows)}
@@ -184,6 +207,7 @@ def _plot(path: Path, rows: list[dict]) -> None:
         ax.set_title(f"{sname} {size[0]}x{size[1]}")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
+    labelled = []  # (axes, points, labels): placed once the layout is final
     if summary:
         n = len({r["scene"] for r in rows if r.get("kind") == "truth"})
         titles = {"truth": f"vs path-traced reference (visibility), mean of {n} scenes",
@@ -199,11 +223,9 @@ def _plot(path: Path, rows: list[dict]) -> None:
             f = [e for e in truth_front(good, ref)]
             ax.plot([e["ms"] for e in f], [100 * e[f"median_rel_{ref}"] for e in f], "k--",
                     lw=0.8, label="Pareto front")
-            for e in f:
-                label = e["model"] + ("" if e["variant"] == "default" else f" {e['variant']}")
-                ax.annotate(label,
-                            (e["ms"], 100 * e[f"median_rel_{ref}"]), fontsize=6,
-                            xytext=(3, 3), textcoords="offset points")
+            labelled.append((ax, [(e["ms"], 100 * e[f"median_rel_{ref}"]) for e in f],
+                             [e["model"] + ("" if e["variant"] == "default"
+                                            else f" {e['variant']}") for e in f]))
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_xlabel("ms per frame (log), median over scenes")
@@ -216,5 +238,17 @@ def _plot(path: Path, rows: list[dict]) -> None:
     for ax in axes[0][len(scenes):] if scenes else []:
         ax.axis("off")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    fig.canvas.draw()  # the layout and the legends' "best" places, final before labels go in
+    for ax, points, labels in labelled:
+        legend = ax.get_legend()
+        box = legend.get_window_extent()
+        # pin the legend where "best" put it: it would move away from the labels otherwise
+        legend.set_loc(tuple(ax.transAxes.inverted().transform((box.x0, box.y0))))
+        place_labels(ax, points, labels, fontsize=6, avoid=[box])
+    return fig
+
+
+if __name__ == "__main__":  # python -m relight.bench.report BENCH.json PARETO.png
+    import sys
+
+    redraw(*sys.argv[1:3])

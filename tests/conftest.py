@@ -1,4 +1,15 @@
-"""Shared fixtures: one headless GL context (EGL; llvmpipe without a GPU) for the whole session."""
+"""Shared fixtures: one headless GL context (EGL; llvmpipe without a GPU) for the whole session.
+
+Two things stop the session at its start with one line and a non-zero exit instead of letting
+tests skip (a suite that skips everything would pass):
+
+* no headless OpenGL context (every test needs one: the fixtures below make it current for every
+  module and test). There is no opt-out: no part of the suite runs without GL.
+* ``RELIGHT_REQUIRE_TRUTH=1`` (``.ci/run`` sets it) and no path tracer with its fast backend
+  (Mitsuba 3 and a libLLVM >= 19): without it the ``mitsuba_llvm`` fixture skips every
+  path-traced check, which is fine on a workstation and never in CI.
+"""
+import importlib.util
 import os
 
 import pytest
@@ -7,16 +18,44 @@ import pytest
 # (viewer.environment.disk_cache; the cache's own tests pass an explicit cache)
 os.environ.setdefault("RELIGHT_ENV_CACHE", "0")
 
+REQUIRE_TRUTH = "RELIGHT_REQUIRE_TRUTH"
+_SESSION_CONTEXT = []  # the context pytest_sessionstart created (a worker's or a lone session's)
 
-@pytest.fixture(scope="session")
-def ctx():
+
+def _truth_missing() -> str | None:
+    """Why the path-traced checks would skip (what ``mitsuba_llvm`` checks), or None."""
+    if importlib.util.find_spec("mitsuba") is None:
+        return "Mitsuba 3 is not installed (pip install -e '.[reference]')"
+    from relight.reference import render
+
+    if render.find_libllvm() is None:
+        return f"no libLLVM >= {render.MIN_LLVM} (apt-get install libllvm19)"
+    return None
+
+
+def pytest_sessionstart(session):
+    if os.environ.get(REQUIRE_TRUTH) == "1":
+        missing = _truth_missing()
+        if missing:
+            pytest.exit(f"{REQUIRE_TRUTH}=1 but the path tracer cannot run: {missing}; every "
+                        f"path-traced check would skip", returncode=pytest.ExitCode.TESTS_FAILED)
     from viewer.errors import GLContextError
     from viewer.gl import create_context
 
     try:
-        return create_context()
-    except GLContextError as exc:  # pragma: no cover - only on machines without EGL
-        pytest.skip(f"no headless OpenGL: {exc}")
+        ctx = create_context()
+    except GLContextError as exc:
+        pytest.exit(f"no test can run without a headless OpenGL context: {exc}",
+                    returncode=pytest.ExitCode.TESTS_FAILED)
+    if session.config.pluginmanager.hasplugin("dsession"):  # pytest-xdist's controller: no tests
+        ctx.release()
+    else:
+        _SESSION_CONTEXT.append(ctx)
+
+
+@pytest.fixture(scope="session")
+def ctx():
+    return _SESSION_CONTEXT[0]
 
 
 @pytest.fixture(scope="session")
@@ -51,7 +90,8 @@ def _session_context_current(ctx):
 @pytest.fixture(scope="session")
 def mitsuba_llvm():
     """Mitsuba with its fast LLVM backend, ``(mi, dr, variant)``; skipped, with the reason, where
-    Mitsuba or a libLLVM >= 19 is missing (as Mitsuba's own suite skips a backend)."""
+    Mitsuba or a libLLVM >= 19 is missing (as Mitsuba's own suite skips a backend), unless
+    ``RELIGHT_REQUIRE_TRUTH=1``, which stops the session at its start instead."""
     try:
         import mitsuba  # noqa: F401
     except ImportError:

@@ -10,17 +10,19 @@ import numpy as np
 import torch
 
 from learned.twins.shadow import (
+    SHADOW_PCF_SAMPLES,
     shadow_blocker_depth,
     shadow_depth_slope,
     shadow_map_size,
     shadow_pcf,
     shadow_pcss,
     shadow_sample,
+    shadow_taps,
     shadow_visibility,
 )
 from viewer.gl.kernels import run_kernel
 
-from ..results import compare
+from ..results import ParityResult, compare
 from . import collector
 
 SIZE = 64
@@ -48,8 +50,24 @@ KINDS = (("ortho", (1.0, 0.02, 0.0, DEPTH_RANGE), 1, 1),
 ENVELOPE = ("texel indices from floor(uv size) of the same float32 uv: a sample's offset "
             "differs by the spiral's rounding (~1e-7 x r <= 0.15) -> 1e-5 texel, so a disk "
             "sample lands in another texel only within 1e-5 texel of a boundary (p ~ 2e-5 per "
-            "sample); robust: 1 in 500 values may differ by one sample's share (1/16 of the "
-            "mean depth, 1/32 of the fraction; a tap count of 4 makes a share 1/4)")
+            "sample); robust: 1 in 500 values may differ by what one flipped sample does (STEPS)")
+
+
+# What one sample landing in another texel may change, per result (robust_lookups): nothing for
+# the texel read and the slopes (no spiral); 1 / taps for PCF (one sample's share: 1/4 .. 1/32);
+# the blocker search's mean depth by at most 1/2 while both sides find an occluder (one value of
+# [0, 1] more or less among >= 2), up to 2 where one finds none (-1: the odd taps are skipped);
+# the umbra flag by 1; PCSS (and the sun's visibility, its non-adaptive form) by 1/2: a search
+# sample moves the mean blocker depth, so the PCF radius and taps, not only one share.
+# Measured on llvmpipe: 0 of 2048 lookups beyond 1e-5 for all 23 results, over input seeds 1-20
+# (40960 each). The twin with its uv moved by 1e-5 texel (the envelope): 3 of 163840 changed, each
+# by one PCF share (1/32, 1/4); by 1e-3 texel (100x): pcf <= 0.25 (one share, or two of 32),
+# blocker 0.03-0.5 while found and 1.1-1.75 where found flips, pcss <= 0.5 (median 0.25),
+# visibility <= 0.28 (median 1/32).
+STEPS = {"shadow_sample": 0.0, "shadow_blocker_depth": "blocker",
+         "shadow_blocker_depth.umbra": 1.0, "shadow_pcf": "1/taps", "shadow_visibility": 0.5,
+         "shadow_pcss": 0.5, "shadow_depth_slope.x": 0.0, "shadow_depth_slope.y": 0.0}
+MAX_OUTLIERS = 1.0 / 500.0
 
 
 def _inputs(kind: str, n: int, rng) -> np.ndarray:
@@ -92,7 +110,33 @@ def _twins(depth_map, inputs, lens, kind):
            else torch.zeros(len(t)))
     return [shadow_sample(m, uv, face), blocker, umbra.float(),
             shadow_pcf(m, uv, plane, r, dir_, size, lens_t, face), vis,
-            shadow_pcss(m, s, plane, lens_t, phi, face), dz[:, 0], dz[:, 1]]
+            shadow_pcss(m, s, plane, lens_t, phi, face), dz[:, 0], dz[:, 1]], \
+        shadow_taps(r, size, SHADOW_PCF_SAMPLES)
+
+
+def lookup_steps(name: str, gl: np.ndarray, ref: np.ndarray, pcf_taps: np.ndarray) -> np.ndarray:
+    """Per lookup, what one flipped sample may change in result ``name`` (STEPS)."""
+    step = STEPS[name]
+    if step == "1/taps":
+        return 1.0 / pcf_taps
+    if step == "blocker":  # the mean of the found occluders, or -1 where none is
+        return np.where((gl >= 0.0) == (ref >= 0.0), 0.5, 2.0)
+    return np.full(ref.shape, float(step))
+
+
+def robust_lookups(name: str, gl: np.ndarray, ref: np.ndarray, step: np.ndarray,
+                   measured: str = "") -> ParityResult:
+    """GLSL against the twin over a batch of lookups: at most MAX_OUTLIERS of them beyond 1e-5
+    (abs + rel), each of those within its ``step`` (what one flipped sample may change)."""
+    diff = np.abs(gl - ref)
+    bad = diff > 1e-5 + 1e-5 * np.abs(ref)
+    ok = bad.mean() <= MAX_OUTLIERS and bool((diff[bad] <= step[bad] + 1e-5).all())
+    res = compare(name, gl[~bad], ref[~bad], atol=1e-5, rtol=1e-5, kind="pass",
+                  measured=measured or f"{int(bad.sum())} of {len(ref)} beyond 1e-5 on llvmpipe",
+                  envelope=ENVELOPE)
+    res.tolerance += f"; {int(bad.sum())} outliers (<= {MAX_OUTLIERS:.1%}, each within one sample)"
+    res.passed = bool(res.passed and ok)
+    return res
 
 
 def checks() -> dict:
@@ -126,26 +170,14 @@ def checks() -> dict:
             finally:
                 tex.release()
             with torch.no_grad():
-                ref = _twins(depth_map, inputs, lens, kind)
-            names = (("shadow_sample", 0.0), ("shadow_blocker_depth", 1.0),
-                     ("shadow_blocker_depth.umbra", 1.0), ("shadow_pcf", 0.25),
-                     ("shadow_visibility", 1.0 / 32.0), ("shadow_pcss", 0.25),
-                     ("shadow_depth_slope.x", 0.0), ("shadow_depth_slope.y", 0.0))
-            for i, (name, step) in enumerate(names):
+                ref, taps = _twins(depth_map, inputs, lens, kind)
+            for i, name in enumerate(STEPS):
                 if kind != "ortho" and name.startswith(("shadow_visibility",
                                                         "shadow_depth_slope")):
                     continue  # orthographic only (the sun's lookup)
                 ref_i = ref[i].numpy()
-                diff = np.abs(gl[:, i] - ref_i)
-                bad = diff > 1e-5 + 1e-5 * np.abs(ref_i)
-                ok = bad.mean() <= 1.0 / 500.0 and (step == 0.0 and not bad.any() or
-                                                    (diff[bad] <= max(step, 1.0) + 1e-5).all())
-                res = compare(f"{name} ({kind})", gl[:, i][~bad], ref_i[~bad], atol=1e-5,
-                              rtol=1e-5, kind="pass",
-                              measured=f"{int(bad.sum())} of {n} beyond 1e-5 on llvmpipe",
-                              envelope=ENVELOPE)
-                res.passed = bool(res.passed and ok)
-                out.append(res)
+                out.append(robust_lookups(f"{name} ({kind})", gl[:, i], ref_i,
+                                          lookup_steps(name, gl[:, i], ref_i, taps.numpy())))
         return out
 
     return found

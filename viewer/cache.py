@@ -328,3 +328,5 @@ class Budgets:
     environment_bytes: int = 256 << 20
     # loaded and uploaded geometry: meshes, stacks, splats (the last frame's is always kept)
     geometry_bytes: int = 128 << 20
+    # traced scenes: BVH, triangles, vertices, materials and maps on the GPU (viewer/raytrace)
+    raytrace_bytes: int = 256 << 20

@@ -62,6 +62,9 @@ class ShadingModel:
     # ENV_SHADOWS: the environment's shadow directions occlude its irradiance-map diffuse light
     # ([render] env_shadows; passes/lights.glsl env_shadow)
     env_shadows: bool = False
+    # rays against the scene's triangles (viewer/raytrace, passes/raytrace.glsl): every light's
+    # visibility is traced, so no shadow maps, contact shadows or occlusion terms are compiled in
+    traced: bool = False
 
     def variant(self, settings, light=None, specular: bool = True,
                 sun: int = 0, contact: bool = False) -> ShadeVariant:
@@ -74,8 +77,8 @@ class ShadingModel:
         screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.lights == "shaded":
-            d.update(light_defines(light, shadows=settings.shadow.enabled))
-            if contact and d["LIGHT_COUNT"] > 0:
+            d.update(light_defines(light, shadows=settings.shadow.enabled and not self.traced))
+            if contact and d["LIGHT_COUNT"] > 0 and not self.traced:
                 d["CONTACT_SHADOWS"] = 1
         if self.occlusion:
             d["USE_AO"] = int(settings.ao)
@@ -131,6 +134,13 @@ MODELS: dict[str, ShadingModel] = {
                      "brdf | mis, progressive accumulation",
                      frozenset({"dfg", "radiance", "cdf"}), accumulates=True, multiscatter=True,
                      samplings=SAMPLINGS),
+        ShadingModel("path", "passes/shade_path.frag",
+                     "a progressive path tracer of the same BSDF against the scene's triangles "
+                     "(a BVH traversed in GLSL): next-event estimation of the environment (MIS) "
+                     "and of every light with shadow rays, `max_depth` segments, Russian "
+                     "roulette; converges to `relight reference`",
+                     frozenset({"dfg", "radiance", "cdf"}), accumulates=True, multiscatter=True,
+                     occlusion=False, traced=True),
         ShadingModel("neural", "passes/shade_neural.frag",
                      "the distilled neural shader (thesis ch. 4 student): one small MLP per "
                      "pixel on the material, n.v, irradiance and prefiltered radiance; "

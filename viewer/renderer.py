@@ -241,7 +241,8 @@ class Renderer:
     def memory(self) -> dict[str, CacheStats]:
         """Bytes and entries of every cache this renderer keeps (name -> stats)."""
         out = {"targets": self.resources.pool.stats(), "passes": self.resources.passes_stats(),
-               "programs": self.programs.stats(), "geometry": self.geometry_cache.stats()}
+               "programs": self.programs.stats(), "geometry": self.geometry_cache.stats(),
+               "traced scenes": self.resources.trace.stats()}
         out.update(self.resources.environment_stats())
         return out
 

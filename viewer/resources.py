@@ -22,6 +22,7 @@ from .passes.shadow import ShadowPass
 from .passes.splats import SplatPass
 from .passes.ssao import SSAOPass
 from .passes.tonemap import TonemapPass
+from .raytrace.upload import TraceStore
 
 # the passes that are built per G-buffer layout
 LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
@@ -42,6 +43,8 @@ class GPUResources:
                                     release=lambda p: p.release())
         # environments by bytes (and the user's disk cache: viewer.environment.disk_cache)
         self.env = EnvironmentStore(programs, budgets.environment_bytes)
+        # traced scenes (BVH and triangle buffers) by the meshes they hold, by bytes
+        self.trace = TraceStore(programs.ctx, budgets.raytrace_bytes)
         self._tonemap: TonemapPass | None = None
         self._accumulate: AccumulatePass | None = None
         self._shadow: ShadowPass | None = None
@@ -113,6 +116,7 @@ class GPUResources:
         self.pool.clear()
         self._passes.clear()
         self.env.release()
+        self.trace.release()
         for p in (self._tonemap, self._accumulate, self._shadow, self._antialias):
             if p is not None:
                 p.release()

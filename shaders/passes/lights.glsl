@@ -27,6 +27,9 @@
 #ifndef ENV_SHADOWS
 #define ENV_SHADOWS 0  // the environment's shadow directions (env_shadow); 0: none
 #endif
+#ifndef RAYTRACED
+#define RAYTRACED 0  // 1: the pass traces rays from surface points (shade_path.frag)
+#endif
 #if LIGHT_CASCADES || SUN_CASCADES || ENV_SHADOWS > 0
 #define SHADOW_CASCADE_MAPS 1
 #endif
@@ -36,15 +39,15 @@
 #ifndef CONTACT_SHADOWS
 #define CONTACT_SHADOWS 0  // 1: screen-space contact shadows ([render] contact_shadows)
 #endif
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS || ENV_SHADOWS > 0
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS || ENV_SHADOWS > 0 || RAYTRACED
 uniform vec3 u_camera_position;                // world space
 #endif
 
 // The surface's world position from its view depth (the G-buffer's depth channel: positive
-// distance along the view axis) at fragment frag_coord; 0 without positional lights or
-// shadow maps.
+// distance along the view axis) at fragment frag_coord; 0 without positional lights, shadow
+// maps or rays.
 vec3 light_surface_position(vec2 frag_coord, float depth) {
-#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS || ENV_SHADOWS > 0
+#if LIGHT_POSITIONAL || LIGHT_SHADOWS || SUN_SHADOW || CONTACT_SHADOWS || ENV_SHADOWS > 0 || RAYTRACED
     vec2 ndc = frag_coord / u_resolution * 2.0 - 1.0;
     return u_camera_position + u_camera_to_world * vec3(ndc * u_tan_half_fov, -1.0) * depth;
 #else

@@ -229,15 +229,19 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     # the IBL without the sun a SUN_LIGHT pass shades itself
     ibl = res.ibl(scene.environment, sun=bool(spec.variant.defines.get("SUN_LIGHT")))
     spass = res.layout_pass("shade", spec.layout)
+    traced = ([(obj, renderer.geometry(obj)) for obj in scene.objects] if model.traced
+              else None)
 
     def shade_into(f, fbo, sample_range=(0, 1)):
+        trace = (res.trace.get(traced, renderer.geometry_cache.version) if traced is not None
+                 else None)
         spass.run(f["gbuffer"].textures, fbo, camera, ibl, scene.environment, settings,
                   env_sampling=env_sampling, ssao=f[ssao.occlusion].texture if ssao else None,
                   sample_range=sample_range, variant=variant, light=scene.light,
                   shadows={i: (f[name].texture, frame, angle, offset)
                            for i, (name, frame, angle, offset) in shadows.items() if i != "sun"},
                   sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
-                              if "sun" in shadows else None))
+                              if "sun" in shadows else None), trace=trace)
 
     inputs = {"model": settings.model, "render": _lighting_settings(settings),
               "environment": scene.environment, "light": scene.light, "variant": variant}

@@ -148,7 +148,11 @@ def light_uniforms(light) -> dict[str, bytes]:
             "u_light_direction": np.array([li.direction for li in lights], f4).tobytes(),
             "u_light_position": np.array([li.position for li in lights], f4).tobytes(),
             "u_light_intensity": np.array([li.radiant for li in lights], f4).tobytes(),
-            "u_light_cone_range": np.array(cone, f4).tobytes()}
+            "u_light_cone_range": np.array(cone, f4).tobytes(),
+            # a directional light's disc for the path tracer (shade_path.frag); 0: a delta
+            "u_light_angular_radius": np.array(
+                [math.radians(li.angular_diameter_deg) / 2.0 if li.type == "directional" else 0.0
+                 for li in lights], f4).tobytes()}
 
 
 def gather_lights(scene, geometry):

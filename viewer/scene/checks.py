@@ -108,6 +108,8 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
         kw["specialize"] = t["specialize"]
     if "precision" in t:
         kw["precision"] = _str(t["precision"], "render.precision", file, PRECISIONS)
+    if "max_depth" in t:
+        kw["max_depth"] = _int(t["max_depth"], "render.max_depth", file, 2, 64)
     if "mis_heuristic" in t:
         kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
                                    MIS_HEURISTICS)

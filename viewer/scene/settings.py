@@ -9,12 +9,15 @@ from typing import Any
 
 @dataclass(frozen=True)
 class MonteCarloSettings:
-    """How models that integrate by Monte Carlo (``ggx_mc``, ``neural_teacher``) sample."""
+    """How models that integrate by Monte Carlo (``ggx_mc``, ``path``, ``neural_teacher``) sample."""
 
     samples: int = 1  # samples per pixel (ignored by 1-sample models)
     sampling: str = "mis"  # strategy: uniform | cosine | env | brdf | mis
     mis_heuristic: str = "power"  # MIS weights: "power" (beta = 2) | "balance"
     seed: int = 0  # scrambles the per-pixel sequences (also SSAO's rays)
+    # `path`: segments of a path, the camera's included, as Mitsuba counts them (2: direct light
+    # only, 3: one bounce); relight reference's default is 6
+    max_depth: int = 6
 
 
 @dataclass(frozen=True)
@@ -182,6 +185,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "precision": (None, "precision"),
     "specialize": (None, "specialize"),
     "mis_heuristic": ("mc", "mis_heuristic"),
+    "max_depth": ("mc", "max_depth"),
     "ssao": ("ssao", "enabled"),
     "indirect": ("ssao", "indirect"),
     "ssao_rays": ("ssao", "rays"),

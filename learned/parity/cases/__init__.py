@@ -17,6 +17,7 @@ from . import (
     lights,
     mc,
     neural,
+    path,
     sampling,
     sh,
     shading,
@@ -28,7 +29,7 @@ from . import (
 from .base import Arg, ParityCase
 
 MODULES = (antialias, brdf, bvh, common, contact, env_sampling, equirect, ibl, lights, mc, neural,
-           sampling, sh, shading, shadow, splat, ssao, tonemap)
+           path, sampling, sh, shading, shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

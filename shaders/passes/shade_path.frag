@@ -1,0 +1,218 @@
+// shade_path.frag - `path`: a progressive path tracer with our BSDF (the one ggx_mc integrates
+// and relight reference traces: Cook-Torrance GGX + Lambert scaled by 1 - E_spec(n.v), optional
+// multiple-scattering compensation). The first hit is the G-buffer's (the rasteriser's surface,
+// normal maps and textures included); every later vertex is a ray against the scene's triangles
+// (passes/raytrace.glsl). At each vertex: next-event estimation of the environment (importance
+// sampled, MIS against the BSDF with the power heuristic), of every punctual light (a shadow ray;
+// a directional light of finite angular size as a uniform disc, sampled over its cone), then a
+// BSDF-sampled continuation; a continuation that escapes picks up the environment with the
+// complementary MIS weight; one that hits an emissive surface picks up its emission. Paths have
+// at most u_max_depth segments counted as Mitsuba counts them (2: direct light only), with
+// Russian roulette after three bounces. Writes the mean of samples u_sample_start ..
+// + u_sample_count - 1 (passes/accumulate.frag averages batches).
+// Defines: MULTISCATTER, BACKGROUND_ENVIRONMENT, LIGHT_COUNT, LIGHT_POSITIONAL, RAYTRACED.
+#define RAYTRACED 1
+#include "passes/deferred.glsl"
+#include "lib/brdf.glsl"
+#include "lib/ibl.glsl"
+#include "lib/shading.glsl"
+#include "passes/lights.glsl"
+#include "lib/sampling.glsl"
+#include "lib/mc.glsl"
+#include "lib/env_sampling.glsl"
+#include "lib/path.glsl"
+#include "passes/raytrace.glsl"
+
+uniform sampler2D u_env_dfg;
+uniform sampler2D u_env_marginal;
+uniform sampler2D u_env_conditional;
+uniform sampler2D u_env_pdf;
+uniform uint u_sample_start;
+uniform uint u_sample_count;
+uniform uint u_seed;
+uniform int u_max_depth;  // path segments, the camera's included (Mitsuba's max_depth)
+#if LIGHT_COUNT > 0
+uniform float u_light_angular_radius[LIGHT_COUNT];  // directional lights' disc (radians), else 0
+#endif
+
+#define DIMS_PER_BOUNCE 4u  // 2D sample pairs a bounce draws: environment, lights, BSDF, roulette
+
+struct PathVertex {
+    vec3 p;            // world position
+    vec3 ng;           // geometric normal, on the side the path arrived from
+    vec3 n;            // shading normal
+    vec3 t;
+    vec3 b;
+    vec3 v;            // towards where the path came from
+    float NoV;
+    vec3 diffuse;      // diffuse colour x (1 - E_spec(n.v))
+    vec3 f0;
+    float f90;
+    float a;           // alpha = clamped perceptual roughness^2
+    vec3 spec_scale;   // multiple-scattering compensation (1 without)
+    float p_spec;      // probability of sampling the specular lobe
+};
+
+PathVertex path_vertex(vec3 p, vec3 ng, vec3 n, vec3 v, vec3 albedo, float roughness,
+                       float metallic, float specular) {
+    PathVertex s;
+    s.p = p;
+    s.ng = ng;
+    s.v = v;
+    s.n = n;
+    s.t = tangent_to_world(vec3(1.0, 0.0, 0.0), s.n);
+    s.b = tangent_to_world(vec3(0.0, 1.0, 0.0), s.n);
+    s.NoV = saturate(dot(s.n, s.v));
+    float r = clamp_perceptual_roughness(roughness);
+    s.a = r * r;
+    s.f0 = compute_f0(albedo, metallic, specular);
+    s.f90 = f90_from_f0(s.f0);
+    vec2 dfg = ibl_dfg(u_env_dfg, s.NoV, r);
+    s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, s.f0) : vec3(1.0);
+    vec3 e_spec = ibl_specular_dfg(dfg, s.f0, s.f90) * s.spec_scale;
+    s.diffuse = diffuse_color(albedo, metallic) * max(1.0 - e_spec, 0.0);
+    s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+    return s;
+}
+
+// f(v, l) (n.l); 0 below the shading surface.
+vec3 path_bsdf_cos(PathVertex s, vec3 l) {
+    float NoL = dot(s.n, l);
+    if (!(NoL > 0.0) || !(s.NoV > 0.0)) return vec3(0.0);
+    vec3 h = normalize(s.v + l);
+    float NoH = saturate(dot(s.n, h));
+    float VoH = saturate(dot(s.v, h));
+    vec3 spec = ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a) * s.spec_scale;
+    return (s.diffuse * INV_PI + spec) * NoL;
+}
+
+float path_bsdf_pdf(PathVertex s, vec3 l) {
+    float NoL = dot(s.n, l);
+    if (!(NoL > 0.0)) return 0.0;
+    vec3 h = normalize(s.v + l);
+    float NoH = saturate(dot(s.n, h));
+    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + (1.0 - s.p_spec) * pdf_cosine_hemisphere(NoL);
+}
+
+vec3 path_sample_bsdf(PathVertex s, vec2 u) {
+    if (u.x < s.p_spec) {
+        u.x = u.x / s.p_spec;
+        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
+        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
+        return reflect(-s.v, h);
+    }
+    u.x = (u.x - s.p_spec) / (1.0 - s.p_spec);
+    return tangent_to_world(sample_cosine_hemisphere(u), s.n);
+}
+
+vec3 path_env_radiance(vec3 l) {
+    return textureLod(u_env_radiance, equirect_uv(env_dir(l)), 0.0).rgb * u_env_intensity;
+}
+
+// Is the segment from s along l (unit) clear up to distance t_max?
+bool path_visible(PathVertex s, vec3 l, float t_max) {
+    vec3 o = ray_offset(s.p, s.ng, l);
+    return !bvh_any_hit(o, l, t_max);
+}
+
+// Next-event estimation of the environment at s: one importance-sampled direction, MIS-weighted
+// against the BSDF's pdf.
+vec3 path_environment(PathVertex s, vec2 u) {
+    vec4 e = sample_env(u_env_marginal, u_env_conditional, u_env_pdf, u);
+    if (!(e.w > 0.0)) return vec3(0.0);
+    vec3 l = rotate_y(e.xyz, u_env_rotation);
+    vec3 f = path_bsdf_cos(s, l);
+    if (all(equal(f, vec3(0.0)))) return vec3(0.0);
+    if (!path_visible(s, l, 3.0e38)) return vec3(0.0);
+    float w = mis_weight(e.w, path_bsdf_pdf(s, l), 2.0);
+    return path_env_radiance(l) * f * (w / e.w);
+}
+
+// Next-event estimation of the punctual lights at s, each with a shadow ray.
+vec3 path_lights(PathVertex s, vec2 u) {
+    vec3 c = vec3(0.0);
+#if LIGHT_COUNT > 0
+    for (int i = 0; i < LIGHT_COUNT; ++i) {
+        vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
+                                 u_light_cone_range[i], s.p);
+        if (!(la.w > 0.0)) continue;
+        vec3 l = la.xyz;
+        float t_max = 3.0e38;
+        float scale = la.w;
+        if (u_light_type[i] == LIGHT_TYPE_DIRECTIONAL) {
+            float radius = u_light_angular_radius[i];
+            if (radius > 0.0) {  // a uniform disc: E / (pi sin^2) over the cone, / its pdf
+                float cos_max = cos(radius);
+                l = tangent_to_world(sample_uniform_cone(u, cos_max), la.xyz);
+                float s2 = sq(sin(radius));
+                scale = (1.0 / (PI * s2)) / pdf_uniform_cone(cos_max);
+            }
+        } else {
+            t_max = length(u_light_position[i] - s.p) * (1.0 - 1.0e-4);
+        }
+        vec3 f = path_bsdf_cos(s, l);
+        if (all(equal(f, vec3(0.0)))) continue;
+        if (path_visible(s, l, t_max)) c += f * u_light_intensity[i] * scale;
+    }
+#endif
+    return c;
+}
+
+// One path's radiance from the G-buffer's surface s0 (its own emission excluded: added once).
+vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
+    vec3 radiance = vec3(0.0);
+    vec3 beta = vec3(1.0);
+    PathVertex s = s0;
+    for (int bounce = 0; bounce + 2 <= u_max_depth; ++bounce) {
+        uint dim = uint(bounce) * DIMS_PER_BOUNCE;
+        radiance += beta * path_environment(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim));
+        radiance += beta * path_lights(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 1u));
+        if (bounce + 3 > u_max_depth) break;  // the next segment would be one too many
+        vec3 l = path_sample_bsdf(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 2u));
+        float pdf = path_bsdf_pdf(s, l);
+        vec3 f = path_bsdf_cos(s, l);
+        if (!(pdf > 0.0) || all(equal(f, vec3(0.0)))) break;
+        beta *= f / pdf;
+        vec3 o = ray_offset(s.p, s.ng, l);
+        RayHit hit = bvh_closest_hit(o, l, 3.0e38);
+        if (hit.triangle < 0) {  // escaped: the environment, weighted against its own sampling
+            float w = mis_weight(pdf, env_pdf(u_env_pdf, env_dir(l)), 2.0);
+            radiance += beta * path_env_radiance(l) * w;
+            break;
+        }
+        TracedSurface t = rt_surface(hit, o, l);
+        bool front = dot(t.ng, l) < 0.0;
+        if (!front && !t.double_sided) break;  // a single-sided surface's back: black
+        vec3 ng = front ? t.ng : -t.ng;
+        vec3 n = front ? t.n : -t.n;
+        radiance += beta * t.emission;  // emissive surfaces are found, not sampled
+        s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular);
+        float q = path_continue_probability(beta, float(bounce + 1));
+        if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
+        beta /= q;
+    }
+    bool finite = !any(isnan(radiance)) && !any(isinf(radiance));
+    return finite ? radiance : vec3(0.0);
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    GBuffer g = gbuffer_load(pixel);
+    vec3 d = view_ray_ws(gl_FragCoord.xy);
+    vec3 background = background_radiance(d);
+    if (g.alpha <= 0.0) {
+        write_radiance(vec3(0.0), background, 0.0);
+        return;
+    }
+    vec3 v = -d;
+    vec3 n = shading_normal(g.normal, v);
+    vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
+    // the G-buffer holds no geometric normal: the shading normal stands in for the ray offset
+    PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular);
+    vec3 sum = vec3(0.0);
+    for (uint k = 0u; k < u_sample_count; ++k) {
+        sum += trace_path(s0, uvec2(pixel), u_sample_start + k);
+    }
+    vec3 c = sum / float(max(u_sample_count, 1u));
+    write_radiance(c + emitted_radiance(g), background, g.alpha);
+}

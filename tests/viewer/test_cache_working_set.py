@@ -78,7 +78,7 @@ def test_the_eviction_check_fails_on_most_recently_used_eviction(monkeypatch):
     recent first: it keeps b and evicts a, and the expected survivors no longer match."""
     from collections import OrderedDict
 
-    import viewer.cache as cache
+    from viewer import cache
 
     real_trim = cache.BoundedCache.trim
 

@@ -193,7 +193,7 @@ def test_the_ffhq_check_fails_on_a_broken_loader(tmp_path, monkeypatch, mutation
     normal read as BGR (an RGB swap), the normal's y negated (a flipped axis), every image read
     upside down. Each is rejected (the constant grey albedo and flat normals the fixture had
     before passed all three)."""
-    import viewer.geometry.imagespace as imagespace
+    from viewer.geometry import imagespace
 
     real = imagespace.read_image
 

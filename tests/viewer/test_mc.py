@@ -71,7 +71,10 @@ def _single_scatter_albedo(nov: float, alpha: float, n: int = 600) -> float:
 @pytest.mark.parametrize("sampling", STRATEGIES)
 def test_white_furnace_diffuse(renderer, sampling):
     """A white Lambertian sphere (no specular lobe) in a unit white environment renders 1.
-    cosine and brdf sampling are exact per sample (measured 1 - 6e-8); the others are noisy."""
+    cosine and brdf sampling are exact per sample (measured 1 - 6e-8); the others are noisy.
+    Plumbing for those two: the estimator's weight f cos / pdf is the albedo for every sample,
+    so it holds for any sample directions; the sampled specular integral is checked against an
+    independent quadrature in tests/shaders/test_furnace_quadrature.py."""
     mat = Material(albedo=(1, 1, 1), specular=0.0, roughness=0.5)
     frame = renderer.render(sphere_scene(mat, samples=64, sampling=sampling))
     rgb = frame.radiance[..., :3][_on(frame)]

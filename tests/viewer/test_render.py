@@ -28,9 +28,12 @@ def sphere_scene(material: Material, env="white", **render) -> Scene:
 
 @pytest.mark.parametrize("roughness", [0.0, 0.045, 0.2, 0.5, 0.8, 1.0])
 def test_white_furnace_metal(renderer, roughness):
-    """A metallic f0 = 1 sphere in a constant white environment equals the background (within 1%)
-    at every roughness with multiple scattering on. Measured: max deviation 2e-7 (exact up to
-    float rounding: energy compensation divides out the DFG term)."""
+    """Plumbing: a metallic f0 = 1 sphere in a constant white environment equals the background
+    (within 1%) at every roughness with multiple scattering on. Measured: max deviation 2e-7.
+    An identity, not a check of the BRDF: energy compensation divides the DFG term out, so it
+    holds for any DFG table (a wrong roughness-to-table mapping passes it exactly); it checks the
+    pass wiring, the environment's unit radiance and the background. The DFG table itself is held
+    to an independent quadrature in tests/shaders/test_furnace_quadrature.py."""
     scene = sphere_scene(Material(albedo=(1, 1, 1), metallic=1.0, roughness=roughness))
     frame = renderer.render(scene)
     rgb, alpha = frame.radiance[..., :3], frame.radiance[..., 3]
@@ -43,7 +46,9 @@ def test_white_furnace_metal(renderer, roughness):
 def test_single_scattering_loses_energy_at_high_roughness(renderer):
     """Without compensation a rough metal is darker than the furnace: at r = 1 and normal
     incidence the single-scattering albedo is 0.307 (brute-force quadrature of the same BRDF; the
-    64x64 LUT gives 0.318); at r = 0.045 almost no energy is lost."""
+    centre pixel renders 0.3071 from the 64x64 LUT); at r = 0.045 almost no energy is lost (the
+    centre renders 1.0). The whole sphere at three roughness values, each channel of a coloured
+    conductor, is held to the quadrature in tests/shaders/test_furnace_quadrature.py."""
     rough = renderer.render(sphere_scene(Material(albedo=(1, 1, 1), metallic=1.0, roughness=1.0),
                                          multiscatter=False)).radiance
     smooth = renderer.render(sphere_scene(Material(albedo=(1, 1, 1), metallic=1.0, roughness=0.045),
@@ -56,7 +61,8 @@ def test_single_scattering_loses_energy_at_high_roughness(renderer):
 @pytest.mark.parametrize("rho", [0.18, 0.5, 1.0])
 def test_diffuse_sphere_renders_its_albedo(renderer, rho):
     """A Lambertian albedo-rho sphere (no specular lobe) in a unit white environment renders rho
-    everywhere: E = pi from 9-coefficient SH is exact for a constant. Measured: 3e-7."""
+    everywhere: E = pi from 9-coefficient SH is exact for a constant. Measured: 3e-7. (No DFG
+    term is involved: f0 = 0 compiles the specular lobe out.)"""
     scene = sphere_scene(Material(albedo=(rho, rho, rho), specular=0.0, roughness=0.5))
     frame = renderer.render(scene)
     on = frame.radiance[..., 3] > 0
@@ -64,6 +70,9 @@ def test_diffuse_sphere_renders_its_albedo(renderer, rho):
 
 
 def test_blinn_phong_furnace_is_bounded(renderer):
+    """Plumbing: the normalised lobe reflects f0 of a unit furnace whatever its shape (the
+    prefiltered radiance of a constant is that constant), so this checks the energy split
+    diffuse (1 - f0) + f0, not the lobe."""
     scene = sphere_scene(Material(albedo=(0.5, 0.5, 0.5), roughness=0.3), model="blinn_phong")
     rad = renderer.render(scene).radiance
     on = rad[..., 3] > 0
@@ -127,8 +136,10 @@ def test_caches_geometry_and_ibl(renderer):
 @pytest.mark.parametrize("roughness", [0.0, 0.3, 1.0])
 @pytest.mark.parametrize("specular", [0.5, 1.0])
 def test_white_furnace_dielectric(renderer, roughness, specular):
-    """A white dielectric (albedo 1) reflects exactly what it receives with multiscatter on: the
-    diffuse lobe keeps 1 - E_spec of the compensated specular albedo. Measured: 2.4e-7."""
+    """Plumbing: a white dielectric (albedo 1) reflects exactly what it receives with multiscatter
+    on: the diffuse lobe keeps 1 - E_spec of the compensated specular albedo. Measured: 2.4e-7.
+    An identity for any DFG table (diffuse + specular = 1 by construction); the table is checked
+    against quadrature in tests/shaders/test_furnace_quadrature.py."""
     scene = sphere_scene(Material(albedo=(1, 1, 1), roughness=roughness, specular=specular))
     rad = renderer.render(scene).radiance
     on = rad[..., 3] > 0

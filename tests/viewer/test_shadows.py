@@ -90,10 +90,13 @@ def test_penumbra_widens_with_the_lights_size(renderer):
         widths[deg] = _penumbra_pixels(vis, keep)
     assert widths[0.0] < widths[5.0] < widths[10.0] < widths[20.0], widths
     # PCSS: the penumbra's width grows as tan(angle), and the band's pixel count (perimeter x
-    # width) with it once it is several pixels wide: doubling the angle about doubles it (the
-    # bounds allow for the ellipse's curvature, the penumbra eating into the umbra, noise)
+    # width) with it once it is several pixels wide: doubling the angle about doubles it. Here
+    # 2.109 (5 -> 10) and 2.096 (10 -> 20); over 19 geometries (the light's azimuth every 30 deg,
+    # five elevations, maps of 1024 and 4096) the 38 ratios are 2.07 +- 0.046 (1.98-2.19): the
+    # band is about +-5 standard deviations. It fails a light clamped at 15 deg (10 -> 20: 1.54)
+    # and penumbrae growing as angle^0.8 (1.77) or angle^1.2 (2.47), which 1.5-2.8 passed.
     for lo, hi in ((5.0, 10.0), (10.0, 20.0)):
-        assert 1.5 < widths[hi] / widths[lo] < 2.8, widths
+        assert 1.85 < widths[hi] / widths[lo] < 2.3, widths
 
 
 @pytest.mark.parametrize("elevation", [90.0, 60.0, 30.0, 15.0, 5.0])
@@ -299,7 +302,8 @@ def test_an_empty_texel_never_occludes():
     """A map texel of depth 1 holds nothing: a receiver near the map's far end whose plane, tilted
     towards grazing, passes depth 1 within the filters' reach is lit over an empty map (it once
     counted the empty texels beyond depth 1 as occluders), and a real occluder still shadows it.
-    The lighting pass's lookups are these functions (their parity check compares the two)."""
+    The lighting pass's lookups are these functions (the parity check shadow:lookups holds the
+    GLSL to them: at most 1 in 500 lookups beyond 1e-5, each within one flipped sample)."""
     import torch
 
     from learned.twins.shadow import shadow_pcss
@@ -319,55 +323,69 @@ def test_an_empty_texel_never_occludes():
     assert (shadow_pcss(blocked, s, plane, lens, 0.3, -1) < 0.5).all()
 
 
+def _plain_blocker_search(depth_map, uv, z, search, phi):
+    """The blocker search as lib/shadow.glsl documents it, written plainly (float64, a sample's
+    angle by cos and sin, not the shaders' rotation): the receiver's texel, the Vogel spiral's
+    taps (ceil(pi / 2 (r size)^2) of them, 4 to 16) at sqrt((i + 0.5) / n) r (cos, sin)(phi +
+    i golden); the odd taps count only where the texel or an even tap occludes. -> (mean occluder
+    depth or -1, umbra, whether only odd taps occlude, the taps' least distance to a texel
+    boundary in texels)."""
+    size = depth_map.shape[0]
+    n = int(np.clip(np.ceil(np.pi / 2.0 * (search * size) ** 2), 4, 16))
+    i = np.arange(n)
+    radius = np.sqrt((i + 0.5) / n) * search
+    angle = phi + i * 2.39996323
+    taps = np.concatenate([[uv], uv + radius[:, None] * np.stack([np.cos(angle),
+                                                                  np.sin(angle)], -1)])
+    t = taps * size
+    edge = np.abs(t - np.round(t)).min()
+    idx = np.clip(np.floor(t).astype(int), 0, size - 1)
+    d = depth_map[idx[:, 1], idx[:, 0]].astype(np.float64)
+    occludes = d < min(z, 1.0)
+    if not (occludes[0] or occludes[1::2].any()):  # the centre and the even taps (i = 0, 2, ..)
+        return -1.0, False, bool(occludes.any()), edge
+    return float(d[occludes].mean()), bool(occludes.all()), False, edge
+
+
 def test_the_blocker_search_reads_its_odd_taps_wherever_an_occluder_is_found():
     """The search reads the spiral's even taps, and its odd taps only where the receiver's texel
     or an even tap occluded: wherever the search finds an occluder, its mean depth and umbra are
-    those of the whole spiral (every tap read, the same order of sums), and a receiver it calls
-    lit has no occluder under the receiver's texel or any even tap. Random maps of small
-    occluders, random receivers: exact equality (the same float32 operations)."""
+    those of the whole spiral, and a receiver it calls lit has no occluder under the receiver's
+    texel or any even tap - against a plain search over a map of 8-texel occluders, written here
+    from the shader's documentation (not the twin's helpers). Receivers with a tap within 1e-3
+    texel of a texel boundary are left out (there the two spirals' rounding may read
+    neighbours). The GLSL is the twin's within one flipped sample (parity shadow:lookups)."""
     import torch
 
-    from learned.twins.shadow import (
-        SHADOW_SEARCH_SAMPLES,
-        _disk_loop,
-        shadow_blocker_depth,
-        shadow_sample,
-        shadow_taps,
-    )
+    from learned.twins.shadow import shadow_blocker_depth
 
-    g = torch.Generator().manual_seed(3)
+    rng = np.random.default_rng(3)
     n = 128
-    m = torch.ones(n, n)
-    blobs = (torch.rand(n // 8, n // 8, generator=g) < 0.15).float()  # 8-texel occluders
-    m = torch.where(blobs.repeat_interleave(8, 0).repeat_interleave(8, 1) > 0,
-                    0.2 + 0.3 * torch.rand(n, n, generator=g), m)
-    k = 4000
-    uv = torch.rand(k, 2, generator=g)
-    plane = torch.stack([0.6 + 0.3 * torch.rand(k, generator=g), torch.zeros(k),
-                         torch.zeros(k)], -1)
+    blobs = rng.random((n // 8, n // 8)) < 0.15
+    m = np.where(np.repeat(np.repeat(blobs, 8, 0), 8, 1),
+                 0.2 + 0.3 * rng.random((n, n)), 1.0).astype(np.float32)
+    k = 2000
+    uv = rng.random((k, 2)).astype(np.float32)
+    z = (0.6 + 0.3 * rng.random(k)).astype(np.float32)
+    phi = (6.2831853 * rng.random(k)).astype(np.float32)
+    search = (0.002 + 0.05 * rng.random(k)).astype(np.float32)
+    plane = torch.from_numpy(np.stack([z, np.zeros(k), np.zeros(k)], -1).astype(np.float32))
+    dir_ = torch.from_numpy(np.stack([np.cos(phi), np.sin(phi)], -1))
     lens = torch.tensor([1.0, 0.01, 0.0, 10.0]).expand(k, 4)
-    phi = 6.2831853 * torch.rand(k, generator=g)
-    dir_ = torch.stack([torch.cos(phi), torch.sin(phi)], -1)
-    search = 0.002 + 0.05 * torch.rand(k, generator=g)
-    size = torch.tensor(float(n))
-    depth, umbra = shadow_blocker_depth(m, uv, plane, search, dir_, size, lens, -1)
-    # the whole spiral, every tap, summed centre, even taps, odd taps
-    centre = shadow_sample(m, uv, -1)
-    walk = list(_disk_loop(m, uv, plane, search, dir_, size, lens, -1, SHADOW_SEARCH_SAMPLES,
-                           True))
-    hits = [centre < plane[:, 0].clamp_max(1.0)] + [a & (d < z) for d, z, a in walk]
-    vals = [centre] + [d for d, _, _ in walk]
-    order = [0] + [1 + i for i in range(0, len(walk), 2)] + [1 + i for i in range(1, len(walk), 2)]
-    total = torch.zeros(k)
-    count = torch.zeros(k)
-    for i in order:
-        total = total + torch.where(hits[i], vals[i], torch.zeros_like(vals[i]))
-        count = count + hits[i].float()
-    found = count > 0
-    even_found = hits[0] | torch.stack([hits[1 + i] for i in range(0, len(walk), 2)]).any(0)
-    taps = shadow_taps(search, size, SHADOW_SEARCH_SAMPLES)
-    assert 200 < int(even_found.sum()) < k - 200  # both outcomes are common
-    assert (found & ~even_found).any()  # where only odd taps occlude: what the search skips
-    assert torch.equal(depth[even_found], (total / count.clamp_min(1.0))[even_found])
-    assert torch.equal(umbra[even_found], (count == taps + 1)[even_found])
-    assert (depth[~even_found] == -1.0).all() and not umbra[~even_found].any()
+    depth, umbra = shadow_blocker_depth(torch.from_numpy(m), torch.from_numpy(uv), plane,
+                                        torch.from_numpy(search), dir_, torch.tensor(float(n)),
+                                        lens, -1)
+    plain = [_plain_blocker_search(m, uv[j].astype(np.float64), float(z[j]), float(search[j]),
+                                   float(phi[j])) for j in range(k)]
+    want = np.array([p[0] for p in plain])
+    want_umbra = np.array([p[1] for p in plain])
+    odd_only = np.array([p[2] for p in plain])
+    clear = np.array([p[3] for p in plain]) > 1e-3
+    assert clear.sum() > 0.9 * k
+    found = want >= 0.0
+    assert 200 < int((found & clear).sum()) < k - 200  # both outcomes are common
+    assert (want_umbra & clear).sum() > 20 and (found & ~want_umbra & clear).sum() > 50
+    assert (odd_only & clear).sum() > 20  # where the skipped odd taps would have found one
+    np.testing.assert_array_equal(depth.numpy()[clear] >= 0.0, found[clear])
+    np.testing.assert_allclose(depth.numpy()[clear & found], want[clear & found], rtol=1e-6)
+    np.testing.assert_array_equal(umbra.numpy()[clear], want_umbra[clear])

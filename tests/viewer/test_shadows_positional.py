@@ -100,9 +100,14 @@ def test_penumbra_widens_with_the_lights_radius(renderer, kind):
         widths[radius] = _penumbra_pixels(vis, keep)
     assert widths[0.0] < widths[0.1] < widths[0.2] < widths[0.4], widths
     # similar triangles: the penumbra's width is proportional to the radius (R (1/zb - 1/zr)),
-    # its band's pixel count with it once several pixels wide (bounds as for directional lights)
+    # its band's pixel count with it once several pixels wide. Here spot 2.000 / 2.146, point
+    # 2.075 / 2.194; over 19 light positions (each light moved up to 0.6 across, -0.5..0.8 up)
+    # the 38 ratios are 2.11 +- 0.045 (2.00-2.20; a point light straight above the sphere, whose
+    # shadow hides under it, measured 1.89 / 1.73 and is not a case here): the band is about
+    # +-5 standard deviations. It fails a radius clamped at 0.3 (0.2 -> 0.4: 1.58 / 1.60) and
+    # penumbrae growing as radius^0.8 (1.78 / 1.80) or radius^1.2 (2.36-2.58), which 1.4-2.8 passed.
     for lo, hi in ((0.1, 0.2), (0.2, 0.4)):
-        assert 1.4 < widths[hi] / widths[lo] < 2.8, widths
+        assert 1.85 < widths[hi] / widths[lo] < 2.35, widths
 
 
 @pytest.mark.parametrize("height", [0.3, 1.0, 4.0])

@@ -11,7 +11,7 @@ import pytest
 
 from relight.reference import ReferenceOptions, render_reference
 from relight.reference.compare import Reference, score, z_test
-from relight.reference.lights import mitsuba_light, spot_cone_factor
+from relight.reference.lights import mitsuba_light, spot_texture
 from viewer.lighting.lights import Light
 from viewer.scene.description import scene_from_dict
 
@@ -81,10 +81,53 @@ def test_point_light_floor_is_inverse_square(mitsuba_llvm):
     _check(ref, irr)
 
 
+def gltf_spot_attenuation(cos_angle, inner_deg: float, outer_deg: float):
+    """KHR_lights_punctual's angular attenuation, as the extension's README gives its reference
+    implementation (written here, not taken from the code under test):
+
+        lightAngleScale = 1.0f / max(0.001f, cos(innerConeAngle) - cos(outerConeAngle));
+        lightAngleOffset = -cos(outerConeAngle) * lightAngleScale;
+        float cd = dot(spotlightDir, normalizedLightVector);
+        float angularAttenuation = saturate(cd * lightAngleScale + lightAngleOffset);
+        angularAttenuation *= angularAttenuation;
+    """
+    cos_inner, cos_outer = math.cos(math.radians(inner_deg)), math.cos(math.radians(outer_deg))
+    scale = 1.0 / max(0.001, cos_inner - cos_outer)
+    offset = -cos_outer * scale
+    a = np.clip(np.asarray(cos_angle, np.float64) * scale + offset, 0.0, 1.0)
+    return a * a
+
+
+def test_spot_texture_is_the_gltf_cone():
+    """The bitmap the reference hands Mitsuba's ``spot`` (its ``texture``) holds glTF's cone at
+    each texel's direction (uv = 0.5 + 0.5 (x, y) / (z tan cutoff), the cutoff the outer angle):
+    float32 rounding, measured 2.8e-8. Fails for a linear t (no square), a cone in the angle instead
+    of its cosine, or inner and outer swapped."""
+    n, inner, outer = 64, 20.0, 40.0
+    tex = spot_texture(inner, outer, n)
+    c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+    x, y = np.meshgrid(c, c)
+    cos_angle = 1.0 / np.sqrt(1.0 + (x * x + y * y) * math.tan(math.radians(outer)) ** 2)
+    want = gltf_spot_attenuation(cos_angle, inner, outer)
+    assert ((want > 0.05) & (want < 0.95)).sum() > 500 and want.max() == 1.0  # in the falloff
+    np.testing.assert_allclose(tex, np.repeat(want[..., None], 3, -1), atol=1e-6)
+
+
+def test_spot_texture_check_fails_on_a_linear_cone(monkeypatch):
+    """The check above against a deliberately broken cone factor (t instead of t^2)."""
+    from relight.reference import lights
+
+    monkeypatch.setattr(lights, "spot_cone_factor", lambda c, o, i: np.clip(
+        (c - o) / max(i - o, 1e-3), 0.0, 1.0))
+    with pytest.raises(AssertionError, match="Not equal to tolerance"):
+        test_spot_texture_is_the_gltf_cone()
+
+
 def test_spot_light_cone_is_gltf(mitsuba_llvm):
     """A spot light straight down, inner 20 deg, outer 40: the floor follows glTF's cone factor
-    (t^2, t linear in the cosine) everywhere: 0 outside the outer cone's circle (r = tan 40 m),
-    full inside the inner one; Mitsuba's own linear-in-angle falloff does not pass."""
+    (:func:`gltf_spot_attenuation`, the extension's reference implementation) everywhere: 0
+    outside the outer cone's circle (r = tan 40 m), full inside the inner one; Mitsuba's own
+    linear-in-angle falloff does not pass."""
     light = {"type": "spot", "position": [0.0, 1.0, 0.0], "direction": [0.0, 1.0, 0.0],
              "intensity": 2.0, "inner_cone_deg": 20.0, "outer_cone_deg": 40.0}
     scene = _floor_scene(light)
@@ -92,8 +135,7 @@ def test_spot_light_cone_is_gltf(mitsuba_llvm):
     p = _floor_points(scene)
     irr = _point_irradiance(p, light["position"], light["intensity"])
     cos_angle = 1.0 / np.sqrt(1.0 + p[..., 0] ** 2 + p[..., 2] ** 2)
-    outer, inner = math.cos(math.radians(40.0)), math.cos(math.radians(20.0))
-    cone = spot_cone_factor(cos_angle, outer, inner)
+    cone = gltf_spot_attenuation(cos_angle, 20.0, 40.0)
     r = np.hypot(p[..., 0], p[..., 2])
     lit = ref.radiance[..., 0] - ALBEDO * ENV  # the spot's share, +- the environment's noise
     noise = 5.0 * ref.stderr[..., 0] + 1e-6

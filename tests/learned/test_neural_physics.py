@@ -39,12 +39,14 @@ TEACHERS = [default_weights("teacher")]
 # albedo input, so their radiance is not proportional to the albedo; the larger designs fit the
 # teacher's darker, tinted energy more closely (README "Energy: the white furnace").
 KNOWN_FAILURES = {
-    "furnace": {"w16": "0.690-0.749", "w16x2-dfg": "0.711-0.733", "w32x2": "0.704-0.767",
-                "w32x2-dfg": "0.697-0.767", "w32x2-dfg-pbr": "0.692", "w32x2-pe2": "0.513-0.637",
-                "w64x2": "0.643-0.739"},
-    "albedo": {"w16": "1.52-1.71", "w16x2": "1.60-1.71", "w16x2-dfg": "1.63-1.69",
-               "w32x2": "1.81-1.89", "w32x2-dfg": "1.74-1.79", "w32x2-pe2": "1.91-2.16",
-               "w64x2": "1.87-1.96"},
+    "furnace": {"w16": "0.690-0.749", "w16-pbr": "0.724", "w16x2": "0.743-0.785",
+                "w16x2-dfg": "0.711-0.733", "w16x2-dfg-pbr": "0.741", "w16x2-pbr": "0.743",
+                "w32x2": "0.704-0.767", "w32x2-dfg": "0.697-0.767", "w32x2-dfg-pbr": "0.692",
+                "w32x2-pe2": "0.513-0.637", "w64x2": "0.643-0.739"},
+    "albedo": {"w16": "1.52-1.71", "w16-pbr": "2.038", "w16x2": "1.60-1.71",
+               "w16x2-dfg": "1.63-1.69", "w16x2-dfg-pbr": "1.974", "w16x2-pbr": "2.014",
+               "w32x2": "1.81-1.89", "w32x2-dfg": "1.74-1.79", "w32x2-dfg-pbr": "1.990",
+               "w32x2-pe2": "1.91-2.16", "w64x2": "1.87-1.96"},
 }
 
 
@@ -63,11 +65,16 @@ def _students(oracle: str) -> list:
 # for the teacher (vs the unoccluded targets). The furnace is a far easier, in-distribution case,
 # so the bounds are set from what the retrained weights measure here, with a margin, and are
 # tighter than that general error; the weights shipped before the fix fail them.
-# Student furnace: 0.7999 GLSL (0.01 %: the student trained on path-traced truth with the
-# multiscatter base and the gain penalty, README "Against truth"); the truth students before it
-# 0.838-0.886 (4.8-10.8 %), the distilled quick student 0.735 (8.2 %: the mean residual occlusion
-# of its distillation targets, which it cannot see); before the energy fix 0.424, 47 %.
-STUDENT_FURNACE_TOL = 0.10  # relative
+# Student furnace: 0.79989 GLSL (-0.014 %: the student trained on path-traced truth with the
+# multiscatter base and the gain penalty, README "Against truth"; -0.010 / -0.014 / -0.017 % at
+# 24 / 32 / 48 pixels a side), torch -0.42 % (-0.37 +- 0.04 % over 20 point sets, -0.29 to
+# -0.50 %: the points' n.v distribution is not the pixels'). Bounds: GLSL 0.1 % (6x the worst
+# size; GLSL and torch twin agree to 1e-4 on any conforming device), torch 1 % (2x the worst
+# point set). The truth students before it 0.838-0.886 (4.8-10.8 %), the distilled quick student
+# 0.735 (8.2 %: the mean residual occlusion of its distillation targets, which it cannot see),
+# every candidate 0.51-0.79 (KNOWN_FAILURES; 10 %, the bound before, passed four of them); before
+# the energy fix 0.424, 47 %.
+STUDENT_FURNACE_TOL = {"torch": 0.01, "glsl": 0.001}  # relative
 # Teacher furnace, per channel: (0.820, 0.820, 0.839) GLSL, (0.812, 0.814, 0.837) torch: 4.9 %
 # high (the teacher trained on path-traced truth without the light input, "light_input": false,
 # 64 light samples per pixel; with 16 it measured (0.683, 0.668, 0.709), 17 % low: L1 on a noisy
@@ -75,9 +82,12 @@ STUDENT_FURNACE_TOL = 0.10  # relative
 # blue 21 % low; the truth teacher with the light input: blue 0.59, 26 % low; before the energy
 # fix: (0.724, 0.483, 0.709), green 40 % low.
 TEACHER_FURNACE_TOL = 0.10  # relative, per channel
-# Student L(0.8) / L(0.4): 2.001 (0.05 %; k_d depends on the albedo input; before 1.88-2.06).
-# KNOWN_FAILURES lists the candidates beyond these bounds.
-ALBEDO_RATIO_TOL = 0.05  # relative
+# Student L(0.8) / L(0.4): GLSL 2.00106 (0.053 %; 0.003 / 0.053 / 0.002 % at 24 / 32 / 48 pixels),
+# torch 1.9934 (-0.33 %; -0.29 +- 0.04 % over 20 point sets, -0.22 to -0.39 %): k_d depends on
+# the albedo input. Bounds: GLSL 0.2 % (4x the worst size), torch 1 % (2.5x the worst point set).
+# Before: 1.88-2.06. KNOWN_FAILURES lists the candidates beyond these bounds (0.48-25 %; 5 %, the
+# bound before, passed four of them).
+ALBEDO_RATIO_TOL = {"torch": 0.01, "glsl": 0.002}  # relative
 # Teacher L(0.8) / L(0.4) per channel: (1.91, 1.82, 1.87) torch, (1.93, 1.85, 1.88) GLSL (8.8 %:
 # rho depends on the albedo input; the quick teacher shipped before: (2.07, 1.77, 1.57), 21.5 %;
 # before the fix (1.93, 1.25, 1.66)).
@@ -164,8 +174,8 @@ def test_student_white_furnace(renderer, white, path):
     rendered sphere's pixels; same network, parity's 1e-4, different n.v distribution)."""
     torch_mean = _student_torch(path, white).numpy()
     glsl_mean = _glsl_mean(renderer, "neural", weights=str(path))
-    for m in (torch_mean, glsl_mean):
-        assert np.all(np.abs(m / 0.8 - 1.0) < STUDENT_FURNACE_TOL), (torch_mean, glsl_mean)
+    for m, side in ((torch_mean, "torch"), (glsl_mean, "glsl")):
+        assert np.all(np.abs(m / 0.8 - 1.0) < STUDENT_FURNACE_TOL[side]), (torch_mean, glsl_mean)
 
 
 @pytest.mark.parametrize("path", _students("albedo"))
@@ -174,8 +184,8 @@ def test_student_albedo_scaling(renderer, white, path):
     t = (_student_torch(path, white, 0.8) / _student_torch(path, white, 0.4)).numpy()
     g = _glsl_mean(renderer, "neural", weights=str(path)) / _glsl_mean(
         renderer, "neural", weights=str(path), albedo=0.4)
-    for ratio in (t, g):
-        assert np.all(np.abs(ratio / 2.0 - 1.0) < ALBEDO_RATIO_TOL), (t, g)
+    for ratio, side in ((t, "torch"), (g, "glsl")):
+        assert np.all(np.abs(ratio / 2.0 - 1.0) < ALBEDO_RATIO_TOL[side]), (t, g)
 
 
 @pytest.mark.parametrize("path", STUDENTS, ids=lambda p: p.stem)

@@ -189,6 +189,95 @@ def test_the_frame_checks_fail_on_broken_frames(renderer):
     assert any("no cube face" in b for b in frame_failures("point", light, broken, lo, hi))
 
 
+def _gradient_norm(f, point, index: int, h: float = 1e-4) -> float:
+    """|d (u, v or depth) / d world| of ``f.project`` at ``point``, by central differences."""
+    g = [(f.project(point + h * e)[0, index] - f.project(point - h * e)[0, index]) / (2 * h)
+         for e in np.eye(3)]
+    return float(np.linalg.norm(g))
+
+
+def lens_failures(kind: str, spec: dict, frame, lens, lo, hi) -> list[str]:
+    """What is wrong with the ``shadow_lens`` parity hands both sides, against the light's size
+    as its table gives it (a directional light's angular diameter / 2, a point or spot light's
+    radius; softness 1) and the frame's scale measured here by finite differences: an
+    orthographic map's penumbra grows tan(angle) x distance in world units, so its scale is
+    tan(angle) over the map's world width; a perspective map's is the radius over the frustum's
+    width at unit distance; near and the depth range bracket the box's distances from the
+    light."""
+    bad = []
+    corners = _corners(lo, hi)
+    faces = frame.faces if isinstance(frame, (ShadowCube, ShadowCascades)) else (frame,)
+    if kind in ("directional", "cascaded"):
+        base = frame.base if isinstance(frame, ShadowCascades) else frame
+        c = 0.5 * (lo + hi)[None]
+        width = 1.0 / min(_gradient_norm(base, c, 0), _gradient_norm(base, c, 1))
+        want = math.tan(math.radians(spec["angular_diameter_deg"]) / 2.0) / width
+        depth_range = 1.0 / _gradient_norm(base, c, 2)
+        if not (math.isclose(lens[1], want, rel_tol=1e-6) and lens[2] == 0.0
+                and math.isclose(lens[3], depth_range, rel_tol=1e-6)):
+            bad.append(f"lens {lens} vs scale {want:.6g}, near 0, range {depth_range:.6g}")
+        return bad
+    pos = np.asarray(spec["position"], np.float64)
+    f = faces[0]
+    axis = f.matrix[3, :3] / np.linalg.norm(f.matrix[3, :3])
+    q = (pos + axis)[None]  # unit distance along the face's axis
+    per_unit = min(_gradient_norm(f, q, 0), _gradient_norm(f, q, 1))  # 1 / frustum width
+    want = spec["radius"] * per_unit
+    if kind == "spot":
+        dist = (corners - pos) @ axis
+        nearest, farthest = dist.min(), dist.max()
+    else:
+        nearest = np.linalg.norm(np.clip(pos, lo, hi) - pos)
+        farthest = np.linalg.norm(corners - pos, axis=1).max()
+    if not math.isclose(lens[1], want, rel_tol=1e-6):
+        bad.append(f"lens scale {lens[1]:.6g}, the radius over the width at unit distance is "
+                   f"{want:.6g}")
+    if not (0.98 * nearest <= lens[2] <= nearest
+            and farthest <= lens[2] + lens[3] <= 1.02 * farthest):
+        bad.append(f"near {lens[2]:.4g} .. far {lens[2] + lens[3]:.4g} vs the box's "
+                   f"{nearest:.4g} .. {farthest:.4g}")
+    return bad
+
+
+def _parity_lens(scene, light, frame):
+    """shadow:lights' lens, as its _twin_visibility forms it."""
+    from viewer.passes.shadow_bindings import shadow_lens
+
+    settings = scene.render.shadow
+    size = light.radius if light.positional else np.radians(light.angular_diameter_deg) / 2.0
+    return shadow_lens(frame, size * settings.softness)
+
+
+@pytest.mark.parametrize("kind", list(LIGHTS))
+def test_parity_shadow_lens_matches_the_light(renderer, kind):
+    """The lens shadow:lights hands both sides: scale, near and depth range from the light's
+    table and the frame measured here (central differences in float64: measured within 1e-7
+    relative, bound 1e-6; a 1e-5 change of the scale fails)."""
+    scene, light, frame = _parity_frame(renderer, kind)
+    assert scene.render.shadow.softness == 1.0
+    lo, hi = _box(CASCADED["floor"] if kind == "cascaded" else 8.0)
+    lens = _parity_lens(scene, light, frame)
+    assert lens_failures(kind, LIGHTS[kind], frame, lens, lo, hi) == []
+
+
+def test_the_lens_check_fails_on_a_broken_lens(renderer):
+    """The check above against deliberately broken lenses: a diameter where the radius belongs
+    (the scale doubled), an orthographic scale not divided by the map's width, a perspective
+    near plane taken as 0."""
+    for kind in LIGHTS:
+        scene, light, frame = _parity_frame(renderer, kind)
+        lo, hi = _box(CASCADED["floor"] if kind == "cascaded" else 8.0)
+        lens = _parity_lens(scene, light, frame)
+        doubled = (lens[0], 2.0 * lens[1], lens[2], lens[3])
+        assert lens_failures(kind, LIGHTS[kind], frame, doubled, lo, hi) != [], kind
+        if kind == "directional":
+            raw = (lens[0], lens[1] * max(frame.extent), lens[2], lens[3])
+            assert lens_failures(kind, LIGHTS[kind], frame, raw, lo, hi) != []
+        if kind in ("spot", "point"):
+            zero = (lens[0], lens[1], 0.0, lens[3])
+            assert lens_failures(kind, LIGHTS[kind], frame, zero, lo, hi) != [], kind
+
+
 # ---- the environment's sun and compact lights -----------------------------------------------
 
 W = 256  # 1.4 degree texels

@@ -65,24 +65,31 @@ class ShadingModel:
     # rays against the scene's triangles (viewer/raytrace, passes/raytrace.glsl): every light's
     # visibility is traced, so no shadow maps, contact shadows or occlusion terms are compiled in
     traced: bool = False
+    # RT_LIGHT: takes the real-time tier's ray-traced visibility and bounce ([render] raytrace,
+    # passes/rt_light.glsl) in place of screen-space occlusion and the environment's shadow maps
+    ray_light: bool = False
 
     def variant(self, settings, light=None, specular: bool = True,
-                sun: int = 0, contact: bool = False) -> ShadeVariant:
+                sun: int = 0, contact: bool = False, traceable: bool = True) -> ShadeVariant:
         """The program variant for render ``settings``, the scene's ``light`` (a
         :class:`~viewer.lighting.lights.Light`, a tuple of them or None), whether any surface has a specular
         lobe (:class:`viewer.specialize.SceneFeatures`) and how many compact lights the environment
         has (``sun``: :func:`viewer.environment.sun.extract_lights`, the sun first; a bool counts as one;
         shaded analytically when ``settings.sun``: SUN_LIGHT for the first, ENV_LIGHTS = the
         others' count, compiled in only when there are others); ``contact``: the lights'
-        screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`)."""
+        screen-space contact shadows (CONTACT_SHADOWS: :func:`contact_shadows`); ``traceable``:
+        the scene has triangles for rays (RT_LIGHT needs them)."""
         d = {"BACKGROUND_ENVIRONMENT": int(settings.display.background == "environment")}
         if self.lights == "shaded":
             d.update(light_defines(light, shadows=settings.shadow.enabled and not self.traced))
             if contact and d["LIGHT_COUNT"] > 0 and not self.traced:
                 d["CONTACT_SHADOWS"] = 1
+        rt = self.ray_light and settings.raytrace.enabled and traceable
+        if rt:
+            d["RT_LIGHT"] = 1
         if self.occlusion:
             d["USE_AO"] = int(settings.ao)
-            d["USE_SSAO"] = int(settings.ssao.enabled)
+            d["USE_SSAO"] = int(settings.ssao.enabled and not rt)  # rays stand in for it
         if self.multiscatter:
             d["MULTISCATTER"] = int(settings.multiscatter)
         if self.samplings:
@@ -100,9 +107,12 @@ class ShadingModel:
             d["SUN_LIGHT"] = 1
         if d.get("SUN_LIGHT") and int(sun) > 1:
             d["ENV_LIGHTS"] = int(sun) - 1  # the environment's other compact lights
-        if self.env_shadows and settings.shadow.enabled and settings.shadow.environment > 0:
+        if self.env_shadows and settings.shadow.enabled and settings.shadow.environment > 0 \
+                and not rt:
             d["ENV_SHADOWS"] = int(settings.shadow.environment)
-        if d.get("SUN_LIGHT") and settings.shadow.enabled:
+        if d.get("SUN_LIGHT") and rt and not d.get("ENV_LIGHTS"):
+            d["RT_SUN"] = 1  # the sun's visibility is a ray towards its disc (rt_light.frag)
+        elif d.get("SUN_LIGHT") and settings.shadow.enabled:
             d["SUN_SHADOW"] = 1  # the analytic sun reads a shadow map (viewer/passes/shadow.py)
         return ShadeVariant(self.name, tuple(sorted(d.items())))
 
@@ -119,7 +129,7 @@ MODELS: dict[str, ShadingModel] = {
                      "the thesis baseline: Lambert diffuse from the irradiance map + a "
                      "Fresnel-free normalised Blinn-Phong lobe from the prefiltered environment",
                      frozenset({"irradiance", "prefiltered", "radiance"}), reads=_LIT,
-                     specular_lobe=True, env_shadows=True),
+                     specular_lobe=True, env_shadows=True, ray_light=True),
         ShadingModel("ggx_split_sum", "passes/shade_ggx_split_sum.frag",
                      "Cook-Torrance GGX, height-correlated Smith, Schlick Fresnel; split-sum "
                      "prefiltered specular + irradiance-map diffuse; the environment's compact "
@@ -127,7 +137,7 @@ MODELS: dict[str, ShadingModel] = {
                      "compensation",
                      frozenset({"irradiance", "prefiltered", "dfg", "radiance"}), reads=_LIT,
                      multiscatter=True, specular_lobe=True, analytic_sun=True,
-                     env_shadows=True),
+                     env_shadows=True, ray_light=True),
         ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
                      "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
                      "environment: `samples` per pixel, `sampling` = uniform | cosine | env | "

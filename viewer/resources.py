@@ -16,6 +16,7 @@ from .graph.pool import TargetPool
 from .passes.accumulate import AccumulatePass
 from .passes.antialias import AntialiasPass
 from .passes.forward import ForwardPass
+from .passes.rt_light import RTLightPass
 from .passes.gbuffer import GBufferPass
 from .passes.shade import ShadePass
 from .passes.shadow import ShadowPass
@@ -26,7 +27,7 @@ from .raytrace.upload import TraceStore
 
 # the passes that are built per G-buffer layout
 LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
-                 "shade": ShadePass, "forward": ForwardPass}
+                 "shade": ShadePass, "forward": ForwardPass, "rt_light": RTLightPass}
 
 
 class GPUResources:

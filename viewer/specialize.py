@@ -138,6 +138,9 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         needed.discard("ao")
     if settings.ssao.enabled or settings.ssao.indirect:
         needed |= {"depth", "normal"}
+    traceable = features.meshes
+    if model.ray_light and settings.raytrace.enabled and traceable:
+        needed |= {"depth", "normal"}  # rays start at the surface, the filter stops at edges
     if features.stacks and (features.meshes or features.splats):
         needed.add("depth")  # meshes and splats depth-test against the stack's stored depth
     if features.blend:
@@ -158,5 +161,5 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
                                         with_emission=features.emission),
                           model.variant(settings, light, specular=features.specular,
-                                        sun=sun, contact=contact),
+                                        sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

@@ -122,9 +122,19 @@ float env_shadow(GBuffer g, vec3 n) {
 #endif
 }
 
-// The sun's visibility at the pixel whose G-buffer is g (SUN_SHADOW; 1 without).
+#ifndef RT_SUN
+#define RT_SUN 0  // 1: the sun's visibility comes from the real-time tier's rays (rt_light.frag)
+#endif
+#if RT_SUN
+uniform sampler2D u_rt_light1;  // a: the sun's visibility, accumulated (passes/rt_light.glsl)
+#endif
+
+// The sun's visibility at the pixel whose G-buffer is g (RT_SUN: traced; SUN_SHADOW: its map;
+// 1 without either).
 float sun_shadow(GBuffer g, vec3 n, vec3 l) {
-#if SUN_SHADOW
+#if RT_SUN
+    return texelFetch(u_rt_light1, ivec2(gl_FragCoord.xy), 0).a;
+#elif SUN_SHADOW
     return sun_visibility(light_surface_position(gl_FragCoord.xy, g.depth), n, l);
 #else
     return 1.0;

@@ -6,6 +6,7 @@
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/rt_light.glsl"
 
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
@@ -22,7 +23,8 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
-    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
+    vec3 irradiance = rt_diffuse_irradiance(
+        pixel, irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity);
     float ao = ambient_occlusion(pixel, g);
     // the environment's shadows (ENV_SHADOWS) darken the light the irradiance map holds, not the
     // analytic lights (which have their own maps)
@@ -31,6 +33,7 @@ void main() {
     float r = clamp_perceptual_roughness(g.roughness);
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflect(-v, n)), r,
                                              u_env_levels) * u_env_intensity;
+    prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
     vec3 c = blinn_phong(diffuse, f0, ao_env, irradiance, prefiltered);

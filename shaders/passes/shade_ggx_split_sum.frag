@@ -4,12 +4,14 @@
 // LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, same BRDF: passes/lights.glsl),
 // SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/environment/sun.py; the IBL bound then
 // leaves it out of the prefiltered chain and the irradiance map, and u_env_prefiltered_full keeps
-// it), ENV_LIGHTS (its other compact lights, passes/env_lights.glsl; with SUN_LIGHT only).
+// it), ENV_LIGHTS (its other compact lights, passes/env_lights.glsl; with SUN_LIGHT only),
+// RT_LIGHT (the real-time tier's ray-traced visibility and bounce: passes/rt_light.glsl).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/rt_light.glsl"
 #include "passes/env_lights.glsl"
 
 uniform sampler2D u_env_prefiltered;
@@ -36,7 +38,8 @@ void main() {
     }
     vec3 v = -d;
     vec3 n = shading_normal(g.normal, v);
-    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
+    vec3 irradiance = rt_diffuse_irradiance(
+        pixel, irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity);
     float ao = ambient_occlusion(pixel, g);
     // the environment's shadows (ENV_SHADOWS) darken the light the irradiance map holds, not the
     // analytic lights (which have their own maps)
@@ -56,6 +59,7 @@ void main() {
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r, u_env_levels)
                        * u_env_intensity;
 #endif
+    prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);

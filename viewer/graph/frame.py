@@ -28,6 +28,7 @@ from ..scene.description import Scene
 from ..specialize import Specialization
 from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
+from .raytrace import raytrace_passes
 from .resources import GBufferDesc, TextureDesc
 from .shadows import cascade_variant, env_to_world, light_shadow_frame, shadow_passes  # noqa: F401
 
@@ -64,9 +65,10 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     g.create("display", TextureDesc(out_size, 4, "f1"), kept=True)
 
     _gbuffer_passes(g, renderer, scene, spec, camera)
+    rt = bool(spec.variant.defines.get("RT_LIGHT"))  # rays stand in for SSAO and its bounce
     ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
                         record_hits=settings.ssao.indirect,
-                        blur=settings.ssao.blur) if settings.ssao.enabled else None
+                        blur=settings.ssao.blur) if settings.ssao.enabled and not rt else None
     blended = [] if spec.direct_stack else renderer.blended(scene)
     fvariant = None
     if blended:  # its program reads the maps too: the sun's where only it shades the sun
@@ -75,7 +77,9 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
         fvariant = forward_variant(settings, scene.light,
                                    sun=len(res.ibl(scene.environment, sun=sun).lights))
     shadows = shadow_passes(g, renderer, scene, spec, camera, also=fvariant)
-    _lighting_passes(g, renderer, req, ssao, shadows)
+    rt_light = raytrace_passes(g, renderer, scene, spec, camera, req.progressive,
+                               _lighting_settings(settings)) if rt else ()
+    _lighting_passes(g, renderer, req, ssao, shadows, rt_light)
     if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
 
         def forward(f):  # receives the frame's shadow maps (viewer/passes/forward.py)
@@ -206,14 +210,16 @@ def _lighting_settings(settings):
 
 
 def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None,
-                     shadows: dict):
+                     shadows: dict, rt_light: tuple[str, ...] = ()):
     """``shade`` (accumulated for Monte-Carlo models) into ``radiance``, or, with the indirect
-    light, into ``direct`` (and a student's learned ``indirect_factor``), then ``indirect``."""
+    light, into ``direct`` (and a student's learned ``indirect_factor``), then ``indirect``;
+    ``rt_light``: the real-time tier's filtered targets (RT_LIGHT), which replace the
+    screen-space indirect light."""
     scene, model, spec, camera = req.scene, req.model, req.spec, req.camera
     settings = scene.render
     res = renderer.resources
     size = tuple(camera.size)
-    indirect = settings.ssao.indirect
+    indirect = settings.ssao.indirect and not rt_light
     factor = indirect and learns_indirect(settings)
     out = "direct" if indirect else "radiance"
     outs = (out,)
@@ -223,7 +229,7 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
             g.create("indirect_factor", TextureDesc(size, 1, "f4"), kept=True)
             outs = ("direct", "indirect_factor")
     reads = (("gbuffer",) + ((ssao.occlusion,) if ssao else ())
-             + tuple(name for name, _, _, _ in shadows.values()))
+             + tuple(name for name, _, _, _ in shadows.values()) + tuple(rt_light))
     variant = cascade_variant(spec.variant, shadows)
     env_sampling = renderer.env_sampling(scene) if "cdf" in model.needs else None
     # the IBL without the sun a SUN_LIGHT pass shades itself
@@ -241,7 +247,8 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
                   shadows={i: (f[name].texture, frame, angle, offset)
                            for i, (name, frame, angle, offset) in shadows.items() if i != "sun"},
                   sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
-                              if "sun" in shadows else None), trace=trace)
+                              if "sun" in shadows else None), trace=trace,
+                  rt_light=[f[n].texture for n in rt_light])
 
     inputs = {"model": settings.model, "render": _lighting_settings(settings),
               "environment": scene.environment, "light": scene.light, "variant": variant}

@@ -73,7 +73,8 @@ def forward_variant(settings: RenderSettings, light: Light | tuple[Light, ...] |
                     sun: int = 0) -> ShadeVariant:
     """The lighting-pass variant that shades blended surfaces for ``settings.model``: the forward
     model's own variant (every lobe: blended surfaces are not specialised), without SSAO and
-    without the background (the destination already holds it), and without the light when the
+    without the background (the destination already holds it), without the real-time tier's
+    rays (RT_LIGHT: they start from the G-buffer), and without the light when the
     scene's model ignores it; ``sun``: how many lights the IBL bound leaves out to shade
     (SUN_LIGHT, ENV_LIGHTS)."""
     info = model_info(settings.model)
@@ -81,8 +82,10 @@ def forward_variant(settings: RenderSettings, light: Light | tuple[Light, ...] |
     # shadow maps as the lighting pass reads them; no contact shadows (module doc)
     no_contact = dataclasses.replace(settings, shadow=dataclasses.replace(
         settings.shadow, contact="off"))
+    # blended surfaces are not in the G-buffer the rays start from: no RT_LIGHT (their sun keeps
+    # its shadow map)
     defines = model_info(forward_model(settings.model)).variant(no_contact, shaded, specular=True,
-                                                                sun=sun).defines
+                                                                sun=sun, traceable=False).defines
     defines["BACKGROUND_ENVIRONMENT"] = 0
     if "USE_SSAO" in defines:
         defines["USE_SSAO"] = 0

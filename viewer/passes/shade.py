@@ -80,7 +80,7 @@ class ShadePass:
             settings: RenderSettings, env_sampling=None, ssao=None,
             sample_range: tuple[int, int] = (0, 1), variant: ShadeVariant | None = None,
             light: Light | tuple[Light, ...] | None = None, shadows: dict | None = None,
-            sun_shadow: tuple | None = None, trace=None) -> None:
+            sun_shadow: tuple | None = None, trace=None, rt_light=()) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.environment.sampling.EnvSampling` of sampling models;
@@ -93,7 +93,8 @@ class ShadePass:
         light's size (angular radius in radians, or radius in world units), normal offset (world units; per unit of distance for perspective
         and cube maps)) for the lights that cast one;
         ``sun_shadow``: the same for the environment's sun (SUN_SHADOW); ``trace``: the scene's
-        :class:`~viewer.raytrace.upload.TraceBuffers` for models that trace rays."""
+        :class:`~viewer.raytrace.upload.TraceBuffers` for models that trace rays; ``rt_light``:
+        the real-time tier's three filtered textures (RT_LIGHT)."""
         if variant is None:
             variant = model_info(settings.model).variant(settings, light)
         found = model_network(settings.model, settings)  # the weights file, looked up once
@@ -110,6 +111,11 @@ class ShadePass:
         unit = self.shadow_maps.bind(prog, light, shadows or {}, sun_shadow, unit)
         if trace is not None:
             unit = trace.bind(prog, unit)
+        for k, tex in enumerate(rt_light):
+            if f"u_rt_light{k}" in prog:
+                tex.use(unit)
+                prog[f"u_rt_light{k}"].value = unit
+                unit += 1
         _set(prog, "u_max_depth", int(settings.mc.max_depth))
         _set(prog, "u_sample_start", int(sample_range[0]))
         _set(prog, "u_sample_count", int(sample_range[1]))

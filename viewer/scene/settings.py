@@ -42,6 +42,23 @@ class SSAOSettings:
 
 
 @dataclass(frozen=True)
+class RaytraceSettings:
+    """The real-time tier's rays (passes/rt_light.frag, viewer/passes/rt_light.py): the
+    environment's visibility and one bounce for the rasterised models, traced against the
+    scene's triangles, accumulated over still frames and denoised."""
+
+    enabled: bool = False  # (TOML: raytrace)
+    rays: int = 1  # diffuse rays per pixel and frame, besides one specular ray (raytrace_rays)
+    denoise: bool = True  # the edge-avoiding a-trous filter (raytrace_denoise)
+    # frames a still view accumulates before the history becomes an exponential average of that
+    # many (raytrace_frames)
+    frames: int = 32
+
+    def __bool__(self):  # say where the switch is
+        raise TypeError("RaytraceSettings has no truth value: use settings.raytrace.enabled")
+
+
+@dataclass(frozen=True)
 class NeuralSettings:
     """Which weights the neural models load and where their generated GLSL reads them."""
 
@@ -144,6 +161,7 @@ class RenderSettings:
     neural: NeuralSettings = NeuralSettings()
     display: DisplaySettings = DisplaySettings()
     shadow: ShadowSettings = ShadowSettings()
+    raytrace: RaytraceSettings = RaytraceSettings()
 
     def flat(self) -> dict[str, Any]:
         """Every setting by its TOML key, in :data:`RENDER_KEYS` order."""
@@ -209,4 +227,8 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "shadow_cascades": ("shadow", "cascades"),
     "contact_shadows": ("shadow", "contact"),
     "contact_length": ("shadow", "contact_length"),
+    "raytrace": ("raytrace", "enabled"),
+    "raytrace_rays": ("raytrace", "rays"),
+    "raytrace_denoise": ("raytrace", "denoise"),
+    "raytrace_frames": ("raytrace", "frames"),
 }

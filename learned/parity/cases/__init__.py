@@ -11,6 +11,7 @@ from . import (
     bvh,
     common,
     contact,
+    denoise,
     env_sampling,
     equirect,
     ibl,
@@ -28,7 +29,7 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (antialias, brdf, bvh, common, contact, env_sampling, equirect, ibl, lights, mc, neural,
+MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ibl, lights, mc, neural,
            path, sampling, sh, shading, shadow, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]

@@ -1,0 +1,183 @@
+// rt_light.frag - the real-time tier's rays (viewer/passes/rt_light.py): from each G-buffer
+// surface, u_rt_rays cosine-distributed rays and one ray drawn from the specular lobe (GGX VNDF)
+// against the scene's triangles (passes/raytrace.glsl), for the ratio estimator of visibility
+// (Heitz et al. 2018, "Combining Analytic Direct Illumination and Stochastic Shadows"): the
+// shading pass keeps its noise-free environment terms (the irradiance map, the prefiltered chain)
+// and multiplies them by the denoised ratio of the environment's light the rays see to all of it
+// along the same rays, then adds the light the rays that hit something bring back (one bounce).
+// The environment along a ray is the prefiltered chain (the one the shading pass reads: without
+// the compact lights its SUN_LIGHT shades analytically), blurred to the lobe's roughness (rough
+// for the diffuse rays), which keeps the ratio's variance low. A hit surface's light is its
+// Lambertian response to the irradiance map, the environment's sun and the scene's lights (a
+// shadow ray each), plus its emission.
+// Outputs (RGBA32F each, cosine- or lobe-weighted means over this frame's rays):
+//   0: (diffuse seen, diffuse all, specular seen, specular all): luminances
+//   1: (light the diffuse rays' hits bring back, rgb; the sun's visibility with RT_SUN, else 1)
+//   2: (light the specular ray's hit brings back, rgb; 1)
+// Defines: SPECULAR_LOBE, SUN_LIGHT, RT_SUN, ENV_LIGHTS, LIGHT_COUNT, LIGHT_POSITIONAL.
+#define RAYTRACED 1
+#include "passes/deferred.glsl"
+#include "lib/brdf.glsl"
+#include "lib/ibl.glsl"
+#include "lib/shading.glsl"
+#include "passes/lights.glsl"
+#include "lib/sampling.glsl"
+#include "lib/mc.glsl"
+#include "lib/env_sampling.glsl"
+#include "lib/path.glsl"
+#include "passes/raytrace.glsl"
+
+layout(location = 1) out vec4 o_bounce_diffuse;
+layout(location = 2) out vec4 o_bounce_specular;
+
+uniform sampler2D u_env_prefiltered;
+uniform float u_env_levels;
+uniform sampler2D u_env_irradiance;
+#if SUN_LIGHT
+uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's frame
+uniform vec3 u_sun_irradiance;  // on a surface facing it
+#endif
+#if RT_SUN
+uniform float u_sun_disc_radius;  // the sun's angular radius (radians)
+#endif
+#ifndef ENV_LIGHTS
+#define ENV_LIGHTS 0
+#endif
+#if ENV_LIGHTS > 0
+uniform vec3 u_env_light_direction[ENV_LIGHTS];   // the environment's other compact lights
+uniform vec3 u_env_light_irradiance[ENV_LIGHTS];
+uniform float u_env_light_radius[ENV_LIGHTS];     // angular radius, radians
+#endif
+uniform uint u_frame;   // the frame's index in the accumulation (a new sample set each)
+uniform uint u_seed;
+uniform int u_rt_rays;  // diffuse rays per pixel and frame
+
+#define RT_DIFFUSE_ROUGHNESS 0.3  // the chain level the diffuse rays read the environment at
+
+vec3 rt_environment(vec3 l, float perceptual_roughness) {
+    return ibl_specular_radiance(u_env_prefiltered, env_dir(l), perceptual_roughness, u_env_levels)
+           * u_env_intensity;
+}
+
+// The light a hit surface sends back along the ray (towards -d): Lambertian under the
+// irradiance map, the sun and the lights (each behind a shadow ray), plus its emission.
+vec3 rt_hit_radiance(RayHit hit, vec3 o, vec3 d, vec2 u_hit) {
+    TracedSurface t = rt_surface(hit, o, d);
+    bool front = dot(t.ng, d) < 0.0;
+    if (!front && !t.double_sided) return vec3(0.0);
+    vec3 n = front ? t.n : -t.n;
+    vec3 ng = front ? t.ng : -t.ng;
+    // the environment's share through one cosine-distributed ray (irradiance = pi x its
+    // radiance): the environment where it escapes, else the light the surface it meets sends
+    // back, that surface taken as Lambertian under the environment seen along one more ray (a
+    // second bounce: the floor beneath a sphere lights the sphere's underside, which lights the
+    // floor again). The environment is the chain's blurred level, as for the pixel's own rays.
+    vec3 lv = tangent_to_world(sample_cosine_hemisphere(u_hit), n);
+    vec3 ov = ray_offset(t.p, ng, lv);
+    RayHit second = bvh_closest_hit(ov, lv, 3.0e38);
+    vec3 e = PI * rt_environment(lv, RT_DIFFUSE_ROUGHNESS);
+    if (second.triangle >= 0) {
+        TracedSurface t2 = rt_surface(second, ov, lv);
+        bool front2 = dot(t2.ng, lv) < 0.0;
+        vec3 n2 = front2 ? t2.n : -t2.n;
+        vec3 ng2 = front2 ? t2.ng : -t2.ng;
+        // the second surface's own open sky, behind one more visibility ray (the same
+        // direction sample, about its normal)
+        vec3 l3 = tangent_to_world(sample_cosine_hemisphere(u_hit.yx), n2);
+        bool open = !bvh_any_hit(ray_offset(t2.p, ng2, l3), l3, 3.0e38);
+        e = diffuse_color(t2.albedo, t2.metallic)
+            * (open ? PI * rt_environment(l3, RT_DIFFUSE_ROUGHNESS) : vec3(0.0))
+            + PI * t2.emission;
+    }
+#if SUN_LIGHT
+    vec3 ls = rotate_y(u_sun_direction, u_env_rotation);
+    float cs = dot(n, ls);
+    if (cs > 0.0 && !bvh_any_hit(ray_offset(t.p, ng, ls), ls, 3.0e38)) {
+        e += u_sun_irradiance * u_env_intensity * cs;
+    }
+#endif
+#if ENV_LIGHTS > 0
+    for (int i = 0; i < ENV_LIGHTS; ++i) {
+        vec3 le = rotate_y(u_env_light_direction[i], u_env_rotation);
+        vec4 disc = disc_light(n, le, u_env_light_radius[i]);  // cut by the horizon
+        float ce = dot(n, disc.xyz) * disc.w;
+        if (ce > 0.0 && !bvh_any_hit(ray_offset(t.p, ng, le), le, 3.0e38)) {
+            e += u_env_light_irradiance[i] * u_env_intensity * ce;
+        }
+    }
+#endif
+#if LIGHT_COUNT > 0
+    for (int i = 0; i < LIGHT_COUNT; ++i) {
+        vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
+                                 u_light_cone_range[i], t.p);
+        float c = dot(n, la.xyz);
+        if (!(la.w > 0.0) || !(c > 0.0)) continue;
+        float t_max = u_light_type[i] == LIGHT_TYPE_DIRECTIONAL ? 3.0e38
+                      : length(u_light_position[i] - t.p) * (1.0 - 1.0e-4);
+        if (!bvh_any_hit(ray_offset(t.p, ng, la.xyz), la.xyz, t_max)) {
+            e += u_light_intensity[i] * (la.w * c);
+        }
+    }
+#endif
+    return diffuse_color(t.albedo, t.metallic) * INV_PI * e + t.emission;
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    GBuffer g = gbuffer_load(pixel);
+    if (g.alpha <= 0.0 || !(g.depth > 0.0)) {  // nothing to shade: ratios of 1, no bounce
+        o_radiance = vec4(1.0);
+        o_bounce_diffuse = vec4(0.0, 0.0, 0.0, 1.0);
+        o_bounce_specular = vec4(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    vec3 v = -view_ray_ws(gl_FragCoord.xy);
+    vec3 n = shading_normal(g.normal, v);
+    vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
+    uvec2 px = uvec2(pixel);
+    float seen = 0.0;
+    float all_light = 0.0;
+    vec3 bounce = vec3(0.0);
+    int rays = max(u_rt_rays, 1);
+    for (int k = 0; k < rays; ++k) {
+        uint index = u_frame * uint(rays) + uint(k);
+        vec3 l = tangent_to_world(sample_cosine_hemisphere(
+            mc_sample_2d(px.x, px.y, index, u_seed, 0u)), n);
+        float light = luminance(rt_environment(l, RT_DIFFUSE_ROUGHNESS));
+        vec3 o = ray_offset(p, n, l);
+        RayHit hit = bvh_closest_hit(o, l, 3.0e38);
+        all_light += light;
+        if (hit.triangle < 0) seen += light;
+        else bounce += rt_hit_radiance(hit, o, l, mc_sample_2d(px.x, px.y, index, u_seed, 2u));
+    }
+    float inv = 1.0 / float(rays);
+    vec4 ratios = vec4(seen * inv, all_light * inv, 1.0, 1.0);
+    o_bounce_diffuse = vec4(bounce * inv, 1.0);
+#if RT_SUN
+    // the sun's visibility: one ray towards a uniform point of its disc (soft edges as the
+    // frames accumulate; this channel is not filtered: rt_filter.frag keeps it)
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    vec3 ld = tangent_to_world(sample_uniform_cone(mc_sample_2d(px.x, px.y, u_frame, u_seed, 4u),
+                                                   cos(u_sun_disc_radius)), l_sun);
+    o_bounce_diffuse.a = bvh_any_hit(ray_offset(p, n, ld), ld, 3.0e38) ? 0.0 : 1.0;
+#endif
+    o_bounce_specular = vec4(0.0, 0.0, 0.0, 1.0);
+#if SPECULAR_LOBE
+    float r = clamp_perceptual_roughness(g.roughness);
+    vec3 t = tangent_to_world(vec3(1.0, 0.0, 0.0), n);
+    vec3 b = tangent_to_world(vec3(0.0, 1.0, 0.0), n);
+    vec3 v_t = vec3(dot(v, t), dot(v, b), max(dot(v, n), 1e-4));
+    vec3 h = tangent_to_world(sample_ggx_vndf(mc_sample_2d(px.x, px.y, u_frame, u_seed, 1u), v_t,
+                                              r * r), n);
+    vec3 ls = reflect(-v, h);
+    if (!(dot(ls, n) > 0.0)) ls = reflect(-v, n);  // below the surface: the mirror direction
+    float light = luminance(rt_environment(ls, r));
+    vec3 o = ray_offset(p, n, ls);
+    RayHit hit = bvh_closest_hit(o, ls, 3.0e38);
+    ratios.zw = vec2(hit.triangle < 0 ? light : 0.0, light);
+    if (hit.triangle >= 0) {
+        o_bounce_specular = vec4(rt_hit_radiance(hit, o, ls, mc_sample_2d(px.x, px.y, u_frame, u_seed, 3u)), 1.0);
+    }
+#endif
+    o_radiance = ratios;
+}

@@ -1,0 +1,140 @@
+"""The real-time tier (``[render] raytrace``: passes/rt_light.frag, viewer/graph/raytrace.py):
+against the path tracer (the truth ``path`` converges to, tests/reference/test_path_convergence.py)
+under every bundled HDRI, still frames that do not flicker, slider moves that leave nothing
+behind, and what the variant compiles."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from viewer.frame import read_texture
+from viewer.models import model_info
+from viewer.scene.description import load_scene, scene_from_dict
+
+HDRIS = ("esplanade", "lobby", "park", "sky", "studio")
+# the floor right in front of a sphere resting on it, relative to the open floor behind: the
+# tier's ratio against the path tracer's (128 spp); measured -7.3 % (park) .. +1.8 % (studio)
+# at 128^2 against 256 spp; the issue's bound
+FLOOR_TOL = 0.10
+SIZE = 96
+
+
+@pytest.fixture(scope="module")
+def renderer(ctx):
+    from viewer.renderer import Renderer
+
+    r = Renderer(ctx=ctx)
+    yield r
+    r.release()
+
+
+def _sphere_on_floor(env: str, **render):
+    return scene_from_dict({
+        "camera": {"position": [0.0, 2.2, 2.2], "target": [0.0, -0.3, 0.0], "fov_y": 40.0,
+                   "size": [SIZE, SIZE]},
+        "environment": {"path": f"assets/environments/{env}.exr"},
+        "render": {"ao": False, "tonemap": "none", "background": "transparent", **render},
+        "objects": [
+            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 0.5,
+             "material": {"albedo": [0.6, 0.6, 0.6], "roughness": 0.5}},
+            {"type": "plane", "center": [0.0, -0.5, 0.0], "size": [8.0, 8.0],
+             "material": {"albedo": [0.7, 0.7, 0.7], "roughness": 0.7}}]})
+
+
+def _floor_ratio(frame, sphere_rows: int) -> float:
+    lum = frame.radiance[..., :3].sum(-1)
+    floor = (frame.aovs["normal"][..., 1] > 0.99) & (frame.radiance[..., 3] > 0.5)
+    ys, xs = np.mgrid[:SIZE, :SIZE]
+    k = SIZE / 128.0  # the patch scales with the image
+    patch = floor & (ys > sphere_rows) & (ys <= sphere_rows + 11 * k) & \
+        (np.abs(xs - SIZE / 2) < 16 * k)
+    far = floor & (ys > sphere_rows + 27 * k)
+    return float(lum[patch].mean() / lum[far].mean())
+
+
+@pytest.mark.parametrize("env", HDRIS)
+def test_an_object_darkens_the_floor_beneath_it_as_the_path_tracer_says(renderer, env):
+    plain = renderer.render(_sphere_on_floor(env, raytrace=False), aovs=("normal",))
+    sphere = (plain.aovs["normal"][..., 1] <= 0.99) & (plain.radiance[..., 3] > 0.5)
+    rows = int(np.nonzero(sphere)[0].max())
+    truth = _floor_ratio(renderer.render(_sphere_on_floor(env, model="path", samples=128),
+                                         aovs=("normal",)), rows)
+    traced = _floor_ratio(renderer.render(_sphere_on_floor(env, raytrace=True),
+                                          aovs=("normal",)), rows)
+    assert truth < 0.9  # the truth has a contact shadow here
+    assert abs(traced / truth - 1.0) < FLOOR_TOL, (traced, truth)
+
+
+def test_without_rays_the_floor_test_fails_somewhere(renderer):
+    """The same check on the render without rays (shadow maps of compact lights only) fails
+    under an HDRI whose light is broad (lobby: no compact light, no shadow at all)."""
+    plain = renderer.render(_sphere_on_floor("lobby", raytrace=False), aovs=("normal",))
+    sphere = (plain.aovs["normal"][..., 1] <= 0.99) & (plain.radiance[..., 3] > 0.5)
+    rows = int(np.nonzero(sphere)[0].max())
+    truth = _floor_ratio(renderer.render(_sphere_on_floor("lobby", model="path", samples=64),
+                                         aovs=("normal",)), rows)
+    assert abs(_floor_ratio(plain, rows) / truth - 1.0) > FLOOR_TOL
+
+
+def test_a_still_view_does_not_flicker(ctx):
+    """The interactive viewer's still view, frames 17-32 after a change: the pixels' temporal
+    standard deviation over their mean, averaged over the image, below 1 % (measured 0.7 %;
+    frames 1-16, while the first rays accumulate, 3.3 %: the image settles within 16 frames)."""
+    from viewer.renderer import Renderer
+
+    renderer = Renderer(ctx=ctx)
+    scene = load_scene("assets/scenes/reference/studio_sphere_on_plane.toml").with_render(
+        raytrace=True)
+    frames = np.array([read_texture(renderer.draw(scene, progressive=True).radiance, "f4")
+                       [..., :3] for _ in range(32)], np.float64)[16:]
+    mean = frames.mean(0).sum(-1)
+    covered = mean > 1e-4
+    flicker = frames.std(0).sum(-1)[covered] / mean[covered]
+    assert flicker.mean() < 0.01, flicker.mean()
+    renderer.release()
+
+
+def test_a_slider_move_leaves_nothing_of_the_last_view(ctx):
+    """After frames of one state, a changed material's first frame equals a fresh renderer's
+    first frame of the changed state, exactly: the accumulation restarted (no ghosting)."""
+    from viewer.renderer import Renderer
+
+    base = load_scene("assets/scenes/reference/park_sphere_on_plane.toml").with_render(
+        raytrace=True)
+    obj = base.objects[1]
+    moved = dataclasses.replace(base, objects=(base.objects[0], dataclasses.replace(
+        obj, material=dataclasses.replace(obj.material, albedo=(0.2, 0.6, 0.2)))))
+    a = Renderer(ctx=ctx)
+    for _ in range(5):
+        a.draw(base, progressive=True)
+    after = read_texture(a.draw(moved, progressive=True).radiance, "f4")
+    b = Renderer(ctx=ctx)
+    fresh = read_texture(b.draw(moved, progressive=True).radiance, "f4")
+    assert np.array_equal(after, fresh)
+    a.release()
+    b.release()
+
+
+def test_rays_replace_screen_space_occlusion_and_shadow_directions():
+    from viewer.scene.settings import RenderSettings
+
+    s = RenderSettings().with_flat(raytrace=True, ssao=True, env_shadows=8)
+    d = model_info("ggx_split_sum").variant(s, None, sun=1).defines
+    assert d["RT_LIGHT"] == 1 and d["USE_SSAO"] == 0 and "ENV_SHADOWS" not in d
+    assert d.get("RT_SUN") == 1 and "SUN_SHADOW" not in d
+    # nothing to trace (an image stack alone), or a model that does not take the rays: none
+    assert "RT_LIGHT" not in model_info("ggx_split_sum").variant(s, None, traceable=False).defines
+    assert "RT_LIGHT" not in model_info("ggx_mc").variant(s, None).defines
+
+
+def test_rays_beat_screen_space_occlusion_against_truth(renderer):
+    """Against the stored path-traced reference of spheres on a floor under the esplanade:
+    measured 34.4 dB against 26.7 for split-sum with SSAO and its indirect light."""
+    from relight.reference import read_reference
+    from relight.reference.compare import score
+
+    scene = load_scene("assets/scenes/shadows/esplanade_shadow_spheres.toml")
+    ref = read_reference("assets/references/esplanade_shadow_spheres.exr")
+    ssao = score(renderer.render(scene.with_render(ssao=True, indirect=True)).radiance, ref)
+    traced = score(renderer.render(scene.with_render(raytrace=True)).radiance, ref)
+    assert traced.psnr > ssao.psnr + 5.0, (traced.psnr, ssao.psnr)

@@ -1,0 +1,84 @@
+"""The real-time tier's passes in the frame graph (``[render] raytrace``; the draw calls are
+:mod:`viewer.passes.rt_light`): ``raytrace`` (rays from the G-buffer into ``rt_raw<k>``, folded
+into the kept running mean ``rt_history<k>``) and ``raytrace_filter`` (the a-trous iterations
+into ``rt_light<k>``, which the lighting pass reads under RT_LIGHT).
+
+The running mean restarts whenever anything but the display settings changes (the scene, the
+camera, a slider): nothing of an earlier view lingers, so a slider move never ghosts. A still
+view in the interactive viewer adds one frame of rays per frame up to ``raytrace_frames``, then
+stops tracing (the image is then still, exactly); a headless render traces
+:data:`STILL_FRAMES` frames at once."""
+from __future__ import annotations
+
+import dataclasses
+
+from ..passes.rt_light import filter_steps
+from ..scene.camera import Camera
+from ..scene.description import Scene
+from .graph import FrameGraph
+from .resources import TextureDesc
+
+STILL_FRAMES = 8  # frames of rays a headless (non-progressive) render accumulates
+TARGETS = 3
+
+
+def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
+                    progressive: bool, lighting_settings) -> tuple[str, ...]:
+    """Declare the tier's passes; returns the filtered targets the lighting pass reads."""
+    res = renderer.resources
+    settings = scene.render
+    size = tuple(camera.size)
+    raw = tuple(f"rt_raw{k}" for k in range(TARGETS))
+    hist = tuple(f"rt_history{k}" for k in range(TARGETS))
+    out = tuple(f"rt_light{k}" for k in range(TARGETS))
+    tmp = tuple(f"rt_tmp{k}" for k in range(TARGETS))
+    pong = tuple(f"rt_pong{k}" for k in range(TARGETS))
+    for name in raw + tmp + pong:
+        g.create(name, TextureDesc(size, 4, "f4"))
+    for name in hist + out:
+        g.create(name, TextureDesc(size, 4, "f4"), kept=True)
+    rpass = res.layout_pass("rt_light", spec.layout)
+    defines = spec.variant.defines
+    ibl = res.ibl(scene.environment, sun=bool(defines.get("SUN_LIGHT")))
+    contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
+    window = int(settings.raytrace.frames)
+
+    def rays(f):
+        trace = res.trace.get(contents, renderer.geometry_cache.version)
+        state = f.state(hist[0])
+        key = (dataclasses.replace(scene, render=lighting_settings), camera)
+        if not progressive or state.get("key") != key:
+            state.update(key=key, count=0)
+        todo = (1 if state["count"] < window else 0) if progressive else STILL_FRAMES
+        gb = f["gbuffer"].textures
+        for _ in range(todo):
+            rpass.trace(gb, f.fbo(*raw), camera, ibl, scene.environment, settings, defines,
+                        scene.light, trace, state["count"])
+            state["count"] += 1
+            weight = 1.0 / min(state["count"], window)
+            rpass.accumulate([f[n].texture for n in raw], [f[n].texture for n in hist],
+                             f.fbo(*tmp), weight)
+            for a, b in zip(tmp, hist):  # the new mean becomes the history
+                renderer.ctx.copy_framebuffer(dst=f[b].fbo, src=f[a].fbo)
+    g.add_pass("raytrace", rays, reads=("gbuffer",), writes=raw + hist + tmp,
+               inputs={"objects": scene.objects, "render": lighting_settings,
+                       "environment": scene.environment, "light": scene.light,
+                       "camera": camera, "defines": tuple(sorted(defines.items()))},
+               volatile=progressive)
+
+    def denoise(f):
+        gb = f["gbuffer"].textures
+        if not settings.raytrace.denoise:
+            for a, b in zip(hist, out):
+                renderer.ctx.copy_framebuffer(dst=f[b].fbo, src=f[a].fbo)
+            return
+        count = f.state(hist[0]).get("count", 0)
+        source, steps = hist, filter_steps(count)
+        for i, step in enumerate(steps):
+            # ping-pong between rt_tmp and rt_light, ending in rt_light
+            target = out if (len(steps) - 1 - i) % 2 == 0 else pong
+            rpass.filter(gb, [f[n].texture for n in source], f.fbo(*target), step)
+            source = target
+    g.add_pass("raytrace_filter", denoise, reads=("gbuffer",) + hist, writes=out + pong,
+               inputs={"denoise": settings.raytrace.denoise}, volatile=progressive)
+    return out

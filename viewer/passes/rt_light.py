@@ -1,0 +1,84 @@
+"""The real-time tier's rays (``passes/rt_light.frag``), their temporal accumulation
+(``passes/rt_accumulate.frag``) and edge-avoiding a-trous filter (``passes/rt_filter.frag``): what
+``[render] raytrace`` gives the rasterised models (RT_LIGHT: the environment's visibility and one
+bounce, ``passes/rt_light.glsl``). The frame graph declares the passes
+(:mod:`viewer.graph.raytrace`) and owns the targets; this module draws."""
+from __future__ import annotations
+
+from ..gbuffer import GBufferLayout
+from . import FullscreenDraw, bind_gbuffer
+from . import set_uniform as _set
+from .shade import set_view_and_lighting
+
+# the shading variant's defines the ray pass compiles with (the rest do not change its rays)
+TRACE_DEFINES = ("SPECULAR_LOBE", "SUN_LIGHT", "RT_SUN", "ENV_LIGHTS", "LIGHT_COUNT",
+                 "LIGHT_POSITIONAL")
+FILTER_STEPS = (1, 2, 4)  # a-trous iterations: a 29-pixel footprint
+
+
+def filter_steps(frames: int) -> tuple[int, ...]:
+    """The a-trous steps for a history of ``frames`` frames of rays (one footprint for all:
+    changing it while a view converges made the frames jump, measured 5 % flicker against 3 %)."""
+    return FILTER_STEPS
+SIGMA_Z = 0.02  # relative depth difference per pixel of step that weighs a tap down by 1/e
+SIGMA_N = 64.0  # the normals' agreement exponent
+
+
+class RTLightPass:
+    """Draws the ray pass, the accumulation and the filter for one G-buffer layout."""
+
+    def __init__(self, programs, layout: GBufferLayout):
+        self.programs = programs
+        self.ctx = programs.ctx
+        self.layout = layout
+        self._draw = FullscreenDraw(self.ctx)
+
+    def _program(self, frag: str, defines: dict | None = None):
+        return self.programs.graphics("passes/fullscreen.vert", frag, defines=defines or {},
+                                      virtual=self.layout.virtual_files())
+
+    def trace(self, gbuffer_textures: dict, out_fbo, camera, ibl, environment, settings,
+              variant_defines: dict, light, trace, frame_index: int) -> None:
+        """This frame's rays into ``out_fbo`` (three RGBA32F attachments)."""
+        defines = {k: v for k, v in variant_defines.items() if k in TRACE_DEFINES}
+        prog = self._program("passes/rt_light.frag", defines)
+        unit = bind_gbuffer(prog, gbuffer_textures)
+        unit = ibl.bind(prog, unit)
+        trace.bind(prog, unit)
+        _set(prog, "u_frame", int(frame_index))
+        _set(prog, "u_seed", int(settings.mc.seed))
+        _set(prog, "u_rt_rays", int(settings.raytrace.rays))
+        set_view_and_lighting(prog, camera, environment, light)
+        out_fbo.use()
+        self._draw(prog)
+
+    def accumulate(self, new: list, old: list, out_fbo, weight: float) -> None:
+        """The running mean: ``out = mix(old, new, weight)`` for each of the three targets."""
+        prog = self._program("passes/rt_accumulate.frag")
+        for k in range(3):
+            new[k].use(k)
+            _set(prog, f"u_new{k}", k)
+            old[k].use(3 + k)
+            _set(prog, f"u_old{k}", 3 + k)
+        _set(prog, "u_weight", float(weight))
+        out_fbo.use()
+        self._draw(prog)
+
+    def filter(self, gbuffer_textures: dict, source: list, out_fbo, step: int) -> None:
+        """One a-trous iteration of hole size ``step`` from ``source`` into ``out_fbo``."""
+        prog = self._program("passes/rt_filter.frag")
+        unit = bind_gbuffer(prog, gbuffer_textures)
+        for k in range(3):
+            source[k].use(unit + k)
+            _set(prog, f"u_in{k}", unit + k)
+        _set(prog, "u_step", int(step))
+        _set(prog, "u_sigma_z", SIGMA_Z)
+        _set(prog, "u_sigma_n", SIGMA_N)
+        out_fbo.use()
+        self._draw(prog)
+
+    def stats(self) -> dict:
+        return {"rt vertex arrays": self._draw.stats()}
+
+    def release(self) -> None:
+        self._draw.release()

@@ -140,6 +140,16 @@ def _suite_splat_decomp(renderer, scenes, config, cache) -> list[dict]:
     return splat_decomp_rows(renderer, cache, cfg)
 
 
+def _suite_path(renderer, scenes, config, cache) -> list[dict]:
+    """The path tracer against the stored references (block z-test, energy bias, PSNR, time per
+    sample), its samples per second beside Mitsuba's on the same scenes, and BVH build time,
+    bytes and rays per second at 10^4-10^6 triangles (:mod:`relight.bench.path`). ``--quick``:
+    16 samples per seed, no 10^6-triangle BVH, 2^16 rays."""
+    from .path import PathBenchConfig, path_rows
+
+    return path_rows(renderer, PathBenchConfig.from_bench(config), progress=True)
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
@@ -147,5 +157,6 @@ SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_spl
                                "heldout": _suite_heldout, "environments": _suite_environments,
                                "shadows": _suite_shadows, "antialias": _suite_antialias,
                                "memory": _suite_memory, "shadow_truth": _suite_shadow_truth,
-                               "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp}
+                               "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp,
+                               "path": _suite_path}
 

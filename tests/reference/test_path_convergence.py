@@ -16,15 +16,13 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
+from relight.bench.path import block_test
 from relight.reference import read_reference
-from relight.reference.compare import Reference, coverage_mask, z_test
+from relight.reference.compare import coverage_mask
 from viewer.scene.description import load_scene, scene_from_dict
 
 GROUPS = 8
-BLOCK = 4
-ALPHA = 1e-3
 # (scene folder, name, spp per group): a sphere on a floor under an HDRI (visibility and the
 # floor's bounce on the sphere), spheres under a studio with a 5-degree disc light, a rough
 # conductor under a sun-lit sky (the environment's sun reached by importance sampling)
@@ -36,30 +34,6 @@ def _runs(renderer, scene, spp: int, groups: int = GROUPS, **render) -> np.ndarr
     return np.asarray([renderer.render(scene.with_render(model="path", samples=spp, seed=s,
                                                          **render)).radiance
                        for s in range(groups)], np.float64)
-
-
-def _blocks(a: np.ndarray, k: int = BLOCK) -> np.ndarray:
-    h, w = a.shape[-3] // k * k, a.shape[-2] // k * k
-    a = a[..., :h, :w, :]
-    return a.reshape(a.shape[:-3] + (h // k, k, w // k, k, a.shape[-1])).mean(axis=(-4, -2))
-
-
-def block_test(runs: np.ndarray, ref: Reference):
-    """The per-block z-test of the runs' mean against ``ref`` over blocks fully covered by both."""
-    covered = coverage_mask(runs.mean(0), ref).astype(np.float64)[..., None]
-    full = _blocks(covered)[..., 0] > 0.999
-    mean_b = _blocks(runs[..., :3])                       # [G, h, w, 3]
-    ref_b = _blocks(ref.radiance[..., :3].astype(np.float64))
-    # the reference's block error: its pixels' errors are independent
-    ref_se = np.sqrt(_blocks(ref.stderr.astype(np.float64) ** 2)) / BLOCK
-    se = mean_b.std(0, ddof=1) / math.sqrt(len(runs))
-    image = np.zeros(ref_b.shape[:2] + (4,))
-    image[..., :3] = mean_b.mean(0)
-    image[..., 3] = 1.0
-    blocks = Reference(radiance=np.concatenate([ref_b, np.ones(ref_b.shape[:2] + (1,))], -1),
-                       stderr=ref_se)
-    return z_test(image, blocks, image_stderr=se, alpha=ALPHA, mask=full,
-                  quantile=lambda p: float(stats.t.isf(p, len(runs) - 1)))
 
 
 @pytest.mark.parametrize("folder,name,spp", SCENES)

@@ -32,6 +32,8 @@ WHERE = (
     ("a frame's passes are declared", "viewer.graph.frame"),
     ("the shading models are registered", "viewer.models"),
     ("a glTF file is read", "viewer.geometry.loaders.gltf"),
+    ("the BVH rays traverse is built", "viewer.raytrace.bvh"),
+    ("the real-time tier's rays are declared in the frame", "viewer.graph.raytrace"),
     ("a GLSL function's torch twin lives", "learned.twins"),
     ("GLSL and torch are compared", "learned.parity"),
     ("the path-traced reference is rendered", "relight.reference.render"),

@@ -124,6 +124,15 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
             cases.append((name, "single-scatter, no sun light", {"multiscatter": False,
                                                                   "sun": False}))
             cases.append((name, "multiscatter fp16", {"multiscatter": True, "precision": "fp16"}))
+            # the real-time tier: ray-traced visibility and one bounce ([render] raytrace)
+            cases.append((name, "multiscatter +rays", {"multiscatter": True, "raytrace": True}))
+            if not config.quick:
+                cases.append((name, "multiscatter +rays x4", {"multiscatter": True,
+                                                              "raytrace": True,
+                                                              "raytrace_rays": 4}))
+                cases.append((name, "multiscatter +rays undenoised",
+                              {"multiscatter": True, "raytrace": True,
+                               "ray_denoise": False}))
         elif name == "ggx_mc":
             # every strategy's convergence is its own table (the mc_convergence suite)
             spps = (1, 4, 16, 64) if config.quick else (1, 4, 16, 64, 256)
@@ -133,6 +142,9 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
                 for spp in spps:
                     cases.append((name, f"{sampling} {spp}spp",
                                   {"sampling": sampling, "samples": spp}))
+        elif name == "path":
+            for spp in ((4, 16) if config.quick else (4, 16, 64, 256)):
+                cases.append((name, f"{spp}spp", {"samples": spp}))
         elif name == "neural_teacher":
             for spp in (8, 32, 128):
                 cases.append((name, f"{spp}spp", {"samples": spp}))

@@ -49,7 +49,11 @@ CANDIDATES = (("ggx_split_sum", "default", {}),
               ("ggx_split_sum", "+env shadows", {"env_shadows": ENV_SHADOW_DIRECTIONS}),
               ("ggx_split_sum", "+env shadows +ssao +indirect",
                {"env_shadows": ENV_SHADOW_DIRECTIONS, "ssao": True, "indirect": True}),
-              ("blinn_phong", "default", {}))
+              ("ggx_split_sum", "+rays", {"raytrace": True}),
+              ("ggx_split_sum", "+rays x4", {"raytrace": True, "raytrace_rays": 4}),
+              ("blinn_phong", "default", {}),
+              ("blinn_phong", "+rays", {"raytrace": True}),
+              ("path", "64spp", {"samples": 64}))
 MAP_SIZES = (512, 1024, 4096)  # besides the default 2048
 
 

@@ -5,7 +5,7 @@ into ``rt_light<k>``, which the lighting pass reads under RT_LIGHT).
 
 The running mean restarts whenever anything but the display settings changes (the scene, the
 camera, a slider): nothing of an earlier view lingers, so a slider move never ghosts. A still
-view in the interactive viewer adds one frame of rays per frame up to ``raytrace_frames``, then
+view in the interactive viewer adds one frame of rays per frame up to ``ray_frames``, then
 stops tracing (the image is then still, exactly); a headless render traces
 :data:`STILL_FRAMES` frames at once."""
 from __future__ import annotations

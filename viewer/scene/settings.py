@@ -49,9 +49,9 @@ class RaytraceSettings:
 
     enabled: bool = False  # (TOML: raytrace)
     rays: int = 1  # diffuse rays per pixel and frame, besides one specular ray (raytrace_rays)
-    denoise: bool = True  # the edge-avoiding a-trous filter (raytrace_denoise)
+    denoise: bool = True  # the edge-avoiding a-trous filter (ray_denoise)
     # frames a still view accumulates before the history becomes an exponential average of that
-    # many (raytrace_frames)
+    # many (ray_frames)
     frames: int = 32
 
     def __bool__(self):  # say where the switch is
@@ -229,6 +229,6 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "contact_length": ("shadow", "contact_length"),
     "raytrace": ("raytrace", "enabled"),
     "raytrace_rays": ("raytrace", "rays"),
-    "raytrace_denoise": ("raytrace", "denoise"),
-    "raytrace_frames": ("raytrace", "frames"),
+    "ray_denoise": ("raytrace", "denoise"),
+    "ray_frames": ("raytrace", "frames"),
 }

@@ -112,6 +112,15 @@ def _suite_shadow_truth(renderer, scenes, config, cache) -> list[dict]:
     return shadow_truth_rows(renderer)
 
 
+def _suite_rays(renderer, scenes, config, cache) -> list[dict]:
+    """The real-time tier's ray-traced visibility and bounce against SSAO + indirect light and
+    the path tracer, against stored truth, and its frame time at 512^2 beside the baseline's
+    (:mod:`relight.bench.rays`)."""
+    from .rays import rays_rows
+
+    return rays_rows(renderer, quick=config.quick)
+
+
 def _suite_penumbra(renderer, scenes, config, cache) -> list[dict]:
     """PCSS penumbra widths against the path tracer's, 2 and 8 deg suns
     (:mod:`relight.bench.penumbra`); traced live, so needs Mitsuba."""
@@ -158,5 +167,5 @@ SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_spl
                                "shadows": _suite_shadows, "antialias": _suite_antialias,
                                "memory": _suite_memory, "shadow_truth": _suite_shadow_truth,
                                "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp,
-                               "path": _suite_path}
+                               "path": _suite_path, "rays": _suite_rays}
 

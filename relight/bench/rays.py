@@ -1,0 +1,98 @@
+"""``relight bench --suite rays``: what the real-time tier (``[render] raytrace``) buys and costs,
+against the strongest real-time row before it (``ggx_split_sum`` with SSAO and its indirect
+light, shadow maps on) and against the path tracer, on every scene with a stored path-traced
+reference where something can occlude (the shadow scenes, the spheres on planes, a diffuse
+sphere), and its frame time at 512² beside that baseline's in the same run.
+
+Rows of two kinds:
+
+* ``kind = truth``: one per scene, the PSNR of each rung against the reference
+  (``relight.reference.compare.score``: covered pixels, peak the reference's 99.9th percentile)
+  and the tier's gain over the baseline. The tier's knobs (filter steps, the diffuse rays' blur)
+  were chosen on these same scenes: there is no held-out split here, so read the gains as
+  measured, not as predicted for other scenes.
+* ``kind = time``: the esplanade spheres at 512², the baseline's frame and the tier's in
+  alternating blocks (:func:`relight.bench.timing.time_pair`): whole frames of the interactive
+  viewer (``progressive``: one frame of rays, as a still view adds a frame) and of a headless
+  render (its :data:`viewer.graph.raytrace.STILL_FRAMES` frames of rays at once).
+"""
+from __future__ import annotations
+
+import statistics
+import time
+import warnings
+
+from .shadow_truth import SHADOW_SCENE_DIR
+from .truth import REFERENCE_SCENES, REFERENCES, TruthScene
+
+SCENES = ("esplanade_shadow_spheres", "sky_shadow_spheres", "studio_key_spheres",
+          "park_sphere_on_plane", "studio_sphere_on_plane", "park_diffuse")
+BASELINE = {"ssao": True, "indirect": True}
+RUNGS = (("split_sum", {}), ("ssao_indirect", BASELINE), ("rays", {"raytrace": True}),
+         ("rays_x4", {"raytrace": True, "raytrace_rays": 4}),
+         ("rays_undenoised", {"raytrace": True, "ray_denoise": False}))
+PATH_SPP = 64
+
+
+def rays_rows(renderer, quick: bool = False) -> list[dict]:
+    from relight.reference import read_reference
+    from relight.reference.compare import score
+
+    rows = []
+    for name in SCENES:
+        path = SHADOW_SCENE_DIR / f"{name}.toml"
+        if not path.is_file():
+            path = REFERENCE_SCENES / f"{name}.toml"
+        ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
+        if not ts.path.is_file() or not ts.reference.is_file():
+            warnings.warn(f"relight bench rays: no scene or reference for {name}; left out",
+                          stacklevel=2)
+            continue
+        truth = read_reference(ts.reference)
+        h, w = truth.radiance.shape[:2]
+        row = {"kind": "truth", "scene": name, "size": f"{w}x{h}"}
+        for label, changes in RUNGS:
+            image = renderer.render(ts.scene.with_render(**changes), size=(w, h)).radiance
+            row[f"psnr_{label}"] = score(image, truth).psnr
+        spp = 16 if quick else PATH_SPP
+        image = renderer.render(ts.scene.with_render(model="path", samples=spp),
+                                size=(w, h)).radiance
+        row[f"psnr_path{spp}"] = score(image, truth).psnr
+        row["gain_rays_db"] = row["psnr_rays"] - row["psnr_ssao_indirect"]
+        rows.append(row)
+    if rows:
+        gains = [r["gain_rays_db"] for r in rows]
+        rows.append({"kind": "truth", "scene": "mean", "psnr_ssao_indirect": statistics.mean(
+            r["psnr_ssao_indirect"] for r in rows), "psnr_rays": statistics.mean(
+            r["psnr_rays"] for r in rows), "gain_rays_db": statistics.mean(gains)})
+    rows += rays_timing(renderer, quick)
+    return rows
+
+
+def rays_timing(renderer, quick: bool = False, size=(512, 512)) -> list[dict]:
+    """Frame times of the baseline and the tier at ``size``, alternating (module docstring)."""
+    from viewer.scene.description import load_scene
+
+    scene = load_scene(SHADOW_SCENE_DIR / "esplanade_shadow_spheres.toml").with_camera(size=size)
+    base = scene.with_render(**BASELINE)
+    rays = scene.with_render(raytrace=True)
+    rounds = 2 if quick else 3
+    out = {"kind": "time", "scene": f"esplanade_shadow_spheres {size[0]}x{size[1]}"}
+    for mode, progressive in (("viewer_frame", True), ("headless", False)):
+        times = {"base": [], "rays": []}
+        for s in (base, rays):  # warm: programs, BVH, environment
+            renderer.draw(s, progressive=progressive)
+        with renderer.every_pass():
+            for _ in range(rounds):
+                for key, s in (("base", base), ("rays", rays)):
+                    if progressive:  # a still view's next frame: a fresh history each round
+                        renderer.draw(s.with_render(seed=len(times[key]) + 1), progressive=True)
+                    t0 = time.perf_counter()
+                    renderer.draw(s, progressive=progressive)
+                    renderer.ctx.finish()
+                    times[key].append(1000.0 * (time.perf_counter() - t0))
+        b, r = statistics.median(times["base"]), statistics.median(times["rays"])
+        out[f"{mode}_base_ms"] = b
+        out[f"{mode}_rays_ms"] = r
+        out[f"{mode}_ratio"] = r / b
+    return [out]

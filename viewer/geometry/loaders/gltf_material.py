@@ -2,12 +2,14 @@
 texture's sampler, texCoord and ``KHR_texture_transform``."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ...errors import InputError
 from ...scene.material import Material
 from ..mesh import TextureSampling
-from .gltf_reader import _GltfReader
+from .gltf_reader import ImageUnavailable, _GltfReader
 from .images import _color_texture
 
 _WRAP = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
@@ -76,7 +78,15 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
         if info is None or info.index is None:
             continue
         what = key.replace("_", " ")
-        img = reader.image(info.index, what)
+        try:
+            img = reader.image(info.index, what)
+        except ImageUnavailable as exc:
+            name = key.replace("_", "-").replace("color", "colour")
+            message = f"{exc}; rendered without its {name} map (the material's factors stay)"
+            if message not in reader.unavailable_warned:
+                reader.unavailable_warned.add(message)
+                warnings.warn(message, stacklevel=4)
+            continue
         textures[key] = _color_texture(img) if key in ("base_color", "emissive") else img
         sampling[key] = _texture_sampling(reader, info, what)
     nt = gm.normalTexture

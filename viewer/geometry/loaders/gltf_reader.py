@@ -19,6 +19,12 @@ _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 51
 _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 
 
+class ImageUnavailable(InputError):
+    """A texture image that is missing or cannot be decoded: the material loads without that map
+    (:func:`.gltf_material._gltf_material` warns), as three.js does; corrupt buffers and JSON
+    stay :class:`InputError`."""
+
+
 class _GltfReader:
     def __init__(self, path: Path):
         self.path = path
@@ -31,6 +37,7 @@ class _GltfReader:
             raise InputError(f"uses unsupported required extension {', '.join(bad)}", where=path)
         self._buffers: dict[int, bytes] = {}
         self._images: dict[int, np.ndarray] = {}
+        self.unavailable_warned: set[str] = set()  # warnings given about missing texture images
 
     # raw data
     def _uri_bytes(self, uri: str, what: str) -> bytes:
@@ -134,23 +141,34 @@ class _GltfReader:
         return arr
 
     def image(self, texture_index: int, what: str) -> np.ndarray:
+        """The decoded image of texture ``texture_index``; :class:`ImageUnavailable` when the
+        image is missing or cannot be decoded (a truncated buffer stays an :class:`InputError`)."""
         tex = self.gltf.textures[texture_index]
         source = tex.source
         if source is None:
-            raise InputError(f"{what} texture {texture_index} has no image source", where=self.path)
+            raise ImageUnavailable(f"{what} texture {texture_index} has no image source",
+                                   where=self.path)
         if source not in self._images:
             img = self.gltf.images[source]
-            label = f"{what} image {source}"
+            label = f"{what} image {img.uri!r}" if img.uri and not img.uri.startswith("data:") \
+                else f"{what} image {source}"
             if img.bufferView is not None:
                 data = self.view_bytes(img.bufferView)
             elif img.uri:
-                data = self._uri_bytes(img.uri, label)
+                file = self.path.parent / urllib.parse.unquote(img.uri)
+                if not img.uri.startswith("data:") and not file.is_file():
+                    raise ImageUnavailable(f"{label} is missing (no file {str(file)!r})",
+                                           where=self.path)
+                try:
+                    data = self._uri_bytes(img.uri, label)
+                except InputError as exc:
+                    raise ImageUnavailable(exc.problem, where=self.path) from None
             else:
-                raise InputError(f"{label} has neither uri nor bufferView", where=self.path)
+                raise ImageUnavailable(f"{label} has neither uri nor bufferView", where=self.path)
             try:
                 self._images[source] = _decode_image(data, label)
             except InputError as exc:
-                raise InputError(exc.problem, where=self.path) from None
+                raise ImageUnavailable(exc.problem, where=self.path) from None
         return self._images[source]
 
     # scene

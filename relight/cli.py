@@ -2,7 +2,9 @@
 
     relight render [SCENE.toml | ASSET...] --out FILE [--model M] [--samples N] [--size WxH]
                  [--aov a,b] [--ssaa N] [--env FILE|sky|studio|white] [--up AXIS] [--floor]
-    relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH] > scene.toml
+                 [--set KEY=VALUE ...]
+    relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH]
+                 [--set KEY=VALUE ...] > scene.toml
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
     relight info [--json] [--weights [FILE ...]]
@@ -18,7 +20,10 @@
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
     relight view [SCENE.toml | ASSET...] [--frames N] [--screenshot FILE [--screenshot-ui]]
                  [--offscreen] [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
-                 [--env E] [--up AXIS] [--floor]
+                 [--env E] [--up AXIS] [--floor] [--set KEY=VALUE ...]
+
+``--set KEY=VALUE`` (repeatable) changes any ``[render]`` setting by its scene-file key, the
+value read as TOML (``--set raytrace=true --set ssao_rays=16 --set tonemap=aces``).
 
 An ASSET is a glTF/GLB, OBJ, STL, OFF or PLY mesh, a splat cloud (3DGS PLY, .splat) or an image
 G-buffer stack (a folder, a 12-channel .exr): the scene is made for it (viewer.scene.assets).

@@ -7,13 +7,16 @@ import os
 
 from viewer.errors import SceneError
 
-from .common import _demo_path, _parse_size
+from .common import _demo_path, _parse_size, parse_settings
 
 ENV_HELP = ("environment: sky | studio (default) | white | an equirect .exr/.hdr (linear) or "
             ".png/.jpg (sRGB, clipped)")
 UP_HELP = ("the assets' up axis: +Y | +Z | -Y | -Z | +X | -X (default: glTF +Y; PLY/.splat: "
            "the header's marker, else detected; said in one line)")
 FLOOR_HELP = "a floor plane under the assets (for shadows)"
+SET_HELP = ("a [render] setting by its scene-file key, the value as in TOML (repeatable: --set "
+            "raytrace=true --set ssao_rays=16 --set tonemap=aces); named options such as "
+            "--model win over it")
 
 
 def model_help(prefix: str = "shading model") -> str:
@@ -28,6 +31,7 @@ def add_asset_arguments(p, model: bool = True, size: bool = True) -> None:
     p.add_argument("--env", metavar="FILE|sky|studio|white", help=ENV_HELP)
     p.add_argument("--up", metavar="AXIS", help=UP_HELP)
     p.add_argument("--floor", action="store_true", help=FLOOR_HELP)
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help=SET_HELP)
     if model:
         p.add_argument("--model", help=model_help())
     if size:
@@ -52,10 +56,12 @@ def open_input(args):
     """``(scene, contents)`` of the command line's positionals: none (the built-in demo), one
     scene file, or asset files; ``contents`` is what :func:`viewer.scene.assets.open_assets` loaded
     (hand it to the renderer with :func:`hand_over`). ``--env`` replaces a scene file's
-    environment; ``--up`` and ``--floor`` are for assets only."""
+    environment; ``--up`` and ``--floor`` are for assets only; ``--set KEY=VALUE`` changes
+    ``[render]`` settings of either (checked before anything is loaded)."""
     from viewer.scene.assets import environment_spec, is_scene_file, open_assets
     from viewer.scene.description import load_scene
 
+    settings = parse_settings(getattr(args, "set", None))
     inputs = args.scene or []
     inputs = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     env, up, floor = getattr(args, "env", None), getattr(args, "up", None), getattr(args, "floor",
@@ -76,10 +82,11 @@ def open_input(args):
             from dataclasses import replace
 
             scene = replace(scene, environment=environment_spec(env))
-        return scene, ()
+        return (scene.with_render(**settings) if settings else scene), ()
     size = _parse_size(args.size) if getattr(args, "size", None) else None
     opened = open_assets(inputs, env=env or "studio", up=up, floor=floor, size=size)
-    return opened.scene, opened.contents
+    scene = opened.scene.with_render(**settings) if settings else opened.scene
+    return scene, opened.contents
 
 
 def hand_over(renderer, contents) -> None:
@@ -130,6 +137,8 @@ def cmd_scene(args) -> int:
             words += [f"--{opt}", str(getattr(args, opt))]
     if args.floor:
         words.append("--floor")
+    for setting in args.set or ():
+        words += ["--set", setting]
     sys.stdout.write(scene_toml(scene, "made by " + " ".join(words)
                                 + " - render it with: relight render THIS.toml --out FILE"))
     return 0

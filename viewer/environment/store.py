@@ -248,7 +248,7 @@ class EnvironmentStore:
         entry = Environment(source, ibls, lights, disk_key=disk_key)
         if cached is None and disk_key is not None:
             try:
-                self._save(disk_key, env, patch, lights, ibls.parts)
+                self._save(disk_key, env, patch, lights, ibls.parts, spec)
             except Exception as exc:  # noqa: BLE001 - the cache is an optimisation: say, go on
                 warnings.warn(f"{self.disk.root}: environment {source} not cached "
                               f"({_one_line(exc)})", stacklevel=2)
@@ -256,7 +256,7 @@ class EnvironmentStore:
         return entry
 
     # ---- the disk cache ---------------------------------------------------------------------
-    def _save(self, key: str, env, patch, lights, parts: dict) -> None:
+    def _save(self, key: str, env, patch, lights, parts: dict, spec: EnvironmentSpec) -> None:
         arrays = {"env": env, "sh": np.asarray(parts["sh"], np.float32),
                   "irradiance": np.asarray(parts["irradiance"], np.float32)}
         for k, level in enumerate(parts["levels"], start=1):
@@ -270,7 +270,8 @@ class EnvironmentStore:
             for k, level in enumerate(parts["full_levels"], start=1):
                 arrays[f"full{k}"] = np.asarray(level, np.float32)
         meta = {"lights": [dataclasses.asdict(li) for li in lights],
-                "notes": list(parts.get("notes", [])), "levels": len(parts["levels"])}
+                "notes": [_with_path(n, spec.path, _PATH) for n in parts.get("notes", [])],
+                "levels": len(parts["levels"])}
         self.disk.save(key, "ibl", arrays, meta)
 
     def _load(self, key: str, spec: EnvironmentSpec):
@@ -313,8 +314,8 @@ class EnvironmentStore:
         except (KeyError, ValueError, TypeError, IndexError) as exc:
             self.disk.reject(key, "ibl", f"does not fit this environment ({_one_line(exc)})")
             return None
-        for note in parts["notes"]:  # what loading the file warned about
-            warnings.warn(note, stacklevel=4)
+        for note in parts["notes"]:  # what loading the file warned about, naming this path
+            warnings.warn(_with_path(note, _PATH, spec.path), stacklevel=4)
         return env, patch, lights, parts
 
     def _directions(self, entry: Environment) -> np.ndarray:
@@ -350,3 +351,11 @@ class EnvironmentStore:
         return (f"EnvironmentStore({s.items} environments, {mib(s.bytes)} of "
                 f"{mib(s.max_bytes)})")
 
+
+# The file's path in a cached note: the cache is keyed by content, so a hit may come from a copy
+# under another name; the note names the path loaded this time.
+_PATH = "<environment file>"
+
+
+def _with_path(note: str, old: str | None, new: str | None) -> str:
+    return note.replace(str(old), str(new)) if old and new else note

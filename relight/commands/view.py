@@ -8,6 +8,8 @@ from viewer.errors import RelightError, SceneError
 from .common import _context_options, _parse_size
 from .scene import apply_model, hand_over, open_input
 
+_REFERENCE_VIEWS = ("difference", "error")  # the views that compare the render to --reference
+
 
 def cmd_view(args) -> int:
     try:
@@ -28,6 +30,9 @@ def cmd_view(args) -> int:
             raise SceneError("output folder does not exist", where=shot.parent)
     if args.screenshot_ui and (shot is None or shot.suffix.lower() != ".png"):
         raise SceneError("--screenshot-ui needs --screenshot FILE.png", where="--screenshot-ui")
+    if args.view in _REFERENCE_VIEWS and not args.reference:
+        raise SceneError(f"the {args.view} view needs --reference FILE (a linear EXR/HDR render "
+                         f"to compare against)", where="--view")
     scene, contents = open_input(args)  # a scene file, or assets made into a scene
     scene = apply_model(scene, args.model)
     if args.size:
@@ -36,8 +41,6 @@ def cmd_view(args) -> int:
     viewer = Viewer(scene, window_size=window, offscreen=args.offscreen,
                     options=_context_options(args),
                     title=f"relight view - {Path(scene.source).name if scene.source else 'scene'}")
-    if args.view:
-        viewer.state.view = args.view
     viewer.state.fit_view = args.fit_window
     try:
         hand_over(viewer.renderer, contents)
@@ -45,6 +48,8 @@ def cmd_view(args) -> int:
             viewer.frame()
             if not viewer.load_reference(args.reference):
                 raise RelightError(viewer.state.message)
+        if args.view:  # after the reference: a frame drawn in an error view without one would
+            viewer.state.view = args.view  # fall back to the ordinary image
         frames = args.frames
         if frames is None and (args.offscreen or shot is not None):
             frames = 1

@@ -13,7 +13,9 @@ occlusionTexture (+ strength), emissiveFactor/Texture (+ ``KHR_materials_emissiv
 alphaMode (OPAQUE; MASK with alphaCutoff; BLEND, drawn by the forward pass
 :mod:`viewer.passes.forward`), doubleSided; per texture its sampler (wrap, filters), texCoord and
 ``KHR_texture_transform``. Textures decode to float32 in [0, 1]; base colour and emission are
-sRGB-decoded. Everything else in a file (extensions, material features, attributes,
+sRGB-decoded. A texture image that is missing or cannot be decoded is the one exception to
+"every problem is an error": a warning names the file and the image, and the material loads
+without that map (its factors stay), as three.js does. Everything else in a file (extensions, material features, attributes,
 skins, animations, cameras) is named in one warning per file (``warnings.warn``): nothing is
 ignored silently.
 

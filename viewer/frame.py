@@ -1,6 +1,10 @@
 """What a render produces: :class:`Frame` (read back to numpy) and :class:`FrameTargets` (left on
-the GPU), the read-back of one to the other, and the AOV names a render can read back."""
+the GPU), the read-back of one to the other, and the AOV names a render can read back; and
+:func:`check_frame_size`, which turns a frame size beyond the GL limits or the machine's memory
+into one line before any target is allocated."""
 from __future__ import annotations
+
+import os
 
 from dataclasses import dataclass, field
 
@@ -123,3 +127,96 @@ def read_shadow_map(targets: FrameTargets, name: str):
         raise SceneError(f"this scene draws no shadow map {name!r} (it draws: "
                          f"{', '.join(have) or 'none'})", where="--aov")
     return read_texture(target.texture, "f4")
+
+
+_SOFTWARE = ("llvmpipe", "softpipe", "swrast")
+# Mesa's software renderers refuse one texture over 2 GiB (measured with llvmpipe: a 16384x8192
+# RGBA32F target is complete, one row more is not), below their GL_MAX_TEXTURE_SIZE squared
+_SOFTWARE_TEXTURE_BYTES = 1 << 31
+
+
+def check_frame_size(ctx, scene, camera, layout, n: int, where: str | None = None) -> None:
+    """A :class:`SceneError` (one line, naming ``where``: ``--size``, else the scene file's
+    ``camera.size``) when a frame of ``camera.size`` x ``n`` (the frame's supersampling,
+    ``viewer.graph.display.ssaa_factor``) cannot be drawn, checked before any target is
+    allocated (a raw "framebuffer is not complete" otherwise):
+
+    * the GL limits: each side against ``GL_MAX_TEXTURE_SIZE``, ``GL_MAX_RENDERBUFFER_SIZE`` and
+      ``GL_MAX_VIEWPORT_DIMS`` of ``ctx`` (every pass draws into textures of that size), and on
+      Mesa's software renderers one RGBA32F target against their 2 GiB a texture;
+    * memory: the frame's least bytes (the G-buffer ``layout``'s attachments and depth, the
+      radiance and display targets; SSAO, shadows and the pool's other frames come on top)
+      against the host memory available now (:func:`available_memory`). That is where a software
+      renderer (llvmpipe) keeps its targets, so the bound is sound there; a GPU keeps them in
+      its own memory, which GL does not report portably, so there only what the frame reads back
+      to the host (radiance and display at the output size) is checked. The cache budget
+      (``Budgets.targets_bytes``) is not a limit: the pool may exceed it for one frame."""
+    w, h = (int(s) for s in camera.size)
+    rw, rh = w * n, h * n
+    name = where or (f"{scene.source}: camera.size" if scene.source else "camera.size")
+    drawn = f"{w}x{h}" + (f" x ssaa {n} = {rw}x{rh}" if n > 1 else "")
+    info = ctx.info
+    big = 1 << 30
+    tex, rb = info.get("GL_MAX_TEXTURE_SIZE", big), info.get("GL_MAX_RENDERBUFFER_SIZE", big)
+    limits = (("GL_MAX_TEXTURE_SIZE", tex, tex), ("GL_MAX_RENDERBUFFER_SIZE", rb, rb),
+              ("GL_MAX_VIEWPORT_DIMS", *info.get("GL_MAX_VIEWPORT_DIMS", (big, big))))
+    for key, lw, lh in limits:
+        if rw > lw or rh > lh:
+            raise SceneError(f"size {drawn} is beyond this GL's limit of {lw}x{lh} pixels "
+                             f"({key}, {info.get('GL_RENDERER', 'GL')}); render smaller"
+                             + (" or with a lower ssaa" if n > 1 else ""), where=name)
+    radiance, display = w * h * 16, w * h * 4  # RGBA32F, RGBA8
+    need = radiance + display  # read back to the host
+    if any(s in str(info.get("GL_RENDERER", "")).lower() for s in _SOFTWARE):
+        largest = rw * rh * 16  # the radiance, RGBA32F
+        if largest > _SOFTWARE_TEXTURE_BYTES:
+            raise SceneError(f"size {drawn} needs {largest / 2**30:.1f} GiB render targets, beyond "
+                             f"the {_SOFTWARE_TEXTURE_BYTES / 2**30:.0f} GiB a texture may have "
+                             f"on {info.get('GL_RENDERER')}; render smaller"
+                             + (" or with a lower ssaa" if n > 1 else ""), where=name)
+        per = 4 * (2 if layout.dtype == "f2" else 4) * len(layout.attachments) + 4  # + depth
+        need = (rw * rh * (per + 16)  # the G-buffer (as GBufferDesc.bytes), the radiance
+                + display + (radiance if n > 1 else 0))  # + the resolved radiance
+    free = available_memory()
+    if free is not None and need > free:
+        raise SceneError(f"size {drawn} needs at least {need / 2**30:.1f} GiB for the frame's "
+                         f"targets, more than the {free / 2**30:.1f} GiB of memory available; "
+                         f"render smaller" + (" or with a lower ssaa" if n > 1 else ""),
+                         where=name)
+
+
+def available_memory() -> int | None:
+    """Bytes this process may still allocate, the least of: the kernel's ``MemAvailable`` (free
+    plus reclaimable page cache; ``SC_AVPHYS_PAGES`` x page size where /proc is missing: free
+    pages only), a cgroup v2 limit's headroom (``memory.max`` - ``memory.current``) and an
+    address-space limit's (``ulimit -v``, less what is mapped now). None: nothing known."""
+    found: list[int] = []
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError):
+        try:
+            found.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (ValueError, OSError, AttributeError):
+            pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as f:
+            limit = f.read().strip()
+        if limit != "max":
+            with open("/sys/fs/cgroup/memory.current") as f:
+                found.append(int(limit) - int(f.read().strip()))
+    except (OSError, ValueError):
+        pass
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft != resource.RLIM_INFINITY:
+            with open("/proc/self/statm") as f:
+                mapped = int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+            found.append(soft - mapped)
+    except (ImportError, OSError, ValueError):
+        pass
+    return max(0, min(found)) if found else None

@@ -29,7 +29,8 @@ from contextlib import contextmanager
 
 from .cache import BoundedCache, Budgets, CacheStats
 from .errors import SceneError
-from .frame import Frame, FrameTargets, check_aovs, is_shadow_aov, read_frame
+from .frame import (Frame, FrameTargets, check_aovs, check_frame_size, is_shadow_aov,
+                    read_frame)
 from .gbuffer import GBufferLayout
 from .geometry.cache import GeometryCache
 from .gl import ContextOptions, Programs, create_context, make_current
@@ -201,6 +202,8 @@ class Renderer:
                        f"blinn_phong); rendered without them")
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
+        check_frame_size(self.ctx, scene, camera, spec.layout, ssaa_factor(scene),
+                         "--size" if size else None)
         self._pass_begin("ibl")  # precomputation, only when the environment is new
         request = FrameRequest(scene, model, spec, camera, progressive, samples_per_frame)
         graph = build_frame(self, request, reuse=self.reuse_passes).compile()

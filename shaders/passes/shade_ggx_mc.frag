@@ -17,8 +17,8 @@
 #include "lib/sampling.glsl"
 #include "lib/mc.glsl"
 #include "lib/env_sampling.glsl"
+#include "passes/surface_mc.glsl"
 
-uniform sampler2D u_env_dfg;
 uniform sampler2D u_env_marginal;
 uniform sampler2D u_env_conditional;
 uniform sampler2D u_env_pdf;
@@ -26,53 +26,8 @@ uniform uint u_sample_start;  // index of the first sample of this batch
 uniform uint u_sample_count;  // samples in this batch (0 writes the background / black)
 uniform uint u_seed;
 
-struct Surface {
-    vec3 n;            // shading normal, world space
-    vec3 t;            // tangent frame (tangent_to_world's)
-    vec3 b;
-    vec3 v;            // towards the viewer
-    float NoV;
-    vec3 diffuse;      // diffuse colour x ambient occlusion x (1 - E_spec)
-    vec3 f0;
-    float f90;
-    float a;           // alpha = clamped perceptual roughness^2
-    vec3 spec_scale;   // multiple-scattering energy compensation (1 without)
-    float p_spec;      // probability of sampling the specular lobe ("brdf", "mis")
-};
-
 vec3 env_radiance_ws(vec3 l) {
     return textureLod(u_env_radiance, equirect_uv(env_dir(l)), 0.0).rgb * u_env_intensity;
-}
-
-// f(v, l) (n.l), 0 below the surface.
-vec3 surface_brdf_cos(Surface s, vec3 l) {
-    float NoL = dot(s.n, l);
-    if (!(NoL > 0.0)) return vec3(0.0);
-    vec3 h = normalize(s.v + l);
-    float NoH = saturate(dot(s.n, h));
-    float VoH = saturate(dot(s.v, h));
-    vec3 spec = ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a) * s.spec_scale;
-    return (s.diffuse * INV_PI + spec) * NoL;
-}
-
-// pdf of "brdf" sampling (lobe mixture: VNDF-reflected specular, cosine diffuse) for l.
-float surface_brdf_pdf(Surface s, vec3 l) {
-    float NoL = dot(s.n, l);
-    if (!(NoL > 0.0)) return 0.0;
-    vec3 h = normalize(s.v + l);
-    float NoH = saturate(dot(s.n, h));
-    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + (1.0 - s.p_spec) * pdf_cosine_hemisphere(NoL);
-}
-
-vec3 sample_surface_brdf(Surface s, vec2 u) {
-    if (u.x < s.p_spec) {
-        u.x = u.x / s.p_spec;
-        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
-        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
-        return reflect(-s.v, h);
-    }
-    u.x = (u.x - s.p_spec) / (1.0 - s.p_spec);
-    return tangent_to_world(sample_cosine_hemisphere(u), s.n);
 }
 
 // One sample's estimate; never NaN/Inf (a non-finite value would be a bug; it is dropped).
@@ -124,24 +79,9 @@ void main() {
         write_radiance(vec3(0.0), background, 0.0);
         return;
     }
-    Surface s;
-    s.v = -d;
-    s.n = shading_normal(g.normal, s.v);
-    s.t = tangent_to_world(vec3(1.0, 0.0, 0.0), s.n);
-    s.b = tangent_to_world(vec3(0.0, 1.0, 0.0), s.n);
-    s.NoV = saturate(dot(s.n, s.v));
-    float r = clamp_perceptual_roughness(g.roughness);
-    s.a = r * r;
-    s.f0 = compute_f0(g.albedo, g.metallic, g.specular);
-    s.f90 = f90_from_f0(s.f0);
-    vec2 dfg = ibl_dfg(u_env_dfg, s.NoV, r);
-    s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, s.f0) : vec3(1.0);
-    // the energy-conserving split of ggx_split_sum: diffuse keeps 1 - E_spec(n.v), a per-pixel
-    // constant, so the integrand is the same BRDF the split-sum model approximates
-    vec3 e_spec = ibl_specular_dfg(dfg, s.f0, s.f90) * s.spec_scale;
-    s.diffuse = diffuse_color(g.albedo, g.metallic) * max(1.0 - e_spec, 0.0);
-    // lobe choice from the unoccluded albedos: occlusion then scales values, not sample paths
-    s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+    vec2 dfg;
+    Surface s = surface_init(shading_normal(g.normal, -d), -d, g.albedo, g.roughness, g.metallic,
+                             g.specular, dfg);
     s.diffuse *= ambient_occlusion(pixel, g);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {

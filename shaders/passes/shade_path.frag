@@ -21,9 +21,9 @@
 #include "lib/mc.glsl"
 #include "lib/env_sampling.glsl"
 #include "lib/path.glsl"
+#include "passes/surface_mc.glsl"
 #include "passes/raytrace.glsl"
 
-uniform sampler2D u_env_dfg;
 uniform sampler2D u_env_marginal;
 uniform sampler2D u_env_conditional;
 uniform sampler2D u_env_pdf;
@@ -37,72 +37,18 @@ uniform float u_light_angular_radius[LIGHT_COUNT];  // directional lights' disc 
 
 #define DIMS_PER_BOUNCE 4u  // 2D sample pairs a bounce draws: environment, lights, BSDF, roulette
 
+// A vertex of a path: where it is, the geometric normal on the side the path arrived from (the
+// side rays leave from), and the BRDF there (passes/surface_mc.glsl).
 struct PathVertex {
-    vec3 p;            // world position
-    vec3 ng;           // geometric normal, on the side the path arrived from
-    vec3 n;            // shading normal
-    vec3 t;
-    vec3 b;
-    vec3 v;            // towards where the path came from
-    float NoV;
-    vec3 diffuse;      // diffuse colour x (1 - E_spec(n.v))
-    vec3 f0;
-    float f90;
-    float a;           // alpha = clamped perceptual roughness^2
-    vec3 spec_scale;   // multiple-scattering compensation (1 without)
-    float p_spec;      // probability of sampling the specular lobe
+    vec3 p;
+    vec3 ng;
+    Surface s;
 };
 
 PathVertex path_vertex(vec3 p, vec3 ng, vec3 n, vec3 v, vec3 albedo, float roughness,
                        float metallic, float specular) {
-    PathVertex s;
-    s.p = p;
-    s.ng = ng;
-    s.v = v;
-    s.n = n;
-    s.t = tangent_to_world(vec3(1.0, 0.0, 0.0), s.n);
-    s.b = tangent_to_world(vec3(0.0, 1.0, 0.0), s.n);
-    s.NoV = saturate(dot(s.n, s.v));
-    float r = clamp_perceptual_roughness(roughness);
-    s.a = r * r;
-    s.f0 = compute_f0(albedo, metallic, specular);
-    s.f90 = f90_from_f0(s.f0);
-    vec2 dfg = ibl_dfg(u_env_dfg, s.NoV, r);
-    s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, s.f0) : vec3(1.0);
-    vec3 e_spec = ibl_specular_dfg(dfg, s.f0, s.f90) * s.spec_scale;
-    s.diffuse = diffuse_color(albedo, metallic) * max(1.0 - e_spec, 0.0);
-    s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
-    return s;
-}
-
-// f(v, l) (n.l); 0 below the shading surface.
-vec3 path_bsdf_cos(PathVertex s, vec3 l) {
-    float NoL = dot(s.n, l);
-    if (!(NoL > 0.0) || !(s.NoV > 0.0)) return vec3(0.0);
-    vec3 h = normalize(s.v + l);
-    float NoH = saturate(dot(s.n, h));
-    float VoH = saturate(dot(s.v, h));
-    vec3 spec = ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a) * s.spec_scale;
-    return (s.diffuse * INV_PI + spec) * NoL;
-}
-
-float path_bsdf_pdf(PathVertex s, vec3 l) {
-    float NoL = dot(s.n, l);
-    if (!(NoL > 0.0)) return 0.0;
-    vec3 h = normalize(s.v + l);
-    float NoH = saturate(dot(s.n, h));
-    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + (1.0 - s.p_spec) * pdf_cosine_hemisphere(NoL);
-}
-
-vec3 path_sample_bsdf(PathVertex s, vec2 u) {
-    if (u.x < s.p_spec) {
-        u.x = u.x / s.p_spec;
-        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
-        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
-        return reflect(-s.v, h);
-    }
-    u.x = (u.x - s.p_spec) / (1.0 - s.p_spec);
-    return tangent_to_world(sample_cosine_hemisphere(u), s.n);
+    vec2 dfg;
+    return PathVertex(p, ng, surface_init(n, v, albedo, roughness, metallic, specular, dfg));
 }
 
 vec3 path_env_radiance(vec3 l) {
@@ -121,10 +67,10 @@ vec3 path_environment(PathVertex s, vec2 u) {
     vec4 e = sample_env(u_env_marginal, u_env_conditional, u_env_pdf, u);
     if (!(e.w > 0.0)) return vec3(0.0);
     vec3 l = rotate_y(e.xyz, u_env_rotation);
-    vec3 f = path_bsdf_cos(s, l);
+    vec3 f = surface_brdf_cos(s.s, l);
     if (all(equal(f, vec3(0.0)))) return vec3(0.0);
     if (!path_visible(s, l, 3.0e38)) return vec3(0.0);
-    float w = mis_weight(e.w, path_bsdf_pdf(s, l), 2.0);
+    float w = mis_weight(e.w, surface_brdf_pdf(s.s, l), 2.0);
     return path_env_radiance(l) * f * (w / e.w);
 }
 
@@ -150,7 +96,7 @@ vec3 path_lights(PathVertex s, vec2 u) {
         } else {
             t_max = length(u_light_position[i] - s.p) * (1.0 - 1.0e-4);
         }
-        vec3 f = path_bsdf_cos(s, l);
+        vec3 f = surface_brdf_cos(s.s, l);
         if (all(equal(f, vec3(0.0)))) continue;
         if (path_visible(s, l, t_max)) c += f * u_light_intensity[i] * scale;
     }
@@ -164,13 +110,16 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
     vec3 beta = vec3(1.0);
     PathVertex s = s0;
     for (int bounce = 0; bounce + 2 <= u_max_depth; ++bounce) {
+        // a shading normal facing away from where the path came from: no light leaves it
+        // towards that side (as the reference's BSDF evaluates)
+        if (!(s.s.NoV > 0.0)) break;
         uint dim = uint(bounce) * DIMS_PER_BOUNCE;
         radiance += beta * path_environment(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim));
         radiance += beta * path_lights(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 1u));
         if (bounce + 3 > u_max_depth) break;  // the next segment would be one too many
-        vec3 l = path_sample_bsdf(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 2u));
-        float pdf = path_bsdf_pdf(s, l);
-        vec3 f = path_bsdf_cos(s, l);
+        vec3 l = sample_surface_brdf(s.s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 2u));
+        float pdf = surface_brdf_pdf(s.s, l);
+        vec3 f = surface_brdf_cos(s.s, l);
         if (!(pdf > 0.0) || all(equal(f, vec3(0.0)))) break;
         beta *= f / pdf;
         vec3 o = ray_offset(s.p, s.ng, l);

@@ -20,10 +20,8 @@ from __future__ import annotations
 
 import statistics
 import time
-import warnings
 
-from .shadow_truth import SHADOW_SCENE_DIR
-from .truth import REFERENCE_SCENES, REFERENCES, TruthScene
+from .shadow_truth import SHADOW_SCENE_DIR, truth_scene
 
 SCENES = ("esplanade_shadow_spheres", "sky_shadow_spheres", "studio_key_spheres",
           "park_sphere_on_plane", "studio_sphere_on_plane", "park_diffuse")
@@ -40,13 +38,8 @@ def rays_rows(renderer, quick: bool = False) -> list[dict]:
 
     rows = []
     for name in SCENES:
-        path = SHADOW_SCENE_DIR / f"{name}.toml"
-        if not path.is_file():
-            path = REFERENCE_SCENES / f"{name}.toml"
-        ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
-        if not ts.path.is_file() or not ts.reference.is_file():
-            warnings.warn(f"relight bench rays: no scene or reference for {name}; left out",
-                          stacklevel=2)
+        ts = truth_scene(name, "rays")
+        if ts is None:
             continue
         truth = read_reference(ts.reference)
         h, w = truth.radiance.shape[:2]

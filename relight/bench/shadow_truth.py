@@ -77,6 +77,20 @@ def _casters(scene, changes=None) -> str:
     return ", ".join(parts) or "nothing"
 
 
+def truth_scene(name: str, suite: str) -> TruthScene | None:
+    """The scene ``name`` (the shadow scenes' folder, else the fidelity scenes') with its stored
+    reference, or None with a warning naming ``suite`` when either is missing."""
+    path = SHADOW_SCENE_DIR / f"{name}.toml"
+    if not path.is_file():
+        path = REFERENCE_SCENES / f"{name}.toml"
+    ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
+    if not ts.path.is_file() or not ts.reference.is_file():
+        warnings.warn(f"relight bench {suite}: no scene or reference for {name}; left out",
+                      stacklevel=3)
+        return None
+    return ts
+
+
 def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES,
                       map_sizes=MAP_SIZES) -> list[dict]:
     """One row per scene of ``names`` with a stored reference (module docstring)."""
@@ -85,13 +99,8 @@ def shadow_truth_rows(renderer, names=SHADOW_SCENES, candidates=CANDIDATES,
 
     rows = []
     for name in names:
-        path = SHADOW_SCENE_DIR / f"{name}.toml"
-        if not path.is_file():
-            path = REFERENCE_SCENES / f"{name}.toml"
-        ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
-        if not ts.path.is_file() or not ts.reference.is_file():
-            warnings.warn(f"relight bench shadow_truth: no scene or reference for {name}; left out",
-                          stacklevel=2)
+        ts = truth_scene(name, "shadow_truth")
+        if ts is None:
             continue
         truth = read_reference(ts.reference)
         h, w = truth.radiance.shape[:2]

@@ -64,6 +64,12 @@ bool rt_solid(uvec4 tri, vec2 b) {
     return alpha >= cutoff;
 }
 
+// ray_triangle against triangle i of rt_triangles (its vertices fetched).
+vec3 rt_triangle(int i, vec3 o, vec3 d) {
+    uvec4 tri = rt_triangles[i];
+    return ray_triangle(o, d, rt_position(tri.x), rt_position(tri.y), rt_position(tri.z));
+}
+
 // The nearest solid triangle the ray o + t d (d unit) hits for 0 < t < t_max.
 RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
     RayHit hit;
@@ -84,10 +90,8 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
         int count = floatBitsToInt(c.w);
         if (count > 0) {
             for (int i = first; i < first + count; ++i) {
-                uvec4 tri = rt_triangles[i];
-                vec3 r = ray_triangle(o, d, rt_position(tri.x), rt_position(tri.y),
-                                      rt_position(tri.z));
-                if (r.x > 0.0 && r.x < hit.t && rt_solid(tri, r.yz)) {
+                vec3 r = rt_triangle(i, o, d);
+                if (r.x > 0.0 && r.x < hit.t && rt_solid(rt_triangles[i], r.yz)) {
                     hit.t = r.x;
                     hit.triangle = i;
                     hit.b = r.yz;
@@ -139,10 +143,8 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
         int count = floatBitsToInt(c.w);
         if (count > 0) {
             for (int i = first; i < first + count; ++i) {
-                uvec4 tri = rt_triangles[i];
-                vec3 r = ray_triangle(o, d, rt_position(tri.x), rt_position(tri.y),
-                                      rt_position(tri.z));
-                if (r.x > 0.0 && r.x < t_max && rt_solid(tri, r.yz)) return true;
+                vec3 r = rt_triangle(i, o, d);
+                if (r.x > 0.0 && r.x < t_max && rt_solid(rt_triangles[i], r.yz)) return true;
             }
         } else {
             int l = first;

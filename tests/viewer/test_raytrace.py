@@ -120,8 +120,33 @@ def test_bvh_structure():
         for c in (bvh.first[i], bvh.first[i] + 1):
             assert (bvh.lo[c] >= bvh.lo[i]).all() and (bvh.hi[c] <= bvh.hi[i]).all()
     assert bvh.count.max() <= MAX_LEAF and bvh.depth <= MAX_DEPTH
-    # SAH quality: far below a single leaf (cost n) and below a median split's tree, roughly
-    assert bvh.sah_cost() < 0.02 * n
+    # SAH quality against an object-median split on the longest axis, computed here (measured
+    # 46.6 against 54.1: 0.86; a split that ignores the surface areas gives the median's cost)
+    assert bvh.sah_cost() < 0.95 * _median_split_cost(lo.astype(np.float64),
+                                                      hi.astype(np.float64))
+
+
+def _median_split_cost(lo, hi) -> float:
+    """The SAH cost (interior nodes 1 x area, leaves of <= 2 triangles count x area, over the
+    root's area) of the tree that halves each node at its centroids' median on its longest
+    axis."""
+    def area(a, b):
+        e = np.maximum(b - a, 0.0)
+        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    root = area(lo.min(0), hi.max(0))
+    total, stack = 0.0, [np.arange(len(lo))]
+    while stack:
+        idx = stack.pop()
+        a = area(lo[idx].min(0), hi[idx].max(0))
+        if len(idx) <= 2:
+            total += len(idx) * a
+            continue
+        total += a
+        centre = (lo[idx] + hi[idx]) / 2.0
+        axis = np.argmax(hi[idx].max(0) - lo[idx].min(0))
+        order = idx[np.argsort(centre[:, axis], kind="stable")]
+        stack += [order[: len(order) // 2], order[len(order) // 2:]]
+    return total / root
 
 
 def test_coincident_centroids_and_empty_input():

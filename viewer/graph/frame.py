@@ -238,9 +238,11 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     traced = ([(obj, renderer.geometry(obj)) for obj in scene.objects] if model.traced
               else None)
 
-    def shade_into(f, fbo, sample_range=(0, 1)):
-        trace = (res.trace.get(traced, renderer.geometry_cache.version) if traced is not None
-                 else None)
+    def traced_scene():  # looked up once a frame (its materials re-uploaded if they changed)
+        return (res.trace.get(traced, renderer.geometry_cache.version) if traced is not None
+                else None)
+
+    def shade_into(f, fbo, sample_range=(0, 1), trace=None):
         spass.run(f["gbuffer"].textures, fbo, camera, ibl, scene.environment, settings,
                   env_sampling=env_sampling, ssao=f[ssao.occlusion].texture if ssao else None,
                   sample_range=sample_range, variant=variant, light=scene.light,
@@ -259,10 +261,13 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
         writes = outs + ("mc_batch", "mc_history")
 
         def shade(f):
-            _accumulate(f, renderer, req, shade_into, f.fbo(*outs))
+            trace = traced_scene()
+            _accumulate(f, renderer, req,
+                        lambda f, fbo, sample_range: shade_into(f, fbo, sample_range, trace),
+                        f.fbo(*outs))
     else:
         def shade(f):
-            shade_into(f, f.fbo(*outs))
+            shade_into(f, f.fbo(*outs), trace=traced_scene())
     g.add_pass("shade", shade, reads=reads, writes=writes, inputs=inputs,
                volatile=model.accumulates)
 

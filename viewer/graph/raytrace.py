@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from ..passes.rt_light import filter_steps
+from ..passes.rt_light import FILTER_STEPS
 from ..scene.camera import Camera
 from ..scene.description import Scene
 from .graph import FrameGraph
@@ -72,13 +72,12 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
             for a, b in zip(hist, out):
                 renderer.ctx.copy_framebuffer(dst=f[b].fbo, src=f[a].fbo)
             return
-        count = f.state(hist[0]).get("count", 0)
-        source, steps = hist, filter_steps(count)
+        source, steps = hist, FILTER_STEPS
         for i, step in enumerate(steps):
             # ping-pong between rt_tmp and rt_light, ending in rt_light
             target = out if (len(steps) - 1 - i) % 2 == 0 else pong
             rpass.filter(gb, [f[n].texture for n in source], f.fbo(*target), step)
             source = target
     g.add_pass("raytrace_filter", denoise, reads=("gbuffer",) + hist, writes=out + pong,
-               inputs={"denoise": settings.raytrace.denoise}, volatile=progressive)
+               inputs={"denoise": settings.raytrace.denoise})
     return out

@@ -113,17 +113,12 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "mis_heuristic" in t:
         kw["mis_heuristic"] = _str(t["mis_heuristic"], "render.mis_heuristic", file,
                                    MIS_HEURISTICS)
-    for k in ("raytrace", "ray_denoise"):
-        if k in t:
-            if not isinstance(t[k], bool):
-                raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)
-            kw[k] = t[k]
     if "raytrace_rays" in t:
         kw["raytrace_rays"] = _int(t["raytrace_rays"], "render.raytrace_rays", file, 1, 64)
     if "ray_frames" in t:
         kw["ray_frames"] = _int(t["ray_frames"], "render.ray_frames", file, 1,
                                      4096)
-    for k in ("ssao", "indirect", "shadows", "ssao_blur"):
+    for k in ("ssao", "indirect", "shadows", "ssao_blur", "raytrace", "ray_denoise"):
         if k in t:
             if not isinstance(t[k], bool):
                 raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)

@@ -13,8 +13,9 @@ file                                        object     up
 ``.gltf``, ``.glb``                         mesh       +Y (the glTF specification)
 ``.obj``, ``.off``                          mesh       +Y (assumed, said)
 ``.stl``                                    mesh       +Z (assumed, said: the CAD convention)
-``.ply`` with faces                         mesh       header marker, else +Y (said)
-``.ply`` with splat properties, ``.splat``  splats     header marker, else detected, else -Y (said)
+``.ply`` with faces                         mesh       header marker, else its shape, else +Y (said)
+``.ply`` with splat properties, ``.splat``  splats     header marker, else its ground, else its
+                                                       shape, else -Y (said)
 a folder, or a 12-channel ``.exr``          gbuffer    its own camera (image space; not framed)
 ==========================================  =========  =============================================
 
@@ -36,6 +37,8 @@ from .description import ObjectSpec, Scene
 from .framing import floor_object, frame_camera, object_bounds
 from .orientation import (
     UP_AXES,
+    detect_cloud_up,
+    detect_mesh_up,
     detect_splat_up,
     is_splat_ply,
     marked_up,
@@ -198,16 +201,21 @@ def _load(path: Path, absolute: str, kind: str, forced: str | None):
     if kind == "mesh":
         from ..geometry.loaders import load_mesh
 
+        content = None
         if forced is not None:
             up, why = forced, None
         elif suffix in (".gltf", ".glb"):
             up, why = "+Y", None
+        elif marker is None and suffix == ".ply":
+            content = load_mesh(absolute)
+            up, why = detect_mesh_up(content) or _CONVENTION[suffix]
         else:
             up, why = marker or _CONVENTION[suffix]
         transform = None if up == "+Y" else up_matrix(up)
         obj = ObjectSpec(type="mesh", path=absolute, transform=transform)
-        content = load_mesh(absolute, transform=None if transform is None else
-                            _matrix(transform))
+        if content is None or transform is not None:
+            content = load_mesh(absolute, transform=None if transform is None else
+                                _matrix(transform))
     else:
         from ..splats import read_splats, transform_splats
 
@@ -215,7 +223,8 @@ def _load(path: Path, absolute: str, kind: str, forced: str | None):
         if forced is not None:
             up, why = forced, None
         else:
-            up, why = marker or detect_splat_up(raw) or _SPLAT_CONVENTION
+            up, why = (marker or detect_splat_up(raw) or detect_cloud_up(raw)
+                       or _SPLAT_CONVENTION)
         transform = None if up == "+Y" else up_matrix(up)
         obj = ObjectSpec(type="splats", path=absolute, transform=transform)
         content = raw if transform is None else transform_splats(raw, _matrix(transform))

@@ -328,7 +328,7 @@ def scene_markdown() -> str:
         comment = field_comments(holder).get(field, "") or MEANINGS.get(f"render.{key}", "")
         path = f"render.{field}" if group is None else f"render.{group}.{field}"
         accepts = probe.values(lambda v, k=key: {"render": {k: v}}, default)
-        if key in ("weights", "teacher_weights"):
+        if key in ("weights", "teacher_weights", "shadow_net"):
             accepts = "path (relative to the scene file)"
         out.append(f"| `{key}` | `{path}` | {_code(_toml(default))} | {accepts} | "
                    f"{_esc(comment)} |")

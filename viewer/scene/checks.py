@@ -167,7 +167,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "neural_storage" in t:
         kw["neural_storage"] = _str(t["neural_storage"], "render.neural_storage", file,
                                     WEIGHT_STORAGES)
-    for k in ("weights", "teacher_weights"):  # relative to the scene file
+    for k in ("weights", "teacher_weights", "shadow_net"):  # relative to the scene file
         if k in t:
             base = Path(file).resolve().parent if Path(file).is_file() else Path.cwd()
             kw[k] = _path(t[k], f"render.{k}", file, base)

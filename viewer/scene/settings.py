@@ -64,6 +64,9 @@ class NeuralSettings:
 
     weights: str | None = None  # `neural` student weights (.safetensors); None = assets/weights
     teacher_weights: str | None = None  # `neural_teacher` weights; None = assets/weights
+    # the neural shadow estimator's weights (viewer/neural/shadow_net.py): its visibility
+    # multiplies every model's shading (thesis eq. 4.3); None: no estimator (TOML: shadow_net)
+    shadow_net: str | None = None
     # "const" (baked) | "ubo" (a uniform block, or a storage buffer above 16 KiB) | "texture"
     # (viewer.neural.WEIGHT_STORAGES); TOML: neural_storage
     storage: str = "const"
@@ -214,6 +217,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ssao_blur": ("ssao", "blur"),
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
+    "shadow_net": ("neural", "shadow_net"),
     "neural_storage": ("neural", "storage"),
     "splat_depth": (None, "splat_depth"),
     "shadows": ("shadow", "enabled"),

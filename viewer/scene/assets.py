@@ -29,6 +29,8 @@ import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..environment.maps import PROCEDURAL, EnvironmentSpec
 from ..errors import AssetNote, InputError, SceneError
 from .bounds import Bounds, content_bounds, points_bounds
@@ -139,6 +141,7 @@ def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool =
     objects, contents, notes = [], [], []
     box: Bounds | None = None
     far_boxes: list[Bounds] = []
+    points = []  # what the camera is fitted to: each object's points inside its bounds
     for path in paths:
         kind = asset_kind(path)
         absolute = str(path.resolve())
@@ -154,6 +157,7 @@ def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool =
         b = content_bounds(content)
         if b is not None:
             box = b if box is None else box.union(b)
+            points.append(_surface_points(content, b))
         if hasattr(content, "means"):  # a cloud's outliers: not framed, but not clipped either
             full = points_bounds(content.means)
             if full is not None:
@@ -166,7 +170,8 @@ def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool =
             plane = floor_object(box)
             objects.append(plane)
             far_boxes.append(object_bounds(plane))
-        camera = frame_camera(box, camera.fov_y, camera.size, also=tuple(far_boxes))
+        camera = frame_camera(box, camera.fov_y, camera.size, also=tuple(far_boxes),
+                              points=np.concatenate(points))
     elif floor:
         warnings.warn("--floor ignored: no asset has world-space geometry (image-space G-buffers "
                       "are drawn from their own camera)", stacklevel=2)
@@ -233,7 +238,16 @@ def _load(path: Path, absolute: str, kind: str, forced: str | None):
     return obj, content, note
 
 
-def _matrix(rows):
-    import numpy as np
+def _surface_points(content, bounds: Bounds) -> np.ndarray:
+    """``[N, 3]`` points of one object's surface inside its ``bounds`` (a mesh's vertices, a
+    cloud's centres without its outliers), for :func:`frame_camera`."""
+    if hasattr(content, "means"):
+        p = np.asarray(content.means, np.float64)
+    else:
+        p = np.concatenate([np.asarray(m.positions, np.float64).reshape(-1, 3) for m in content])
+    inside = ((p >= np.asarray(bounds.lo)) & (p <= np.asarray(bounds.hi))).all(axis=1)
+    return p[inside]
 
+
+def _matrix(rows):
     return np.asarray(rows, np.float64)

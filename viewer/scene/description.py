@@ -103,6 +103,7 @@ class ObjectSpec:
     radius: float = 1.0
     size: tuple[float, float] = (4.0, 4.0)  # plane extent (x, z)
     normal: tuple[float, float, float] = (0.0, 1.0, 0.0)  # plane normal
+    catcher: bool = False  # plane: a shadow catcher fading into the environment (scene.ground)
     transform: tuple[tuple[float, ...], ...] | None = None  # 4x4 row-major, for meshes
     path: str | None = None
     material: Material | None = None  # None: the file's own materials (meshes)
@@ -224,7 +225,7 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
     common = {"type", "material"}
     allowed = {
         "sphere": {"center", "radius"},
-        "plane": {"center", "size", "normal"},
+        "plane": {"center", "size", "normal", "catcher"},
         "material_grid": {"center", "rows", "cols", "spacing", "radius"},
         "mesh": {"path", "transform"},
         "gbuffer": {"path", "fov_y", "near", "far"},
@@ -242,6 +243,11 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
         kw["normal"] = _vec(t["normal"], 3, f"{where}.normal", file)
         if math.hypot(*kw["normal"]) < 1e-9:
             raise SceneError(f"{where}.normal must not be zero", where=file)
+    if "catcher" in t:
+        if not isinstance(t["catcher"], bool):
+            raise SceneError(f"{where}.catcher must be true or false, got {t['catcher']!r}",
+                             where=file)
+        kw["catcher"] = t["catcher"]
     for k in ("rows", "cols"):
         if k in t:
             kw[k] = _int(t[k], f"{where}.{k}", file, 1, 64)

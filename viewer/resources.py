@@ -20,6 +20,7 @@ from .passes.rt_light import RTLightPass
 from .passes.gbuffer import GBufferPass
 from .passes.shade import ShadePass
 from .passes.shadow import ShadowPass
+from .passes.shadow_net import ShadowNetPass
 from .passes.splats import SplatPass
 from .passes.ssao import SSAOPass
 from .passes.tonemap import TonemapPass
@@ -27,7 +28,8 @@ from .raytrace.upload import TraceStore
 
 # the passes that are built per G-buffer layout
 LAYOUT_PASSES = {"gbuffer": GBufferPass, "splats": SplatPass, "ssao": SSAOPass,
-                 "shade": ShadePass, "forward": ForwardPass, "rt_light": RTLightPass}
+                 "shade": ShadePass, "forward": ForwardPass, "rt_light": RTLightPass,
+                 "shadow_net": ShadowNetPass}
 
 
 class GPUResources:

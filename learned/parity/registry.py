@@ -15,12 +15,13 @@ from .checks import (
     raytrace,
     shadow,
     shadow_lights,
+    shadow_net,
     splats,
     ssao,
 )
 
 CHECK_MODULES = (ibl, models, forward, env_sampling, neural, splats, ssao, shadow, shadow_lights,
-                 antialias, raytrace)
+                 antialias, raytrace, shadow_net)
 
 _REGISTRY: dict[str, tuple[str | None, Callable]] = {}
 

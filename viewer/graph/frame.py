@@ -1,7 +1,8 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
     gbuffer -> splats -> ssao -> ssao_upsample -> ssao_blur -> shadow<i> -> shade
-            -> indirect_gather -> indirect -> forward -> ssaa_resolve -> tonemap -> fxaa
+            -> indirect_gather -> indirect -> shadow_net -> forward -> ssaa_resolve -> tonemap
+            -> fxaa
 
 With ``[render] ssaa`` = N > 1 every pass up to ``forward`` runs at N times the camera's size and
 ``ssaa_resolve`` box-averages the radiance into ``resolved`` (the output size); with ``[render] aa
@@ -30,6 +31,7 @@ from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
 from .raytrace import raytrace_passes
 from .resources import GBufferDesc, TextureDesc
+from .shadow_net import shadow_net_passes
 from .shadows import cascade_variant, env_to_world, light_shadow_frame, shadow_passes  # noqa: F401
 
 MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
@@ -80,6 +82,7 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     rt_light = raytrace_passes(g, renderer, scene, spec, camera, req.progressive,
                                _lighting_settings(settings)) if rt else ()
     _lighting_passes(g, renderer, req, ssao, shadows, rt_light)
+    shadow_net_passes(g, renderer, scene, spec, camera, ssao.occlusion if ssao else None)
     if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
 
         def forward(f):  # receives the frame's shadow maps (viewer/passes/forward.py)

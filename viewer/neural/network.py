@@ -117,10 +117,12 @@ def required_settings(settings):
     its occlusion and visibility inputs from it (it was trained on them; without the pass its ao
     input would be the material's alone and its vis input 1), the indirect pass for a student that
     learned a factor on its light (trained on direct + factor x indirect), the analytic sun for a
-    student whose base shades it (``render.sun = false`` would leave its sun out). Unchanged for every
-    other model."""
+    student whose base shades it (``render.sun = false`` would leave its sun out); SSAO, too, for
+    the neural shadow estimator (``render.shadow_net``), which reads its occlusion. Unchanged for
+    every other model."""
     flat = {}
-    if reads_visibility(settings) and not settings.ssao.enabled:
+    if (reads_visibility(settings) or settings.neural.shadow_net is not None) \
+            and not settings.ssao.enabled:  # the shadow estimator reads O(x) too
         flat["ssao"] = True
     if learns_indirect(settings) and not settings.ssao.indirect:
         flat["indirect"] = True

@@ -23,6 +23,7 @@ from . import (
     sh,
     shading,
     shadow,
+    shadow_net,
     splat,
     ssao,
     tonemap,
@@ -30,7 +31,7 @@ from . import (
 from .base import Arg, ParityCase
 
 MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ibl, lights, mc, neural,
-           path, sampling, sh, shading, shadow, splat, ssao, tonemap)
+           path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

@@ -1,0 +1,161 @@
+"""The neural shadow estimator's passes (``passes/shadow_net_conv.comp``) against
+:mod:`learned.twins.shadow_net`, on the parity scene's frame at an odd size (75 x 53: every level
+has an odd side somewhere, so the replicated borders and the crops of the upsampling are
+exercised) with seeded random weights of the default architecture.
+
+* ``shadow_net:layers`` - each layer alone: the twin of the layer on the maps GL left for its
+  inputs, against the map GL wrote (the error of one layer, not the chain's).
+* ``shadow_net`` - the whole network: the twin from the frame's inputs alone against GL's
+  visibility, and the frame graph's product (``[render] shadow_net``) against the twin's product
+  with the frame's unshadowed radiance (:func:`learned.twins.shadow_net.shadow_net_apply`).
+"""
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+from safetensors.numpy import save_file
+
+from learned.twins.shadow_net import (shadow_net, shadow_net_apply, shadow_net_conv,
+                                      shadow_net_inputs)
+from viewer.neural.shadow_net import (DEFAULT_ARCHITECTURE, metadata, random_tensors,
+                                      read_shadow_net, slices)
+from viewer.passes.shadow_net import ShadowNetPass, map_sizes
+from viewer.renderer import Renderer
+from viewer.scene.description import scene_from_dict
+
+from ..results import compare
+from . import collector
+from .models import PARITY_SCENE, gl_gbuffer, gl_texture
+
+SIZE = (75, 53)
+# float32 sums of up to 504 products per output (dec4) in another order than torch's conv2d:
+# measured on llvmpipe max abs 4.8e-7 per layer (down1, on maps of magnitude ~1-10), 1.2e-7
+# through the whole network on the visibility (sigmoid output in (0, 1)), 1.9e-6 on the product
+# (radiance up to ~10)
+LAYER_ATOL, LAYER_RTOL = 2e-5, 1e-4
+NET_ATOL, NET_RTOL = 2e-5, 1e-4
+
+
+def parity_weights(folder: Path, seed: int = 7) -> Path:
+    """A weights file of the default architecture with seeded random tensors (scaled so the
+    sigmoid output spans (0, 1) rather than saturating) written under ``folder``."""
+    tensors = random_tensors(DEFAULT_ARCHITECTURE, seed=seed, scale=0.8)
+    path = folder / "shadow_net_parity.safetensors"
+    save_file(tensors, str(path), metadata=metadata(DEFAULT_ARCHITECTURE, tensors,
+                                                    {"parity": True}))
+    return path
+
+
+def untile(arr: np.ndarray, channels: int) -> torch.Tensor:
+    """A tiled map read back (``[H, W * S, 4]``) as ``[1, C, H, W]``."""
+    h, ws, _ = arr.shape
+    s = slices(channels)
+    w = ws // s
+    t = torch.from_numpy(arr.reshape(h, s, w, 4).transpose(1, 3, 0, 2).reshape(4 * s, h, w))
+    return t[:channels][None]
+
+
+def frame_inputs(targets) -> tuple[torch.Tensor, ...]:
+    """``radiance [1, 4, H, W]``, ``inputs [1, 8, H, W]`` and ``surface [1, 1, H, W]`` of a
+    frame in GL row order."""
+    gb = gl_gbuffer(targets)
+    chw = lambda t: t.permute(2, 0, 1)[None]  # noqa: E731
+    radiance = chw(torch.from_numpy(gl_texture(targets.radiance)))
+    ao = chw(torch.from_numpy(gl_texture(targets.ssao)))[:, :1]
+    inputs = shadow_net_inputs(radiance, ao, chw(gb["normal"]), chw(gb["depth"]))
+    surface = (gb["alpha"][..., 0] > 0.0) & (gb["depth"][..., 0] > 0.0)
+    return radiance, inputs, surface[None, None]
+
+
+def run_gl_layers(programs, net, targets) -> tuple[dict, np.ndarray]:
+    """Every layer's map (read back, untiled) and the visibility GL computes on ``targets``."""
+    ctx = programs.ctx
+    spass = ShadowNetPass(programs, targets.gbuffer.layout)
+    sizes = map_sizes(net, SIZE)
+    maps = {name: ctx.texture(size, 4, dtype="f4") for name, size in sizes.items()}
+    vis = ctx.texture(SIZE, 4, dtype="f4")
+    try:
+        spass.run(net, targets.gbuffer.textures, targets.radiance, targets.ssao, maps, SIZE,
+                  visibility=vis)
+        out = {layer.name: untile(gl_texture(maps[layer.name]), layer.out_channels)
+               for layer in net.layers[:-1]}
+        return out, gl_texture(vis)
+    finally:
+        for t in list(maps.values()) + [vis]:
+            t.release()
+        spass.release()
+
+
+def _scene(weights: Path | None):
+    doc = {**PARITY_SCENE, "camera": {**PARITY_SCENE["camera"], "size": list(SIZE)}}
+    scene = scene_from_dict(doc).with_render(model="ggx_split_sum", ssao=True, ssao_blur=False)
+    return scene.with_render(shadow_net=str(weights)) if weights is not None else scene
+
+
+def params_of(net) -> dict:
+    return {layer.name: (torch.from_numpy(net.weight(layer.name)),
+                         torch.from_numpy(net.bias(layer.name))) for layer in net.layers}
+
+
+def checks() -> dict:
+    """This module's pass checks: name -> (model or None, check(programs) -> results)."""
+    found, register_pass_check = collector()
+
+    @register_pass_check("shadow_net:layers", model="shadow_net")
+    def check_layers(programs):
+        with tempfile.TemporaryDirectory() as tmp:
+            net = read_shadow_net(parity_weights(Path(tmp)))
+        renderer = Renderer(ctx=programs.ctx)
+        try:
+            targets = renderer.draw(_scene(None))
+            _, inputs, _ = frame_inputs(targets)
+            gl_maps, vis_gl = run_gl_layers(programs, net, targets)
+        finally:
+            renderer.release()
+        maps = dict(gl_maps, input=inputs)
+        params = params_of(net)
+        results = []
+        with torch.no_grad():
+            for layer in net.layers:
+                d = layer.as_dict()
+                w, b = params[layer.name]
+                ref = shadow_net_conv(maps[d["a"]], maps[d["b"]] if d["b"] else None, w, b, d)
+                glsl = (gl_maps[layer.name] if layer.name != "out"
+                        else torch.from_numpy(vis_gl).permute(2, 0, 1)[None, :3])
+                results.append(compare(f"shadow_net:{layer.name}", glsl.numpy(), ref.numpy(),
+                                       LAYER_ATOL, LAYER_RTOL,
+                                       measured="max abs 4.8e-7 over the layers (seed 7, 75 x 53)",
+                                       envelope="float32 sums of <= 504 products in another "
+                                                "order; exp of the sigmoid 3 + 2|x| ulp"))
+        return results
+
+    @register_pass_check("shadow_net", model="shadow_net")
+    def check_network(programs):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = parity_weights(Path(tmp))
+            net = read_shadow_net(path)
+            renderer = Renderer(ctx=programs.ctx)
+            try:
+                plain = renderer.draw(_scene(None))
+                radiance, inputs, surface = frame_inputs(plain)
+                _, vis_gl = run_gl_layers(programs, net, plain)
+                shaded_gl = gl_texture(renderer.draw(_scene(path)).radiance)
+            finally:
+                renderer.release()
+        layers = [layer.as_dict() for layer in net.layers]
+        with torch.no_grad():
+            vis = shadow_net(inputs, layers, params_of(net))
+            shaded = shadow_net_apply(radiance, vis, surface)
+        chw_vis = np.ascontiguousarray(vis[0].permute(1, 2, 0).numpy())
+        return [compare("shadow_net:network", vis_gl[..., :3], chw_vis, NET_ATOL, NET_RTOL,
+                        measured="max abs 1.2e-7 (seed 7, 75 x 53)",
+                        envelope="the layers' envelopes through 15 layers; sigmoid output"),
+                compare("shadow_net:frame", shaded_gl,
+                        np.ascontiguousarray(shaded[0].permute(1, 2, 0).numpy()), NET_ATOL,
+                        NET_RTOL, measured="max abs 1.9e-6, max rel 4.9e-7",
+                        envelope="the network's, times the radiance")]
+
+    return found

@@ -1,0 +1,294 @@
+"""The neural shadow estimator's weights file, its layer plan and its packing for GLSL (torch-free).
+
+The estimator (thesis eq. 4.3, redesigned for the viewer) is a U-Net over the frame:
+
+    x0 = [log(1 + L_unshadowed), O(x), n, 1 / (1 + z)]          8 channels, full resolution
+    e_l = relu(conv3(relu(conv2/2(e_{l-1}))))                    l = 1..L at 1 / 2^l
+    d_l = relu(conv_k([up(d_{l+1}), e_l]))                       l = L-1..1 (d_L = e_L), k = 3
+                                                                 (1 at l = 1), nearest up
+    V   = sigmoid(conv1([bilinear_up(d_1), x0]))                 full resolution, 3 channels
+
+and the shading is multiplied by V where there is a surface (the product form). The first
+operation halves the resolution, so full resolution only sees the inputs and the last 1 x 1
+layer; :func:`receptive_field` is the reach of one output pixel (``levels`` 5: ~200 px, covering
+the ~100 px penumbrae of Neural Shadow Mapping's 5-level table).
+
+The file is safetensors with float32 tensors ``<layer>.weight`` ``[out, in, k, k]`` and
+``<layer>.bias`` ``[out]`` (the layers of :func:`plan`; input channels: the first source's then
+the skip's) and string metadata ``format`` = :data:`FORMAT`, ``version`` = :data:`FORMAT_VERSION`,
+``architecture`` (JSON ``{"levels": L, "widths": [C_1 .. C_L]}``), ``checkpoint`` (sha256 of the
+tensors, :func:`viewer.neural.checkpoint_hash`) and ``training`` (JSON, free form).
+:func:`read_shadow_net` validates all of it; every problem is one :class:`WeightsError` line
+naming the file. :func:`pack_layer` lays a layer's weights out as the ``vec4`` array its pass
+reads (``shaders/passes/shadow_net_conv.comp``).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from safetensors import SafetensorError, safe_open
+
+from .format import WeightsError, checkpoint_hash
+
+FORMAT = "relight-shadow-net"
+FORMAT_VERSION = "1"
+INPUT_CHANNELS = 8  # lib/shadow_net.glsl shadow_net_input_a (4) and shadow_net_input_b (4)
+LEVELS_RANGE = (1, 7)
+WIDTH_MAX = 64
+UBO_VEC4_MAX = 4096  # 64 KiB: GL_MAX_UNIFORM_BLOCK_SIZE on llvmpipe and most GPUs
+DEFAULT_ARCHITECTURE = {"levels": 5, "widths": [8, 12, 16, 24, 32]}
+
+# sources of a layer's inputs (SN_A_SOURCE / SN_B_SOURCE of passes/shadow_net_conv.comp)
+SOURCE_NONE, SOURCE_MAP, SOURCE_NEAREST_UP, SOURCE_BILINEAR_UP, SOURCE_FRAME = 0, 1, 2, 3, 4
+ACT_RELU, ACT_SIGMOID = 0, 1
+
+
+@dataclass(frozen=True)
+class Layer:
+    """One convolution of the plan: ``kernel`` x ``kernel`` taps (stride 1, replicate padding) or
+    2 x 2 at stride 2; input ``a`` (a map name, or ``"input"``: the frame's inputs) read as
+    ``a_source``, an optional skip ``b`` at the output's level; output at ``level`` (0 = full)."""
+
+    name: str
+    level: int
+    kernel: int
+    stride: int
+    a: str
+    a_source: int
+    a_channels: int
+    b: str | None
+    b_source: int
+    b_channels: int
+    out_channels: int
+    act: int
+
+    @property
+    def in_channels(self) -> int:
+        return self.a_channels + self.b_channels
+
+    @property
+    def weight_shape(self) -> tuple[int, int, int, int]:
+        return (self.out_channels, self.in_channels, self.kernel, self.kernel)
+
+    def as_dict(self) -> dict:
+        """The plain form the torch twin takes (``learned.twins.shadow_net.shadow_net``)."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def slices(channels: int) -> int:
+    """RGBA32F texels per pixel holding ``channels`` (the maps are tiled side by side)."""
+    return -(-int(channels) // 4)
+
+
+def level_size(size: tuple[int, int], level: int) -> tuple[int, int]:
+    """Width, height at ``level`` of a frame of ``size``: ceil halving per level."""
+    w, h = int(size[0]), int(size[1])
+    for _ in range(level):
+        w, h = -(-w // 2), -(-h // 2)
+    return w, h
+
+
+def check_architecture(arch: dict) -> tuple[int, list[int]]:
+    """``(levels, widths)`` of ``arch``, or ``ValueError`` saying what is wrong."""
+    if not isinstance(arch, dict):
+        raise ValueError("architecture is not a JSON object")
+    levels, widths = arch.get("levels"), arch.get("widths")
+    if not isinstance(levels, int) or not LEVELS_RANGE[0] <= levels <= LEVELS_RANGE[1]:
+        raise ValueError(f"levels {levels!r} is not an integer in {LEVELS_RANGE[0]}.."
+                         f"{LEVELS_RANGE[1]}")
+    if (not isinstance(widths, list) or len(widths) != levels
+            or not all(isinstance(w, int) and 1 <= w <= WIDTH_MAX for w in widths)):
+        raise ValueError(f"widths {widths!r} is not a list of {levels} integers in 1..{WIDTH_MAX}")
+    return levels, list(widths)
+
+
+def plan(arch: dict) -> list[Layer]:
+    """The layers of ``arch`` in the order they run (see the module's docstring)."""
+    levels, widths = check_architecture(arch)
+    c = [INPUT_CHANNELS] + widths
+    layers = []
+    for lv in range(1, levels + 1):
+        prev = "input" if lv == 1 else f"enc{lv - 1}"
+        src = SOURCE_FRAME if lv == 1 else SOURCE_MAP
+        layers.append(Layer(f"down{lv}", lv, 2, 2, prev, src, c[lv - 1], None, SOURCE_NONE, 0,
+                            c[lv], ACT_RELU))
+        layers.append(Layer(f"enc{lv}", lv, 3, 1, f"down{lv}", SOURCE_MAP, c[lv], None,
+                            SOURCE_NONE, 0, c[lv], ACT_RELU))
+    coarse = f"enc{levels}"
+    for lv in range(levels - 1, 0, -1):
+        layers.append(Layer(f"dec{lv}", lv, 3 if lv > 1 else 1, 1, coarse, SOURCE_NEAREST_UP,
+                            c[lv + 1], f"enc{lv}", SOURCE_MAP, c[lv], c[lv], ACT_RELU))
+        coarse = f"dec{lv}"
+    layers.append(Layer("out", 0, 1, 1, coarse, SOURCE_BILINEAR_UP, c[1], "input", SOURCE_FRAME,
+                        INPUT_CHANNELS, 3, ACT_SIGMOID))
+    return layers
+
+
+def receptive_field(arch: dict) -> int:
+    """Full-resolution pixels across the region one output pixel depends on, along the longest
+    path (down the encoder and back up the decoder): a k-tap convolution adds k - 1 texels of its
+    level, bilinear upsampling one coarse texel."""
+    jump, field = 1, 1
+    for layer in plan(arch):
+        if layer.stride == 2:
+            field += (layer.kernel - 1) * jump
+            jump *= 2
+        elif layer.a_source == SOURCE_NEAREST_UP:  # k fine pixels span k // 2 + 1 coarse
+            jump //= 2
+            field += (layer.kernel - 1) * jump
+        elif layer.a_source == SOURCE_BILINEAR_UP:  # two coarse texels per fine pixel
+            field += jump
+            jump //= 2
+        else:
+            field += (layer.kernel - 1) * jump
+    return field
+
+
+def macs_per_pixel(arch: dict) -> float:
+    """Multiply-adds per full-resolution pixel (each level has a quarter of the pixels)."""
+    return float(sum(np.prod(layer.weight_shape) / 4 ** layer.level for layer in plan(arch)))
+
+
+@dataclass(frozen=True)
+class ShadowNetFile:
+    """A validated weights file: its path, checkpoint, architecture, plan and tensors."""
+
+    path: str
+    checkpoint: str
+    architecture: dict
+    training: dict
+    layers: tuple[Layer, ...]
+    tensors: dict  # name -> np.ndarray float32
+
+    def weight(self, layer: str) -> np.ndarray:
+        return self.tensors[f"{layer}.weight"]
+
+    def bias(self, layer: str) -> np.ndarray:
+        return self.tensors[f"{layer}.bias"]
+
+    def packed(self, layer: Layer) -> np.ndarray:
+        return pack_layer(layer, self.weight(layer.name), self.bias(layer.name))
+
+
+def len_packed(layer: Layer) -> int:
+    """``vec4`` s of :func:`pack_layer`'s array for ``layer``."""
+    so = slices(layer.out_channels)
+    return layer.kernel ** 2 * (slices(layer.a_channels) + slices(layer.b_channels)) * so * 4 + so
+
+
+def pack_layer(layer: Layer, weight: np.ndarray, bias: np.ndarray) -> np.ndarray:
+    """``[N, 4]`` float32, the ``vec4`` array ``passes/shadow_net_conv.comp`` reads: for each tap
+    (row-major), input slice (the first source's slices, then the skip's) and output slice, the
+    four columns of the ``mat4`` M with out += M in; then one bias ``vec4`` per output slice.
+    Channels past a source's count are zero."""
+    sa, sb, so = slices(layer.a_channels), slices(layer.b_channels), slices(layer.out_channels)
+    k = layer.kernel
+    w = np.zeros((k * k, sa + sb, so, 4, 4), np.float32)  # [tap, in slice, out slice, col, row]
+    full = np.zeros((4 * so, 4 * (sa + sb), k, k), np.float32)  # padded [out, in, ky, kx]
+    full[:layer.out_channels, :layer.a_channels] = weight[:, :layer.a_channels]
+    full[:layer.out_channels, 4 * sa:4 * sa + layer.b_channels] = weight[:, layer.a_channels:]
+    taps = full.reshape(so, 4, sa + sb, 4, k * k)  # [out slice, row, in slice, col, tap]
+    w[:] = taps.transpose(4, 2, 0, 3, 1)
+    b = np.zeros(4 * so, np.float32)
+    b[:layer.out_channels] = bias
+    return np.concatenate([w.reshape(-1, 4), b.reshape(so, 4)]).astype(np.float32)
+
+
+def metadata(arch: dict, tensors: dict, training: dict | None = None) -> dict[str, str]:
+    """The string metadata of a file holding ``tensors`` of ``arch``."""
+    check_architecture(arch)
+    return {"format": FORMAT, "version": FORMAT_VERSION, "architecture": json.dumps(arch),
+            "checkpoint": checkpoint_hash(tensors), "training": json.dumps(training or {})}
+
+
+def read_shadow_net(path: str | os.PathLike) -> ShadowNetFile:
+    """Read and validate the estimator's weights file ``path``; every problem is a one-line
+    :class:`WeightsError` naming the file."""
+    path = Path(path)
+    try:
+        with safe_open(str(path), framework="numpy") as f:
+            meta = dict(f.metadata() or {})
+            tensors = {k: f.get_tensor(k) for k in f.keys()}
+    except (SafetensorError, OSError, ValueError, MemoryError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise WeightsError(f"not a readable safetensors file ({first})", where=path) from None
+    if meta.get("format") != FORMAT:
+        raise WeightsError(f"not a relight shadow-estimator file (metadata format "
+                           f"{meta.get('format')!r}, expected {FORMAT!r})", where=path)
+    if meta.get("version") != FORMAT_VERSION:
+        raise WeightsError(f"format version {meta.get('version')!r} is not supported (this "
+                           f"viewer reads version {FORMAT_VERSION})", where=path)
+    try:
+        arch = json.loads(meta["architecture"])
+        training = json.loads(meta.get("training", "{}"))
+        layers = tuple(plan(arch))
+    except (KeyError, ValueError, TypeError) as exc:
+        raise WeightsError(f"bad architecture metadata ({type(exc).__name__}: {exc})",
+                           where=path) from None
+    names = set()
+    for layer in layers:
+        need = len_packed(layer)
+        if need > UBO_VEC4_MAX:
+            raise WeightsError(f"layer {layer.name!r} needs {need * 16 // 1024} KiB of weights, "
+                               f"more than a 64 KiB uniform block holds", where=path)
+        for part, shape in (("weight", layer.weight_shape), ("bias", (layer.out_channels,))):
+            name = f"{layer.name}.{part}"
+            names.add(name)
+            t = tensors.get(name)
+            if t is None:
+                raise WeightsError(f"missing tensor {name!r}", where=path)
+            if t.dtype != np.float32 or tuple(t.shape) != shape:
+                raise WeightsError(f"tensor {name!r} is {t.dtype}{list(t.shape)}, expected "
+                                   f"float32{list(shape)}", where=path)
+            if not np.isfinite(t).all():
+                raise WeightsError(f"tensor {name!r} has NaN/Inf values", where=path)
+    extra = sorted(set(tensors) - names)
+    if extra:
+        raise WeightsError(f"unexpected tensors {', '.join(extra)}", where=path)
+    digest = checkpoint_hash(tensors)
+    if meta.get("checkpoint") != digest:
+        raise WeightsError(f"checkpoint hash mismatch (metadata {str(meta.get('checkpoint'))[:12]}"
+                           f", tensors {digest[:12]}): the file was modified or damaged",
+                           where=path)
+    return ShadowNetFile(str(path), digest, arch, training, layers, tensors)
+
+
+def random_tensors(arch: dict, seed: int = 0, scale: float = 1.0) -> dict[str, np.ndarray]:
+    """He-initialised tensors of ``arch`` (numpy, seeded; biases small and random): for tests
+    and parity checks, never shipped."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for layer in plan(arch):
+        fan_in = layer.in_channels * layer.kernel ** 2
+        out[f"{layer.name}.weight"] = (rng.normal(0.0, scale * math.sqrt(2.0 / fan_in),
+                                                  layer.weight_shape)).astype(np.float32)
+        out[f"{layer.name}.bias"] = rng.normal(0.0, 0.1, layer.out_channels).astype(np.float32)
+    return out
+
+
+_LOADED: dict[tuple, ShadowNetFile] = {}
+_LOADED_MAX = 4
+
+
+def load_shadow_net(path: str | os.PathLike) -> ShadowNetFile:
+    """:func:`read_shadow_net`, cached by path, size and modification time (:data:`_LOADED_MAX`
+    files; the oldest dropped), so a frame graph built every frame reads the file once."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError as exc:
+        raise WeightsError(f"cannot read the shadow estimator's weights ({exc.strerror})",
+                           where=p) from None
+    key = (str(p.resolve()), st.st_size, st.st_mtime_ns)
+    net = _LOADED.get(key)
+    if net is None:
+        net = read_shadow_net(p)
+        while len(_LOADED) >= _LOADED_MAX:
+            _LOADED.pop(next(iter(_LOADED)))
+        _LOADED[key] = net
+    return net

@@ -26,7 +26,7 @@ from ..twins.shadow_net import shadow_net, shadow_net_apply, shadow_net_inputs
 
 class ShadowNet(nn.Module):
     """``architecture``: ``{"levels": L, "widths": [...]}`` (default: 5 levels, widths
-    8-12-16-24-32, receptive field 214 px, ~810 multiply-adds per full-resolution pixel). The
+    8-12-16-24-32, receptive field 220 px, ~810 multiply-adds per full-resolution pixel). The
     output layer starts at "no shadow" (zero weights, bias 4: sigmoid 0.98)."""
 
     kind = "shadow_net"

@@ -10,7 +10,7 @@ The estimator (thesis eq. 4.3, redesigned for the viewer) is a U-Net over the fr
 
 and the shading is multiplied by V where there is a surface (the product form). The first
 operation halves the resolution, so full resolution only sees the inputs and the last 1 x 1
-layer; :func:`receptive_field` is the reach of one output pixel (``levels`` 5: ~200 px, covering
+layer; :func:`receptive_field` is the reach of one output pixel (``levels`` 5: 220 px, covering
 the ~100 px penumbrae of Neural Shadow Mapping's 5-level table).
 
 The file is safetensors with float32 tensors ``<layer>.weight`` ``[out, in, k, k]`` and
@@ -130,23 +130,27 @@ def plan(arch: dict) -> list[Layer]:
 
 
 def receptive_field(arch: dict) -> int:
-    """Full-resolution pixels across the region one output pixel depends on, along the longest
-    path (down the encoder and back up the decoder): a k-tap convolution adds k - 1 texels of its
-    level, bilinear upsampling one coarse texel."""
-    jump, field = 1, 1
-    for layer in plan(arch):
-        if layer.stride == 2:
-            field += (layer.kernel - 1) * jump
-            jump *= 2
-        elif layer.a_source == SOURCE_NEAREST_UP:  # k fine pixels span k // 2 + 1 coarse
-            jump //= 2
-            field += (layer.kernel - 1) * jump
-        elif layer.a_source == SOURCE_BILINEAR_UP:  # two coarse texels per fine pixel
-            field += jump
-            jump //= 2
-        else:
-            field += (layer.kernel - 1) * jump
-    return field
+    """Full-resolution pixels across the widest region one output pixel depends on: its interval
+    walked back along the longest path (the output, the decoder, the encoder's deepest level, the
+    encoder back up to the inputs), the widest over the output pixel's alignments to the levels."""
+    by_name = {layer.name: layer for layer in plan(arch)}
+    levels = int(arch["levels"])
+    widest = 0
+    for p in range(2 ** (levels + 1)):
+        lo, hi, name = p, p, "out"
+        while name != "input":
+            layer = by_name[name]
+            r = layer.kernel // 2 if layer.stride == 1 else 0
+            lo, hi = lo - r, hi + r
+            if layer.stride == 2:  # taps 2p, 2p + 1 of the level below
+                lo, hi = 2 * lo, 2 * hi + 1
+            elif layer.a_source == SOURCE_NEAREST_UP:
+                lo, hi = lo // 2, hi // 2
+            elif layer.a_source == SOURCE_BILINEAR_UP:  # texels x // 2 and its neighbour
+                lo, hi = lo // 2 - (lo % 2 == 0), hi // 2 + (hi % 2 == 1)
+            name = layer.a
+        widest = max(widest, hi - lo + 1)
+    return widest
 
 
 def macs_per_pixel(arch: dict) -> float:

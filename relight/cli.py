@@ -1,9 +1,9 @@
 """``relight``: the command line of the relighting workbench.
 
     relight render [SCENE.toml | ASSET...] --out FILE [--model M] [--samples N] [--size WxH]
-                 [--aov a,b] [--ssaa N] [--env FILE|sky|studio|white] [--up AXIS] [--floor]
+                 [--aov a,b] [--ssaa N] [--env FILE|sky|studio|white] [--up AXIS] [--floor [slab]]
                  [--set KEY=VALUE ...]
-    relight scene ASSET... [--env E] [--up AXIS] [--floor] [--model M] [--size WxH]
+    relight scene ASSET... [--env E] [--up AXIS] [--floor [slab]] [--model M] [--size WxH]
                  [--set KEY=VALUE ...] > scene.toml
     relight parity [--model M] [--json]
     relight decompose IN.ply --out OUT.ply [--views V] [--iterations N] [--checkpoint FILE]
@@ -20,7 +20,7 @@
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
     relight view [SCENE.toml | ASSET...] [--frames N] [--screenshot FILE [--screenshot-ui]]
                  [--offscreen] [--size WxH] [--window WxH] [--fit-window] [--model M] [--view V]
-                 [--env E] [--up AXIS] [--floor] [--set KEY=VALUE ...]
+                 [--env E] [--up AXIS] [--floor [slab]] [--set KEY=VALUE ...]
 
 ``--set KEY=VALUE`` (repeatable) changes any ``[render]`` setting by its scene-file key, the
 value read as TOML (``--set raytrace=true --set ssao_rays=16 --set tonemap=aces``).

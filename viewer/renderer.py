@@ -40,6 +40,7 @@ from .graph.graph import FrameGraph
 from .lighting.lights import gather_lights
 from .models import contact_shadows, model_info
 from .neural import learns_indirect, required_settings, shades_sun
+from .passes.ground import CATCHER_CHANNELS, scene_catcher
 from .resources import GPUResources
 from .scene.bounds import scene_bounds
 from .scene.camera import Camera
@@ -118,6 +119,8 @@ class Renderer:
         :mod:`viewer.specialize`; ``render.specialize = false`` gives the all-features path).
         ``aovs``: channels the caller reads back, always allocated."""
         scene = gather_lights(scene, self.geometry)  # + the meshes' own lights
+        if scene_catcher(scene.objects) is not None:  # it finds its pixels by depth and normal
+            aovs = tuple(aovs) + CATCHER_CHANNELS
         # a sun to shade analytically (SUN_LIGHT): only looked for where the model can use it
         # (a classical model that does, or a student whose base does: viewer.neural.shades_sun)
         # (the count of the environment's compact lights: the sun and the others, ENV_LIGHTS)

@@ -13,7 +13,8 @@ ENV_HELP = ("environment: sky | studio (default) | white | an equirect .exr/.hdr
             ".png/.jpg (sRGB, clipped)")
 UP_HELP = ("the assets' up axis: +Y | +Z | -Y | -Z | +X | -X (default: glTF +Y; PLY/.splat: "
            "the header's marker, else detected; said in one line)")
-FLOOR_HELP = "a floor plane under the assets (for shadows)"
+FLOOR_HELP = ("a ground under the assets: catcher (the default of a bare --floor: only the "
+              "shadows it receives, fading into the environment) | slab (a matte grey plane)")
 SET_HELP = ("a [render] setting by its scene-file key, the value as in TOML (repeatable: --set "
             "raytrace=true --set ssao_rays=16 --set tonemap=aces); named options such as "
             "--model win over it")
@@ -30,7 +31,8 @@ def add_asset_arguments(p, model: bool = True, size: bool = True) -> None:
     for a command that does not have them yet)."""
     p.add_argument("--env", metavar="FILE|sky|studio|white", help=ENV_HELP)
     p.add_argument("--up", metavar="AXIS", help=UP_HELP)
-    p.add_argument("--floor", action="store_true", help=FLOOR_HELP)
+    p.add_argument("--floor", nargs="?", const="catcher", choices=("catcher", "slab"),
+                   help=FLOOR_HELP)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help=SET_HELP)
     if model:
         p.add_argument("--model", help=model_help())
@@ -136,7 +138,7 @@ def cmd_scene(args) -> int:
         if getattr(args, opt) is not None:
             words += [f"--{opt}", str(getattr(args, opt))]
     if args.floor:
-        words.append("--floor")
+        words += ["--floor"] + ([] if args.floor == "catcher" else [args.floor])
     for setting in args.set or ():
         words += ["--set", setting]
     sys.stdout.write(scene_toml(scene, "made by " + " ".join(words)

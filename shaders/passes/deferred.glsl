@@ -70,7 +70,11 @@ vec3 emitted_radiance(GBuffer g) {
     return g.emission;
 }
 
+// the shadow-catcher ground (ground_catcher): passes/ground.glsl
+#include "passes/ground.glsl"
+
 // Composite a shaded surface of coverage alpha over the background and write it.
 void write_radiance(vec3 shaded, vec3 background, float alpha) {
+    shaded = ground_catcher(shaded, background);
     o_radiance = vec4(mix(background, shaded, alpha), alpha);
 }

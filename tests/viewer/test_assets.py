@@ -117,6 +117,7 @@ def test_open_a_gltf_framed_with_a_floor(tmp_path):
     assert scene.objects[0].transform is None and not opened.notes  # glTF is +Y by spec
     floor = scene.objects[1]
     assert floor.center[1] == pytest.approx(BOX_LO[1]) and floor.size[0] >= 3 * 2.0
+    assert floor.catcher  # a bare --floor: the shadow catcher (tests/viewer/test_ground.py)
     assert scene.camera.size == (80, 60) and scene.environment.procedural == "sky"
     target = np.asarray(scene.camera.target)  # the box's centre, moved to centre its silhouette
     assert (target > BOX_LO).all() and (target < BOX_HI).all()

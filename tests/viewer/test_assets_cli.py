@@ -179,11 +179,17 @@ def test_image_stack_opens_as_an_asset(tmp_path, capsys):
     assert "--floor ignored" in capsys.readouterr().err
 
 
-def test_floor_catches_the_suns_shadow(tmp_path):
+def test_floor_catches_the_suns_shadow(tmp_path, capsys):
     glb = box_gltf(tmp_path / "m.glb")
-    rad, _, albedo = _render(tmp_path, "f", glb, "--floor", "--env", "sky", *SIZE)
+    rad, _, albedo = _render(tmp_path, "f", glb, "--floor", "slab", "--env", "sky", *SIZE)
     floor = (np.abs(albedo - 0.5) < 0.01).all(axis=-1)  # the floor's mid grey (the box is white)
     lum = rad[..., :3].mean(axis=-1)[floor]
     assert floor.sum() > 200
     # lit by the sun (~0.95) and in the box's shadow (~0.36; measured at 64x48)
     assert np.percentile(lum, 95) > 2.0 * np.percentile(lum, 5)
+    # a bare --floor is the shadow catcher (tests/viewer/test_ground.py); a wrong kind is one line
+    assert main(["scene", str(glb), "--floor"]) == 0
+    assert "catcher = true" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["scene", str(glb), "--floor", "wood"])
+    assert "invalid choice: 'wood'" in capsys.readouterr().err

@@ -23,6 +23,7 @@ from ..models import ShadingModel, model_info
 from ..neural import learns_indirect, reads_visibility
 from ..passes.forward import forward_model, forward_variant, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
+from ..passes.ground import scene_catcher
 from ..passes.ssao import hit_targets, low_resolution
 from ..scene.camera import Camera
 from ..scene.description import Scene
@@ -240,6 +241,7 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     spass = res.layout_pass("shade", spec.layout)
     traced = ([(obj, renderer.geometry(obj)) for obj in scene.objects] if model.traced
               else None)
+    ground = scene_catcher(scene.objects)  # the shadow-catcher plane, or None
 
     def traced_scene():  # looked up once a frame (its materials re-uploaded if they changed)
         return (res.trace.get(traced, renderer.geometry_cache.version) if traced is not None
@@ -253,10 +255,11 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
                            for i, (name, frame, angle, offset) in shadows.items() if i != "sun"},
                   sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
                               if "sun" in shadows else None), trace=trace,
-                  rt_light=[f[n].texture for n in rt_light])
+                  rt_light=[f[n].texture for n in rt_light], ground=ground)
 
     inputs = {"model": settings.model, "render": _lighting_settings(settings),
-              "environment": scene.environment, "light": scene.light, "variant": variant}
+              "environment": scene.environment, "light": scene.light, "variant": variant,
+              "ground": ground}
     writes = outs
     if model.accumulates:
         g.create("mc_batch", TextureDesc(size, 4, "f4"))

@@ -18,6 +18,7 @@ from ..neural import NeuralWeights, model_network, virtual_files
 from ..scene.camera import Camera
 from ..scene.settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
+from .ground import Catcher, ground_uniforms
 from . import set_uniform as _set
 from .shadow_bindings import ShadowBindings
 
@@ -80,7 +81,8 @@ class ShadePass:
             settings: RenderSettings, env_sampling=None, ssao=None,
             sample_range: tuple[int, int] = (0, 1), variant: ShadeVariant | None = None,
             light: Light | tuple[Light, ...] | None = None, shadows: dict | None = None,
-            sun_shadow: tuple | None = None, trace=None, rt_light=()) -> None:
+            sun_shadow: tuple | None = None, trace=None, rt_light=(),
+            ground: Catcher | None = None) -> None:
         """Shade into ``out_fbo`` (an RGBA32F target of the camera's size).
 
         ``env_sampling``: the :class:`~viewer.environment.sampling.EnvSampling` of sampling models;
@@ -94,7 +96,8 @@ class ShadePass:
         and cube maps)) for the lights that cast one;
         ``sun_shadow``: the same for the environment's sun (SUN_SHADOW); ``trace``: the scene's
         :class:`~viewer.raytrace.upload.TraceBuffers` for models that trace rays; ``rt_light``:
-        the real-time tier's three filtered textures (RT_LIGHT)."""
+        the real-time tier's three filtered textures (RT_LIGHT); ``ground``: the scene's
+        shadow-catcher plane (:func:`viewer.passes.ground.scene_catcher`), or None."""
         if variant is None:
             variant = model_info(settings.model).variant(settings, light)
         found = model_network(settings.model, settings)  # the weights file, looked up once
@@ -122,6 +125,10 @@ class ShadePass:
         _set(prog, "u_seed", int(settings.mc.seed))
         _set(prog, "u_contact_length", float(settings.shadow.contact_length))
         set_view_and_lighting(prog, camera, environment, light)
+        sunless = bool(variant.defines.get("SUN_LIGHT"))
+        for name, value in ground_uniforms(ground, camera, ibl, environment, light,
+                                           settings.model, sunless).items():
+            _set(prog, name, value)
         out_fbo.use()
         self._draw(prog)
 

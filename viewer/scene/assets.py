@@ -5,7 +5,8 @@ its kind told from the extension and, for PLY, the header (a mesh, or a Gaussian
 any :mod:`viewer.splats.ply` layout); each rotated so that its up is the scene's +Y
 (:mod:`viewer.scene.orientation`); a camera framed on the union of their bounds
 (:mod:`viewer.scene.framing`; splat clouds by their robust bounds, :mod:`viewer.scene.bounds`); an
-environment (a procedural name or a file) and, on request, a floor plane under them.
+environment (a procedural name or a file) and, on request, a floor plane under them: a shadow
+catcher fading into the environment, or a grey slab.
 
 ==========================================  =========  =============================================
 file                                        object     up
@@ -36,7 +37,7 @@ from ..errors import AssetNote, InputError, SceneError
 from .bounds import Bounds, content_bounds, points_bounds
 from .camera import Camera
 from .description import ObjectSpec, Scene
-from .framing import floor_object, frame_camera, object_bounds
+from .framing import FLOORS, floor_object, frame_camera, object_bounds
 from .orientation import (
     UP_AXES,
     detect_cloud_up,
@@ -120,14 +121,15 @@ def asset_kind(path: str | Path) -> str:
                      where=path)
 
 
-def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool = False,
+def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool | str = False,
                 size: tuple[int, int] | None = None, fov_y: float | None = None) -> OpenedAssets:
     """The scene of the asset files ``paths`` (module docstring).
 
     ``env``: a procedural name (:data:`viewer.environment.maps.PROCEDURAL`) or an environment file;
     ``up``: one of :data:`UP_AXES` for every asset (wins over markers and detection); ``floor``:
-    a plane under the bounds; ``size``: the camera's (W, H); ``fov_y``: degrees (default the
-    scene's). Errors are one-line :class:`InputError` / :class:`SceneError` naming the file.
+    a plane under the bounds, one of :data:`~viewer.scene.framing.FLOORS` (``True``: the
+    catcher; ``False`` / ``None``: none); ``size``: the camera's (W, H); ``fov_y``: degrees
+    (default the scene's). Errors are one-line :class:`InputError` / :class:`SceneError` naming the file.
     """
     paths = [Path(p) for p in paths]
     if not paths:
@@ -138,6 +140,11 @@ def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool =
             forced = normalize_up(up)
         except ValueError as exc:
             raise SceneError(str(exc), where="--up") from None
+    if floor is True:
+        floor = "catcher"
+    if floor and floor not in FLOORS:
+        raise SceneError(f"floor must be one of {', '.join(FLOORS)}, got {floor!r}",
+                         where="--floor")
     objects, contents, notes = [], [], []
     box: Bounds | None = None
     far_boxes: list[Bounds] = []
@@ -167,7 +174,7 @@ def open_assets(paths, env: str = "studio", up: str | None = None, floor: bool =
         camera = replace(camera, fov_y=float(fov_y))
     if box is not None:
         if floor:
-            plane = floor_object(box)
+            plane = floor_object(box, floor)
             objects.append(plane)
             far_boxes.append(object_bounds(plane))
         camera = frame_camera(box, camera.fov_y, camera.size, also=tuple(far_boxes),

@@ -1,4 +1,4 @@
-"""A camera framed on what an asset shows, and a floor under it.
+"""A camera framed on what an asset shows, and a floor under it (a shadow catcher or a slab).
 
 :func:`frame_camera` looks from a default direction a little above the front (+Z, the glTF front;
 :data:`ELEVATION_DEG` up, as model-viewer's default orbit) and fits what it is given to the frame
@@ -27,8 +27,12 @@ AZIMUTH_DEG = 0.0  # from +Z towards +X
 FILL = 0.9  # the silhouette spans this share of the frame's limiting side (a 5 % margin each side)
 CENTRING_STEPS = 8  # fixed-point steps centring the silhouette (perspective makes it nonlinear)
 MAX_DEPTH_RATIO = 1e5
-FLOOR_EXTENT = 3.0  # the floor is this x the bounds' larger horizontal side, each way
-FLOOR_MATERIAL = Material(albedo=(0.5, 0.5, 0.5), roughness=0.9)  # matte mid grey
+FLOOR_EXTENT = 3.0  # the slab is this x the bounds' larger horizontal side, each way
+CATCHER_EXTENT = 6.0  # the catcher: wider, so long shadows fall well inside its fade
+FLOOR_MATERIAL = Material(albedo=(0.5, 0.5, 0.5), roughness=0.9)  # the slab: matte mid grey
+# the catcher: Lambertian (no specular lobe), so its unshadowed light is albedo / pi x E(+Y)
+CATCHER_MATERIAL = Material(albedo=(0.8, 0.8, 0.8), roughness=1.0, specular=0.0)
+FLOORS = ("catcher", "slab")
 
 
 def view_direction(elevation_deg: float = ELEVATION_DEG,
@@ -97,18 +101,22 @@ def _fit_distance(x, y, z, tx: float, ty: float, radius: float) -> float:
     return max(dist, 1e-3 * radius)
 
 
-def floor_object(bounds: Bounds):
-    """A ``plane`` :class:`~viewer.scene.description.ObjectSpec` (normal +Y, :data:`FLOOR_MATERIAL`)
-    touching the bounds' bottom, :data:`FLOOR_EXTENT` x their larger horizontal side across,
-    so shadows have somewhere to fall."""
+def floor_object(bounds: Bounds, kind: str = "catcher"):
+    """A ``plane`` :class:`~viewer.scene.description.ObjectSpec` (normal +Y) touching the bounds'
+    bottom, so shadows have somewhere to fall: :data:`CATCHER_EXTENT` (a catcher) or
+    :data:`FLOOR_EXTENT` (a slab) x their larger horizontal side across. ``kind`` (one of :data:`FLOORS`): ``"catcher"`` shows only the shadows
+    it receives on the environment, fading into it before its edge
+    (:mod:`viewer.passes.ground`); ``"slab"`` is a matte grey plane (:data:`FLOOR_MATERIAL`)."""
     from .description import ObjectSpec
 
     lo, hi = np.asarray(bounds.lo), np.asarray(bounds.hi)
     side = float(max(hi[0] - lo[0], hi[2] - lo[2], 1e-3 * max(bounds.radius, 1e-6)))
     c = bounds.center
+    catcher = kind == "catcher"
+    extent = (CATCHER_EXTENT if catcher else FLOOR_EXTENT) * side
     return ObjectSpec(type="plane", center=(float(c[0]), float(lo[1]), float(c[2])),
-                      size=(FLOOR_EXTENT * side, FLOOR_EXTENT * side), normal=(0.0, 1.0, 0.0),
-                      material=FLOOR_MATERIAL)
+                      size=(extent, extent), normal=(0.0, 1.0, 0.0),
+                      material=CATCHER_MATERIAL if catcher else FLOOR_MATERIAL, catcher=catcher)
 
 
 def object_bounds(obj) -> Bounds:

@@ -182,7 +182,8 @@ def detect_shape_up(points, normals=None, weights=None, y_sign: str = "+",
 
     ``points``: ``[N, 3]`` surface samples (splat centres, triangle centroids); ``normals``:
     ``[N, 3]`` their normals (zero rows say nothing) or None; ``signed``: whether the normals'
-    sides mean anything (else a normal counts for the side of the centre its point is on); ``weights``: ``[N]`` their areas (default 1); ``y_sign``: the format's
+    sides mean anything (else a normal counts for the side of the centre its point is on);
+    ``weights``: ``[N]`` their areas (default 1); ``y_sign``: the format's
     sign for a short Y axis when the surface does not say (``"-"``: COLMAP captures). The
     spread is the weighted principal axes of the points inside the per-axis 1 % quantiles (far
     outliers are left out, as the bounds do)."""
@@ -253,7 +254,8 @@ def detect_mesh_up(meshes) -> tuple[str, str] | None:
 
 def detect_cloud_up(splats) -> tuple[str, str] | None:
     """:func:`detect_shape_up` of a splat cloud: its centres, stored normals (else each flat
-    splat's shortest axis, which has no side), weighted by opacity x area, COLMAP's -Y when the surface does not say."""
+    splat's shortest axis, which has no side), weighted by opacity x area, COLMAP's -Y when the
+    surface does not say."""
     from ..splats.data import quat_to_matrix
 
     scales = np.asarray(splats.scales, np.float64)

@@ -14,6 +14,7 @@ from . import (
     denoise,
     env_sampling,
     equirect,
+    ground,
     ibl,
     lights,
     mc,
@@ -30,8 +31,8 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ibl, lights, mc, neural,
-           path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap)
+MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ground, ibl,
+           lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

@@ -45,3 +45,11 @@ def test_the_gun_fills_the_frame_with_a_margin_at_every_aspect(renderer, size, l
     assert FILL - 0.04 <= span <= FILL + 0.02  # 90 % of the limiting side (pixel rounding)
     assert abs(gaps[0] - gaps[1]) <= 2 and abs(gaps[2] - gaps[3]) <= 2  # centred
     assert mask.mean() > least_coverage
+
+
+@pytest.mark.parametrize("floor", ["slab", "catcher"])
+def test_the_floor_is_not_clipped_by_the_tighter_framing(renderer, floor):
+    """The camera came closer: near and far still enclose the floor, which covers the frame's
+    bottom row from edge to edge (the slab: 3 x the gun's width; the catcher: 6 x)."""
+    mask = _mask(renderer, (160, 120), floor=floor)
+    assert mask[-1].all()

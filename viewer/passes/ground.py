@@ -13,7 +13,8 @@ The unshadowed radiance is exact for ``ggx_split_sum`` and ``blinn_phong`` (the 
 material has no specular lobe: albedo / pi x the irradiance at +Y) with the environment and
 directional lights; point and spot lights are taken at the catcher's centre; ``unlit`` shows the
 albedo, so its catcher is the bare environment. Other models shade the ground their own way: the
-fade still hides the edge.
+fade still hides the edge. The screen-space bounce (``[render] indirect``, which the neural
+students turn on) is added after the lighting pass, on top of the catcher.
 """
 from __future__ import annotations
 

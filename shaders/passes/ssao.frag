@@ -135,6 +135,7 @@ void main() {
     indirect *= texelFetch(u_indirect_factor, pixel, 0).r;
 #endif
     bool finite = !any(isnan(indirect)) && !any(isinf(indirect));
+    finite = finite && !on_ground_catcher(g, vec2(pixel) + 0.5);  // no bounce on the catcher
     o_radiance = vec4(direct.rgb + (finite ? indirect * g.alpha : vec3(0.0)), direct.a);
 }
 #else
@@ -206,6 +207,7 @@ void main() {
     indirect *= texelFetch(u_indirect_factor, pixel, 0).r;
 #endif
     bool finite = !any(isnan(indirect)) && !any(isinf(indirect));
+    finite = finite && !on_ground_catcher(g, vec2(pixel) + 0.5);  // no bounce on the catcher
     o_radiance = vec4(direct.rgb + (finite ? indirect * g.alpha : vec3(0.0)), direct.a);
 #else
     float visible = 1.0 - hits / rays;

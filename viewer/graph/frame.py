@@ -299,10 +299,12 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
         fac = f["indirect_factor"].texture if factor else None
         if k > 1:
             sspass.composite(f["gbuffer"].textures, f["direct"].texture, f["radiance"].fbo,
-                             camera, settings, f[f"gathered/{k}"].texture, factor=fac)
+                             camera, settings, f[f"gathered/{k}"].texture, factor=fac,
+                             ground=ground)
         else:  # reads the occlusion pass's hits; marches the rays itself without that pass
             sspass.indirect(f["gbuffer"].textures, f["direct"].texture, f["radiance"].fbo,
-                            camera, settings, factor=fac, hits=[f[h].texture for h in hits])
+                            camera, settings, factor=fac, hits=[f[h].texture for h in hits],
+                            ground=ground)
     g.add_pass("indirect", indirect_light, reads=ind_reads, writes=("radiance",),
                inputs=ind_inputs)
 

@@ -14,7 +14,7 @@ material has no specular lobe: albedo / pi x the irradiance at +Y) with the envi
 directional lights; point and spot lights are taken at the catcher's centre; ``unlit`` shows the
 albedo, so its catcher is the bare environment. Other models shade the ground their own way: the
 fade still hides the edge. The screen-space bounce (``[render] indirect``, which the neural
-students turn on) is added after the lighting pass, on top of the catcher.
+students turn on) adds nothing to the catcher (:mod:`viewer.passes.ssao` gets its centre too).
 """
 from __future__ import annotations
 
@@ -101,9 +101,17 @@ def ground_uniforms(catcher: Catcher | None, camera, ibl, environment, lights, m
     """``u_ground_center`` and ``u_ground_unshadowed`` (passes/ground.glsl); w = 0 without a
     catcher, which leaves every pixel as it was."""
     if catcher is None:
-        return {"u_ground_center": (0.0, 0.0, 0.0, 0.0),
+        return {"u_ground_center": ground_center(None, camera),
                 "u_ground_unshadowed": (0.0, 0.0, 0.0, 0.0)}
-    rel = np.asarray(catcher.center, np.float64) - np.asarray(camera.position, np.float64)
     l0 = unshadowed_radiance(catcher, ibl, environment, lights, model, sunless)
-    return {"u_ground_center": tuple(float(v) for v in rel) + (float(catcher.fade_end),),
+    return {"u_ground_center": ground_center(catcher, camera),
             "u_ground_unshadowed": tuple(float(v) for v in l0) + (float(catcher.fade_start),)}
+
+
+def ground_center(catcher: Catcher | None, camera) -> tuple[float, ...]:
+    """``u_ground_center``: the catcher's centre minus the camera's position, and the fade's end
+    radius; zeros without a catcher (what the passes that find its pixels read)."""
+    if catcher is None:
+        return (0.0, 0.0, 0.0, 0.0)
+    rel = np.asarray(catcher.center, np.float64) - np.asarray(camera.position, np.float64)
+    return tuple(float(v) for v in rel) + (float(catcher.fade_end),)

@@ -35,6 +35,7 @@ from ..scene.camera import Camera
 from ..scene.settings import RenderSettings
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
+from .ground import ground_center
 
 ENV_VIS_DIRECTIONS = 8  # ENV_VIS_DIRS of passes/ssao.frag
 ENV_VIS_STEPS = 16  # steps per direction
@@ -67,7 +68,7 @@ class SSAOPass:
     def _run(self, indirect: bool, gbuffer_textures: dict, out_fbo, camera: Camera,
              settings: RenderSettings, direct=None, vis_dirs=None, env_rotation_deg=0.0,
              factor=None, n_hits: int = 0, hits=(), gather: bool = False,
-             gathered=None) -> None:
+             gathered=None, ground=None) -> None:
         env_vis = vis_dirs is not None
         scale = int(settings.ssao.scale)
         composite = gathered is not None
@@ -101,6 +102,7 @@ class SSAOPass:
             _set(prog, "u_hits", np.arange(unit, unit + len(hits), dtype=np.int32).tobytes())
             unit += len(hits)
         self._camera_uniforms(prog, camera)
+        _set(prog, "u_ground_center", ground_center(ground, camera))  # no bounce on the catcher
         _set(prog, "u_rays", int(settings.ssao.rays))
         _set(prog, "u_steps", int(settings.ssao.steps))
         _set(prog, "u_radius", float(settings.ssao.radius))
@@ -164,24 +166,26 @@ class SSAOPass:
         _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
-                 settings: RenderSettings, factor=None, hits=None, gather_fbo=None) -> None:
+                 settings: RenderSettings, factor=None, hits=None, gather_fbo=None,
+                 ground=None) -> None:
         """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``; with
         ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind. ``hits``:
         the hit targets :meth:`occlusion` recorded for the same G-buffer, camera and settings
         (read instead of marching the rays again); ``None`` marches. At ``settings.ssao.scale``
         k > 1 this is :meth:`gather` into ``gather_fbo`` (one RGBA32F target of
-        :func:`low_resolution`) then :meth:`composite`."""
+        :func:`low_resolution`) then :meth:`composite`. ``ground``: the scene's shadow catcher
+        (:func:`viewer.passes.ground.scene_catcher`), which gets no bounce light."""
         hits = self._check_hits(hits, settings)
         if int(settings.ssao.scale) == 1:
             self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
-                      factor=factor, n_hits=len(hits), hits=hits)
+                      factor=factor, n_hits=len(hits), hits=hits, ground=ground)
             return
         if gather_fbo is None:
             raise ValueError(f"ssao scale {settings.ssao.scale}: the indirect light needs a "
                              f"low-resolution gather target")
         self.gather(gbuffer_textures, direct, gather_fbo, camera, settings, hits=hits)
         self.composite(gbuffer_textures, direct, out_fbo, camera, settings,
-                       gather_fbo.color_attachments[0], factor=factor)
+                       gather_fbo.color_attachments[0], factor=factor, ground=ground)
 
     def gather(self, gbuffer_textures: dict, direct, gather_fbo, camera: Camera,
                settings: RenderSettings, hits=None) -> None:
@@ -192,11 +196,12 @@ class SSAOPass:
                   n_hits=len(hits), hits=hits, gather=True)
 
     def composite(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
-                  settings: RenderSettings, gathered, factor=None) -> None:
+                  settings: RenderSettings, gathered, factor=None, ground=None) -> None:
         """At scale k > 1: ``direct`` + (1 - m) a f E into ``out_fbo``, with E the
-        :meth:`gather` result ``gathered`` upsampled to full resolution."""
+        :meth:`gather` result ``gathered`` upsampled to full resolution (none on ``ground``'s
+        catcher)."""
         self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
-                  factor=factor, gathered=gathered)
+                  factor=factor, gathered=gathered, ground=ground)
 
     @staticmethod
     def _check_hits(hits, settings: RenderSettings) -> tuple:

@@ -30,9 +30,10 @@ def shadow_net_input_b(normal: torch.Tensor, depth: torch.Tensor) -> torch.Tenso
 
 def shadow_net_act(x: torch.Tensor, kind: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec4 shadow_net_act(vec4 x, int kind)``: relu (0) or sigmoid (1); ``kind``
-    ``[...]`` (or a Python int)."""
+    ``[...]`` (or a Python int). torch's sigmoid is 1 / (1 + exp(-x)) to rounding and has a
+    finite gradient where exp(-x) overflows (the formula's autograd gives inf / inf there)."""
     kind = torch.as_tensor(kind, device=x.device)
-    sig = 1.0 / (1.0 + torch.exp(-x))
+    sig = torch.sigmoid(x)
     return torch.where((kind == 1)[..., None] if kind.dim() else kind == 1, sig, x.clamp_min(0.0))
 
 

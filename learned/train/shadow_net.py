@@ -1,0 +1,154 @@
+"""Training the viewer's neural shadow estimator (:class:`learned.neural.shadow_net.ShadowNet`)
+against a dataset's own targets - path-traced truth for a traced dataset (``relight data
+--protocol`` or ``--targets reference``).
+
+Its inputs are what the frame gives it: each sample's G-buffer drawn by the viewer with ``model``
+(``ggx_split_sum`` by default) and SSAO, exactly as a frame with ``[render] shadow_net`` is drawn
+before the estimator's pass (:func:`shadow_net_images`: the radiance, SSAO's occlusion, normals and
+depth read back from GL). The loss is L1 on log(1 + x) between the product (radiance x visibility
+on the surfaces) and the target over the surface pixels, a batch of ``batch`` images per step
+(Adam, cosine rate, :func:`learned.train.runner._loop`: progress bar, log lines, checkpoints every
+``checkpoint_every`` steps into ``OUT/shadow_net.pt``, resumed from). Selection reads the
+validation split only: the final weights' validation score (PSNR of the product, and of the
+unshadowed render, over the surfaces) goes into the file's ``training`` metadata with the
+command, the seed and the training data's hash.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from viewer.renderer import Renderer
+
+from ..data.reader import list_samples, load_sample
+from ..evaluate import metrics, sample_scene
+from ..neural.shadow_net import ShadowNet, save_shadow_net
+from ..parity.checks.shadow_net import frame_inputs
+from ..protocol.data import dataset_hash
+from ..twins.shadow_net import shadow_net, shadow_net_apply
+from .runner import Run, _loop
+
+STAGE = "shadow_net"
+
+
+@dataclass
+class ShadowNetTrainConfig:
+    data: str
+    out: str
+    steps: int = 2000
+    lr: float = 1e-3
+    batch: int = 4
+    seed: int = 0
+    model: str = "ggx_split_sum"  # the model whose frames the estimator multiplies
+    architecture: dict = field(default_factory=lambda: {"levels": 5,
+                                                         "widths": [8, 12, 16, 24, 32]})
+    limit: int | None = None  # samples per split (None: all)
+    log_every: int = 50
+    checkpoint_every: int = 200
+
+
+@dataclass
+class ShadowNetImage:
+    """One sample as the estimator sees it, ``[1, C, H, W]`` in GL row order."""
+
+    name: str
+    radiance: torch.Tensor  # [1, 4, H, W] the unshadowed frame (alpha: coverage)
+    inputs: torch.Tensor    # [1, 8, H, W] learned.twins.shadow_net.shadow_net_inputs
+    surface: torch.Tensor   # [1, 1, H, W] bool
+    target: torch.Tensor    # [1, 3, H, W] the dataset's target (truth for traced data)
+
+
+def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_sum",
+                      limit: int | None = None) -> list[ShadowNetImage]:
+    """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator)."""
+    out = []
+    for folder in list_samples(root, split)[:limit]:
+        sample = load_sample(folder)
+        targets = renderer.draw(sample_scene(sample, model=model, ssao=True))
+        radiance, inputs, surface = frame_inputs(targets)
+        target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order
+        out.append(ShadowNetImage(sample.name, radiance, inputs, surface,
+                                  target.permute(2, 0, 1)[None].float()))
+    return out
+
+
+def shaded(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
+    """The product ``[1, 4, H, W]`` the frame would show with ``model``'s estimator."""
+    vis = shadow_net(img.inputs, model.layers, model.params())
+    return shadow_net_apply(img.radiance, vis, img.surface)
+
+
+def stack(batch: list[ShadowNetImage]) -> list[ShadowNetImage]:
+    """Images of one size stacked into one (one pass of the network for them all)."""
+    groups: dict[tuple, list[ShadowNetImage]] = {}
+    for img in batch:
+        groups.setdefault(tuple(img.target.shape[-2:]), []).append(img)
+    return [ShadowNetImage("+".join(i.name for i in g),
+                           *(torch.cat([getattr(i, k) for i in g]) for k in
+                             ("radiance", "inputs", "surface", "target")))
+            for g in groups.values()]
+
+
+def loss(model: ShadowNet, batch: list[ShadowNetImage]) -> torch.Tensor:
+    """L1 on log(1 + x) over the surface pixels of ``batch``."""
+    total, count = 0.0, 0
+    for img in stack(batch):
+        pred = shaded(model, img)[:, :3]
+        err = (torch.log1p(pred.clamp_min(0.0)) - torch.log1p(img.target.clamp_min(0.0))).abs()
+        mask = img.surface.expand_as(err)
+        total = total + err[mask].sum()
+        count += int(mask.sum())
+    return total / max(count, 1)
+
+
+@torch.no_grad()
+def scores(model: ShadowNet | None, images: list[ShadowNetImage]) -> dict:
+    """Mean PSNR (dB, :func:`learned.evaluate.metrics` over the surfaces) of the product, or of
+    the unshadowed frame with ``model`` None, and the per-image values."""
+    values = []
+    for img in images:
+        pred = img.radiance if model is None else shaded(model, img)
+        hwc = lambda t: t[0, :3].permute(1, 2, 0).numpy()  # noqa: E731
+        values.append(metrics(hwc(pred), hwc(img.target), img.surface[0, 0].numpy())["psnr"])
+    return {"psnr": float(np.mean(values)) if values else float("nan"), "per_image": values}
+
+
+def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
+    """Train on ``cfg.data``'s train split, score on its val split, write
+    ``OUT/shadow_net.safetensors``; returns a summary."""
+    run = Run(cfg, 0, quiet)
+    run.log(f"config {json.dumps(asdict(cfg))}")
+    renderer = Renderer()
+    try:
+        train = shadow_net_images(cfg.data, "train", renderer, cfg.model, cfg.limit)
+        val = (shadow_net_images(cfg.data, "val", renderer, cfg.model, cfg.limit)
+               if (Path(cfg.data) / "val").is_dir() else [])
+    finally:
+        renderer.release()
+    if not train:
+        raise ValueError(f"{cfg.data}: no training samples")
+    run.log(f"{len(train)} training images, {len(val)} validation images")
+    torch.manual_seed(cfg.seed)
+    model = ShadowNet(cfg.architecture)
+    rng = np.random.default_rng([cfg.seed, 38])
+
+    def step(m, _):
+        pick = rng.choice(len(train), size=min(cfg.batch, len(train)), replace=False)
+        return loss(m, [train[i] for i in pick])
+
+    losses = _loop(run, STAGE, model, cfg.steps, cfg.lr, step)
+    model.eval()
+    val_scores = {"with": scores(model, val), "without": scores(None, val)} if val else {}
+    for k, v in val_scores.items():
+        run.log(f"val PSNR {k} the estimator: {v['psnr']:.2f} dB")
+    training = {"command": " ".join(sys.argv), "seed": cfg.seed, "config": asdict(cfg),
+                "dataset_hash": dataset_hash(cfg.data, ("train",)), "steps": cfg.steps,
+                "final_loss": losses[-1] if losses else None,
+                "val_psnr": {k: v["psnr"] for k, v in val_scores.items()}}
+    path = save_shadow_net(model, Path(cfg.out) / "shadow_net.safetensors", training)
+    return {"shadow_net": str(path), "losses": losses, "val": val_scores}

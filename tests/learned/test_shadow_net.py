@@ -70,10 +70,11 @@ def test_saved_weights_load_back_in_torch_and_in_the_viewer(tmp_path):
     again = load_shadow_net(path)
     for name in model.weights:
         assert torch.equal(again.weights[name], model.weights[name])
-    # an untrained estimator starts at "no shadow": sigmoid(4) everywhere
+    # an untrained estimator starts near "no shadow": sigmoid(3) = 0.953, give or take its small
+    # output weights
     x = [torch.rand(1, c, 20, 24) for c in (3, 1, 3, 1)]
     v = model.visibility(*x)
-    assert torch.allclose(v, torch.full_like(v, 1.0 / (1.0 + np.exp(-4.0))))
+    assert float(v.min()) > 0.9 and float(v.max()) < 0.99 and abs(float(v.mean()) - 0.953) < 0.02
 
 
 def _write(path, tensors, meta):

@@ -168,10 +168,14 @@ def build_parser() -> argparse.ArgumentParser:
                                   "synthetic one under OUT/data)")
     p.add_argument("--out", default="runs/quick", help="run folder (checkpoints, logs, weights)")
     p.add_argument("--quick", action="store_true", help="small networks and few steps (minutes)")
-    p.add_argument("--stage", default="all", choices=("all", "teacher", "shadow", "student"),
+    p.add_argument("--stage", default="all",
+                   choices=("all", "teacher", "shadow", "student", "shadow_net"),
                    help="every stage (default), the teacher alone, the teacher and the "
                         "shadow UNet (OUT/shadow_final.pt; no student), or the student alone "
-                        "(with --student-target target; --install then installs it alone)")
+                        "(with --student-target target; --install then installs it alone); "
+                        "shadow_net: the viewer's neural shadow estimator alone, on --data's "
+                        "targets (OUT/shadow_net.safetensors, for [render] shadow_net; "
+                        "--shadow-steps, default 2000)")
     p.add_argument("--seed", type=int, metavar="N",
                    help="the training seed (default 0): network initialisation and batches")
     p.add_argument("--teacher-steps", type=_positive_int, metavar="N")

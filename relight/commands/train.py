@@ -33,6 +33,8 @@ def cmd_train(args) -> int:
                                         quiet=args.quiet, **over)
         print(students.compare_table(res))
         return 0
+    if args.stage == "shadow_net":
+        return _train_shadow_net(args)
     if args.stage == "student" and over.get("student_target", "target") != "target":
         raise RelightError("the student stage alone learns from the dataset's targets: drop "
                            "--student-target teacher (a distilled student needs the teacher: "
@@ -50,6 +52,23 @@ def cmd_train(args) -> int:
         for k in ("teacher", "shadow", "student", "installed_student", "installed_teacher"):
             if k in res:
                 print(f"{k}: {res[k]}")
+    return 0
+
+
+def _train_shadow_net(args) -> int:
+    """``relight train --stage shadow_net --data DATA``: the viewer's shadow estimator on the
+    dataset's targets (learned/train/shadow_net.py)."""
+    if not args.data:
+        raise RelightError("the shadow estimator learns from a dataset's targets: give --data "
+                           "(a traced one: relight data OUT --protocol)", where="--stage")
+    mod = _learned("learned.train.shadow_net")
+    cfg = mod.ShadowNetTrainConfig(data=args.data, out=args.out,
+                                   steps=args.shadow_steps or 2000, seed=args.seed or 0)
+    res = mod.train_shadow_net(cfg, quiet=args.quiet)
+    if not args.quiet:
+        print(f"shadow_net: {res['shadow_net']}")
+        for k, v in res["val"].items():
+            print(f"val PSNR {k} the estimator: {v['psnr']:.2f} dB")
     return 0
 
 

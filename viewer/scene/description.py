@@ -103,7 +103,7 @@ class ObjectSpec:
     radius: float = 1.0
     size: tuple[float, float] = (4.0, 4.0)  # plane extent (x, z)
     normal: tuple[float, float, float] = (0.0, 1.0, 0.0)  # plane normal
-    catcher: bool = False  # plane: a shadow catcher fading into the environment (scene.ground)
+    catcher: bool = False  # plane: a shadow catcher, what --floor makes (viewer.passes.ground)
     transform: tuple[tuple[float, ...], ...] | None = None  # 4x4 row-major, for meshes
     path: str | None = None
     material: Material | None = None  # None: the file's own materials (meshes)

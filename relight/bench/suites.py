@@ -159,6 +159,14 @@ def _suite_path(renderer, scenes, config, cache) -> list[dict]:
     return path_rows(renderer, PathBenchConfig.from_bench(config), progress=True)
 
 
+def _suite_shadow_net(renderer, scenes, config, cache) -> list[dict]:
+    """The neural shadow estimator's time at 512^2 beside SSAO's in the same frames, and the
+    whole frame with and without it (:mod:`relight.bench.shadow_net`)."""
+    from .shadow_net import shadow_net_rows
+
+    return shadow_net_rows(renderer, scenes["mesh"], config)
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
@@ -167,5 +175,6 @@ SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_spl
                                "shadows": _suite_shadows, "antialias": _suite_antialias,
                                "memory": _suite_memory, "shadow_truth": _suite_shadow_truth,
                                "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp,
-                               "path": _suite_path, "rays": _suite_rays}
+                               "path": _suite_path, "rays": _suite_rays,
+                               "shadow_net": _suite_shadow_net}
 

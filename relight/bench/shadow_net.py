@@ -1,0 +1,82 @@
+"""``relight bench``'s shadow_net suite: what the neural shadow estimator costs beside SSAO.
+
+The bench's mesh scene at 512^2 with SSAO (the estimator reads its occlusion) and ``[render]
+shadow_net``: every timed frame runs both passes, so each frame gives the ratio of the
+estimator's fenced time to SSAO's occlusion pass (``ratio_ssao``, the issue's budget: at most 2),
+and to SSAO with its blur (``ratio_ssao_blur``); the medians over the frames are reported, not
+ratios of medians. The whole frame with the estimator is also timed against the same frame
+without it in alternating blocks (:func:`~relight.bench.timing.time_pair`: ``ratio_frame``).
+The cost does not depend on the weights' values: without a trained file the suite times seeded
+random weights of the default architecture (``weights`` says which). Absolute milliseconds on a
+shared CPU are noise; the ratios measured in one run are the numbers to quote."""
+from __future__ import annotations
+
+import statistics
+import tempfile
+from pathlib import Path
+
+from safetensors.numpy import save_file
+
+from viewer.gl.timing import PassTimer
+from viewer.neural.shadow_net import (DEFAULT_ARCHITECTURE, macs_per_pixel, metadata,
+                                      random_tensors, read_shadow_net, receptive_field)
+
+from .timing import time_pair
+
+SIZE = (512, 512)
+
+
+def _random_weights(folder: Path) -> Path:
+    tensors = random_tensors(DEFAULT_ARCHITECTURE, seed=0)
+    path = folder / "shadow_net_random.safetensors"
+    save_file(tensors, str(path), metadata=metadata(DEFAULT_ARCHITECTURE, tensors,
+                                                    {"bench": "random weights"}))
+    return path
+
+
+def _per_frame(renderer, scene, size, frames: int, warmup: int) -> list[dict]:
+    """Each timed frame's fenced milliseconds per pass (whole frames: nothing reused)."""
+    timer = renderer.profiler if isinstance(renderer.profiler, PassTimer) else \
+        PassTimer(renderer.ctx)
+    renderer.profiler = timer
+    out = []
+    with renderer.every_pass():
+        for i in range(warmup + frames):
+            timer.enabled = True
+            timer.reset()
+            renderer.draw(scene, size)
+            if i >= warmup:
+                out.append(dict(timer.milliseconds()))
+    timer.enabled = False
+    return out
+
+
+def shadow_net_rows(renderer, scene, config, size=SIZE, weights: str | None = None
+                    ) -> list[dict]:
+    """One row: the estimator's and SSAO's milliseconds per frame (medians), their per-frame
+    ratios' medians, and the whole frame with and without the estimator."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(weights) if weights else _random_weights(Path(tmp))
+        net = read_shadow_net(path)
+        base = scene.with_camera(size=size).with_render(ssao=True)
+        with_net = base.with_render(shadow_net=str(path))
+        frames = _per_frame(renderer, with_net, size, max(config.frames, 3), config.warmup)
+        (on_ms, _), (off_ms, _) = time_pair(renderer, with_net, base, size, config)
+
+    def med(key):
+        return statistics.median(f.get(key, 0.0) for f in frames)
+
+    ratios = [f["shadow_net"] / f["ssao"] for f in frames]
+    blurred = [f["shadow_net"] / (f["ssao"] + f.get("ssao_blur", 0.0)) for f in frames]
+    return [{"kind": "shadow_net", "size": f"{size[0]}x{size[1]}",
+             "weights": str(weights) if weights else "random (default architecture)",
+             "levels": net.architecture["levels"],
+             "widths": ",".join(str(w) for w in net.architecture["widths"]),
+             "receptive_field_px": receptive_field(net.architecture),
+             "macs_per_pixel": round(macs_per_pixel(net.architecture), 1),
+             "shadow_net_ms": med("shadow_net"), "ssao_ms": med("ssao"),
+             "ssao_blur_ms": med("ssao_blur"),
+             "ratio_ssao": statistics.median(ratios),
+             "ratio_ssao_blur": statistics.median(blurred),
+             "frame_ms": on_ms, "frame_without_ms": off_ms, "ratio_frame": on_ms / off_ms,
+             "frames": len(frames)}]

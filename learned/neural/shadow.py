@@ -7,6 +7,10 @@ Input channels: the unshadowed render (3, log-compressed: log(1 + x)), the norma
 occlusion map (1); output: a per-pixel, per-channel shadow map in [0, 1] (sigmoid). Trained in phase
 2 with the shader frozen (L1 over all pixels, eq. 4.6). Two down/up levels with skip connections;
 any image size works (odd sizes are padded and cropped).
+
+This UNet is the thesis's, for the torch two-stage teacher (``relight train``'s phase 2); the
+estimator the viewer runs in GLSL, redesigned for real time (5 levels, the first operation at half
+resolution, depth among its inputs), is :mod:`learned.neural.shadow_net`.
 """
 from __future__ import annotations
 

@@ -18,8 +18,13 @@ import torch
 from safetensors.numpy import save_file
 from torch import nn
 
-from viewer.neural.shadow_net import (DEFAULT_ARCHITECTURE, metadata, plan, read_shadow_net,
-                                      receptive_field)
+from viewer.neural.shadow_net import (
+    DEFAULT_ARCHITECTURE,
+    metadata,
+    plan,
+    read_shadow_net,
+    receptive_field,
+)
 
 from ..twins.shadow_net import shadow_net, shadow_net_apply, shadow_net_inputs
 

@@ -18,7 +18,9 @@ The exported weights are ``RUN/neural_student.safetensors`` and ``RUN/neural_tea
 
 Modules by job: :mod:`.config` (:class:`TrainConfig`, :data:`QUICK_DATA`), :mod:`.runner` (the
 run folder, checkpoints and resume, the process group, the step loop), :mod:`.stages` (the
-training images and the three stages), :mod:`.pipeline` (:func:`train`, :func:`pipeline`). The
+training images and the three stages), :mod:`.pipeline` (:func:`train`, :func:`pipeline`),
+:mod:`.shadow_net` (the viewer's shadow estimator alone on a dataset's targets: ``relight train
+--stage shadow_net``). The
 measured comparison of student designs, which renders through the bench, is
 :mod:`relight.bench.students` (``relight train --compare-students``).
 """

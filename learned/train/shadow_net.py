@@ -113,7 +113,7 @@ def scores(model: ShadowNet | None, images: list[ShadowNetImage]) -> dict:
     values = []
     for img in images:
         pred = img.radiance if model is None else shaded(model, img)
-        hwc = lambda t: t[0, :3].permute(1, 2, 0).numpy()  # noqa: E731
+        hwc = lambda t: t[0, :3].permute(1, 2, 0).numpy()
         values.append(metrics(hwc(pred), hwc(img.target), img.surface[0, 0].numpy())["psnr"])
     return {"psnr": float(np.mean(values)) if values else float("nan"), "per_image": values}
 

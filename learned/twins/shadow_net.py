@@ -115,7 +115,7 @@ def shadow_net_inputs(radiance: torch.Tensor, ao: torch.Tensor, normal: torch.Te
                       depth: torch.Tensor) -> torch.Tensor:
     """The frame's inputs ``[B, 8, H, W]`` from ``[B, 3 | 4, H, W]`` radiance, ``[B, 1, H, W]``
     occlusion, ``[B, 3, H, W]`` normals, ``[B, 1, H, W]`` view depth (SN_*_SOURCE 4)."""
-    last = lambda t: t.movedim(1, -1)  # noqa: E731
+    last = lambda t: t.movedim(1, -1)
     a = shadow_net_input_a(last(radiance[:, :3]), last(ao)[..., 0])
     b = shadow_net_input_b(last(normal), last(depth)[..., 0])
     return torch.cat([a, b], -1).movedim(-1, 1)

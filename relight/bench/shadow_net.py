@@ -18,8 +18,14 @@ from pathlib import Path
 from safetensors.numpy import save_file
 
 from viewer.gl.timing import PassTimer
-from viewer.neural.shadow_net import (DEFAULT_ARCHITECTURE, macs_per_pixel, metadata,
-                                      random_tensors, read_shadow_net, receptive_field)
+from viewer.neural.shadow_net import (
+    DEFAULT_ARCHITECTURE,
+    macs_per_pixel,
+    metadata,
+    random_tensors,
+    read_shadow_net,
+    receptive_field,
+)
 
 from .timing import time_pair
 

@@ -13,8 +13,14 @@ from learned.neural.shadow_net import ShadowNet, load_shadow_net, save_shadow_ne
 from learned.parity.checks import shadow_net as check_module
 from viewer.neural import WeightsError
 from viewer.neural import shadow_net as fmt
-from viewer.neural.shadow_net import (DEFAULT_ARCHITECTURE, metadata, plan, random_tensors,
-                                      read_shadow_net, receptive_field)
+from viewer.neural.shadow_net import (
+    DEFAULT_ARCHITECTURE,
+    metadata,
+    plan,
+    random_tensors,
+    read_shadow_net,
+    receptive_field,
+)
 
 
 def test_every_layer_and_the_whole_network_match_the_twins(programs):

@@ -6,8 +6,12 @@ import pytest
 import torch
 
 from learned.neural.shadow_net import ShadowNet, load_shadow_net
-from learned.train.shadow_net import (ShadowNetTrainConfig, loss, shadow_net_images,
-                                      train_shadow_net)
+from learned.train.shadow_net import (
+    ShadowNetTrainConfig,
+    loss,
+    shadow_net_images,
+    train_shadow_net,
+)
 from viewer.neural.shadow_net import read_shadow_net
 
 

@@ -17,6 +17,9 @@ module       job
 ``upload``   :class:`NeuralWeights`: the buffer or texture a storage reads
 ``kernels``  compute kernels for the MLP alone (``shaders/passes/neural_student.comp``,
              :func:`mlp_kernel`): the ``neural:network`` parity check and the benches
+``shadow_net`` the neural shadow estimator's weights file (its own format and version), its
+             layer plan, receptive field and weight packing for ``passes/shadow_net_conv.comp``
+             (imported as ``viewer.neural.shadow_net``; its names are not re-exported here)
 ============ ======================================================================================
 
 Every name below is importable from ``viewer.neural`` itself.

@@ -96,7 +96,7 @@ def level_size(size: tuple[int, int], level: int) -> tuple[int, int]:
 def check_architecture(arch: dict) -> tuple[int, list[int]]:
     """``(levels, widths)`` of ``arch``, or ``ValueError`` saying what is wrong."""
     if not isinstance(arch, dict):
-        raise ValueError("architecture is not a JSON object")
+        raise TypeError("architecture is not a JSON object")
     levels, widths = arch.get("levels"), arch.get("widths")
     if not isinstance(levels, int) or not LEVELS_RANGE[0] <= levels <= LEVELS_RANGE[1]:
         raise ValueError(f"levels {levels!r} is not an integer in {LEVELS_RANGE[0]}.."

@@ -2,7 +2,7 @@
 lighting (:mod:`.shade`), transparent surfaces after lighting (:mod:`.forward`), tone mapping
 (:mod:`.tonemap`).
 
-Also SSAO (:mod:`.ssao`), shadow maps (:mod:`.shadow`, :mod:`.shadow_bindings`), splats
+Also SSAO (:mod:`.ssao`), the neural shadow estimator (:mod:`.shadow_net`), shadow maps (:mod:`.shadow`, :mod:`.shadow_bindings`), splats
 (:mod:`.splats`), accumulation (:mod:`.accumulate`), antialiasing (:mod:`.antialias`), debug views
 (:mod:`.debug_view`) and the bounded GPU uploads they draw from (:mod:`.uploads`,
 :mod:`.mesh_uploads`, :mod:`.splat_resources`). A pass never allocates its targets: the frame

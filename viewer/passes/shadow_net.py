@@ -15,8 +15,17 @@ import numpy as np
 
 from ..cache import BoundedCache
 from ..gbuffer import GBufferLayout
-from ..neural.shadow_net import (SOURCE_BILINEAR_UP, SOURCE_FRAME, SOURCE_NEAREST_UP, SOURCE_NONE,
-                                 Layer, ShadowNetFile, len_packed, level_size, slices)
+from ..neural.shadow_net import (
+    SOURCE_BILINEAR_UP,
+    SOURCE_FRAME,
+    SOURCE_NEAREST_UP,
+    SOURCE_NONE,
+    Layer,
+    ShadowNetFile,
+    len_packed,
+    level_size,
+    slices,
+)
 from . import bind_gbuffer
 from . import set_uniform as _set
 

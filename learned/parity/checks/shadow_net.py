@@ -18,10 +18,19 @@ import numpy as np
 import torch
 from safetensors.numpy import save_file
 
-from learned.twins.shadow_net import (shadow_net, shadow_net_apply, shadow_net_conv,
-                                      shadow_net_inputs)
-from viewer.neural.shadow_net import (DEFAULT_ARCHITECTURE, metadata, random_tensors,
-                                      read_shadow_net, slices)
+from learned.twins.shadow_net import (
+    shadow_net,
+    shadow_net_apply,
+    shadow_net_conv,
+    shadow_net_inputs,
+)
+from viewer.neural.shadow_net import (
+    DEFAULT_ARCHITECTURE,
+    metadata,
+    random_tensors,
+    read_shadow_net,
+    slices,
+)
 from viewer.passes.shadow_net import ShadowNetPass, map_sizes
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
@@ -62,7 +71,7 @@ def frame_inputs(targets) -> tuple[torch.Tensor, ...]:
     """``radiance [1, 4, H, W]``, ``inputs [1, 8, H, W]`` and ``surface [1, 1, H, W]`` of a
     frame in GL row order."""
     gb = gl_gbuffer(targets)
-    chw = lambda t: t.permute(2, 0, 1)[None]  # noqa: E731
+    chw = lambda t: t.permute(2, 0, 1)[None]
     radiance = chw(torch.from_numpy(gl_texture(targets.radiance)))
     ao = chw(torch.from_numpy(gl_texture(targets.ssao)))[:, :1]
     inputs = shadow_net_inputs(radiance, ao, chw(gb["normal"]), chw(gb["depth"]))

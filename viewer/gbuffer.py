@@ -6,20 +6,31 @@ framebuffer attachments, and the numpy pack/unpack used by loaders, AOV output a
 
 Channels (all linear, float):
 
-======== === ==========================================================================
-albedo    3  base colour, linear RGB in [0, 1]
-alpha     1  coverage in [0, 1]; 0 = background
-normal    3  unit normal, world space (image-space stacks: camera space = world space)
-roughness 1  perceptual roughness r in [0, 1]; alpha = r^2
-metallic  1  in [0, 1]
-specular  1  dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no specular lobe
-             (also its background value, so an omitted specular channel means "no lobe")
-ao        1  ambient occlusion in [0, 1], applied to diffuse light
-depth     1  view-space depth, positive distance along the view axis (-z_vs); 0 = background
-color     3  baked unlit colour (splats' SH colour); only allocated when a scene has splats
-emission  3  emitted radiance, linear RGB (glTF emissive x strength), added by every lighting
-             pass; only allocated when a scene has emissive surfaces
-======== === ==========================================================================
+=========== === ==========================================================================
+albedo      3   base colour, linear RGB in [0, 1]
+alpha       1   coverage in [0, 1]; 0 = background
+normal      3   unit normal, world space (image-space stacks: camera space = world space)
+roughness   1   perceptual roughness r in [0, 1]; alpha = r^2
+metallic    1   in [0, 1]
+specular    1   dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no specular lobe
+                (also its background value, so an omitted specular channel means "no lobe")
+ao          1   ambient occlusion in [0, 1], applied to diffuse light
+depth       1   view-space depth, positive distance along the view axis (-z_vs); 0 = background
+color       3   baked unlit colour (splats' SH colour); only allocated when a scene has splats
+emission    3   emitted radiance, linear RGB (glTF emissive x strength), added by every lighting
+                pass; only allocated when a scene has emissive surfaces
+dielectric  4   the glTF dielectric lobe (KHR_materials_ior / _specular): rgb = F0,
+                a = F90 (shaders/lib/brdf.glsl ``surface_f0_f90``); background (0, 0, 0, -1) = none
+                (the scalar ``specular`` sets the lobe); only allocated when a scene has such a
+                material
+=========== === ==========================================================================
+
+Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
+(``f2``). The base layout (albedo .. depth) is 3 attachments: 48 B/px (24 at fp16). Each optional
+channel a scene needs adds one attachment, +16 B/px (+8): ``color`` (splats), ``emission``
+(emissive meshes), ``dielectric`` (4 components: a whole attachment), so a scene with the glTF
+dielectric lobe pays 64 B/px (32) where one without it pays 48 (24). Omitted channels shrink the
+layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
 
@@ -50,6 +61,8 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("depth", 1, 2, 3, (0.0,), "view-space depth, positive in front of the camera"),
     Channel("color", 3, 3, 0, (0.0, 0.0, 0.0), "baked unlit colour, premultiplied", optional=True),
     Channel("emission", 3, 4, 0, (0.0, 0.0, 0.0), "emitted radiance, linear RGB", optional=True),
+    Channel("dielectric", 4, 5, 0, (0.0, 0.0, 0.0, -1.0),
+            "glTF dielectric lobe: F0 (rgb), F90 (a); a < 0 = none", optional=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -86,6 +99,8 @@ class GBufferLayout:
     dtype: str = "f4"
     omit: frozenset[str] = frozenset()
     with_emission: bool = False  # the optional emission channel (scenes with emissive surfaces)
+    # the optional dielectric channel (scenes with KHR_materials_ior / _specular materials)
+    with_dielectric: bool = False
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -99,8 +114,13 @@ class GBufferLayout:
                            if self._wanted_optional(c) and c.name not in self.omit))
 
     def _wanted_optional(self, c: Channel) -> bool:
-        return not c.optional or {"color": self.with_color,
-                                  "emission": self.with_emission}[c.name]
+        return not c.optional or {"color": self.with_color, "emission": self.with_emission,
+                                  "dielectric": self.with_dielectric}[c.name]
+
+    def bytes_per_pixel(self) -> int:
+        """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
+        (``f2``) bytes per component."""
+        return len(self.attachments) * 4 * (4 if self.dtype == "f4" else 2)
 
     @property
     def attachments(self) -> tuple[int, ...]:
@@ -129,6 +149,7 @@ class GBufferLayout:
         lines = ["// generated from viewer/gbuffer.py (GBufferLayout); do not edit",
                  f"#define GBUFFER_HAS_COLOR {int(self.with_color)}",
                  f"#define GBUFFER_HAS_EMISSION {int(self.with_emission)}",
+                 f"#define GBUFFER_HAS_DIELECTRIC {int(self.with_dielectric)}",
                  "struct GBuffer {"]
         lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
         lines.append("};")

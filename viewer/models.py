@@ -182,3 +182,15 @@ def contact_shadows(settings, stacks: bool) -> bool:
     their surfaces, so contact shadows are all the shadow they get)."""
     mode = settings.shadow.contact
     return mode == "on" or (mode == "auto" and stacks)
+
+
+def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
+    """``(lobe, warning)`` for each glTF extension lobe the scene's G-buffer ``layout`` carries
+    that ``model`` does not shade: the neural models (student and teacher) read Filament's
+    specular reflectance only, so they ignore the dielectric lobe of KHR_materials_ior /
+    KHR_materials_specular (its ``dielectric`` channel)."""
+    if model.network is None or not layout.with_dielectric:
+        return []
+    return [("dielectric", f"model {model.name!r} ignores the KHR_materials_ior / "
+                           f"KHR_materials_specular dielectric lobe (it reads Filament's specular "
+                           f"reflectance: f0 = 0.04 for those materials)")]

@@ -38,7 +38,7 @@ from .graph.display import output_radiance, ssaa_factor
 from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
 from .lighting.lights import gather_lights
-from .models import contact_shadows, model_info
+from .models import contact_shadows, ignored_lobes, model_info
 from .neural import learns_indirect, required_settings, shades_sun
 from .passes.ground import CATCHER_CHANNELS, scene_catcher
 from .resources import GPUResources
@@ -205,6 +205,8 @@ class Renderer:
                        f"blinn_phong); rendered without them")
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
+        for lobe, message in ignored_lobes(model, spec.layout):
+            _warn_once(f"{lobe}:{settings.model}", message)
         check_frame_size(self.ctx, scene, camera, spec.layout, ssaa_factor(scene),
                          "--size" if size else None)
         self._pass_begin("ibl")  # precomputation, only when the environment is new

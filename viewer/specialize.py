@@ -33,6 +33,9 @@ class SceneFeatures:
     # some mesh is transparent (glTF alphaMode BLEND): the forward pass depth-tests against the
     # G-buffer's depth channel; blended meshes count for nothing else (they are not in it)
     blend: bool = False
+    # some opaque mesh has the glTF dielectric lobe (KHR_materials_ior / _specular): the
+    # G-buffer's dielectric channel
+    dielectric: bool = False
 
 
 @dataclass(frozen=True)
@@ -59,7 +62,8 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
     metal = m.metallic > 0.0
     if metal and "metallic_roughness" in tex:
         metal = float(np.max(tex["metallic_roughness"][..., 2])) > 0.0
-    specular = m.specular > 0.0 or metal
+    # the glTF lobe (Material.ior) has F90 = specular_factor: a lobe wherever that is > 0
+    specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal
     ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
                         and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
     return specular, ao
@@ -68,7 +72,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
 def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
-    specular = ao = emission = blend = False
+    specular = ao = emission = blend = dielectric = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -94,17 +98,18 @@ def analyse(renderer, scene) -> SceneFeatures:
                 s, a = _mesh_features(mesh)
                 specular, ao = specular or s, ao or a
                 emission = emission or mesh.has_emission
+                dielectric = dielectric or mesh.material.ior is not None
     constant = False
     spec = scene.environment
     if spec.path is None and spec.procedural == "white":
         constant = True
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
-                         emission=emission, blend=blend)
+                         emission=emission, blend=blend, dielectric=dielectric)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
-_OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission
+_OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission, dielectric
 
 
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
@@ -127,7 +132,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         # 1x1 maps of depth 1 would give exactly 1 on the general path)
         settings = replace(settings, shadow=replace(settings.shadow, enabled=False))
     if not enabled or features is None:
-        return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True),
+        return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
+                                            with_dielectric=True),
                               model.variant(settings, light, specular=True, sun=sun,
                                             contact=contact))
     # models that do not say what they read get every channel (sampling, neural, future ones)
@@ -159,7 +165,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     direct = features.stacks and not (features.meshes or features.splats) and \
         features.single_object and dtype == "f4"
     return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
-                                        with_emission=features.emission),
+                                        with_emission=features.emission,
+                                        with_dielectric=features.dielectric),
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

@@ -152,7 +152,7 @@ def env_lights_base(gb: dict, x: torch.Tensor, sun_args: torch.Tensor, lighting:
     prediction in training as in the pass. ``x``, ``sun_args``: :func:`student_features`' first
     and fourth tensors (ao is x[:, 6], dfg x[:, 8:10]; n, v, w are in sun_args). Their diffuse
     part is scaled by ao, as ggx_split_sum scales its lights' (and a student its sun's)."""
-    from learned.twins.brdf import compute_f0
+    from learned.twins.brdf import compute_f0, f90_from_f0
     from learned.twins.shading import diffuse_color, env_lights_ggx
 
     others = tuple(lighting.lights)[1:]
@@ -162,8 +162,9 @@ def env_lights_base(gb: dict, x: torch.Tensor, sun_args: torch.Tensor, lighting:
     metallic = gb["metallic"][:, 0]
     r = clamp_perceptual_roughness(gb["roughness"][:, 0])
     ms = torch.full_like(r, float(bool(multiscatter)))
-    return env_lights_ggx(others, diffuse_color(gb["albedo"], metallic) * x[:, 6:7],
-                          compute_f0(gb["albedo"], metallic, gb["specular"][:, 0]), r * r,
+    f0 = compute_f0(gb["albedo"], metallic, gb["specular"][:, 0])
+    return env_lights_ggx(others, diffuse_color(gb["albedo"], metallic) * x[:, 6:7], f0,
+                          f90_from_f0(f0), r * r,
                           x[:, 8:10], ms, sun_args[:, 0:3], sun_args[:, 3:6], sun_args[:, 12],
                           lighting.intensity, lighting.rotation)
 

@@ -224,7 +224,8 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
     roughness, metallic, depth); coverage [P]; ``median`` [P] (:func:`median_depth`) replaces the
     expected depth as with ``SPLAT_DEPTH_MEDIAN``."""
     h, w = size_hw
-    layout = GBufferLayout(with_color=True, with_emission=True)  # every channel GL reads back
+    layout = GBufferLayout(with_color=True, with_emission=True,
+                           with_dielectric=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
     base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
                                      for k in bg}
@@ -246,6 +247,11 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
         "depth": (acc[:, 11:12] + wu * base["depth"]) / safe,
         "color": acc[:, 0:3] + wu * base["albedo"],
         "emission": wu * base["emission"] / safe,  # splats emit nothing; they hide what does
+        # the glTF lobe underneath (a >= 0) blends with the splats' (0.04, 0.04, 0.04, 1)
+        "dielectric": torch.where(
+            base["dielectric"][:, 3:] >= 0.0,
+            (coverage[:, None] * torch.tensor([0.04, 0.04, 0.04, 1.0]) + wu * base["dielectric"])
+            / safe, base["dielectric"]),
     }
     if median is not None:
         on_splat = (coverage >= splat_median_target(coverage, base["alpha"][:, 0])) & (median < 1e30)

@@ -38,6 +38,29 @@ def f90_from_f0(f0: torch.Tensor) -> torch.Tensor:
     return (f0 * (50.0 * 0.33)).sum(-1).clamp(0.0, 1.0)
 
 
+def dielectric_f0_ior(ior: torch.Tensor, specular_color: torch.Tensor,
+                      specular_factor: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 dielectric_f0_ior(float ior, vec3 specular_color, float specular_factor)``
+    (KHR_materials_ior / _specular): min(((ior - 1) / (ior + 1))^2 colour, 1) factor; ior 0 ->
+    F0 = 1. ior, specular_factor ``[...]``, specular_color ``[..., 3]`` -> ``[..., 3]``."""
+    f0 = torch.where(ior == 0.0, torch.ones_like(ior), sq((ior - 1.0) / (ior + 1.0)))
+    return torch.clamp_max(f0[..., None] * specular_color, 1.0) * specular_factor[..., None]
+
+
+def surface_f0_f90(base_color: torch.Tensor, metallic: torch.Tensor, specular: torch.Tensor,
+                   dielectric: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 surface_f0_f90(vec3 base_color, float metallic, float specular, vec4
+    dielectric)``: (f0, f90) from the dielectric channel where its a >= 0 (metals: F0 = base
+    colour, F90 = 1), else Filament's compute_f0 / f90_from_f0. ``[..., 3]``, ``[...]``,
+    ``[...]``, ``[..., 4]`` -> ``[..., 4]``."""
+    f0 = compute_f0(base_color, metallic, specular)
+    filament = torch.cat([f0, f90_from_f0(f0)[..., None]], -1)
+    m = saturate(metallic)[..., None]
+    ext = torch.cat([dielectric[..., :3] * (1.0 - m) + base_color * m,
+                     dielectric[..., 3:] * (1.0 - m) + m], -1)
+    return torch.where(dielectric[..., 3:] < 0.0, filament, ext)
+
+
 def d_ggx(NoH: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """GLSL ``float d_ggx(float NoH, float a)`` (Walter et al. 2007 eq. 33)."""
     NoH = saturate(NoH)

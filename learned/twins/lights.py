@@ -95,14 +95,15 @@ def scene_light(light, i: int, p: torch.Tensor, n: torch.Tensor) -> torch.Tensor
     return torch.cat([la[..., :3], w[..., None]], -1)
 
 
-def lights_ggx(lights, diffuse, f0, a, dfg, multiscatter, n, v, p) -> torch.Tensor:
+def lights_ggx(lights, diffuse, f0, f90, a, dfg, multiscatter, n, v, p) -> torch.Tensor:
     """GLSL ``vec3 lights_ggx(...)`` (passes/lights.glsl) over ``lights`` (the uniform entries,
     in order): ggx_directional_light per light where its attenuation is > 0. [..., 3]."""
     c = torch.zeros_like(n)
     for i, light in enumerate(lights):
         la = scene_light(light, i, p, n)
         e = _light_arrays(light)["intensity"] * la[..., 3:]
-        term = ggx_directional_light(diffuse, f0, a, dfg, multiscatter, n, v, la[..., :3], e)
+        term = ggx_directional_light(diffuse, f0, f90, a, dfg, multiscatter, n, v, la[..., :3],
+                                     e)
         c = c + torch.where(la[..., 3:] > 0.0, term, torch.zeros_like(term))
     return c
 

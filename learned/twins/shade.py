@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import torch
 
-from .brdf import clamp_perceptual_roughness, compute_f0
+from .brdf import clamp_perceptual_roughness, surface_f0_f90
 from .deferred import emitted_radiance, env_dir, reflect, view_ray_ws
 from .equirect import equirect_uv, rotate_y
 from .ibl import (
@@ -155,10 +155,12 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
                                           size_px)
         else:
             p_ws = torch.zeros_like(n)
+        fresnel = surface_f0_f90(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0],
+                                 dielectric_channel(g))
         surf = _Surface(n=n, v=v, r=r, ao=ao, irradiance=irradiance, p=p_ws,
                         prefiltered=prefiltered * intensity, dfg=dfg,
                         diffuse=diffuse_color(g["albedo"], g["metallic"][..., 0]),
-                        f0=compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0]),
+                        f0=fresnel[..., :3], f90=fresnel[..., 3],
                         ms=torch.full_like(r, float(defines.get("MULTISCATTER", 1))))
     mc_envelope = None if envelope is None else {"weight_bits": bits}
     c = PASS_TWINS[model](g, surf, defines, env=env, intensity=intensity,
@@ -226,8 +228,18 @@ class _Surface:
     dfg: torch.Tensor  # DFG LUT at (n.v, r)
     diffuse: torch.Tensor
     f0: torch.Tensor
+    f90: torch.Tensor  # surface_f0_f90's a
     ms: torch.Tensor  # MULTISCATTER as 0/1
     p: torch.Tensor  # world position (LIGHT_POSITIONAL; else 0)
+
+
+def dielectric_channel(g: dict) -> torch.Tensor:
+    """The G-buffer's ``dielectric`` channel ``[H, W, 4]``, its background (0, 0, 0, -1) where
+    the layout has none (viewer/gbuffer.py)."""
+    if "dielectric" in g:
+        return g["dielectric"]
+    bg = torch.tensor([0.0, 0.0, 0.0, -1.0])
+    return bg.expand(*g["alpha"].shape[:-1], 4)
 
 
 def _lights(light, defines) -> tuple:
@@ -260,23 +272,23 @@ def _shade_blinn_phong(g, s: _Surface, defines, light=None, **_) -> torch.Tensor
     return c
 
 
-def _ggx_light(s: _Surface, f0, a, dfg, ms, light, defines) -> torch.Tensor:
-    return lights_ggx(_lights(light, defines), s.diffuse, f0, a, dfg, ms, s.n, s.v, s.p)
+def _ggx_light(s: _Surface, f0, f90, a, dfg, ms, light, defines) -> torch.Tensor:
+    return lights_ggx(_lights(light, defines), s.diffuse, f0, f90, a, dfg, ms, s.n, s.v, s.p)
 
 
 def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensity=1.0,
                          rotation_rad=0.0, **_) -> torch.Tensor:
     """``shade_ggx_split_sum.frag``: split-sum GGX + the irradiance map's diffuse, plus the punctual lights and
     (``SUN_LIGHT``) the environment's sun, ``env["sun"]`` (a :class:`viewer.environment.sun.Sun`)."""
-    c = ggx_split_sum(s.diffuse, s.f0, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
-    f0, a, dfg, ms = s.f0, s.r * s.r, s.dfg, s.ms
+    c = ggx_split_sum(s.diffuse, s.f0, s.f90, s.ao, s.irradiance, s.prefiltered, s.dfg, s.ms)
+    f0, f90, a, dfg, ms = s.f0, s.f90, s.r * s.r, s.dfg, s.ms
     specular = defines.get("SPECULAR_LOBE", 1)
     if not specular:
-        f0, a = torch.zeros_like(f0), torch.ones_like(a)
+        f0, f90, a = torch.zeros_like(f0), torch.zeros_like(f90), torch.ones_like(a)
         dfg = torch.tensor([0.0, 1.0]).expand(*a.shape, 2)
         ms = torch.zeros_like(a)
     if defines.get("LIGHT_COUNT", 0):
-        c = c + _ggx_light(s, f0, a, dfg, ms, light, defines)
+        c = c + _ggx_light(s, f0, f90, a, dfg, ms, light, defines)
     if defines.get("SUN_LIGHT", 0):
         sun = env["sun"]
         l_env = torch.tensor(sun.direction, dtype=torch.float32).expand_as(s.n)
@@ -287,9 +299,9 @@ def _shade_ggx_split_sum(g, s: _Surface, defines, light=None, env=None, intensit
             if specular else torch.ones_like(s.r)
         diffuse = s.diffuse * s.ao[..., None]
         disc = disc_light(s.n, l_ws, torch.full_like(s.r, float(sun.angular_radius)))
-        c = c + ggx_environment_sun(diffuse, f0, a, dfg, ms, s.n, s.v, disc[..., :3],
+        c = c + ggx_environment_sun(diffuse, f0, f90, a, dfg, ms, s.n, s.v, disc[..., :3],
                                     e * disc[..., 3:], w)
-        c = c + env_lights_ggx(others, diffuse, f0, a, dfg, ms, s.n, s.v, w, intensity,
+        c = c + env_lights_ggx(others, diffuse, f0, f90, a, dfg, ms, s.n, s.v, w, intensity,
                                rotation_rad)
     return c
 
@@ -313,7 +325,7 @@ def _shade_ggx_mc(g, s: _Surface, defines, env=None, intensity=1.0, rotation_rad
         bound[covered] = envelope["bound"]
         envelope["bound"] = bound
     if defines.get("LIGHT_COUNT", 0) and int(mc.get("count", 1)) > 0:
-        c = c + _ggx_light(s, s.f0, s.r * s.r, s.dfg, s.ms, light, defines)
+        c = c + _ggx_light(s, s.f0, s.f90, s.r * s.r, s.dfg, s.ms, light, defines)
     return c
 
 

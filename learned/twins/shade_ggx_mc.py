@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from .brdf import clamp_perceptual_roughness, compute_f0, f90_from_f0
+from .brdf import clamp_perceptual_roughness, surface_f0_f90
 from .common import INV_PI, saturate
 from .deferred import env_dir, reflect
 from .env_sampling import env_pdf, sample_env
@@ -50,8 +50,10 @@ def shade_ggx_mc(n, v, g: dict, ao, env: dict, intensity: float, rotation_rad: f
     NoV = saturate(_dot(n, v))
     r = clamp_perceptual_roughness(g["roughness"][..., 0])
     a = r * r
-    f0 = compute_f0(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0])
-    f90 = f90_from_f0(f0)
+    dielectric = g["dielectric"] if "dielectric" in g else \
+        torch.tensor([0.0, 0.0, 0.0, -1.0]).expand(P, 4)  # its background: no channel
+    fresnel = surface_f0_f90(g["albedo"], g["metallic"][..., 0], g["specular"][..., 0], dielectric)
+    f0, f90 = fresnel[..., :3], fresnel[..., 3]
     dfg = ibl_dfg(env["dfg"], NoV, r)
     if defines.get("MULTISCATTER", 1):
         spec_scale = ibl_energy_compensation(dfg, f0)

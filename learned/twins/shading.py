@@ -6,7 +6,6 @@ import torch
 from .brdf import (
     blinn_phong_shininess,
     d_ggx,
-    f90_from_f0,
     f_schlick,
     v_smith_ggx_correlated,
 )
@@ -32,14 +31,14 @@ def shading_normal(n: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     return torch.where(bad, v, out)
 
 
-def ggx_split_sum(diffuse: torch.Tensor, f0: torch.Tensor, ao: torch.Tensor,
+def ggx_split_sum(diffuse: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor, ao: torch.Tensor,
                   irradiance: torch.Tensor, prefiltered: torch.Tensor, dfg: torch.Tensor,
                   multiscatter: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 ggx_split_sum(...)``: split-sum GGX IBL (Karis 2013, Filament).
 
-    diffuse, f0, irradiance, prefiltered: [..., 3]; ao, multiscatter: [...]; dfg: [..., 2].
+    diffuse, f0, irradiance, prefiltered: [..., 3]; f90, ao, multiscatter: [...]; dfg: [..., 2].
     """
-    e_spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0))
+    e_spec = ibl_specular_dfg(dfg, f0, f90)
     e_spec = torch.where((multiscatter > 0.5)[..., None], e_spec * ibl_energy_compensation(dfg, f0),
                          e_spec)
     fd = diffuse * irradiance * INV_PI * ao[..., None] * (1.0 - e_spec).clamp_min(0.0)
@@ -57,7 +56,8 @@ def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return (a * b).sum(-1)
 
 
-def ggx_environment_sun(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+def ggx_environment_sun(diffuse: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor,
+                        a: torch.Tensor,
                         dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
                         v: torch.Tensor, l: torch.Tensor, irradiance: torch.Tensor,
                         specular_weight: torch.Tensor) -> torch.Tensor:
@@ -70,7 +70,6 @@ def ggx_environment_sun(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor
     NoV = saturate(_dot(n, v))
     NoH = saturate(_dot(n, h))
     VoH = saturate(_dot(v, h))
-    f90 = f90_from_f0(f0)
     spec_scale = torch.where((multiscatter > 0.5)[..., None], ibl_energy_compensation(dfg, f0),
                              torch.ones_like(f0))
     e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale
@@ -116,14 +115,15 @@ def disc_light(n: torch.Tensor, l: torch.Tensor, radius: torch.Tensor) -> torch.
     return torch.cat([lb, s[..., None]], dim=-1)
 
 
-def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+def ggx_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor,
+                          a: torch.Tensor,
                           dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
                           v: torch.Tensor, l: torch.Tensor, irradiance: torch.Tensor
                           ) -> torch.Tensor:
     """GLSL ``vec3 ggx_directional_light(...)``: f(v, l) E (n.l) for the GGX + Lambert BRDF with
     ggx_split_sum's energy split (:func:`ggx_environment_sun` with w = 1). diffuse, f0, n, v, l,
     irradiance [..., 3]; a, multiscatter [...]; dfg [..., 2] -> [..., 3]; 0 where n.l <= 0."""
-    return ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, l, irradiance,
+    return ggx_environment_sun(diffuse, f0, f90, a, dfg, multiscatter, n, v, l, irradiance,
                                torch.ones_like(a))
 
 
@@ -143,7 +143,8 @@ def blinn_phong_directional_light(diffuse: torch.Tensor, f0: torch.Tensor, a: to
 
 
 
-def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Tensor,
+def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor,
+                   a: torch.Tensor,
                    dfg: torch.Tensor, multiscatter: torch.Tensor, n: torch.Tensor,
                    v: torch.Tensor, w: torch.Tensor, intensity: float,
                    rotation_rad: float, p: torch.Tensor | None = None) -> torch.Tensor:
@@ -164,5 +165,6 @@ def env_lights_ggx(lights, diffuse: torch.Tensor, f0: torch.Tensor, a: torch.Ten
                           torch.full(a.shape, float(light.angular_radius), dtype=torch.float32))
         e = torch.tensor(light.irradiance, dtype=torch.float32) \
             * (torch.tensor(float(intensity), dtype=torch.float32) * disc[..., 3:])
-        c = c + ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, disc[..., :3], e, w)
+        c = c + ggx_environment_sun(diffuse, f0, f90, a, dfg, multiscatter, n, v, disc[..., :3],
+                                    e, w)
     return c

@@ -9,7 +9,11 @@ The BSDF is the one ``ggx_mc`` integrates and ``ggx_split_sum`` approximates
              + D_GGX(h) V_SmithGGXCorrelated(v, l) F_Schlick(v.h) c_ms] n.l
 
 with perceptual roughness clamped to 0.045 (alpha = r^2), f0 = mix(0.16 specular^2, albedo,
-metallic), f90 = saturate(16.5 (f0.r + f0.g + f0.b)), diffuse = albedo (1 - metallic), the
+metallic), f90 = saturate(16.5 (f0.r + f0.g + f0.b)) (a material with glTF's dielectric lobe,
+``Material.ior`` from ``KHR_materials_ior`` / ``_specular``: f0 = mix(F0, albedo, metallic),
+f90 = mix(F90, 1, metallic) with F0 = min(((ior - 1) / (ior + 1))^2 specular_color, 1)
+specular_factor and F90 = specular_factor, the colour and factor times their maps; lib/brdf.glsl
+``surface_f0_f90``), diffuse = albedo (1 - metallic), the
 specular directional albedo E_spec = (f0 (y - x) + f90 x) c_ms and the multiple-scattering
 compensation c_ms = 1 + f0 (1 / y - 1) (1 without ``multiscatter``), where (x, y) = DFG(n.v, r).
 The DFG terms come from :func:`directional_albedo_table`, a float64 quadrature of the same
@@ -63,18 +67,24 @@ def directional_albedo_table(n: int = DFG_TABLE_SIZE, nt: int = 768,
     return out.astype(np.float32)
 
 
-def brdf_cos_numpy(albedo, roughness, metallic, specular, n_dot_v, wo, multiscatter=False):
+def brdf_cos_numpy(albedo, roughness, metallic, specular, n_dot_v, wo, multiscatter=False,
+                   dielectric=None):
     """Our f cos for local directions (shading frame, z = normal), in numpy float64: the same
     formula as :class:`WorkbenchBSDF`'s ``eval``, for tests that check the plugin against an
     independent evaluation. ``wo`` ``[N, 3]`` unit; the view direction is (sqrt(1 - n.v^2), 0,
-    n.v). -> ``[N, 3]``."""
+    n.v). ``dielectric``: glTF's lobe, (F0 r, g, b, F90) (``Material.dielectric``), or None for
+    Filament's from ``specular``. -> ``[N, 3]``."""
     albedo = np.asarray(albedo, np.float64)
     wo = np.asarray(wo, np.float64)
     wi = np.array([math.sqrt(max(1.0 - n_dot_v ** 2, 0.0)), 0.0, n_dot_v])
     r = min(max(roughness, MIN_PERCEPTUAL_ROUGHNESS), 1.0)
     a2 = (r * r) ** 2
-    f0 = 0.16 * specular ** 2 * (1 - metallic) + albedo * metallic
-    f90 = min(max(16.5 * f0.sum(), 0.0), 1.0)
+    if dielectric is None or dielectric[3] < 0.0:
+        f0 = 0.16 * specular ** 2 * (1 - metallic) + albedo * metallic
+        f90 = min(max(16.5 * f0.sum(), 0.0), 1.0)
+    else:
+        f0 = np.asarray(dielectric[:3], np.float64) * (1 - metallic) + albedo * metallic
+        f90 = dielectric[3] * (1 - metallic) + metallic
     table = directional_albedo_table()
     x, y = _bilinear(table, n_dot_v, r)
     c_ms = 1.0 + f0 * (1.0 / max(y, 1e-4) - 1.0) if multiscatter else np.ones(3)
@@ -138,6 +148,9 @@ def _bsdf_class(mi, dr, variant: str):
             self.normal_texture = None
             self.normal_scale = 1.0
             self.dfg = None
+            self.material = None
+            self.specular_texture = None
+            self.specular_color_texture = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -150,6 +163,9 @@ def _bsdf_class(mi, dr, variant: str):
             self.metallic_roughness_texture = textures.get("metallic_roughness")
             self.normal_texture = textures.get("normal")
             self.normal_scale = float(normal_scale)
+            self.material = material  # its glTF dielectric lobe (ior, specular colour, factor)
+            self.specular_texture = textures.get("specular")  # the map's A, in all three
+            self.specular_color_texture = textures.get("specular_color")
             table = directional_albedo_table()
             self.dfg = mi.Texture2f(mi.TensorXf(table), use_accel=False,
                                     filter_mode=dr.FilterMode.Linear,
@@ -190,9 +206,7 @@ def _bsdf_class(mi, dr, variant: str):
             metal = dr.clip(metal, 0.0, 1.0)
             r = dr.clip(rough, MIN_PERCEPTUAL_ROUGHNESS, 1.0)
             a = r * r
-            f0d = 0.16 * self.specular * self.specular
-            f0 = dr.lerp(mi.Color3f(f0d), albedo, metal)
-            f90 = dr.clip((f0.x + f0.y + f0.z) * (50.0 * 0.33), 0.0, 1.0)
+            f0, f90 = self._fresnel(si, albedo, metal)
             frame = self._frame(si)
             wi = si.wi if frame is None else frame.to_local(si.wi)
             nov = mi.Frame3f.cos_theta(wi)
@@ -213,6 +227,24 @@ def _bsdf_class(mi, dr, variant: str):
             p_spec = dr.select((ld > 0.0) & (ls > 0.0), dr.clip(p_spec, 0.05, 0.95), p_spec)
             return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
                         frame=frame)
+
+        def _fresnel(self, si, albedo, metal):
+            """f0 and f90 at the hit: lib/brdf.glsl ``surface_f0_f90`` (module docstring)."""
+            m = self.material
+            if m is None or m.ior is None:
+                f0d = 0.16 * self.specular * self.specular
+                f0 = dr.lerp(mi.Color3f(f0d), albedo, metal)
+                return f0, dr.clip((f0.x + f0.y + f0.z) * (50.0 * 0.33), 0.0, 1.0)
+            color = mi.Color3f(*m.specular_color)
+            if self.specular_color_texture is not None:
+                color = color * self.specular_color_texture.eval(si)
+            factor = mi.Float(m.specular_factor)
+            if self.specular_texture is not None:
+                factor = factor * self.specular_texture.eval(si).x
+            ior = float(m.ior)
+            f0_ior = 1.0 if ior == 0.0 else ((ior - 1.0) / (ior + 1.0)) ** 2
+            f0d = dr.minimum(f0_ior * color, 1.0) * factor
+            return dr.lerp(f0d, albedo, metal), dr.lerp(factor, 1.0, metal)
 
         @staticmethod
         def _to_mapped(s, wo):

@@ -30,6 +30,29 @@ float f90_from_f0(vec3 f0) {
     return saturate(dot(f0, vec3(50.0 * 0.33)));
 }
 
+// glTF KHR_materials_ior + KHR_materials_specular: the dielectric lobe's F0 colour,
+// min(((ior - 1) / (ior + 1))^2 specular_color, 1) specular_factor (its F90 is specular_factor).
+// ior 0 is the extension's "infinite" IOR (F0 = 1). Inputs: ior in {0} or [1, inf), colour and
+// factor >= 0 (the factors already times their texture maps).
+vec3 dielectric_f0_ior(float ior, vec3 specular_color, float specular_factor) {
+    float f0 = ior == 0.0 ? 1.0 : sq((ior - 1.0) / (ior + 1.0));
+    return min(vec3(f0) * specular_color, vec3(1.0)) * specular_factor;
+}
+
+// The surface's Fresnel terms (f0 in rgb, f90 in a): the G-buffer's optional `dielectric` channel
+// (rgb = the dielectric F0, a = its F90, from dielectric_f0_ior) where its a >= 0, metals taking
+// F0 = base colour and F90 = 1 (glTF); where a < 0 (its background: surfaces without the
+// extensions, and every surface of a scene without its channel) Filament's reflectance,
+// compute_f0 and f90_from_f0 of the scalar `specular`, exactly as before.
+vec4 surface_f0_f90(vec3 base_color, float metallic, float specular, vec4 dielectric) {
+    if (dielectric.a < 0.0) {
+        vec3 f0 = compute_f0(base_color, metallic, specular);
+        return vec4(f0, f90_from_f0(f0));
+    }
+    float m = saturate(metallic);
+    return vec4(mix(dielectric.rgb, base_color, m), mix(dielectric.a, 1.0, m));
+}
+
 // Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces", eq. 33 (GGX NDF).
 float d_ggx(float NoH, float a) {
     // D = a^2 / (pi (NoH^2 (a^2 - 1) + 1)^2), with the bracket written as

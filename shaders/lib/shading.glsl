@@ -30,9 +30,9 @@ vec3 shading_normal(vec3 n, vec3 v) {
 // specular lobe reflects; the diffuse lobe gets the rest, (1 - e_spec), so a white surface never
 // reflects more than it receives (Filament scales diffuse by 1 - E as well, but before the
 // compensation, which lets a white dielectric exceed the furnace by up to ~1.5%).
-vec3 ggx_split_sum(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefiltered, vec2 dfg,
-                   float multiscatter) {
-    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90_from_f0(f0));
+vec3 ggx_split_sum(vec3 diffuse, vec3 f0, float f90, float ao, vec3 irradiance, vec3 prefiltered,
+                   vec2 dfg, float multiscatter) {
+    vec3 e_spec = ibl_specular_dfg(dfg, f0, f90);
     if (multiscatter > 0.5) {
         e_spec *= ibl_energy_compensation(dfg, f0);
     }
@@ -69,15 +69,14 @@ vec3 blinn_phong(vec3 diffuse, vec3 f0, float ao, vec3 irradiance, vec3 prefilte
 // sun out). Shaded as a point, which is right for a lobe wider than the sun: at the grazing angles
 // where the round prefiltered lookup cannot follow the stretched, horizon-clipped lobe, the point
 // evaluates the true BRDF (README "Split-sum accuracy").
-vec3 ggx_environment_sun(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
-                         vec3 v, vec3 l, vec3 irradiance, float specular_weight) {
+vec3 ggx_environment_sun(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multiscatter,
+                         vec3 n, vec3 v, vec3 l, vec3 irradiance, float specular_weight) {
     float NoL = dot(n, l);
     if (!(NoL > 0.0)) return vec3(0.0);
     vec3 h = half_vector(v, l);
     float NoV = saturate(dot(n, v));
     float NoH = saturate(dot(n, h));
     float VoH = saturate(dot(v, h));
-    float f90 = f90_from_f0(f0);
     vec3 spec_scale = multiscatter > 0.5 ? ibl_energy_compensation(dfg, f0) : vec3(1.0);
     vec3 e_spec = ibl_specular_dfg(dfg, f0, f90) * spec_scale;
     vec3 fd = diffuse * INV_PI * max(1.0 - e_spec, 0.0);
@@ -137,9 +136,9 @@ vec4 disc_light(vec3 n, vec3 l, float radius) {
 }
 
 // The scene's [light]: the whole BRDF (w = 1).
-vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n,
-                           vec3 v, vec3 l, vec3 irradiance) {
-    return ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, l, irradiance, 1.0);
+vec3 ggx_directional_light(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multiscatter,
+                           vec3 n, vec3 v, vec3 l, vec3 irradiance) {
+    return ggx_environment_sun(diffuse, f0, f90, a, dfg, multiscatter, n, v, l, irradiance, 1.0);
 }
 
 // Blinn-Phong under the light, split like blinn_phong(): Lambert keeping (1 - f0) plus the

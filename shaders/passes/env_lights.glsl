@@ -41,8 +41,8 @@ float env_light_visibility(int i, vec3 p, vec3 n, vec3 l) {
 // Every such light through ggx_environment_sun (their sum; 0 without ENV_LIGHTS) as the disc it
 // is (disc_light: cut by the horizon), rotated and scaled with the environment (u_env_rotation,
 // u_env_intensity) and shadowed (env_light_visibility) at the surface point p.
-vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n, vec3 v,
-                    float w, vec3 p) {
+vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multiscatter,
+                    vec3 n, vec3 v, float w, vec3 p) {
     vec3 c = vec3(0.0);
 #if ENV_LIGHTS > 0
     // unrolled, as passes/lights.glsl's FOR_EACH_LIGHT: each light's shadow map one sampler
@@ -50,7 +50,7 @@ vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter
         vec3 l = rotate_y(u_env_light_direction[i], u_env_rotation);                        \
         vec4 disc = disc_light(n, l, u_env_light_radius[i]);                                \
         if (disc.w > 0.0) {                                                                 \
-            c += ggx_environment_sun(diffuse, f0, a, dfg, multiscatter, n, v, disc.xyz,      \
+            c += ggx_environment_sun(diffuse, f0, f90, a, dfg, multiscatter, n, v, disc.xyz, \
                                      u_env_light_irradiance[i] * (u_env_intensity * disc.w   \
                                      * env_light_visibility(i, p, n, l)), w);                \
         }                                                                                   \

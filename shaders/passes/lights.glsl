@@ -264,13 +264,13 @@ vec4 scene_light(int i, vec3 p, vec3 n) {
 
 // Every light through ggx_directional_light (Cook-Torrance GGX + Lambert with ggx_split_sum's
 // energy split): the BRDF the environment sees in ggx_split_sum, ggx_mc and the split students.
-vec3 lights_ggx(vec3 diffuse, vec3 f0, float a, vec2 dfg, float multiscatter, vec3 n, vec3 v,
-                vec3 p) {
+vec3 lights_ggx(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multiscatter, vec3 n,
+                vec3 v, vec3 p) {
     vec3 c = vec3(0.0);
 #define LIGHT_GGX(i) {                                                                        \
         vec4 la = scene_light(i, p, n);                                                     \
-        if (la.w > 0.0) c += ggx_directional_light(diffuse, f0, a, dfg, multiscatter, n, v,  \
-                                                   la.xyz, u_light_intensity[i] * la.w);    \
+        if (la.w > 0.0) c += ggx_directional_light(diffuse, f0, f90, a, dfg, multiscatter, n, \
+                                                   v, la.xyz, u_light_intensity[i] * la.w); \
     }
     FOR_EACH_LIGHT(LIGHT_GGX)
 #undef LIGHT_GGX

@@ -6,11 +6,16 @@
 // struct first (generated/gbuffer.glsl).
 // Defines: USE_BASE_COLOR_MAP, USE_METALLIC_ROUGHNESS_MAP (G = roughness, B = metallic),
 // USE_NORMAL_MAP (+ HAS_TANGENTS, else a cotangent frame from derivatives), USE_OCCLUSION_MAP,
-// USE_EMISSIVE_MAP; USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
-// USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha).
+// USE_EMISSIVE_MAP; USE_DIELECTRIC (KHR_materials_ior / _specular: the G-buffer's dielectric
+// channel from u_ior, u_specular_color, u_specular_factor) with USE_SPECULAR_MAP (A = factor) and
+// USE_SPECULAR_COLOR_MAP (linear RGB); USE_UV0 / USE_UV1 when a map reads that texture coordinate
+// set;
+// USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
+// KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
 // Every map is read through sample_map: its coordinate set (u_<map>_set), KHR_texture_transform
 // (u_<map>_uv, a 3x3 affine matrix made by viewer.geometry.mesh.TextureSampling.uv_matrix) and,
 // per axis, MIRRORED_REPEAT (u_<map>_mirror; REPEAT and CLAMP_TO_EDGE are the sampler's own).
+#include "lib/brdf.glsl"
 
 uniform vec3 u_albedo;              // linear base colour factor
 uniform float u_base_alpha;         // glTF baseColorFactor alpha
@@ -21,6 +26,11 @@ uniform float u_ao;
 uniform float u_normal_scale;       // glTF normalTexture.scale
 uniform float u_occlusion_strength; // glTF occlusionTexture.strength
 uniform vec3 u_emissive;            // linear emitted radiance (emissiveFactor x strength)
+#ifdef USE_DIELECTRIC
+uniform float u_ior;                // KHR_materials_ior (0: infinite)
+uniform vec3 u_specular_color;      // KHR_materials_specular specularColorFactor
+uniform float u_specular_factor;    // KHR_materials_specular specularFactor
+#endif
 
 #ifdef USE_BASE_COLOR_MAP
 uniform sampler2D u_base_color_map;          // linear RGB(A)
@@ -51,6 +61,19 @@ uniform sampler2D u_emissive_map;            // linear RGB
 uniform int u_emissive_set;
 uniform mat3 u_emissive_uv;
 uniform vec2 u_emissive_mirror;
+#endif
+
+#ifdef USE_SPECULAR_MAP
+uniform sampler2D u_specular_map;            // A = specular factor
+uniform int u_specular_set;
+uniform mat3 u_specular_uv;
+uniform vec2 u_specular_mirror;
+#endif
+#ifdef USE_SPECULAR_COLOR_MAP
+uniform sampler2D u_specular_color_map;      // linear RGB
+uniform int u_specular_color_set;
+uniform mat3 u_specular_color_uv;
+uniform vec2 u_specular_color_mirror;
 #endif
 
 in vec3 v_position_ws;
@@ -173,6 +196,24 @@ GBuffer mesh_surface(out float alpha) {
 #ifdef USE_EMISSIVE_MAP
     g.emission *= sample_map(u_emissive_map, map_uv(u_emissive_set, u_emissive_uv),
                              u_emissive_mirror).rgb;
+#endif
+#ifdef USE_DIELECTRIC
+    vec3 specular_color = u_specular_color;
+    float specular_factor = u_specular_factor;
+#ifdef USE_SPECULAR_COLOR_MAP
+    specular_color *= sample_map(u_specular_color_map,
+                                 map_uv(u_specular_color_set, u_specular_color_uv),
+                                 u_specular_color_mirror).rgb;
+#endif
+#ifdef USE_SPECULAR_MAP
+    specular_factor *= sample_map(u_specular_map, map_uv(u_specular_set, u_specular_uv),
+                                  u_specular_mirror).a;
+#endif
+    g.dielectric = vec4(dielectric_f0_ior(u_ior, specular_color, specular_factor),
+                        specular_factor);
+#endif
+#if defined(USE_VERTEX_COLOR) && defined(UNLIT_VERTEX_COLOR)
+    g.emission *= v_color.rgb;
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

@@ -35,7 +35,7 @@ void main() {
                                              u_env_levels) * u_env_intensity;
     prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
-    vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
+    vec3 f0 = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric).rgb;
     vec3 c = blinn_phong(diffuse, f0, ao_env, irradiance, prefiltered);
 #if LIGHT_COUNT > 0
     c += lights_blinn_phong(diffuse, f0, r * r, n, v,

@@ -80,8 +80,9 @@ void main() {
         return;
     }
     vec2 dfg;
+    vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);
     Surface s = surface_init(shading_normal(g.normal, -d), -d, g.albedo, g.roughness, g.metallic,
-                             g.specular, dfg);
+                             fresnel.rgb, fresnel.a, dfg);
     s.diffuse *= ambient_occlusion(pixel, g);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
@@ -92,8 +93,9 @@ void main() {
     // delta lights are not sampled: their terms are added exactly (the function ggx_split_sum
     // uses, on the same diffuse, f0, alpha and DFG terms), to every batch alike
     if (u_sample_count > 0u) {
-        c += lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.a, dfg, float(MULTISCATTER),
-                        s.n, s.v, light_surface_position(gl_FragCoord.xy, g.depth));
+        c += lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
+                        float(MULTISCATTER), s.n, s.v,
+                        light_surface_position(gl_FragCoord.xy, g.depth));
     }
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

@@ -62,38 +62,44 @@ void main() {
     prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
-    vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
-    vec3 c = ggx_split_sum(diffuse, f0, ao_env, irradiance, prefiltered, dfg, float(MULTISCATTER));
+    vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);
+    vec3 f0 = fresnel.rgb;
+    float f90 = fresnel.a;
+    vec3 c = ggx_split_sum(diffuse, f0, f90, ao_env, irradiance, prefiltered, dfg,
+                           float(MULTISCATTER));
 #if LIGHT_COUNT > 0
-    c += lights_ggx(diffuse, f0, r * r, dfg, float(MULTISCATTER), n, v,
+    c += lights_ggx(diffuse, f0, f90, r * r, dfg, float(MULTISCATTER), n, v,
                     light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if SUN_LIGHT
     // ao scales its diffuse part as it scales the rest of the environment's (SH) diffuse light
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
     vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
-    c += ggx_environment_sun(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, disc.xyz,
+    c += ggx_environment_sun(diffuse * ao, f0, f90, r * r, dfg, float(MULTISCATTER), n, v,
+                             disc.xyz,
                              u_sun_irradiance * u_env_intensity * disc.w
                              * sun_shadow(g, n, l_sun), w_sun);
-    c += env_lights_ggx(diffuse * ao, f0, r * r, dfg, float(MULTISCATTER), n, v, w_sun,
+    c += env_lights_ggx(diffuse * ao, f0, f90, r * r, dfg, float(MULTISCATTER), n, v, w_sun,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #else
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
     // does the light's BRDF (F = 0; any alpha)
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
-    vec3 c = ggx_split_sum(diffuse, vec3(0.0), ao_env, irradiance, vec3(0.0), vec2(0.0, 1.0), 0.0);
+    vec3 c = ggx_split_sum(diffuse, vec3(0.0), 0.0, ao_env, irradiance, vec3(0.0), vec2(0.0, 1.0),
+                           0.0);
 #if LIGHT_COUNT > 0
-    c += lights_ggx(diffuse, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v,
+    c += lights_ggx(diffuse, vec3(0.0), 0.0, 1.0, vec2(0.0, 1.0), 0.0, n, v,
                     light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if SUN_LIGHT
     vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
     vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
-    c += ggx_directional_light(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, disc.xyz,
+    c += ggx_directional_light(diffuse * ao, vec3(0.0), 0.0, 1.0, vec2(0.0, 1.0), 0.0, n, v,
+                               disc.xyz,
                                u_sun_irradiance * u_env_intensity * disc.w
                                * sun_shadow(g, n, l_sun));
-    c += env_lights_ggx(diffuse * ao, vec3(0.0), 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0,
+    c += env_lights_ggx(diffuse * ao, vec3(0.0), 0.0, 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #endif

@@ -127,7 +127,7 @@ void main() {
                                   dfg, r * r, n, v, disc.xyz,
                                   u_sun_irradiance * u_env_intensity * disc.w
                                   * sun_shadow(g, n, l_sun), w_sun, spec_scale);
-    c += env_lights_ggx(diffuse_color(g.albedo, g.metallic) * ao, f0, r * r, dfg,
+    c += env_lights_ggx(diffuse_color(g.albedo, g.metallic) * ao, f0, f90_from_f0(f0), r * r, dfg,
                         float(NEURAL_STUDENT_MULTISCATTER), n, v, w_sun,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
@@ -148,8 +148,9 @@ void main() {
 #else
     float ms_l = 0.0;
 #endif
-    c += lights_ggx(diffuse_color(g.albedo, g.metallic), compute_f0(g.albedo, g.metallic,
-                    g.specular), r * r, dfg, ms_l, n, v,
+    vec3 f0_l = compute_f0(g.albedo, g.metallic, g.specular);
+    c += lights_ggx(diffuse_color(g.albedo, g.metallic), f0_l, f90_from_f0(f0_l), r * r, dfg, ms_l,
+                    n, v,
                     light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if NEURAL_STUDENT_INDIRECT

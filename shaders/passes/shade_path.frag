@@ -46,9 +46,11 @@ struct PathVertex {
 };
 
 PathVertex path_vertex(vec3 p, vec3 ng, vec3 n, vec3 v, vec3 albedo, float roughness,
-                       float metallic, float specular) {
+                       float metallic, float specular, vec4 dielectric) {
     vec2 dfg;
-    return PathVertex(p, ng, surface_init(n, v, albedo, roughness, metallic, specular, dfg));
+    vec4 fresnel = surface_f0_f90(albedo, metallic, specular, dielectric);
+    return PathVertex(p, ng, surface_init(n, v, albedo, roughness, metallic, fresnel.rgb,
+                                          fresnel.a, dfg));
 }
 
 vec3 path_env_radiance(vec3 l) {
@@ -135,7 +137,8 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         vec3 ng = front ? t.ng : -t.ng;
         vec3 n = front ? t.n : -t.n;
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
-        s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular);
+        s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
+                        t.dielectric);
         float q = path_continue_probability(beta, float(bounce + 1));
         if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
         beta /= q;
@@ -157,7 +160,8 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
     // the G-buffer holds no geometric normal: the shading normal stands in for the ray offset
-    PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular);
+    PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular,
+                                  g.dielectric);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
         sum += trace_path(s0, uvec2(pixel), u_sample_start + k);

@@ -6,7 +6,10 @@
 //       blended sum of unit normals, renormalised: a weighted mean direction),
 //   depth with SPLAT_DEPTH_MEDIAN: the median depth instead (lib/splat.glsl, splat_median.frag),
 //   color = sum_i T_i alpha_i c_i + w_under albedo_under     (premultiplied, no background),
-//   emission = w_under emission_under / alpha                 (splats emit nothing).
+//   emission = w_under emission_under / alpha                 (splats emit nothing),
+//   dielectric (the glTF lobe, a >= 0, of a mesh underneath) = (A (0.04, 0.04, 0.04, 1) +
+//       w_under dielectric_under) / alpha: the splats' own lobe is Filament's specular 0.5;
+//       where none lies underneath (a < 0) it stays the background (the blended specular rules).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
@@ -54,5 +57,9 @@ void main() {
     g.ao = (coverage + w_under * under.ao) / total;
     g.color = a0.rgb + w_under * under.albedo;
     g.emission = w_under * under.emission / total;  // splats emit nothing and hide what does
+    if (under.dielectric.a >= 0.0) {
+        g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)
+                       / total;
+    }
     gbuffer_store(g);
 }

@@ -55,10 +55,11 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
     return tangent_to_world(sample_cosine_hemisphere(u), s.n);
 }
 
-// The surface of normal n seen from v with the G-buffer's material, every field set (its diffuse
-// not yet occluded); dfg: the DFG LUT's value at (n.v, r), for the caller's analytic terms.
-Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metallic,
-                     float specular, out vec2 dfg) {
+// The surface of normal n seen from v with the G-buffer's material (f0, f90: its Fresnel terms,
+// lib/brdf.glsl surface_f0_f90), every field set (its diffuse not yet occluded); dfg: the DFG
+// LUT's value at (n.v, r), for the caller's analytic terms.
+Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metallic, vec3 f0,
+                     float f90, out vec2 dfg) {
     Surface s;
     s.v = v;
     s.n = n;
@@ -67,8 +68,8 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
     s.NoV = saturate(dot(s.n, s.v));
     float r = clamp_perceptual_roughness(roughness);
     s.a = r * r;
-    s.f0 = compute_f0(albedo, metallic, specular);
-    s.f90 = f90_from_f0(s.f0);
+    s.f0 = f0;
+    s.f90 = f90;
     dfg = ibl_dfg(u_env_dfg, s.NoV, r);
     s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, s.f0) : vec3(1.0);
     // the energy-conserving split of ggx_split_sum: diffuse keeps 1 - E_spec(n.v), a per-pixel

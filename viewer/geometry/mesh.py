@@ -12,6 +12,8 @@ metallic_roughness  3/4   linear; G = roughness, B = metallic (glTF), multiply t
 normal              3/4   tangent-space normal encoded n * 0.5 + 0.5, linear; +Y = towards -v
 occlusion           1..4  linear; R = ambient occlusion
 emissive            3/4   linear RGB (already sRGB-decoded); multiplies ``Mesh.emissive``
+specular            4     linear; A = KHR_materials_specular factor (with ``Material.ior`` only)
+specular_color      3/4   linear RGB (already sRGB-decoded); multiplies ``Material.specular_color``
 =================== ===== =====================================================================
 
 How each map is sampled (texture coordinate set, ``KHR_texture_transform``, wrap and filter modes)
@@ -28,7 +30,8 @@ import numpy as np
 from ..errors import InputError
 from ..scene.material import Material
 
-TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive")
+TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive", "specular",
+                "specular_color")
 WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
 MIN_FILTERS = ("nearest", "linear", "nearest_mipmap_nearest", "linear_mipmap_nearest",
                "nearest_mipmap_linear", "linear_mipmap_linear")
@@ -97,6 +100,9 @@ class Mesh:
     alpha_cutoff: float = 0.5
     base_alpha: float = 1.0  # glTF baseColorFactor[3]
     emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)  # linear radiance (factor x strength)
+    # glTF KHR_materials_unlit: the base colour shown as is. The loader makes the material black
+    # (no lobe) and the emission the base colour (factor, texture; COLOR_0 multiplies it)
+    unlit: bool = False
     name: str = ""
     source: str | None = None  # the file it came from, for messages
 

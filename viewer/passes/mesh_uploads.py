@@ -33,7 +33,9 @@ from .uploads import UploadCache
 _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "metallic_roughness": "USE_METALLIC_ROUGHNESS_MAP",
                 "normal": "USE_NORMAL_MAP", "occlusion": "USE_OCCLUSION_MAP",
-                "emissive": "USE_EMISSIVE_MAP"}
+                "emissive": "USE_EMISSIVE_MAP", "specular": "USE_SPECULAR_MAP",
+                "specular_color": "USE_SPECULAR_COLOR_MAP"}
+_DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
@@ -49,8 +51,10 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     the texture coordinate sets they read, vertex colours, the alpha mask."""
     defines = {}
     uv_sets = (mesh.uvs, mesh.uvs1)
+    if mesh.material.ior is not None:
+        defines["USE_DIELECTRIC"] = 1
     for key in mesh.textures:
-        if key not in _MAP_DEFINES:
+        if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:
@@ -61,6 +65,8 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
         defines["HAS_TANGENTS"] = 1
     if mesh.colors is not None:
         defines["USE_VERTEX_COLOR"] = 1
+        if mesh.unlit:
+            defines["UNLIT_VERTEX_COLOR"] = 1  # KHR_materials_unlit: COLOR_0 x its emission
     if mesh.alpha_mode == "MASK":
         defines["ALPHA_MASK"] = 1
     return defines
@@ -235,6 +241,10 @@ class MeshUploads:
         _set(prog, "u_occlusion_strength", float(mesh.occlusion_strength))
         _set(prog, "u_emissive", tuple(float(c) for c in mesh.emissive))
         _set(prog, "u_alpha_cutoff", float(mesh.alpha_cutoff))
+        if m.ior is not None:
+            _set(prog, "u_ior", float(m.ior))
+            _set(prog, "u_specular_color", tuple(float(c) for c in m.specular_color))
+            _set(prog, "u_specular_factor", float(m.specular_factor))
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

@@ -11,6 +11,7 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
   surfaces are left out (they cast no shadow in the shadow maps either);
 * at a secondary hit: the material's factors, its base-colour, metallic-roughness and emissive
   maps (``TEXCOORD_0``, ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`),
+  the ``KHR_materials_ior`` / ``specular`` factors (:meth:`Material.dielectric`, not their maps),
   the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
   ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
@@ -26,7 +27,7 @@ from .bvh import BVH, build_bvh, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAPS = ("base_color", "metallic_roughness", "emissive")
-MATERIAL_VEC4S = 9  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+MATERIAL_VEC4S = 10  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
 _WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 
 
@@ -131,6 +132,7 @@ def material_rows(meshes, layers) -> np.ndarray:
             r[3 + 2 * j] = (mat[0, 0], mat[0, 1], mat[0, 2], float(layer))
             r[4 + 2 * j] = (mat[1, 0], mat[1, 1], mat[1, 2],
                             float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
+        r[9] = m.dielectric()  # (F0, F90) of the glTF lobe, (0, 0, 0, -1) for none
     return rows
 
 

@@ -155,10 +155,18 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     kw: dict[str, Any] = {}
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
-    for k in ("roughness", "metallic", "specular", "ao"):
+    for k in ("roughness", "metallic", "specular", "ao", "specular_factor"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
+    if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)
+        kw["ior"] = _num(t["ior"], f"{where}.ior", file, 0.0, 1e30)
+    if "specular_color" in t:
+        kw["specular_color"] = _vec(t["specular_color"], 3, f"{where}.specular_color", file)
     m = Material(**kw)
+    try:
+        m.validated(where)
+    except SceneError as exc:
+        raise SceneError(f"{where}: {exc.problem}", where=file) from None
     if not all(0.0 <= c <= 1.0 for c in m.albedo):
         raise SceneError(f"{where}.albedo = {list(m.albedo)} must be in [0, 1]", where=file)
     return m

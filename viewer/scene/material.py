@@ -1,6 +1,8 @@
-"""PBR material parameters (metallic-roughness, Filament conventions)."""
+"""PBR material parameters (metallic-roughness, Filament conventions, and the dielectric lobe of
+glTF's ``KHR_materials_ior`` / ``KHR_materials_specular``)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..errors import SceneError
@@ -13,13 +15,49 @@ class Material:
     metallic: float = 0.0
     specular: float = 0.5  # dielectric f0 = 0.16 * specular^2 (0.5 -> 0.04); 0 = no specular lobe
     ao: float = 1.0
+    # KHR_materials_ior / KHR_materials_specular: None = the dielectric lobe is Filament's
+    # `specular` above; a number (>= 1, or 0 for the extension's "infinite" IOR) = the lobe is
+    # glTF's, F0 = min(((ior - 1) / (ior + 1))^2 specular_color, 1) specular_factor,
+    # F90 = specular_factor (`specular` is then unused)
+    ior: float | None = None
+    specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # linear RGB, >= 0
+    specular_factor: float = 1.0  # in [0, 1]
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
-                "specular": self.specular, "ao": self.ao}
+                "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
         if len(self.albedo) != 3 or not all(0.0 <= float(c) <= 1.0 for c in self.albedo):
             raise SceneError(f"albedo = {list(self.albedo)} must be 3 numbers in [0, 1]", where=where)
+        if self.ior is not None and not (float(self.ior) == 0.0 or
+                                         1.0 <= float(self.ior) < math.inf):
+            raise SceneError(f"ior = {self.ior} must be 0 (infinite) or a finite number >= 1",
+                             where=where)
+        if len(self.specular_color) != 3 or not all(
+                0.0 <= float(c) < math.inf for c in self.specular_color):
+            raise SceneError(f"specular_color = {list(self.specular_color)} must be 3 finite "
+                             f"numbers >= 0", where=where)
         return self
+
+    def dielectric(self) -> tuple[float, float, float, float]:
+        """The G-buffer's ``dielectric`` channel for this material's factors: (F0 rgb, F90) of
+        ``shaders/lib/brdf.glsl`` ``dielectric_f0_ior``, or (0, 0, 0, -1) without ``ior`` (the
+        channel's background: Filament's reflectance from ``specular``)."""
+        return dielectric_row(self)
+
+
+def dielectric_f0_ior(ior: float, specular_color, specular_factor: float
+                      ) -> tuple[float, float, float]:
+    """``dielectric_f0_ior`` of ``shaders/lib/brdf.glsl`` in float64 (ior 0: F0 = 1)."""
+    f0 = 1.0 if ior == 0.0 else ((ior - 1.0) / (ior + 1.0)) ** 2
+    return tuple(min(f0 * float(c), 1.0) * specular_factor for c in specular_color)
+
+
+def dielectric_row(m: Material) -> tuple[float, float, float, float]:
+    """(F0 rgb, F90) of ``m``'s glTF dielectric lobe, (0, 0, 0, -1) when it has none."""
+    if m.ior is None:
+        return (0.0, 0.0, 0.0, -1.0)
+    return (*dielectric_f0_ior(float(m.ior), m.specular_color, float(m.specular_factor)),
+            float(m.specular_factor))

@@ -31,6 +31,25 @@ PARITY_CASES = [
                envelope="dot with 16.5 (50 * 0.33 folds to 16.5 exactly): 3 products + 2 adds "
                         "of terms >= 0 in any order, 5 roundings per side -> 3.6e-7 rel; clamp "
                         "is 1-Lipschitz; f0 = 0 exact"),
+    # KHR_materials_ior / _specular: ior 0 (infinite), 1 (F0 = 0), glass, diamond, a huge one;
+    # colour factors above 1 (the spec allows them; the min clamps F0 at 1)
+    ParityCase("dielectric_f0_ior",
+               (Arg(lo=1.0, hi=3.0, adversarial=(0.0, 1.0, 1.5, 2.42, 1e6)),
+                Arg(lo=0.0, hi=4.0, components=3, adversarial=((1, 1, 1), (0, 0, 0),
+                                                                (100, 1, 0))),
+                Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0))),
+               atol=1e-7, rtol=1e-6, measured="exact on llvmpipe (seeds 0-7)",
+               envelope="((ior - 1) / (ior + 1))^2: 2 adds, a division (2.5 ulp), a square, then "
+                        "2 products: ~7 roundings per side -> 8e-7 rel; min is exact"),
+    ParityCase("surface_f0_f90",
+               (Arg(components=3), Arg(lo=-0.5, hi=1.5, adversarial=(0.0, 1.0)),
+                Arg(lo=0.0, hi=1.0, adversarial=(0.0, 0.5, 1.0)),
+                Arg(lo=-1.0, hi=1.0, components=4,
+                    adversarial=((0, 0, 0, -1), (0.04, 0.04, 0.04, 1), (0, 0, 0, 0), (1, 1, 1, 1)))),
+               atol=1e-7, rtol=1e-6, measured="max abs 1.2e-7 (seeds 0-7)",
+               envelope="either compute_f0 and f90_from_f0 (their envelopes: 6e-7 rel, 3.6e-7 "
+                        "rel) or two mixes of terms >= 0 (x(1-a)+ya or x+a(y-x): 5 roundings "
+                        "-> 6e-7 rel, the y-x form 2u abs); the branch on a < 0 is exact"),
     ParityCase("d_ggx", (_DOT, _ALPHA), atol=0.0, rtol=1e-5,
                measured="exact on llvmpipe (seeds 0-7); x87 path: max rel 3.7e-7",
                envelope="f = NoH^2 a2 + (1 - NoH)(1 + NoH), sums of terms >= 0 (~4 x 2^-24), f^2, "

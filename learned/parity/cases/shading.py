@@ -46,6 +46,8 @@ _UP = Arg(kind="hemisphere", components=3, adversarial=((0, 0, 1), (1, 0, 0)))
 
 
 _ALPHA_L = Arg(lo=0.0, hi=1.0, adversarial=(0.002025, 1.0))
+# f90: surface_f0_f90's (Filament's f90_from_f0, or KHR_materials_specular's factor), in [0, 1]
+_F90 = Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0))
 
 
 # Envelopes: u = 2^-24. "first-order on the draws": per-operation error bounds (GLSL 4.60
@@ -68,10 +70,11 @@ PARITY_CASES = [
                         "1.22e-4 abs (atol widened from 2e-6; heavy tail as n -> -v); "
                         "front-facing n inversesqrt(len2): ~10 x 2^-24"),
     ParityCase("ggx_split_sum",
-               (_nonneg3(), _nonneg3(), Arg(), _nonneg3(10.0), _nonneg3(100.0, ((1e5, 0, 65504),)),
+               (_nonneg3(), _nonneg3(), _F90, Arg(), _nonneg3(10.0),
+                _nonneg3(100.0, ((1e5, 0, 65504),)),
                 Arg(lo=0.0, hi=1.0, components=2), Arg(kind="int", lo=0, hi=1)),
                atol=4e-6, rtol=2e-6, measured="max rel 4.2e-7 (seeds 0-7)",
-               prepare=_fix_dfg_at(5),
+               prepare=_fix_dfg_at(6),
                envelope="1 - e_spec cancels as e_spec -> 1: e_spec (~8 roundings + 1/dfg.y at "
                         "2.5 ulp) ~20 x 2^-24 = 1.2e-6 of <= ~1, times diffuse E ao / pi <= "
                         "10/pi -> 3.8e-6 abs (atol widened from 1e-6; first-order on the draws "
@@ -83,9 +86,9 @@ PARITY_CASES = [
                         "vanishes; ~6 roundings per side of terms >= 0 -> 7e-7 rel"),
     # n anywhere, v and l anywhere on the sphere (n.l <= 0 gives 0); E up to the fp16 maximum
     ParityCase("ggx_directional_light",
-               (_nonneg3(), _nonneg3(), _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
+               (_nonneg3(), _nonneg3(), _F90, _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
                 Arg(kind="int", lo=0, hi=1), _UNIT, _UP, _UNIT, _nonneg3(10.0, ((1e5, 0, 65504),))),
-               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(3),
+               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(4),
                measured="max rel 7.0e-5 (seeds 0-7): at alpha 0.002 D_GGX turns 1-ulp differences "
                         "in n.h (inversesqrt, dot order) into ~1e-5 relative",
                envelope="dD/D = 4 dNoH / (a^2 + 2 (1 - NoH)); NoH = dot(n, normalize(v + l)) "
@@ -100,10 +103,10 @@ PARITY_CASES = [
                envelope="one division and one fma before the clamp: 2 ulp of values <= 1"),
     # the same with the specular weight w in [0, 1] (the environment's sun, viewer/environment/sun.py)
     ParityCase("ggx_environment_sun",
-               (_nonneg3(), _nonneg3(), _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
+               (_nonneg3(), _nonneg3(), _F90, _ALPHA_L, Arg(lo=0.0, hi=1.0, components=2),
                 Arg(kind="int", lo=0, hi=1), _UNIT, _UP, _UNIT, _nonneg3(10.0, ((1e5, 0, 65504),)),
                 Arg(lo=0.0, hi=1.0)),
-               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(3),
+               atol=1e-6, rtol=3.5e-3, prepare=_fix_dfg_at(4),
                measured="max rel 7.0e-5 (seeds 0-3), as ggx_directional_light (the same body)",
                envelope="as ggx_directional_light: D_GGX's sensitivity to n.h at small alpha; "
                         "w adds one rounding"),

@@ -2,7 +2,9 @@
 texture's sampler, texCoord and ``KHR_texture_transform``."""
 from __future__ import annotations
 
+import math
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -70,10 +72,12 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
                         metallic=float(np.clip(metallic, 0.0, 1.0)))
     textures: dict[str, np.ndarray] = {}
     sampling: dict[str, TextureSampling] = {}
+    ext = gm.extensions or {}
+    material, ext_slots = _dielectric(reader, index, material, ext)
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
              ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
-             ("emissive", gm.emissiveTexture)]
+             ("emissive", gm.emissiveTexture)] + ext_slots
     for key, info in slots:
         if info is None or info.index is None:
             continue
@@ -87,24 +91,101 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
                 reader.unavailable_warned.add(message)
                 warnings.warn(message, stacklevel=4)
             continue
-        textures[key] = _color_texture(img) if key in ("base_color", "emissive") else img
+        if key in ("base_color", "emissive", "specular_color"):
+            img = _color_texture(img)
+        elif key == "specular" and img.shape[2] < 4:  # glTF: no alpha channel reads as A = 1
+            img = np.concatenate([img, np.ones_like(img[:, :, :1])], axis=2)
+        textures[key] = img
         sampling[key] = _texture_sampling(reader, info, what)
     nt = gm.normalTexture
     normal_scale = 1.0 if nt is None or getattr(nt, "scale", None) is None else float(nt.scale)
     occ = gm.occlusionTexture
     strength = getattr(occ, "strength", None) if occ is not None else None
     emissive = np.asarray(gm.emissiveFactor if gm.emissiveFactor else [0, 0, 0], np.float64)
-    ext = gm.extensions or {}
     if "KHR_materials_emissive_strength" in ext:
-        emissive = emissive * float(ext["KHR_materials_emissive_strength"].get(
-            "emissiveStrength", 1.0))
+        emissive = emissive * _number(reader, index, ext["KHR_materials_emissive_strength"],
+                                      "emissiveStrength", 1.0, 0.0, math.inf)
     if emissive.shape != (3,) or not np.isfinite(emissive).all() or emissive.min() < 0:
         raise InputError(f"material {index}: emissive {emissive.tolist()} must be 3 finite "
                          f"numbers >= 0", where=reader.path)
     cutoff = 0.5 if gm.alphaCutoff is None else float(gm.alphaCutoff)
-    return {"material": material, "textures": textures, "sampling": sampling,
+    unlit = "KHR_materials_unlit" in ext
+    if unlit:
+        material, emissive = _unlit(material, base, textures, sampling)
+    return {"unlit": unlit, "material": material, "textures": textures, "sampling": sampling,
             "normal_scale": normal_scale,
             "occlusion_strength": 1.0 if strength is None else float(strength),
             "double_sided": bool(gm.doubleSided), "alpha_mode": gm.alphaMode or "OPAQUE",
             "alpha_cutoff": cutoff, "base_alpha": float(np.clip(base[3], 0.0, 1.0)),
             "emissive": tuple(float(c) for c in emissive)}
+
+
+def _unlit(material: Material, base, textures: dict, sampling: dict):
+    """``KHR_materials_unlit``: the base colour shown as is, as every lighting model shows it:
+    a black material (no diffuse, no specular lobe) emitting the base colour (factor times map;
+    the base-colour map stays for its alpha). Every other property is the extension's to ignore
+    (normal, occlusion, metallic-roughness and emissive maps are dropped)."""
+    for key in ("metallic_roughness", "normal", "occlusion", "emissive", "specular",
+                "specular_color"):
+        textures.pop(key, None)
+        sampling.pop(key, None)
+    if "base_color" in textures:
+        textures["emissive"] = np.ascontiguousarray(textures["base_color"][..., :3])
+        sampling["emissive"] = sampling["base_color"]
+    black = Material(albedo=(0.0, 0.0, 0.0), roughness=1.0, metallic=0.0, specular=0.0)
+    return black, np.asarray([float(np.clip(c, 0.0, 1.0)) for c in base[:3]], np.float64)
+
+
+def _number(reader: _GltfReader, index: int, table, key: str, default: float, lo: float,
+            hi: float) -> float:
+    """Extension property ``key`` of material ``index`` (``default`` when absent), a finite
+    number in [lo, hi]; anything else is one InputError naming the file."""
+    value = table.get(key, default) if isinstance(table, dict) else None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if isinstance(value, bool) or not (lo <= x <= hi) or not math.isfinite(x):
+        raise InputError(f"material {index}: {key} = {value!r} must be a number in "
+                         f"[{lo:g}, {hi:g}]", where=reader.path)
+    return x
+
+
+def _texture_info(reader: _GltfReader, index: int, info, what: str):
+    """An extension's textureInfo (a JSON object) as the attribute access of pygltflib's."""
+    if info is None:
+        return None
+    if not isinstance(info, dict) or not isinstance(info.get("index"), int) or \
+            not 0 <= info["index"] < len(reader.gltf.textures or ()):
+        raise InputError(f"material {index}: {what} {info!r} is not a textureInfo with a valid "
+                         f"index", where=reader.path)
+    return SimpleNamespace(index=info["index"], texCoord=info.get("texCoord", 0),
+                           extensions=info.get("extensions"))
+
+
+def _dielectric(reader: _GltfReader, index: int, material: Material, ext: dict):
+    """``KHR_materials_ior`` and ``KHR_materials_specular`` of material ``index``: the material
+    with its glTF dielectric lobe (``ior``, ``specular_color``, ``specular_factor``) and the
+    texture slots of the specular extension. Unchanged without either extension."""
+    if "KHR_materials_ior" not in ext and "KHR_materials_specular" not in ext:
+        return material, []
+    ior = _number(reader, index, ext.get("KHR_materials_ior", {}), "ior", 1.5, 0.0, math.inf)
+    if 0.0 < ior < 1.0:
+        raise InputError(f"material {index}: KHR_materials_ior ior = {ior:g} must be 0 "
+                         f"(infinite) or >= 1", where=reader.path)
+    spec = ext.get("KHR_materials_specular", {})
+    factor = _number(reader, index, spec, "specularFactor", 1.0, 0.0, 1.0)
+    color = spec.get("specularColorFactor", [1.0, 1.0, 1.0]) if isinstance(spec, dict) else None
+    if not isinstance(color, list) or len(color) != 3:
+        raise InputError(f"material {index}: specularColorFactor {color!r} must be 3 numbers "
+                         f">= 0", where=reader.path)
+    color = tuple(_number(reader, index, {"specularColorFactor": c}, "specularColorFactor", 1.0,
+                          0.0, math.inf) for c in color)
+    slots = [("specular", _texture_info(reader, index, spec.get("specularTexture"),
+                                        "specularTexture")),
+             ("specular_color", _texture_info(reader, index, spec.get("specularColorTexture"),
+                                              "specularColorTexture"))]
+    material = Material(albedo=material.albedo, roughness=material.roughness,
+                        metallic=material.metallic, ior=ior, specular_color=color,
+                        specular_factor=factor)
+    return material, slots

@@ -1,0 +1,83 @@
+"""Grids of spheres per glTF material extension, like the Khronos test models
+(``CompareIor``, ``CompareSpecular``, ``UnlitTest``): one UV sphere per material in a row along +x,
+built with :class:`gltf_builder.GltfBuilder`, and the scene that views them under the procedural
+sky (the camera on +z, the row filling the frame)."""
+import math
+
+import numpy as np
+from gltf_builder import GltfBuilder
+
+from viewer.scene.description import scene_from_dict
+
+RADIUS = 0.4
+SPACING = 1.25  # centre to centre: the neighbours hide little of each other's sky
+
+
+def uv_sphere(rings: int = 24, segments: int = 48):
+    """``(positions, normals, uvs, indices)`` of a unit UV sphere (float32, uint16)."""
+    theta = np.linspace(0.0, math.pi, rings + 1)
+    phi = np.linspace(0.0, 2.0 * math.pi, segments + 1)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    n = np.stack([np.sin(t) * np.cos(p), np.cos(t), -np.sin(t) * np.sin(p)], -1).reshape(-1, 3)
+    uv = np.stack([p / (2.0 * math.pi), t / math.pi], -1).reshape(-1, 2)
+    idx = []
+    for i in range(rings):
+        for j in range(segments):
+            a, b = i * (segments + 1) + j, (i + 1) * (segments + 1) + j
+            idx += [a, b, a + 1, a + 1, b, b + 1]
+    return (n.astype(np.float32), n.astype(np.float32), uv.astype(np.float32),
+            np.asarray(idx, np.uint16))
+
+
+def _place(k: int, count: int) -> tuple[float, float]:
+    """(x, y) of sphere k of ``count`` in the grid: rows of :func:`grid_columns`, top row first."""
+    cols = grid_columns(count)
+    rows = -(-count // cols)
+    return SPACING * (k % cols - (cols - 1) / 2.0), SPACING * ((rows - 1) / 2.0 - k // cols)
+
+
+def grid_columns(count: int) -> int:
+    return math.ceil(math.sqrt(count))
+
+
+def sphere_grid(path, materials: list[dict], extensions_used=()):
+    """A glTF file with one sphere of radius :data:`RADIUS` per material, in a square grid
+    (:func:`grid_columns` per row) of pitch :data:`SPACING` centred on the origin, z = 0."""
+    b = GltfBuilder()
+    pos, nrm, uv, idx = uv_sphere()
+    count = len(materials)
+    for k, m in enumerate(materials):
+        mat = b.material(**m)
+        attrs = {"POSITION": b.accessor(pos * RADIUS, minmax=True),
+                 "NORMAL": b.accessor(nrm), "TEXCOORD_0": b.accessor(uv)}
+        x, y = _place(k, count)
+        b.mesh(attrs, b.accessor(idx), mat, node={"translation": [x, y, 0.0]})
+    if extensions_used:
+        b.doc["extensionsUsed"] = list(extensions_used)
+    return b.save(path)
+
+
+def grid_scene(path, count: int, cell: int = 32, **render):
+    """The scene viewing a :func:`sphere_grid` of ``count`` spheres from +z, ``cell`` pixels per
+    grid cell (a narrow field of view: little perspective stretch); linear radiance, the sky's
+    sun extracted and shaded as a light (the split-sum's default)."""
+    cols = grid_columns(count)
+    rows = -(-count // cols)
+    fov_y = 20.0
+    distance = (SPACING * rows / 2.0) / math.tan(math.radians(fov_y / 2.0))
+    return scene_from_dict({
+        "camera": {"position": [0.0, 0.0, distance], "target": [0.0, 0.0, 0.0], "fov_y": fov_y,
+                   "size": [cell * cols, cell * rows]},
+        "environment": {"procedural": "sky", "width": 128, "sun_azimuth_deg": 40.0},
+        "render": {"multiscatter": False, "ao": False, "tonemap": "none",
+                   "background": "transparent", **render},
+        "objects": [{"type": "mesh", "path": str(path)}]})
+
+
+def sphere_masks(count: int, cell: int = 32) -> list[np.ndarray]:
+    """``[H, W]`` bool per sphere of :func:`grid_scene`: its own grid cell."""
+    cols = grid_columns(count)
+    rows = -(-count // cols)
+    r, c = np.meshgrid(np.arange(cell * rows) // cell, np.arange(cell * cols) // cell,
+                       indexing="ij")
+    return [(r == k // cols) & (c == k % cols) for k in range(count)]

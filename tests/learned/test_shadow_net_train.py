@@ -26,7 +26,7 @@ def one_thread():
 
 
 def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ctx, one_thread):
-    """30 steps lower the loss over the training images (measured: 0.166 -> 0.153)."""
+    """30 steps lower the training loss over the training images (measured: 0.080 -> 0.047)."""
     from viewer.renderer import Renderer
 
     cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=30, batch=3,
@@ -40,10 +40,11 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
         r.release()
     torch.manual_seed(cfg.seed)
     with torch.no_grad():
-        before = float(loss(ShadowNet(cfg.architecture), images))
-        after = float(loss(load_shadow_net(res["shadow_net"]), images))
+        before = float(loss(ShadowNet(cfg.architecture), images, cfg.visibility_target, cfg.loss))
+        after = float(loss(load_shadow_net(res["shadow_net"]), images, cfg.visibility_target,
+                           cfg.loss))
     print(before, after)
-    assert len(losses) == 30 and after < 0.97 * before, (before, after)
+    assert len(losses) == 30 and after < 0.9 * before, (before, after)
     net = read_shadow_net(res["shadow_net"])
     assert len(net.training["dataset_hash"]) == 64 and net.training["steps"] == 30
     assert set(net.training["val_psnr"]) == {"with", "without"}

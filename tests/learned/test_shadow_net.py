@@ -79,7 +79,8 @@ def test_saved_weights_load_back_in_torch_and_in_the_viewer(tmp_path):
     # an untrained estimator starts near "no shadow": sigmoid(3) = 0.953, give or take its small
     # output weights
     x = [torch.rand(1, c, 20, 24) for c in (3, 1, 3, 1)]
-    v = model.visibility(*x)
+    with torch.no_grad():
+        v = model.visibility(*x)
     assert float(v.min()) > 0.9 and float(v.max()) < 0.99 and abs(float(v.mean()) - 0.953) < 0.02
 
 
@@ -149,9 +150,33 @@ def test_the_pass_runs_only_with_the_setting(tmp_path):
         assert not any(r.startswith("shadow_net/") for r in plain.resources)
         with_net = renderer.graph(scene.with_render(shadow_net=str(path)))
         names = [p.name for p in with_net.passes]
-        assert "ssao" in names and names.index("shadow_net") == names.index("shade") + 1
+        layers = [f"shadow_net:{layer.name}" for layer in plan(DEFAULT_ARCHITECTURE)[:-1]]
+        start = names.index("shade") + 1
+        assert "ssao" in names and names[start:start + len(layers) + 1] == layers + ["shadow_net"]
         maps = sorted(r for r in with_net.resources if r.startswith("shadow_net/"))
-        assert len(maps) == len(plan(DEFAULT_ARCHITECTURE)) - 1
+        assert len(maps) == len(layers)
         assert not any(with_net.resources[m].kept for m in maps)
     finally:
         renderer.release()
+
+
+def test_an_unchanged_frame_reuses_the_estimator_and_the_lighting(tmp_path):
+    """Drawn once, an exposure change redraws tone mapping only: the estimator's layers write
+    transient maps, which the graph skips when the product they lead to is reused (one pass
+    writing maps and the radiance would redraw the lighting every frame)."""
+    from viewer.renderer import Renderer
+    from viewer.scene.description import scene_from_dict
+
+    path = check_module.parity_weights(tmp_path)
+    doc = {**check_module.PARITY_SCENE, "camera": {**check_module.PARITY_SCENE["camera"],
+                                                   "size": [32, 24]}}
+    scene = scene_from_dict(doc).with_render(model="ggx_split_sum", shadow_net=str(path))
+    renderer = Renderer()
+    try:
+        renderer.draw(scene)
+        status = {p["name"]: p["status"] for p in
+                  renderer.graph(scene.with_render(exposure=1.0)).describe()["passes"]}
+    finally:
+        renderer.release()
+    drawn = sorted(name for name, st in status.items() if st != "reused")
+    assert "shadow_net" in status and drawn == ["fxaa", "tonemap"], status

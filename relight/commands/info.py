@@ -1,5 +1,6 @@
 """``relight info``: the OpenGL context's renderer, version, limits and extensions; with
-``--weights``, where neural-shader weights files come from (:func:`weights_provenance`)."""
+``--weights``, where neural-shader and shadow-estimator weights files come from
+(:func:`weights_provenance`)."""
 from __future__ import annotations
 
 import json
@@ -19,11 +20,23 @@ def weights_provenance(path) -> dict:
     hash and validation / test scores recorded in its metadata (``training``) or in the JSON
     beside it (``<file>.json``, which wins: test scores are added after a file is written)."""
     from viewer.neural import load_network
+    from viewer.neural.shadow_net import (
+        FORMAT,
+        file_format,
+        read_shadow_net,
+        receptive_field,
+    )
 
     path = Path(path)
-    net = load_network(path)
+    if file_format(path) == FORMAT:  # the neural shadow estimator ([render] shadow_net)
+        net = read_shadow_net(path)
+        out = {"file": str(path), "kind": "shadow_net", "checkpoint": net.checkpoint,
+               "architecture": net.architecture,
+               "receptive_field_px": receptive_field(net.architecture)}
+    else:
+        net = load_network(path)
+        out = {"file": str(path), "kind": net.kind, "checkpoint": net.checkpoint}
     training = dict(net.training or {})
-    out = {"file": str(path), "kind": net.kind, "checkpoint": net.checkpoint}
     scores = training.get("scores", {})
     for key in PROVENANCE:
         if key in training:

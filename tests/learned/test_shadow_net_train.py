@@ -25,7 +25,8 @@ def one_thread():
     torch.set_num_threads(n)
 
 
-def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ctx, one_thread):
+def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ctx, one_thread,
+                                                           capsys):
     """30 steps lower the training loss over the training images (measured: 0.080 -> 0.047)."""
     from viewer.renderer import Renderer
 
@@ -43,7 +44,6 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
         before = float(loss(ShadowNet(cfg.architecture), images, cfg.visibility_target, cfg.loss))
         after = float(loss(load_shadow_net(res["shadow_net"]), images, cfg.visibility_target,
                            cfg.loss))
-    print(before, after)
     assert len(losses) == 30 and after < 0.9 * before, (before, after)
     net = read_shadow_net(res["shadow_net"])
     assert len(net.training["dataset_hash"]) == 64 and net.training["steps"] == 30
@@ -52,6 +52,16 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
     more = train_shadow_net(ShadowNetTrainConfig(**{**cfg.__dict__, "steps": 34}), quiet=True)
     assert len(more["losses"]) == 34 and more["losses"][:30] == losses
     assert "resuming at step 30/34" in (tmp_path / "run" / "train.log").read_text()
+    # relight info --weights tells where the file came from
+    import json
+
+    from relight.cli import main
+
+    capsys.readouterr()
+    assert main(["info", "--weights", res["shadow_net"], "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["kind"] == "shadow_net" and row["receptive_field_px"] == 220
+    assert row["dataset_hash"] == net.training["dataset_hash"] and "val_psnr" in row
 
 
 def test_the_inputs_are_the_frames_with_the_targets_in_its_row_order(dataset, ctx):

@@ -296,3 +296,13 @@ def load_shadow_net(path: str | os.PathLike) -> ShadowNetFile:
             _LOADED.pop(next(iter(_LOADED)))
         _LOADED[key] = net
     return net
+
+
+def file_format(path: str | os.PathLike) -> str | None:
+    """The ``format`` metadata of a safetensors file, or None where it cannot be read (the
+    reader of its format then says why): which reader a weights file needs."""
+    try:
+        with safe_open(str(path), framework="numpy") as f:
+            return (f.metadata() or {}).get("format")
+    except (SafetensorError, OSError, ValueError, MemoryError):
+        return None

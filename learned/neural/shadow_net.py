@@ -1,6 +1,6 @@
 """The neural shadow estimator as the viewer runs it (thesis eq. 4.3, redesigned for real time):
 
-    V = f_eta(L_unshadowed, O(x), n, z)        a 5-level U-Net, first op at half resolution
+    V = f_eta(L_unshadowed, O(x), n, z, S(x))  a 5-level U-Net, first op at half resolution
     L = L_unshadowed (.) V                     on the surfaces, per colour
 
 The layers are :func:`viewer.neural.shadow_net.plan`'s and the arithmetic is the twins'
@@ -60,18 +60,21 @@ class ShadowNet(nn.Module):
     def params(self) -> dict:
         return {name: (self.weights[name], self.biases[name]) for name in self.weights}
 
-    def visibility(self, radiance, ao, normal, depth, keep: dict | None = None) -> torch.Tensor:
+    def visibility(self, radiance, ao, normal, depth, vis, keep: dict | None = None
+                   ) -> torch.Tensor:
         """``[B, 3|4, H, W]`` unshadowed radiance, ``[B, 1, H, W]`` O(x), ``[B, 3, H, W]``
-        normals, ``[B, 1, H, W]`` view depth -> visibility ``[B, 3, H, W]`` in (0, 1)."""
-        return shadow_net(shadow_net_inputs(radiance, ao, normal, depth), self.layers,
+        normals, ``[B, 1, H, W]`` view depth, ``[B, 1, H, W]`` S(x) -> visibility
+        ``[B, 3, H, W]`` in (0, 1)."""
+        return shadow_net(shadow_net_inputs(radiance, ao, normal, depth, vis), self.layers,
                           self.params(), keep)
 
-    def forward(self, radiance, ao, normal, depth, surface) -> torch.Tensor:
+    def forward(self, radiance, ao, normal, depth, vis, surface) -> torch.Tensor:
         """The shaded radiance ``[B, 4, H, W]``: rgb times the visibility where ``surface``
         ``[B, 1, H, W]`` (bool) holds."""
         if radiance.shape[1] == 3:
             radiance = torch.cat([radiance, torch.ones_like(radiance[:, :1])], 1)
-        return shadow_net_apply(radiance, self.visibility(radiance, ao, normal, depth), surface)
+        return shadow_net_apply(radiance, self.visibility(radiance, ao, normal, depth, vis),
+                                surface)
 
     def tensors(self) -> dict[str, np.ndarray]:
         """The file's tensors, ``<layer>.weight`` / ``<layer>.bias`` float32."""

@@ -4,8 +4,8 @@ against a dataset's own targets - path-traced truth for a traced dataset (``reli
 
 Its inputs are what the frame gives it: each sample's G-buffer drawn by the viewer with ``model``
 (``ggx_split_sum`` by default) and SSAO, exactly as a frame with ``[render] shadow_net`` is drawn
-before the estimator's pass (:func:`shadow_net_images`: the radiance, SSAO's occlusion, normals and
-depth read back from GL). The loss (``loss``) is the squared (``l2``, the default) or absolute
+before the estimator's pass (:func:`shadow_net_images`: the radiance, SSAO's occlusion O(x) and
+visibility of the environment's light S(x), normals and depth read back from GL). The loss (``loss``) is the squared (``l2``, the default) or absolute
 (``l1``) difference of log(1 + x) between the product (radiance x visibility on the surfaces)
 and the target over the surface pixels; with ``visibility_target`` (the default) the target is
 clamped to the unshadowed radiance, min(target, radiance) per colour: a visibility can only take
@@ -68,7 +68,7 @@ class ShadowNetImage:
 
     name: str
     radiance: torch.Tensor  # [1, 4, H, W] the unshadowed frame (alpha: coverage)
-    inputs: torch.Tensor    # [1, 8, H, W] learned.twins.shadow_net.shadow_net_inputs
+    inputs: torch.Tensor    # [1, 9, H, W] learned.twins.shadow_net.shadow_net_inputs
     surface: torch.Tensor   # [1, 1, H, W] bool
     target: torch.Tensor    # [1, 3, H, W] the dataset's target (truth for traced data)
 
@@ -79,8 +79,9 @@ def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_s
     out = []
     for folder in list_samples(root, split)[:limit]:
         sample = load_sample(folder)
-        targets = renderer.draw(sample_scene(sample, model=model, ssao=True))
-        radiance, inputs, surface = frame_inputs(targets)
+        scene = sample_scene(sample, model=model, ssao=True)
+        targets = renderer.draw(scene)
+        radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
         target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order
         out.append(ShadowNetImage(sample.name, radiance, inputs, surface,
                                   target.permute(2, 0, 1)[None].float()))

@@ -28,6 +28,12 @@ def shadow_net_input_b(normal: torch.Tensor, depth: torch.Tensor) -> torch.Tenso
     return torch.cat([normal, inv[..., None]], -1)
 
 
+def shadow_net_input_c(visibility: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec4 shadow_net_input_c(float visibility)``: S(x) and three zeros."""
+    z = torch.zeros_like(visibility)
+    return torch.stack([visibility, z, z, z], -1)
+
+
 def shadow_net_act(x: torch.Tensor, kind: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec4 shadow_net_act(vec4 x, int kind)``: relu (0) or sigmoid (1); ``kind``
     ``[...]`` (or a Python int). torch's sigmoid is 1 / (1 + exp(-x)) to rounding and has a
@@ -112,18 +118,22 @@ def shadow_net_conv(a: torch.Tensor, b: torch.Tensor | None, weight: torch.Tenso
 
 
 def shadow_net_inputs(radiance: torch.Tensor, ao: torch.Tensor, normal: torch.Tensor,
-                      depth: torch.Tensor) -> torch.Tensor:
-    """The frame's inputs ``[B, 8, H, W]`` from ``[B, 3 | 4, H, W]`` radiance, ``[B, 1, H, W]``
-    occlusion, ``[B, 3, H, W]`` normals, ``[B, 1, H, W]`` view depth (SN_*_SOURCE 4)."""
-    last = lambda t: t.movedim(1, -1)
+                      depth: torch.Tensor, vis: torch.Tensor) -> torch.Tensor:
+    """The frame's inputs ``[B, 9, H, W]`` from ``[B, 3 | 4, H, W]`` radiance, ``[B, 1, H, W]``
+    occlusion O(x), ``[B, 3, H, W]`` normals, ``[B, 1, H, W]`` view depth and ``[B, 1, H, W]``
+    visibility of the environment's light S(x) (SN_*_SOURCE 4)."""
+    def last(t):
+        return t.movedim(1, -1)
+
     a = shadow_net_input_a(last(radiance[:, :3]), last(ao)[..., 0])
     b = shadow_net_input_b(last(normal), last(depth)[..., 0])
-    return torch.cat([a, b], -1).movedim(-1, 1)
+    c = shadow_net_input_c(last(vis)[..., 0])[..., :1]
+    return torch.cat([a, b, c], -1).movedim(-1, 1)
 
 
 def shadow_net(inputs: torch.Tensor, layers: list[dict], params: dict,
                keep: dict | None = None) -> torch.Tensor:
-    """The whole estimator: ``inputs`` ``[B, 8, H, W]`` (:func:`shadow_net_inputs`) through
+    """The whole estimator: ``inputs`` ``[B, 9, H, W]`` (:func:`shadow_net_inputs`) through
     ``layers`` in order -> the visibility ``[B, 3, H, W]``; ``params``: name -> (weight, bias);
     ``keep``: filled with every layer's output by name."""
     maps = {"input": inputs}

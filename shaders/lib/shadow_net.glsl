@@ -16,6 +16,12 @@ vec4 shadow_net_input_b(vec3 normal, float depth) {
     return vec4(normal, depth > 0.0 ? 1.0 / (1.0 + depth) : 0.0);
 }
 
+// The last: the SSAO pass's screen-space visibility of the environment's light S(x)
+// (SSAO_ENV_VIS), the directional evidence of cast shadows that O(x) averages away.
+vec4 shadow_net_input_c(float visibility) {
+    return vec4(visibility, 0.0, 0.0, 0.0);
+}
+
 // kind 0: relu; 1: the logistic sigmoid, 1 / (1 + exp(-x)).
 vec4 shadow_net_act(vec4 x, int kind) {
     if (kind == 1) {

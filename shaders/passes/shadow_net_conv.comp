@@ -6,7 +6,8 @@
 //   SN_KERNEL 1 | 2 | 3, SN_STRIDE 1 | 2 (2: the 2 x 2 taps at 2p), replicate padding
 //   SN_A_SOURCE / SN_B_SOURCE: 0 none, 1 a map at the output's level, 2 a map at half the
 //     output's resolution upsampled nearest, 3 the same bilinear (1 x 1 kernels only), 4 the
-//     frame's inputs (radiance, G-buffer, SSAO: lib/shadow_net.glsl shadow_net_input_a / _b)
+//     frame's inputs (radiance, G-buffer, SSAO's O(x) and S(x): lib/shadow_net.glsl
+//     shadow_net_input_a / _b / _c)
 //   SN_A_SLICES, SN_B_SLICES, SN_OUT_SLICES: RGBA texels per pixel of each
 //   SN_ACT 0 relu | 1 sigmoid; SN_WEIGHTS: vec4s of the weights
 //   SN_OUTPUT 0: the result into the tiled map u_out; 1: the visibility (3 channels) multiplied
@@ -26,7 +27,7 @@ uniform ivec2 u_b_size;
 uniform ivec2 u_out_size;  // the output's level size
 uniform ivec2 u_frame_size;
 uniform sampler2D u_radiance;  // the unshadowed radiance (SN_OUTPUT 0 with a frame source)
-uniform sampler2D u_ssao;      // r: O(x)
+uniform sampler2D u_ssao;      // r: O(x), g: S(x) (SSAO_ENV_VIS)
 layout(rgba32f) uniform image2D u_out;
 
 #define SN_IN_SLICES (SN_A_SLICES + SN_B_SLICES)
@@ -43,6 +44,9 @@ vec4 frame_input(ivec2 q, int s) {
     q = clamp(q, ivec2(0), u_frame_size - 1);
     if (s == 0) {
         return shadow_net_input_a(frame_radiance(q).rgb, texelFetch(u_ssao, q, 0).r);
+    }
+    if (s == 2) {
+        return shadow_net_input_c(texelFetch(u_ssao, q, 0).g);
     }
     GBuffer g = gbuffer_load(q);
     return shadow_net_input_b(g.normal, g.depth);

@@ -57,7 +57,7 @@ def test_the_receptive_field_covers_a_100_px_penumbra():
     with torch.no_grad():
         model.weights["out"].normal_(0.0, 0.5)
     n = 288
-    x = [torch.rand(1, c, n, n, requires_grad=True) for c in (3, 1, 3, 1)]
+    x = [torch.rand(1, c, n, n, requires_grad=True) for c in (3, 1, 3, 1, 1)]
     model.visibility(*x)[0, :, n // 2, n // 2].sum().backward()
     reach = sum(t.grad.abs().sum(dim=(0, 1)) for t in x) > 0
     cols = torch.nonzero(reach.any(0))[:, 0]
@@ -78,7 +78,7 @@ def test_saved_weights_load_back_in_torch_and_in_the_viewer(tmp_path):
         assert torch.equal(again.weights[name], model.weights[name])
     # an untrained estimator starts near "no shadow": sigmoid(3) = 0.953, give or take its small
     # output weights
-    x = [torch.rand(1, c, 20, 24) for c in (3, 1, 3, 1)]
+    x = [torch.rand(1, c, 20, 24) for c in (3, 1, 3, 1, 1)]
     with torch.no_grad():
         v = model.visibility(*x)
     assert float(v.min()) > 0.9 and float(v.max()) < 0.99 and abs(float(v.mean()) - 0.953) < 0.02

@@ -75,7 +75,7 @@ def test_the_inputs_are_the_frames_with_the_targets_in_its_row_order(dataset, ct
     finally:
         r.release()
     for img in images:
-        assert img.inputs.shape[1] == 8 and img.surface.any()
+        assert img.inputs.shape[1] == 9 and img.surface.any()
         m = img.surface.expand(-1, 3, -1, -1)
         same = (img.radiance[:, :3] - img.target).abs()[m].mean()
         flipped = (img.radiance[:, :3] - img.target.flip(-2)).abs()[m].mean()

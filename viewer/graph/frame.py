@@ -20,7 +20,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from ..models import ShadingModel, model_info
-from ..neural import learns_indirect, reads_visibility
+from ..neural import learns_indirect, needs_env_visibility
 from ..passes.forward import forward_model, forward_variant, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ground import scene_catcher
@@ -69,7 +69,8 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
 
     _gbuffer_passes(g, renderer, scene, spec, camera)
     rt = bool(spec.variant.defines.get("RT_LIGHT"))  # rays stand in for SSAO and its bounce
-    ssao = _ssao_passes(g, renderer, scene, spec, camera, visibility=reads_visibility(settings),
+    ssao = _ssao_passes(g, renderer, scene, spec, camera,
+                        visibility=needs_env_visibility(settings),
                         record_hits=settings.ssao.indirect,
                         blur=settings.ssao.blur) if settings.ssao.enabled and not rt else None
     blended = [] if spec.direct_stack else renderer.blended(scene)

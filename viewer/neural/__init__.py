@@ -34,7 +34,8 @@ from .format import (FORMAT, FORMAT_VERSION, KINDS, MODEL_KINDS, TENSOR_PARTS, N
 from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_TEXTURE_WIDTH,
                    NetworkCode, generate_glsl)
 from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
-from .network import (Network, learns_indirect, load_network, model_network, reads_visibility,
+from .network import (Network, learns_indirect, load_network, model_network, needs_env_visibility,
+                      reads_visibility,
                       required_settings, shades_sun, virtual_files)
 from .upload import NeuralWeights
 
@@ -50,7 +51,8 @@ __all__ = [
     # kernels
     "STUDENT_KERNEL", "STUDENT_KERNEL_ENTRY", "STUDENT_KERNEL_GROUP", "mlp_kernel",
     # network
-    "Network", "learns_indirect", "load_network", "model_network", "reads_visibility", "required_settings",
+    "Network", "learns_indirect", "load_network", "model_network", "needs_env_visibility",
+    "reads_visibility", "required_settings",
     "shades_sun", "virtual_files",
     # upload
     "NeuralWeights",

@@ -94,6 +94,13 @@ def reads_visibility(settings) -> bool:
         "vis" in STUDENT_FEATURES.get(found[0].features, ())
 
 
+def needs_env_visibility(settings) -> bool:
+    """Whether the frame's SSAO pass writes S(x) (``SSAO_ENV_VIS``): for a student that reads it
+    (:func:`reads_visibility`) or the neural shadow estimator (``[render] shadow_net``), which
+    takes it as an input."""
+    return reads_visibility(settings) or settings.neural.shadow_net is not None
+
+
 def learns_indirect(settings) -> bool:
     """Whether the lighting pass of ``settings.model`` is a student with a learned factor on the
     screen-space indirect light (architecture ``"indirect": "factor"``): it writes the factor to a

@@ -2,7 +2,7 @@
 
 The estimator (thesis eq. 4.3, redesigned for the viewer) is a U-Net over the frame:
 
-    x0 = [log(1 + L_unshadowed), O(x), n, 1 / (1 + z)]          8 channels, full resolution
+    x0 = [log(1 + L_unshadowed), O(x), n, 1 / (1 + z), S(x)]    9 channels, full resolution
     e_l = relu(conv3(relu(conv2/2(e_{l-1}))))                    l = 1..L at 1 / 2^l
     d_l = relu(conv_k([up(d_{l+1}), e_l]))                       l = L-1..1 (d_L = e_L), k = 3
                                                                  (1 at l = 1), nearest up
@@ -37,7 +37,9 @@ from .format import WeightsError, checkpoint_hash
 
 FORMAT = "relight-shadow-net"
 FORMAT_VERSION = "1"
-INPUT_CHANNELS = 8  # lib/shadow_net.glsl shadow_net_input_a (4) and shadow_net_input_b (4)
+# lib/shadow_net.glsl shadow_net_input_a (4), shadow_net_input_b (4) and shadow_net_input_c (1):
+# S(x) is the SSAO pass's visibility of the environment's light (SSAO_ENV_VIS)
+INPUT_CHANNELS = 9
 LEVELS_RANGE = (1, 7)
 WIDTH_MAX = 64
 UBO_VEC4_MAX = 4096  # 64 KiB: GL_MAX_UNIFORM_BLOCK_SIZE on llvmpipe and most GPUs

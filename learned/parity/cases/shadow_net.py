@@ -27,6 +27,8 @@ PARITY_CASES = [
                 Arg(lo=-1.0, hi=100.0, adversarial=(0.0, -0.5, 1e-7, 1e6))),
                atol=0.0, rtol=3e-7, measured="exact (seeds 0-3)",
                envelope="one division (2.5 ulp)"),
+    ParityCase("shadow_net_input_c", (Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0)),),
+               atol=0.0, rtol=0.0, measured="exact", envelope="a copy"),
     ParityCase("shadow_net_act",
                (Arg(lo=-30.0, hi=30.0, components=4, adversarial=((0.0, -0.0, 88.0, -88.0),)),
                 Arg(kind="int", lo=0, hi=1, adversarial=(0.0, 1.0))),

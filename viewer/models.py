@@ -184,13 +184,22 @@ def contact_shadows(settings, stacks: bool) -> bool:
     return mode == "on" or (mode == "auto" and stacks)
 
 
+CLEARCOAT_MODELS = frozenset({"ggx_split_sum", "ggx_mc", "path"})  # shade KHR_materials_clearcoat's coat
+
+
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
     """``(lobe, warning)`` for each glTF extension lobe the scene's G-buffer ``layout`` carries
     that ``model`` does not shade: the neural models (student and teacher) read Filament's
     specular reflectance only, so they ignore the dielectric lobe of KHR_materials_ior /
-    KHR_materials_specular (its ``dielectric`` channel)."""
-    if model.network is None or not layout.with_dielectric:
-        return []
-    return [("dielectric", f"model {model.name!r} ignores the KHR_materials_ior / "
-                           f"KHR_materials_specular dielectric lobe (it reads Filament's specular "
-                           f"reflectance: f0 = 0.04 for those materials)")]
+    KHR_materials_specular (its ``dielectric`` channel); the coat of KHR_materials_clearcoat is
+    shaded by :data:`CLEARCOAT_MODELS` only (``unlit`` shows no light at all)."""
+    out = []
+    if model.network is not None and layout.with_dielectric:
+        out.append(("dielectric", f"model {model.name!r} ignores the KHR_materials_ior / "
+                                  f"KHR_materials_specular dielectric lobe (it reads Filament's "
+                                  f"specular reflectance: f0 = 0.04 for those materials)"))
+    if layout.with_clearcoat and model.name not in CLEARCOAT_MODELS | {"unlit"}:
+        out.append(("clearcoat", f"model {model.name!r} ignores the KHR_materials_clearcoat "
+                                 f"coat (shaded by {', '.join(sorted(CLEARCOAT_MODELS))}); the "
+                                 f"base is shown uncoated"))
+    return out

@@ -205,7 +205,8 @@ class Renderer:
                        f"blinn_phong); rendered without them")
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
-        for lobe, message in ignored_lobes(model, spec.layout):
+        for lobe, message in ignored_lobes(model, self.specialization(  # what the scene has
+                scene.with_render(specialize=True), aovs).layout):
             _warn_once(f"{lobe}:{settings.model}", message)
         check_frame_size(self.ctx, scene, camera, spec.layout, ssaa_factor(scene),
                          "--size" if size else None)

@@ -36,6 +36,7 @@ class SceneFeatures:
     # some opaque mesh has the glTF dielectric lobe (KHR_materials_ior / _specular): the
     # G-buffer's dielectric channel
     dielectric: bool = False
+    clearcoat: bool = False  # some opaque mesh has a KHR_materials_clearcoat coat (factor > 0)
 
 
 @dataclass(frozen=True)
@@ -63,7 +64,8 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
     if metal and "metallic_roughness" in tex:
         metal = float(np.max(tex["metallic_roughness"][..., 2])) > 0.0
     # the glTF lobe (Material.ior) has F90 = specular_factor: a lobe wherever that is > 0
-    specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal
+    specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal \
+        or m.clearcoat > 0.0  # a coat is a specular lobe
     ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
                         and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
     return specular, ao
@@ -72,7 +74,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
 def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
-    specular = ao = emission = blend = dielectric = False
+    specular = ao = emission = blend = dielectric = clearcoat = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -92,6 +94,8 @@ def analyse(renderer, scene) -> SceneFeatures:
         else:
             meshes = True
             for mesh in content:
+                # the forward pass's programs take the coat's define from the layout
+                clearcoat = clearcoat or mesh.material.clearcoat > 0.0
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -105,11 +109,12 @@ def analyse(renderer, scene) -> SceneFeatures:
         constant = True
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
-                         emission=emission, blend=blend, dielectric=dielectric)
+                         emission=emission, blend=blend, dielectric=dielectric,
+                         clearcoat=clearcoat)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
-_OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission, dielectric
+_OPTIONAL = frozenset(c.name for c in CHANNELS if c.optional)  # color, emission, dielectric..
 
 
 def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool = True,
@@ -133,7 +138,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         settings = replace(settings, shadow=replace(settings.shadow, enabled=False))
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
-                                            with_dielectric=True),
+                                            with_dielectric=True, with_clearcoat=True),
                               model.variant(settings, light, specular=True, sun=sun,
                                             contact=contact))
     # models that do not say what they read get every channel (sampling, neural, future ones)
@@ -166,7 +171,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         features.single_object and dtype == "f4"
     return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
                                         with_emission=features.emission,
-                                        with_dielectric=features.dielectric),
+                                        with_dielectric=features.dielectric,
+                                        with_clearcoat=features.clearcoat),
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

@@ -224,8 +224,8 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
     roughness, metallic, depth); coverage [P]; ``median`` [P] (:func:`median_depth`) replaces the
     expected depth as with ``SPLAT_DEPTH_MEDIAN``."""
     h, w = size_hw
-    layout = GBufferLayout(with_color=True, with_emission=True,
-                           with_dielectric=True)  # every channel GL reads back
+    layout = GBufferLayout(with_color=True, with_emission=True, with_dielectric=True,
+                           with_clearcoat=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
     base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
                                      for k in bg}
@@ -252,6 +252,9 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
             base["dielectric"][:, 3:] >= 0.0,
             (coverage[:, None] * torch.tensor([0.04, 0.04, 0.04, 1.0]) + wu * base["dielectric"])
             / safe, base["dielectric"]),
+        # splats have no coat: its factor blends to 0 over them (roughness, normal: underneath)
+        "clearcoat": torch.cat([wu * base["clearcoat"][:, :1] / safe, base["clearcoat"][:, 1:]],
+                               -1),
     }
     if median is not None:
         on_splat = (coverage >= splat_median_target(coverage, base["alpha"][:, 0])) & (median < 1e30)

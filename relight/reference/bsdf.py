@@ -19,6 +19,9 @@ compensation c_ms = 1 + f0 (1 / y - 1) (1 without ``multiscatter``), where (x, y
 The DFG terms come from :func:`directional_albedo_table`, a float64 quadrature of the same
 integral the renderer's LUT estimates with 4096 Hammersley samples (the two agree to 0.4 %).
 
+A ``KHR_materials_clearcoat`` coat is layered over this as :mod:`relight.reference.layers` says
+(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl).
+
 Not modelled here, on purpose: the material's ``ao`` and glTF occlusion maps (baked visibility:
 the path tracer computes visibility itself), and the rasteriser's bending of back-facing shading
 normals towards the viewer (``shading_normal``): a path tracer sees no such normals on the
@@ -30,6 +33,8 @@ import functools
 import math
 
 import numpy as np
+
+from .layers import coat_eval, coat_pdf, coat_state
 
 MIN_PERCEPTUAL_ROUGHNESS = 0.045  # shaders/lib/brdf.glsl
 DFG_TABLE_SIZE = 65
@@ -151,6 +156,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.material = None
             self.specular_texture = None
             self.specular_color_texture = None
+            self.clearcoat_texture = self.clearcoat_roughness_texture = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -166,6 +172,8 @@ def _bsdf_class(mi, dr, variant: str):
             self.material = material  # its glTF dielectric lobe (ior, specular colour, factor)
             self.specular_texture = textures.get("specular")  # the map's A, in all three
             self.specular_color_texture = textures.get("specular_color")
+            self.clearcoat_texture = textures.get("clearcoat")  # R (KHR_materials_clearcoat)
+            self.clearcoat_roughness_texture = textures.get("clearcoat_roughness")  # G
             table = directional_albedo_table()
             self.dfg = mi.Texture2f(mi.TensorXf(table), use_accel=False,
                                     filter_mode=dr.FilterMode.Linear,
@@ -225,8 +233,15 @@ def _bsdf_class(mi, dr, variant: str):
             p_spec = dr.select(ls + ld > 0.0, ls / dr.maximum(ls + ld, 1e-12), 1.0)
             # keep both lobes reachable when both carry energy (unbiased either way)
             p_spec = dr.select((ld > 0.0) & (ls > 0.0), dr.clip(p_spec, 0.05, 0.95), p_spec)
+            coat = coat_state(mi, dr, self, si, self.dfg, DFG_TABLE_SIZE)
+            if coat is not None:  # lobe choice: the coat by its albedo against the base's
+                base = (1.0 - coat["w"]) * (ls + ld)
+                coat["p"] = dr.select(coat["albedo"] + base > 0.0, coat["albedo"]
+                                      / dr.maximum(coat["albedo"] + base, 1e-12), 0.0)
+                coat["p"] = dr.select((coat["albedo"] > 0.0) & (base > 0.0),
+                                      dr.clip(coat["p"], 0.05, 0.95), coat["p"])
             return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
-                        frame=frame)
+                        frame=frame, coat=coat)
 
         def _fresnel(self, si, albedo, metal):
             """f0 and f90 at the hit: lib/brdf.glsl ``surface_f0_f90`` (module docstring)."""
@@ -297,19 +312,40 @@ def _bsdf_class(mi, dr, variant: str):
         # mapped one is *not* rejected (Mitsuba's normalmap adapter rejects it): the rasteriser's
         # models take light from the whole mapped hemisphere, and whether such light is blocked
         # is left to the traced geometry (a closed mesh blocks it, a thin sheet does not).
+        def _layered(self, s, si, wo_local, distr):
+            """(f cos, pdf) of the whole material for ``wo`` in si.sh_frame's coordinates: the
+            base (in the mapped frame) and, with a coat, (1 - w) of it plus the coat
+            (relight.reference.layers)."""
+            wm = self._to_mapped(s, wo_local)
+            value, pdf = self._eval(s, si, wm), self._pdf(s, si, wm, distr)
+            c = s["coat"]
+            if c is None:
+                return value, pdf
+            return ((1.0 - c["w"]) * value + coat_eval(mi, dr, c, si.wi, wo_local),
+                    c["p"] * coat_pdf(mi, dr, c, si.wi, wo_local) + (1.0 - c["p"]) * pdf)
+
         def sample(self, ctx, si, sample1, sample2, active=True):
             s = self._surface(si)
             wi = s["wi"]
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
+            c = s["coat"]
+            on_coat = mi.Bool(False)
+            if c is not None:  # the coat first, the rest of sample1 chooses the base's lobe
+                on_coat = sample1 < c["p"]
+                sample1 = dr.select(on_coat, 0.0, (sample1 - c["p"])
+                                    / dr.maximum(1.0 - c["p"], 1e-12))
             spec = sample1 < s["p_spec"]
             m, _ = distr.sample(wi, sample2)
             wo_spec = mi.reflect(wi, m)
             wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
-            wo = dr.select(spec, wo_spec, wo_diff)
-            pdf = self._pdf(s, si, wo, distr)
-            value = self._eval(s, si, wo)
+            wo = self._from_mapped(s, dr.select(spec, wo_spec, wo_diff))
+            if c is not None:
+                mc, _ = c["distr"].sample(si.wi, sample2)
+                wo = dr.select(on_coat, mi.reflect(si.wi, mc), wo)
+                spec = spec | on_coat
+            value, pdf = self._layered(s, si, wo, distr)
             bs = mi.BSDFSample3f()
-            bs.wo = self._from_mapped(s, wo)
+            bs.wo = wo
             bs.pdf = pdf
             bs.eta = 1.0
             bs.sampled_type = dr.select(spec, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
@@ -319,20 +355,16 @@ def _bsdf_class(mi, dr, variant: str):
             return bs, dr.select(ok, value / dr.maximum(pdf, 1e-20), 0.0)
 
         def eval(self, ctx, si, wo, active=True):
-            s = self._surface(si)
-            return dr.select(active, self._eval(s, si, self._to_mapped(s, wo)), 0.0)
+            return self.eval_pdf(ctx, si, wo, active)[0]
 
         def pdf(self, ctx, si, wo, active=True):
-            s = self._surface(si)
-            distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
-            return dr.select(active, self._pdf(s, si, self._to_mapped(s, wo), distr), 0.0)
+            return self.eval_pdf(ctx, si, wo, active)[1]
 
         def eval_pdf(self, ctx, si, wo, active=True):
             s = self._surface(si)
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
-            w = self._to_mapped(s, wo)
-            return (dr.select(active, self._eval(s, si, w), 0.0),
-                    dr.select(active, self._pdf(s, si, w, distr), 0.0))
+            value, pdf = self._layered(s, si, wo, distr)
+            return dr.select(active, value, 0.0), dr.select(active, pdf, 0.0)
 
         def traverse(self, callback):
             pass

@@ -124,13 +124,16 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
     for mesh in GeometryCache().get(obj):  # (a fresh cache: loads apply materials in place)
         where = obj.path or obj.type
         textures = {}
-        for key in ("base_color", "metallic_roughness", "normal", "specular_color"):
+        for key in ("base_color", "metallic_roughness", "normal", "specular_color", "clearcoat",
+                    "clearcoat_roughness"):
             if key in mesh.textures:
                 textures[key] = _texture(mi, mesh.textures[key], mesh.sampling.get(key), where)
         if "specular" in mesh.textures:  # KHR_materials_specular: its factor is the map's A
             textures["specular"] = _texture(mi, mesh.textures["specular"][..., 3:4],
                                             mesh.sampling.get("specular"), where)
         ignored = ["occlusion map"] if "occlusion" in mesh.textures else []
+        if "clearcoat_normal" in mesh.textures and mesh.material.clearcoat > 0.0:
+            ignored.append("the clearcoat normal map (the coat has the vertex normal)")
         if any(sm.texcoord != 0 for sm in mesh.sampling.values()):
             ignored.append("TEXCOORD_1 (read as TEXCOORD_0)")
         if mesh.colors is not None:

@@ -5,6 +5,7 @@
 // LIGHT_POSITIONAL: 1 when one of them is a point or spot light (the surface position is then
 // rebuilt from the G-buffer's depth); LIGHT_SHADOWS / SUN_SHADOW: lights / the environment's sun
 // read shadow maps (viewer/passes/shadow.py). Uniforms are set by viewer/passes/shade.py.
+#include "lib/layers.glsl"
 #ifndef LIGHT_COUNT
 #define LIGHT_COUNT 0
 #endif
@@ -274,6 +275,21 @@ vec3 lights_ggx(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multi
     }
     FOR_EACH_LIGHT(LIGHT_GGX)
 #undef LIGHT_GGX
+    return c;
+}
+
+// Every light on a KHR_materials_clearcoat coat of weight w (lib/layers.glsl clearcoat_light), its
+// normal n and alpha a: what the coat reflects of the lights (the base's share is scaled by 1 - w
+// by the caller).
+vec3 lights_clearcoat(float w, float a, vec3 n, vec3 v, vec3 p) {
+    vec3 c = vec3(0.0);
+#define LIGHT_CLEARCOAT(i) {                                                                  \
+        vec4 la = scene_light(i, p, n);                                                     \
+        if (la.w > 0.0) c += clearcoat_light(w, a, n, v, la.xyz) * u_light_intensity[i]     \
+                             * la.w;                                                        \
+    }
+    FOR_EACH_LIGHT(LIGHT_CLEARCOAT)
+#undef LIGHT_CLEARCOAT
     return c;
 }
 

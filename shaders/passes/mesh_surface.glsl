@@ -8,7 +8,10 @@
 // USE_NORMAL_MAP (+ HAS_TANGENTS, else a cotangent frame from derivatives), USE_OCCLUSION_MAP,
 // USE_EMISSIVE_MAP; USE_DIELECTRIC (KHR_materials_ior / _specular: the G-buffer's dielectric
 // channel from u_ior, u_specular_color, u_specular_factor) with USE_SPECULAR_MAP (A = factor) and
-// USE_SPECULAR_COLOR_MAP (linear RGB); USE_UV0 / USE_UV1 when a map reads that texture coordinate
+// USE_SPECULAR_COLOR_MAP (linear RGB); USE_CLEARCOAT (KHR_materials_clearcoat: the G-buffer's
+// clearcoat channel from u_clearcoat, u_clearcoat_roughness) with USE_CLEARCOAT_MAP (R),
+// USE_CLEARCOAT_ROUGHNESS_MAP (G), USE_CLEARCOAT_NORMAL_MAP (the coat's own normal map; without
+// it the coat has the interpolated vertex normal); USE_UV0 / USE_UV1 when a map reads that texture coordinate
 // set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
@@ -16,6 +19,7 @@
 // (u_<map>_uv, a 3x3 affine matrix made by viewer.geometry.mesh.TextureSampling.uv_matrix) and,
 // per axis, MIRRORED_REPEAT (u_<map>_mirror; REPEAT and CLAMP_TO_EDGE are the sampler's own).
 #include "lib/brdf.glsl"
+#include "lib/layers.glsl"
 
 uniform vec3 u_albedo;              // linear base colour factor
 uniform float u_base_alpha;         // glTF baseColorFactor alpha
@@ -63,6 +67,29 @@ uniform mat3 u_emissive_uv;
 uniform vec2 u_emissive_mirror;
 #endif
 
+#ifdef USE_CLEARCOAT
+uniform float u_clearcoat;              // clearcoatFactor
+uniform float u_clearcoat_roughness;    // clearcoatRoughnessFactor (perceptual)
+uniform float u_clearcoat_normal_scale; // clearcoatNormalTexture.scale
+#endif
+#ifdef USE_CLEARCOAT_MAP
+uniform sampler2D u_clearcoat_map;           // R = factor
+uniform int u_clearcoat_set;
+uniform mat3 u_clearcoat_uv;
+uniform vec2 u_clearcoat_mirror;
+#endif
+#ifdef USE_CLEARCOAT_ROUGHNESS_MAP
+uniform sampler2D u_clearcoat_roughness_map; // G = roughness
+uniform int u_clearcoat_roughness_set;
+uniform mat3 u_clearcoat_roughness_uv;
+uniform vec2 u_clearcoat_roughness_mirror;
+#endif
+#ifdef USE_CLEARCOAT_NORMAL_MAP
+uniform sampler2D u_clearcoat_normal_map;    // tangent space, n * 0.5 + 0.5
+uniform int u_clearcoat_normal_set;
+uniform mat3 u_clearcoat_normal_uv;
+uniform vec2 u_clearcoat_normal_mirror;
+#endif
 #ifdef USE_SPECULAR_MAP
 uniform sampler2D u_specular_map;            // A = specular factor
 uniform int u_specular_set;
@@ -118,7 +145,7 @@ vec4 sample_map(sampler2D map, vec2 uv, vec2 mirror) {
     return textureGrad(map, mix(uv, mirrored, mirror), dFdx(uv), dFdy(uv));
 }
 
-#ifdef USE_NORMAL_MAP
+#if defined(USE_NORMAL_MAP) || defined(USE_CLEARCOAT_NORMAL_MAP)
 // Normal Mapping Without Precomputed Tangents - Schueler 2013 (cotangent frame from derivatives).
 // n_face must face the viewer so the frame's handedness is the surface's own. Returns the
 // gradients of u and of -v (glTF: the normal map's +Y points towards decreasing v), each scaled
@@ -214,6 +241,37 @@ GBuffer mesh_surface(out float alpha) {
 #endif
 #if defined(USE_VERTEX_COLOR) && defined(UNLIT_VERTEX_COLOR)
     g.emission *= v_color.rgb;
+#endif
+#ifdef USE_CLEARCOAT
+    // the coat: its own factor, roughness and normal (the vertex normal, or its own map's)
+    vec3 n_coat = normalize(v_normal_ws);
+#ifdef USE_CLEARCOAT_NORMAL_MAP
+    vec2 coat_uv = map_uv(u_clearcoat_normal_set, u_clearcoat_normal_uv);
+    vec3 c_ts = sample_map(u_clearcoat_normal_map, coat_uv, u_clearcoat_normal_mirror).xyz * 2.0
+                - 1.0;
+    c_ts.xy *= u_clearcoat_normal_scale;
+#ifdef HAS_TANGENTS
+    vec3 ct = v_tangent_ws.xyz - n_coat * dot(n_coat, v_tangent_ws.xyz);
+    ct = dot(ct, ct) > 1e-20 ? normalize(ct) : vec3(0.0);
+    vec3 cb = cross(n_coat, ct) * (v_tangent_ws.w < 0.0 ? -1.0 : 1.0);
+    n_coat = normalize(ct * c_ts.x + cb * c_ts.y + n_coat * c_ts.z);
+#else
+    mat3 coat_tbn = cotangent_frame(n_coat * facing, v_position_ws, coat_uv);
+    n_coat = normalize(coat_tbn[0] * c_ts.x + coat_tbn[1] * c_ts.y + n_coat * c_ts.z);
+#endif
+#endif
+    float coat = u_clearcoat;
+    float coat_roughness = u_clearcoat_roughness;
+#ifdef USE_CLEARCOAT_MAP
+    coat *= sample_map(u_clearcoat_map, map_uv(u_clearcoat_set, u_clearcoat_uv),
+                       u_clearcoat_mirror).r;
+#endif
+#ifdef USE_CLEARCOAT_ROUGHNESS_MAP
+    coat_roughness *= sample_map(u_clearcoat_roughness_map,
+                                 map_uv(u_clearcoat_roughness_set, u_clearcoat_roughness_uv),
+                                 u_clearcoat_roughness_mirror).g;
+#endif
+    g.clearcoat = vec4(coat, coat_roughness, oct_encode(n_coat * facing));
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

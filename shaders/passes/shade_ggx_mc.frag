@@ -82,7 +82,8 @@ void main() {
     vec2 dfg;
     vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);
     Surface s = surface_init(shading_normal(g.normal, -d), -d, g.albedo, g.roughness, g.metallic,
-                             fresnel.rgb, fresnel.a, dfg);
+                             fresnel.rgb, fresnel.a, g.clearcoat.xy,
+                             shading_normal(oct_decode(g.clearcoat.zw), -d), dfg);
     s.diffuse *= ambient_occlusion(pixel, g);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
@@ -93,9 +94,13 @@ void main() {
     // delta lights are not sampled: their terms are added exactly (the function ggx_split_sum
     // uses, on the same diffuse, f0, alpha and DFG terms), to every batch alike
     if (u_sample_count > 0u) {
-        c += lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
-                        float(MULTISCATTER), s.n, s.v,
-                        light_surface_position(gl_FragCoord.xy, g.depth));
+        vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
+        vec3 lit = lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
+                              float(MULTISCATTER), s.n, s.v, p);
+#if GBUFFER_HAS_CLEARCOAT
+        lit = lit * (1.0 - s.w_c) + lights_clearcoat(s.w_c, s.a_c, s.n_c, s.v, p);
+#endif
+        c += lit;
     }
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);

@@ -10,6 +10,7 @@
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
+#include "lib/layers.glsl"
 #include "passes/lights.glsl"
 #include "passes/rt_light.glsl"
 #include "passes/env_lights.glsl"
@@ -25,6 +26,32 @@ uniform vec3 u_sun_direction;   // unit, towards the sun, the environment's fram
 uniform vec3 u_sun_irradiance;  // on a surface facing it (times u_env_intensity)
 uniform float u_sun_radius;     // the widest extracted light's angular radius (radians): w
 uniform float u_sun_disc_radius;  // the sun's own angular radius (radians): its horizon
+#endif
+
+#if GBUFFER_HAS_CLEARCOAT
+// KHR_materials_clearcoat (lib/layers.glsl): the base's radiance c keeps 1 - w of itself, w the
+// coat's weight c F_c(n_c.v); the coat adds its split-sum environment term, looked up in the
+// chain of the whole environment (with SUN_LIGHT its sun and compact lights too: the coat's
+// reflection of them is the prefiltered one, unshadowed), and its punctual lights at p.
+vec3 clearcoat_radiance(vec3 c, GBuffer g, vec3 v, vec3 p) {
+    if (!(g.clearcoat.x > 0.0)) return c;
+    vec3 n_c = shading_normal(oct_decode(g.clearcoat.zw), v);
+    float NoV = saturate(dot(n_c, v));
+    float r = clamp_perceptual_roughness(g.clearcoat.y);
+    float w = clearcoat_weight(g.clearcoat.x, NoV);
+#if SUN_LIGHT
+    vec3 pre = ibl_specular_radiance(u_env_prefiltered_full, env_dir(reflect(-v, n_c)), r,
+                                     u_env_levels);
+#else
+    vec3 pre = ibl_specular_radiance(u_env_prefiltered, env_dir(reflect(-v, n_c)), r,
+                                     u_env_levels);
+#endif
+    vec3 coat = clearcoat_split_sum(w, ibl_dfg(u_env_dfg, NoV, r), pre * u_env_intensity);
+#if LIGHT_COUNT > 0
+    coat += lights_clearcoat(w, r * r, n_c, v, p);
+#endif
+    return c * (1.0 - w) + coat;
+}
 #endif
 
 void main() {
@@ -102,6 +129,9 @@ void main() {
     c += env_lights_ggx(diffuse * ao, vec3(0.0), 0.0, 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
+#endif
+#if GBUFFER_HAS_CLEARCOAT
+    c = clearcoat_radiance(c, g, v, light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
     write_radiance(c + emitted_radiance(g), background, g.alpha);
 }

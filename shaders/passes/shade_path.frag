@@ -46,11 +46,11 @@ struct PathVertex {
 };
 
 PathVertex path_vertex(vec3 p, vec3 ng, vec3 n, vec3 v, vec3 albedo, float roughness,
-                       float metallic, float specular, vec4 dielectric) {
+                       float metallic, float specular, vec4 dielectric, vec2 coat, vec3 n_coat) {
     vec2 dfg;
     vec4 fresnel = surface_f0_f90(albedo, metallic, specular, dielectric);
     return PathVertex(p, ng, surface_init(n, v, albedo, roughness, metallic, fresnel.rgb,
-                                          fresnel.a, dfg));
+                                          fresnel.a, coat, n_coat, dfg));
 }
 
 vec3 path_env_radiance(vec3 l) {
@@ -138,7 +138,7 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         vec3 n = front ? t.n : -t.n;
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
-                        t.dielectric);
+                        t.dielectric, t.clearcoat, n);
         float q = path_continue_probability(beta, float(bounce + 1));
         if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
         beta /= q;
@@ -161,7 +161,8 @@ void main() {
     vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
     // the G-buffer holds no geometric normal: the shading normal stands in for the ray offset
     PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular,
-                                  g.dielectric);
+                                  g.dielectric, g.clearcoat.xy,
+                                  shading_normal(oct_decode(g.clearcoat.zw), v));
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
         sum += trace_path(s0, uvec2(pixel), u_sample_start + k);

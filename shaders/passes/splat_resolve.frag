@@ -9,7 +9,9 @@
 //   emission = w_under emission_under / alpha                 (splats emit nothing),
 //   dielectric (the glTF lobe, a >= 0, of a mesh underneath) = (A (0.04, 0.04, 0.04, 1) +
 //       w_under dielectric_under) / alpha: the splats' own lobe is Filament's specular 0.5;
-//       where none lies underneath (a < 0) it stays the background (the blended specular rules).
+//       where none lies underneath (a < 0) it stays the background (the blended specular rules),
+//   clearcoat factor = w_under clearcoat_under / alpha (splats have no coat; its roughness and
+//       normal stay the surface's underneath).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
@@ -57,6 +59,7 @@ void main() {
     g.ao = (coverage + w_under * under.ao) / total;
     g.color = a0.rgb + w_under * under.albedo;
     g.emission = w_under * under.emission / total;  // splats emit nothing and hide what does
+    g.clearcoat.x = w_under * under.clearcoat.x / total;
     if (under.dielectric.a >= 0.0) {
         g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)
                        / total;

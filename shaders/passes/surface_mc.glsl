@@ -3,7 +3,10 @@
 // multiple-scattering compensation) at one surface: its evaluation f cos, the pdf of its lobe
 // mixture and a draw from it. Included by passes/shade_ggx_mc.frag and passes/shade_path.frag
 // after lib/ibl.glsl, lib/shading.glsl, lib/sampling.glsl and lib/mc.glsl; reads u_env_dfg.
-// Twin: learned.twins.shade_ggx_mc (the ggx_mc pass).
+// Twin: learned.twins.shade_ggx_mc (the ggx_mc pass; scenes without a coat).
+// With GBUFFER_HAS_CLEARCOAT (a scene with KHR_materials_clearcoat), the coat of lib/layers.glsl
+// is layered over this BRDF: (1 - w) f_base + w D_c V_c on the coat's normal, and drawn as a third
+// lobe by its albedo w dfg_c.y; compiled out otherwise.
 #ifndef MULTISCATTER
 #define MULTISCATTER 0
 #endif
@@ -22,10 +25,19 @@ struct Surface {
     float a;           // alpha = clamped perceptual roughness^2
     vec3 spec_scale;   // multiple-scattering energy compensation (1 without)
     float p_spec;      // probability of sampling the specular lobe ("brdf", "mis")
+#if GBUFFER_HAS_CLEARCOAT
+    vec3 n_c;          // the coat's normal (lib/layers.glsl), its tangent frame
+    vec3 t_c;
+    vec3 b_c;
+    float NoV_c;
+    float w_c;         // clearcoat_weight: 0 without a coat
+    float a_c;         // the coat's alpha
+    float p_coat;      // probability of sampling the coat (before the base's two lobes)
+#endif
 };
 
 // f(v, l) (n.l), 0 below the surface.
-vec3 surface_brdf_cos(Surface s, vec3 l) {
+vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
     if (!(NoL > 0.0)) return vec3(0.0);
     vec3 h = normalize(s.v + l);
@@ -35,8 +47,17 @@ vec3 surface_brdf_cos(Surface s, vec3 l) {
     return (s.diffuse * INV_PI + spec) * NoL;
 }
 
+vec3 surface_brdf_cos(Surface s, vec3 l) {
+#if GBUFFER_HAS_CLEARCOAT
+    return surface_base_brdf_cos(s, l) * (1.0 - s.w_c)
+           + vec3(clearcoat_light(s.w_c, s.a_c, s.n_c, s.v, l));
+#else
+    return surface_base_brdf_cos(s, l);
+#endif
+}
+
 // pdf of "brdf" sampling (lobe mixture: VNDF-reflected specular, cosine diffuse) for l.
-float surface_brdf_pdf(Surface s, vec3 l) {
+float surface_base_brdf_pdf(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
     if (!(NoL > 0.0)) return 0.0;
     vec3 h = normalize(s.v + l);
@@ -44,7 +65,27 @@ float surface_brdf_pdf(Surface s, vec3 l) {
     return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + (1.0 - s.p_spec) * pdf_cosine_hemisphere(NoL);
 }
 
+float surface_brdf_pdf(Surface s, vec3 l) {
+#if GBUFFER_HAS_CLEARCOAT
+    float p_coat = 0.0;
+    if (dot(s.n_c, l) > 0.0) {
+        p_coat = pdf_ggx_vndf(s.NoV_c, saturate(dot(s.n_c, normalize(s.v + l))), s.a_c);
+    }
+    return s.p_coat * p_coat + (1.0 - s.p_coat) * surface_base_brdf_pdf(s, l);
+#else
+    return surface_base_brdf_pdf(s, l);
+#endif
+}
+
 vec3 sample_surface_brdf(Surface s, vec2 u) {
+#if GBUFFER_HAS_CLEARCOAT
+    if (u.x < s.p_coat) {  // the coat's visible normals, in its own frame
+        u.x = u.x / s.p_coat;
+        vec3 v_c = vec3(dot(s.v, s.t_c), dot(s.v, s.b_c), s.NoV_c);
+        return reflect(-s.v, tangent_to_world(sample_ggx_vndf(u, v_c, s.a_c), s.n_c));
+    }
+    u.x = (u.x - s.p_coat) / (1.0 - s.p_coat);
+#endif
     if (u.x < s.p_spec) {
         u.x = u.x / s.p_spec;
         vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
@@ -59,7 +100,7 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
 // lib/brdf.glsl surface_f0_f90), every field set (its diffuse not yet occluded); dfg: the DFG
 // LUT's value at (n.v, r), for the caller's analytic terms.
 Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metallic, vec3 f0,
-                     float f90, out vec2 dfg) {
+                     float f90, vec2 coat, vec3 n_coat, out vec2 dfg) {
     Surface s;
     s.v = v;
     s.n = n;
@@ -78,5 +119,21 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
     s.diffuse = diffuse_color(albedo, metallic) * max(1.0 - e_spec, 0.0);
     // lobe choice from the unoccluded albedos: occlusion then scales values, not sample paths
     s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+#if GBUFFER_HAS_CLEARCOAT
+    // the coat (factor coat.x, perceptual roughness coat.y, normal n_coat): drawn by its albedo
+    // w dfg_c.y against the base's (luminance), both kept reachable when both carry energy
+    s.n_c = n_coat;
+    s.t_c = tangent_to_world(vec3(1.0, 0.0, 0.0), n_coat);
+    s.b_c = tangent_to_world(vec3(0.0, 1.0, 0.0), n_coat);
+    s.NoV_c = saturate(dot(n_coat, v));
+    float r_c = clamp_perceptual_roughness(coat.y);
+    s.a_c = r_c * r_c;
+    s.w_c = clearcoat_weight(coat.x, s.NoV_c);
+    float e_coat = s.w_c * ibl_dfg(u_env_dfg, s.NoV_c, r_c).y;
+    float e_base = (1.0 - s.w_c) * dot(s.diffuse + f_schlick(s.f0, s.f90, s.NoV),
+                                       vec3(0.2126, 0.7152, 0.0722));
+    s.p_coat = e_coat + e_base > 0.0 ? e_coat / (e_coat + e_base) : 0.0;
+    if (e_coat > 0.0 && e_base > 0.0) s.p_coat = clamp(s.p_coat, 0.05, 0.95);
+#endif
     return s;
 }

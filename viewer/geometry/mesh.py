@@ -14,6 +14,10 @@ occlusion           1..4  linear; R = ambient occlusion
 emissive            3/4   linear RGB (already sRGB-decoded); multiplies ``Mesh.emissive``
 specular            4     linear; A = KHR_materials_specular factor (with ``Material.ior`` only)
 specular_color      3/4   linear RGB (already sRGB-decoded); multiplies ``Material.specular_color``
+clearcoat           1..4  linear; R multiplies ``Material.clearcoat`` (KHR_materials_clearcoat)
+clearcoat_roughness 2..4  linear; G multiplies ``Material.clearcoat_roughness``
+clearcoat_normal    3/4   the coat's tangent-space normal, as ``normal`` (x, y scaled by
+                          ``Mesh.clearcoat_normal_scale``); without it the coat has the vertex normal
 =================== ===== =====================================================================
 
 How each map is sampled (texture coordinate set, ``KHR_texture_transform``, wrap and filter modes)
@@ -31,7 +35,7 @@ from ..errors import InputError
 from ..scene.material import Material
 
 TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive", "specular",
-                "specular_color")
+                "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal")
 WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
 MIN_FILTERS = ("nearest", "linear", "nearest_mipmap_nearest", "linear_mipmap_nearest",
                "nearest_mipmap_linear", "linear_mipmap_linear")
@@ -103,6 +107,7 @@ class Mesh:
     # glTF KHR_materials_unlit: the base colour shown as is. The loader makes the material black
     # (no lobe) and the emission the base colour (factor, texture; COLOR_0 multiplies it)
     unlit: bool = False
+    clearcoat_normal_scale: float = 1.0  # KHR_materials_clearcoat clearcoatNormalTexture.scale
     name: str = ""
     source: str | None = None  # the file it came from, for messages
 

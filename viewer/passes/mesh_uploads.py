@@ -34,8 +34,11 @@ _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "metallic_roughness": "USE_METALLIC_ROUGHNESS_MAP",
                 "normal": "USE_NORMAL_MAP", "occlusion": "USE_OCCLUSION_MAP",
                 "emissive": "USE_EMISSIVE_MAP", "specular": "USE_SPECULAR_MAP",
-                "specular_color": "USE_SPECULAR_COLOR_MAP"}
+                "specular_color": "USE_SPECULAR_COLOR_MAP", "clearcoat": "USE_CLEARCOAT_MAP",
+                "clearcoat_roughness": "USE_CLEARCOAT_ROUGHNESS_MAP",
+                "clearcoat_normal": "USE_CLEARCOAT_NORMAL_MAP"}
 _DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
+_CLEARCOAT_MAPS = ("clearcoat", "clearcoat_roughness", "clearcoat_normal")  # with a coat only
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
@@ -53,15 +56,20 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     uv_sets = (mesh.uvs, mesh.uvs1)
     if mesh.material.ior is not None:
         defines["USE_DIELECTRIC"] = 1
+    coat = mesh.material.clearcoat > 0.0
+    if coat:
+        defines["USE_CLEARCOAT"] = 1
     for key in mesh.textures:
-        if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None):
+        if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
+                or (key in _CLEARCOAT_MAPS and not coat):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:
             continue
         defines[_MAP_DEFINES[key]] = 1
         defines[f"USE_UV{texcoord}"] = 1
-    if "USE_NORMAL_MAP" in defines and mesh.tangents is not None:
+    if ("USE_NORMAL_MAP" in defines or "USE_CLEARCOAT_NORMAL_MAP" in defines) and \
+            mesh.tangents is not None:
         defines["HAS_TANGENTS"] = 1
     if mesh.colors is not None:
         defines["USE_VERTEX_COLOR"] = 1
@@ -245,6 +253,10 @@ class MeshUploads:
             _set(prog, "u_ior", float(m.ior))
             _set(prog, "u_specular_color", tuple(float(c) for c in m.specular_color))
             _set(prog, "u_specular_factor", float(m.specular_factor))
+        if m.clearcoat > 0.0:
+            _set(prog, "u_clearcoat", float(m.clearcoat))
+            _set(prog, "u_clearcoat_roughness", float(m.clearcoat_roughness))
+            _set(prog, "u_clearcoat_normal_scale", float(mesh.clearcoat_normal_scale))
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

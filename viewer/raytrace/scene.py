@@ -12,6 +12,7 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
 * at a secondary hit: the material's factors, its base-colour, metallic-roughness and emissive
   maps (``TEXCOORD_0``, ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`),
   the ``KHR_materials_ior`` / ``specular`` factors (:meth:`Material.dielectric`, not their maps),
+  the ``KHR_materials_clearcoat`` factors (on the vertex normal; not its maps),
   the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
   ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
@@ -27,7 +28,7 @@ from .bvh import BVH, build_bvh, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAPS = ("base_color", "metallic_roughness", "emissive")
-MATERIAL_VEC4S = 10  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+MATERIAL_VEC4S = 11  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
 _WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 
 
@@ -133,6 +134,7 @@ def material_rows(meshes, layers) -> np.ndarray:
             r[4 + 2 * j] = (mat[1, 0], mat[1, 1], mat[1, 2],
                             float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
         r[9] = m.dielectric()  # (F0, F90) of the glTF lobe, (0, 0, 0, -1) for none
+        r[10] = (m.clearcoat, m.clearcoat_roughness, 0.0, 0.0)  # KHR_materials_clearcoat
     return rows
 
 

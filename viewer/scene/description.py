@@ -155,7 +155,8 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     kw: dict[str, Any] = {}
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
-    for k in ("roughness", "metallic", "specular", "ao", "specular_factor"):
+    for k in ("roughness", "metallic", "specular", "ao", "specular_factor", "clearcoat",
+              "clearcoat_roughness"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
     if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)

@@ -23,6 +23,7 @@ import tomli_w
 from ..errors import SceneError
 from ..lighting.tables import light_table
 from .description import ObjectSpec, Scene
+from .material import EXTENSION_FIELDS, Material
 
 
 def _plain(value: Any) -> Any:
@@ -48,6 +49,7 @@ def _table(obj, skip_defaults: bool = False) -> dict:
 
 
 _OBJECT_DEFAULTS = ObjectSpec(type="sphere")
+_MATERIAL_DEFAULTS = Material()
 
 
 def _object_table(obj: ObjectSpec) -> dict:
@@ -61,8 +63,9 @@ def _object_table(obj: ObjectSpec) -> dict:
         if value is None or value == getattr(_OBJECT_DEFAULTS, f.name):
             continue
         out[f.name] = _plain(value)
-    if obj.material is not None:
-        out["material"] = _plain(obj.material)
+    if obj.material is not None:  # the glTF extensions' fields only where they are set
+        out["material"] = {k: v for k, v in _plain(obj.material).items()
+                           if k not in EXTENSION_FIELDS or v != _plain(_MATERIAL_DEFAULTS)[k]}
     return out
 
 

@@ -22,10 +22,14 @@ class Material:
     ior: float | None = None
     specular_color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # linear RGB, >= 0
     specular_factor: float = 1.0  # in [0, 1]
+    # KHR_materials_clearcoat: a GGX coat of IOR 1.5 over the base (0 = none; shaders/lib/layers.glsl)
+    clearcoat: float = 0.0  # in [0, 1]
+    clearcoat_roughness: float = 0.0  # perceptual, in [0, 1]
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
-                "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor}
+                "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor,
+                "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
@@ -46,6 +50,10 @@ class Material:
         ``shaders/lib/brdf.glsl`` ``dielectric_f0_ior``, or (0, 0, 0, -1) without ``ior`` (the
         channel's background: Filament's reflectance from ``specular``)."""
         return dielectric_row(self)
+
+
+# the glTF extensions' fields: a scene file names them only where they differ from the default
+EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

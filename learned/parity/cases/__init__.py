@@ -16,6 +16,7 @@ from . import (
     equirect,
     ground,
     ibl,
+    layers,
     lights,
     mc,
     neural,
@@ -32,7 +33,7 @@ from . import (
 from .base import Arg, ParityCase
 
 MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ground, ibl,
-           lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap)
+           layers, lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

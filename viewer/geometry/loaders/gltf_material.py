@@ -2,6 +2,7 @@
 texture's sampler, texCoord and ``KHR_texture_transform``."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from types import SimpleNamespace
@@ -74,6 +75,8 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     sampling: dict[str, TextureSampling] = {}
     ext = gm.extensions or {}
     material, ext_slots = _dielectric(reader, index, material, ext)
+    material, coat_slots, coat_normal_scale = _clearcoat(reader, index, material, ext)
+    ext_slots += coat_slots
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
              ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
@@ -112,7 +115,7 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     unlit = "KHR_materials_unlit" in ext
     if unlit:
         material, emissive = _unlit(material, base, textures, sampling)
-    return {"unlit": unlit, "material": material, "textures": textures, "sampling": sampling,
+    return {"unlit": unlit, "clearcoat_normal_scale": coat_normal_scale, "material": material, "textures": textures, "sampling": sampling,
             "normal_scale": normal_scale,
             "occlusion_strength": 1.0 if strength is None else float(strength),
             "double_sided": bool(gm.doubleSided), "alpha_mode": gm.alphaMode or "OPAQUE",
@@ -126,7 +129,7 @@ def _unlit(material: Material, base, textures: dict, sampling: dict):
     the base-colour map stays for its alpha). Every other property is the extension's to ignore
     (normal, occlusion, metallic-roughness and emissive maps are dropped)."""
     for key in ("metallic_roughness", "normal", "occlusion", "emissive", "specular",
-                "specular_color"):
+                "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal"):
         textures.pop(key, None)
         sampling.pop(key, None)
     if "base_color" in textures:
@@ -189,3 +192,21 @@ def _dielectric(reader: _GltfReader, index: int, material: Material, ext: dict):
                         metallic=material.metallic, ior=ior, specular_color=color,
                         specular_factor=factor)
     return material, slots
+
+
+def _clearcoat(reader: _GltfReader, index: int, material: Material, ext: dict):
+    """``KHR_materials_clearcoat`` of material ``index``: the material with its coat factor and
+    roughness, the coat's texture slots and its normal map's scale."""
+    coat = ext.get("KHR_materials_clearcoat")
+    if coat is None:
+        return material, [], 1.0
+    factor = _number(reader, index, coat, "clearcoatFactor", 0.0, 0.0, 1.0)
+    rough = _number(reader, index, coat, "clearcoatRoughnessFactor", 0.0, 0.0, 1.0)
+    normal = coat.get("clearcoatNormalTexture")
+    scale = 1.0 if not isinstance(normal, dict) else _number(reader, index, normal, "scale", 1.0,
+                                                             -math.inf, math.inf)
+    slots = [(key, _texture_info(reader, index, coat.get(name), name))
+             for key, name in (("clearcoat", "clearcoatTexture"),
+                               ("clearcoat_roughness", "clearcoatRoughnessTexture"),
+                               ("clearcoat_normal", "clearcoatNormalTexture"))]
+    return dataclasses.replace(material, clearcoat=factor, clearcoat_roughness=rough), slots, scale

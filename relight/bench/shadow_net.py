@@ -4,7 +4,10 @@ The bench's mesh scene at 512^2 with SSAO (the estimator reads its occlusion) an
 shadow_net``: every timed frame runs both, so each frame gives the ratio of the estimator's fenced
 time (its layers' passes and the product's, summed) to SSAO's occlusion pass (``ratio_ssao``, the issue's budget: at most 2),
 and to SSAO with its blur (``ratio_ssao_blur``); the medians over the frames are reported, not
-ratios of medians. The whole frame with the estimator is also timed against the same frame
+ratios of medians. SSAO in those frames also marches S(x), the visibility of the environment's
+light the estimator reads (``SSAO_ENV_VIS``: 8 directions x 16 steps more per pixel); the frames
+without the estimator have SSAO without it, so ``ratio_ssao_plain`` is the estimator against
+plain SSAO (the frames' medians, same run, alternating blocks). The whole frame with the estimator is also timed against the same frame
 without it in alternating blocks (:func:`~relight.bench.timing.time_pair`: ``ratio_frame``).
 The cost does not depend on the weights' values: without a trained file the suite times seeded
 random weights of the default architecture (``weights`` says which). Absolute milliseconds on a
@@ -67,7 +70,7 @@ def shadow_net_rows(renderer, scene, config, size=SIZE, weights: str | None = No
         base = scene.with_camera(size=size).with_render(ssao=True)
         with_net = base.with_render(shadow_net=str(path))
         frames = _per_frame(renderer, with_net, size, max(config.frames, 3), config.warmup)
-        (on_ms, _), (off_ms, _) = time_pair(renderer, with_net, base, size, config)
+        (on_ms, _), (off_ms, off_pass) = time_pair(renderer, with_net, base, size, config)
 
     for f in frames:  # the layers' passes (shadow_net:<layer>) and the product (shadow_net)
         f["estimator"] = sum(v for k, v in f.items()
@@ -88,5 +91,7 @@ def shadow_net_rows(renderer, scene, config, size=SIZE, weights: str | None = No
              "ssao_blur_ms": med("ssao_blur"),
              "ratio_ssao": statistics.median(ratios),
              "ratio_ssao_blur": statistics.median(blurred),
+             "ssao_plain_ms": off_pass.get("ssao", float("nan")),
+             "ratio_ssao_plain": med("estimator") / off_pass.get("ssao", float("nan")),
              "frame_ms": on_ms, "frame_without_ms": off_ms, "ratio_frame": on_ms / off_ms,
              "frames": len(frames)}]

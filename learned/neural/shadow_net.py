@@ -31,7 +31,7 @@ from ..twins.shadow_net import shadow_net, shadow_net_apply, shadow_net_inputs
 
 class ShadowNet(nn.Module):
     """``architecture``: ``{"levels": L, "widths": [...]}`` (default: 5 levels, widths
-    8-12-16-24-32, receptive field 220 px, ~810 multiply-adds per full-resolution pixel). The
+    8-12-16-24-32, receptive field 220 px, ~825 multiply-adds per full-resolution pixel). The
     output layer starts near "no shadow" (bias 3: sigmoid 0.95; weights of 0.01 so that the
     gradient reaches every layer from the first step)."""
 

@@ -24,7 +24,10 @@ def uv_sphere(rings: int = 24, segments: int = 48):
     for i in range(rings):
         for j in range(segments):
             a, b = i * (segments + 1) + j, (i + 1) * (segments + 1) + j
-            idx += [a, b, a + 1, a + 1, b, b + 1]
+            if i > 0:  # at the poles one of the two triangles is degenerate
+                idx += [a, b, a + 1]
+            if i < rings - 1:
+                idx += [a + 1, b, b + 1]
     return (n.astype(np.float32), n.astype(np.float32), uv.astype(np.float32),
             np.asarray(idx, np.uint16))
 

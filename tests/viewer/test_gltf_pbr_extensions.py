@@ -1,5 +1,6 @@
 """glTF PBR material extensions end to end: KHR_materials_ior + KHR_materials_specular (the
-dielectric lobe's F0 colour and F90), KHR_materials_emissive_strength, KHR_materials_unlit. For
+dielectric lobe's F0 colour and F90), KHR_materials_emissive_strength, KHR_materials_unlit,
+KHR_materials_clearcoat (a GGX coat layered by fresnel_coat; the Monte-Carlo models too). For
 each: the loader (values, maps, one-line errors, no "ignored" warning), the G-buffer channel only
 a scene using it allocates, a white furnace (numpy quadrature of the reference's BSDF), and a grid
 of spheres (gltf_spheres.py) rasterised against ``relight reference`` (Mitsuba, our BSDF plugin)

@@ -155,7 +155,8 @@ MODELS: dict[str, ShadingModel] = {
                      "the distilled neural shader (thesis ch. 4 student): one small MLP per "
                      "pixel on the material, n.v, irradiance and prefiltered radiance; "
                      "weights baked into generated GLSL from `weights` (default: assets/weights)",
-                     frozenset({"irradiance", "prefiltered", "radiance"}), network="student"),
+                     frozenset({"irradiance", "prefiltered", "radiance"}), network="student",
+                     ray_light=True),
         ShadingModel("neural_teacher", "passes/shade_neural_teacher.frag",
                      "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse "
                      "and specular MLPs per sampled light direction, `samples` averaged "

@@ -39,7 +39,7 @@ from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
 from .lighting.lights import gather_lights
 from .models import contact_shadows, ignored_lobes, model_info
-from .neural import learns_indirect, required_settings, shades_sun
+from .neural import required_settings, shades_sun
 from .passes.ground import CATCHER_CHANNELS, scene_catcher
 from .resources import GPUResources
 from .scene.bounds import scene_bounds
@@ -218,10 +218,11 @@ class Renderer:
         return FrameTargets(
             radiance=frame[output_radiance(scene)].texture, display=frame["display"].texture,
             gbuffer=frame["gbuffer"], camera=camera, variant=spec.variant, samples=frame.samples,
-            ssao=frame["ssao"].texture if settings.ssao.enabled else None,
-            direct=frame["direct"].texture if settings.ssao.indirect else None,
+            # rays stand in for SSAO and its bounce (RT_LIGHT): those targets then do not exist
+            ssao=frame["ssao"].texture if "ssao" in graph.resources else None,
+            direct=frame["direct"].texture if "direct" in graph.resources else None,
             indirect_factor=(frame["indirect_factor"].texture
-                             if settings.ssao.indirect and learns_indirect(settings) else None),
+                             if "indirect_factor" in graph.resources else None),
             targets={n: frame[n] for n, r in graph.resources.items() if r.kept})
 
     def blended(self, scene: Scene) -> list:

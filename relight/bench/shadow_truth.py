@@ -37,6 +37,7 @@ from viewer.errors import RelightError
 from .truth import REFERENCE_SCENES, REFERENCES, TruthScene
 
 SHADOW_SCENE_DIR = ASSET_ROOT / "scenes" / "shadows"  # apart from the fidelity scenes' folder
+HELDOUT_SCENE_DIR = ASSET_ROOT / "scenes" / "heldout"  # scored only, never tuned on (bench rays)
 
 SHADOW_SCENES = ("sky_shadow_spheres", "esplanade_shadow_spheres", "park_sphere_on_plane",
                  "studio_key_spheres", "studio_sphere_on_plane")
@@ -78,11 +79,11 @@ def _casters(scene, changes=None) -> str:
 
 
 def truth_scene(name: str, suite: str) -> TruthScene | None:
-    """The scene ``name`` (the shadow scenes' folder, else the fidelity scenes') with its stored
-    reference, or None with a warning naming ``suite`` when either is missing."""
-    path = SHADOW_SCENE_DIR / f"{name}.toml"
-    if not path.is_file():
-        path = REFERENCE_SCENES / f"{name}.toml"
+    """The scene ``name`` (the shadow scenes' folder, the held-out scenes', else the fidelity
+    scenes') with its stored reference, or None with a warning naming ``suite`` when either is
+    missing."""
+    path = next((p for p in (SHADOW_SCENE_DIR / f"{name}.toml", HELDOUT_SCENE_DIR / f"{name}.toml")
+                 if p.is_file()), REFERENCE_SCENES / f"{name}.toml")
     ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
     if not ts.path.is_file() or not ts.reference.is_file():
         warnings.warn(f"relight bench {suite}: no scene or reference for {name}; left out",

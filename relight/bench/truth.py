@@ -37,6 +37,8 @@ from relight.reference.compare import score
 from viewer.errors import RelightError
 from viewer.scene.description import Scene, load_scene
 
+from .scenes import rasterised
+
 REFERENCE_SCENES = ASSET_ROOT / "scenes" / "reference"
 REFERENCES = ASSET_ROOT / "references"
 # --quick: a diffuse sphere, two rough conductors under two skies, and the sphere on a plane
@@ -54,7 +56,8 @@ class TruthScene:
 
     @property
     def scene(self) -> Scene:
-        return load_scene(self.path)
+        """The scene file, :func:`~relight.bench.scenes.rasterised` (the rungs add their rays)."""
+        return rasterised(load_scene(self.path))
 
     @property
     def group(self) -> str:

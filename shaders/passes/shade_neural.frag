@@ -28,6 +28,7 @@
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "passes/lights.glsl"
+#include "passes/rt_light.glsl"
 #include "passes/env_lights.glsl"
 #include "generated/neural_student.glsl"
 
@@ -77,7 +78,10 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     float NoV = saturate(dot(n, v));
     float r = clamp_perceptual_roughness(g.roughness);
-    vec3 irradiance = irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity;
+    // RT_LIGHT: the real-time tier's visible share and bounce (passes/rt_light.glsl), as the
+    // classical models take them; the student's visibility input then reads 1 (no SSAO)
+    vec3 irradiance = rt_diffuse_irradiance(
+        pixel, irradiance_lookup(u_env_irradiance, env_dir(n)) * u_env_intensity);
 #if NEURAL_STUDENT_SPLIT  // the split-sum model's lookup direction (shade_ggx_split_sum.frag)
     vec3 reflected = specular_dominant_direction(n, reflect(-v, n),
                                                  ibl_dominant_factor(u_env_dominant, NoV, r));
@@ -95,6 +99,7 @@ void main() {
     vec3 prefiltered = ibl_specular_radiance(u_env_prefiltered, env_dir(reflected), r,
                                              u_env_levels) * u_env_intensity;
 #endif
+    prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
 #if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
 #else

@@ -128,15 +128,25 @@ def test_missing_visibility_overestimates_and_ssao_moves_towards_truth(renderer,
     """A sphere resting on a plane: ggx_mc has the exact BSDF integral but no visibility, so it
     sees the environment through the sphere (no contact shadow): more energy than truth, beyond
     the reference's noise. Screen-space AO occludes some of that light, so split-sum with SSAO
-    is closer in total energy than split-sum without it."""
+    is closer in total energy than split-sum without it; the default render's rays (the
+    real-time tier) closer still."""
     scene, ref = _load(name)
     mean, _, _ = _mc(renderer, scene)
     s = score(mean, ref)
     assert s.bias > 3.0 * s.bias_noise + 0.02, s
-    plain = score(renderer.render(scene.with_render(model="ggx_split_sum")).radiance, ref)
-    ssao = score(renderer.render(scene.with_render(model="ggx_split_sum", ssao=True)).radiance,
-                 ref)
+    plain = score(renderer.render(scene.with_render(model="ggx_split_sum", raytrace=False)
+                                  ).radiance, ref)
+    ssao = score(renderer.render(scene.with_render(model="ggx_split_sum", ssao=True,
+                                                   raytrace=False)).radiance, ref)
     assert plain.bias > ssao.bias > -0.05, (plain, ssao)
+    # the default render's rays: closer per pixel (the total can be further off: on park the
+    # tier takes 5.5 % too much, its bounce sees hit surfaces as Lambertian, so a metal sphere
+    # lights the floor with nothing; measured PSNR rays / ssao: park 36.9 / 33.3, studio
+    # 27.7 / 19.8 dB)
+    traced = score(renderer.render(scene.with_render(model="ggx_split_sum")).radiance, ref)
+    print(f"{name}: bias plain {plain.bias:+.4f} ssao {ssao.bias:+.4f} rays {traced.bias:+.4f}"
+          f"; psnr ssao {ssao.psnr:.2f} rays {traced.psnr:.2f}")
+    assert traced.psnr > ssao.psnr + 3.0, (traced, ssao)
 
 
 # ---- split-sum against truth (issue 12's goals) ------------------------------------------

@@ -97,7 +97,8 @@ def test_normal_maps_tilt_the_shading_frame_as_the_gbuffer_does(mitsuba_llvm, re
 
 def test_emissive_surfaces_emit_and_light_the_scene(mitsuba_llvm, renderer, tmp_path):
     """glTF emission in the reference: seen directly it is the emitted radiance, as in the
-    rasteriser; unlike the rasteriser it lights a white floor below it (an area light)."""
+    rasteriser; it lights a white floor below it (an area light), as the rasteriser's ray-traced
+    bounce does (the default) and the rasteriser without rays does not."""
     quad = quad_gltf(tmp_path / "lamp.gltf", {
         "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
         "emissiveFactor": [1.0, 0.5, 0.25], "doubleSided": True})
@@ -113,7 +114,7 @@ def test_emissive_surfaces_emit_and_light_the_scene(mitsuba_llvm, renderer, tmp_
             {"type": "plane", "center": [0, -0.6, 0], "size": [4, 4],
              "material": {"albedo": [1, 1, 1], "specular": 0.0}}]})
     ref = render_reference(scene, ReferenceOptions(spp=64, max_depth=3), progress=False)
-    ours = renderer.render(scene.with_render(model="ggx_split_sum")).radiance
+    ours = renderer.render(scene.with_render(model="ggx_split_sum", raytrace=False)).radiance
     lamp = np.all(np.isclose(ours[..., :3], [1.0, 0.5, 0.25], rtol=1e-4), axis=-1)
     assert lamp.sum() > 4
     # + what the lamp's dielectric coat (f0 = 0.04) reflects of the floor it lights: ~1e-4
@@ -121,3 +122,8 @@ def test_emissive_surfaces_emit_and_light_the_scene(mitsuba_llvm, renderer, tmp_
     floor = (ours[..., 3] > 0.99) & ~lamp & (np.arange(16)[:, None] > 11)
     assert floor.any() and np.all(ours[floor][:, :3] == 0.0)  # black sky, no light in raster
     assert np.all(ref.radiance[floor][:, 0] > 0.0)  # lit by the quad in the path tracer
+    traced = renderer.render(scene.with_render(model="ggx_split_sum")).radiance
+    ratio = traced[floor][:, :3].mean() / ref.radiance[floor][:, :3].mean()
+    print(f"floor under the lamp, rays / reference: {ratio:.3f}")
+    # measured 0.993 (llvmpipe); the reference at 64 spp and the tier at 8 frames are noisy
+    assert np.all(traced[floor][:, 0] > 0.0) and 0.8 < ratio < 1.2, ratio

@@ -71,13 +71,15 @@ def test_cli_view_offscreen_screenshot(tmp_path, ctx):
     from relight.cli import main
 
     out = tmp_path / "view.png"
+    # without rays: the viewer adds one frame of them per frame, a headless render eight
     assert main(["view", "--offscreen", "--frames", "2", "--size", "64x40",
-                 "--screenshot", str(out), "-q"]) == 0
+                 "--set", "raytrace=false", "--screenshot", str(out), "-q"]) == 0
     from assets import ASSET_ROOT
     from viewer.imageio import read_image
 
     png, _ = read_image(out)
-    truth = headless(ctx, load_scene(ASSET_ROOT / "scenes" / "demo.toml"), size=(64, 40))
+    truth = headless(ctx, load_scene(ASSET_ROOT / "scenes" / "demo.toml").with_render(
+        raytrace=False), size=(64, 40))
     assert np.array_equal(np.round(png * 255).astype(np.uint8), truth.display[..., :3])
     assert main(["view", "--offscreen", "--screenshot", str(tmp_path / "x.jpg")]) == 2
     assert main(["view", "--offscreen", "--screenshot", str(tmp_path / "x.exr"),

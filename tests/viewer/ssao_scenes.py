@@ -17,8 +17,9 @@ def scene(objects, position=(0, 1.5, 2.5), target=(0, 0, -1), **render):
                    "size": SIZE},
         "environment": {"procedural": "studio", "width": 64},
         "objects": objects,
-        # the passes' own O(x), unblurred (the blur's tests set ssao_blur = true)
-        "render": {"tonemap": "none", "ssao_blur": False, **render},
+        # the passes' own O(x), unblurred (the blur's tests set ssao_blur = true); no rays (they
+        # stand in for SSAO and its bounce: tests/viewer/test_rt_light.py)
+        "render": {"tonemap": "none", "ssao_blur": False, "raytrace": False, **render},
     })
 
 

@@ -28,7 +28,7 @@ BASE = {
     "objects": [],
     # no shadow maps: the counts below are the G-buffer pass's copies (the shadow pass keeps its
     # own, released the same way: tests/viewer/test_shadows.py)
-    "render": {"tonemap": "none", "shadows": False},
+    "render": {"tonemap": "none", "shadows": False, "raytrace": False},
 }
 CAM = Camera(position=(0.0, 0.0, 2.5), target=(0.0, 0.0, 0.0), fov_y=40.0, size=(32, 32))
 

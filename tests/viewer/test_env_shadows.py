@@ -81,7 +81,9 @@ def scene(panel, objects, **render):
     chosen = [floor] + ([sphere] if "sphere" in objects else [])
     return scene_from_dict({"camera": CAMERA, "environment": {"path": panel},
                             "objects": chosen,
+                            # no rays: they supersede the environment's shadow maps
                             "render": {"tonemap": "none", "ao": False, "sun": False,
+                                       "raytrace": False,
                                        **render}})
 
 

@@ -161,6 +161,7 @@ BASE = {
         {"type": "sphere", "center": [0, 0.45, 0], "radius": 0.45,
          "material": {"albedo": [0.9, 0.3, 0.2], "roughness": 0.4}}],
     "render": {"tonemap": "none", "ssao": True, "indirect": True, "ssao_scale": 2,
+               "raytrace": False,  # the screen-space passes (rays: their own tests below)
                "ssao_rays": 4, "ssao_steps": 4},
 }
 GLASS = ObjectSpec(type="mesh", path="in-memory-glass")

@@ -33,6 +33,7 @@ metallic = 0.0
 specular = 0.7
 [render]
 model = "{model}"
+raytrace = false  # a stack holds no triangles to trace: both sides shade without rays
 """
 
 STACK_SCENE = """

@@ -34,7 +34,8 @@ def dark_scene(objects, light: dict | None, model="ggx_split_sum", size=(64, 64)
     doc = {
         "camera": {"position": [0, 0, 3.5], "fov_y": 40, "size": list(size), **camera},
         "environment": {"procedural": "sky", "intensity": 0.0, "width": 64},
-        "render": {"tonemap": "none", "model": model, "samples": 4},
+        # the rasterised models' shared light term (ggx_mc traces no rays)
+        "render": {"tonemap": "none", "model": model, "samples": 4, "raytrace": False},
     }
     if light is not None:
         doc["light"] = light

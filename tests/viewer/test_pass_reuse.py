@@ -19,7 +19,9 @@ BASE = {
          "material": {"albedo": [0.8, 0.8, 0.8], "roughness": 0.7}},
         {"type": "sphere", "center": [0, 0.45, 0], "radius": 0.45,
          "material": {"albedo": [0.9, 0.3, 0.2], "roughness": 0.4}}],
-    "render": {"tonemap": "none", "ssao_rays": 6, "ssao_steps": 6},
+    # the rasterised passes (SSAO, its bounce, shadow maps); the rays' reuse is
+    # tests/viewer/test_rt_light.py's
+    "render": {"tonemap": "none", "ssao_rays": 6, "ssao_steps": 6, "raytrace": False},
 }
 CASES = {  # the student reads SSAO, the visibility S(x) and the indirect light (with hits)
     "neural": {"model": "neural"},

@@ -37,7 +37,9 @@ def scene(cascades="auto", dx=0.0, objects=None, shadows=True, size=100.0):
         "environment": {"procedural": "white", "width": 32, "intensity": 0.0},
         "lights": [{"type": "directional", "direction": list(LIGHT), "intensity": 3.0}],
         "objects": objs,
+        # shadow maps (no rays: they trace the sun's visibility instead of its map)
         "render": {"tonemap": "none", "shadow_cascades": cascades, "shadow_size": 1024,
+                   "raytrace": False,
                    "shadows": shadows}})
 
 def visibility(renderer, sc):

@@ -225,7 +225,8 @@ def test_the_environments_sun_casts_its_shadow(renderer):
                    "fov_y": FOV, "size": [N, N]},
         "environment": {"procedural": "sky", "width": 256, "rotation_deg": 40,
                         "sun_elevation_deg": 40},
-        "objects": [FLOOR, SPHERE], "render": {"tonemap": "none"}})
+        # the sun's shadow map (the rays trace its visibility instead: test_rt_light.py)
+        "objects": [FLOOR, SPHERE], "render": {"tonemap": "none", "raytrace": False}})
     sun = renderer.resources.sun(sc.environment)
     assert sun is not None
     direction = env_to_world(sun.direction, sc.environment.rotation_deg)

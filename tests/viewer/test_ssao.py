@@ -238,7 +238,7 @@ def test_environment_visibility_matches_the_analytic_sun_shadow(renderer, tmp_pa
     sc = scene_from_dict({
         "camera": {"position": list(cam), "target": [0, 0, -1], "fov_y": 50, "size": SIZE},
         "environment": {"path": str(env)}, "objects": [FLOOR, sphere],
-        "render": {"tonemap": "none", "ssao": True}})
+        "render": {"tonemap": "none", "ssao": True, "raytrace": False}})
     t = renderer.draw(sc)
     dirs = renderer.resources.power_directions(sc.environment)
     assert np.allclose(dirs @ SUN, 1.0, atol=0.01)  # every direction on the sun
@@ -279,7 +279,8 @@ def test_grazing_floor_horizon_is_unoccluded(ctx, size):
             "environment": {"procedural": "white", "width": 64},
             "objects": [{"type": "plane", "center": [0, 0, 0], "size": [200, 200],
                          "normal": [0, 1, 0]}],
-            "render": {"ssao": True, "ssao_rays": 16, "ssao_steps": 8, "tonemap": "none"}})
+            "render": {"ssao": True, "ssao_rays": 16, "ssao_steps": 8, "tonemap": "none",
+                       "raytrace": False}})
         t = renderer.draw(sc)
         ao = np.frombuffer(t.ssao.read(), np.float32).reshape(size[1], size[0], 4)[::-1, :, 0]
         covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0

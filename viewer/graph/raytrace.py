@@ -45,6 +45,7 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
 
     def rays(f):
         trace = res.trace.get(contents, renderer.geometry_cache.version)
+        sampling = renderer.env_sampling(scene)
         state = f.state(hist[0])
         key = (dataclasses.replace(scene, render=lighting_settings), camera)
         if not progressive or state.get("key") != key:
@@ -52,8 +53,8 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
         todo = (1 if state["count"] < window else 0) if progressive else STILL_FRAMES
         gb = f["gbuffer"].textures
         for _ in range(todo):
-            rpass.trace(gb, f.fbo(*raw), camera, ibl, scene.environment, settings, defines,
-                        scene.light, trace, state["count"])
+            rpass.trace(gb, f.fbo(*raw), camera, ibl, sampling, scene.environment, settings,
+                        defines, scene.light, trace, state["count"])
             state["count"] += 1
             weight = 1.0 / min(state["count"], window)
             rpass.accumulate([f[n].texture for n in raw], [f[n].texture for n in hist],

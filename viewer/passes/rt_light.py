@@ -34,13 +34,15 @@ class RTLightPass:
         return self.programs.graphics("passes/fullscreen.vert", frag, defines=defines or {},
                                       virtual=self.layout.virtual_files())
 
-    def trace(self, gbuffer_textures: dict, out_fbo, camera, ibl, environment, settings,
-              variant_defines: dict, light, trace, frame_index: int) -> None:
-        """This frame's rays into ``out_fbo`` (three RGBA32F attachments)."""
+    def trace(self, gbuffer_textures: dict, out_fbo, camera, ibl, sampling, environment,
+              settings, variant_defines: dict, light, trace, frame_index: int) -> None:
+        """This frame's rays into ``out_fbo`` (three RGBA32F attachments); ``sampling``: the
+        environment's distribution (:class:`~viewer.environment.sampling.EnvSampling`)."""
         defines = {k: v for k, v in variant_defines.items() if k in TRACE_DEFINES}
         prog = self._program("passes/rt_light.frag", defines)
         unit = bind_gbuffer(prog, gbuffer_textures)
         unit = ibl.bind(prog, unit)
+        unit = sampling.bind(prog, unit)
         trace.bind(prog, unit)
         _set(prog, "u_frame", int(frame_index))
         _set(prog, "u_seed", int(settings.mc.seed))

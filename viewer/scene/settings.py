@@ -47,7 +47,7 @@ class RaytraceSettings:
     environment's visibility and one bounce for the rasterised models, traced against the
     scene's triangles, accumulated over still frames and denoised."""
 
-    enabled: bool = False  # (TOML: raytrace)
+    enabled: bool = True  # (TOML: raytrace)
     rays: int = 1  # diffuse rays per pixel and frame, besides one specular ray (raytrace_rays)
     denoise: bool = True  # the edge-avoiding a-trous filter (ray_denoise)
     # frames a still view accumulates before the history becomes an exponential average of that

@@ -68,8 +68,10 @@ PARITY_SCENE = {
          "material": {"albedo": [0.5, 0.5, 0.5], "roughness": 0.7, "ao": 0.6}},
     ],
     # no shadow maps: their lookups are the check shadow:lookups (checks/shadow.py), and the
-    # twins of the lighting passes are compared on the same unshadowed light
-    "render": {"shadows": False},
+    # twins of the lighting passes are compared on the same unshadowed light; no rays: the
+    # real-time tier's traversal is the check raytrace (checks/raytrace.py), its filter and
+    # accumulation lib/denoise.glsl's cases, and the twins here shade without it
+    "render": {"shadows": False, "raytrace": False},
 }
 
 

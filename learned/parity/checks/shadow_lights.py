@@ -55,8 +55,10 @@ def _scene(light: dict | None, floor: float = 8.0, render: dict | None = None,
         "objects": [{"type": "plane", "center": [0, 0, 0], "size": [floor, floor],
                      "normal": [0, 1, 0], "material": GREY},
                     {"type": "sphere", "center": [0, 1, 0], "radius": 0.5, "material": GREY}],
+        # shadow maps and the environment's shadow directions are what these checks read: no
+        # rays (they stand in for the sun's map and the environment's shadows)
         "render": {"tonemap": "none", "model": "ggx_split_sum", "multiscatter": False,
-                   **(render or {})}})
+                   "raytrace": False, **(render or {})}})
 
 
 def _read_map(frame) -> torch.Tensor:

@@ -20,6 +20,12 @@ path changes, is checked here by ``neural:network`` and ``model:neural``; what i
 it. llvmpipe's 128-bit SSE4.1 backend takes about 90 s to compile the kernel's storage-block reads
 alone (0.25 s for the same network with constants).
 
+Left out as well: ``forward:blend`` and ``shadow_net`` (together about a fifth of a path's run).
+The forward pass shades transparent surfaces with the lighting functions ``model:ggx_split_sum``
+and ``model:blinn_phong`` check here, its blending is fixed-function; the shadow estimator's
+whole network is the layers ``shadow_net:layers`` checks here one by one, chained. The default
+path runs both.
+
 Not used: ``GALLIUM_OVERRIDE_CPU_CAPS=nosse``, where LLVM falls back to x87 arithmetic with 80-bit
 intermediates. That path is not a conforming GLSL implementation (a * b + c is no longer rounded
 per operation; GLSL 4.x requires + - * correctly rounded in float32), and it shows: the `precise`
@@ -43,7 +49,7 @@ PATHS = {
 
 # the checks these paths leave out (module doc)
 SKIPPED = ("--skip", "model:neural_teacher", "--skip", "neural:network:ubo",
-           "--skip", "model:neural:ubo")
+           "--skip", "model:neural:ubo", "--skip", "forward:blend", "--skip", "shadow_net")
 
 
 @pytest.fixture(scope="module")

@@ -26,7 +26,8 @@ def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: s
     net = load_shadow_net(path)
     if occlusion is None:
         raise WeightsError("the shadow estimator reads SSAO's occlusion, and this frame has no "
-                           "SSAO pass (ray-traced light replaces it): turn raytrace off",
+                           "SSAO pass (ray-traced light, on by default, replaces it): set "
+                           "raytrace = false (--set raytrace=false)",
                            where=path)
     size = tuple(int(s) for s in camera.size)
     maps = {name: g.create(f"shadow_net/{name}", TextureDesc(tiled, 4, "f4"))

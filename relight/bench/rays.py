@@ -2,7 +2,9 @@
 against the strongest real-time row before it (``ggx_split_sum`` with SSAO and its indirect
 light, shadow maps on) and against the path tracer, on every scene with a stored path-traced
 reference where something can occlude (the shadow scenes, the spheres on planes, a diffuse
-sphere), and its frame time at 512² beside that baseline's in the same run.
+sphere), and its frame time at 512² beside that baseline's in the same run. The neural student
+is scored on both inputs it can have: the rays (``neural_rays``, the default render) and its
+screen-space visibility S(x) (``neural_screen``).
 
 Rows of two kinds:
 
@@ -34,7 +36,11 @@ BASELINE = {"ssao": True, "indirect": True, "raytrace": False}
 RUNGS = (("split_sum", {"raytrace": False}), ("ssao_indirect", BASELINE),
          ("rays", {"raytrace": True}),
          ("rays_x4", {"raytrace": True, "raytrace_rays": 4}),
-         ("rays_undenoised", {"raytrace": True, "ray_denoise": False}))
+         ("rays_undenoised", {"raytrace": True, "ray_denoise": False}),
+         # the neural student (its default weights) under the rays and on its screen-space
+         # visibility input S(x) (SSAO on, as its weights ask, rays off)
+         ("neural_rays", {"model": "neural", "raytrace": True}),
+         ("neural_screen", {"model": "neural", "raytrace": False}))
 PATH_SPP = 64
 
 

@@ -91,7 +91,9 @@ def test_parity_holds_on_another_float_path(runs, path):
 
 def test_the_alternative_paths_are_really_different():
     """The override must reach llvmpipe: its renderer string names the vector width."""
-    env = {**os.environ, **PATHS["llvmpipe-sse4.1-128bit+torch-default"]}
+    # no shader disk cache, as for the runs: nothing compiled on another path is stored
+    env = {**os.environ, **PATHS["llvmpipe-sse4.1-128bit+torch-default"],
+           "MESA_SHADER_CACHE_DISABLE": "true"}
     info = subprocess.run([sys.executable, "-m", "relight", "info"], env=env, capture_output=True,
                           text=True, timeout=120)
     if "llvmpipe" not in info.stdout:

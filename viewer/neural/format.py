@@ -209,31 +209,11 @@ def metadata(kind: str, arch: dict, tensors: dict, training: dict | None = None)
             "training": json.dumps(training or {})}
 
 
-def _check_tensors(path: Path, want: dict[str, dict], tensors: dict) -> None:
-    names = set()
-    for net, spec in want.items():
-        sizes = spec["sizes"]
-        for i in range(len(sizes) - 1):
-            for part, shape in zip(TENSOR_PARTS, ((sizes[i + 1], sizes[i]), (sizes[i + 1],))):
-                name = tensor_name(net, i, part)
-                names.add(name)
-                t = tensors.get(name)
-                if t is None:
-                    raise WeightsError(f"missing tensor {name!r}", where=path)
-                if t.dtype != np.float32 or tuple(t.shape) != shape:
-                    raise WeightsError(f"tensor {name!r} is {t.dtype}{list(t.shape)}, expected "
-                                       f"float32{list(shape)}", where=path)
-                if not np.isfinite(t).all():
-                    raise WeightsError(f"tensor {name!r} has NaN/Inf values", where=path)
-    extra = sorted(set(tensors) - names)
-    if extra:
-        raise WeightsError(f"unexpected tensors {', '.join(extra)}", where=path)
-
-
-def read_weights(path: str | os.PathLike, cls: type[NetworkFile] = NetworkFile) -> NetworkFile:
-    """Read and validate the weights file ``path`` into a ``cls`` (:class:`NetworkFile` or a
-    subclass). Every problem is a one-line :class:`WeightsError` naming the file."""
-    path = Path(path)
+def read_safetensors(path: Path, file_format: str, version: int, what: str
+                     ) -> tuple[dict, dict]:
+    """``(metadata, tensors)`` of the safetensors file ``path`` whose metadata says ``format =
+    file_format`` and ``version``; otherwise a one-line :class:`WeightsError` (``what``: the kind
+    of file, for the message). Shared by every weights format of the viewer."""
     try:
         with safe_open(str(path), framework="numpy") as f:
             meta = dict(f.metadata() or {})
@@ -242,12 +222,59 @@ def read_weights(path: str | os.PathLike, cls: type[NetworkFile] = NetworkFile) 
         raise WeightsError(f"not a readable safetensors file (truncated or corrupt: "
                            f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__})",
                            where=path) from None
-    if meta.get("format") != FORMAT:
-        raise WeightsError(f"not a relight neural-shader file (metadata format "
-                           f"{meta.get('format')!r}, expected {FORMAT!r})", where=path)
-    if meta.get("version") != FORMAT_VERSION:
+    if meta.get("format") != file_format:
+        raise WeightsError(f"not a relight {what} file (metadata format "
+                           f"{meta.get('format')!r}, expected {file_format!r})", where=path)
+    if meta.get("version") != version:
         raise WeightsError(f"format version {meta.get('version')!r} is not supported (this "
-                           f"viewer reads version {FORMAT_VERSION})", where=path)
+                           f"viewer reads version {version})", where=path)
+    return meta, tensors
+
+
+def check_tensor(path: Path, tensors: dict, name: str, shape: tuple) -> None:
+    """Tensor ``name`` exists, is float32 of ``shape`` and finite (else a :class:`WeightsError`)."""
+    t = tensors.get(name)
+    if t is None:
+        raise WeightsError(f"missing tensor {name!r}", where=path)
+    if t.dtype != np.float32 or tuple(t.shape) != tuple(shape):
+        raise WeightsError(f"tensor {name!r} is {t.dtype}{list(t.shape)}, expected "
+                           f"float32{list(shape)}", where=path)
+    if not np.isfinite(t).all():
+        raise WeightsError(f"tensor {name!r} has NaN/Inf values", where=path)
+
+
+def check_contents(path: Path, meta: dict, tensors: dict, names: set[str]) -> str:
+    """No tensor beside ``names`` and the metadata's checkpoint hash matches the tensors: returns
+    that hash (else a :class:`WeightsError`)."""
+    extra = sorted(set(tensors) - names)
+    if extra:
+        raise WeightsError(f"unexpected tensors {', '.join(extra)}", where=path)
+    digest = checkpoint_hash(tensors)
+    if meta.get("checkpoint") != digest:
+        raise WeightsError(f"checkpoint hash mismatch (metadata "
+                           f"{str(meta.get('checkpoint'))[:12]}, tensors {digest[:12]}): the file "
+                           f"was modified or damaged", where=path)
+    return digest
+
+
+def _check_tensors(path: Path, want: dict[str, dict], tensors: dict) -> set[str]:
+    """Every tensor of the networks ``want`` describes; returns their names."""
+    names = set()
+    for net, spec in want.items():
+        sizes = spec["sizes"]
+        for i in range(len(sizes) - 1):
+            for part, shape in zip(TENSOR_PARTS, ((sizes[i + 1], sizes[i]), (sizes[i + 1],))):
+                name = tensor_name(net, i, part)
+                names.add(name)
+                check_tensor(path, tensors, name, shape)
+    return names
+
+
+def read_weights(path: str | os.PathLike, cls: type[NetworkFile] = NetworkFile) -> NetworkFile:
+    """Read and validate the weights file ``path`` into a ``cls`` (:class:`NetworkFile` or a
+    subclass). Every problem is a one-line :class:`WeightsError` naming the file."""
+    path = Path(path)
+    meta, tensors = read_safetensors(path, FORMAT, FORMAT_VERSION, "neural-shader")
     kind = meta.get("kind")
     if kind not in KINDS:
         raise WeightsError(f"unknown network kind {kind!r} ({' | '.join(KINDS)})", where=path)
@@ -262,12 +289,7 @@ def read_weights(path: str | os.PathLike, cls: type[NetworkFile] = NetworkFile) 
         raise WeightsError(f"architecture {json.dumps(arch.get('networks'))} is not the {kind} "
                            f"architecture this viewer generates GLSL for "
                            f"({json.dumps(want)})", where=path)
-    _check_tensors(path, want, tensors)
-    digest = checkpoint_hash(tensors)
-    if meta.get("checkpoint") != digest:
-        raise WeightsError(f"checkpoint hash mismatch (metadata "
-                           f"{str(meta.get('checkpoint'))[:12]}, tensors {digest[:12]}): the file "
-                           f"was modified or damaged", where=path)
+    digest = check_contents(path, meta, tensors, _check_tensors(path, want, tensors))
     return cls(path=str(path), kind=kind, checkpoint=digest, architecture=arch, training=training,
                tensors=tensors)
 

@@ -33,7 +33,13 @@ from pathlib import Path
 import numpy as np
 from safetensors import SafetensorError, safe_open
 
-from .format import WeightsError, checkpoint_hash
+from .format import (
+    WeightsError,
+    check_contents,
+    check_tensor,
+    checkpoint_hash,
+    read_safetensors,
+)
 
 FORMAT = "relight-shadow-net"
 FORMAT_VERSION = "1"
@@ -216,19 +222,7 @@ def read_shadow_net(path: str | os.PathLike) -> ShadowNetFile:
     """Read and validate the estimator's weights file ``path``; every problem is a one-line
     :class:`WeightsError` naming the file."""
     path = Path(path)
-    try:
-        with safe_open(str(path), framework="numpy") as f:
-            meta = dict(f.metadata() or {})
-            tensors = {k: f.get_tensor(k) for k in f.keys()}
-    except (SafetensorError, OSError, ValueError, MemoryError) as exc:
-        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise WeightsError(f"not a readable safetensors file ({first})", where=path) from None
-    if meta.get("format") != FORMAT:
-        raise WeightsError(f"not a relight shadow-estimator file (metadata format "
-                           f"{meta.get('format')!r}, expected {FORMAT!r})", where=path)
-    if meta.get("version") != FORMAT_VERSION:
-        raise WeightsError(f"format version {meta.get('version')!r} is not supported (this "
-                           f"viewer reads version {FORMAT_VERSION})", where=path)
+    meta, tensors = read_safetensors(path, FORMAT, FORMAT_VERSION, "shadow-estimator")
     try:
         arch = json.loads(meta["architecture"])
         training = json.loads(meta.get("training", "{}"))
@@ -243,24 +237,9 @@ def read_shadow_net(path: str | os.PathLike) -> ShadowNetFile:
             raise WeightsError(f"layer {layer.name!r} needs {need * 16 // 1024} KiB of weights, "
                                f"more than a 64 KiB uniform block holds", where=path)
         for part, shape in (("weight", layer.weight_shape), ("bias", (layer.out_channels,))):
-            name = f"{layer.name}.{part}"
-            names.add(name)
-            t = tensors.get(name)
-            if t is None:
-                raise WeightsError(f"missing tensor {name!r}", where=path)
-            if t.dtype != np.float32 or tuple(t.shape) != shape:
-                raise WeightsError(f"tensor {name!r} is {t.dtype}{list(t.shape)}, expected "
-                                   f"float32{list(shape)}", where=path)
-            if not np.isfinite(t).all():
-                raise WeightsError(f"tensor {name!r} has NaN/Inf values", where=path)
-    extra = sorted(set(tensors) - names)
-    if extra:
-        raise WeightsError(f"unexpected tensors {', '.join(extra)}", where=path)
-    digest = checkpoint_hash(tensors)
-    if meta.get("checkpoint") != digest:
-        raise WeightsError(f"checkpoint hash mismatch (metadata {str(meta.get('checkpoint'))[:12]}"
-                           f", tensors {digest[:12]}): the file was modified or damaged",
-                           where=path)
+            names.add(f"{layer.name}.{part}")
+            check_tensor(path, tensors, f"{layer.name}.{part}", shape)
+    digest = check_contents(path, meta, tensors, names)
     return ShadowNetFile(str(path), digest, arch, training, layers, tensors)
 
 

@@ -162,6 +162,22 @@ mat3 cotangent_frame(vec3 n_face, vec3 p, vec2 uv) {
     float invmax = inversesqrt(max(max(dot(t, t), dot(b, b)), 1e-30));
     return mat3(t * invmax, -b * invmax, n_face);
 }
+
+// The unit normal n (interpolated, front face's) tilted by the tangent-space normal n_ts read at
+// uv: the vertex tangents' frame (HAS_TANGENTS), else the cotangent frame, which is intrinsic
+// (it depends on the uv layout, not on the facing: the result is flipped for back faces by the
+// caller like the unmapped normal). `facing`: +1 front face, -1 back face.
+vec3 perturb_normal(vec3 n, vec3 n_ts, vec2 uv, float facing) {
+#ifdef HAS_TANGENTS
+    vec3 t = v_tangent_ws.xyz - n * dot(n, v_tangent_ws.xyz);
+    t = dot(t, t) > 1e-20 ? normalize(t) : vec3(0.0);
+    vec3 b = cross(n, t) * (v_tangent_ws.w < 0.0 ? -1.0 : 1.0);
+    return normalize(t * n_ts.x + b * n_ts.y + n * n_ts.z);
+#else
+    mat3 tbn = cotangent_frame(n * facing, v_position_ws, uv);
+    return normalize(tbn[0] * n_ts.x + tbn[1] * n_ts.y + n * n_ts.z);
+#endif
+}
 #endif
 
 // The surface at this fragment as a G-buffer record (coverage 1, view depth, the unlit colour =
@@ -207,17 +223,7 @@ GBuffer mesh_surface(out float alpha) {
     vec2 normal_uv = map_uv(u_normal_set, u_normal_uv);
     vec3 n_ts = sample_map(u_normal_map, normal_uv, u_normal_mirror).xyz * 2.0 - 1.0;
     n_ts.xy *= u_normal_scale;
-#ifdef HAS_TANGENTS
-    vec3 t = v_tangent_ws.xyz - n * dot(n, v_tangent_ws.xyz);
-    t = dot(t, t) > 1e-20 ? normalize(t) : vec3(0.0);
-    vec3 b = cross(n, t) * (v_tangent_ws.w < 0.0 ? -1.0 : 1.0);
-    n = normalize(t * n_ts.x + b * n_ts.y + n * n_ts.z);
-#else
-    // The frame is intrinsic (it depends on the uv layout, not on the facing); the perturbed
-    // normal is flipped below for back faces like the unmapped one.
-    mat3 tbn = cotangent_frame(n * facing, v_position_ws, normal_uv);
-    n = normalize(tbn[0] * n_ts.x + tbn[1] * n_ts.y + n * n_ts.z);
-#endif
+    n = perturb_normal(n, n_ts, normal_uv, facing);  // flipped below for back faces
 #endif
     g.emission = u_emissive;
 #ifdef USE_EMISSIVE_MAP
@@ -250,15 +256,7 @@ GBuffer mesh_surface(out float alpha) {
     vec3 c_ts = sample_map(u_clearcoat_normal_map, coat_uv, u_clearcoat_normal_mirror).xyz * 2.0
                 - 1.0;
     c_ts.xy *= u_clearcoat_normal_scale;
-#ifdef HAS_TANGENTS
-    vec3 ct = v_tangent_ws.xyz - n_coat * dot(n_coat, v_tangent_ws.xyz);
-    ct = dot(ct, ct) > 1e-20 ? normalize(ct) : vec3(0.0);
-    vec3 cb = cross(n_coat, ct) * (v_tangent_ws.w < 0.0 ? -1.0 : 1.0);
-    n_coat = normalize(ct * c_ts.x + cb * c_ts.y + n_coat * c_ts.z);
-#else
-    mat3 coat_tbn = cotangent_frame(n_coat * facing, v_position_ws, coat_uv);
-    n_coat = normalize(coat_tbn[0] * c_ts.x + coat_tbn[1] * c_ts.y + n_coat * c_ts.z);
-#endif
+    n_coat = perturb_normal(n_coat, c_ts, coat_uv, facing);
 #endif
     float coat = u_clearcoat;
     float coat_roughness = u_clearcoat_roughness;

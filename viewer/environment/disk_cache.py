@@ -29,7 +29,8 @@ import numpy as np
 
 # Bump when what an entry holds or how it is computed changes (the loader's resampling, the
 # convolution, the sun extraction, the sampling tables): older entries are then stale.
-FORMAT = 3  # 2: the irradiance maps, several lights per environment; 3: 512-wide irradiance
+FORMAT = 4  # 2: the irradiance maps, several lights per environment; 3: 512-wide irradiance;
+# 4: compact cores of too-large bright regions become lights (sun.py SUN_CORE_FRACTION)
 DEFAULT_MAX_BYTES = 2048 << 20
 _SUFFIX = ".safetensors"
 _OFF = ("0", "off", "false", "no")

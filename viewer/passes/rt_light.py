@@ -12,7 +12,7 @@ from .shade import set_view_and_lighting
 
 # the shading variant's defines the ray pass compiles with (the rest do not change its rays)
 TRACE_DEFINES = ("SPECULAR_LOBE", "SUN_LIGHT", "RT_SUN", "ENV_LIGHTS", "LIGHT_COUNT",
-                 "LIGHT_POSITIONAL")
+                 "LIGHT_POSITIONAL", "MULTISCATTER")
 # a-trous iterations: a 29-pixel footprint, whatever the history's age (widening it for a young
 # history made the first frames of a still view jump: 5 % flicker against 3 %)
 FILTER_STEPS = (1, 2, 4)

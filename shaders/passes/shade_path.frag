@@ -118,7 +118,11 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         uint dim = uint(bounce) * DIMS_PER_BOUNCE;
         radiance += beta * path_environment(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim));
         radiance += beta * path_lights(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 1u));
-        if (bounce + 3 > u_max_depth) break;  // the next segment would be one too many
+        // the last segment (Mitsuba's max_depth): its BSDF-sampled ray still meets what it
+        // meets - the environment, MIS-weighted against the sampling above, or an emitter - and
+        // the path ends there (without it the last bounce kept only the light-sampled half of
+        // its MIS pair and came out dark: depth 6 matched the reference at depth 5 through glass)
+        bool last = bounce + 3 > u_max_depth;
         vec3 l = sample_surface_brdf(s.s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 2u));
         float pdf = surface_brdf_pdf(s.s, l);
         vec3 f = surface_brdf_cos(s.s, l);
@@ -137,6 +141,7 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         vec3 ng = front ? t.ng : -t.ng;
         vec3 n = front ? t.n : -t.n;
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
+        if (last) break;
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
                         t.dielectric, t.clearcoat, n);
         float q = path_continue_probability(beta, float(bounce + 1));

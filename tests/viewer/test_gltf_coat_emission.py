@@ -239,9 +239,9 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_coat(coat_tru
             model=model, samples=16, seed=s, sampling="mis", **extra)).radiance
             for s in range(8)], np.float64)
 
-    result = block_test(runs(ext, "path", max_depth=3), ref)
+    result = block_test(runs(ext, "path", max_depth=2), ref)
     assert result.count > 20 and result.passed, result
-    assert not block_test(runs(plain, "path", max_depth=3), ref).passed
+    assert not block_test(runs(plain, "path", max_depth=2), ref).passed
     mc = per_sphere(runs(ext, "ggx_mc")[:4].mean(0), ref.radiance, 4)
     assert all(abs(s[0]) <= 0.08 for s in mc), mc
     mc_plain = per_sphere(runs(plain, "ggx_mc")[:4].mean(0), ref.radiance, 4)

@@ -206,8 +206,8 @@ def test_ior_and_specular_spheres_match_the_reference(ior_truth, renderer):
 
 
 def test_the_path_tracer_converges_to_the_reference_with_the_lobe(ior_truth, renderer):
-    """``path`` (direct light, as the reference's max_depth 2: the path tracer's max_depth 3
-    counts the camera vertex) on the same grid: the per-block
+    """``path`` (direct light: max_depth 2, as the reference's, segments counted alike) on the
+    same grid: the per-block
     z-test of tests/reference/test_path_convergence.py (8 seeds x 16 spp) passes with the
     extensions and rejects the file without them (the path tracer's own surface_init then has
     Filament's lobe). Secondary hits read the lobe's factors from the material rows (row 9,
@@ -219,7 +219,7 @@ def test_the_path_tracer_converges_to_the_reference_with_the_lobe(ior_truth, ren
 
     def runs(scene):
         return np.asarray([renderer.render(scene.with_render(
-            model="path", samples=16, seed=s, max_depth=3)).radiance for s in range(8)],
+            model="path", samples=16, seed=s, max_depth=2)).radiance for s in range(8)],
             np.float64)
 
     result = block_test(runs(ext), ref)

@@ -67,6 +67,11 @@ class NeuralSettings:
     # the neural shadow estimator's weights (viewer/neural/shadow_net.py): its visibility
     # multiplies every model's shading (thesis eq. 4.3); None: no estimator (TOML: shadow_net)
     shadow_net: str | None = None
+    # how its visibility V enters the frame: "product" (multiplied into the shaded radiance,
+    # thesis eq. 4.3; every model) | "visibility" (the mean of V's colours in place of SSAO's
+    # occlusion O(x) and a student's S(x) in the lighting pass: blinn_phong, ggx_split_sum,
+    # neural; viewer/graph/shadow_net.py); TOML: shadow_net_use
+    shadow_net_use: str = "product"
     # "const" (baked) | "ubo" (a uniform block, or a storage buffer above 16 KiB) | "texture"
     # (viewer.neural.WEIGHT_STORAGES); TOML: neural_storage
     storage: str = "const"
@@ -218,6 +223,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "shadow_net": ("neural", "shadow_net"),
+    "shadow_net_use": ("neural", "shadow_net_use"),
     "neural_storage": ("neural", "storage"),
     "splat_depth": (None, "splat_depth"),
     "shadows": ("shadow", "enabled"),

@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..models import ShadeVariant, ShadingModel, model_info
+from ..models import ShadeVariant, ShadingModel, model_info, sample_count
 from ..neural import learns_indirect, needs_env_visibility
 from ..passes.forward import forward_model, forward_variant, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
@@ -340,10 +340,10 @@ def _accumulate(f, renderer, req: FrameRequest, shade_into, out_fbo) -> None:
     if not req.progressive or state.get("key") != key:
         state.update(key=key, count=0)
     if req.progressive:
-        todo = min(max(int(req.samples_per_frame), 1), max(settings.mc.samples - state["count"],
-                                                           0))
+        todo = min(max(int(req.samples_per_frame), 1),
+                   max(sample_count(settings) - state["count"], 0))
     else:
-        todo = settings.mc.samples
+        todo = sample_count(settings)
     batch, history = f["mc_batch"], f["mc_history"]
     if todo == 0:  # converged: the history holds the mean
         renderer.ctx.copy_framebuffer(dst=out_fbo, src=history.fbo)

@@ -11,7 +11,9 @@ from typing import Any
 class MonteCarloSettings:
     """How models that integrate by Monte Carlo (``ggx_mc``, ``path``, ``neural_teacher``) sample."""
 
-    samples: int = 1  # samples per pixel (ignored by 1-sample models)
+    # samples per pixel (ignored by 1-sample models); None (unset): the model's own count,
+    # viewer.models.ShadingModel.samples (1, but 64 for neural_teacher: docs/explanation/neural.md)
+    samples: int | None = None
     sampling: str = "mis"  # strategy: uniform | cosine | env | brdf | mis
     mis_heuristic: str = "power"  # MIS weights: "power" (beta = 2) | "balance"
     seed: int = 0  # scrambles the per-pixel sequences (also SSAO's rays)

@@ -18,6 +18,13 @@ from .lighting.lights import light_defines
 SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
 SAMPLING_IDS = {name: i for i, name in enumerate(SAMPLINGS)}  # the SAMPLING define
 MIS_POWERS = {"balance": 1, "power": 2}  # the MIS_POWER define (beta of the power heuristic)
+# neural_teacher's samples per pixel when a scene sets none ([render] samples unset), measured
+# against 1024-4096 spp (docs/explanation/neural.md): relative RMS error and the share of surface
+# pixels whose luminance is off by > 50 % (speckles) on the demo at 160 x 100 - 1.10 / 77 % at
+# 1 spp, 0.048 / 0 at 64 - and on the parity scene's sky with its sharp sun at 32 x 24 - 2.36 /
+# 92 % at 1, 0.13 / 20 % at 64, 0.027 / 1.2 % at 256, 0.010 / 0 at 1024. 256: clean on both
+# (2.3 s at 160 x 100 on llvmpipe; the viewer accumulates it over frames)
+TEACHER_SAMPLES = 256
 ALL_CHANNELS = None  # ShadingModel.reads: every G-buffer channel
 
 
@@ -44,6 +51,8 @@ class ShadingModel:
     # G-buffer channels read besides albedo and alpha (None: all of them)
     reads: frozenset[str] | None = ALL_CHANNELS
     accumulates: bool = False  # Monte Carlo: `samples` accumulate in batches and over frames
+    # samples per pixel when the scene sets none ([render] samples unset; sample_count)
+    samples: int = 1
     network: str | None = None  # "student" | "teacher": the weights file the model loads
     # how the model treats a scene's punctual lights (viewer.lighting.lights): "shaded" (the analytic
     # direct term of each: LIGHT_COUNT, LIGHT_POSITIONAL), "unlit" (no lighting at all) or
@@ -162,11 +171,20 @@ MODELS: dict[str, ShadingModel] = {
                      "and specular MLPs per sampled light direction, `samples` averaged "
                      "progressively; `sampling` uniform | cosine | env (brdf and mis use env)",
                      frozenset({"radiance", "cdf"}), accumulates=True, network="teacher",
-                     lights="ignored", occlusion=False, samplings=SAMPLINGS[:3]),
+                     lights="ignored", occlusion=False, samplings=SAMPLINGS[:3],
+                     samples=TEACHER_SAMPLES),
     )
 }
 # models that integrate by Monte Carlo (accumulate samples)
 SAMPLING_MODELS = frozenset(name for name, m in MODELS.items() if m.accumulates)
+
+
+def sample_count(settings) -> int:
+    """Samples per pixel a frame of ``settings`` accumulates: ``[render] samples``, else its
+    model's own count (:attr:`ShadingModel.samples`)."""
+    if settings.mc.samples is not None:
+        return int(settings.mc.samples)
+    return model_info(settings.model).samples
 
 
 def model_info(name: str) -> ShadingModel:

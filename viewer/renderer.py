@@ -38,7 +38,7 @@ from .graph.display import output_radiance, ssaa_factor
 from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
 from .lighting.lights import gather_lights
-from .models import contact_shadows, ignored_lobes, model_info
+from .models import contact_shadows, ignored_lobes, model_info, sample_count
 from .neural import required_settings, shades_sun
 from .passes.ground import CATCHER_CHANNELS, scene_catcher
 from .resources import GPUResources
@@ -192,7 +192,7 @@ class Renderer:
         settings = required_settings(scene.render)  # SSAO for a student that reads visibility
         if settings is not scene.render:
             scene = dataclasses.replace(scene, render=settings)
-        if model.accumulates and settings.mc.samples < 1:
+        if model.accumulates and sample_count(settings) < 1:
             raise SceneError(f"render.samples must be at least 1 for {settings.model}, got "
                              f"{settings.mc.samples}", where=scene.source or "render.samples")
         scene = gather_lights(scene, self.geometry)  # + the meshes' own lights

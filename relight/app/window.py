@@ -41,7 +41,7 @@ from viewer.errors import RelightError, SceneError
 from viewer.gbuffer import CHANNEL_NAMES
 from viewer.gl.context import ContextOptions, create_window, make_current
 from viewer.gl.timing import PassTimer
-from viewer.models import SAMPLING_MODELS
+from viewer.models import SAMPLING_MODELS, sample_count
 from viewer.renderer import FrameTargets, Renderer
 from viewer.scene.description import Scene
 
@@ -182,7 +182,7 @@ class Viewer(FileActions, Capture):
         # a channel view needs that channel allocated (the layout is specialised to the scene)
         aovs = (self.state.view,) if self.state.view in CHANNEL_NAMES else ()
         accumulating = (scene.render.model in SAMPLING_MODELS and self._targets is not None
-                        and self._targets.samples < scene.render.mc.samples)
+                        and self._targets.samples < sample_count(scene.render))
         if scene == self._scene and aovs == self._aovs and not accumulating:
             return  # nothing changed: no GPU work beyond presenting
         try:

@@ -41,21 +41,37 @@ vec3 background_radiance(vec3 d_ws) {
 
 // ---- ambient occlusion (applied to the diffuse term of every model) ----------------------------
 // USE_AO: the G-buffer's baked ao channel; USE_SSAO: screen-space occlusion from passes/ssao.frag
-// (thesis eq. 6.19), texture u_ssao (r = visibility O(x)). Both multiply diffuse light only.
+// (thesis eq. 6.19), texture u_ssao (r = visibility O(x); g = the environment's visibility S(x)
+// where SSAO_ENV_VIS computed it). Both multiply diffuse light only. SSAO_SHADOW_NET: u_ssao is
+// the neural shadow estimator's per-colour visibility V instead ([render] shadow_net_use =
+// "visibility", viewer/graph/shadow_net.py), whose mean stands for both O(x) and S(x).
 #ifndef USE_AO
 #define USE_AO 0
 #endif
 #ifndef USE_SSAO
 #define USE_SSAO 0
 #endif
+#ifndef SSAO_SHADOW_NET
+#define SSAO_SHADOW_NET 0
+#endif
 #if USE_SSAO
 uniform sampler2D u_ssao;
+
+// O(x) (channel 0) or S(x) (channel 1) at ``pixel``
+float ssao_channel(ivec2 pixel, int channel) {
+    vec4 t = texelFetch(u_ssao, pixel, 0);
+#if SSAO_SHADOW_NET
+    return (t.r + t.g + t.b) / 3.0;
+#else
+    return channel == 0 ? t.r : t.g;
+#endif
+}
 #endif
 
 float ambient_occlusion(ivec2 pixel, GBuffer g) {
     float ao = USE_AO != 0 ? g.ao : 1.0;
 #if USE_SSAO
-    ao *= texelFetch(u_ssao, pixel, 0).r;
+    ao *= ssao_channel(pixel, 0);
 #endif
     return ao;
 }

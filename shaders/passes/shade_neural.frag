@@ -107,7 +107,7 @@ void main() {
 #endif
     float ao = ambient_occlusion(pixel, g);
 #if NEURAL_STUDENT_VIS && USE_SSAO
-    float vis = texelFetch(u_ssao, pixel, 0).g;
+    float vis = ssao_channel(pixel, 1);  // S(x), or the shadow estimator's V (SSAO_SHADOW_NET)
 #else
     float vis = 1.0;
 #endif

@@ -228,3 +228,37 @@ def test_shipped_weights_say_where_they_come_from(capsys):
     assert main(["info", "--weights"]) == 0
     assert "command" in capsys.readouterr().out
     assert main(["info", "--weights", "nope.safetensors"]) == 2
+
+
+def test_the_shadow_estimator_is_scored_against_the_classical_pick(protocol, tmp_path, capsys):
+    """learned.protocol.shadow_net: on val the classical variant is the best of all by mean PSNR,
+    an estimator of V = 1 scores exactly the unshadowed frame; the test split needs the variant
+    chosen on val and is counted in the ledger."""
+    import shutil
+
+    from learned.protocol import shadow_net as sn
+    from learned.protocol.classical import variants
+    from learned.protocol.run import classical_scores
+    from learned.protocol.scores import ledger
+    from learned.train import load_images
+    from test_shadow_net_route import constant_weights
+    from viewer.renderer import Renderer
+
+    ones = str(constant_weights(tmp_path, (1.0, 1.0, 1.0)))
+    r = sn.evaluate(str(protocol), "val", [ones])
+    assert r["vs_frame"]["mean"] == 0.0 and r["estimator_psnr"] == [r["frame_psnr"]]
+    renderer = Renderer()
+    try:
+        val = load_images(str(protocol), "val", renderer, sun=True, multiscatter=True)
+    finally:
+        renderer.release()
+    assert r["classical_psnr"] == max(float(np.mean(classical_scores(m, val)))
+                                      for m in variants())
+    data = tmp_path / "copy"  # the module's dataset keeps its own ledger count
+    shutil.copytree(protocol, data)
+    with pytest.raises(SystemExit):
+        sn.main([str(data), ones, "--split", "test"])
+    sn.main([str(data), ones, "--split", "test", "--classical", json.dumps(r["classical"])])
+    out = json.loads(capsys.readouterr().out)
+    assert out["test_scored"] == 1 and len(ledger(data)) == 1
+    assert out["classical_name"] == r["classical_name"]

@@ -4,9 +4,10 @@ the graph culls, reuses and allocates (:mod:`.graph`); render targets come from 
 :mod:`.frame`.
 
 The shadow passes a frame declares: :mod:`.shadows`; the display chain (supersampling, tone
-mapping): :mod:`.display`; the neural shadow estimator (``[render] shadow_net``): :mod:`.shadow_net`.
+mapping): :mod:`.display`; the neural shadow estimator (``[render] shadow_net``, its visibility
+multiplied into the radiance or in place of SSAO): :mod:`.shadow_net`.
 
-Imports: :mod:`viewer.cache`, :mod:`viewer.gbuffer`, :mod:`viewer.models`, :mod:`viewer.specialize`,
+Imports: :mod:`viewer.cache`, :mod:`viewer.errors`, :mod:`viewer.gbuffer`, :mod:`viewer.models`, :mod:`viewer.specialize`,
 :mod:`viewer.scene`, :mod:`viewer.lighting`, :mod:`viewer.neural`, :mod:`viewer.passes`.
 """
 from .graph import FrameGraph, FrameResources, PassNode, ResourceNode

@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..models import ShadingModel, model_info
+from ..models import ShadeVariant, ShadingModel, model_info, sample_count
 from ..neural import learns_indirect, needs_env_visibility
 from ..passes.forward import forward_model, forward_variant, warn_unshadowed
 from ..passes.gbuffer import GBufferTargets
@@ -32,7 +32,9 @@ from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
 from .raytrace import raytrace_passes
 from .resources import GBufferDesc, TextureDesc
-from .shadow_net import shadow_net_passes
+from .shadow_net import RADIANCE as SN_RADIANCE
+from .shadow_net import VISIBILITY as SN_VISIBILITY
+from .shadow_net import shadow_net_passes, visibility_route
 from .shadows import cascade_variant, env_to_world, light_shadow_frame, shadow_passes  # noqa: F401
 
 MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
@@ -83,8 +85,16 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     shadows = shadow_passes(g, renderer, scene, spec, camera, also=fvariant)
     rt_light = raytrace_passes(g, renderer, scene, spec, camera, req.progressive,
                                _lighting_settings(settings)) if rt else ()
-    _lighting_passes(g, renderer, req, ssao, shadows, rt_light)
-    shadow_net_passes(g, renderer, scene, spec, camera, ssao.occlusion if ssao else None)
+    lit_ssao = ssao
+    if visibility_route(settings):  # the estimator's V in place of SSAO (graph/shadow_net.py)
+        g.create(SN_RADIANCE, TextureDesc(size, 4, "f4"))
+        _lighting_passes(g, renderer, req, ssao, shadows, out=SN_RADIANCE)
+        shadow_net_passes(g, renderer, scene, spec, camera, ssao.occlusion if ssao else None,
+                          radiance=SN_RADIANCE, visibility=SN_VISIBILITY)
+        lit_ssao = SSAOOutputs(SN_VISIBILITY, ssao.hits)
+    _lighting_passes(g, renderer, req, lit_ssao, shadows, rt_light)
+    if lit_ssao is ssao:  # the product form, or no estimator (no pass)
+        shadow_net_passes(g, renderer, scene, spec, camera, ssao.occlusion if ssao else None)
     if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
 
         def forward(f):  # receives the frame's shadow maps (viewer/passes/forward.py)
@@ -215,19 +225,23 @@ def _lighting_settings(settings):
 
 
 def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutputs | None,
-                     shadows: dict, rt_light: tuple[str, ...] = ()):
+                     shadows: dict, rt_light: tuple[str, ...] = (), out: str = "radiance"):
     """``shade`` (accumulated for Monte-Carlo models) into ``radiance``, or, with the indirect
     light, into ``direct`` (and a student's learned ``indirect_factor``), then ``indirect``;
     ``rt_light``: the real-time tier's filtered targets (RT_LIGHT), which replace the
-    screen-space indirect light."""
+    screen-space indirect light. ``ssao.occlusion`` names the map read as SSAO's: the shadow
+    estimator's visibility (:data:`SN_VISIBILITY`) compiles ``SSAO_SHADOW_NET`` in. ``out``
+    other than ``radiance``: only the lighting pass, ``<out's folder>:shade``, into ``out`` (the
+    estimator's unshadowed input, :mod:`viewer.graph.shadow_net`)."""
     scene, model, spec, camera = req.scene, req.model, req.spec, req.camera
     settings = scene.render
     res = renderer.resources
     size = tuple(camera.size)
-    indirect = settings.ssao.indirect and not rt_light
+    side = out != "radiance"
+    indirect = settings.ssao.indirect and not rt_light and not side
     factor = indirect and learns_indirect(settings)
-    out = "direct" if indirect else "radiance"
-    outs = (out,)
+    target = "direct" if indirect else out
+    outs = (target,)
     if indirect:
         g.create("direct", TextureDesc(size, 4, "f4"), kept=True)
         if factor:  # the student's 2nd output: its indirect factor (R32F)
@@ -236,6 +250,9 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     reads = (("gbuffer",) + ((ssao.occlusion,) if ssao else ())
              + tuple(name for name, _, _, _ in shadows.values()) + tuple(rt_light))
     variant = cascade_variant(spec.variant, shadows)
+    if ssao is not None and ssao.occlusion == SN_VISIBILITY:
+        variant = ShadeVariant(variant.model, tuple(sorted({**variant.defines,
+                                                            "SSAO_SHADOW_NET": 1}.items())))
     env_sampling = renderer.env_sampling(scene) if "cdf" in model.needs else None
     # the IBL without the sun a SUN_LIGHT pass shades itself
     ibl = res.ibl(scene.environment, sun=bool(spec.variant.defines.get("SUN_LIGHT")))
@@ -275,7 +292,8 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     else:
         def shade(f):
             shade_into(f, f.fbo(*outs), trace=traced_scene())
-    g.add_pass("shade", shade, reads=reads, writes=writes, inputs=inputs,
+    name = f"{out.split('/')[0]}:shade" if side else "shade"
+    g.add_pass(name, shade, reads=reads, writes=writes, inputs=inputs,
                volatile=model.accumulates)
 
     if not indirect:
@@ -322,10 +340,10 @@ def _accumulate(f, renderer, req: FrameRequest, shade_into, out_fbo) -> None:
     if not req.progressive or state.get("key") != key:
         state.update(key=key, count=0)
     if req.progressive:
-        todo = min(max(int(req.samples_per_frame), 1), max(settings.mc.samples - state["count"],
-                                                           0))
+        todo = min(max(int(req.samples_per_frame), 1),
+                   max(sample_count(settings) - state["count"], 0))
     else:
-        todo = settings.mc.samples
+        todo = sample_count(settings)
     batch, history = f["mc_batch"], f["mc_history"]
     if todo == 0:  # converged: the history holds the mean
         renderer.ctx.copy_framebuffer(dst=out_fbo, src=history.fbo)

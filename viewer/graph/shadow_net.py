@@ -1,25 +1,55 @@
-"""The neural shadow estimator in the frame (``[render] shadow_net``): after the lighting (and
-the indirect light) and before transparent surfaces, one pass per layer of the weights file
-(:class:`viewer.passes.shadow_net.ShadowNetPass`), ``shadow_net:<layer>``, each writing its
-feature map ``shadow_net/<layer>`` (a transient target of the frame), then ``shadow_net``, which
-multiplies the visibility into ``radiance`` in place (the thesis's product form, eq. 4.3). The layers read the
-unshadowed radiance, the G-buffer and SSAO's occlusion. Per-layer passes let the graph skip the
-whole chain when the radiance it produced is reused (a pass writing a transient is always drawn,
-and an in-place writer of the radiance would then redraw the lighting every frame). Declared
-only when the setting names a file: no pass and no allocation otherwise."""
+"""The neural shadow estimator in the frame (``[render] shadow_net``), one pass per layer of the
+weights file (:class:`viewer.passes.shadow_net.ShadowNetPass`), ``shadow_net:<layer>``, each
+writing its feature map ``shadow_net/<layer>`` (a transient target of the frame). Per-layer
+passes let the graph skip the whole chain when the radiance it led to is reused (a pass writing
+a transient is always drawn, and an in-place writer of the radiance would then redraw the
+lighting every frame). Declared only when the setting names a file: no pass and no allocation
+otherwise. ``[render] shadow_net_use`` says where the visibility V goes:
+
+* ``"product"`` (the default; every model): after the lighting (and the indirect light) and
+  before transparent surfaces, the last layer, ``shadow_net``, multiplies V into ``radiance`` in
+  place (the thesis's product form, eq. 4.3); the layers read that unshadowed radiance.
+* ``"visibility"`` (:data:`VISIBILITY_MODELS`): V takes the place of SSAO's occlusion O(x) and a
+  student's S(x) in the lighting pass. The estimator still reads an unshadowed render, so the
+  frame draws the lighting twice: ``shadow_net:shade`` with SSAO into ``shadow_net/radiance``
+  (transient), the layers on it, the last writing V to ``shadow_net/visibility``, and ``shade``
+  reading that map where it would read SSAO's (``SSAO_SHADOW_NET``: ``passes/deferred.glsl``
+  takes the mean of V's colours for both, as they are one number each)."""
 from __future__ import annotations
 
+from ..errors import SceneError
 from ..neural.format import WeightsError
 from ..neural.shadow_net import SOURCE_FRAME, load_shadow_net
 from ..passes.shadow_net import map_sizes
 from .graph import FrameGraph
 from .resources import TextureDesc
 
+# the rasterised models whose lighting pass reads SSAO's occlusion (and the student its S(x))
+# without accumulating Monte-Carlo samples: the ones V can stand in for
+VISIBILITY_MODELS = ("blinn_phong", "ggx_split_sum", "neural")
+VISIBILITY = "shadow_net/visibility"
+RADIANCE = "shadow_net/radiance"
 
-def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: str | None
-                      ) -> None:
-    """Declare ``shadow_net`` when ``scene.render.neural.shadow_net`` names a file;
-    ``occlusion``: the frame's full-resolution SSAO resource (None: no SSAO pass ran)."""
+
+def visibility_route(settings) -> bool:
+    """Whether the frame takes the estimator's visibility in place of SSAO (``shadow_net`` set,
+    ``shadow_net_use = "visibility"``); a model it cannot stand in for is one line."""
+    if settings.neural.shadow_net is None or settings.neural.shadow_net_use != "visibility":
+        return False
+    if settings.model not in VISIBILITY_MODELS:
+        raise SceneError(f'render.shadow_net_use = "visibility" replaces the SSAO that '
+                         f'{", ".join(VISIBILITY_MODELS)} read; model {settings.model!r} does '
+                         f'not read it: use shadow_net_use = "product"')
+    return True
+
+
+def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: str | None,
+                      radiance: str = "radiance", visibility: str | None = None) -> None:
+    """Declare the estimator when ``scene.render.neural.shadow_net`` names a file: its layers
+    read ``radiance`` (the unshadowed render), the G-buffer and ``occlusion`` (the frame's
+    full-resolution SSAO resource; None: no SSAO pass ran); the last multiplies V into
+    ``radiance`` in place, or, given ``visibility`` (a resource this creates, transient), writes
+    V there."""
     path = scene.render.neural.shadow_net
     if path is None:
         return
@@ -32,17 +62,22 @@ def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: s
     size = tuple(int(s) for s in camera.size)
     maps = {name: g.create(f"shadow_net/{name}", TextureDesc(tiled, 4, "f4"))
             for name, tiled in map_sizes(net, size).items()}
+    if visibility is not None:
+        g.create(visibility, TextureDesc(size, 4, "f4"))
     spass = renderer.resources.layout_pass("shadow_net", spec.layout)
     for layer in net.layers:  # one pass per layer: transient maps, the product in place
         last = layer.name == net.layers[-1].name
         frame = SOURCE_FRAME in (layer.a_source, layer.b_source)
-        reads = ((("gbuffer", "radiance", occlusion) if frame or last else ())
+        reads = ((("gbuffer", radiance, occlusion) if frame or last else ())
                  + tuple(maps[src] for src in (layer.a, layer.b) if src in maps))
         used = tuple(n for n in (layer.a, layer.b, layer.name) if n in maps)
 
-        def run(f, only=(layer.name,), used=used):
-            spass.run(net, f["gbuffer"].textures, f["radiance"].texture, f[occlusion].texture,
-                      {name: f[maps[name]].texture for name in used}, size, only=only)
-        g.add_pass("shadow_net" if last else f"shadow_net:{layer.name}", run, reads=reads,
-                   writes=("radiance",) if last else (maps[layer.name],),
+        def run(f, only=(layer.name,), used=used, last=last):
+            spass.run(net, f["gbuffer"].textures, f[radiance].texture, f[occlusion].texture,
+                      {name: f[maps[name]].texture for name in used}, size, only=only,
+                      visibility=f[visibility].texture if last and visibility else None)
+        out = (visibility or radiance) if last else maps[layer.name]
+        name = (f"shadow_net:{layer.name}" if not last else
+                "shadow_net" if visibility is None else "shadow_net:visibility")
+        g.add_pass(name, run, reads=reads, writes=(out,),
                    inputs={"shadow_net": net.checkpoint, "layer": layer.name})

@@ -54,6 +54,9 @@ DEFAULT_ARCHITECTURE = {"levels": 5, "widths": [8, 12, 16, 24, 32]}
 # sources of a layer's inputs (SN_A_SOURCE / SN_B_SOURCE of passes/shadow_net_conv.comp)
 SOURCE_NONE, SOURCE_MAP, SOURCE_NEAREST_UP, SOURCE_BILINEAR_UP, SOURCE_FRAME = 0, 1, 2, 3, 4
 ACT_RELU, ACT_SIGMOID = 0, 1
+# how the frame takes the visibility ([render] shadow_net_use; viewer/graph/shadow_net.py):
+# multiplied into the shaded radiance, or in place of SSAO's O(x) and S(x) in the lighting pass
+SHADOW_NET_USES = ("product", "visibility")
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from typing import Any
 from ..errors import SceneError
 from ..models import MODELS, SAMPLINGS
 from ..neural.glsl import WEIGHT_STORAGES
+from ..neural.shadow_net import SHADOW_NET_USES
 from .settings import (
     AA_MODES,
     CONTACT_SHADOWS,
@@ -167,6 +168,9 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "neural_storage" in t:
         kw["neural_storage"] = _str(t["neural_storage"], "render.neural_storage", file,
                                     WEIGHT_STORAGES)
+    if "shadow_net_use" in t:
+        kw["shadow_net_use"] = _str(t["shadow_net_use"], "render.shadow_net_use", file,
+                                    SHADOW_NET_USES)
     for k in ("weights", "teacher_weights", "shadow_net"):  # relative to the scene file
         if k in t:
             base = Path(file).resolve().parent if Path(file).is_file() else Path.cwd()

@@ -11,7 +11,9 @@ from typing import Any
 class MonteCarloSettings:
     """How models that integrate by Monte Carlo (``ggx_mc``, ``path``, ``neural_teacher``) sample."""
 
-    samples: int = 1  # samples per pixel (ignored by 1-sample models)
+    # samples per pixel (ignored by 1-sample models); None (unset): the model's own count,
+    # viewer.models.ShadingModel.samples (1, but 64 for neural_teacher: docs/explanation/neural.md)
+    samples: int | None = None
     sampling: str = "mis"  # strategy: uniform | cosine | env | brdf | mis
     mis_heuristic: str = "power"  # MIS weights: "power" (beta = 2) | "balance"
     seed: int = 0  # scrambles the per-pixel sequences (also SSAO's rays)
@@ -67,6 +69,11 @@ class NeuralSettings:
     # the neural shadow estimator's weights (viewer/neural/shadow_net.py): its visibility
     # multiplies every model's shading (thesis eq. 4.3); None: no estimator (TOML: shadow_net)
     shadow_net: str | None = None
+    # how its visibility V enters the frame: "product" (multiplied into the shaded radiance,
+    # thesis eq. 4.3; every model) | "visibility" (the mean of V's colours in place of SSAO's
+    # occlusion O(x) and a student's S(x) in the lighting pass: blinn_phong, ggx_split_sum,
+    # neural; viewer/graph/shadow_net.py); TOML: shadow_net_use
+    shadow_net_use: str = "product"
     # "const" (baked) | "ubo" (a uniform block, or a storage buffer above 16 KiB) | "texture"
     # (viewer.neural.WEIGHT_STORAGES); TOML: neural_storage
     storage: str = "const"
@@ -218,6 +225,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "shadow_net": ("neural", "shadow_net"),
+    "shadow_net_use": ("neural", "shadow_net_use"),
     "neural_storage": ("neural", "storage"),
     "splat_depth": (None, "splat_depth"),
     "shadows": ("shadow", "enabled"),

@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from learned.twins.shade import shade
+from viewer.models import sample_count
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
 
@@ -216,7 +217,7 @@ def _check_model(programs, model: str, variant: dict, light: dict | list | None 
         ssao = None
         if scene.render.ssao.enabled:
             ssao = torch.from_numpy(gl_texture(targets.ssao)[..., 0].copy())
-        mc = {"start": 0, "count": scene.render.mc.samples, "seed": scene.render.mc.seed}
+        mc = {"start": 0, "count": sample_count(scene.render), "seed": scene.render.mc.seed}
         envelope = {"weight_bits": device_filter_bits(programs)}
         with torch.enable_grad():  # the envelope differentiates through the lookups
             ref = shade(model, gb, targets.camera, env, scene.environment.intensity,

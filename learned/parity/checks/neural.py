@@ -23,6 +23,7 @@ from viewer.neural import (
     load_network,
     required_settings,
 )
+from viewer.models import sample_count
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
@@ -137,7 +138,7 @@ def check_model(programs, model: str, variant: dict, weights=None, label: str = 
         grad = torch.enable_grad() if model == "neural" else torch.no_grad()
         with grad:  # the student's envelope differentiates through the network to its lookups
             ref = shade_neural(model, net_model, gb, targets.camera, lighting, defines,
-                               (0, scene.render.mc.samples), scene.render.mc.seed,
+                               (0, sample_count(scene.render)), scene.render.mc.seed,
                                envelope=envelope, ssao=ssao).detach().numpy()
     finally:
         renderer.release()

@@ -2,7 +2,7 @@
 the renderer's memory (:func:`frame_lines`), and the message line while the panel is hidden."""
 from __future__ import annotations
 
-from viewer.models import SAMPLING_MODELS
+from viewer.models import SAMPLING_MODELS, sample_count
 
 from .choices import ERROR_COLOUR
 
@@ -22,7 +22,7 @@ def draw_overlay(imgui, viewer) -> list[str]:
     lines = [f"{viewer.frame_ms:6.2f} ms frame  {scene.render.model}  {w}x{h}"]
     targets = viewer.targets
     if targets is not None and scene.render.model in SAMPLING_MODELS:
-        lines.append(f"samples {targets.samples}/{scene.render.mc.samples}")
+        lines.append(f"samples {targets.samples}/{sample_count(scene.render)}")
     lines += [f"{name:>8}: {ms:7.3f} ms GPU" for name, ms in viewer.timers.ms.items()]
     lines += frame_lines(viewer.renderer)
     for line in lines:

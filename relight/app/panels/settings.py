@@ -2,6 +2,7 @@
 (screenshot, save/open scene) sections."""
 from __future__ import annotations
 
+from viewer.models import sample_count
 from viewer.passes.debug_view import shadow_views
 
 from ..state import VIEWS
@@ -18,6 +19,8 @@ class SettingsPanels:
         for key, value in r.flat().items():  # one widget per [render] key
             if key in QUICK_FIELDS:
                 continue
+            if key == "samples" and value is None:  # unset: the model's own count, editable
+                value = sample_count(r)
             choices = (CHOICES.get(key) or (lambda: None))() if isinstance(value, str) else None
             if isinstance(value, bool):
                 _, new = imgui.checkbox(key, value)

@@ -1,0 +1,97 @@
+"""The neural shadow estimator under the protocol: its product against the strongest classical
+screen-space model given the same evidence (:mod:`.classical`: split-sum with SSAO's O(x), S(x)
+on chosen terms, the sun light, the indirect light, multiple scattering; the variant chosen on
+the validation split), per sample, with the paired bootstrap's 95 % interval
+(:func:`.scores.paired_bootstrap`, over training seeds and samples).
+
+The estimator's image is the frame ``[render] shadow_net`` draws (:func:`learned.train.
+shadow_net.shadow_net_images`: ``ggx_split_sum`` with SSAO, times V on the surfaces); both are
+scored by :func:`.scores.psnr` over the same foreground pixels against the same path-traced
+target. Scoring the test split appends to the dataset's ledger (:func:`.scores.record_test`).
+
+``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...]``
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import asdict
+
+import numpy as np
+import torch
+
+from ..neural.shadow_net import load_shadow_net
+from ..train.shadow_net import shaded, shadow_net_images
+from ..train.stages import load_images
+from .classical import Classical, variants
+from .data import dataset_hash
+from .run import classical_scores
+from .scores import paired_bootstrap, psnr, record_test
+
+
+def _top_rows(img: torch.Tensor) -> torch.Tensor:
+    """``[1, C, H, W]`` in GL row order -> ``[H, W, 3]`` with row 0 at the top."""
+    return img[0, :3].permute(1, 2, 0).flip(0)
+
+
+@torch.no_grad()
+def estimator_scores(weights: list[str], est_images, prot_images) -> dict:
+    """Per-sample PSNR of the unshadowed frame and of each weights file's product, over the
+    protocol images' foreground pixels."""
+    by_name = {im.name: im for im in est_images}
+    out = {"frame": [], "estimators": [[] for _ in weights]}
+    models = [load_shadow_net(w) for w in weights]
+    for p in prot_images:
+        e = by_name[p.name]
+        out["frame"].append(psnr(_top_rows(e.radiance)[p.fg], p.target))
+        for m, scores in zip(models, out["estimators"]):
+            scores.append(psnr(_top_rows(shaded(m, e))[p.fg], p.target))
+    return out
+
+
+def evaluate(data: str, split: str, weights: list[str], classical: dict | None = None) -> dict:
+    """Scores of ``split``: every classical variant (``classical``: the one chosen on val, as
+    :func:`dataclasses.asdict` of :class:`Classical`; None: all of them, the best chosen here -
+    on val only), the unshadowed frame and the estimators, and the paired difference of the
+    estimators to the chosen classical variant."""
+    from viewer.renderer import Renderer
+
+    renderer = Renderer()
+    try:
+        prot = load_images(data, split, renderer, sun=True, multiscatter=True)
+        est = shadow_net_images(data, split, renderer)
+    finally:
+        renderer.release()
+    pool = [Classical(**classical)] if classical else variants()
+    found = [(m, classical_scores(m, prot)) for m in pool]
+    best, best_scores = max(found, key=lambda f: float(np.mean(f[1])))
+    s = estimator_scores(weights, est, prot)
+    diff = np.array(s["estimators"]) - np.array(best_scores)[None]
+    return {"split": split, "samples": len(prot), "classical": asdict(best),
+            "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
+            "frame_psnr": float(np.mean(s["frame"])),
+            "estimator_psnr": [float(np.mean(v)) for v in s["estimators"]],
+            "vs_classical": paired_bootstrap(diff),
+            "vs_frame": paired_bootstrap(np.array(s["estimators"]) - np.array(s["frame"])[None]),
+            "weights": weights}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m learned.protocol.shadow_net")
+    p.add_argument("data")
+    p.add_argument("weights", nargs="+")
+    p.add_argument("--split", choices=("val", "test"), default="val")
+    p.add_argument("--classical", help="JSON of the variant chosen on val (test: required)")
+    a = p.parse_args(argv)
+    if a.split == "test" and not a.classical:
+        p.error("--split test scores the classical variant chosen on val: give --classical")
+    r = evaluate(a.data, a.split, a.weights, json.loads(a.classical) if a.classical else None)
+    if a.split == "test":
+        r["test_scored"] = record_test(a.data, "shadow_net vs classical", a.weights,
+                                       r["samples"], dataset_hash(a.data, ("test",)))
+    print(json.dumps(r, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -156,13 +156,21 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
     for k in ("roughness", "metallic", "specular", "ao", "specular_factor", "clearcoat",
-              "clearcoat_roughness"):
+              "clearcoat_roughness", "transmission"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
     if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)
         kw["ior"] = _num(t["ior"], f"{where}.ior", file, 0.0, 1e30)
     if "specular_color" in t:
         kw["specular_color"] = _vec(t["specular_color"], 3, f"{where}.specular_color", file)
+    if "thickness" in t:  # KHR_materials_volume (Material.thickness: 0 = thin-walled)
+        kw["thickness"] = _num(t["thickness"], f"{where}.thickness", file, 0.0, 1e30)
+    if "attenuation_color" in t:
+        kw["attenuation_color"] = _vec(t["attenuation_color"], 3, f"{where}.attenuation_color",
+                                       file)
+    if "attenuation_distance" in t:
+        kw["attenuation_distance"] = _num(t["attenuation_distance"],
+                                          f"{where}.attenuation_distance", file, 1e-30, math.inf)
     m = Material(**kw)
     try:
         m.validated(where)

@@ -113,6 +113,7 @@ class ObjectSpec:
     fov_y: float | None = None  # gbuffer stacks without their own field of view
     near: float = 1.0  # gbuffer depth normalisation (thesis appendix B.2)
     far: float = 800.0
+    variant: str | None = None  # mesh: a glTF KHR_materials_variants name (None: the defaults)
 
 
 @dataclass(frozen=True)
@@ -244,7 +245,7 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
         "sphere": {"center", "radius"},
         "plane": {"center", "size", "normal", "catcher"},
         "material_grid": {"center", "rows", "cols", "spacing", "radius"},
-        "mesh": {"path", "transform"},
+        "mesh": {"path", "transform", "variant"},
         "gbuffer": {"path", "fov_y", "near", "far"},
         "splats": {"path", "transform"},
     }[typ] | common
@@ -285,6 +286,11 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
         if "path" not in t:
             raise SceneError(f"{where} ({typ}) needs a path", where=file)
         kw["path"] = _path(t["path"], f"{where}.path", file, base)
+    if "variant" in t:
+        if not isinstance(t["variant"], str) or not t["variant"]:
+            raise SceneError(f"{where}.variant must be a variant's name, got {t['variant']!r}",
+                             where=file)
+        kw["variant"] = t["variant"]
     if "material" in t:
         if not isinstance(t["material"], dict):
             raise SceneError(f"{where}.material must be a table", where=file)

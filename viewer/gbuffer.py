@@ -6,34 +6,43 @@ framebuffer attachments, and the numpy pack/unpack used by loaders, AOV output a
 
 Channels (all linear, float):
 
-=========== === ==========================================================================
-albedo      3   base colour, linear RGB in [0, 1]
-alpha       1   coverage in [0, 1]; 0 = background
-normal      3   unit normal, world space (image-space stacks: camera space = world space)
-roughness   1   perceptual roughness r in [0, 1]; alpha = r^2
-metallic    1   in [0, 1]
-specular    1   dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no specular lobe
-                (also its background value, so an omitted specular channel means "no lobe")
-ao          1   ambient occlusion in [0, 1], applied to diffuse light
-depth       1   view-space depth, positive distance along the view axis (-z_vs); 0 = background
-color       3   baked unlit colour (splats' SH colour); only allocated when a scene has splats
-emission    3   emitted radiance, linear RGB (glTF emissive x strength), added by every lighting
-                pass; only allocated when a scene has emissive surfaces
-dielectric  4   the glTF dielectric lobe (KHR_materials_ior / _specular): rgb = F0,
-                a = F90 (shaders/lib/brdf.glsl ``surface_f0_f90``); background (0, 0, 0, -1) = none
-                (the scalar ``specular`` sets the lobe); only allocated when a scene has such a
-                material
-clearcoat   4   KHR_materials_clearcoat: factor, perceptual roughness, the coat's normal
-                (octahedral, lib/layers.glsl oct_encode); background 0 = no coat; only allocated
-                when a scene has a coated material
-=========== === ==========================================================================
+================ === ==========================================================================
+albedo           3   base colour, linear RGB in [0, 1]
+alpha            1   coverage in [0, 1]; 0 = background
+normal           3   unit normal, world space (image-space stacks: camera space = world space)
+roughness        1   perceptual roughness r in [0, 1]; alpha = r^2
+metallic         1   in [0, 1]
+specular         1   dielectric reflectance: f0 = 0.16 * specular^2 (Filament); 0 = no
+                     specular lobe (also its background value, so an omitted specular channel
+                     means "no lobe")
+ao               1   ambient occlusion in [0, 1], applied to diffuse light
+depth            1   view-space depth, positive distance along the view axis (-z_vs);
+                     0 = background
+color            3   baked unlit colour (splats' SH colour); only allocated when a scene has
+                     splats
+emission         3   emitted radiance, linear RGB (glTF emissive x strength), added by every
+                     lighting pass; only allocated when a scene has emissive surfaces
+dielectric       4   the glTF dielectric lobe (KHR_materials_ior / _specular): rgb = F0,
+                     a = F90 (shaders/lib/brdf.glsl ``surface_f0_f90``); background
+                     (0, 0, 0, -1) = none (the scalar ``specular`` sets the lobe); only
+                     allocated when a scene has such a material
+clearcoat        4   KHR_materials_clearcoat: factor, perceptual roughness, the coat's normal
+                     (octahedral, lib/layers.glsl oct_encode); background 0 = no coat; only
+                     allocated when a scene has a coated material
+transmission     1   KHR_materials_transmission's factor T; background 0 = opaque; only allocated
+                     when a scene has a transmissive material (as the next)
+transmission_ior 1   KHR_materials_volume: the IOR light refracts by, 0 = thin-walled
+================ === ==========================================================================
 
 Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
 (``f2``). The base layout (albedo .. depth) is 3 attachments: 48 B/px (24 at fp16). Each optional
 channel a scene needs adds one attachment, +16 B/px (+8): ``color`` (splats), ``emission``
 (emissive meshes), ``dielectric`` and ``clearcoat`` (4 components each: a whole attachment), so
 a scene with the glTF dielectric lobe pays 64 B/px (32) where one without it pays 48 (24), one
-with both lobes 80 (40). Omitted channels shrink the
+with both lobes 80 (40). ``transmission`` and ``transmission_ior`` (1 component each) fill
+free components of the attachments before them (the colour and emission attachments have one
+each; the base layout one where ``ao`` is omitted): +0 to +16 B/px (+8); the all-features
+layout stays 7 attachments (112 B/px, 56 at fp16) with them. Omitted channels shrink the
 layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
@@ -69,6 +78,9 @@ CHANNELS: tuple[Channel, ...] = (
             "glTF dielectric lobe: F0 (rgb), F90 (a); a < 0 = none", optional=True),
     Channel("clearcoat", 4, 6, 0, (0.0, 0.0, 0.0, 0.0),
             "glTF clearcoat: factor, roughness, octahedral normal", optional=True),
+    Channel("transmission", 1, 7, 0, (0.0,), "glTF transmission factor", optional=True),
+    Channel("transmission_ior", 1, 7, 1, (0.0,), "glTF volume IOR, 0 = thin-walled",
+            optional=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -108,6 +120,8 @@ class GBufferLayout:
     # the optional dielectric channel (scenes with KHR_materials_ior / _specular materials)
     with_dielectric: bool = False
     with_clearcoat: bool = False  # the optional clearcoat channel (KHR_materials_clearcoat)
+    # the optional transmission channels (KHR_materials_transmission / _volume)
+    with_transmission: bool = False
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -123,7 +137,9 @@ class GBufferLayout:
     def _wanted_optional(self, c: Channel) -> bool:
         return not c.optional or {"color": self.with_color, "emission": self.with_emission,
                                   "dielectric": self.with_dielectric,
-                                  "clearcoat": self.with_clearcoat}[c.name]
+                                  "clearcoat": self.with_clearcoat,
+                                  "transmission": self.with_transmission,
+                                  "transmission_ior": self.with_transmission}[c.name]
 
     def bytes_per_pixel(self) -> int:
         """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
@@ -159,6 +175,7 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_EMISSION {int(self.with_emission)}",
                  f"#define GBUFFER_HAS_DIELECTRIC {int(self.with_dielectric)}",
                  f"#define GBUFFER_HAS_CLEARCOAT {int(self.with_clearcoat)}",
+                 f"#define GBUFFER_HAS_TRANSMISSION {int(self.with_transmission)}",
                  "struct GBuffer {"]
         lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
         lines.append("};")

@@ -204,6 +204,7 @@ def contact_shadows(settings, stacks: bool) -> bool:
 
 
 CLEARCOAT_MODELS = frozenset({"ggx_split_sum", "ggx_mc", "path"})  # shade KHR_materials_clearcoat's coat
+TRANSMISSION_MODELS = frozenset({"path"})  # follow light through KHR_materials_transmission
 
 
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
@@ -221,4 +222,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("clearcoat", f"model {model.name!r} ignores the KHR_materials_clearcoat "
                                  f"coat (shaded by {', '.join(sorted(CLEARCOAT_MODELS))}); the "
                                  f"base is shown uncoated"))
+    if layout.with_transmission and model.name not in TRANSMISSION_MODELS | {"unlit"}:
+        out.append(("transmission", f"model {model.name!r} ignores KHR_materials_transmission "
+                                    f"(shaded by {', '.join(sorted(TRANSMISSION_MODELS))}); "
+                                    f"transmissive surfaces are shown opaque"))
     return out

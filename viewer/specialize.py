@@ -37,6 +37,8 @@ class SceneFeatures:
     # G-buffer's dielectric channel
     dielectric: bool = False
     clearcoat: bool = False  # some opaque mesh has a KHR_materials_clearcoat coat (factor > 0)
+    # some opaque mesh has KHR_materials_transmission (factor > 0): the transmission channel
+    transmission: bool = False
 
 
 @dataclass(frozen=True)
@@ -74,7 +76,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
 def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
-    specular = ao = emission = blend = dielectric = clearcoat = False
+    specular = ao = emission = blend = dielectric = clearcoat = transmission = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -103,6 +105,7 @@ def analyse(renderer, scene) -> SceneFeatures:
                 specular, ao = specular or s, ao or a
                 emission = emission or mesh.has_emission
                 dielectric = dielectric or mesh.material.ior is not None
+                transmission = transmission or mesh.material.transmission > 0.0
     constant = False
     spec = scene.environment
     if spec.path is None and spec.procedural == "white":
@@ -110,7 +113,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
                          emission=emission, blend=blend, dielectric=dielectric,
-                         clearcoat=clearcoat)
+                         clearcoat=clearcoat, transmission=transmission)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
@@ -138,7 +141,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         settings = replace(settings, shadow=replace(settings.shadow, enabled=False))
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
-                                            with_dielectric=True, with_clearcoat=True),
+                                            with_dielectric=True, with_clearcoat=True,
+                                            with_transmission=True),
                               model.variant(settings, light, specular=True, sun=sun,
                                             contact=contact))
     # models that do not say what they read get every channel (sampling, neural, future ones)
@@ -172,7 +176,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
                                         with_emission=features.emission,
                                         with_dielectric=features.dielectric,
-                                        with_clearcoat=features.clearcoat),
+                                        with_clearcoat=features.clearcoat,
+                                        with_transmission=features.transmission),
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

@@ -15,6 +15,8 @@ UP_HELP = ("the assets' up axis: +Y | +Z | -Y | -Z | +X | -X (default: glTF +Y; 
            "the header's marker, else detected; said in one line)")
 FLOOR_HELP = ("a ground under the assets: catcher (the default of a bare --floor: only the "
               "shadows it receives, fading into the environment) | slab (a matte grey plane)")
+VARIANT_HELP = ("a glTF material variant (KHR_materials_variants) by name, for every glTF "
+                "object (an unknown name lists the file's)")
 SET_HELP = ("a [render] setting by its scene-file key, the value as in TOML (repeatable: --set "
             "raytrace=true --set ssao_rays=16 --set tonemap=aces); named options such as "
             "--model win over it")
@@ -34,6 +36,7 @@ def add_asset_arguments(p, model: bool = True, size: bool = True) -> None:
     p.add_argument("--floor", nargs="?", const="catcher", choices=("catcher", "slab"),
                    help=FLOOR_HELP)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help=SET_HELP)
+    p.add_argument("--variant", metavar="NAME", help=VARIANT_HELP)
     if model:
         p.add_argument("--model", help=model_help())
     if size:
@@ -59,7 +62,8 @@ def open_input(args):
     scene file, or asset files; ``contents`` is what :func:`viewer.scene.assets.open_assets` loaded
     (hand it to the renderer with :func:`hand_over`). ``--env`` replaces a scene file's
     environment; ``--up`` and ``--floor`` are for assets only; ``--set KEY=VALUE`` changes
-    ``[render]`` settings of either (checked before anything is loaded)."""
+    ``[render]`` settings of either (checked before anything is loaded); ``--variant NAME``
+    sets every glTF object's material variant (:func:`with_variant`)."""
     from viewer.scene.assets import environment_spec, is_scene_file, open_assets
     from viewer.scene.description import load_scene
 
@@ -84,11 +88,31 @@ def open_input(args):
             from dataclasses import replace
 
             scene = replace(scene, environment=environment_spec(env))
-        return (scene.with_render(**settings) if settings else scene), ()
+        scene = scene.with_render(**settings) if settings else scene
+        return with_variant(scene, getattr(args, "variant", None)), ()
     size = _parse_size(args.size) if getattr(args, "size", None) else None
     opened = open_assets(inputs, env=env or "studio", up=up, floor=floor, size=size)
     scene = opened.scene.with_render(**settings) if settings else opened.scene
-    return scene, opened.contents
+    variant = getattr(args, "variant", None)
+    if variant is None:
+        return scene, opened.contents
+    return with_variant(scene, variant), ()  # reloaded with the variant's materials
+
+
+def with_variant(scene, variant: str | None):
+    """``scene`` with every glTF mesh object's material variant set to ``variant`` (None:
+    unchanged); a scene without a glTF object is a one-line SceneError. The name itself is
+    checked where the file loads (an unknown one lists the file's variants)."""
+    if variant is None:
+        return scene
+    from dataclasses import replace
+
+    objects = tuple(replace(o, variant=variant) if o.type == "mesh" and str(o.path).lower()
+                    .endswith((".gltf", ".glb")) else o for o in scene.objects)
+    if objects == scene.objects:
+        raise SceneError("the scene has no glTF object to take a material variant",
+                         where="--variant")
+    return replace(scene, objects=objects)
 
 
 def hand_over(renderer, contents) -> None:
@@ -134,8 +158,8 @@ def cmd_scene(args) -> int:
     if args.size and scene.camera.size != _parse_size(args.size):  # a scene file's camera
         scene = scene.with_camera(size=_parse_size(args.size))
     words = ["relight", "scene", *(args.scene or [])]
-    for opt in ("env", "up", "model", "size"):
-        if getattr(args, opt) is not None:
+    for opt in ("env", "up", "model", "size", "variant"):
+        if getattr(args, opt, None) is not None:
             words += [f"--{opt}", str(getattr(args, opt))]
     if args.floor:
         words += ["--floor"] + ([] if args.floor == "catcher" else [args.floor])

@@ -20,7 +20,9 @@ The DFG terms come from :func:`directional_albedo_table`, a float64 quadrature o
 integral the renderer's LUT estimates with 4096 Hammersley samples (the two agree to 0.4 %).
 
 A ``KHR_materials_clearcoat`` coat is layered over this as :mod:`relight.reference.layers` says
-(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl).
+(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl), and
+``KHR_materials_transmission`` / ``_volume`` split the base's non-specular part as
+:mod:`relight.reference.transmission` says (seen from both sides; shaders/lib/transmission.glsl).
 
 Not modelled here, on purpose: the material's ``ao`` and glTF occlusion maps (baked visibility:
 the path tracer computes visibility itself), and the rasteriser's bending of back-facing shading
@@ -30,97 +32,12 @@ primitives the fidelity tests use. Normal maps perturb the shading frame (``_fra
 from __future__ import annotations
 
 import functools
-import math
-
-import numpy as np
 
 from .layers import coat_eval, coat_pdf, coat_state
-
-MIN_PERCEPTUAL_ROUGHNESS = 0.045  # shaders/lib/brdf.glsl
-DFG_TABLE_SIZE = 65
-
-
-@functools.lru_cache(maxsize=4)
-def directional_albedo_table(n: int = DFG_TABLE_SIZE, nt: int = 768,
-                             nphi: int = 96) -> np.ndarray:
-    """``[n, n, 2]`` float32 (rows: perceptual roughness r = i / (n - 1); columns: n.v = j / (n -
-    1)): (x, y) with y = E(n.v, r^2), the hemispherical integral of the single-scattering GGX
-    (height-correlated Smith) f cos with F = 1, and x its Schlick (1 - v.h)^5 part. The DFG LUT's
-    layout and texel-centre convention (``ibl_dfg``). A float64 midpoint rule over the GGX
-    half-vector CDF (t, phi) with weight G2 (v.h) / ((n.v)(n.h)) where n.l > 0; n.v = 0 is taken
-    at 1e-3 (the integral's limit is reached well before) and r is clamped as shading clamps it.
-    """
-    t = (np.arange(nt) + 0.5) / nt
-    phi = (np.arange(nphi) + 0.5) / nphi * 2.0 * math.pi
-    out = np.zeros((n, n, 2), np.float64)
-    for i in range(n):
-        r = max(i / (n - 1), MIN_PERCEPTUAL_ROUGHNESS)
-        a2 = (r * r) ** 2
-        cos2 = (1.0 - t) / (1.0 + (a2 - 1.0) * t)
-        hz = np.sqrt(cos2)[:, None]
-        hx = np.sqrt(1.0 - cos2)[:, None] * np.cos(phi)[None]
-        for j in range(n):
-            mu = max(j / (n - 1), 1e-3)
-            voh = math.sqrt(1.0 - mu * mu) * hx + mu * hz
-            nol = 2.0 * voh * hz - mu
-            nl = np.clip(nol, 1e-12, 1.0)
-            vis = 0.5 / (nl * math.sqrt(mu * mu * (1.0 - a2) + a2)
-                         + mu * np.sqrt(nl * nl * (1.0 - a2) + a2))
-            w = np.where(nol > 0.0, vis * 4.0 * mu * nl * voh / (mu * hz), 0.0)
-            out[i, j, 1] = w.mean()
-            out[i, j, 0] = (w * (1.0 - np.clip(voh, 0.0, 1.0)) ** 5).mean()
-    return out.astype(np.float32)
-
-
-def brdf_cos_numpy(albedo, roughness, metallic, specular, n_dot_v, wo, multiscatter=False,
-                   dielectric=None):
-    """Our f cos for local directions (shading frame, z = normal), in numpy float64: the same
-    formula as :class:`WorkbenchBSDF`'s ``eval``, for tests that check the plugin against an
-    independent evaluation. ``wo`` ``[N, 3]`` unit; the view direction is (sqrt(1 - n.v^2), 0,
-    n.v). ``dielectric``: glTF's lobe, (F0 r, g, b, F90) (``Material.dielectric``), or None for
-    Filament's from ``specular``. -> ``[N, 3]``."""
-    albedo = np.asarray(albedo, np.float64)
-    wo = np.asarray(wo, np.float64)
-    wi = np.array([math.sqrt(max(1.0 - n_dot_v ** 2, 0.0)), 0.0, n_dot_v])
-    r = min(max(roughness, MIN_PERCEPTUAL_ROUGHNESS), 1.0)
-    a2 = (r * r) ** 2
-    if dielectric is None or dielectric[3] < 0.0:
-        f0 = 0.16 * specular ** 2 * (1 - metallic) + albedo * metallic
-        f90 = min(max(16.5 * f0.sum(), 0.0), 1.0)
-    else:
-        f0 = np.asarray(dielectric[:3], np.float64) * (1 - metallic) + albedo * metallic
-        f90 = dielectric[3] * (1 - metallic) + metallic
-    table = directional_albedo_table()
-    x, y = _bilinear(table, n_dot_v, r)
-    c_ms = 1.0 + f0 * (1.0 / max(y, 1e-4) - 1.0) if multiscatter else np.ones(3)
-    e_spec = (f0 * (y - x) + f90 * x) * c_ms
-    kd = albedo * (1.0 - metallic) * np.maximum(1.0 - e_spec, 0.0)
-    nol = wo[:, 2]
-    h = wo + wi
-    h /= np.linalg.norm(h, axis=1, keepdims=True)
-    noh = np.clip(h[:, 2], 0, 1)
-    voh = np.clip(h @ wi, 0, 1)
-    f = noh * noh * a2 + (1 - noh) * (1 + noh)
-    d = a2 / (math.pi * f * f)
-    nl = np.clip(nol, 0, 1)
-    v = 0.5 / (nl * math.sqrt(n_dot_v ** 2 * (1 - a2) + a2)
-               + n_dot_v * np.sqrt(nl ** 2 * (1 - a2) + a2))
-    fr = f0[None] + (f90 - f0[None]) * ((1 - voh) ** 5)[:, None]
-    val = (kd[None] / math.pi + (d * v)[:, None] * fr * c_ms[None]) * nl[:, None]
-    return np.where((nol > 0)[:, None], val, 0.0)
-
-
-def _bilinear(table: np.ndarray, mu: float, r: float) -> tuple[float, float]:
-    n = table.shape[0]
-    x = min(max(mu, 0.0), 1.0) * (n - 1)
-    y = min(max(r, 0.0), 1.0) * (n - 1)
-    j0, i0 = min(int(x), n - 2), min(int(y), n - 2)
-    fx, fy = x - j0, y - i0
-    top = table[i0, j0] * (1 - fx) + table[i0, j0 + 1] * fx
-    bottom = table[i0 + 1, j0] * (1 - fx) + table[i0 + 1, j0 + 1] * fx
-    v = top * (1 - fy) + bottom * fy
-    return float(v[0]), float(v[1])
-
+from .quadrature import DFG_TABLE_SIZE, MIN_PERCEPTUAL_ROUGHNESS, directional_albedo_table
+from .quadrature import brdf_cos_numpy  # noqa: F401 (the plugin's formula in numpy, for tests)
+from .transmission import (attenuation, btdf_cos, btdf_pdf, btdf_sample, facing, mirror_z,
+                           transmission_state)
 
 def bsdf_class(mi, dr):
     """The plugin class for the active Mitsuba variant (a class derives from ``mi.BSDF``, which
@@ -174,6 +91,10 @@ def _bsdf_class(mi, dr, variant: str):
             self.specular_color_texture = textures.get("specular_color")
             self.clearcoat_texture = textures.get("clearcoat")  # R (KHR_materials_clearcoat)
             self.clearcoat_roughness_texture = textures.get("clearcoat_roughness")  # G
+            if material.transmission > 0.0:  # seen from both sides, light passes through
+                through = mi.BSDFFlags.GlossyTransmission | mi.BSDFFlags.BackSide
+                self.m_components.append(through | mi.BSDFFlags.FrontSide)
+                self.m_flags = self.m_flags | through
             table = directional_albedo_table()
             self.dfg = mi.Texture2f(mi.TensorXf(table), use_accel=False,
                                     filter_mode=dr.FilterMode.Linear,
@@ -201,7 +122,7 @@ def _bsdf_class(mi, dr, variant: str):
             n = dr.normalize(t * (x * scale) + b * (y * scale) + mi.Vector3f(0.0, 0.0, 1.0) * z)
             return mi.Frame3f(n)
 
-        def _surface(self, si):
+        def _surface(self, si, t=None):
             albedo = mi.Color3f(*self.albedo)
             if self.base_color_texture is not None:
                 albedo = albedo * self.base_color_texture.eval(si)
@@ -227,9 +148,11 @@ def _bsdf_class(mi, dr, variant: str):
                 c_ms = mi.Color3f(1.0)
             e_spec = (f0 * (y - x) + f90 * x) * c_ms
             kd = albedo * (1.0 - metal) * dr.maximum(1.0 - e_spec, 0.0)
+            p_trans = 0.0 if t is None else t["T"]  # the BTDF's share of the base's kd
+            transmit, kd = kd * p_trans, kd * (1.0 - p_trans)
             lum = mi.Color3f(0.2126, 0.7152, 0.0722)
             ls = dr.sum(e_spec * lum)
-            ld = dr.sum(kd * lum)
+            ld = dr.sum((kd + transmit) * lum)
             p_spec = dr.select(ls + ld > 0.0, ls / dr.maximum(ls + ld, 1e-12), 1.0)
             # keep both lobes reachable when both carry energy (unbiased either way)
             p_spec = dr.select((ld > 0.0) & (ls > 0.0), dr.clip(p_spec, 0.05, 0.95), p_spec)
@@ -241,7 +164,7 @@ def _bsdf_class(mi, dr, variant: str):
                 coat["p"] = dr.select((coat["albedo"] > 0.0) & (base > 0.0),
                                       dr.clip(coat["p"], 0.05, 0.95), coat["p"])
             return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
-                        frame=frame, coat=coat)
+                        frame=frame, coat=coat, t=t, transmit=transmit, p_trans=p_trans)
 
         def _fresnel(self, si, albedo, metal):
             """f0 and f90 at the hit: lib/brdf.glsl ``surface_f0_f90`` (module docstring)."""
@@ -302,9 +225,13 @@ def _bsdf_class(mi, dr, variant: str):
             h = dr.normalize(wi + wo)
             p_spec_dir = distr.pdf(wi, h) / dr.maximum(4.0 * dr.dot(wo, h), 1e-12)
             p_diff = mi.warp.square_to_cosine_hemisphere_pdf(wo)
-            p = s["p_spec"] * p_spec_dir + (1.0 - s["p_spec"]) * p_diff
+            p = s["p_spec"] * p_spec_dir + (1.0 - s["p_spec"]) * (1.0 - s["p_trans"]) * p_diff
             ok = (nol > 0.0) & (mi.Frame3f.cos_theta(wi) > 0.0)
-            return dr.select(ok, p, 0.0)
+            t = s["t"]
+            if t is None:
+                return dr.select(ok, p, 0.0)
+            p_t = btdf_pdf(mi, dr, distr, t["eta"], t["volume"], wi, wo)
+            return dr.select(ok, p, (1.0 - s["p_spec"]) * s["p_trans"] * p_t)
 
         # ---- the mi.BSDF interface ---------------------------------------------------------
         # Directions arrive and leave in si.sh_frame's coordinates; with a normal map they are
@@ -318,14 +245,27 @@ def _bsdf_class(mi, dr, variant: str):
             (relight.reference.layers)."""
             wm = self._to_mapped(s, wo_local)
             value, pdf = self._eval(s, si, wm), self._pdf(s, si, wm, distr)
+            if s["t"] is not None:  # below: the BTDF (the base's value and density are 0 there)
+                value += s["transmit"] * btdf_cos(mi, dr, s["a"], s["t"]["eta"],
+                                                  s["t"]["volume"], s["wi"], wm)
             c = s["coat"]
             if c is None:
                 return value, pdf
             return ((1.0 - c["w"]) * value + coat_eval(mi, dr, c, si.wi, wo_local),
                     c["p"] * coat_pdf(mi, dr, c, si.wi, wo_local) + (1.0 - c["p"]) * pdf)
 
-        def sample(self, ctx, si, sample1, sample2, active=True):
-            s = self._surface(si)
+        def _facing(self, si):
+            """``si`` seen from the viewer's side (mirrored from a transmissive back face) and
+            the transmission state, None for an opaque material."""
+            t = transmission_state(mi, dr, self.material, si)
+            if t is None:
+                return si, None
+            si, t["eta"] = facing(mi, dr, t, si)
+            return si, t
+
+        def sample(self, ctx, si_in, sample1, sample2, active=True):
+            si, t = self._facing(si_in)
+            s = self._surface(si, t)
             wi = s["wi"]
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
             c = s["coat"]
@@ -338,12 +278,25 @@ def _bsdf_class(mi, dr, variant: str):
             m, _ = distr.sample(wi, sample2)
             wo_spec = mi.reflect(wi, m)
             wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
-            wo = self._from_mapped(s, dr.select(spec, wo_spec, wo_diff))
+            wo_m = dr.select(spec, wo_spec, wo_diff)
+            keep = mi.Bool(True)  # each lobe keeps only its own hemisphere's draws (.transmission)
+            if t is not None:
+                u = (sample1 - s["p_spec"]) / dr.maximum(1.0 - s["p_spec"], 1e-12)
+                through = ~spec & (u < s["p_trans"])
+                wo_m = dr.select(through, btdf_sample(mi, dr, distr, t["eta"], t["volume"], wi,
+                                                      sample2), wo_m)
+                keep = dr.select(through, wo_m.z < 0.0, wo_m.z > 0.0)
+            wo = self._from_mapped(s, wo_m)
             if c is not None:
                 mc, _ = c["distr"].sample(si.wi, sample2)
                 wo = dr.select(on_coat, mi.reflect(si.wi, mc), wo)
+                if t is not None:
+                    keep = dr.select(on_coat, mi.Frame3f.cos_theta(wo) > 0.0, keep)
                 spec = spec | on_coat
             value, pdf = self._layered(s, si, wo, distr)
+            if t is not None:
+                value, wo = value * attenuation(mi, dr, t, si_in), mirror_z(mi, dr, t, wo)
+                pdf = dr.select(keep, pdf, 0.0)
             bs = mi.BSDFSample3f()
             bs.wo = wo
             bs.pdf = pdf
@@ -351,7 +304,7 @@ def _bsdf_class(mi, dr, variant: str):
             bs.sampled_type = dr.select(spec, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
                                         mi.UInt32(+mi.BSDFFlags.DiffuseReflection))
             bs.sampled_component = dr.select(spec, mi.UInt32(1), mi.UInt32(0))
-            ok = active & (pdf > 0.0)
+            ok = active & (pdf > 0.0) & keep
             return bs, dr.select(ok, value / dr.maximum(pdf, 1e-20), 0.0)
 
         def eval(self, ctx, si, wo, active=True):
@@ -360,10 +313,15 @@ def _bsdf_class(mi, dr, variant: str):
         def pdf(self, ctx, si, wo, active=True):
             return self.eval_pdf(ctx, si, wo, active)[1]
 
-        def eval_pdf(self, ctx, si, wo, active=True):
-            s = self._surface(si)
+        def eval_pdf(self, ctx, si_in, wo, active=True):
+            si, t = self._facing(si_in)
+            s = self._surface(si, t)
             distr = mi.MicrofacetDistribution(mi.MicrofacetType.GGX, s["a"], True)
+            if t is not None:
+                wo = mirror_z(mi, dr, t, wo)
             value, pdf = self._layered(s, si, wo, distr)
+            if t is not None:
+                value = value * attenuation(mi, dr, t, si_in)
             return dr.select(active, value, 0.0), dr.select(active, pdf, 0.0)
 
         def traverse(self, callback):

@@ -140,14 +140,15 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
             ignored.append("COLOR_0")
         if mesh.alpha_mode != "OPAQUE":
             ignored.append(f"alphaMode {mesh.alpha_mode} (traced opaque)")
-        if not mesh.double_sided:
+        see_through = mesh.material.transmission > 0.0  # the plugin shades both sides
+        if not mesh.double_sided and not see_through:
             ignored.append("single-sided culling (back faces are black, not see-through)")
         if ignored:
             warnings.warn(f"{where}: {mesh.name or 'a mesh'}: the reference does not trace "
                           f"{', '.join(ignored)} (occlusion is baked visibility, which the path "
                           "tracer computes itself)", stacklevel=2)
         bsdf = _bsdf(bsdf_type, mesh.material, textures, multiscatter, mesh.normal_scale)
-        if mesh.double_sided:  # back faces shade with the normal flipped, as the G-buffer does
+        if mesh.double_sided and not see_through:  # back faces: the normal flipped (G-buffer)
             bsdf = mi.load_dict({"type": "twosided", "bsdf": bsdf})
         emitter = _emitter(mi, mesh, where) if mesh.has_emission else None
         yield _mesh(mi, dr, mesh, bsdf, emitter)

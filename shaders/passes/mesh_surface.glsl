@@ -11,8 +11,9 @@
 // USE_SPECULAR_COLOR_MAP (linear RGB); USE_CLEARCOAT (KHR_materials_clearcoat: the G-buffer's
 // clearcoat channel from u_clearcoat, u_clearcoat_roughness) with USE_CLEARCOAT_MAP (R),
 // USE_CLEARCOAT_ROUGHNESS_MAP (G), USE_CLEARCOAT_NORMAL_MAP (the coat's own normal map; without
-// it the coat has the interpolated vertex normal); USE_UV0 / USE_UV1 when a map reads that texture coordinate
-// set;
+// it the coat has the interpolated vertex normal); USE_TRANSMISSION (KHR_materials_transmission
+// / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior);
+// USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
 // Every map is read through sample_map: its coordinate set (u_<map>_set), KHR_texture_transform
@@ -67,6 +68,10 @@ uniform mat3 u_emissive_uv;
 uniform vec2 u_emissive_mirror;
 #endif
 
+#ifdef USE_TRANSMISSION
+uniform float u_transmission;           // transmissionFactor
+uniform float u_transmission_ior;       // the volume's IOR, 0 = thin-walled (Material.volume_ior)
+#endif
 #ifdef USE_CLEARCOAT
 uniform float u_clearcoat;              // clearcoatFactor
 uniform float u_clearcoat_roughness;    // clearcoatRoughnessFactor (perceptual)
@@ -270,6 +275,10 @@ GBuffer mesh_surface(out float alpha) {
                                  u_clearcoat_roughness_mirror).g;
 #endif
     g.clearcoat = vec4(coat, coat_roughness, oct_encode(n_coat * facing));
+#endif
+#ifdef USE_TRANSMISSION
+    g.transmission = u_transmission;
+    g.transmission_ior = u_transmission_ior;
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

@@ -10,11 +10,11 @@
 layout(std430, binding = 2) readonly buffer RaytraceNodes { vec4 rt_nodes[]; };       // 2 a node
 layout(std430, binding = 3) readonly buffer RaytraceTriangles { uvec4 rt_triangles[]; };
 layout(std430, binding = 4) readonly buffer RaytraceVertices { vec4 rt_vertices[]; }; // 2 a vertex
-layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_materials[]; }; // 11 each
+layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_materials[]; }; // RT_MATERIAL_ROWS each
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
-#define RT_MATERIAL_ROWS 11
+#define RT_MATERIAL_ROWS 13
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -178,6 +178,8 @@ struct TracedSurface {
     vec2 clearcoat;   // KHR_materials_clearcoat factor, perceptual roughness (0: no coat)
     vec3 emission;    // radiance it emits
     bool double_sided;
+    vec2 transmission; // KHR_materials_transmission factor, the volume's IOR (0: thin-walled)
+    vec3 sigma;        // KHR_materials_volume's attenuation coefficient (per unit length)
 };
 
 TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
@@ -206,5 +208,7 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     s.clearcoat = rt_materials[base + 10].xy;  // factors only, the coat on the vertex normal
     s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;
+    s.transmission = rt_materials[base + 11].xy;  // factors only: the maps are not read
+    s.sigma = rt_materials[base + 12].xyz;
     return s;
 }

@@ -84,6 +84,10 @@ void main() {
     Surface s = surface_init(shading_normal(g.normal, -d), -d, g.albedo, g.roughness, g.metallic,
                              fresnel.rgb, fresnel.a, g.clearcoat.xy,
                              shading_normal(oct_decode(g.clearcoat.zw), -d), dfg);
+#if GBUFFER_HAS_TRANSMISSION
+    // no rays to follow through a transmissive surface: ggx_mc shades its base opaque (a warning)
+    surface_set_transmission(s, 0.0, 0.0, false);
+#endif
     s.diffuse *= ambient_occlusion(pixel, g);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {

@@ -10,6 +10,13 @@
 // at most u_max_depth segments counted as Mitsuba counts them (2: direct light only), with
 // Russian roulette after three bounces. Writes the mean of samples u_sample_start ..
 // + u_sample_count - 1 (passes/accumulate.frag averages batches).
+// Transmission (GBUFFER_HAS_TRANSMISSION, KHR_materials_transmission / _volume): a transmissive
+// surface is seen from both sides; a vertex on a volume's back face is inside it (eta inverted)
+// and the segment that reached it is attenuated by Beer-Lambert (the volume's sigma over the
+// segment's length: a volume holds nothing else). Shadow rays treat every surface, transmissive
+// or not, as a blocker, as the reference's (Mitsuba's path integrator): light through glass is
+// found by the BSDF's continuation from the glass's own vertices, each MIS-weighted against
+// that vertex's own light sampling.
 // Defines: MULTISCATTER, BACKGROUND_ENVIRONMENT, LIGHT_COUNT, LIGHT_POSITIONAL, RAYTRACED.
 #define RAYTRACED 1
 #include "passes/deferred.glsl"
@@ -137,13 +144,22 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         }
         TracedSurface t = rt_surface(hit, o, l);
         bool front = dot(t.ng, l) < 0.0;
-        if (!front && !t.double_sided) break;  // a single-sided surface's back: black
+        bool see_through = t.transmission.x > 0.0;  // both sides, whatever its doubleSided
+        if (!front && !t.double_sided && !see_through) break;  // a single-sided back: black
         vec3 ng = front ? t.ng : -t.ng;
         vec3 n = front ? t.n : -t.n;
+#if GBUFFER_HAS_TRANSMISSION
+        if (!front && see_through && t.transmission.y > 0.0) {  // the segment inside a volume
+            beta *= volume_attenuation(t.sigma, hit.t);
+        }
+#endif
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
         if (last) break;
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
                         t.dielectric, t.clearcoat, n);
+#if GBUFFER_HAS_TRANSMISSION
+        surface_set_transmission(s.s, t.transmission.x, t.transmission.y, !front);
+#endif
         float q = path_continue_probability(beta, float(bounce + 1));
         if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
         beta /= q;
@@ -168,6 +184,10 @@ void main() {
     PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular,
                                   g.dielectric, g.clearcoat.xy,
                                   shading_normal(oct_decode(g.clearcoat.zw), v));
+#if GBUFFER_HAS_TRANSMISSION
+    // the first hit is seen from outside (a camera inside a volume is not modelled)
+    surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);
+#endif
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
         sum += trace_path(s0, uvec2(pixel), u_sample_start + k);

@@ -7,6 +7,12 @@
 // With GBUFFER_HAS_CLEARCOAT (a scene with KHR_materials_clearcoat), the coat of lib/layers.glsl
 // is layered over this BRDF: (1 - w) f_base + w D_c V_c on the coat's normal, and drawn as a third
 // lobe by its albedo w dfg_c.y; compiled out otherwise.
+// With GBUFFER_HAS_TRANSMISSION (KHR_materials_transmission / _volume), the base's non-specular
+// part is split by the factor T (surface_set_transmission): (1 - T) stays Lambertian, T becomes
+// lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
+// a lobe of its own; each lobe's draws outside its own hemisphere are rejected (the density of
+// every direction is then the mixture's, above and below).
+#include "lib/transmission.glsl"
 #ifndef MULTISCATTER
 #define MULTISCATTER 0
 #endif
@@ -34,11 +40,44 @@ struct Surface {
     float a_c;         // the coat's alpha
     float p_coat;      // probability of sampling the coat (before the base's two lobes)
 #endif
+#if GBUFFER_HAS_TRANSMISSION
+    vec3 transmit;     // the BTDF's colour: diffuse's share T (diffuse keeps 1 - T)
+    float eta;         // eta_l / eta_v of the volume's refraction; 0 = thin-walled
+    float p_trans;     // probability of the BTDF among the base's non-specular lobes (T)
+#endif
 };
+
+#if GBUFFER_HAS_TRANSMISSION
+// The BTDF times |n.l| (no colour) and its density for l below the surface.
+float surface_btdf_cos(Surface s, vec3 l) {
+    return s.eta > 0.0 ? rough_refraction_cos(s.a, s.eta, s.n, s.v, l)
+                       : thin_transmission_cos(s.a, s.n, s.v, l);
+}
+
+float surface_btdf_pdf(Surface s, vec3 l) {
+    if (s.eta > 0.0) return rough_refraction_pdf(s.a, s.eta, s.n, s.v, l);
+    if (!(-dot(s.n, l) > 0.0)) return 0.0;
+    vec3 h = half_vector(s.v, mirror_through(s.n, l));
+    return pdf_ggx_vndf(s.NoV, saturate(dot(s.n, h)), s.a);
+}
+
+// The transmission of a surface_init surface: factor T, the volume's IOR (0: thin-walled),
+// inside: whether v is inside the volume (the hit is the mesh's back face).
+void surface_set_transmission(inout Surface s, float T, float ior, bool inside) {
+    T = saturate(T);
+    s.transmit = s.diffuse * T;
+    s.diffuse *= 1.0 - T;
+    s.eta = ior > 0.0 ? (inside ? 1.0 / ior : ior) : 0.0;
+    s.p_trans = T;
+}
+#endif
 
 // f(v, l) (n.l), 0 below the surface.
 vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
+#if GBUFFER_HAS_TRANSMISSION
+    if (!(NoL > 0.0) && s.p_trans > 0.0) return s.transmit * surface_btdf_cos(s, l);
+#endif
     if (!(NoL > 0.0)) return vec3(0.0);
     vec3 h = normalize(s.v + l);
     float NoH = saturate(dot(s.n, h));
@@ -59,10 +98,15 @@ vec3 surface_brdf_cos(Surface s, vec3 l) {
 // pdf of "brdf" sampling (lobe mixture: VNDF-reflected specular, cosine diffuse) for l.
 float surface_base_brdf_pdf(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
+    float p_diffuse = 1.0 - s.p_spec;
+#if GBUFFER_HAS_TRANSMISSION
+    if (!(NoL > 0.0) && s.p_trans > 0.0) return p_diffuse * s.p_trans * surface_btdf_pdf(s, l);
+    p_diffuse *= 1.0 - s.p_trans;
+#endif
     if (!(NoL > 0.0)) return 0.0;
     vec3 h = normalize(s.v + l);
     float NoH = saturate(dot(s.n, h));
-    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + (1.0 - s.p_spec) * pdf_cosine_hemisphere(NoL);
+    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + p_diffuse * pdf_cosine_hemisphere(NoL);
 }
 
 float surface_brdf_pdf(Surface s, vec3 l) {
@@ -82,7 +126,11 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
     if (u.x < s.p_coat) {  // the coat's visible normals, in its own frame
         u.x = u.x / s.p_coat;
         vec3 v_c = vec3(dot(s.v, s.t_c), dot(s.v, s.b_c), s.NoV_c);
-        return reflect(-s.v, tangent_to_world(sample_ggx_vndf(u, v_c, s.a_c), s.n_c));
+        vec3 l_c = reflect(-s.v, tangent_to_world(sample_ggx_vndf(u, v_c, s.a_c), s.n_c));
+#if GBUFFER_HAS_TRANSMISSION
+        if (!(dot(s.n_c, l_c) > 0.0)) return vec3(0.0);  // outside its lobe's hemisphere
+#endif
+        return l_c;
     }
     u.x = (u.x - s.p_coat) / (1.0 - s.p_coat);
 #endif
@@ -90,9 +138,25 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
         u.x = u.x / s.p_spec;
         vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
         vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
+#if GBUFFER_HAS_TRANSMISSION
+        vec3 l_s = reflect(-s.v, h);
+        return dot(s.n, l_s) > 0.0 ? l_s : vec3(0.0);  // outside its lobe's hemisphere
+#else
         return reflect(-s.v, h);
+#endif
     }
     u.x = (u.x - s.p_spec) / (1.0 - s.p_spec);
+#if GBUFFER_HAS_TRANSMISSION
+    if (u.x < s.p_trans) {  // the BTDF: a visible normal, then mirrored or refracted below
+        u.x = u.x / s.p_trans;
+        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
+        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
+        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / s.eta)  // 0 on total internal reflection
+                               : mirror_through(s.n, reflect(-s.v, h));
+        return -dot(s.n, l_t) > 0.0 ? l_t : vec3(0.0);
+    }
+    u.x = (u.x - s.p_trans) / (1.0 - s.p_trans);
+#endif
     return tangent_to_world(sample_cosine_hemisphere(u), s.n);
 }
 

@@ -101,21 +101,21 @@ def test_cli_view_help_lists_models_and_views(capsys):
 
 
 def _gltf_with_transmission(path):
-    """A one-triangle glTF whose material uses KHR_materials_transmission (not implemented: the
-    loader names it in a warning)."""
+    """A one-triangle glTF whose material uses KHR_materials_diffuse_transmission (not
+    implemented: the loader names it in a warning)."""
     import base64
     import json
 
     data = np.float32([[-1, -1, 0], [1, -1, 0], [0, 1, 0]]).tobytes()
     path.write_text(json.dumps({
-        "asset": {"version": "2.0"}, "extensionsUsed": ["KHR_materials_transmission"],
+        "asset": {"version": "2.0"}, "extensionsUsed": ["KHR_materials_diffuse_transmission"],
         "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
                      + base64.b64encode(data).decode()}],
         "bufferViews": [{"buffer": 0, "byteLength": len(data)}],
         "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
                        "min": [-1, -1, 0], "max": [1, 1, 0]}],
         "materials": [{"doubleSided": True,
-                       "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}}],
+                       "extensions": {"KHR_materials_diffuse_transmission": {}}}],
         "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
         "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0}))
 
@@ -132,14 +132,15 @@ def test_loader_warnings_reach_stderr_and_the_message_line(fresh, tmp_path, caps
     assert fresh.renders == renders + 1  # a warning does not stop the render
     message = fresh.state.message
     assert message.startswith("warning: ") and "\n" not in message
-    assert "coat.gltf" in message and "KHR_materials_transmission (changes the BSDF" in message
+    named = "KHR_materials_diffuse_transmission (changes the BSDF"
+    assert "coat.gltf" in message and named in message
     err = capsys.readouterr().err
-    assert err.count("KHR_materials_transmission (changes the BSDF") == 1 and "UserWarning" in err
+    assert err.count(named) == 1 and "UserWarning" in err
     # the geometry is cached: later frames and edits neither warn again nor clear the message
     fresh.state.render = fresh.state.render.with_flat(exposure=0.5)
     fresh.run(frames=1)
     assert fresh.renders == renders + 2 and fresh.state.message == message
-    assert "KHR_materials_transmission" not in capsys.readouterr().err
+    assert "KHR_materials_diffuse_transmission" not in capsys.readouterr().err
 
 
 def test_files_dropped_through_glfw_open_and_a_bad_one_keeps_the_scene(fresh, tmp_path):

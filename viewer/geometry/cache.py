@@ -233,7 +233,8 @@ def _load_object(obj: ObjectSpec):
     if obj.type == "mesh":
 
         transform = None if obj.transform is None else np.asarray(obj.transform, np.float64)
-        return load_mesh(obj.path, transform=transform, material_override=obj.material)
+        return load_mesh(obj.path, transform=transform, material_override=obj.material,
+                         variant=obj.variant)
     if obj.type == "gbuffer":
 
         path = Path(obj.path)

@@ -59,6 +59,8 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     coat = mesh.material.clearcoat > 0.0
     if coat:
         defines["USE_CLEARCOAT"] = 1
+    if mesh.material.transmission > 0.0:
+        defines["USE_TRANSMISSION"] = 1
     for key in mesh.textures:
         if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
                 or (key in _CLEARCOAT_MAPS and not coat):
@@ -257,6 +259,9 @@ class MeshUploads:
             _set(prog, "u_clearcoat", float(m.clearcoat))
             _set(prog, "u_clearcoat_roughness", float(m.clearcoat_roughness))
             _set(prog, "u_clearcoat_normal_scale", float(mesh.clearcoat_normal_scale))
+        if m.transmission > 0.0:
+            _set(prog, "u_transmission", float(m.transmission))
+            _set(prog, "u_transmission_ior", float(m.transmission_row()[1]))
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

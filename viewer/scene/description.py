@@ -113,6 +113,7 @@ class ObjectSpec:
     fov_y: float | None = None  # gbuffer stacks without their own field of view
     near: float = 1.0  # gbuffer depth normalisation (thesis appendix B.2)
     far: float = 800.0
+    variant: str | None = None  # mesh: a glTF KHR_materials_variants name (None: the defaults)
 
 
 @dataclass(frozen=True)
@@ -156,13 +157,21 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
     for k in ("roughness", "metallic", "specular", "ao", "specular_factor", "clearcoat",
-              "clearcoat_roughness"):
+              "clearcoat_roughness", "transmission"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
     if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)
         kw["ior"] = _num(t["ior"], f"{where}.ior", file, 0.0, 1e30)
     if "specular_color" in t:
         kw["specular_color"] = _vec(t["specular_color"], 3, f"{where}.specular_color", file)
+    if "thickness" in t:  # KHR_materials_volume (Material.thickness: 0 = thin-walled)
+        kw["thickness"] = _num(t["thickness"], f"{where}.thickness", file, 0.0, 1e30)
+    if "attenuation_color" in t:
+        kw["attenuation_color"] = _vec(t["attenuation_color"], 3, f"{where}.attenuation_color",
+                                       file)
+    if "attenuation_distance" in t:
+        kw["attenuation_distance"] = _num(t["attenuation_distance"],
+                                          f"{where}.attenuation_distance", file, 1e-30, math.inf)
     m = Material(**kw)
     try:
         m.validated(where)
@@ -236,7 +245,7 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
         "sphere": {"center", "radius"},
         "plane": {"center", "size", "normal", "catcher"},
         "material_grid": {"center", "rows", "cols", "spacing", "radius"},
-        "mesh": {"path", "transform"},
+        "mesh": {"path", "transform", "variant"},
         "gbuffer": {"path", "fov_y", "near", "far"},
         "splats": {"path", "transform"},
     }[typ] | common
@@ -277,6 +286,11 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
         if "path" not in t:
             raise SceneError(f"{where} ({typ}) needs a path", where=file)
         kw["path"] = _path(t["path"], f"{where}.path", file, base)
+    if "variant" in t:
+        if not isinstance(t["variant"], str) or not t["variant"]:
+            raise SceneError(f"{where}.variant must be a variant's name, got {t['variant']!r}",
+                             where=file)
+        kw["variant"] = t["variant"]
     if "material" in t:
         if not isinstance(t["material"], dict):
             raise SceneError(f"{where}.material must be a table", where=file)

@@ -25,11 +25,20 @@ class Material:
     # KHR_materials_clearcoat: a GGX coat of IOR 1.5 over the base (0 = none; shaders/lib/layers.glsl)
     clearcoat: float = 0.0  # in [0, 1]
     clearcoat_roughness: float = 0.0  # perceptual, in [0, 1]
+    # KHR_materials_transmission: the share of the dielectric base that is a specular BTDF
+    # instead of diffuse (0 = opaque; shaders/lib/transmission.glsl)
+    transmission: float = 0.0  # in [0, 1]
+    # KHR_materials_volume: thickness 0 = thin-walled (no refraction, no attenuation); > 0 = the
+    # mesh bounds a volume (refraction at entry and exit, Beer-Lambert attenuation inside)
+    thickness: float = 0.0  # thicknessFactor, >= 0 (its size matters to the rasteriser only)
+    attenuation_color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # linear RGB in [0, 1]
+    attenuation_distance: float = math.inf  # > 0: the distance at which white becomes the colour
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
                 "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor,
-                "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness}
+                "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness,
+                "transmission": self.transmission}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
@@ -43,7 +52,41 @@ class Material:
                 0.0 <= float(c) < math.inf for c in self.specular_color):
             raise SceneError(f"specular_color = {list(self.specular_color)} must be 3 finite "
                              f"numbers >= 0", where=where)
+        if not (0.0 <= float(self.thickness) < math.inf):
+            raise SceneError(f"thickness = {self.thickness} must be a finite number >= 0",
+                             where=where)
+        if len(self.attenuation_color) != 3 or not all(
+                0.0 <= float(c) <= 1.0 for c in self.attenuation_color):
+            raise SceneError(f"attenuation_color = {list(self.attenuation_color)} must be 3 "
+                             f"numbers in [0, 1]", where=where)
+        if not float(self.attenuation_distance) > 0.0:
+            raise SceneError(f"attenuation_distance = {self.attenuation_distance} must be > 0 "
+                             f"(inf: no attenuation)", where=where)
         return self
+
+    @property
+    def volume(self) -> bool:
+        """Whether light refracts into a volume (KHR_materials_volume with thickness > 0)."""
+        return self.transmission > 0.0 and self.thickness > 0.0
+
+    def transmission_row(self) -> tuple[float, float, float, float]:
+        """The traced material's transmission: (factor, the volume's IOR or 0 for a thin wall,
+        the ray tracer's and the reference's eta; 0, 0)."""
+        return (float(self.transmission), self.volume_ior() if self.volume else 0.0, 0.0, 0.0)
+
+    def volume_ior(self) -> float:
+        """The IOR light refracts by: KHR_materials_ior's (1.5 without it; its 'infinite' 0
+        would admit no light at all, so it refracts as 1.5 while reflecting as F0 = 1)."""
+        return 1.5 if self.ior is None or self.ior == 0.0 else float(self.ior)
+
+    def attenuation_coefficient(self) -> tuple[float, float, float]:
+        """sigma_a per unit length, -ln(attenuation_color) / attenuation_distance (0 without
+        a volume or at the default infinite distance; a colour channel of 0 absorbs all but a
+        sliver: clamped at 1e-6)."""
+        if not self.volume or math.isinf(self.attenuation_distance):
+            return (0.0, 0.0, 0.0)
+        return tuple(-math.log(max(float(c), 1e-6)) / float(self.attenuation_distance)
+                     for c in self.attenuation_color)
 
     def dielectric(self) -> tuple[float, float, float, float]:
         """The G-buffer's ``dielectric`` channel for this material's factors: (F0 rgb, F90) of
@@ -53,7 +96,8 @@ class Material:
 
 
 # the glTF extensions' fields: a scene file names them only where they differ from the default
-EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness")
+EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness",
+                    "transmission", "thickness", "attenuation_color", "attenuation_distance")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

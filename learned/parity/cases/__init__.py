@@ -29,11 +29,13 @@ from . import (
     splat,
     ssao,
     tonemap,
+    transmission,
 )
 from .base import Arg, ParityCase
 
 MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ground, ibl,
-           layers, lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap)
+           layers, lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap,
+           transmission)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]
 

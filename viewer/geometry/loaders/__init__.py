@@ -52,21 +52,27 @@ __all__ = ["GLTF_ATTRIBUTES", "GLTF_EXTENSIONS", "GLTF_SUFFIXES", "TRIMESH_SUFFI
 
 
 def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,
-              material_override: Material | None = None) -> MeshList:
+              material_override: Material | None = None, variant: str | None = None
+              ) -> MeshList:
     """Load every triangle mesh in ``path`` into world space, with the lights the file places
     (``.lights``: glTF ``KHR_lights_punctual``, moved by ``transform`` too).
 
     ``transform`` (``[4, 4]``, column vectors) is applied after the file's own node transforms.
     ``material_override`` replaces each mesh's material and drops its base colour,
     metallic-roughness, occlusion and emissive maps, vertex colours, emission and alpha modes (a
-    normal map and the sidedness are kept: they are shape, not material).
+    normal map and the sidedness are kept: they are shape, not material). ``variant``: a glTF
+    ``KHR_materials_variants`` name whose materials replace the defaults (None: the defaults);
+    an unknown name, or a variant for another format, is one InputError.
     """
     path = Path(path)
     if not path.is_file():
         raise InputError("mesh file not found", where=path)
     suffix = path.suffix.lower()
     if suffix in GLTF_SUFFIXES:
-        meshes = _guarded(_load_gltf, path, "glTF")
+        meshes = _guarded(lambda p: _load_gltf(p, variant), path, "glTF")
+    elif variant is not None:
+        raise InputError(f"material variant {variant!r}: variants are a glTF feature "
+                         f"(KHR_materials_variants), not {suffix or 'this format'}'s", where=path)
     elif suffix in TRIMESH_SUFFIXES:
         meshes = _guarded(_load_trimesh, path, suffix[1:].upper())
     else:

@@ -23,7 +23,9 @@ log = logging.getLogger(__package__)  # the loaders' logger, viewer.geometry.loa
 GLTF_EXTENSIONS = frozenset({"KHR_texture_transform", "KHR_mesh_quantization",
                              "KHR_materials_emissive_strength", "KHR_draco_mesh_compression",
                              "KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_specular",
-                             "KHR_materials_unlit", "KHR_materials_clearcoat"})
+                             "KHR_materials_unlit", "KHR_materials_clearcoat",
+                             "KHR_materials_transmission", "KHR_materials_volume",
+                             "KHR_materials_variants"})
 # the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_1.., TEXCOORD_2..,
 # _CUSTOM)
 GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1",
@@ -46,9 +48,48 @@ def _triangles(indices: np.ndarray, mode: int) -> np.ndarray | None:
     return None  # points and lines
 
 
-def _load_gltf(path: Path) -> MeshList:
+def variant_names(gltf) -> list[str]:
+    """The names of a glTF's ``KHR_materials_variants`` (file order; [] without any)."""
+    table = (gltf.extensions or {}).get("KHR_materials_variants") or {}
+    variants = table.get("variants", []) if isinstance(table, dict) else []
+    return [str(v.get("name", f"variant{i}")) if isinstance(v, dict) else f"variant{i}"
+            for i, v in enumerate(variants if isinstance(variants, list) else [])]
+
+
+def _variant_index(reader, variant: str | None) -> int | None:
+    """The index of ``variant`` among the file's variants (None: the default materials); an
+    unknown name is one InputError listing the names."""
+    if variant is None:
+        return None
+    names = variant_names(reader.gltf)
+    if variant not in names:
+        have = f"its variants are: {', '.join(names)}" if names else "it has no variants"
+        raise InputError(f"material variant {variant!r} is not in the file "
+                         f"(KHR_materials_variants; {have})", where=reader.path)
+    return names.index(variant)
+
+
+def _variant_material(reader, prim, index: int | None, where: str):
+    """The primitive's material under variant ``index``: the mapping naming it, else its own
+    (KHR_materials_variants: a primitive no mapping names keeps its default)."""
+    if index is None:
+        return prim.material
+    table = (prim.extensions or {}).get("KHR_materials_variants") or {}
+    for m in table.get("mappings", []) if isinstance(table, dict) else []:
+        if isinstance(m, dict) and index in (m.get("variants") or []):
+            material = m.get("material")
+            if not isinstance(material, int) or not \
+                    0 <= material < len(reader.gltf.materials or ()):
+                raise InputError(f"{where}: KHR_materials_variants mapping names material "
+                                 f"{material!r}, not one of the file's", where=reader.path)
+            return material
+    return prim.material
+
+
+def _load_gltf(path: Path, variant: str | None = None) -> MeshList:
     reader = _GltfReader(path)
     g = reader.gltf
+    chosen = _variant_index(reader, variant)
     out: list[Mesh] = []
     skipped = 0
     for mesh_index, world in reader.node_matrices():
@@ -94,7 +135,7 @@ def _load_gltf(path: Path) -> MeshList:
                 colors = colors.astype(np.float32)
                 if colors.shape[1] == 3:
                     colors = np.concatenate([colors, np.ones_like(colors[:, :1])], axis=1)
-            fields = _gltf_material(reader, prim.material)
+            fields = _gltf_material(reader, _variant_material(reader, prim, chosen, where))
             for key, sampling in list(fields["sampling"].items()):
                 if uv_sets[sampling.texcoord] is None:
                     warnings.warn(f"{path}: {where}: the {key} texture reads TEXCOORD_"
@@ -116,9 +157,8 @@ def _load_gltf(path: Path) -> MeshList:
 
 
 # KHR_materials_* extensions that change the BSDF and are not implemented: named as such
-# (ior, specular, unlit and clearcoat are: loaders/gltf_material.py)
-_BSDF_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_sheen",
-                    "KHR_materials_volume", "KHR_materials_iridescence",
+# (ior, specular, unlit, clearcoat, transmission and volume are: loaders/gltf_material.py)
+_BSDF_EXTENSIONS = ("KHR_materials_sheen", "KHR_materials_iridescence",
                     "KHR_materials_anisotropy", "KHR_materials_diffuse_transmission",
                     "KHR_materials_dispersion", "KHR_materials_pbrSpecularGlossiness")
 

@@ -77,6 +77,7 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     material, ext_slots = _dielectric(reader, index, material, ext)
     material, coat_slots, coat_normal_scale = _clearcoat(reader, index, material, ext)
     ext_slots += coat_slots
+    material = _transmission(reader, index, material, ext)
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
              ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
@@ -210,3 +211,36 @@ def _clearcoat(reader: _GltfReader, index: int, material: Material, ext: dict):
                                ("clearcoat_roughness", "clearcoatRoughnessTexture"),
                                ("clearcoat_normal", "clearcoatNormalTexture"))]
     return dataclasses.replace(material, clearcoat=factor, clearcoat_roughness=rough), slots, scale
+
+
+def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict) -> Material:
+    """``KHR_materials_transmission`` and ``KHR_materials_volume`` of material ``index``: the
+    material with its transmission factor, thickness (0: thin-walled) and attenuation. Their
+    maps (transmissionTexture, thicknessTexture) are not read: one warning per file says so."""
+    trans = ext.get("KHR_materials_transmission")
+    volume = ext.get("KHR_materials_volume")
+    if trans is None and volume is None:
+        return material
+    factor = _number(reader, index, trans or {}, "transmissionFactor", 0.0, 0.0, 1.0)
+    volume = volume if volume is not None else {}
+    thickness = _number(reader, index, volume, "thicknessFactor", 0.0, 0.0, math.inf)
+    distance = volume.get("attenuationDistance", math.inf) if isinstance(volume, dict) else None
+    if distance != math.inf:
+        distance = _number(reader, index, volume, "attenuationDistance", 1.0, 1e-30, math.inf)
+    color = volume.get("attenuationColor", [1.0, 1.0, 1.0]) if isinstance(volume, dict) else None
+    if not isinstance(color, list) or len(color) != 3:
+        raise InputError(f"material {index}: attenuationColor {color!r} must be 3 numbers in "
+                         f"[0, 1]", where=reader.path)
+    color = tuple(_number(reader, index, {"attenuationColor": c}, "attenuationColor", 1.0, 0.0,
+                          1.0) for c in color)
+    maps = [name for table, name in ((trans, "transmissionTexture"),
+                                     (volume, "thicknessTexture"))
+            if isinstance(table, dict) and table.get(name) is not None]
+    if maps:
+        message = (f"{reader.path}: {' and '.join(maps)} not read (the factors are): "
+                   f"transmission is uniform over each material")
+        if message not in reader.unavailable_warned:
+            reader.unavailable_warned.add(message)
+            warnings.warn(message, stacklevel=4)
+    return dataclasses.replace(material, transmission=factor, thickness=thickness,
+                               attenuation_color=color, attenuation_distance=float(distance))

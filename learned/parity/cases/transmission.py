@@ -1,0 +1,40 @@
+"""Parity cases of ``shaders/lib/transmission.glsl`` against :mod:`learned.twins.transmission`:
+input domains, adversarial values and tolerances with the envelope each guards."""
+from __future__ import annotations
+
+from .base import Arg, ParityCase
+
+_ALPHA = Arg(lo=0.0, hi=1.0, adversarial=(0.002025, 0.25, 1.0))
+_UNIT = Arg(kind="unit", components=3, adversarial=((0, 0, 1), (0, 0, -1), (0.6, 0, -0.8)))
+_UP = Arg(kind="hemisphere", components=3, adversarial=((0, 0, 1), (0.6, 0, 0.8)))
+_ETA = Arg(lo=0.5, hi=2.5, adversarial=(1.5, 1.0 / 1.5, 1.0))
+
+PARITY_CASES = [
+    ParityCase("mirror_through", (_UNIT, _UNIT), atol=5e-7, rtol=1e-6,
+               measured="max abs 2.4e-7 (seeds 0-7)",
+               envelope="a dot (3 roundings) and a multiply-add per component of values <= 3: "
+                        "~5 roundings -> 4e-7 abs"),
+    ParityCase("thin_transmission_cos", (_ALPHA, _UP, _UP, _UNIT), atol=1e-6, rtol=3.5e-3,
+               measured="max rel 5.7e-5 (seeds 0-7)",
+               envelope="as clearcoat_light (lib/layers.glsl): D_GGX's sensitivity to 1-ulp "
+                        "differences in n.h at small alpha, first-order 3.5e-3 rel"),
+    ParityCase("refraction_half_vector", (_UP, _UP, _UNIT, _ETA), atol=2e-6, rtol=1e-5,
+               measured="max abs 1.8e-7 (seeds 0-7)",
+               envelope="v + eta l (1 rounding), inversesqrt (2 ulp) of a dot: ~6 roundings "
+                        "of unit values -> 7e-7 abs; where |v + eta l| is small the "
+                        "direction's error grows as 1 / |v + eta l| (>= 1e-6: 2e-6 abs kept)"),
+    ParityCase("rough_refraction_cos", (_ALPHA, _ETA, _UP, _UP, _UNIT), atol=1e-6, rtol=5e-3,
+               measured="max rel 4.1e-5 (seeds 0-7)",
+               envelope="D_GGX at small alpha as thin_transmission_cos (3.5e-3 rel) and the "
+                        "Jacobian's 1 / (v.h + eta l.h)^2, a difference of terms of opposite "
+                        "signs: 5e-3 rel"),
+    ParityCase("rough_refraction_pdf", (_ALPHA, _ETA, _UP, _UP, _UNIT), atol=1e-6, rtol=5e-3,
+               measured="max rel 4.1e-5 (seeds 0-7)",
+               envelope="as rough_refraction_cos"),
+    ParityCase("volume_attenuation",
+               (Arg(lo=0.0, hi=10.0, components=3, adversarial=((0, 0, 0), (1e3, 1, 0.01))),
+                Arg(lo=0.0, hi=5.0, adversarial=(0.0, -1.0, 100.0))),
+               atol=1e-7, rtol=4e-6, measured="max abs 1.8e-7, rel 2.1e-6 (seeds 0-7)",
+               envelope="one product and exp (GLSL exp: 3 ulp of its argument's size, here "
+                        "<= 1e5 so 2e-6 rel after the product's rounding)"),
+]

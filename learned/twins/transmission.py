@@ -1,0 +1,75 @@
+"""Twins of ``shaders/lib/transmission.glsl``: KHR_materials_transmission's BTDFs (thin-walled:
+the GGX lobe mirrored through the surface; volume: Walter et al. 2007's rough dielectric
+without its Fresnel factor and radiance scale) and KHR_materials_volume's Beer-Lambert
+attenuation. Scalars ``[...]``, ``vec3`` ``[..., 3]``."""
+from __future__ import annotations
+
+import torch
+
+from .brdf import d_ggx, v_smith_ggx_correlated
+from .common import half_vector, saturate
+
+
+def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    return (a * b).sum(-1)
+
+
+def mirror_through(n: torch.Tensor, l: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 mirror_through(vec3 n, vec3 l)``: l - 2 (n.l) n."""
+    return l - 2.0 * _dot(n, l)[..., None] * n
+
+
+def thin_transmission_cos(a, n, v, l) -> torch.Tensor:
+    """GLSL ``float thin_transmission_cos(float a, vec3 n, vec3 v, vec3 l)``: D V |n.l| with
+    the half vector of v and l mirrored; 0 where l is not below."""
+    NoL = -_dot(n, l)
+    h = half_vector(v, mirror_through(n, l))
+    NoV = saturate(_dot(n, v))
+    out = d_ggx(saturate(_dot(n, h)), a) * v_smith_ggx_correlated(NoV, NoL, a) * NoL
+    return torch.where(NoL > 0.0, out, torch.zeros_like(out))
+
+
+def refraction_half_vector(n, v, l, eta) -> torch.Tensor:
+    """GLSL ``vec3 refraction_half_vector(vec3 n, vec3 v, vec3 l, float eta)``:
+    normalize(v + eta l) on n's side, 0 where it vanishes."""
+    h = v + eta[..., None] * l
+    len2 = _dot(h, h)[..., None]
+    h = h * torch.rsqrt(len2.clamp_min(1e-30))
+    h = torch.where((_dot(n, h) < 0.0)[..., None], -h, h)
+    return torch.where(len2 > 1e-12, h, torch.zeros_like(h))
+
+
+def _refraction_terms(a, eta, n, v, l):
+    NoV = _dot(n, v)
+    NoL = -_dot(n, l)
+    h = refraction_half_vector(n, v, l, eta)
+    VoH = _dot(v, h)
+    LoH = _dot(l, h)
+    ok = (NoV > 0.0) & (NoL > 0.0) & (VoH > 0.0) & (LoH < 0.0)
+    denom = VoH + eta * LoH
+    jacobian = eta * eta * (-LoH) / (denom * denom).clamp_min(1e-20)
+    return NoV, NoL, h, VoH, jacobian, ok
+
+
+def rough_refraction_cos(a, eta, n, v, l) -> torch.Tensor:
+    """GLSL ``float rough_refraction_cos(float a, float eta, vec3 n, vec3 v, vec3 l)``: Walter's
+    BTDF (no Fresnel, no radiance scale) times |n.l|."""
+    NoV, NoL, h, VoH, jacobian, ok = _refraction_terms(a, eta, n, v, l)
+    out = 4.0 * v_smith_ggx_correlated(NoV, NoL, a) * NoL * d_ggx(_dot(n, h), a) * VoH \
+        * jacobian
+    return torch.where(ok, out, torch.zeros_like(out))
+
+
+def rough_refraction_pdf(a, eta, n, v, l) -> torch.Tensor:
+    """GLSL ``float rough_refraction_pdf(float a, float eta, vec3 n, vec3 v, vec3 l)``: the
+    visible-normal refraction's density of l."""
+    NoV, _, h, VoH, jacobian, ok = _refraction_terms(a, eta, n, v, l)
+    a2 = saturate(a) ** 2
+    out = 2.0 * d_ggx(_dot(n, h), a) * VoH / (NoV + torch.sqrt(a2 + (1.0 - a2) * NoV * NoV)) \
+        * jacobian
+    return torch.where(ok, out, torch.zeros_like(out))
+
+
+def volume_attenuation(sigma: torch.Tensor, distance: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 volume_attenuation(vec3 sigma, float distance)``: exp(-sigma d)."""
+    return torch.exp(-sigma * distance.clamp_min(0.0)[..., None])

@@ -1,0 +1,85 @@
+// transmission.glsl - KHR_materials_transmission's specular BTDF and KHR_materials_volume's
+// attenuation. Pure functions: no uniforms, no main. Twins: learned/twins/transmission.py.
+//
+// The glTF mix under the dielectric Fresnel layer, with this project's energy split (the base
+// keeps 1 - E_spec(n.v) of itself, lib/shading.glsl): f = f_spec + (1 - E_spec) (1 - metallic)
+// base_colour [(1 - T) / pi + T f_t], T the transmission factor and f_t one of two BTDFs of
+// the base's GGX roughness a, both without a Fresnel factor of their own (the layer's split is
+// it) and of directional albedo <= 1 from either side, so energy is never created:
+// - thin-walled (no volume): the spec's BTDF, the GGX reflection lobe mirrored through the
+//   surface plane (thin_transmission_cos): light leaves on the other side undeflected;
+// - volume (thickness > 0): Walter et al. 2007's rough dielectric BTDF (rough_refraction_cos),
+//   eta = eta_l / eta_v the ratio of the IORs on the light's and the viewer's sides. The
+//   radiance scale (eta_v / eta_l)^2 of a crossing is left out: it cancels on every path that
+//   enters and leaves a closed volume, which is what the path tracer and the reference trace.
+#include "lib/common.glsl"
+#include "lib/brdf.glsl"
+
+// l mirrored through the plane of normal n: the thin wall's transmitted direction is the
+// reflection lobe's, on the other side.
+vec3 mirror_through(vec3 n, vec3 l) {
+    return l - 2.0 * dot(n, l) * n;
+}
+
+// The thin-walled BTDF times |n.l| for l below the surface (0 above): D(n.h') V(n.v, |n.l|) |n.l|
+// with h' the half vector of v and l mirrored above (KHR_materials_transmission, thin-walled).
+float thin_transmission_cos(float a, vec3 n, vec3 v, vec3 l) {
+    float NoL = -dot(n, l);
+    if (!(NoL > 0.0)) return 0.0;
+    vec3 h = half_vector(v, mirror_through(n, l));
+    float NoV = saturate(dot(n, v));
+    return d_ggx(saturate(dot(n, h)), a) * v_smith_ggx_correlated(NoV, NoL, a) * NoL;
+}
+
+// Walter et al. 2007, "Microfacet Models for Refraction through Rough Surfaces", eq. 16: the
+// half vector of a refraction from v (the viewer's side, above n) to l (below) with
+// eta = eta_l / eta_v, normalize(-(v + eta l)) turned to n's side; 0 where v + eta l vanishes.
+vec3 refraction_half_vector(vec3 n, vec3 v, vec3 l, float eta) {
+    vec3 h = v + eta * l;
+    float len2 = dot(h, h);
+    if (!(len2 > 1e-12)) return vec3(0.0);
+    h *= inversesqrt(len2);
+    return dot(n, h) < 0.0 ? -h : h;
+}
+
+// Walter et al. 2007, eq. 21 without its Fresnel factor and radiance scale, times |n.l|:
+// |v.h| |l.h| eta^2 D(h) G2(v, l) / (|n.v| (v.h + eta l.h)^2), G2 = 4 V n.v |n.l| (the
+// height-correlated Smith visibility V of lib/brdf.glsl); 0 unless v is above, l below and
+// both on their own sides of the microfacet (v.h > 0 > l.h). Its integral over l is
+// int D G2 (v.h) / (n.v) dh <= 1 (the visible normals' normalisation).
+float rough_refraction_cos(float a, float eta, vec3 n, vec3 v, vec3 l) {
+    float NoV = dot(n, v);
+    float NoL = -dot(n, l);
+    if (!(NoV > 0.0) || !(NoL > 0.0)) return 0.0;
+    vec3 h = refraction_half_vector(n, v, l, eta);
+    float VoH = dot(v, h);
+    float LoH = dot(l, h);
+    if (!(VoH > 0.0) || !(LoH < 0.0)) return 0.0;
+    float denom = VoH + eta * LoH;
+    float jacobian = eta * eta * (-LoH) / max(denom * denom, 1e-20);  // d(omega_h) / d(omega_l)
+    return 4.0 * v_smith_ggx_correlated(NoV, NoL, a) * NoL * d_ggx(dot(n, h), a) * VoH
+           * jacobian;
+}
+
+// The density (solid angle) of l drawn by refracting v through a visible normal (Heitz 2018's
+// sample_ggx_vndf, then refract with eta): D_v(h) |d(omega_h) / d(omega_l)|, D_v(h) =
+// G1(v) D(h) (v.h) / (n.v) written as 2 D(h) (v.h) / (n.v + sqrt(a^2 + (1 - a^2) n.v^2)).
+float rough_refraction_pdf(float a, float eta, vec3 n, vec3 v, vec3 l) {
+    float NoV = dot(n, v);
+    if (!(NoV > 0.0) || !(-dot(n, l) > 0.0)) return 0.0;
+    vec3 h = refraction_half_vector(n, v, l, eta);
+    float VoH = dot(v, h);
+    float LoH = dot(l, h);
+    if (!(VoH > 0.0) || !(LoH < 0.0)) return 0.0;
+    float a2 = sq(saturate(a));
+    float denom = VoH + eta * LoH;
+    float jacobian = eta * eta * (-LoH) / max(denom * denom, 1e-20);
+    return 2.0 * d_ggx(dot(n, h), a) * VoH / (NoV + sqrt(a2 + (1.0 - a2) * NoV * NoV))
+           * jacobian;
+}
+
+// Beer-Lambert: the share of light left after `distance` through a medium of attenuation
+// coefficient sigma = -ln(attenuationColor) / attenuationDistance (KHR_materials_volume).
+vec3 volume_attenuation(vec3 sigma, float distance) {
+    return exp(-sigma * max(distance, 0.0));
+}

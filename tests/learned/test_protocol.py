@@ -256,9 +256,11 @@ def test_the_shadow_estimator_is_scored_against_the_classical_pick(protocol, tmp
                                       for m in variants())
     data = tmp_path / "copy"  # the module's dataset keeps its own ledger count
     shutil.copytree(protocol, data)
+    before = len(ledger(data))  # the shared dataset's earlier test scorings (other tests)
     with pytest.raises(SystemExit):
         sn.main([str(data), ones, "--split", "test"])
+    assert len(ledger(data)) == before  # refused: nothing counted
     sn.main([str(data), ones, "--split", "test", "--classical", json.dumps(r["classical"])])
     out = json.loads(capsys.readouterr().out)
-    assert out["test_scored"] == 1 and len(ledger(data)) == 1
+    assert out["test_scored"] == before + 1 and len(ledger(data)) == before + 1
     assert out["classical_name"] == r["classical_name"]

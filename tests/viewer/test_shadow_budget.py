@@ -52,7 +52,10 @@ def _scene(lights, render):
     return scene_from_dict({"camera": {**CAMERA, "size": [48, 48]}, "environment": DARK,
                             "lights": lights, "objects": [FLOOR, SPHERE],
                             "render": {"tonemap": "none", "shadow_size": 256,
-                                       "shadow_cube_size": 128, **render}})
+                                       "shadow_cube_size": 128,
+                                       # the maps' budget: the rasterised frame (the rays'
+                                       # bounce would light the shadows it measures)
+                                       "raytrace": False, **render}})
 
 
 LIGHTS = [{**SUN_LIKE, "direction": [0.3, 1.0, 0.2]},

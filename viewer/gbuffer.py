@@ -26,14 +26,16 @@ dielectric  4   the glTF dielectric lobe (KHR_materials_ior / _specular): rgb = 
 clearcoat   4   KHR_materials_clearcoat: factor, perceptual roughness, the coat's normal
                 (octahedral, lib/layers.glsl oct_encode); background 0 = no coat; only allocated
                 when a scene has a coated material
+sheen       4   KHR_materials_sheen: colour (rgb, linear), roughness (a); background 0 = no
+                sheen; only allocated when a scene has a material with a sheen
 =========== === ==========================================================================
 
 Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
 (``f2``). The base layout (albedo .. depth) is 3 attachments: 48 B/px (24 at fp16). Each optional
 channel a scene needs adds one attachment, +16 B/px (+8): ``color`` (splats), ``emission``
-(emissive meshes), ``dielectric`` and ``clearcoat`` (4 components each: a whole attachment), so
-a scene with the glTF dielectric lobe pays 64 B/px (32) where one without it pays 48 (24), one
-with both lobes 80 (40). Omitted channels shrink the
+(emissive meshes), ``dielectric``, ``clearcoat`` and ``sheen`` (4 components each: a whole
+attachment), so a scene with the glTF dielectric lobe pays 64 B/px (32) where one without it
+pays 48 (24), one with both lobes 80 (40), a sheen alone 64 (32). Omitted channels shrink the
 layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
@@ -69,6 +71,8 @@ CHANNELS: tuple[Channel, ...] = (
             "glTF dielectric lobe: F0 (rgb), F90 (a); a < 0 = none", optional=True),
     Channel("clearcoat", 4, 6, 0, (0.0, 0.0, 0.0, 0.0),
             "glTF clearcoat: factor, roughness, octahedral normal", optional=True),
+    Channel("sheen", 4, 7, 0, (0.0, 0.0, 0.0, 0.0),
+            "glTF sheen: colour (rgb), roughness", optional=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -108,6 +112,7 @@ class GBufferLayout:
     # the optional dielectric channel (scenes with KHR_materials_ior / _specular materials)
     with_dielectric: bool = False
     with_clearcoat: bool = False  # the optional clearcoat channel (KHR_materials_clearcoat)
+    with_sheen: bool = False  # the optional sheen channel (KHR_materials_sheen)
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -123,7 +128,8 @@ class GBufferLayout:
     def _wanted_optional(self, c: Channel) -> bool:
         return not c.optional or {"color": self.with_color, "emission": self.with_emission,
                                   "dielectric": self.with_dielectric,
-                                  "clearcoat": self.with_clearcoat}[c.name]
+                                  "clearcoat": self.with_clearcoat,
+                                  "sheen": self.with_sheen}[c.name]
 
     def bytes_per_pixel(self) -> int:
         """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
@@ -159,6 +165,7 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_EMISSION {int(self.with_emission)}",
                  f"#define GBUFFER_HAS_DIELECTRIC {int(self.with_dielectric)}",
                  f"#define GBUFFER_HAS_CLEARCOAT {int(self.with_clearcoat)}",
+                 f"#define GBUFFER_HAS_SHEEN {int(self.with_sheen)}",
                  "struct GBuffer {"]
         lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
         lines.append("};")

@@ -20,7 +20,8 @@ The DFG terms come from :func:`directional_albedo_table`, a float64 quadrature o
 integral the renderer's LUT estimates with 4096 Hammersley samples (the two agree to 0.4 %).
 
 A ``KHR_materials_clearcoat`` coat is layered over this as :mod:`relight.reference.layers` says
-(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl).
+(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl), a
+``KHR_materials_sheen`` sheen between them as :mod:`relight.reference.sheen` says.
 
 Not modelled here, on purpose: the material's ``ao`` and glTF occlusion maps (baked visibility:
 the path tracer computes visibility itself), and the rasteriser's bending of back-facing shading
@@ -35,6 +36,7 @@ import math
 import numpy as np
 
 from .layers import coat_eval, coat_pdf, coat_state
+from .sheen import sheen_eval, sheen_pdf, sheen_scaling, sheen_state, table_texture
 
 MIN_PERCEPTUAL_ROUGHNESS = 0.045  # shaders/lib/brdf.glsl
 DFG_TABLE_SIZE = 65
@@ -157,6 +159,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.specular_texture = None
             self.specular_color_texture = None
             self.clearcoat_texture = self.clearcoat_roughness_texture = None
+            self.sheen_color_texture = self.sheen_roughness_texture = self.sheen_table = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -174,6 +177,10 @@ def _bsdf_class(mi, dr, variant: str):
             self.specular_color_texture = textures.get("specular_color")
             self.clearcoat_texture = textures.get("clearcoat")  # R (KHR_materials_clearcoat)
             self.clearcoat_roughness_texture = textures.get("clearcoat_roughness")  # G
+            self.sheen_color_texture = textures.get("sheen_color")  # KHR_materials_sheen
+            self.sheen_roughness_texture = textures.get("sheen_roughness")  # the map's A
+            if max(material.sheen_color) > 0.0:
+                self.sheen_table = table_texture(mi, dr)
             table = directional_albedo_table()
             self.dfg = mi.Texture2f(mi.TensorXf(table), use_accel=False,
                                     filter_mode=dr.FilterMode.Linear,
@@ -241,7 +248,7 @@ def _bsdf_class(mi, dr, variant: str):
                 coat["p"] = dr.select((coat["albedo"] > 0.0) & (base > 0.0),
                                       dr.clip(coat["p"], 0.05, 0.95), coat["p"])
             return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
-                        frame=frame, coat=coat)
+                        frame=frame, coat=coat, sheen=sheen_state(mi, dr, self, si, wi, ls + ld))
 
         def _fresnel(self, si, albedo, metal):
             """f0 and f90 at the hit: lib/brdf.glsl ``surface_f0_f90`` (module docstring)."""
@@ -318,6 +325,11 @@ def _bsdf_class(mi, dr, variant: str):
             (relight.reference.layers)."""
             wm = self._to_mapped(s, wo_local)
             value, pdf = self._eval(s, si, wm), self._pdf(s, si, wm, distr)
+            sh = s["sheen"]
+            if sh is not None:  # the sheen over the base, in the base's (mapped) frame
+                value = value * sheen_scaling(mi, dr, self, sh, wm) + sheen_eval(mi, dr, sh,
+                                                                                 s["wi"], wm)
+                pdf = sh["p"] * sheen_pdf(mi, dr, s["wi"], wm) + (1.0 - sh["p"]) * pdf
             c = s["coat"]
             if c is None:
                 return value, pdf
@@ -334,11 +346,18 @@ def _bsdf_class(mi, dr, variant: str):
                 on_coat = sample1 < c["p"]
                 sample1 = dr.select(on_coat, 0.0, (sample1 - c["p"])
                                     / dr.maximum(1.0 - c["p"], 1e-12))
+            sh, on_sheen = s["sheen"], mi.Bool(False)
+            if sh is not None:  # then the sheen (uniform over the hemisphere), then the base
+                on_sheen = sample1 < sh["p"]
+                sample1 = dr.select(on_sheen, 0.0, (sample1 - sh["p"])
+                                    / dr.maximum(1.0 - sh["p"], 1e-12))
             spec = sample1 < s["p_spec"]
             m, _ = distr.sample(wi, sample2)
             wo_spec = mi.reflect(wi, m)
             wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
-            wo = self._from_mapped(s, dr.select(spec, wo_spec, wo_diff))
+            wo = self._from_mapped(s, dr.select(on_sheen, mi.warp.square_to_uniform_hemisphere(
+                sample2), dr.select(spec, wo_spec, wo_diff)))
+            spec = spec | on_sheen
             if c is not None:
                 mc, _ = c["distr"].sample(si.wi, sample2)
                 wo = dr.select(on_coat, mi.reflect(si.wi, mc), wo)

@@ -69,3 +69,28 @@ vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float m
 #endif
     return c;
 }
+
+// Every such light on a KHR_materials_sheen sheen (lib/layers.glsl sheen_light), as
+// env_lights_ggx shades them (0 without ENV_LIGHTS).
+vec3 env_lights_sheen(vec3 color, float r, vec3 n, vec3 v, vec3 p) {
+    vec3 c = vec3(0.0);
+#if ENV_LIGHTS > 0
+#define ENV_LIGHT_SHEEN(i) {                                                                  \
+        vec3 l = rotate_y(u_env_light_direction[i], u_env_rotation);                        \
+        vec4 disc = disc_light(n, l, u_env_light_radius[i]);                                \
+        if (disc.w > 0.0) {                                                                 \
+            c += sheen_light(color, r, n, v, disc.xyz) * u_env_light_irradiance[i]           \
+                 * (u_env_intensity * disc.w * env_light_visibility(i, p, n, l));            \
+        }                                                                                   \
+    }
+    ENV_LIGHT_SHEEN(0)
+#if ENV_LIGHTS > 1
+    ENV_LIGHT_SHEEN(1)
+#endif
+#if ENV_LIGHTS > 2
+    ENV_LIGHT_SHEEN(2)
+#endif
+#undef ENV_LIGHT_SHEEN
+#endif
+    return c;
+}

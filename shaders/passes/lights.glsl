@@ -293,6 +293,21 @@ vec3 lights_clearcoat(float w, float a, vec3 n, vec3 v, vec3 p) {
     return c;
 }
 
+// Every light on a KHR_materials_sheen sheen of colour `color`, roughness r (lib/layers.glsl
+// sheen_light) on the normal n: what the sheen reflects of the lights (the caller scales the
+// base's share by sheen_scaling).
+vec3 lights_sheen(vec3 color, float r, vec3 n, vec3 v, vec3 p) {
+    vec3 c = vec3(0.0);
+#define LIGHT_SHEEN(i) {                                                                      \
+        vec4 la = scene_light(i, p, n);                                                     \
+        if (la.w > 0.0) c += sheen_light(color, r, n, v, la.xyz) * u_light_intensity[i]      \
+                             * la.w;                                                        \
+    }
+    FOR_EACH_LIGHT(LIGHT_SHEEN)
+#undef LIGHT_SHEEN
+    return c;
+}
+
 // Every light through blinn_phong_directional_light (the Blinn-Phong model's BRDF).
 vec3 lights_blinn_phong(vec3 diffuse, vec3 f0, float a, vec3 n, vec3 v, vec3 p) {
     vec3 c = vec3(0.0);

@@ -11,7 +11,9 @@
 // USE_SPECULAR_COLOR_MAP (linear RGB); USE_CLEARCOAT (KHR_materials_clearcoat: the G-buffer's
 // clearcoat channel from u_clearcoat, u_clearcoat_roughness) with USE_CLEARCOAT_MAP (R),
 // USE_CLEARCOAT_ROUGHNESS_MAP (G), USE_CLEARCOAT_NORMAL_MAP (the coat's own normal map; without
-// it the coat has the interpolated vertex normal); USE_UV0 / USE_UV1 when a map reads that texture coordinate
+// it the coat has the interpolated vertex normal); USE_SHEEN (KHR_materials_sheen: the G-buffer's
+// sheen channel from u_sheen_color, u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and
+// USE_SHEEN_ROUGHNESS_MAP (A); USE_UV0 / USE_UV1 when a map reads that texture coordinate
 // set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
@@ -89,6 +91,22 @@ uniform sampler2D u_clearcoat_normal_map;    // tangent space, n * 0.5 + 0.5
 uniform int u_clearcoat_normal_set;
 uniform mat3 u_clearcoat_normal_uv;
 uniform vec2 u_clearcoat_normal_mirror;
+#endif
+#ifdef USE_SHEEN
+uniform vec3 u_sheen_color;             // sheenColorFactor (linear)
+uniform float u_sheen_roughness;        // sheenRoughnessFactor
+#endif
+#ifdef USE_SHEEN_COLOR_MAP
+uniform sampler2D u_sheen_color_map;         // linear RGB
+uniform int u_sheen_color_set;
+uniform mat3 u_sheen_color_uv;
+uniform vec2 u_sheen_color_mirror;
+#endif
+#ifdef USE_SHEEN_ROUGHNESS_MAP
+uniform sampler2D u_sheen_roughness_map;     // A = roughness
+uniform int u_sheen_roughness_set;
+uniform mat3 u_sheen_roughness_uv;
+uniform vec2 u_sheen_roughness_mirror;
 #endif
 #ifdef USE_SPECULAR_MAP
 uniform sampler2D u_specular_map;            // A = specular factor
@@ -270,6 +288,20 @@ GBuffer mesh_surface(out float alpha) {
                                  u_clearcoat_roughness_mirror).g;
 #endif
     g.clearcoat = vec4(coat, coat_roughness, oct_encode(n_coat * facing));
+#endif
+#ifdef USE_SHEEN
+    vec3 sheen_color = u_sheen_color;
+    float sheen_roughness = u_sheen_roughness;
+#ifdef USE_SHEEN_COLOR_MAP
+    sheen_color *= sample_map(u_sheen_color_map, map_uv(u_sheen_color_set, u_sheen_color_uv),
+                              u_sheen_color_mirror).rgb;
+#endif
+#ifdef USE_SHEEN_ROUGHNESS_MAP
+    sheen_roughness *= sample_map(u_sheen_roughness_map,
+                                  map_uv(u_sheen_roughness_set, u_sheen_roughness_uv),
+                                  u_sheen_roughness_mirror).a;
+#endif
+    g.sheen = vec4(sheen_color, sheen_roughness);
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

@@ -10,11 +10,11 @@
 layout(std430, binding = 2) readonly buffer RaytraceNodes { vec4 rt_nodes[]; };       // 2 a node
 layout(std430, binding = 3) readonly buffer RaytraceTriangles { uvec4 rt_triangles[]; };
 layout(std430, binding = 4) readonly buffer RaytraceVertices { vec4 rt_vertices[]; }; // 2 a vertex
-layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_materials[]; }; // 11 each
+layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_materials[]; }; // 12 each
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
-#define RT_MATERIAL_ROWS 11
+#define RT_MATERIAL_ROWS 12
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -176,6 +176,7 @@ struct TracedSurface {
     float specular;
     vec4 dielectric;  // KHR_materials_ior/specular F0 (rgb), F90 (a); a < 0: none (surface_f0_f90)
     vec2 clearcoat;   // KHR_materials_clearcoat factor, perceptual roughness (0: no coat)
+    vec4 sheen;       // KHR_materials_sheen colour (rgb; 0: none), roughness (a)
     vec3 emission;    // radiance it emits
     bool double_sided;
 };
@@ -204,6 +205,7 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     s.specular = f1.z;
     s.dielectric = rt_materials[base + 9];  // factors only: the specular maps are not traced
     s.clearcoat = rt_materials[base + 10].xy;  // factors only, the coat on the vertex normal
+    s.sheen = rt_materials[base + 11];  // factors only: the sheen maps are not traced
     s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;
     return s;

@@ -54,6 +54,33 @@ vec3 clearcoat_radiance(vec3 c, GBuffer g, vec3 v, vec3 p) {
 }
 #endif
 
+#if GBUFFER_HAS_SHEEN
+// KHR_materials_sheen (lib/layers.glsl): the base's radiance c keeps 1 - max3(C) E(n.v) of
+// itself (the spec's cheaper scaling, for the environment and the lights alike); the sheen adds
+// C E(n.v) times the environment's irradiance / pi at n (three.js's sheen IBL: the Charlie lobe
+// is wide, its light comes from the whole hemisphere; `irradiance` is the base's, with the
+// rays' visibility), and, exactly (sheen_light), the punctual lights, the sun and the other
+// compact lights the irradiance map does not hold (SUN_LIGHT), shadowed as the base's.
+vec3 sheen_radiance(vec3 c, GBuffer g, vec3 n, vec3 v, vec3 irradiance, vec3 p) {
+    if (!(max(max(g.sheen.r, g.sheen.g), g.sheen.b) > 0.0)) return c;
+    float NoV = saturate(dot(n, v));
+    float r = clamp(g.sheen.a, SHEEN_MIN_ROUGHNESS, 1.0);
+    float e = sheen_albedo(NoV, r);
+    vec3 sheen = sheen_split_sum(g.sheen.rgb, e, irradiance * INV_PI);
+#if LIGHT_COUNT > 0
+    sheen += lights_sheen(g.sheen.rgb, r, n, v, p);
+#endif
+#if SUN_LIGHT
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
+    sheen += sheen_light(g.sheen.rgb, r, n, v, disc.xyz)
+             * (u_sun_irradiance * u_env_intensity * disc.w * sun_shadow(g, n, l_sun));
+    sheen += env_lights_sheen(g.sheen.rgb, r, n, v, p);
+#endif
+    return c * sheen_scaling(g.sheen.rgb, e, e) + sheen;
+}
+#endif
+
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     GBuffer g = gbuffer_load(pixel);
@@ -129,6 +156,9 @@ void main() {
     c += env_lights_ggx(diffuse * ao, vec3(0.0), 0.0, 1.0, vec2(0.0, 1.0), 0.0, n, v, 1.0,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
+#endif
+#if GBUFFER_HAS_SHEEN
+    c = sheen_radiance(c, g, n, v, irradiance, light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
 #if GBUFFER_HAS_CLEARCOAT
     c = clearcoat_radiance(c, g, v, light_surface_position(gl_FragCoord.xy, g.depth));

@@ -46,11 +46,12 @@ struct PathVertex {
 };
 
 PathVertex path_vertex(vec3 p, vec3 ng, vec3 n, vec3 v, vec3 albedo, float roughness,
-                       float metallic, float specular, vec4 dielectric, vec2 coat, vec3 n_coat) {
+                       float metallic, float specular, vec4 dielectric, vec2 coat, vec3 n_coat,
+                       vec4 sheen) {
     vec2 dfg;
     vec4 fresnel = surface_f0_f90(albedo, metallic, specular, dielectric);
     return PathVertex(p, ng, surface_init(n, v, albedo, roughness, metallic, fresnel.rgb,
-                                          fresnel.a, coat, n_coat, dfg));
+                                          fresnel.a, coat, n_coat, sheen, dfg));
 }
 
 vec3 path_env_radiance(vec3 l) {
@@ -138,7 +139,7 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         vec3 n = front ? t.n : -t.n;
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
-                        t.dielectric, t.clearcoat, n);
+                        t.dielectric, t.clearcoat, n, t.sheen);
         float q = path_continue_probability(beta, float(bounce + 1));
         if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
         beta /= q;
@@ -162,7 +163,7 @@ void main() {
     // the G-buffer holds no geometric normal: the shading normal stands in for the ray offset
     PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular,
                                   g.dielectric, g.clearcoat.xy,
-                                  shading_normal(oct_decode(g.clearcoat.zw), v));
+                                  shading_normal(oct_decode(g.clearcoat.zw), v), g.sheen);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
         sum += trace_path(s0, uvec2(pixel), u_sample_start + k);

@@ -11,7 +11,8 @@
 //       w_under dielectric_under) / alpha: the splats' own lobe is Filament's specular 0.5;
 //       where none lies underneath (a < 0) it stays the background (the blended specular rules),
 //   clearcoat factor = w_under clearcoat_under / alpha (splats have no coat; its roughness and
-//       normal stay the surface's underneath).
+//       normal stay the surface's underneath), sheen colour = w_under sheen_under / alpha
+//       (nor a sheen; its roughness stays the surface's underneath).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
@@ -60,6 +61,7 @@ void main() {
     g.color = a0.rgb + w_under * under.albedo;
     g.emission = w_under * under.emission / total;  // splats emit nothing and hide what does
     g.clearcoat.x = w_under * under.clearcoat.x / total;
+    g.sheen.rgb = w_under * under.sheen.rgb / total;  // splats have no sheen either
     if (under.dielectric.a >= 0.0) {
         g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)
                        / total;

@@ -16,8 +16,8 @@ from viewer.splats.data import make_splats
 
 def test_parity_with_glsl_on_1500_splat_scenes(programs):
     results = parity_check(programs, seeds=(0, 1), n=1500)
-    # 2 scenes x (12 channels: the glTF dielectric and clearcoat ones too, + the median depth)
-    assert len(results) == 26
+    # 2 scenes x (13 channels: the glTF dielectric, clearcoat and sheen ones too, + the median depth)
+    assert len(results) == 28
     for r in results:
         assert r.passed, (r.name, r.max_abs)
         assert r.max_abs < PARITY_ATOL

@@ -12,7 +12,8 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
 * at a secondary hit: the material's factors, its base-colour, metallic-roughness and emissive
   maps (``TEXCOORD_0``, ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`),
   the ``KHR_materials_ior`` / ``specular`` factors (:meth:`Material.dielectric`, not their maps),
-  the ``KHR_materials_clearcoat`` factors (on the vertex normal; not its maps),
+  the ``KHR_materials_clearcoat`` factors (on the vertex normal; not its maps), the
+  ``KHR_materials_sheen`` factors (not its maps),
   the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
   ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
@@ -28,7 +29,7 @@ from .bvh import BVH, build_bvh, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAPS = ("base_color", "metallic_roughness", "emissive")
-MATERIAL_VEC4S = 11  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+MATERIAL_VEC4S = 12  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
 _WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 
 
@@ -135,6 +136,7 @@ def material_rows(meshes, layers) -> np.ndarray:
                             float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
         r[9] = m.dielectric()  # (F0, F90) of the glTF lobe, (0, 0, 0, -1) for none
         r[10] = (m.clearcoat, m.clearcoat_roughness, 0.0, 0.0)  # KHR_materials_clearcoat
+        r[11] = (*m.sheen_color, m.sheen_roughness)  # KHR_materials_sheen
     return rows
 
 

@@ -156,13 +156,15 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
     for k in ("roughness", "metallic", "specular", "ao", "specular_factor", "clearcoat",
-              "clearcoat_roughness"):
+              "clearcoat_roughness", "sheen_roughness"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
     if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)
         kw["ior"] = _num(t["ior"], f"{where}.ior", file, 0.0, 1e30)
     if "specular_color" in t:
         kw["specular_color"] = _vec(t["specular_color"], 3, f"{where}.specular_color", file)
+    if "sheen_color" in t:  # KHR_materials_sheen (Material.sheen_color)
+        kw["sheen_color"] = _vec(t["sheen_color"], 3, f"{where}.sheen_color", file)
     m = Material(**kw)
     try:
         m.validated(where)

@@ -23,7 +23,8 @@ log = logging.getLogger(__package__)  # the loaders' logger, viewer.geometry.loa
 GLTF_EXTENSIONS = frozenset({"KHR_texture_transform", "KHR_mesh_quantization",
                              "KHR_materials_emissive_strength", "KHR_draco_mesh_compression",
                              "KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_specular",
-                             "KHR_materials_unlit", "KHR_materials_clearcoat"})
+                             "KHR_materials_unlit", "KHR_materials_clearcoat",
+                             "KHR_materials_sheen"})
 # the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_1.., TEXCOORD_2..,
 # _CUSTOM)
 GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1",
@@ -116,8 +117,8 @@ def _load_gltf(path: Path) -> MeshList:
 
 
 # KHR_materials_* extensions that change the BSDF and are not implemented: named as such
-# (ior, specular, unlit and clearcoat are: loaders/gltf_material.py)
-_BSDF_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_sheen",
+# (ior, specular, unlit, clearcoat and sheen are: loaders/gltf_material.py)
+_BSDF_EXTENSIONS = ("KHR_materials_transmission",
                     "KHR_materials_volume", "KHR_materials_iridescence",
                     "KHR_materials_anisotropy", "KHR_materials_diffuse_transmission",
                     "KHR_materials_dispersion", "KHR_materials_pbrSpecularGlossiness")

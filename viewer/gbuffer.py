@@ -54,6 +54,9 @@ class Channel:
     background: tuple[float, ...]  # value where nothing was drawn
     meaning: str
     optional: bool = False  # allocated only when a scene needs it
+    # in the GLSL GBuffer struct only when allocated (its uses sit under GBUFFER_HAS_<NAME>): a
+    # scene without it compiles exactly the programs it compiled before the channel existed
+    declared_when_allocated: bool = False
 
 
 CHANNELS: tuple[Channel, ...] = (
@@ -72,7 +75,7 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("clearcoat", 4, 6, 0, (0.0, 0.0, 0.0, 0.0),
             "glTF clearcoat: factor, roughness, octahedral normal", optional=True),
     Channel("sheen", 4, 7, 0, (0.0, 0.0, 0.0, 0.0),
-            "glTF sheen: colour (rgb), roughness", optional=True),
+            "glTF sheen: colour (rgb), roughness", optional=True, declared_when_allocated=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -166,12 +169,15 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_DIELECTRIC {int(self.with_dielectric)}",
                  f"#define GBUFFER_HAS_CLEARCOAT {int(self.with_clearcoat)}",
                  f"#define GBUFFER_HAS_SHEEN {int(self.with_sheen)}",
+                 "#define GBUFFER_SHEEN(g) " + ("((g).sheen)" if self.with_sheen else "vec4(0.0)"),
                  "struct GBuffer {"]
-        lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
+        declared = [c for c in CHANNELS
+                    if not c.declared_when_allocated or self._wanted_optional(c)]
+        lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in declared]
         lines.append("};")
         lines.append("GBuffer gbuffer_background() {")
         lines.append("    GBuffer g;")
-        for c in CHANNELS:
+        for c in declared:
             vals = ", ".join(f"{v:.9g}" if "." in f"{v:.9g}" or "e" in f"{v:.9g}" else f"{v:.1f}"
                              for v in c.background)
             lines.append(f"    g.{c.name} = {_GLSL_TYPE[c.components]}({vals});")

@@ -301,7 +301,9 @@ GBuffer mesh_surface(out float alpha) {
                                   map_uv(u_sheen_roughness_set, u_sheen_roughness_uv),
                                   u_sheen_roughness_mirror).a;
 #endif
+#if GBUFFER_HAS_SHEEN  // (a layout without the channel has no field for it)
     g.sheen = vec4(sheen_color, sheen_roughness);
+#endif
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

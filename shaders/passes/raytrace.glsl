@@ -176,10 +176,21 @@ struct TracedSurface {
     float specular;
     vec4 dielectric;  // KHR_materials_ior/specular F0 (rgb), F90 (a); a < 0: none (surface_f0_f90)
     vec2 clearcoat;   // KHR_materials_clearcoat factor, perceptual roughness (0: no coat)
+#ifdef GBUFFER_HAS_SHEEN
+#if GBUFFER_HAS_SHEEN
+#define TRACED_SHEEN_FIELD
     vec4 sheen;       // KHR_materials_sheen colour (rgb; 0: none), roughness (a)
+#endif
+#endif
     vec3 emission;    // radiance it emits
     bool double_sided;
 };
+// the traced sheen (vec4(0.0) in a scene without one: TracedSurface then has no field for it)
+#ifdef TRACED_SHEEN_FIELD
+#define TRACED_SHEEN(t) ((t).sheen)
+#else
+#define TRACED_SHEEN(t) vec4(0.0)
+#endif
 
 TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     TracedSurface s;
@@ -205,7 +216,9 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     s.specular = f1.z;
     s.dielectric = rt_materials[base + 9];  // factors only: the specular maps are not traced
     s.clearcoat = rt_materials[base + 10].xy;  // factors only, the coat on the vertex normal
+#ifdef TRACED_SHEEN_FIELD
     s.sheen = rt_materials[base + 11];  // factors only: the sheen maps are not traced
+#endif
     s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;
     return s;

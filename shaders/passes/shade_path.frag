@@ -139,7 +139,7 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         vec3 n = front ? t.n : -t.n;
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
-                        t.dielectric, t.clearcoat, n, t.sheen);
+                        t.dielectric, t.clearcoat, n, TRACED_SHEEN(t));
         float q = path_continue_probability(beta, float(bounce + 1));
         if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
         beta /= q;
@@ -163,7 +163,8 @@ void main() {
     // the G-buffer holds no geometric normal: the shading normal stands in for the ray offset
     PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular,
                                   g.dielectric, g.clearcoat.xy,
-                                  shading_normal(oct_decode(g.clearcoat.zw), v), g.sheen);
+                                  shading_normal(oct_decode(g.clearcoat.zw), v),
+                                  GBUFFER_SHEEN(g));
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
         sum += trace_path(s0, uvec2(pixel), u_sample_start + k);

@@ -61,7 +61,9 @@ void main() {
     g.color = a0.rgb + w_under * under.albedo;
     g.emission = w_under * under.emission / total;  // splats emit nothing and hide what does
     g.clearcoat.x = w_under * under.clearcoat.x / total;
+#if GBUFFER_HAS_SHEEN
     g.sheen.rgb = w_under * under.sheen.rgb / total;  // splats have no sheen either
+#endif
     if (under.dielectric.a >= 0.0) {
         g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)
                        / total;

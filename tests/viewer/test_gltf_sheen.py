@@ -158,12 +158,13 @@ def sheen_truth(mitsuba_llvm, tmp_path_factory):
     return ext, plain, ref
 
 
-# per sphere (|bias|, median per-pixel error) bounds. Measured: bias -0.2, +10.6, +3.1, +5.4 %,
-# median 5.9, 12.2, 10.8, 8.1 %. The velvet's +10.6 % is the spec's cheaper scaling the split sum
-# uses (1 - max3(C) E(n.v) for all light, where the truth's base keeps 1 - max3(C) max(E(n.v),
-# E(n.l)): grazing light reaches its diffuse base too brightly); the sheen's environment term is
-# the irradiance at n, where the Charlie lobe reads grazing light (the median errors)
-SPLIT_SUM_BOUNDS = ((0.10, 0.10), (0.13, 0.15), (0.08, 0.15), (0.09, 0.11))
+# per sphere (|bias|, median per-pixel error) bounds. Measured: bias -0.2, +7.2, +1.6, +3.2 %,
+# median 5.9, 10.9, 9.5, 7.2 %. The velvet's +7.2 % is the spec's cheaper scaling the split sum
+# keeps for the environment's light (1 - max3(C) E(n.v), where the truth's base keeps
+# 1 - max3(C) max(E(n.v), E(n.l)): grazing sky reaches its diffuse base too brightly; the sun is
+# scaled light by light, exactly); the sheen's environment term is the irradiance at n, where
+# the Charlie lobe reads grazing light (the median errors)
+SPLIT_SUM_BOUNDS = ((0.10, 0.10), (0.10, 0.13), (0.06, 0.12), (0.06, 0.10))
 
 
 def test_sheen_spheres_match_the_reference(sheen_truth, renderer):
@@ -172,7 +173,7 @@ def test_sheen_spheres_match_the_reference(sheen_truth, renderer):
     SPLIT_SUM_BOUNDS (measured beside them). The same file without the sheen fails on the
     bright sheen (bias -46.6 %) and the textured one (+12.4 %, median 12.3 %: the base the
     sheen darkens); on the velvet it is off by -8.0 % (median 11.0 %), inside the bounds the
-    split sum's own +10.6 % needs: the path tracer's test below tells that one apart."""
+    split sum's own +7.2 % needs: the path tracer's test below tells that one apart."""
     ext, plain, ref = sheen_truth
     ref = ref.radiance
     ours = per_sphere(renderer.render(ext.with_render(model="ggx_split_sum")).radiance, ref, 4)

@@ -32,17 +32,21 @@ clearcoat        4   KHR_materials_clearcoat: factor, perceptual roughness, the 
 transmission     1   KHR_materials_transmission's factor T; background 0 = opaque; only allocated
                      when a scene has a transmissive material (as the next)
 transmission_ior 1   KHR_materials_volume: the IOR light refracts by, 0 = thin-walled
+sheen            4   KHR_materials_sheen: colour (rgb, linear), roughness (a); background 0 = no
+                     sheen; only allocated when a scene has a material with a sheen
 ================ === ==========================================================================
 
 Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
 (``f2``). The base layout (albedo .. depth) is 3 attachments: 48 B/px (24 at fp16). Each optional
 channel a scene needs adds one attachment, +16 B/px (+8): ``color`` (splats), ``emission``
-(emissive meshes), ``dielectric`` and ``clearcoat`` (4 components each: a whole attachment), so
-a scene with the glTF dielectric lobe pays 64 B/px (32) where one without it pays 48 (24), one
-with both lobes 80 (40). ``transmission`` and ``transmission_ior`` (1 component each) fill
-free components of the attachments before them (the colour and emission attachments have one
-each; the base layout one where ``ao`` is omitted): +0 to +16 B/px (+8); the all-features
-layout stays 7 attachments (112 B/px, 56 at fp16) with them. Omitted channels shrink the
+(emissive meshes), ``dielectric``, ``clearcoat`` and ``sheen`` (4 components each: a whole
+attachment), so a scene with the glTF dielectric lobe pays 64 B/px (32) where one without it
+pays 48 (24), one with both lobes 80 (40), a sheen alone 64 (32). ``transmission`` and
+``transmission_ior`` (1 component each) fill free components of the attachments before them
+(the colour and emission attachments have one each; the base layout one where ``ao`` is
+omitted): +0 to +16 B/px (+8). The all-features layout is 8 attachments (128 B/px, 64 at fp16),
+GL's guaranteed minimum of draw buffers: the transmission pair rides in the colour and emission
+attachments, the sheen takes the eighth. Omitted channels shrink the
 layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
@@ -61,6 +65,9 @@ class Channel:
     background: tuple[float, ...]  # value where nothing was drawn
     meaning: str
     optional: bool = False  # allocated only when a scene needs it
+    # in the GLSL GBuffer struct only when allocated (its uses sit under GBUFFER_HAS_<NAME>): a
+    # scene without it compiles exactly the programs it compiled before the channel existed
+    declared_when_allocated: bool = False
 
 
 CHANNELS: tuple[Channel, ...] = (
@@ -81,6 +88,8 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("transmission", 1, 7, 0, (0.0,), "glTF transmission factor", optional=True),
     Channel("transmission_ior", 1, 7, 1, (0.0,), "glTF volume IOR, 0 = thin-walled",
             optional=True),
+    Channel("sheen", 4, 7, 0, (0.0, 0.0, 0.0, 0.0),
+            "glTF sheen: colour (rgb), roughness", optional=True, declared_when_allocated=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -122,6 +131,7 @@ class GBufferLayout:
     with_clearcoat: bool = False  # the optional clearcoat channel (KHR_materials_clearcoat)
     # the optional transmission channels (KHR_materials_transmission / _volume)
     with_transmission: bool = False
+    with_sheen: bool = False  # the optional sheen channel (KHR_materials_sheen)
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -139,7 +149,8 @@ class GBufferLayout:
                                   "dielectric": self.with_dielectric,
                                   "clearcoat": self.with_clearcoat,
                                   "transmission": self.with_transmission,
-                                  "transmission_ior": self.with_transmission}[c.name]
+                                  "transmission_ior": self.with_transmission,
+                                  "sheen": self.with_sheen}[c.name]
 
     def bytes_per_pixel(self) -> int:
         """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
@@ -176,12 +187,16 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_DIELECTRIC {int(self.with_dielectric)}",
                  f"#define GBUFFER_HAS_CLEARCOAT {int(self.with_clearcoat)}",
                  f"#define GBUFFER_HAS_TRANSMISSION {int(self.with_transmission)}",
+                 f"#define GBUFFER_HAS_SHEEN {int(self.with_sheen)}",
+                 "#define GBUFFER_SHEEN(g) " + ("((g).sheen)" if self.with_sheen else "vec4(0.0)"),
                  "struct GBuffer {"]
-        lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in CHANNELS]
+        declared = [c for c in CHANNELS
+                    if not c.declared_when_allocated or self._wanted_optional(c)]
+        lines += [f"    {_GLSL_TYPE[c.components]} {c.name};" for c in declared]
         lines.append("};")
         lines.append("GBuffer gbuffer_background() {")
         lines.append("    GBuffer g;")
-        for c in CHANNELS:
+        for c in declared:
             vals = ", ".join(f"{v:.9g}" if "." in f"{v:.9g}" or "e" in f"{v:.9g}" else f"{v:.1f}"
                              for v in c.background)
             lines.append(f"    g.{c.name} = {_GLSL_TYPE[c.components]}({vals});")

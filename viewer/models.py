@@ -205,6 +205,7 @@ def contact_shadows(settings, stacks: bool) -> bool:
 
 CLEARCOAT_MODELS = frozenset({"ggx_split_sum", "ggx_mc", "path"})  # shade KHR_materials_clearcoat's coat
 TRANSMISSION_MODELS = frozenset({"path"})  # follow light through KHR_materials_transmission
+SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
 
 
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
@@ -212,7 +213,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
     that ``model`` does not shade: the neural models (student and teacher) read Filament's
     specular reflectance only, so they ignore the dielectric lobe of KHR_materials_ior /
     KHR_materials_specular (its ``dielectric`` channel); the coat of KHR_materials_clearcoat is
-    shaded by :data:`CLEARCOAT_MODELS` only (``unlit`` shows no light at all)."""
+    shaded by :data:`CLEARCOAT_MODELS` only, the sheen of KHR_materials_sheen by
+    :data:`SHEEN_MODELS` (``unlit`` shows no light at all)."""
     out = []
     if model.network is not None and layout.with_dielectric:
         out.append(("dielectric", f"model {model.name!r} ignores the KHR_materials_ior / "
@@ -226,4 +228,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("transmission", f"model {model.name!r} ignores KHR_materials_transmission "
                                     f"(shaded by {', '.join(sorted(TRANSMISSION_MODELS))}); "
                                     f"transmissive surfaces are shown opaque"))
+    if layout.with_sheen and model.name not in SHEEN_MODELS | {"unlit"}:
+        out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
+                             f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "
+                             f"without it"))
     return out

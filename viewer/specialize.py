@@ -39,6 +39,7 @@ class SceneFeatures:
     clearcoat: bool = False  # some opaque mesh has a KHR_materials_clearcoat coat (factor > 0)
     # some opaque mesh has KHR_materials_transmission (factor > 0): the transmission channel
     transmission: bool = False
+    sheen: bool = False  # some mesh has a KHR_materials_sheen sheen (colour > 0)
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
         metal = float(np.max(tex["metallic_roughness"][..., 2])) > 0.0
     # the glTF lobe (Material.ior) has F90 = specular_factor: a lobe wherever that is > 0
     specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal \
-        or m.clearcoat > 0.0  # a coat is a specular lobe
+        or m.clearcoat > 0.0 or m.has_sheen  # a coat or a sheen is a specular lobe
     ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
                         and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
     return specular, ao
@@ -76,7 +77,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
 def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
-    specular = ao = emission = blend = dielectric = clearcoat = transmission = False
+    specular = ao = emission = blend = dielectric = clearcoat = transmission = sheen = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -98,6 +99,7 @@ def analyse(renderer, scene) -> SceneFeatures:
             for mesh in content:
                 # the forward pass's programs take the coat's define from the layout
                 clearcoat = clearcoat or mesh.material.clearcoat > 0.0
+                sheen = sheen or mesh.material.has_sheen
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -113,7 +115,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
                          emission=emission, blend=blend, dielectric=dielectric,
-                         clearcoat=clearcoat, transmission=transmission)
+                         clearcoat=clearcoat, transmission=transmission, sheen=sheen)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
@@ -142,7 +144,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     if not enabled or features is None:
         return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
                                             with_dielectric=True, with_clearcoat=True,
-                                            with_transmission=True),
+                                            with_transmission=True, with_sheen=True),
                               model.variant(settings, light, specular=True, sun=sun,
                                             contact=contact))
     # models that do not say what they read get every channel (sampling, neural, future ones)
@@ -177,7 +179,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
                                         with_emission=features.emission,
                                         with_dielectric=features.dielectric,
                                         with_clearcoat=features.clearcoat,
-                                        with_transmission=features.transmission),
+                                        with_transmission=features.transmission,
+                                        with_sheen=features.sheen),
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

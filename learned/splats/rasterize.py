@@ -225,7 +225,8 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
     expected depth as with ``SPLAT_DEPTH_MEDIAN``."""
     h, w = size_hw
     layout = GBufferLayout(with_color=True, with_emission=True, with_dielectric=True,
-                           with_clearcoat=True, with_transmission=True)  # all GL reads back
+                           with_clearcoat=True, with_transmission=True,
+                           with_sheen=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
     base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
                                      for k in bg}
@@ -258,6 +259,8 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
         # splats are opaque: the transmission factor blends to 0 (the IOR: underneath)
         "transmission": wu * base["transmission"] / safe,
         "transmission_ior": base["transmission_ior"],
+        # nor a sheen: its colour blends to 0 over them (its roughness: underneath)
+        "sheen": torch.cat([wu * base["sheen"][:, :3] / safe, base["sheen"][:, 3:]], -1),
     }
     if median is not None:
         on_splat = (coverage >= splat_median_target(coverage, base["alpha"][:, 0])) & (median < 1e30)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import torch
 
 RAY_MISS = 3.0e38
-MATERIAL_ROWS = 13  # rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS)
+MATERIAL_ROWS = 14  # rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS)
 
 
 def safe_inverse(d: torch.Tensor) -> torch.Tensor:
@@ -82,7 +82,7 @@ def _solid(tri, b, materials, maps, vertices) -> bool:
 def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
                     vertices, materials) -> torch.Tensor:
     """``RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max)`` over the buffers (``nodes [2M, 4]``
-    float32 as uploaded, ``triangles [N, 4]`` int, ``vertices [2V, 4]``, ``materials [11K, 4]``),
+    float32 as uploaded, ``triangles [N, 4]`` int, ``vertices [2V, 4]``, ``materials [12K, 4]``),
     ray by ray in the GLSL's order: ``[R, 4]`` (t, triangle index as float, b1, b2)."""
     out = torch.zeros(o.shape[0], 4, dtype=torch.float32)
     pos = vertices[0::2, :3]

@@ -20,9 +20,11 @@ The DFG terms come from :func:`directional_albedo_table`, a float64 quadrature o
 integral the renderer's LUT estimates with 4096 Hammersley samples (the two agree to 0.4 %).
 
 A ``KHR_materials_clearcoat`` coat is layered over this as :mod:`relight.reference.layers` says
-(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl), and
+(the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl), a
+``KHR_materials_sheen`` sheen between them as :mod:`relight.reference.sheen` says, and
 ``KHR_materials_transmission`` / ``_volume`` split the base's non-specular part as
-:mod:`relight.reference.transmission` says (seen from both sides; shaders/lib/transmission.glsl).
+:mod:`relight.reference.transmission` says (seen from both sides;
+shaders/lib/transmission.glsl).
 
 Not modelled here, on purpose: the material's ``ao`` and glTF occlusion maps (baked visibility:
 the path tracer computes visibility itself), and the rasteriser's bending of back-facing shading
@@ -38,6 +40,7 @@ from .quadrature import DFG_TABLE_SIZE, MIN_PERCEPTUAL_ROUGHNESS, directional_al
 from .quadrature import brdf_cos_numpy  # noqa: F401 (the plugin's formula in numpy, for tests)
 from .transmission import (attenuation, btdf_cos, btdf_pdf, btdf_sample, facing, mirror_z,
                            transmission_state)
+from .sheen import sheen_eval, sheen_pdf, sheen_scaling, sheen_state, table_texture
 
 def bsdf_class(mi, dr):
     """The plugin class for the active Mitsuba variant (a class derives from ``mi.BSDF``, which
@@ -74,6 +77,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.specular_texture = None
             self.specular_color_texture = None
             self.clearcoat_texture = self.clearcoat_roughness_texture = None
+            self.sheen_color_texture = self.sheen_roughness_texture = self.sheen_table = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -91,6 +95,10 @@ def _bsdf_class(mi, dr, variant: str):
             self.specular_color_texture = textures.get("specular_color")
             self.clearcoat_texture = textures.get("clearcoat")  # R (KHR_materials_clearcoat)
             self.clearcoat_roughness_texture = textures.get("clearcoat_roughness")  # G
+            self.sheen_color_texture = textures.get("sheen_color")  # KHR_materials_sheen
+            self.sheen_roughness_texture = textures.get("sheen_roughness")  # the map's A
+            if max(material.sheen_color) > 0.0:
+                self.sheen_table = table_texture(mi, dr)
             if material.transmission > 0.0:  # seen from both sides, light passes through
                 through = mi.BSDFFlags.GlossyTransmission | mi.BSDFFlags.BackSide
                 self.m_components.append(through | mi.BSDFFlags.FrontSide)
@@ -164,7 +172,8 @@ def _bsdf_class(mi, dr, variant: str):
                 coat["p"] = dr.select((coat["albedo"] > 0.0) & (base > 0.0),
                                       dr.clip(coat["p"], 0.05, 0.95), coat["p"])
             return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
-                        frame=frame, coat=coat, t=t, transmit=transmit, p_trans=p_trans)
+                        frame=frame, coat=coat, t=t, transmit=transmit, p_trans=p_trans,
+                        sheen=sheen_state(mi, dr, self, si, wi, ls + ld))
 
         def _fresnel(self, si, albedo, metal):
             """f0 and f90 at the hit: lib/brdf.glsl ``surface_f0_f90`` (module docstring)."""
@@ -248,6 +257,11 @@ def _bsdf_class(mi, dr, variant: str):
             if s["t"] is not None:  # below: the BTDF (the base's value and density are 0 there)
                 value += s["transmit"] * btdf_cos(mi, dr, s["a"], s["t"]["eta"],
                                                   s["t"]["volume"], s["wi"], wm)
+            sh = s["sheen"]
+            if sh is not None:  # the sheen over the base, in the base's (mapped) frame
+                value = value * sheen_scaling(mi, dr, self, sh, wm) + sheen_eval(mi, dr, sh,
+                                                                                 s["wi"], wm)
+                pdf = sh["p"] * sheen_pdf(mi, dr, s["wi"], wm) + (1.0 - sh["p"]) * pdf
             c = s["coat"]
             if c is None:
                 return value, pdf
@@ -274,19 +288,26 @@ def _bsdf_class(mi, dr, variant: str):
                 on_coat = sample1 < c["p"]
                 sample1 = dr.select(on_coat, 0.0, (sample1 - c["p"])
                                     / dr.maximum(1.0 - c["p"], 1e-12))
+            sh, on_sheen = s["sheen"], mi.Bool(False)
+            if sh is not None:  # then the sheen (uniform over the hemisphere), then the base
+                on_sheen = sample1 < sh["p"]
+                sample1 = dr.select(on_sheen, 0.0, (sample1 - sh["p"])
+                                    / dr.maximum(1.0 - sh["p"], 1e-12))
             spec = sample1 < s["p_spec"]
             m, _ = distr.sample(wi, sample2)
             wo_spec = mi.reflect(wi, m)
             wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
-            wo_m = dr.select(spec, wo_spec, wo_diff)
+            wo_m = dr.select(on_sheen, mi.warp.square_to_uniform_hemisphere(sample2),
+                             dr.select(spec, wo_spec, wo_diff))
             keep = mi.Bool(True)  # each lobe keeps only its own hemisphere's draws (.transmission)
             if t is not None:
                 u = (sample1 - s["p_spec"]) / dr.maximum(1.0 - s["p_spec"], 1e-12)
-                through = ~spec & (u < s["p_trans"])
+                through = ~spec & ~on_sheen & (u < s["p_trans"])
                 wo_m = dr.select(through, btdf_sample(mi, dr, distr, t["eta"], t["volume"], wi,
                                                       sample2), wo_m)
                 keep = dr.select(through, wo_m.z < 0.0, wo_m.z > 0.0)
             wo = self._from_mapped(s, wo_m)
+            spec = spec | on_sheen
             if c is not None:
                 mc, _ = c["distr"].sample(si.wi, sample2)
                 wo = dr.select(on_coat, mi.reflect(si.wi, mc), wo)

@@ -69,3 +69,34 @@ vec3 env_lights_ggx(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float m
 #endif
     return c;
 }
+
+// env_lights_ggx under a KHR_materials_sheen sheen (colour, roughness r, albedo e_v at n.v):
+// each light's share of the base scaled by sheen_scaling at its own n.l, plus what the sheen
+// reflects of it (lib/layers.glsl sheen_light); as passes/lights.glsl lights_ggx_sheen.
+vec3 env_lights_ggx_sheen(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multiscatter,
+                          vec3 n, vec3 v, float w, vec3 p, vec3 color, float r, float e_v) {
+    vec3 c = vec3(0.0);
+#if ENV_LIGHTS > 0
+#define ENV_LIGHT_SHEEN(i) {                                                                  \
+        vec3 l = rotate_y(u_env_light_direction[i], u_env_rotation);                        \
+        vec4 disc = disc_light(n, l, u_env_light_radius[i]);                                \
+        if (disc.w > 0.0) {                                                                 \
+            vec3 e = u_env_light_irradiance[i]                                              \
+                     * (u_env_intensity * disc.w * env_light_visibility(i, p, n, l));        \
+            c += ggx_environment_sun(diffuse, f0, f90, a, dfg, multiscatter, n, v, disc.xyz, \
+                                     e, w)                                                  \
+                 * sheen_scaling(color, e_v, sheen_albedo(dot(n, disc.xyz), r))              \
+                 + sheen_light(color, r, n, v, disc.xyz) * e;                               \
+        }                                                                                   \
+    }
+    ENV_LIGHT_SHEEN(0)
+#if ENV_LIGHTS > 1
+    ENV_LIGHT_SHEEN(1)
+#endif
+#if ENV_LIGHTS > 2
+    ENV_LIGHT_SHEEN(2)
+#endif
+#undef ENV_LIGHT_SHEEN
+#endif
+    return c;
+}

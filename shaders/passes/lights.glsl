@@ -293,6 +293,27 @@ vec3 lights_clearcoat(float w, float a, vec3 n, vec3 v, vec3 p) {
     return c;
 }
 
+// lights_ggx under a KHR_materials_sheen sheen of colour `color`, roughness r and albedo e_v at
+// n.v (lib/layers.glsl): each light's share of the base scaled by the spec's albedo scaling at
+// its own n.l (sheen_scaling: the exact min form), plus what the sheen reflects of it.
+vec3 lights_ggx_sheen(vec3 diffuse, vec3 f0, float f90, float a, vec2 dfg, float multiscatter,
+                      vec3 n, vec3 v, vec3 p, vec3 color, float r, float e_v) {
+    vec3 c = vec3(0.0);
+#define LIGHT_GGX_SHEEN(i) {                                                                  \
+        vec4 la = scene_light(i, p, n);                                                     \
+        if (la.w > 0.0) {                                                                   \
+            vec3 e = u_light_intensity[i] * la.w;                                           \
+            c += ggx_directional_light(diffuse, f0, f90, a, dfg, multiscatter, n, v, la.xyz, \
+                                       e)                                                   \
+                 * sheen_scaling(color, e_v, sheen_albedo(dot(n, la.xyz), r))                \
+                 + sheen_light(color, r, n, v, la.xyz) * e;                                 \
+        }                                                                                   \
+    }
+    FOR_EACH_LIGHT(LIGHT_GGX_SHEEN)
+#undef LIGHT_GGX_SHEEN
+    return c;
+}
+
 // Every light through blinn_phong_directional_light (the Blinn-Phong model's BRDF).
 vec3 lights_blinn_phong(vec3 diffuse, vec3 f0, float a, vec3 n, vec3 v, vec3 p) {
     vec3 c = vec3(0.0);

@@ -13,6 +13,8 @@
 // USE_CLEARCOAT_ROUGHNESS_MAP (G), USE_CLEARCOAT_NORMAL_MAP (the coat's own normal map; without
 // it the coat has the interpolated vertex normal); USE_TRANSMISSION (KHR_materials_transmission
 // / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior);
+// USE_SHEEN (KHR_materials_sheen: the G-buffer's sheen channel from u_sheen_color,
+// u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and USE_SHEEN_ROUGHNESS_MAP (A);
 // USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
@@ -94,6 +96,22 @@ uniform sampler2D u_clearcoat_normal_map;    // tangent space, n * 0.5 + 0.5
 uniform int u_clearcoat_normal_set;
 uniform mat3 u_clearcoat_normal_uv;
 uniform vec2 u_clearcoat_normal_mirror;
+#endif
+#ifdef USE_SHEEN
+uniform vec3 u_sheen_color;             // sheenColorFactor (linear)
+uniform float u_sheen_roughness;        // sheenRoughnessFactor
+#endif
+#ifdef USE_SHEEN_COLOR_MAP
+uniform sampler2D u_sheen_color_map;         // linear RGB
+uniform int u_sheen_color_set;
+uniform mat3 u_sheen_color_uv;
+uniform vec2 u_sheen_color_mirror;
+#endif
+#ifdef USE_SHEEN_ROUGHNESS_MAP
+uniform sampler2D u_sheen_roughness_map;     // A = roughness
+uniform int u_sheen_roughness_set;
+uniform mat3 u_sheen_roughness_uv;
+uniform vec2 u_sheen_roughness_mirror;
 #endif
 #ifdef USE_SPECULAR_MAP
 uniform sampler2D u_specular_map;            // A = specular factor
@@ -279,6 +297,22 @@ GBuffer mesh_surface(out float alpha) {
 #ifdef USE_TRANSMISSION
     g.transmission = u_transmission;
     g.transmission_ior = u_transmission_ior;
+#endif
+#ifdef USE_SHEEN
+    vec3 sheen_color = u_sheen_color;
+    float sheen_roughness = u_sheen_roughness;
+#ifdef USE_SHEEN_COLOR_MAP
+    sheen_color *= sample_map(u_sheen_color_map, map_uv(u_sheen_color_set, u_sheen_color_uv),
+                              u_sheen_color_mirror).rgb;
+#endif
+#ifdef USE_SHEEN_ROUGHNESS_MAP
+    sheen_roughness *= sample_map(u_sheen_roughness_map,
+                                  map_uv(u_sheen_roughness_set, u_sheen_roughness_uv),
+                                  u_sheen_roughness_mirror).a;
+#endif
+#if GBUFFER_HAS_SHEEN  // (a layout without the channel has no field for it)
+    g.sheen = vec4(sheen_color, sheen_roughness);
+#endif
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

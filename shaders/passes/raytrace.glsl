@@ -14,7 +14,7 @@ layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_material
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
-#define RT_MATERIAL_ROWS 13
+#define RT_MATERIAL_ROWS 14
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -176,11 +176,23 @@ struct TracedSurface {
     float specular;
     vec4 dielectric;  // KHR_materials_ior/specular F0 (rgb), F90 (a); a < 0: none (surface_f0_f90)
     vec2 clearcoat;   // KHR_materials_clearcoat factor, perceptual roughness (0: no coat)
+#ifdef GBUFFER_HAS_SHEEN
+#if GBUFFER_HAS_SHEEN
+#define TRACED_SHEEN_FIELD
+    vec4 sheen;       // KHR_materials_sheen colour (rgb; 0: none), roughness (a)
+#endif
+#endif
     vec3 emission;    // radiance it emits
     bool double_sided;
     vec2 transmission; // KHR_materials_transmission factor, the volume's IOR (0: thin-walled)
     vec3 sigma;        // KHR_materials_volume's attenuation coefficient (per unit length)
 };
+// the traced sheen (vec4(0.0) in a scene without one: TracedSurface then has no field for it)
+#ifdef TRACED_SHEEN_FIELD
+#define TRACED_SHEEN(t) ((t).sheen)
+#else
+#define TRACED_SHEEN(t) vec4(0.0)
+#endif
 
 TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     TracedSurface s;
@@ -206,6 +218,9 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     s.specular = f1.z;
     s.dielectric = rt_materials[base + 9];  // factors only: the specular maps are not traced
     s.clearcoat = rt_materials[base + 10].xy;  // factors only, the coat on the vertex normal
+#ifdef TRACED_SHEEN_FIELD
+    s.sheen = rt_materials[base + 13];  // factors only: the sheen maps are not traced
+#endif
     s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;
     s.transmission = rt_materials[base + 11].xy;  // factors only: the maps are not read

@@ -83,7 +83,8 @@ void main() {
     vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);
     Surface s = surface_init(shading_normal(g.normal, -d), -d, g.albedo, g.roughness, g.metallic,
                              fresnel.rgb, fresnel.a, g.clearcoat.xy,
-                             shading_normal(oct_decode(g.clearcoat.zw), -d), dfg);
+                             shading_normal(oct_decode(g.clearcoat.zw), -d), GBUFFER_SHEEN(g),
+                             dfg);
 #if GBUFFER_HAS_TRANSMISSION
     // no rays to follow through a transmissive surface: ggx_mc shades its base opaque (a warning)
     surface_set_transmission(s, 0.0, 0.0, false);
@@ -99,8 +100,15 @@ void main() {
     // uses, on the same diffuse, f0, alpha and DFG terms), to every batch alike
     if (u_sample_count > 0u) {
         vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
+#if GBUFFER_HAS_SHEEN
+        // the base under the sheen, light by light (the spec's min form), and the sheen
+        vec3 lit = lights_ggx_sheen(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
+                                    float(MULTISCATTER), s.n, s.v, p, s.sheen, s.r_sheen,
+                                    s.e_sheen);
+#else
         vec3 lit = lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
                               float(MULTISCATTER), s.n, s.v, p);
+#endif
 #if GBUFFER_HAS_CLEARCOAT
         lit = lit * (1.0 - s.w_c) + lights_clearcoat(s.w_c, s.a_c, s.n_c, s.v, p);
 #endif

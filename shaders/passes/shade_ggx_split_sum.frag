@@ -54,6 +54,7 @@ vec3 clearcoat_radiance(vec3 c, GBuffer g, vec3 v, vec3 p) {
 }
 #endif
 
+
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     GBuffer g = gbuffer_load(pixel);
@@ -94,6 +95,36 @@ void main() {
     float f90 = fresnel.a;
     vec3 c = ggx_split_sum(diffuse, f0, f90, ao_env, irradiance, prefiltered, dfg,
                            float(MULTISCATTER));
+#if GBUFFER_HAS_SHEEN
+    // KHR_materials_sheen (lib/layers.glsl): under the environment the base keeps the spec's
+    // cheaper 1 - max3(C) E(n.v) and the sheen adds C E(n.v) irradiance(n) / pi (three.js's
+    // sheen IBL: the Charlie lobe is wide, its light comes from the whole hemisphere; the
+    // irradiance carries the rays' visibility, ao_env the occlusion); the punctual lights, the sun and the other
+    // extracted lights (not in the irradiance map) scale the base light by light with the
+    // spec's exact min form and add the sheen's reflection of them (sheen_light)
+    vec3 sheen = g.sheen.rgb;
+    float r_sheen = clamp(g.sheen.a, SHEEN_MIN_ROUGHNESS, 1.0);
+    float e_sheen = sheen_albedo(NoV, r_sheen);
+    c = c * sheen_scaling(sheen, e_sheen, e_sheen)
+        + sheen_split_sum(sheen, e_sheen, irradiance * (ao_env * INV_PI));
+#if LIGHT_COUNT > 0
+    c += lights_ggx_sheen(diffuse, f0, f90, r * r, dfg, float(MULTISCATTER), n, v,
+                          light_surface_position(gl_FragCoord.xy, g.depth), sheen, r_sheen,
+                          e_sheen);
+#endif
+#if SUN_LIGHT
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    vec4 disc = disc_light(n, l_sun, u_sun_disc_radius);
+    vec3 e_sun = u_sun_irradiance * u_env_intensity * disc.w * sun_shadow(g, n, l_sun);
+    c += ggx_environment_sun(diffuse * ao, f0, f90, r * r, dfg, float(MULTISCATTER), n, v,
+                             disc.xyz, e_sun, w_sun)
+         * sheen_scaling(sheen, e_sheen, sheen_albedo(dot(n, disc.xyz), r_sheen))
+         + sheen_light(sheen, r_sheen, n, v, disc.xyz) * e_sun;
+    c += env_lights_ggx_sheen(diffuse * ao, f0, f90, r * r, dfg, float(MULTISCATTER), n, v,
+                              w_sun, light_surface_position(gl_FragCoord.xy, g.depth), sheen,
+                              r_sheen, e_sheen);
+#endif
+#else
 #if LIGHT_COUNT > 0
     c += lights_ggx(diffuse, f0, f90, r * r, dfg, float(MULTISCATTER), n, v,
                     light_surface_position(gl_FragCoord.xy, g.depth));
@@ -109,7 +140,8 @@ void main() {
     c += env_lights_ggx(diffuse * ao, f0, f90, r * r, dfg, float(MULTISCATTER), n, v, w_sun,
                         light_surface_position(gl_FragCoord.xy, g.depth));
 #endif
-#else
+#endif  // GBUFFER_HAS_SHEEN
+#else  // no specular lobe in the scene (a sheen is one: analyse() counts it)
     // f0 = 0 everywhere: ggx_split_sum reduces exactly to its diffuse term (e_spec = 0), and so
     // does the light's BRDF (F = 0; any alpha)
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);

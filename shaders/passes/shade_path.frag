@@ -53,11 +53,12 @@ struct PathVertex {
 };
 
 PathVertex path_vertex(vec3 p, vec3 ng, vec3 n, vec3 v, vec3 albedo, float roughness,
-                       float metallic, float specular, vec4 dielectric, vec2 coat, vec3 n_coat) {
+                       float metallic, float specular, vec4 dielectric, vec2 coat, vec3 n_coat,
+                       vec4 sheen) {
     vec2 dfg;
     vec4 fresnel = surface_f0_f90(albedo, metallic, specular, dielectric);
     return PathVertex(p, ng, surface_init(n, v, albedo, roughness, metallic, fresnel.rgb,
-                                          fresnel.a, coat, n_coat, dfg));
+                                          fresnel.a, coat, n_coat, sheen, dfg));
 }
 
 vec3 path_env_radiance(vec3 l) {
@@ -156,7 +157,7 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         radiance += beta * t.emission;  // emissive surfaces are found, not sampled
         if (last) break;
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
-                        t.dielectric, t.clearcoat, n);
+                        t.dielectric, t.clearcoat, n, TRACED_SHEEN(t));
 #if GBUFFER_HAS_TRANSMISSION
         surface_set_transmission(s.s, t.transmission.x, t.transmission.y, !front);
 #endif
@@ -183,7 +184,8 @@ void main() {
     // the G-buffer holds no geometric normal: the shading normal stands in for the ray offset
     PathVertex s0 = path_vertex(p, n, n, v, g.albedo, g.roughness, g.metallic, g.specular,
                                   g.dielectric, g.clearcoat.xy,
-                                  shading_normal(oct_decode(g.clearcoat.zw), v));
+                                  shading_normal(oct_decode(g.clearcoat.zw), v),
+                                  GBUFFER_SHEEN(g));
 #if GBUFFER_HAS_TRANSMISSION
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);

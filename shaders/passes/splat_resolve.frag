@@ -12,7 +12,8 @@
 //       where none lies underneath (a < 0) it stays the background (the blended specular rules),
 //   clearcoat factor = w_under clearcoat_under / alpha (splats have no coat; its roughness and
 //       normal stay the surface's underneath), transmission factor likewise (splats are opaque;
-//       the volume's IOR stays the surface's underneath).
+//       the volume's IOR stays the surface's underneath), sheen colour = w_under sheen_under /
+//       alpha (nor a sheen; its roughness stays the surface's underneath).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
@@ -62,6 +63,9 @@ void main() {
     g.emission = w_under * under.emission / total;  // splats emit nothing and hide what does
     g.clearcoat.x = w_under * under.clearcoat.x / total;
     g.transmission = w_under * under.transmission / total;
+#if GBUFFER_HAS_SHEEN
+    g.sheen.rgb = w_under * under.sheen.rgb / total;  // splats have no sheen either
+#endif
     if (under.dielectric.a >= 0.0) {
         g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)
                        / total;

@@ -6,7 +6,11 @@
 // Twin: learned.twins.shade_ggx_mc (the ggx_mc pass; scenes without a coat).
 // With GBUFFER_HAS_CLEARCOAT (a scene with KHR_materials_clearcoat), the coat of lib/layers.glsl
 // is layered over this BRDF: (1 - w) f_base + w D_c V_c on the coat's normal, and drawn as a third
-// lobe by its albedo w dfg_c.y; compiled out otherwise.
+// lobe by its albedo w dfg_c.y; compiled out otherwise. With GBUFFER_HAS_SHEEN (a scene with
+// KHR_materials_sheen), the sheen of lib/layers.glsl lies between them: f_sheen + (1 - max3(C)
+// max(E(n.v), E(|n.l|))) f_base (the spec's albedo scaling, exact here; the base's BTDF below
+// is scaled by it too), drawn uniformly over the hemisphere by its albedo max3(C) E(n.v) against
+// the base's (transmission included).
 // With GBUFFER_HAS_TRANSMISSION (KHR_materials_transmission / _volume), the base's non-specular
 // part is split by the factor T (surface_set_transmission): (1 - T) stays Lambertian, T becomes
 // lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
@@ -44,6 +48,12 @@ struct Surface {
     vec3 transmit;     // the BTDF's colour: diffuse's share T (diffuse keeps 1 - T)
     float eta;         // eta_l / eta_v of the volume's refraction; 0 = thin-walled
     float p_trans;     // probability of the BTDF among the base's non-specular lobes (T)
+#endif
+#if GBUFFER_HAS_SHEEN
+    vec3 sheen;        // KHR_materials_sheen colour (0: none) on the base's normal
+    float r_sheen;     // its roughness
+    float e_sheen;     // E(n.v, r_sheen), lib/layers.glsl sheen_albedo
+    float p_sheen;     // probability of sampling it (after the coat, before the base's lobes)
 #endif
 };
 
@@ -87,12 +97,17 @@ vec3 surface_base_brdf_cos(Surface s, vec3 l) {
 }
 
 vec3 surface_brdf_cos(Surface s, vec3 l) {
-#if GBUFFER_HAS_CLEARCOAT
-    return surface_base_brdf_cos(s, l) * (1.0 - s.w_c)
-           + vec3(clearcoat_light(s.w_c, s.a_c, s.n_c, s.v, l));
-#else
-    return surface_base_brdf_cos(s, l);
+    vec3 f = surface_base_brdf_cos(s, l);
+#if GBUFFER_HAS_SHEEN
+    if (s.e_sheen > 0.0) {
+        f = f * sheen_scaling(s.sheen, s.e_sheen, sheen_albedo(abs(dot(s.n, l)), s.r_sheen))
+            + sheen_light(s.sheen, s.r_sheen, s.n, s.v, l);
+    }
 #endif
+#if GBUFFER_HAS_CLEARCOAT
+    f = f * (1.0 - s.w_c) + vec3(clearcoat_light(s.w_c, s.a_c, s.n_c, s.v, l));
+#endif
+    return f;
 }
 
 // pdf of "brdf" sampling (lobe mixture: VNDF-reflected specular, cosine diffuse) for l.
@@ -110,15 +125,18 @@ float surface_base_brdf_pdf(Surface s, vec3 l) {
 }
 
 float surface_brdf_pdf(Surface s, vec3 l) {
+    float p = surface_base_brdf_pdf(s, l);
+#if GBUFFER_HAS_SHEEN
+    p = s.p_sheen * (dot(s.n, l) > 0.0 ? 0.5 * INV_PI : 0.0) + (1.0 - s.p_sheen) * p;
+#endif
 #if GBUFFER_HAS_CLEARCOAT
     float p_coat = 0.0;
     if (dot(s.n_c, l) > 0.0) {
         p_coat = pdf_ggx_vndf(s.NoV_c, saturate(dot(s.n_c, normalize(s.v + l))), s.a_c);
     }
-    return s.p_coat * p_coat + (1.0 - s.p_coat) * surface_base_brdf_pdf(s, l);
-#else
-    return surface_base_brdf_pdf(s, l);
+    p = s.p_coat * p_coat + (1.0 - s.p_coat) * p;
 #endif
+    return p;
 }
 
 vec3 sample_surface_brdf(Surface s, vec2 u) {
@@ -133,6 +151,13 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
         return l_c;
     }
     u.x = (u.x - s.p_coat) / (1.0 - s.p_coat);
+#endif
+#if GBUFFER_HAS_SHEEN
+    if (u.x < s.p_sheen) {  // the sheen: uniform over the hemisphere
+        u.x = u.x / s.p_sheen;
+        return tangent_to_world(sample_uniform_hemisphere(u), s.n);
+    }
+    u.x = (u.x - s.p_sheen) / (1.0 - s.p_sheen);
 #endif
     if (u.x < s.p_spec) {
         u.x = u.x / s.p_spec;
@@ -164,7 +189,7 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
 // lib/brdf.glsl surface_f0_f90), every field set (its diffuse not yet occluded); dfg: the DFG
 // LUT's value at (n.v, r), for the caller's analytic terms.
 Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metallic, vec3 f0,
-                     float f90, vec2 coat, vec3 n_coat, out vec2 dfg) {
+                     float f90, vec2 coat, vec3 n_coat, vec4 sheen, out vec2 dfg) {
     Surface s;
     s.v = v;
     s.n = n;
@@ -183,6 +208,19 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
     s.diffuse = diffuse_color(albedo, metallic) * max(1.0 - e_spec, 0.0);
     // lobe choice from the unoccluded albedos: occlusion then scales values, not sample paths
     s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+#if GBUFFER_HAS_SHEEN
+    // the sheen (colour sheen.rgb, roughness sheen.a): drawn by its albedo max3(C) E(n.v)
+    // against the base's, both kept reachable when both carry energy
+    s.sheen = sheen.rgb;
+    s.r_sheen = sheen.a;
+    float c_max = max(max(sheen.r, sheen.g), sheen.b);
+    s.e_sheen = c_max > 0.0 ? sheen_albedo(s.NoV, sheen.a) : 0.0;
+    float e_sh = c_max * s.e_sheen;
+    float e_under = (1.0 - e_sh) * dot(s.diffuse + f_schlick(s.f0, s.f90, s.NoV),
+                                       vec3(0.2126, 0.7152, 0.0722));
+    s.p_sheen = e_sh + e_under > 0.0 ? e_sh / (e_sh + e_under) : 0.0;
+    if (e_sh > 0.0 && e_under > 0.0) s.p_sheen = clamp(s.p_sheen, 0.05, 0.95);
+#endif
 #if GBUFFER_HAS_CLEARCOAT
     // the coat (factor coat.x, perceptual roughness coat.y, normal n_coat): drawn by its albedo
     // w dfg_c.y against the base's (luminance), both kept reachable when both carry energy

@@ -18,6 +18,8 @@ clearcoat           1..4  linear; R multiplies ``Material.clearcoat`` (KHR_mater
 clearcoat_roughness 2..4  linear; G multiplies ``Material.clearcoat_roughness``
 clearcoat_normal    3/4   the coat's tangent-space normal, as ``normal`` (x, y scaled by
                           ``Mesh.clearcoat_normal_scale``); without it the coat has the vertex normal
+sheen_color         3/4   linear RGB (already sRGB-decoded); multiplies ``Material.sheen_color``
+sheen_roughness     4     linear; A multiplies ``Material.sheen_roughness`` (KHR_materials_sheen)
 =================== ===== =====================================================================
 
 How each map is sampled (texture coordinate set, ``KHR_texture_transform``, wrap and filter modes)
@@ -35,7 +37,8 @@ from ..errors import InputError
 from ..scene.material import Material
 
 TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive", "specular",
-                "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal")
+                "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
+                "sheen_color", "sheen_roughness")
 WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
 MIN_FILTERS = ("nearest", "linear", "nearest_mipmap_nearest", "linear_mipmap_nearest",
                "nearest_mipmap_linear", "linear_mipmap_linear")

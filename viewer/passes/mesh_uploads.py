@@ -36,9 +36,11 @@ _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "emissive": "USE_EMISSIVE_MAP", "specular": "USE_SPECULAR_MAP",
                 "specular_color": "USE_SPECULAR_COLOR_MAP", "clearcoat": "USE_CLEARCOAT_MAP",
                 "clearcoat_roughness": "USE_CLEARCOAT_ROUGHNESS_MAP",
-                "clearcoat_normal": "USE_CLEARCOAT_NORMAL_MAP"}
+                "clearcoat_normal": "USE_CLEARCOAT_NORMAL_MAP", "sheen_color": "USE_SHEEN_COLOR_MAP",
+                "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP"}
 _DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
 _CLEARCOAT_MAPS = ("clearcoat", "clearcoat_roughness", "clearcoat_normal")  # with a coat only
+_SHEEN_MAPS = ("sheen_color", "sheen_roughness")  # with a sheen only
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
@@ -61,9 +63,12 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
         defines["USE_CLEARCOAT"] = 1
     if mesh.material.transmission > 0.0:
         defines["USE_TRANSMISSION"] = 1
+    sheen = mesh.material.has_sheen
+    if sheen:
+        defines["USE_SHEEN"] = 1
     for key in mesh.textures:
         if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
-                or (key in _CLEARCOAT_MAPS and not coat):
+                or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:
@@ -262,6 +267,9 @@ class MeshUploads:
         if m.transmission > 0.0:
             _set(prog, "u_transmission", float(m.transmission))
             _set(prog, "u_transmission_ior", float(m.transmission_row()[1]))
+        if m.has_sheen:
+            _set(prog, "u_sheen_color", tuple(float(c) for c in m.sheen_color))
+            _set(prog, "u_sheen_roughness", float(m.sheen_roughness))
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

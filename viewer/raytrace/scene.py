@@ -15,6 +15,7 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
   the ``KHR_materials_clearcoat`` factors (on the vertex normal; not its maps), the
   ``KHR_materials_transmission`` / ``_volume`` factors (a transmissive surface is seen from
   both sides whatever its doubleSided: a thin wall, or a volume's inside),
+  ``KHR_materials_sheen`` factors (not its maps),
   the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
   ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
@@ -30,7 +31,7 @@ from .bvh import BVH, build_bvh, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAPS = ("base_color", "metallic_roughness", "emissive")
-MATERIAL_VEC4S = 13  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+MATERIAL_VEC4S = 14  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
 _WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 
 
@@ -139,6 +140,7 @@ def material_rows(meshes, layers) -> np.ndarray:
         r[10] = (m.clearcoat, m.clearcoat_roughness, 0.0, 0.0)  # KHR_materials_clearcoat
         r[11] = m.transmission_row()  # KHR_materials_transmission: factor, volume IOR (0: thin)
         r[12] = (*m.attenuation_coefficient(), 0.0)  # KHR_materials_volume: sigma per unit length
+        r[13] = (*m.sheen_color, m.sheen_roughness)  # KHR_materials_sheen
     return rows
 
 

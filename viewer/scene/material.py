@@ -33,17 +33,25 @@ class Material:
     thickness: float = 0.0  # thicknessFactor, >= 0 (its size matters to the rasteriser only)
     attenuation_color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # linear RGB in [0, 1]
     attenuation_distance: float = math.inf  # > 0: the distance at which white becomes the colour
+    # KHR_materials_sheen: a Charlie sheen of this linear colour over the base (0 = none;
+    # shaders/lib/layers.glsl) and its roughness (alpha = r^2)
+    sheen_color: tuple[float, float, float] = (0.0, 0.0, 0.0)  # in [0, 1]
+    sheen_roughness: float = 0.0  # in [0, 1]
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
                 "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor,
                 "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness,
-                "transmission": self.transmission}
+                "transmission": self.transmission,
+                "sheen_roughness": self.sheen_roughness}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
         if len(self.albedo) != 3 or not all(0.0 <= float(c) <= 1.0 for c in self.albedo):
             raise SceneError(f"albedo = {list(self.albedo)} must be 3 numbers in [0, 1]", where=where)
+        if len(self.sheen_color) != 3 or not all(0.0 <= float(c) <= 1.0 for c in self.sheen_color):
+            raise SceneError(f"sheen_color = {list(self.sheen_color)} must be 3 numbers in [0, 1]",
+                             where=where)
         if self.ior is not None and not (float(self.ior) == 0.0 or
                                          1.0 <= float(self.ior) < math.inf):
             raise SceneError(f"ior = {self.ior} must be 0 (infinite) or a finite number >= 1",
@@ -88,6 +96,11 @@ class Material:
         return tuple(-math.log(max(float(c), 1e-6)) / float(self.attenuation_distance)
                      for c in self.attenuation_color)
 
+    @property
+    def has_sheen(self) -> bool:
+        """KHR_materials_sheen: a sheen colour > 0 (the spec: zero disables the layer)."""
+        return max(self.sheen_color) > 0.0
+
     def dielectric(self) -> tuple[float, float, float, float]:
         """The G-buffer's ``dielectric`` channel for this material's factors: (F0 rgb, F90) of
         ``shaders/lib/brdf.glsl`` ``dielectric_f0_ior``, or (0, 0, 0, -1) without ``ior`` (the
@@ -97,7 +110,8 @@ class Material:
 
 # the glTF extensions' fields: a scene file names them only where they differ from the default
 EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness",
-                    "transmission", "thickness", "attenuation_color", "attenuation_distance")
+                    "transmission", "thickness", "attenuation_color", "attenuation_distance",
+                    "sheen_color", "sheen_roughness")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

@@ -78,6 +78,8 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     material, coat_slots, coat_normal_scale = _clearcoat(reader, index, material, ext)
     ext_slots += coat_slots
     material = _transmission(reader, index, material, ext)
+    material, sheen_slots = _sheen(reader, index, material, ext)
+    ext_slots += sheen_slots
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
              ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
@@ -95,9 +97,9 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
                 reader.unavailable_warned.add(message)
                 warnings.warn(message, stacklevel=4)
             continue
-        if key in ("base_color", "emissive", "specular_color"):
+        if key in ("base_color", "emissive", "specular_color", "sheen_color"):
             img = _color_texture(img)
-        elif key == "specular" and img.shape[2] < 4:  # glTF: no alpha channel reads as A = 1
+        elif key in ("specular", "sheen_roughness") and img.shape[2] < 4:  # glTF: no alpha channel reads as A = 1
             img = np.concatenate([img, np.ones_like(img[:, :, :1])], axis=2)
         textures[key] = img
         sampling[key] = _texture_sampling(reader, info, what)
@@ -130,7 +132,8 @@ def _unlit(material: Material, base, textures: dict, sampling: dict):
     the base-colour map stays for its alpha). Every other property is the extension's to ignore
     (normal, occlusion, metallic-roughness and emissive maps are dropped)."""
     for key in ("metallic_roughness", "normal", "occlusion", "emissive", "specular",
-                "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal"):
+                "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
+                "sheen_color", "sheen_roughness"):
         textures.pop(key, None)
         sampling.pop(key, None)
     if "base_color" in textures:
@@ -244,3 +247,22 @@ def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict
             warnings.warn(message, stacklevel=4)
     return dataclasses.replace(material, transmission=factor, thickness=thickness,
                                attenuation_color=color, attenuation_distance=float(distance))
+
+
+def _sheen(reader: _GltfReader, index: int, material: Material, ext: dict):
+    """``KHR_materials_sheen`` of material ``index``: the material with its sheen colour and
+    roughness, and the sheen's texture slots (colour: RGB, sRGB-encoded; roughness: A)."""
+    sheen = ext.get("KHR_materials_sheen")
+    if sheen is None:
+        return material, []
+    color = sheen.get("sheenColorFactor", [0.0, 0.0, 0.0]) if isinstance(sheen, dict) else None
+    if not isinstance(color, list) or len(color) != 3:
+        raise InputError(f"material {index}: sheenColorFactor {color!r} must be 3 numbers in "
+                         f"[0, 1]", where=reader.path)
+    color = tuple(_number(reader, index, {"sheenColorFactor": c}, "sheenColorFactor", 0.0, 0.0,
+                          1.0) for c in color)
+    rough = _number(reader, index, sheen, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
+    slots = [(key, _texture_info(reader, index, sheen.get(name), name))
+             for key, name in (("sheen_color", "sheenColorTexture"),
+                               ("sheen_roughness", "sheenRoughnessTexture"))]
+    return dataclasses.replace(material, sheen_color=color, sheen_roughness=rough), slots

@@ -14,8 +14,9 @@ Rows of two kinds:
   knobs (filter steps, the diffuse rays' blur) were chosen on (read their gains as measured, not
   predicted) and ``heldout`` for :data:`HELDOUT` (``assets/scenes/heldout``: the spheres under the
   two HDRIs the tuned scenes lack, the gallery's textured glTF on a floor under every bundled
-  HDRI), added after the knobs were fixed and scored once per shipped result. Each split has its
-  mean row.
+  HDRI), added after the knobs were fixed and scored once per shipped result; their references
+  are antialiased (rays jittered over the pixel, 4096 spp), so every rung renders them with
+  :data:`REFERENCE_SSAA` (the ``ssaa`` column). Each split has its mean row.
 * ``kind = time``: the esplanade spheres at 512², the baseline's frame and the tier's in
   alternating blocks (:func:`relight.bench.timing.time_pair`): whole frames of the interactive
   viewer (``progressive``: one frame of rays, as a still view adds a frame) and of a headless

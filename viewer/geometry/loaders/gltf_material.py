@@ -158,6 +158,18 @@ def _number(reader: _GltfReader, index: int, table, key: str, default: float, lo
     return x
 
 
+def _color(reader: _GltfReader, index: int, table, key: str, default: float, hi: float
+           ) -> tuple[float, float, float]:
+    """Extension property ``key`` of material ``index``: 3 numbers in [0, hi] (each ``default``
+    when absent); anything else is one InputError naming the file."""
+    color = table.get(key, [default] * 3) if isinstance(table, dict) else None
+    if not isinstance(color, list) or len(color) != 3:
+        bound = ">= 0" if hi == math.inf else f"in [0, {hi:g}]"
+        raise InputError(f"material {index}: {key} {color!r} must be 3 numbers {bound}",
+                         where=reader.path)
+    return tuple(_number(reader, index, {key: c}, key, default, 0.0, hi) for c in color)
+
+
 def _texture_info(reader: _GltfReader, index: int, info, what: str):
     """An extension's textureInfo (a JSON object) as the attribute access of pygltflib's."""
     if info is None:
@@ -182,12 +194,7 @@ def _dielectric(reader: _GltfReader, index: int, material: Material, ext: dict):
                          f"(infinite) or >= 1", where=reader.path)
     spec = ext.get("KHR_materials_specular", {})
     factor = _number(reader, index, spec, "specularFactor", 1.0, 0.0, 1.0)
-    color = spec.get("specularColorFactor", [1.0, 1.0, 1.0]) if isinstance(spec, dict) else None
-    if not isinstance(color, list) or len(color) != 3:
-        raise InputError(f"material {index}: specularColorFactor {color!r} must be 3 numbers "
-                         f">= 0", where=reader.path)
-    color = tuple(_number(reader, index, {"specularColorFactor": c}, "specularColorFactor", 1.0,
-                          0.0, math.inf) for c in color)
+    color = _color(reader, index, spec, "specularColorFactor", 1.0, math.inf)
     slots = [("specular", _texture_info(reader, index, spec.get("specularTexture"),
                                         "specularTexture")),
              ("specular_color", _texture_info(reader, index, spec.get("specularColorTexture"),
@@ -230,12 +237,7 @@ def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict
     distance = volume.get("attenuationDistance", math.inf) if isinstance(volume, dict) else None
     if distance != math.inf:
         distance = _number(reader, index, volume, "attenuationDistance", 1.0, 1e-30, math.inf)
-    color = volume.get("attenuationColor", [1.0, 1.0, 1.0]) if isinstance(volume, dict) else None
-    if not isinstance(color, list) or len(color) != 3:
-        raise InputError(f"material {index}: attenuationColor {color!r} must be 3 numbers in "
-                         f"[0, 1]", where=reader.path)
-    color = tuple(_number(reader, index, {"attenuationColor": c}, "attenuationColor", 1.0, 0.0,
-                          1.0) for c in color)
+    color = _color(reader, index, volume, "attenuationColor", 1.0, 1.0)
     maps = [name for table, name in ((trans, "transmissionTexture"),
                                      (volume, "thicknessTexture"))
             if isinstance(table, dict) and table.get(name) is not None]
@@ -255,12 +257,7 @@ def _sheen(reader: _GltfReader, index: int, material: Material, ext: dict):
     sheen = ext.get("KHR_materials_sheen")
     if sheen is None:
         return material, []
-    color = sheen.get("sheenColorFactor", [0.0, 0.0, 0.0]) if isinstance(sheen, dict) else None
-    if not isinstance(color, list) or len(color) != 3:
-        raise InputError(f"material {index}: sheenColorFactor {color!r} must be 3 numbers in "
-                         f"[0, 1]", where=reader.path)
-    color = tuple(_number(reader, index, {"sheenColorFactor": c}, "sheenColorFactor", 0.0, 0.0,
-                          1.0) for c in color)
+    color = _color(reader, index, sheen, "sheenColorFactor", 0.0, 1.0)
     rough = _number(reader, index, sheen, "sheenRoughnessFactor", 0.0, 0.0, 1.0)
     slots = [(key, _texture_info(reader, index, sheen.get(name), name))
              for key, name in (("sheen_color", "sheenColorTexture"),

@@ -80,44 +80,6 @@ vec3 rt_environment(vec3 l, float perceptual_roughness) {
            * u_env_intensity;
 }
 
-// The irradiance the analytic lights give a surface point p (normal n, geometric normal ng, both
-// facing the side the light arrives on): the environment's sun and other compact lights and the
-// scene's lights, each behind one shadow ray.
-vec3 rt_direct_irradiance(vec3 p, vec3 n, vec3 ng) {
-    vec3 e = vec3(0.0);
-#if SUN_LIGHT
-    vec3 ls = rotate_y(u_sun_direction, u_env_rotation);
-    float cs = dot(n, ls);
-    if (cs > 0.0 && !bvh_any_hit(ray_offset(p, ng, ls), ls, 3.0e38)) {
-        e += u_sun_irradiance * u_env_intensity * cs;
-    }
-#endif
-#if ENV_LIGHTS > 0
-    for (int i = 0; i < ENV_LIGHTS; ++i) {
-        vec3 le = rotate_y(u_env_light_direction[i], u_env_rotation);
-        vec4 disc = disc_light(n, le, u_env_light_radius[i]);  // cut by the horizon
-        float ce = dot(n, disc.xyz) * disc.w;
-        if (ce > 0.0 && !bvh_any_hit(ray_offset(p, ng, le), le, 3.0e38)) {
-            e += u_env_light_irradiance[i] * u_env_intensity * ce;
-        }
-    }
-#endif
-#if LIGHT_COUNT > 0
-    for (int i = 0; i < LIGHT_COUNT; ++i) {
-        vec4 la = punctual_light(u_light_type[i], u_light_position[i], u_light_direction[i],
-                                 u_light_cone_range[i], p);
-        float c = dot(n, la.xyz);
-        if (!(la.w > 0.0) || !(c > 0.0)) continue;
-        float t_max = u_light_type[i] == LIGHT_TYPE_DIRECTIONAL ? 3.0e38
-                      : length(u_light_position[i] - p) * (1.0 - 1.0e-4);
-        if (!bvh_any_hit(ray_offset(p, ng, la.xyz), la.xyz, t_max)) {
-            e += u_light_intensity[i] * (la.w * c);
-        }
-    }
-#endif
-    return e;
-}
-
 // Candidate k of the light a second hit receives, unshadowed: its irradiance c on the surface
 // (normal n at p), the direction l of its visibility ray and that ray's length. k = 0: the
 // environment along l_env (a cosine-distributed direction: irradiance pi L); then the sun, the
@@ -158,6 +120,22 @@ void rt_light_candidate(int k, vec3 p, vec3 n, vec3 l_env, out vec3 c, out vec3 
     t_max = u_light_type[k] == LIGHT_TYPE_DIRECTIONAL ? 3.0e38
             : length(u_light_position[k] - p) * (1.0 - 1.0e-4);
 #endif
+}
+
+// The irradiance the analytic lights give a surface point p (normal n, geometric normal ng, both
+// facing the side the light arrives on): every candidate of rt_light_candidate but the
+// environment, each behind its own shadow ray.
+vec3 rt_direct_irradiance(vec3 p, vec3 n, vec3 ng) {
+    vec3 e = vec3(0.0);
+    vec3 c, l;
+    float t_max;
+    for (int k = 1; k < RT_CANDIDATES; ++k) {
+        rt_light_candidate(k, p, n, n, c, l, t_max);
+        if (max(c.r, max(c.g, c.b)) > 0.0 && !bvh_any_hit(ray_offset(p, ng, l), l, t_max)) {
+            e += c;
+        }
+    }
+    return e;
 }
 
 // The irradiance a second hit receives, estimated with ONE visibility ray: one candidate of

@@ -208,6 +208,33 @@ TRANSMISSION_MODELS = frozenset({"path"})  # follow light through KHR_materials_
 SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
 
 
+def ignored_settings(model: ShadingModel, asked, variant: ShadeVariant) -> list[tuple[str, str]]:
+    """(key, message) for each render setting the user ``asked`` for (the scene's own settings,
+    before a network's requirements are added) that ``model`` in ``variant`` leaves unused, so
+    that nothing is dropped silently: ``env_shadows`` on a model without that input; and under the
+    ray-traced tier (RT_LIGHT) the rasteriser's stand-ins for what its rays trace: the
+    environment's shadow maps, screen-space occlusion and its indirect bounce
+    (docs/explanation/raytracing.md)."""
+    k = asked.shadow.environment
+    if k > 0 and not model.env_shadows:
+        return [(f"env_shadows:{asked.model}",
+                 f"model {asked.model!r} does not use env_shadows (the environment's "
+                 f"shadows occlude the irradiance-map diffuse light of ggx_split_sum and "
+                 f"blinn_phong); rendered without them")]
+    if not variant.defines.get("RT_LIGHT"):
+        return []
+    unused = [name for name, on in (("env_shadows = %d" % k, k > 0),
+                                    ("ssao = true", asked.ssao.enabled),
+                                    ("indirect = true", asked.ssao.indirect)) if on]
+    if not unused:
+        return []
+    return [(f"rays:{asked.model}:{','.join(unused)}",
+             f"{', '.join(unused)} superseded by the ray-traced tier (raytrace = true), whose "
+             f"rays trace the environment's occlusion and one bounce; rendered without "
+             f"{'it' if len(unused) == 1 else 'them'} (set raytrace = false to use "
+             f"{'it' if len(unused) == 1 else 'them'})")]
+
+
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
     """``(lobe, warning)`` for each glTF extension lobe the scene's G-buffer ``layout`` carries
     that ``model`` does not shade: the neural models (student and teacher) read Filament's

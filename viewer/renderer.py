@@ -38,7 +38,7 @@ from .graph.display import output_radiance, ssaa_factor
 from .graph.frame import FrameRequest, build_frame, visibility_graph
 from .graph.graph import FrameGraph
 from .lighting.lights import gather_lights
-from .models import contact_shadows, ignored_lobes, model_info, sample_count
+from .models import contact_shadows, ignored_lobes, ignored_settings, model_info, sample_count
 from .neural import required_settings, shades_sun
 from .passes.ground import CATCHER_CHANNELS, scene_catcher
 from .resources import GPUResources
@@ -189,7 +189,7 @@ class Renderer:
 
     def _draw(self, scene, size, progressive, samples_per_frame, aovs) -> FrameTargets:
         model = model_info(scene.render.model)  # unknown model -> SceneError before any GPU work
-        settings = required_settings(scene.render)  # SSAO for a student that reads visibility
+        asked, settings = scene.render, required_settings(scene.render)  # + a network's needs
         if settings is not scene.render:
             scene = dataclasses.replace(scene, render=settings)
         if model.accumulates and sample_count(settings) < 1:
@@ -198,13 +198,10 @@ class Renderer:
         scene = gather_lights(scene, self.geometry)  # + the meshes' own lights
         if scene.light is not None and model.lights == "ignored":
             _warn_light_ignored(settings.model)
-        if settings.shadow.environment > 0 and not model.env_shadows:
-            _warn_once(f"env_shadows:{settings.model}",
-                       f"model {settings.model!r} does not use env_shadows (the environment's "
-                       f"shadows occlude the irradiance-map diffuse light of ggx_split_sum and "
-                       f"blinn_phong); rendered without them")
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
+        for key, message in ignored_settings(model, asked, spec.variant):
+            _warn_once(key, message)
         for lobe, message in ignored_lobes(model, self.specialization(  # what the scene has
                 scene.with_render(specialize=True), aovs).layout):
             _warn_once(f"{lobe}:{settings.model}", message)

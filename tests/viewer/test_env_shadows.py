@@ -169,3 +169,34 @@ def test_a_model_without_environment_shadows_says_so(renderer, panel):
         warnings.simplefilter("always")
         renderer.render(sc)
     assert any("env_shadows" in str(w.message) and "ggx_mc" in str(w.message) for w in caught)
+
+
+def test_rays_supersede_environment_shadows_and_say_so(renderer, panel):
+    """Under the ray-traced tier the environment's visibility is traced; the eight maps would
+    only darken it twice. They are not drawn, the image is the one without them (bit for bit:
+    the rays' sequence does not depend on the setting), and a warning says so, naming the
+    setting and how to keep it (raytrace = false)."""
+    import warnings
+
+    from viewer import renderer as renderer_module
+
+    renderer_module._LIGHT_WARNED.discard("rays:ggx_split_sum:env_shadows = 8")
+    sc = scene(panel, ("sphere",), raytrace=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        frame = renderer.draw(sc.with_render(env_shadows=8))
+        a = renderer.render(sc.with_render(env_shadows=8)).radiance
+    assert "shadowmapenvdirs" not in frame.targets
+    said = [str(w.message) for w in caught if "superseded" in str(w.message)]
+    assert len(said) == 1 and "env_shadows = 8 superseded" in said[0] \
+        and "raytrace = false" in said[0]
+    b = renderer.render(sc.with_render(env_shadows=0)).radiance
+    assert np.array_equal(a, b)
+    # SSAO and its bounce are the rasteriser's stand-ins for the same light: named too, and off
+    renderer_module._LIGHT_WARNED.discard("rays:ggx_split_sum:ssao = true,indirect = true")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        c = renderer.render(sc.with_render(ssao=True, indirect=True)).radiance
+    said = [str(w.message) for w in caught if "superseded" in str(w.message)]
+    assert len(said) == 1 and said[0].startswith("ssao = true, indirect = true superseded")
+    assert np.array_equal(c, b)

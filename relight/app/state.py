@@ -164,3 +164,12 @@ def reset_camera(state: ViewerState) -> ViewerState:
     """Back to the loaded scene's camera (the render size stays what the user chose)."""
     cam = state.scene.camera.with_size(*state.camera.size)
     return replace(state, camera=cam)
+
+
+def with_variant(state: ViewerState, index: int, variant: str | None) -> ViewerState:
+    """The state with object ``index`` (a glTF mesh) showing its ``KHR_materials_variants``
+    ``variant`` (None: the file's default materials); a material the user set on that object
+    in the panel stays on top of it."""
+    objects = list(state.scene.objects)
+    objects[index] = replace(objects[index], variant=variant)
+    return replace(state, scene=replace(state.scene, objects=tuple(objects)))

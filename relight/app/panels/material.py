@@ -3,9 +3,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from viewer.geometry.loaders import material_variants
 from viewer.scene.material import Material
 
-from ..state import MATERIAL_FIELDS, MaterialOverride
+from ..state import MATERIAL_FIELDS, MaterialOverride, with_variant
+
+AS_AUTHORED = "as authored"  # the variant picker's first choice: the file's default materials
 
 
 class MaterialPanel:
@@ -55,6 +58,8 @@ class MaterialPanel:
                 continue
             if obj.path:
                 imgui.text_disabled(obj.path)  # wrapped at the panel's edge
+            if obj.type == "mesh" and obj.path:
+                self._variant_picker(state, i, obj)
             m = materials[i]
             if m is None:
                 on, _ = self._checkbox(f"override file materials##obj{i}", False)
@@ -67,3 +72,18 @@ class MaterialPanel:
             imgui.tree_pop()
         if tuple(materials) != state.object_materials:
             state.object_materials = tuple(materials)
+
+    def _variant_picker(self, state, i: int, obj) -> None:
+        """One radio button per KHR_materials_variants name of the object's glTF file, and
+        "as authored" (its default materials); none for a file without variants."""
+        names = material_variants(obj.path)
+        if not names:
+            return
+        imgui = self.imgui
+        imgui.text("material variant")
+        for name in (AS_AUTHORED,) + names:
+            label = f"{name}##variant{i}"
+            chosen = (obj.variant or AS_AUTHORED) == name
+            if imgui.radio_button(label, chosen) and not chosen:
+                state.scene = with_variant(state, i, None if name == AS_AUTHORED else name).scene
+            self._record(label)

@@ -33,6 +33,7 @@ decoding); :func:`load_mesh`, here, picks the loader by suffix and validates wha
 """
 from __future__ import annotations
 
+import functools
 import os
 import warnings
 from pathlib import Path
@@ -42,13 +43,37 @@ import numpy as np
 from ...errors import InputError
 from ...scene.material import Material
 from ..mesh import Mesh, MeshList
-from .gltf import GLTF_ATTRIBUTES, GLTF_EXTENSIONS, _load_gltf
+from .gltf import GLTF_ATTRIBUTES, GLTF_EXTENSIONS, _load_gltf, variant_names
 from .trimesh_files import _load_trimesh
 
 GLTF_SUFFIXES = (".gltf", ".glb")
 TRIMESH_SUFFIXES = (".obj", ".ply", ".stl", ".off")
 
-__all__ = ["GLTF_ATTRIBUTES", "GLTF_EXTENSIONS", "GLTF_SUFFIXES", "TRIMESH_SUFFIXES", "load_mesh"]
+__all__ = ["GLTF_ATTRIBUTES", "GLTF_EXTENSIONS", "GLTF_SUFFIXES", "TRIMESH_SUFFIXES", "load_mesh",
+           "material_variants"]
+
+
+def material_variants(path: str | os.PathLike) -> tuple[str, ...]:
+    """The names of a glTF file's ``KHR_materials_variants`` (file order), for a picker: () for
+    other formats and for a file that cannot be read (loading it says why). The last few files'
+    names are kept (a bounded cache keyed by path, size and modification time), so asking every
+    frame reads a file once."""
+    path = Path(path)
+    if path.suffix.lower() not in GLTF_SUFFIXES or not path.is_file():
+        return ()
+    st = path.stat()
+    return _variants_of(str(path.resolve()), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=16)
+def _variants_of(path: str, size: int, mtime_ns: int) -> tuple[str, ...]:
+    import pygltflib
+
+    try:
+        gltf = pygltflib.GLTF2().load(path)
+    except Exception:  # noqa: BLE001 - loading the file reports its problem, naming it
+        return ()
+    return tuple(variant_names(gltf)) if gltf is not None else ()
 
 
 def load_mesh(path: str | os.PathLike, transform: np.ndarray | None = None,

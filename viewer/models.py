@@ -238,7 +238,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("transmission", f"model {model.name!r} cannot shade surfaces in a forward "
                                     f"pass: KHR_materials_transmission surfaces are shaded by "
                                     f"ggx_split_sum there, refracting a copy of the opaque frame "
-                                    f"(traced exactly by {', '.join(sorted(TRANSMISSION_MODELS))})"))
+                                    f"(traced exactly by "
+                                    f"{', '.join(sorted(TRANSMISSION_MODELS))})"))
     if layout.with_sheen and model.name not in SHEEN_MODELS | {"unlit"}:
         out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
                              f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "

@@ -1,4 +1,6 @@
-"""The forward pass: transparent surfaces (glTF ``alphaMode: BLEND``) over the shaded radiance.
+"""The forward pass: transparent surfaces (glTF ``alphaMode: BLEND``) over the shaded radiance,
+and, under the rasterising models, transmissive ones (KHR_materials_transmission / _volume)
+refracting a copy of it.
 
 A deferred renderer's standard answer to transparency. The G-buffer holds one surface per pixel, so
 blended meshes are left out of it (:meth:`viewer.renderer.Renderer.draw`) and drawn after the
@@ -30,6 +32,16 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
   anything drawn later, and SSAO, screen-space indirect light, the G-buffer AOVs and a
   Monte-Carlo model's samples see only the opaque surfaces. SSAO does not darken blended
   surfaces (``USE_SSAO 0``); their own ambient occlusion (``u_ao``, occlusion maps) does.
+- **Transmission** (:func:`forward_meshes`): under a model that does not trace it
+  (:func:`viewer.models.refracts_forward`), a mesh with a transmission factor > 0 is left out of
+  the G-buffer and drawn here, sorted with the blended ones, reading ``transmission_frame``, the
+  mip-mapped copy of the opaque frame the frame graph makes before this pass
+  (``transmission_copy``): the lighting pass, compiled with ``FORWARD_TRANSMISSION``
+  (``passes/forward_surface.glsl``), gives the base's share T the opaque frame refracted through
+  the surface in place of its irradiance (the approximation three.js makes; the path tracer
+  follows the BTDFs exactly). An OPAQUE or MASK transmissive surface covers its pixel (alpha 1);
+  a BLEND one blends as well. What it refracts is the opaque frame only: other transmissive or
+  blended surfaces behind it are not seen through it.
 - **Shadows**: blended surfaces receive the shadows of the frame's maps (the same lookups as
   the lighting pass, bound by :class:`~viewer.passes.shadow_bindings.ShadowBindings`) and cast
   none (a glass pane does not darken the floor; ``viewer/passes/shadow.py``). Contact shadows

@@ -205,6 +205,13 @@ def contact_shadows(settings, stacks: bool) -> bool:
 
 CLEARCOAT_MODELS = frozenset({"ggx_split_sum", "ggx_mc", "path"})  # shade KHR_materials_clearcoat's coat
 TRANSMISSION_MODELS = frozenset({"path"})  # follow light through KHR_materials_transmission
+
+
+def refracts_forward(model: str) -> bool:
+    """Whether ``model`` draws KHR_materials_transmission surfaces in the forward pass, refracting
+    a mip-mapped copy of the opaque frame (:mod:`viewer.passes.forward`): every model but those
+    that trace them (:data:`TRANSMISSION_MODELS`) and ``unlit`` (no light to refract)."""
+    return model not in TRANSMISSION_MODELS | {"unlit"}
 SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
 
 
@@ -239,7 +246,9 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
     """``(lobe, warning)`` for each glTF extension lobe the scene's G-buffer ``layout`` carries
     that ``model`` does not shade: the neural models (student and teacher) read Filament's
     specular reflectance only, so they ignore the dielectric lobe of KHR_materials_ior /
-    KHR_materials_specular (its ``dielectric`` channel); the coat of KHR_materials_clearcoat is
+    KHR_materials_specular (its ``dielectric`` channel); KHR_materials_transmission surfaces are
+    drawn by ``ggx_split_sum`` in the forward pass for the models that cannot run there (the
+    Monte-Carlo and network ones); the coat of KHR_materials_clearcoat is
     shaded by :data:`CLEARCOAT_MODELS` only, the sheen of KHR_materials_sheen by
     :data:`SHEEN_MODELS` (``unlit`` shows no light at all)."""
     out = []
@@ -251,10 +260,13 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("clearcoat", f"model {model.name!r} ignores the KHR_materials_clearcoat "
                                  f"coat (shaded by {', '.join(sorted(CLEARCOAT_MODELS))}); the "
                                  f"base is shown uncoated"))
-    if layout.with_transmission and model.name not in TRANSMISSION_MODELS | {"unlit"}:
-        out.append(("transmission", f"model {model.name!r} ignores KHR_materials_transmission "
-                                    f"(shaded by {', '.join(sorted(TRANSMISSION_MODELS))}); "
-                                    f"transmissive surfaces are shown opaque"))
+    if layout.with_transmission and refracts_forward(model.name) and (
+            model.accumulates or model.network is not None):  # passes.forward.forward_model
+        out.append(("transmission", f"model {model.name!r} cannot shade surfaces in a forward "
+                                    f"pass: KHR_materials_transmission surfaces are shaded by "
+                                    f"ggx_split_sum there, refracting a copy of the opaque frame "
+                                    f"(traced exactly by "
+                                    f"{', '.join(sorted(TRANSMISSION_MODELS))})"))
     if layout.with_sheen and model.name not in SHEEN_MODELS | {"unlit"}:
         out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
                              f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "

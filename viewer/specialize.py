@@ -17,7 +17,7 @@ import numpy as np
 
 from .gbuffer import CHANNEL_NAMES, CHANNELS, GBufferLayout
 from .lighting.lights import as_lights, shadowing
-from .models import ShadeVariant, model_info
+from .models import ShadeVariant, model_info, refracts_forward
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,9 @@ class SceneFeatures:
     # G-buffer's dielectric channel
     dielectric: bool = False
     clearcoat: bool = False  # some opaque mesh has a KHR_materials_clearcoat coat (factor > 0)
-    # some opaque mesh has KHR_materials_transmission (factor > 0): the transmission channel
+    # some mesh has KHR_materials_transmission (factor > 0): the transmission channel (the path
+    # tracer's G-buffer reads it; the forward pass's programs set it), and, under a model that
+    # refracts such meshes in the forward pass, the depth channel they depth-test against
     transmission: bool = False
     sheen: bool = False  # some mesh has a KHR_materials_sheen sheen (colour > 0)
 
@@ -100,6 +102,8 @@ def analyse(renderer, scene) -> SceneFeatures:
                 # the forward pass's programs take the coat's define from the layout
                 clearcoat = clearcoat or mesh.material.clearcoat > 0.0
                 sheen = sheen or mesh.material.has_sheen
+                # the forward pass's programs set the transmission fields too
+                transmission = transmission or mesh.material.transmission > 0.0
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -107,7 +111,6 @@ def analyse(renderer, scene) -> SceneFeatures:
                 specular, ao = specular or s, ao or a
                 emission = emission or mesh.has_emission
                 dielectric = dielectric or mesh.material.ior is not None
-                transmission = transmission or mesh.material.transmission > 0.0
     constant = False
     spec = scene.environment
     if spec.path is None and spec.procedural == "white":
@@ -162,6 +165,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         needed.add("depth")  # meshes and splats depth-test against the stack's stored depth
     if features.blend:
         needed.add("depth")  # blended meshes depth-test against it (viewer/passes/forward.py)
+    if features.transmission and refracts_forward(model.name):
+        needed.add("depth")  # so do the transmissive ones it refracts
     if model.lights == "shaded" and (any(li.positional for li in as_lights(light))
                                      or shadowing(light, settings.shadow.enabled)) or \
             (sun and settings.sun and settings.shadow.enabled):

@@ -7,7 +7,7 @@ from __future__ import annotations
 import torch
 
 from .brdf import d_ggx, v_smith_ggx_correlated
-from .common import half_vector, saturate
+from .common import PI, half_vector, saturate
 
 
 def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -73,3 +73,34 @@ def rough_refraction_pdf(a, eta, n, v, l) -> torch.Tensor:
 def volume_attenuation(sigma: torch.Tensor, distance: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 volume_attenuation(vec3 sigma, float distance)``: exp(-sigma d)."""
     return torch.exp(-sigma * distance.clamp_min(0.0)[..., None])
+
+
+def volume_exit_offset(n, v, thickness, ior) -> torch.Tensor:
+    """GLSL ``vec3 volume_exit_offset(vec3 n, vec3 v, float thickness, float ior)``: GLSL
+    ``refract(-v, n, 1 / ior)`` normalised times ``thickness``; 0 for a thin wall (ior or
+    thickness not > 0) and under total internal reflection."""
+    ok = (ior > 0.0) & (thickness > 0.0)
+    eta = 1.0 / torch.where(ok, ior, torch.ones_like(ior))
+    i = -v
+    ni = _dot(n, i)
+    k = 1.0 - eta * eta * (1.0 - ni * ni)
+    t = eta[..., None] * i - (eta * ni + torch.sqrt(k.clamp_min(0.0)))[..., None] * n
+    t = torch.where((k < 0.0)[..., None], torch.zeros_like(t), t)
+    len2 = _dot(t, t)
+    out = t * (torch.rsqrt(len2.clamp_min(1e-30)) * thickness)[..., None]
+    keep = (ok & (len2 > 1e-12))[..., None]
+    return torch.where(keep, out, torch.zeros_like(out))
+
+
+def transmission_lod(r, ior, log2_width) -> torch.Tensor:
+    """GLSL ``float transmission_lod(float r, float ior, float log2_width)``: log2_width times
+    r, a volume's r scaled by clamp(2 ior - 2, 0, 1)."""
+    rough = torch.where(ior > 0.0, r * saturate(2.0 * ior - 2.0), r)
+    return log2_width * saturate(rough)
+
+
+def transmission_irradiance(irradiance, transmission, refracted) -> torch.Tensor:
+    """GLSL ``vec3 transmission_irradiance(vec3 irradiance, float transmission, vec3
+    refracted)``: mix(E, pi L_refracted, saturate(T))."""
+    t = saturate(transmission)[..., None]
+    return irradiance * (1.0 - t) + PI * refracted * t

@@ -83,3 +83,41 @@ float rough_refraction_pdf(float a, float eta, vec3 n, vec3 v, vec3 l) {
 vec3 volume_attenuation(vec3 sigma, float distance) {
     return exp(-sigma * max(distance, 0.0));
 }
+
+// ---- the rasterised approximation (the forward pass: viewer/passes/forward.py) -----------------
+// As three.js renders KHR_materials_transmission (transmission_pars_fragment): what is behind a
+// transmissive surface is read from a mip-mapped copy of the opaque frame, where the view ray
+// leaves the surface, at a level its roughness chooses. One refraction, no inner reflections:
+// an approximation of the BTDFs above, which the path tracer follows exactly.
+
+// three.js's getVolumeTransmissionRay: from the entry point to where the view ray leaves a volume
+// of `thickness` (KHR_materials_volume thicknessFactor): -v refracted into a medium of `ior`
+// (n faces v) times thickness; 0 for a thin wall (ior 0 or thickness 0) and under total internal
+// reflection (refract's 0: only an ior < 1 admits it), so light then goes straight through.
+vec3 volume_exit_offset(vec3 n, vec3 v, float thickness, float ior) {
+    if (!(ior > 0.0) || !(thickness > 0.0)) return vec3(0.0);
+    vec3 t = refract(-v, n, 1.0 / ior);
+    float len2 = dot(t, t);
+    if (!(len2 > 1e-12)) return vec3(0.0);
+    return t * (inversesqrt(len2) * thickness);
+}
+
+// three.js's applyIorToRoughness and level choice: the mip level of the opaque frame's copy read
+// through a surface of perceptual roughness r, for a copy log2_width levels above 1 texel wide:
+// log2_width r, with a volume's r scaled by clamp(2 ior - 2, 0, 1) (an IOR of 1 bends nothing,
+// so nothing blurs; 1.5 and above: r itself); a thin wall (ior 0) blurs by r, its BTDF being the
+// reflection lobe mirrored.
+float transmission_lod(float r, float ior, float log2_width) {
+    float rough = ior > 0.0 ? r * saturate(2.0 * ior - 2.0) : r;
+    return log2_width * saturate(rough);
+}
+
+// KHR_materials_transmission in a diffuse term weighted by irradiance (split-sum, Blinn-Phong):
+// the base's share T receives pi times the radiance refracted through the surface in place of its
+// irradiance E, so the lobe's own weight (1 - E_spec(n.v) split-sum, 1 - f0 Blinn-Phong) applies
+// to the transmitted light as it does to the diffuse: three.js's mix(totalDiffuse, transmitted,
+// T), whose transmitted light carries (1 - F) too. A Lambertian base of albedo c returns
+// c E / pi, so the T share returns c L_refracted: the base colour tints what passes through.
+vec3 transmission_irradiance(vec3 irradiance, float transmission, vec3 refracted) {
+    return mix(irradiance, PI * refracted, saturate(transmission));
+}

@@ -7,6 +7,9 @@
 #define SPECULAR_LOBE 1  // 0 when no surface of the scene has f0 > 0 (viewer/specialize.py)
 #endif
 #include "generated/gbuffer.glsl"
+#ifndef FORWARD_TRANSMISSION
+#define FORWARD_TRANSMISSION 0  // 1: a transmissive surface in the forward pass (forward_surface)
+#endif
 #include "lib/common.glsl"
 #include "lib/equirect.glsl"
 

@@ -8,9 +8,47 @@
 // The fragment is discarded where the opaque G-buffer (meshes, image stacks, splats) is nearer:
 // a depth test against its depth channel (gbuffer_load_opaque, the generated loader renamed by
 // viewer/passes/forward.py), which the forward pass never writes.
+// USE_TRANSMISSION (KHR_materials_transmission / _volume, drawn here under the rasterising models:
+// viewer/passes/forward.py): FORWARD_TRANSMISSION is defined for the lighting pass, which lets the
+// base's share T receive refracted_radiance in place of its irradiance (lib/transmission.glsl
+// transmission_irradiance) and lights only the rest, 1 - T, of its diffuse with its lights; an
+// OPAQUE (or MASK, cut at u_alpha_cutoff) transmissive surface covers its pixel (alpha 1): what is
+// behind it comes through refracted_radiance, not through the blend.
 // Included by the virtual generated/gbuffer.glsl of viewer/passes/forward.py, after the layout's
 // struct and loader.
 #include "passes/mesh_surface.glsl"
+
+#ifdef USE_TRANSMISSION
+#define FORWARD_TRANSMISSION 1
+#include "lib/transmission.glsl"
+
+uniform sampler2D u_transmission_frame;  // the opaque frame's radiance, mip-mapped, trilinear
+uniform float u_transmission_log2_width; // log2 of its width in texels
+uniform float u_thickness;               // KHR_materials_volume thicknessFactor (world units)
+uniform vec3 u_attenuation_sigma;        // -ln(attenuationColor) / attenuationDistance, 0: clear
+uniform mat4 u_view;                     // world -> view (as the vertex stage's)
+uniform mat4 u_projection;               // view -> clip
+#ifdef ALPHA_MASK
+uniform float u_alpha_cutoff;            // glTF alphaCutoff
+#endif
+
+// The opaque frame's radiance seen through this fragment (three.js's getIBLVolumeRefraction, our
+// own): the view ray refracted by n (facing v) through a volume of u_thickness (thin wall: straight
+// on), the copy read where it leaves, projected to the screen, at the level the roughness chooses,
+// attenuated along the way by Beer-Lambert. An exit point behind the camera is read at this
+// fragment's own pixel; one off screen at the nearest edge.
+vec3 refracted_radiance(GBuffer g, vec3 n, vec3 v) {
+    vec3 offset = volume_exit_offset(n, v, u_thickness, g.transmission_ior);
+    vec4 clip = u_projection * (u_view * vec4(v_position_ws + offset, 1.0));
+    if (!(clip.w > 1e-6)) {
+        clip = u_projection * (u_view * vec4(v_position_ws, 1.0));
+    }
+    vec2 uv = clamp(clip.xy / clip.w * 0.5 + 0.5, 0.0, 1.0);
+    float lod = transmission_lod(g.roughness, g.transmission_ior, u_transmission_log2_width);
+    vec3 behind = textureLod(u_transmission_frame, uv, lod).rgb;
+    return behind * volume_attenuation(u_attenuation_sigma, length(offset));
+}
+#endif
 
 GBuffer gbuffer_load(ivec2 pixel) {
     float alpha;
@@ -19,6 +57,14 @@ GBuffer gbuffer_load(ivec2 pixel) {
     if (opaque.alpha > 0.0 && !(g.depth < opaque.depth)) {
         discard;  // behind (or at) the opaque surface of this pixel
     }
+#if defined(USE_TRANSMISSION) && !defined(ALPHA_BLEND)
+#ifdef ALPHA_MASK
+    if (alpha < u_alpha_cutoff) {
+        discard;
+    }
+#endif
+    alpha = 1.0;  // glTF OPAQUE / MASK: covers the pixel (module comment)
+#endif
     g.alpha = clamp(alpha, 0.0, 1.0);
     g.color = g.albedo * g.alpha;  // the unlit colour channel is premultiplied by coverage
     return g;

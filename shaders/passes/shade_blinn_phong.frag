@@ -1,6 +1,7 @@
 // shade_blinn_phong.frag - the thesis's classical baseline under environment light.
 // Defines: USE_AO (0/1), USE_SSAO (0/1), BACKGROUND_ENVIRONMENT (0/1), SPECULAR_LOBE (0/1),
-// LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, passes/lights.glsl).
+// LIGHT_COUNT, LIGHT_POSITIONAL (the scene's punctual lights, passes/lights.glsl),
+// FORWARD_TRANSMISSION (deferred.glsl: a KHR_materials_transmission surface in the forward pass).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
@@ -36,7 +37,18 @@ void main() {
     prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec3 f0 = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric).rgb;
+#if FORWARD_TRANSMISSION
+    // KHR_materials_transmission (the forward pass, passes/forward_surface.glsl): the base's
+    // share T receives the refracted opaque frame in place of its irradiance, weighted by the
+    // same 1 - f0; the lights light the rest, 1 - T
+    vec3 c = blinn_phong(diffuse, f0, 1.0,
+                         transmission_irradiance(irradiance * ao_env, g.transmission,
+                                                 refracted_radiance(g, n, v)),
+                         prefiltered);
+    diffuse *= 1.0 - saturate(g.transmission);
+#else
     vec3 c = blinn_phong(diffuse, f0, ao_env, irradiance, prefiltered);
+#endif
 #if LIGHT_COUNT > 0
     c += lights_blinn_phong(diffuse, f0, r * r, n, v,
                             light_surface_position(gl_FragCoord.xy, g.depth));

@@ -5,7 +5,8 @@
 // SUN_LIGHT (0/1: the environment's sun as an analytic light, viewer/environment/sun.py; the IBL bound then
 // leaves it out of the prefiltered chain and the irradiance map, and u_env_prefiltered_full keeps
 // it), ENV_LIGHTS (its other compact lights, passes/env_lights.glsl; with SUN_LIGHT only),
-// RT_LIGHT (the real-time tier's ray-traced visibility and bounce: passes/rt_light.glsl).
+// RT_LIGHT (the real-time tier's ray-traced visibility and bounce: passes/rt_light.glsl),
+// FORWARD_TRANSMISSION (deferred.glsl: a KHR_materials_transmission surface in the forward pass).
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
 #include "lib/ibl.glsl"
@@ -93,8 +94,19 @@ void main() {
     vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);
     vec3 f0 = fresnel.rgb;
     float f90 = fresnel.a;
+#if FORWARD_TRANSMISSION
+    // KHR_materials_transmission (the forward pass, passes/forward_surface.glsl): the base's
+    // share T receives the opaque frame refracted through the surface in place of its
+    // irradiance, weighted by the same 1 - E_spec; the lights below light the rest, 1 - T
+    vec3 c = ggx_split_sum(diffuse, f0, f90, 1.0,
+                           transmission_irradiance(irradiance * ao_env, g.transmission,
+                                                   refracted_radiance(g, n, v)),
+                           prefiltered, dfg, float(MULTISCATTER));
+    diffuse *= 1.0 - saturate(g.transmission);
+#else
     vec3 c = ggx_split_sum(diffuse, f0, f90, ao_env, irradiance, prefiltered, dfg,
                            float(MULTISCATTER));
+#endif
 #if GBUFFER_HAS_SHEEN
     // KHR_materials_sheen (lib/layers.glsl): under the environment the base keeps the spec's
     // cheaper 1 - max3(C) E(n.v) and the sheen adds C E(n.v) irradiance(n) / pi (three.js's

@@ -1,8 +1,13 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
     gbuffer -> splats -> ssao -> ssao_upsample -> ssao_blur -> shadow<i> -> shade
-            -> indirect_gather -> indirect -> shadow_net -> forward -> ssaa_resolve -> tonemap
-            -> fxaa
+            -> indirect_gather -> indirect -> shadow_net -> transmission_copy -> forward
+            -> ssaa_resolve -> tonemap -> fxaa
+
+``transmission_copy`` (only in a scene with a KHR_materials_transmission surface under a model
+that refracts it in the forward pass, :func:`viewer.models.refracts_forward`) keeps a mip-mapped
+copy of the opaque frame, ``transmission_frame``, which those surfaces, drawn by ``forward``
+instead of the G-buffer, read refracted (as three.js's transmission render target).
 
 With ``[render] ssaa`` = N > 1 every pass up to ``forward`` runs at N times the camera's size and
 ``ssaa_resolve`` box-averages the radiance into ``resolved`` (the output size); with ``[render] aa
@@ -19,9 +24,10 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..models import ShadeVariant, ShadingModel, model_info, sample_count
+from ..models import ShadeVariant, ShadingModel, model_info, refracts_forward, sample_count
 from ..neural import learns_indirect, needs_env_visibility
-from ..passes.forward import forward_model, forward_variant, warn_unshadowed
+from ..passes.forward import (forward_meshes, forward_model, forward_variant,
+                               warn_unshadowed)
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ground import scene_catcher
 from ..passes.ssao import hit_targets, low_resolution
@@ -31,13 +37,14 @@ from ..specialize import Specialization
 from .display import display_passes, ssaa_factor
 from .graph import FrameGraph
 from .raytrace import raytrace_passes
-from .resources import GBufferDesc, TextureDesc
+from .resources import GBufferDesc, MipTextureDesc, TextureDesc
 from .shadow_net import RADIANCE as SN_RADIANCE
 from .shadow_net import VISIBILITY as SN_VISIBILITY
 from .shadow_net import shadow_net_passes, visibility_route
 from .shadows import cascade_variant, env_to_world, light_shadow_frame, shadow_passes  # noqa: F401
 
 MC_BATCH = 16  # Monte-Carlo samples per lighting draw (keeps each draw short)
+TRANSMISSION_FRAME = "transmission_frame"  # the opaque frame's mip-mapped copy
 
 
 @dataclass
@@ -75,7 +82,8 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
                         visibility=needs_env_visibility(settings),
                         record_hits=settings.ssao.indirect,
                         blur=settings.ssao.blur) if settings.ssao.enabled and not rt else None
-    blended = [] if spec.direct_stack else renderer.blended(scene)
+    blended = [] if spec.direct_stack else forward_meshes(renderer, scene)
+    refracting = any(m.material.transmission > 0.0 for m in blended)
     fvariant = None
     if blended:  # its program reads the maps too: the sun's where only it shades the sun
         # the forward model shades the environment's sun itself when it can (SUN_LIGHT)
@@ -95,6 +103,15 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     _lighting_passes(g, renderer, req, lit_ssao, shadows, rt_light)
     if lit_ssao is ssao:  # the product form, or no estimator (no pass)
         shadow_net_passes(g, renderer, scene, spec, camera, ssao.occlusion if ssao else None)
+    if refracting:  # what transmissive surfaces refract: the opaque frame, blurred by level
+        g.create(TRANSMISSION_FRAME, MipTextureDesc(size, 4, "f4"))
+
+        def transmission_copy(f):
+            copy = f[TRANSMISSION_FRAME]
+            renderer.ctx.copy_framebuffer(dst=copy.fbo, src=f["radiance"].fbo)
+            copy.texture.build_mipmaps()
+        g.add_pass("transmission_copy", transmission_copy, reads=("radiance",),
+                   writes=(TRANSMISSION_FRAME,))
     if blended:  # transparent surfaces over the shaded radiance (viewer/passes/forward.py)
 
         def forward(f):  # receives the frame's shadow maps (viewer/passes/forward.py)
@@ -107,9 +124,11 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
                 shadows={i: (f[name].texture, frame, size, offset)
                          for i, (name, frame, size, offset) in shadows.items() if i != "sun"},
                 sun_shadow=((f[shadows["sun"][0]].texture,) + shadows["sun"][1:]
-                            if "sun" in shadows else None))
+                            if "sun" in shadows else None),
+                transmission_frame=f[TRANSMISSION_FRAME].texture if refracting else None)
         g.add_pass("forward", forward,
-                   reads=("gbuffer", "radiance") + tuple(v[0] for v in shadows.values()),
+                   reads=("gbuffer", "radiance") + tuple(v[0] for v in shadows.values())
+                   + ((TRANSMISSION_FRAME,) if refracting else ()),
                    writes=("radiance",),
                    inputs={"objects": scene.objects, "render": _lighting_settings(settings),
                            "environment": scene.environment, "light": scene.light})
@@ -138,6 +157,12 @@ def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
     g.create("gbuffer", GBufferDesc(spec.layout, tuple(camera.size)), kept=True)
     contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
     clouds = [c for obj, c in contents if obj.type == "splats"]
+    # KHR_materials_transmission surfaces the forward pass refracts are not in the G-buffer
+    through = refracts_forward(scene.render.model) and any(
+        m.material.transmission > 0.0 for obj, c in contents
+        if obj.type not in ("gbuffer", "splats") for m in c)
+    if through:
+        identity["forward_transmission"] = True
 
     def gbuffer(f):
         gb = f["gbuffer"]
@@ -146,8 +171,9 @@ def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
         for obj, content in contents:
             if obj.type == "gbuffer":
                 gpass.draw_image(gb, content)
-            elif obj.type != "splats":  # alphaMode BLEND: the forward pass after lighting
-                meshes.extend(m for m in content if m.alpha_mode != "BLEND")
+            elif obj.type != "splats":  # alphaMode BLEND (and refracted): the forward pass
+                meshes.extend(m for m in content if m.alpha_mode != "BLEND"
+                              and not (through and m.material.transmission > 0.0))
         if meshes:
             gpass.draw_meshes(gb, camera, meshes)
     g.add_pass("gbuffer", gbuffer, writes=("gbuffer",), inputs=identity)

@@ -51,6 +51,26 @@ class TextureDesc:
 
 
 @dataclass(frozen=True)
+class MipTextureDesc(TextureDesc):
+    """A :class:`TextureDesc` with its whole mip chain, trilinear filtered and clamped at the
+    edges: an image a pass reads blurred at a level of its choice (the opaque frame's copy that
+    transmissive surfaces refract, :mod:`viewer.passes.forward`). Its framebuffer draws level 0;
+    the writer calls ``texture.build_mipmaps()`` after."""
+
+    def create(self, ctx) -> Target:
+        tex = ctx.texture(tuple(int(s) for s in self.size), self.components, dtype=self.dtype)
+        tex.build_mipmaps()  # allocates the chain; trilinear (LINEAR_MIPMAP_LINEAR, LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        return Target(tex, ctx.framebuffer(color_attachments=[tex]))
+
+    def bytes(self) -> int:
+        return super().bytes() * 4 // 3  # the chain: 1 + 1/4 + 1/16 + ...
+
+    def describe(self) -> str:
+        return super().describe() + " + mips"
+
+
+@dataclass(frozen=True)
 class GBufferDesc:
     """The G-buffer of ``layout`` at ``size``: its attachments and a 24-bit depth buffer."""
 

@@ -1,4 +1,6 @@
-"""The forward pass: transparent surfaces (glTF ``alphaMode: BLEND``) over the shaded radiance.
+"""The forward pass: transparent surfaces (glTF ``alphaMode: BLEND``) over the shaded radiance,
+and, under the rasterising models, transmissive ones (KHR_materials_transmission / _volume)
+refracting a copy of it.
 
 A deferred renderer's standard answer to transparency. The G-buffer holds one surface per pixel, so
 blended meshes are left out of it (:meth:`viewer.renderer.Renderer.draw`) and drawn after the
@@ -30,6 +32,16 @@ lighting (and screen-space indirect) passes, straight into the radiance target:
   anything drawn later, and SSAO, screen-space indirect light, the G-buffer AOVs and a
   Monte-Carlo model's samples see only the opaque surfaces. SSAO does not darken blended
   surfaces (``USE_SSAO 0``); their own ambient occlusion (``u_ao``, occlusion maps) does.
+- **Transmission** (:func:`forward_meshes`): under a model that does not trace it
+  (:func:`viewer.models.refracts_forward`), a mesh with a transmission factor > 0 is left out of
+  the G-buffer and drawn here, sorted with the blended ones, reading ``transmission_frame``, the
+  mip-mapped copy of the opaque frame the frame graph makes before this pass
+  (``transmission_copy``): the lighting pass, compiled with ``FORWARD_TRANSMISSION``
+  (``passes/forward_surface.glsl``), gives the base's share T the opaque frame refracted through
+  the surface in place of its irradiance (the approximation three.js makes; the path tracer
+  follows the BTDFs exactly). An OPAQUE or MASK transmissive surface covers its pixel (alpha 1);
+  a BLEND one blends as well. What it refracts is the opaque frame only: other transmissive or
+  blended surfaces behind it are not seen through it.
 - **Shadows**: blended surfaces receive the shadows of the frame's maps (the same lookups as
   the lighting pass, bound by :class:`~viewer.passes.shadow_bindings.ShadowBindings`) and cast
   none (a glass pane does not darken the floor; ``viewer/passes/shadow.py``). Contact shadows
@@ -50,15 +62,25 @@ import numpy as np
 from ..gbuffer import GBufferLayout
 from ..geometry.mesh import Mesh
 from ..lighting.lights import Light
-from ..models import ShadeVariant, model_info
+from ..models import ShadeVariant, model_info, refracts_forward
 from ..scene.camera import Camera
 from ..scene.settings import RenderSettings
-from . import bind_gbuffer
+from . import bind_gbuffer, set_uniform
 from .gbuffer import MeshUploads
 from .shade import set_view_and_lighting
 from .shadow_bindings import ShadowBindings
 
 FALLBACK_MODEL = "ggx_split_sum"  # shades blended surfaces for models that cannot run forward
+
+
+def forward_meshes(renderer, scene) -> list[Mesh]:
+    """The meshes the forward pass draws, in file order: the transparent ones (glTF ``alphaMode:
+    BLEND``) and, under a model that refracts them here (:func:`viewer.models.refracts_forward`),
+    the transmissive ones (KHR_materials_transmission factor > 0); the G-buffer holds the rest."""
+    through = refracts_forward(scene.render.model)
+    return [m for obj in scene.objects if obj.type not in ("gbuffer", "splats")
+            for m in renderer.geometry(obj)
+            if m.alpha_mode == "BLEND" or (through and m.material.transmission > 0.0)]
 
 
 def forward_model(model: str) -> str:
@@ -125,18 +147,24 @@ class ForwardPass:
     def run(self, meshes: list[Mesh], gbuffer_textures: dict, out_fbo, camera: Camera, ibl,
             environment, settings: RenderSettings, light: Light | tuple[Light, ...] | None = None,
             shadows: dict | None = None, sun_shadow: tuple | None = None,
-            variant: ShadeVariant | None = None) -> None:
+            variant: ShadeVariant | None = None, transmission_frame=None) -> None:
         """Blend ``meshes`` over ``out_fbo`` (the RGBA32F radiance target of the camera's size),
         sorted back to front, depth-tested against ``gbuffer_textures`` (this layout's
         attachments: the opaque G-buffer, which must hold the depth channel). ``shadows`` and
         ``sun_shadow``: the frame's maps (:meth:`viewer.passes.shade.ShadePass.run`'s);
-        ``variant``: the program (default: :func:`forward_variant`)."""
+        ``variant``: the program (default: :func:`forward_variant`); ``transmission_frame``: the
+        mip-mapped copy of the opaque frame that transmissive meshes refract (needed when one
+        is among ``meshes``)."""
         if not meshes:
             return
         if "depth" in self.layout.omit:
             raise ValueError("the forward pass depth-tests against the G-buffer's depth channel, "
                              "which this layout omits")
-        _warn_fallback(settings.model)
+        if transmission_frame is None and any(m.material.transmission > 0.0 for m in meshes):
+            raise ValueError("transmissive meshes in the forward pass refract a copy of the "
+                             "opaque frame: transmission_frame is required")
+        if any(m.alpha_mode == "BLEND" for m in meshes):
+            _warn_fallback(settings.model)
         if variant is None:
             variant = forward_variant(settings, light, sun=len(ibl.lights))
         ctx = self.ctx
@@ -157,6 +185,8 @@ class ForwardPass:
                 unit = self.shadow_maps.bind(prog, light, shadows or {}, sun_shadow, unit)
                 set_view_and_lighting(prog, camera, environment, light)
                 self.uploads.set_camera(prog, camera)
+                if mesh.material.transmission > 0.0:
+                    unit = _bind_transmission(prog, mesh, transmission_frame, unit)
                 units = self.uploads.bind_material(prog, entry, unit)
                 ctx.enable(ctx.CULL_FACE)
                 if mesh.double_sided:  # back faces first: a closed convex mesh composites right
@@ -173,6 +203,19 @@ class ForwardPass:
     def release(self) -> None:
         self.uploads.release()
         self.shadow_maps.release()
+
+
+def _bind_transmission(prog, mesh: Mesh, frame, unit: int) -> int:
+    """The uniforms of ``forward_surface.glsl``'s refracted_radiance for ``mesh``: the opaque
+    frame's copy ``frame`` (mip-mapped) on texture unit ``unit``, the volume's thickness and
+    attenuation; returns the next free unit."""
+    frame.use(unit)
+    set_uniform(prog, "u_transmission_frame", unit)
+    set_uniform(prog, "u_transmission_log2_width", float(np.log2(max(frame.size[0], 1))))
+    m = mesh.material
+    set_uniform(prog, "u_thickness", float(m.thickness) if m.volume else 0.0)
+    set_uniform(prog, "u_attenuation_sigma", tuple(float(c) for c in m.attenuation_coefficient()))
+    return unit + 1
 
 
 _FALLBACK_WARNED: set[str] = set()

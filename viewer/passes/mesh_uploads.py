@@ -84,6 +84,8 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
             defines["UNLIT_VERTEX_COLOR"] = 1  # KHR_materials_unlit: COLOR_0 x its emission
     if mesh.alpha_mode == "MASK":
         defines["ALPHA_MASK"] = 1
+    elif mesh.alpha_mode == "BLEND":  # the forward pass: blended by its alpha
+        defines["ALPHA_BLEND"] = 1
     return defines
 
 

@@ -37,4 +37,30 @@ PARITY_CASES = [
                atol=1e-7, rtol=4e-6, measured="max abs 1.8e-7, rel 2.1e-6 (seeds 0-7)",
                envelope="one product and exp (GLSL exp: 3 ulp of its argument's size, here "
                         "<= 1e5 so 2e-6 rel after the product's rounding)"),
+    ParityCase("volume_exit_offset",
+               (_UP, _UP, Arg(lo=0.0, hi=2.0, adversarial=(0.0, 0.8)),
+                Arg(lo=1.0, hi=2.5, adversarial=(0.0, 1.0, 1.5, 0.7))),
+               atol=2e-6, rtol=1e-5,
+               measured="max abs 3.6e-7 (seeds 0-7; rel 6.4e-4 on components near 0)",
+               envelope="refract: a dot, k = 1 - eta^2 (1 - (n.i)^2) and sqrt(k) (~6 roundings "
+                        "of unit values), then a normalisation (inversesqrt, 2 ulp) times a "
+                        "thickness <= 2: ~1e-6 abs. IORs >= 1 (glTF's range, entering from "
+                        "outside: k >= 1 - eta^2, no total internal reflection); near k = 0 "
+                        "(an IOR < 1 at grazing angles) sqrt(k) amplifies k's rounding (4e-3 "
+                        "rel measured over [0, 2.5]), so only the adversarial 0.7 goes there"),
+    ParityCase("transmission_lod",
+               (_ALPHA, Arg(lo=0.0, hi=2.5, adversarial=(0.0, 1.0, 1.25, 1.5)),
+                Arg(lo=0.0, hi=12.0, adversarial=(0.0, 6.0))),
+               atol=1e-6, rtol=1e-6, measured="exact (seeds 0-7)",
+               envelope="at most 3 correctly rounded operations on values <= 12: 4e-7 rel"),
+    ParityCase("transmission_irradiance",
+               (Arg(lo=0.0, hi=10.0, components=3, adversarial=((0, 0, 0), (1e3, 1, 0.01))),
+                Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0, 1.5)),
+                Arg(lo=0.0, hi=10.0, components=3, adversarial=((0, 0, 0), (1e3, 1, 0.01)))),
+               atol=1e-6, rtol=4e-6,
+               measured="max abs 3.8e-6 (of values to 1e3), rel 2.1e-6 (seeds 0-7)",
+               envelope="mix (x (1 - a) + y a; llvmpipe may fuse it as x + a (y - x), whose "
+                        "difference rounds relative to the larger input: a result smaller "
+                        "than its inputs keeps ~1 ulp of the larger, 2e-6 rel measured) and "
+                        "pi y: ~5 roundings"),
 ]

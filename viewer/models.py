@@ -206,6 +206,7 @@ def contact_shadows(settings, stacks: bool) -> bool:
 CLEARCOAT_MODELS = frozenset({"ggx_split_sum", "ggx_mc", "path"})  # shade KHR_materials_clearcoat's coat
 TRANSMISSION_MODELS = frozenset({"path"})  # follow light through KHR_materials_transmission
 SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
+ANISOTROPY_MODELS = CLEARCOAT_MODELS  # and KHR_materials_anisotropy's stretched lobe
 
 
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
@@ -232,4 +233,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
                              f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "
                              f"without it"))
+    if layout.with_anisotropy and model.name not in ANISOTROPY_MODELS | {"unlit"}:
+        out.append(("anisotropy", f"model {model.name!r} ignores KHR_materials_anisotropy "
+                                  f"(shaded by {', '.join(sorted(ANISOTROPY_MODELS))}); the "
+                                  f"specular lobe is shown isotropic"))
     return out

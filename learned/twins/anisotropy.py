@@ -7,11 +7,12 @@ import math
 
 import torch
 
-from .brdf import BRDF_MIN_DENOM
-from .common import INV_PI, saturate, sq
+from .brdf import BRDF_MIN_DENOM, d_ggx, f_schlick, v_smith_ggx_correlated
+from .common import INV_PI, half_vector, saturate, sq
 from .sampling import tangent_to_world
 
 ANISOTROPY_MIN_ALPHA = 1e-4
+ANISOTROPY_ALBEDO_GRID = 6  # lib/anisotropy.glsl: its quadrature's points a side
 
 
 def _normalize(v: torch.Tensor) -> torch.Tensor:
@@ -105,3 +106,44 @@ def anisotropy_decode(k, n) -> torch.Tensor:
     d = torch.where(s[..., None] > 1e-20, k / s.clamp_min(1e-30)[..., None], x)
     d3 = torch.cat([d, torch.zeros_like(d[..., :1])], dim=-1)
     return torch.cat([tangent_to_world(d3, n), s[..., None]], dim=-1)
+
+
+def anisotropy_specular_delta(f0, f90, n, t, v, l, alphas) -> torch.Tensor:
+    """GLSL ``vec3 anisotropy_specular_delta(vec3 f0, float f90, vec3 n, vec3 t, vec3 v, vec3 l,
+    vec2 alphas)``: anisotropic minus isotropic (alpha_b) specular f cos."""
+    def dot(a, b):
+        return (a * b).sum(-1)
+    NoL = dot(n, l)
+    b = torch.linalg.cross(n, t, dim=-1)
+    h = half_vector(v, l)
+    NoV = saturate(dot(n, v))
+    NoH = saturate(dot(n, h))
+    at, ab = alphas[..., 0], alphas[..., 1]
+    aniso = d_ggx_anisotropic(NoH, dot(t, h), dot(b, h), at, ab) \
+        * v_smith_ggx_correlated_anisotropic(NoV, NoL, dot(t, v), dot(b, v), dot(t, l),
+                                             dot(b, l), at, ab)
+    iso = d_ggx(NoH, ab) * v_smith_ggx_correlated(NoV, NoL, ab)
+    out = ((aniso - iso) * NoL)[..., None] * f_schlick(f0, f90, saturate(dot(v, h)))
+    return torch.where((NoL > 0.0)[..., None], out, torch.zeros_like(out))
+
+
+def anisotropy_albedo_ratio(v, alphas) -> torch.Tensor:
+    """GLSL ``float anisotropy_albedo_ratio(vec3 v, vec2 alphas)``: the anisotropic lobe's
+    white albedo over the isotropic (alpha_b) one's, 4 x 4 stratified visible normals each."""
+    NoV = v[..., 2].clamp_min(1e-4)
+    at, ab = alphas[..., 0], alphas[..., 1]
+    sums = []
+    for ax, ay in ((at, ab), (ab, ab)):
+        e = torch.zeros_like(NoV)
+        for k in range(ANISOTROPY_ALBEDO_GRID ** 2):
+            g = ANISOTROPY_ALBEDO_GRID
+            u = torch.tensor([(k % g + 0.5) / g, (k // g + 0.5) / g], dtype=v.dtype)
+            h = sample_ggx_vndf_anisotropic(u.expand(v.shape[:-1] + (2,)), v, ax, ay)
+            l = 2.0 * (v * h).sum(-1, keepdim=True) * h - v
+            g1 = 2.0 * NoV / (NoV + torch.linalg.vector_norm(
+                torch.stack([ax * v[..., 0], ay * v[..., 1], NoV], -1), dim=-1))
+            term = 4.0 * NoV * l[..., 2] * v_smith_ggx_correlated_anisotropic(
+                NoV, l[..., 2], v[..., 0], v[..., 1], l[..., 0], l[..., 1], ax, ay) / g1
+            e = e + torch.where(l[..., 2] > 0.0, term, torch.zeros_like(term))
+        sums.append(e)
+    return torch.where(sums[1] > 0.0, sums[0] / sums[1].clamp_min(1e-30), torch.ones_like(NoV))

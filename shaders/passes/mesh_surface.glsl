@@ -15,6 +15,8 @@
 // / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior);
 // USE_SHEEN (KHR_materials_sheen: the G-buffer's sheen channel from u_sheen_color,
 // u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and USE_SHEEN_ROUGHNESS_MAP (A);
+// USE_ANISOTROPY (KHR_materials_anisotropy: the G-buffer's anisotropy channel,
+// passes/mesh_anisotropy.glsl) with USE_ANISOTROPY_MAP;
 // USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
@@ -168,7 +170,7 @@ vec4 sample_map(sampler2D map, vec2 uv, vec2 mirror) {
     return textureGrad(map, mix(uv, mirrored, mirror), dFdx(uv), dFdy(uv));
 }
 
-#if defined(USE_NORMAL_MAP) || defined(USE_CLEARCOAT_NORMAL_MAP)
+#if defined(USE_NORMAL_MAP) || defined(USE_CLEARCOAT_NORMAL_MAP) || defined(USE_ANISOTROPY)
 // Normal Mapping Without Precomputed Tangents - Schueler 2013 (cotangent frame from derivatives).
 // n_face must face the viewer so the frame's handedness is the surface's own. Returns the
 // gradients of u and of -v (glTF: the normal map's +Y points towards decreasing v), each scaled
@@ -201,6 +203,9 @@ vec3 perturb_normal(vec3 n, vec3 n_ts, vec2 uv, float facing) {
     return normalize(tbn[0] * n_ts.x + tbn[1] * n_ts.y + n * n_ts.z);
 #endif
 }
+#endif
+#ifdef USE_ANISOTROPY
+#include "passes/mesh_anisotropy.glsl"
 #endif
 
 // The surface at this fragment as a G-buffer record (coverage 1, view depth, the unlit colour =
@@ -313,6 +318,9 @@ GBuffer mesh_surface(out float alpha) {
 #if GBUFFER_HAS_SHEEN  // (a layout without the channel has no field for it)
     g.sheen = vec4(sheen_color, sheen_roughness);
 #endif
+#endif
+#if defined(USE_ANISOTROPY) && GBUFFER_HAS_ANISOTROPY
+    g.anisotropy = mesh_anisotropy(n, normalize(v_normal_ws), facing);
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

@@ -29,6 +29,7 @@
 #include "lib/env_sampling.glsl"
 #include "lib/path.glsl"
 #include "passes/surface_mc.glsl"
+#include "passes/anisotropy_lights.glsl"
 #include "passes/raytrace.glsl"
 
 uniform sampler2D u_env_marginal;
@@ -186,6 +187,12 @@ void main() {
                                   g.dielectric, g.clearcoat.xy,
                                   shading_normal(oct_decode(g.clearcoat.zw), v),
                                   GBUFFER_SHEEN(g));
+#if GBUFFER_HAS_ANISOTROPY
+    // KHR_materials_anisotropy at the first hit (traced hits beyond it see the lobe isotropic:
+    // the traced triangles carry no tangent frame)
+    vec4 aniso = anisotropy_at(GBUFFER_ANISOTROPY(g), g.normal, s0.s.n);
+    surface_set_anisotropy(s0.s, aniso.xyz, aniso.w);
+#endif
 #if GBUFFER_HAS_TRANSMISSION
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);

@@ -56,4 +56,22 @@ PARITY_CASES = [
                atol=2e-5, rtol=1e-5, measured="max abs 2.4e-7 (seeds 0-7)",
                envelope="a length and a division (~5 ulp), tangent_to_world (its 1 / (1 + "
                         "|n.z|) near n.z = -1 amplifies a few ulp) -> 1e-5 abs"),
+    ParityCase("anisotropy_specular_delta",
+               (Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0))),
+                Arg(adversarial=(1.0,)), _UNIT, _UNIT, _UNIT, _UNIT,
+                Arg(lo=0.002025, hi=1.0, components=2, adversarial=((0.5, 0.002025),))),
+               atol=1e-5, rtol=3.5e-3,
+               measured="max rel 1.9e-3 (abs 1.8 on values to 1e4; seeds 0-7): d_ggx at small alpha",
+               envelope="as clearcoat_light (lib/layers.glsl): D_GGX's sensitivity to 1-ulp "
+                        "differences in n.h at small alpha, first-order 3.5e-3 rel of each "
+                        "term; the difference of the two terms cancels where the lobes agree "
+                        "(atol)"),
+    ParityCase("anisotropy_albedo_ratio",
+               (Arg(kind="hemisphere", components=3, adversarial=((0.0, 0.0, 1.0),
+                                                                (0.99, 0.0, 0.141))),
+                Arg(lo=0.002025, hi=1.0, components=2, adversarial=((0.67, 0.09),))),
+               atol=1e-4, rtol=1e-4, measured="max abs 1.1e-6 (seeds 0-7)", n=1024,
+               envelope="32 visible-normal draws (sample_ggx_vndf_anisotropic: up to 8e-4 abs "
+                         "at a cap's rim, usually 1e-7) and their G2 / G1 terms summed: a draw "
+                         "whose l crosses the horizon between the two sides flips a term"),
 ]

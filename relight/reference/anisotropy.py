@@ -50,8 +50,8 @@ def anisotropy_state(mi, dr, bsdf, si, frame, a):
     s2 = dr.square(dr.clip(strength, 0.0, 1.0))
     at = dr.lerp(a, 1.0, s2)
     lobe = mi.Frame3f(ta, mi.Vector3f(-ta.y, ta.x, 0.0), mi.Vector3f(0.0, 0.0, 1.0))
-    return dict(frame=lobe, at=at, ab=a,
-                distr=mi.MicrofacetDistribution(mi.MicrofacetType.GGX, at, a, True))
+    return {"frame": lobe, "at": at, "ab": a,
+            "distr": mi.MicrofacetDistribution(mi.MicrofacetType.GGX, at, a, True)}
 
 
 def anisotropic_dv(mi, dr, an, wi, wo, h):

@@ -143,6 +143,11 @@ def _load_gltf(path: Path, variant: str | None = None) -> MeshList:
                                   f"{sampling.texcoord}, which the primitive lacks; texture "
                                   f"ignored", stacklevel=3)
                     del fields["textures"][key], fields["sampling"][key]
+            if fields["material"].has_anisotropy and tangents is None and uv_sets[0] is None \
+                    and uv_sets[1] is None:
+                warnings.warn(f"{path}: {where}: KHR_materials_anisotropy needs a tangent space "
+                              f"(TANGENT or TEXCOORD_n), which the primitive lacks; its direction "
+                              f"is arbitrary", stacklevel=3)
             name = gmesh.name or f"mesh{mesh_index}"
             if len(gmesh.primitives) > 1:
                 name += f".{prim_index}"

@@ -5,9 +5,10 @@
 // of lights_ggx / env_lights_ggx / the sun into the anisotropic lobe's. Compiled only with
 // GBUFFER_HAS_ANISOTROPY; included after passes/lights.glsl and passes/env_lights.glsl.
 // Not corrected: the combination with a KHR_materials_sheen sheen (the correction is not scaled
-// by the sheen's albedo scaling; no test asset has both).
-#if GBUFFER_HAS_ANISOTROPY
+// by the sheen's albedo scaling; no test asset has both). The library is included whatever
+// the layout (the include resolver includes a file once, whatever #if surrounds it).
 #include "lib/anisotropy.glsl"
+#if GBUFFER_HAS_ANISOTROPY
 
 // (t, strength) at a pixel: the channel's value k decoded with the stored normal g_n, t then
 // put into the plane of the shading normal n (shading_normal may bend g_n towards the viewer).

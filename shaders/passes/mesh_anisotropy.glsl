@@ -1,13 +1,16 @@
 // mesh_anisotropy.glsl (pass chunk) - KHR_materials_anisotropy at a mesh fragment: the G-buffer's
 // `anisotropy` channel from u_anisotropy_strength, u_anisotropy_rotation and, with
 // USE_ANISOTROPY_MAP, the map (RG: the direction in tangent space, x 2 - 1; B: times the
-// strength). Included by passes/mesh_surface.glsl under USE_ANISOTROPY, after sample_map,
-// map_uv and cotangent_frame. The tangent space: the vertex tangents (HAS_TANGENTS; bitangent
+// strength). Included by passes/mesh_surface.glsl after sample_map, map_uv and
+// cotangent_frame; compiled only with USE_ANISOTROPY (the library is included either way: the
+// include resolver includes a file once, whatever #if surrounds it, so a program that shades
+// several meshes - the forward pass - must not meet it first inside a false branch). The tangent space: the vertex tangents (HAS_TANGENTS; bitangent
 // cross(n, t) w), else the cotangent frame of texture coordinate set u_anisotropy_frame_set
 // (USE_UV0 / USE_UV1; the glTF spec's computed tangents, which are the UV gradients), else - a
 // mesh without tangents or texture coordinates, which the spec does not allow - tangent_to_world's
 // frame of the normal (the loader warns).
 #include "lib/anisotropy.glsl"
+#ifdef USE_ANISOTROPY
 
 uniform float u_anisotropy_strength;   // anisotropyStrength
 uniform vec2 u_anisotropy_rotation;    // (cos, sin) of anisotropyRotation
@@ -51,3 +54,4 @@ vec2 mesh_anisotropy(vec3 n, vec3 n_vertex, float facing) {
     if (!(dot(ta, ta) > 1e-20)) return vec2(0.0);
     return anisotropy_encode(normalize(ta), n * facing, strength);
 }
+#endif

@@ -204,9 +204,7 @@ vec3 perturb_normal(vec3 n, vec3 n_ts, vec2 uv, float facing) {
 #endif
 }
 #endif
-#ifdef USE_ANISOTROPY
 #include "passes/mesh_anisotropy.glsl"
-#endif
 
 // The surface at this fragment as a G-buffer record (coverage 1, view depth, the unlit colour =
 // albedo) and, in `alpha`, the glTF alpha: baseColorFactor.a x base colour texture alpha x COLOR_0

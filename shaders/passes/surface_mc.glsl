@@ -22,9 +22,7 @@
 // the energy split (1 - E_spec) and the lobe choice keep the isotropic lobe's albedo of alpha_b,
 // and the transmission lobe stays isotropic.
 #include "lib/transmission.glsl"
-#if GBUFFER_HAS_ANISOTROPY
 #include "lib/anisotropy.glsl"
-#endif
 #ifndef MULTISCATTER
 #define MULTISCATTER 0
 #endif

@@ -204,8 +204,11 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_anisotropy(anisot
     its visible normals: the per-block z-test (6 seeds x 16 spp) passes (measured max |z| 4.9,
     threshold 19.3) and rejects the file without the extension (29 of 144 blocks fail, max |z|
     52). ``ggx_mc`` (no visibility: the neighbours' shadows are missing; 2 x 16 spp) is within
-    10 % per sphere (measured -6.4, +7.9, +4.6, +7.4 %; -5.5, +4.0, +3.8, +5.8 % at 64 spp)."""
+    10 % per sphere (measured -6.4, +7.9, +4.6, +7.4 %; -5.5, +4.0, +3.8, +5.8 % at 64 spp).
+    The traced material rows carry the strength and rotation (row 14) for secondary hits
+    (raytrace.glsl rt_anisotropy: the triangle's UV frame)."""
     from relight.bench.path import block_test
+    from viewer.raytrace.scene import MATERIAL_VEC4S, material_rows
 
     ext, plain, ref = anisotropy_truth
 
@@ -219,3 +222,10 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_anisotropy(anisot
     assert not block_test(runs(plain, "path", max_depth=2), ref).passed
     mc = per_sphere(runs(ext, "ggx_mc", seeds=2).mean(0), ref.radiance, 4)
     assert all(abs(s[0]) <= 0.10 for s in mc), mc
+    meshes = renderer.geometry(ext.objects[0])
+    rows = material_rows(meshes, [{} for _ in meshes])
+    for k, mesh in enumerate(meshes):
+        m = mesh.material
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 14][:3],
+                                   (m.anisotropy_strength, math.cos(m.anisotropy_rotation),
+                                    math.sin(m.anisotropy_rotation)), atol=1e-7)

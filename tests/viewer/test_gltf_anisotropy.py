@@ -102,7 +102,8 @@ def test_anisotropy_loads_and_fills_its_channel_only_where_used(tmp_path, render
 
 def test_a_scene_file_material_takes_an_anisotropy(renderer):
     """``anisotropy_strength`` / ``anisotropy_rotation`` on a scene file's primitive sphere: the
-    lobe changes the picture, a strength outside [0, 1] is one line naming the field."""
+    lobe changes the picture, a strength outside [0, 1] is one line naming the field, a written
+    scene names the fields only where set."""
     from viewer.errors import SceneError
     from viewer.scene.description import scene_from_dict
 
@@ -117,6 +118,11 @@ def test_a_scene_file_material_takes_an_anisotropy(renderer):
     assert np.abs(brushed - plain)[..., :3].mean() > 0.01 * plain[..., :3].mean()
     with pytest.raises(SceneError, match="anisotropy_strength"):
         sphere(anisotropy_strength=2.0)
+    from viewer.scene.files import scene_to_dict
+
+    written = scene_to_dict(sphere(anisotropy_strength=0.9, anisotropy_rotation=1.0))
+    assert written["objects"][0]["material"]["anisotropy_rotation"] == 1.0
+    assert "anisotropy_strength" not in scene_to_dict(sphere())["objects"][0]["material"]
 
 
 @pytest.mark.parametrize("roughness", [0.2, 0.45, 0.8])

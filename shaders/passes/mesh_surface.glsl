@@ -170,7 +170,7 @@ vec4 sample_map(sampler2D map, vec2 uv, vec2 mirror) {
     return textureGrad(map, mix(uv, mirrored, mirror), dFdx(uv), dFdy(uv));
 }
 
-#if defined(USE_NORMAL_MAP) || defined(USE_CLEARCOAT_NORMAL_MAP) || defined(USE_ANISOTROPY)
+#if defined(USE_NORMAL_MAP) || defined(USE_CLEARCOAT_NORMAL_MAP)
 // Normal Mapping Without Precomputed Tangents - Schueler 2013 (cotangent frame from derivatives).
 // n_face must face the viewer so the frame's handedness is the surface's own. Returns the
 // gradients of u and of -v (glTF: the normal map's +Y points towards decreasing v), each scaled

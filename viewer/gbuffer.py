@@ -34,6 +34,10 @@ transmission     1   KHR_materials_transmission's factor T; background 0 = opaqu
 transmission_ior 1   KHR_materials_volume: the IOR light refracts by, 0 = thin-walled
 sheen            4   KHR_materials_sheen: colour (rgb, linear), roughness (a); background 0 = no
                      sheen; only allocated when a scene has a material with a sheen
+anisotropy       2   KHR_materials_anisotropy: strength s times (cos, sin) of the direction's
+                     angle in the frame of the stored normal (lib/anisotropy.glsl
+                     anisotropy_encode); background 0 = isotropic; only allocated when a scene
+                     has an anisotropic material
 ================ === ==========================================================================
 
 Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
@@ -46,7 +50,11 @@ pays 48 (24), one with both lobes 80 (40), a sheen alone 64 (32). ``transmission
 (the colour and emission attachments have one each; the base layout one where ``ao`` is
 omitted): +0 to +16 B/px (+8). The all-features layout is 8 attachments (128 B/px, 64 at fp16),
 GL's guaranteed minimum of draw buffers: the transmission pair rides in the colour and emission
-attachments, the sheen takes the eighth. Omitted channels shrink the
+attachments, the sheen takes the eighth. ``anisotropy`` (2 components) adds an attachment,
++16 B/px (+8): 64 B/px (32) for an anisotropic scene without other optional channels (it shares
+one with the transmission pair where both are allocated); it has no room in the all-features
+layout, which carries it only for a scene that has it, without the optional channels that scene
+does not use (:func:`viewer.specialize.specialise`). Omitted channels shrink the
 layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
@@ -90,6 +98,9 @@ CHANNELS: tuple[Channel, ...] = (
             optional=True),
     Channel("sheen", 4, 7, 0, (0.0, 0.0, 0.0, 0.0),
             "glTF sheen: colour (rgb), roughness", optional=True, declared_when_allocated=True),
+    Channel("anisotropy", 2, 8, 0, (0.0, 0.0),
+            "glTF anisotropy: strength x (cos, sin) of its direction in the normal's frame",
+            optional=True, declared_when_allocated=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -132,6 +143,7 @@ class GBufferLayout:
     # the optional transmission channels (KHR_materials_transmission / _volume)
     with_transmission: bool = False
     with_sheen: bool = False  # the optional sheen channel (KHR_materials_sheen)
+    with_anisotropy: bool = False  # the optional anisotropy channel (KHR_materials_anisotropy)
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -150,7 +162,8 @@ class GBufferLayout:
                                   "clearcoat": self.with_clearcoat,
                                   "transmission": self.with_transmission,
                                   "transmission_ior": self.with_transmission,
-                                  "sheen": self.with_sheen}[c.name]
+                                  "sheen": self.with_sheen,
+                                  "anisotropy": self.with_anisotropy}[c.name]
 
     def bytes_per_pixel(self) -> int:
         """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
@@ -189,6 +202,9 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_TRANSMISSION {int(self.with_transmission)}",
                  f"#define GBUFFER_HAS_SHEEN {int(self.with_sheen)}",
                  "#define GBUFFER_SHEEN(g) " + ("((g).sheen)" if self.with_sheen else "vec4(0.0)"),
+                 f"#define GBUFFER_HAS_ANISOTROPY {int(self.with_anisotropy)}",
+                 "#define GBUFFER_ANISOTROPY(g) " + ("((g).anisotropy)" if self.with_anisotropy
+                                                     else "vec2(0.0)"),
                  "struct GBuffer {"]
         declared = [c for c in CHANNELS
                     if not c.declared_when_allocated or self._wanted_optional(c)]

@@ -213,6 +213,7 @@ def refracts_forward(model: str) -> bool:
     that trace them (:data:`TRANSMISSION_MODELS`) and ``unlit`` (no light to refract)."""
     return model not in TRANSMISSION_MODELS | {"unlit"}
 SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
+ANISOTROPY_MODELS = CLEARCOAT_MODELS  # and KHR_materials_anisotropy's stretched lobe
 
 
 def ignored_settings(model: ShadingModel, asked, variant: ShadeVariant) -> list[tuple[str, str]]:
@@ -271,4 +272,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
                              f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "
                              f"without it"))
+    if layout.with_anisotropy and model.name not in ANISOTROPY_MODELS | {"unlit"}:
+        out.append(("anisotropy", f"model {model.name!r} ignores KHR_materials_anisotropy "
+                                  f"(shaded by {', '.join(sorted(ANISOTROPY_MODELS))}); the "
+                                  f"specular lobe is shown isotropic"))
     return out

@@ -42,6 +42,7 @@ class SceneFeatures:
     # refracts such meshes in the forward pass, the depth channel they depth-test against
     transmission: bool = False
     sheen: bool = False  # some mesh has a KHR_materials_sheen sheen (colour > 0)
+    anisotropy: bool = False  # some mesh has KHR_materials_anisotropy (strength > 0)
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
     # the glTF lobe (Material.ior) has F90 = specular_factor: a lobe wherever that is > 0
     specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal \
         or m.clearcoat > 0.0 or m.has_sheen  # a coat or a sheen is a specular lobe
+    # (an anisotropic lobe is the specular lobe stretched: specular only where that is)
     ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
                         and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
     return specular, ao
@@ -80,6 +82,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
     specular = ao = emission = blend = dielectric = clearcoat = transmission = sheen = False
+    anisotropy = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -104,6 +107,7 @@ def analyse(renderer, scene) -> SceneFeatures:
                 sheen = sheen or mesh.material.has_sheen
                 # the forward pass's programs set the transmission fields too
                 transmission = transmission or mesh.material.transmission > 0.0
+                anisotropy = anisotropy or mesh.material.has_anisotropy
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -118,7 +122,22 @@ def analyse(renderer, scene) -> SceneFeatures:
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
                          emission=emission, blend=blend, dielectric=dielectric,
-                         clearcoat=clearcoat, transmission=transmission, sheen=sheen)
+                         clearcoat=clearcoat, transmission=transmission, sheen=sheen,
+                         anisotropy=anisotropy)
+
+
+def _all_features_layout(features: SceneFeatures | None, dtype: str) -> GBufferLayout:
+    """Every channel, every lobe: GL's guaranteed 8 draw buffers hold all but the anisotropy
+    channel, which a scene with an anisotropic material gets in place of the optional channels
+    it does not use (a scene using every one of them would need a ninth attachment)."""
+    if features is None or not features.anisotropy:
+        return GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
+                             with_dielectric=True, with_clearcoat=True, with_transmission=True,
+                             with_sheen=True)
+    return GBufferLayout(with_color=features.splats, dtype=dtype, with_emission=features.emission,
+                         with_dielectric=features.dielectric, with_clearcoat=features.clearcoat,
+                         with_transmission=features.transmission, with_sheen=features.sheen,
+                         with_anisotropy=True)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
@@ -145,9 +164,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         # 1x1 maps of depth 1 would give exactly 1 on the general path)
         settings = replace(settings, shadow=replace(settings.shadow, enabled=False))
     if not enabled or features is None:
-        return Specialization(GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
-                                            with_dielectric=True, with_clearcoat=True,
-                                            with_transmission=True, with_sheen=True),
+        return Specialization(_all_features_layout(features, dtype),
                               model.variant(settings, light, specular=True, sun=sun,
                                             contact=contact))
     # models that do not say what they read get every channel (sampling, neural, future ones)
@@ -185,7 +202,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
                                         with_dielectric=features.dielectric,
                                         with_clearcoat=features.clearcoat,
                                         with_transmission=features.transmission,
-                                        with_sheen=features.sheen),
+                                        with_sheen=features.sheen,
+                                        with_anisotropy=features.anisotropy),
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import torch
 
 RAY_MISS = 3.0e38
-MATERIAL_ROWS = 14  # rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS)
+MATERIAL_ROWS = 15  # rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS)
 
 
 def safe_inverse(d: torch.Tensor) -> torch.Tensor:

@@ -24,7 +24,8 @@ A ``KHR_materials_clearcoat`` coat is layered over this as :mod:`relight.referen
 ``KHR_materials_sheen`` sheen between them as :mod:`relight.reference.sheen` says, and
 ``KHR_materials_transmission`` / ``_volume`` split the base's non-specular part as
 :mod:`relight.reference.transmission` says (seen from both sides;
-shaders/lib/transmission.glsl).
+shaders/lib/transmission.glsl), and ``KHR_materials_anisotropy`` stretches the specular lobe as
+:mod:`relight.reference.anisotropy` says.
 
 Not modelled here, on purpose: the material's ``ao`` and glTF occlusion maps (baked visibility:
 the path tracer computes visibility itself), and the rasteriser's bending of back-facing shading
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import functools
 
+from .anisotropy import anisotropic_dv, anisotropic_pdf, anisotropic_sample, anisotropy_state
 from .layers import coat_eval, coat_pdf, coat_state
 from .quadrature import DFG_TABLE_SIZE, MIN_PERCEPTUAL_ROUGHNESS, directional_albedo_table
 from .quadrature import brdf_cos_numpy  # noqa: F401 (the plugin's formula in numpy, for tests)
@@ -78,6 +80,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.specular_color_texture = None
             self.clearcoat_texture = self.clearcoat_roughness_texture = None
             self.sheen_color_texture = self.sheen_roughness_texture = self.sheen_table = None
+            self.anisotropy_texture = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -97,6 +100,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.clearcoat_roughness_texture = textures.get("clearcoat_roughness")  # G
             self.sheen_color_texture = textures.get("sheen_color")  # KHR_materials_sheen
             self.sheen_roughness_texture = textures.get("sheen_roughness")  # the map's A
+            self.anisotropy_texture = textures.get("anisotropy")  # RG direction, B strength
             if max(material.sheen_color) > 0.0:
                 self.sheen_table = table_texture(mi, dr)
             if material.transmission > 0.0:  # seen from both sides, light passes through
@@ -171,7 +175,8 @@ def _bsdf_class(mi, dr, variant: str):
                                       / dr.maximum(coat["albedo"] + base, 1e-12), 0.0)
                 coat["p"] = dr.select((coat["albedo"] > 0.0) & (base > 0.0),
                                       dr.clip(coat["p"], 0.05, 0.95), coat["p"])
-            return dict(a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
+            return dict(aniso=anisotropy_state(mi, dr, self, si, frame, a),
+                        a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
                         frame=frame, coat=coat, t=t, transmit=transmit, p_trans=p_trans,
                         sheen=sheen_state(mi, dr, self, si, wi, ls + ld))
 
@@ -223,6 +228,8 @@ def _bsdf_class(mi, dr, variant: str):
                                    + nv * dr.sqrt(nl * nl * (1.0 - a2) + a2), 1e-8)
             x5 = dr.power(1.0 - voh, 5)
             fr = s["f0"] + (s["f90"] - s["f0"]) * x5
+            if s["aniso"] is not None:  # KHR_materials_anisotropy: the stretched lobe's D V
+                d, vis = anisotropic_dv(mi, dr, s["aniso"], wi, wo, h), 1.0
             value = (s["kd"] * dr.inv_pi + d * vis * fr * s["c_ms"]) * nl
             ok = (nol > 0.0) & (nov > 0.0)
             return dr.select(ok, value, 0.0)
@@ -233,6 +240,8 @@ def _bsdf_class(mi, dr, variant: str):
             nol = mi.Frame3f.cos_theta(wo)
             h = dr.normalize(wi + wo)
             p_spec_dir = distr.pdf(wi, h) / dr.maximum(4.0 * dr.dot(wo, h), 1e-12)
+            if s["aniso"] is not None:
+                p_spec_dir = anisotropic_pdf(mi, dr, s["aniso"], wi, wo)
             p_diff = mi.warp.square_to_cosine_hemisphere_pdf(wo)
             p = s["p_spec"] * p_spec_dir + (1.0 - s["p_spec"]) * (1.0 - s["p_trans"]) * p_diff
             ok = (nol > 0.0) & (mi.Frame3f.cos_theta(wi) > 0.0)
@@ -296,6 +305,8 @@ def _bsdf_class(mi, dr, variant: str):
             spec = sample1 < s["p_spec"]
             m, _ = distr.sample(wi, sample2)
             wo_spec = mi.reflect(wi, m)
+            if s["aniso"] is not None:
+                wo_spec = anisotropic_sample(mi, dr, s["aniso"], wi, sample2)
             wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
             wo_m = dr.select(on_sheen, mi.warp.square_to_uniform_hemisphere(sample2),
                              dr.select(spec, wo_spec, wo_diff))

@@ -125,7 +125,7 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         where = obj.path or obj.type
         textures = {}
         for key in ("base_color", "metallic_roughness", "normal", "specular_color", "clearcoat",
-                    "clearcoat_roughness", "sheen_color"):
+                    "clearcoat_roughness", "sheen_color", "anisotropy"):
             if key in mesh.textures:
                 textures[key] = _texture(mi, mesh.textures[key], mesh.sampling.get(key), where)
         if "specular" in mesh.textures:  # KHR_materials_specular: its factor is the map's A
@@ -141,6 +141,8 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
             ignored.append("TEXCOORD_1 (read as TEXCOORD_0)")
         if mesh.colors is not None:
             ignored.append("COLOR_0")
+        if mesh.tangents is not None and mesh.material.has_anisotropy:
+            ignored.append("TANGENT (the anisotropy's tangent space is the UVs')")
         if mesh.alpha_mode != "OPAQUE":
             ignored.append(f"alphaMode {mesh.alpha_mode} (traced opaque)")
         see_through = mesh.material.transmission > 0.0  # the plugin shades both sides

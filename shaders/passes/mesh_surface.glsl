@@ -15,6 +15,8 @@
 // / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior);
 // USE_SHEEN (KHR_materials_sheen: the G-buffer's sheen channel from u_sheen_color,
 // u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and USE_SHEEN_ROUGHNESS_MAP (A);
+// USE_ANISOTROPY (KHR_materials_anisotropy: the G-buffer's anisotropy channel,
+// passes/mesh_anisotropy.glsl) with USE_ANISOTROPY_MAP;
 // USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
@@ -202,6 +204,7 @@ vec3 perturb_normal(vec3 n, vec3 n_ts, vec2 uv, float facing) {
 #endif
 }
 #endif
+#include "passes/mesh_anisotropy.glsl"
 
 // The surface at this fragment as a G-buffer record (coverage 1, view depth, the unlit colour =
 // albedo) and, in `alpha`, the glTF alpha: baseColorFactor.a x base colour texture alpha x COLOR_0
@@ -313,6 +316,9 @@ GBuffer mesh_surface(out float alpha) {
 #if GBUFFER_HAS_SHEEN  // (a layout without the channel has no field for it)
     g.sheen = vec4(sheen_color, sheen_roughness);
 #endif
+#endif
+#if defined(USE_ANISOTROPY) && GBUFFER_HAS_ANISOTROPY
+    g.anisotropy = mesh_anisotropy(n, normalize(v_normal_ws), facing);
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

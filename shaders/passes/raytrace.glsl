@@ -14,7 +14,7 @@ layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_material
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
-#define RT_MATERIAL_ROWS 14
+#define RT_MATERIAL_ROWS 15
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -182,6 +182,12 @@ struct TracedSurface {
     vec4 sheen;       // KHR_materials_sheen colour (rgb; 0: none), roughness (a)
 #endif
 #endif
+#ifdef GBUFFER_HAS_ANISOTROPY
+#if GBUFFER_HAS_ANISOTROPY
+#define TRACED_ANISOTROPY_FIELD
+    vec4 anisotropy;  // KHR_materials_anisotropy direction (unit, in n's plane), strength (w)
+#endif
+#endif
     vec3 emission;    // radiance it emits
     bool double_sided;
     vec2 transmission; // KHR_materials_transmission factor, the volume's IOR (0: thin-walled)
@@ -192,6 +198,33 @@ struct TracedSurface {
 #define TRACED_SHEEN(t) ((t).sheen)
 #else
 #define TRACED_SHEEN(t) vec4(0.0)
+#endif
+
+#ifdef TRACED_ANISOTROPY_FIELD
+// KHR_materials_anisotropy at a traced hit (factors only: the map is not traced): the
+// direction (cos, sin) of the rotation (row.yz) in the triangle's UV frame (T along dp/du, B
+// along -dp/dv, as the G-buffer's cotangent frame and the reference's), put into the plane of
+// the shading normal n; (direction, strength row.x). A triangle without a UV frame takes an
+// arbitrary tangent.
+vec4 rt_anisotropy(uvec4 tri, vec3 p0, vec3 p1, vec3 p2, vec3 n, vec4 row) {
+    vec2 t0 = vec2(rt_vertices[2u * tri.x].w, rt_vertices[2u * tri.x + 1u].w);
+    vec2 d1 = vec2(rt_vertices[2u * tri.y].w, rt_vertices[2u * tri.y + 1u].w) - t0;
+    vec2 d2 = vec2(rt_vertices[2u * tri.z].w, rt_vertices[2u * tri.z + 1u].w) - t0;
+    vec3 e1 = p1 - p0;
+    vec3 e2 = p2 - p0;
+    float det = d1.x * d2.y - d1.y * d2.x;
+    vec3 dpdu = (e1 * d2.y - e2 * d1.y) * det;  // dp/du, dp/dv times det^2 (the same sign)
+    vec3 dpdv = (e2 * d1.x - e1 * d2.x) * det;
+    vec3 t = dpdu - n * dot(n, dpdu);
+    if (!(dot(t, t) > 1e-30)) {
+        t = cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0));
+    }
+    t = normalize(t);
+    vec3 b = cross(n, t);
+    if (dot(b, dpdv) > 0.0) b = -b;  // B along -dp/dv (mirrored UVs flip it)
+    vec3 a = t * row.y + b * row.z;
+    return vec4(normalize(a - n * dot(n, a)), row.x);
+}
 #endif
 
 TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
@@ -220,6 +253,9 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     s.clearcoat = rt_materials[base + 10].xy;  // factors only, the coat on the vertex normal
 #ifdef TRACED_SHEEN_FIELD
     s.sheen = rt_materials[base + 13];  // factors only: the sheen maps are not traced
+#endif
+#ifdef TRACED_ANISOTROPY_FIELD
+    s.anisotropy = rt_anisotropy(tri, p0, p1, p2, s.n, rt_materials[base + 14]);
 #endif
     s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;

@@ -18,6 +18,7 @@
 #include "lib/mc.glsl"
 #include "lib/env_sampling.glsl"
 #include "passes/surface_mc.glsl"
+#include "passes/anisotropy_lights.glsl"
 
 uniform sampler2D u_env_marginal;
 uniform sampler2D u_env_conditional;
@@ -89,6 +90,10 @@ void main() {
     // no rays to follow through a transmissive surface: ggx_mc shades its base opaque (a warning)
     surface_set_transmission(s, 0.0, 0.0, false);
 #endif
+#if GBUFFER_HAS_ANISOTROPY
+    vec4 aniso = anisotropy_at(GBUFFER_ANISOTROPY(g), g.normal, s.n);
+    surface_set_anisotropy(s, aniso.xyz, aniso.w);
+#endif
     s.diffuse *= ambient_occlusion(pixel, g);
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {
@@ -108,6 +113,11 @@ void main() {
 #else
         vec3 lit = lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
                               float(MULTISCATTER), s.n, s.v, p);
+#endif
+#if GBUFFER_HAS_ANISOTROPY
+        if (surface_anisotropic(s)) {
+            lit += lights_anisotropy(s.f0, s.f90, s.spec_scale, s.n, s.t, s.v, s.alphas, p);
+        }
 #endif
 #if GBUFFER_HAS_CLEARCOAT
         lit = lit * (1.0 - s.w_c) + lights_clearcoat(s.w_c, s.a_c, s.n_c, s.v, p);

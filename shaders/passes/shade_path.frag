@@ -29,6 +29,7 @@
 #include "lib/env_sampling.glsl"
 #include "lib/path.glsl"
 #include "passes/surface_mc.glsl"
+#include "passes/anisotropy_lights.glsl"
 #include "passes/raytrace.glsl"
 
 uniform sampler2D u_env_marginal;
@@ -161,6 +162,9 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
 #if GBUFFER_HAS_TRANSMISSION
         surface_set_transmission(s.s, t.transmission.x, t.transmission.y, !front);
 #endif
+#ifdef TRACED_ANISOTROPY_FIELD
+        surface_set_anisotropy(s.s, t.anisotropy.xyz, t.anisotropy.w);
+#endif
         float q = path_continue_probability(beta, float(bounce + 1));
         if (mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 3u).x >= q) break;
         beta /= q;
@@ -186,6 +190,11 @@ void main() {
                                   g.dielectric, g.clearcoat.xy,
                                   shading_normal(oct_decode(g.clearcoat.zw), v),
                                   GBUFFER_SHEEN(g));
+#if GBUFFER_HAS_ANISOTROPY
+    // KHR_materials_anisotropy at the first hit (traced hits: raytrace.glsl rt_anisotropy)
+    vec4 aniso = anisotropy_at(GBUFFER_ANISOTROPY(g), g.normal, s0.s.n);
+    surface_set_anisotropy(s0.s, aniso.xyz, aniso.w);
+#endif
 #if GBUFFER_HAS_TRANSMISSION
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);

@@ -13,7 +13,9 @@
 //   clearcoat factor = w_under clearcoat_under / alpha (splats have no coat; its roughness and
 //       normal stay the surface's underneath), transmission factor likewise (splats are opaque;
 //       the volume's IOR stays the surface's underneath), sheen colour = w_under sheen_under /
-//       alpha (nor a sheen; its roughness stays the surface's underneath).
+//       alpha (nor a sheen; its roughness stays the surface's underneath), anisotropy =
+//       w_under anisotropy_under / alpha (nor an anisotropic lobe; its angle is read in the
+//       frame of the blended normal).
 // Pixels that nothing covers are discarded (they keep the background).
 #define GBUFFER_WRITE
 #define GBUFFER_READ
@@ -65,6 +67,9 @@ void main() {
     g.transmission = w_under * under.transmission / total;
 #if GBUFFER_HAS_SHEEN
     g.sheen.rgb = w_under * under.sheen.rgb / total;  // splats have no sheen either
+#endif
+#if GBUFFER_HAS_ANISOTROPY
+    g.anisotropy = w_under * under.anisotropy / total;  // nor an anisotropic lobe
 #endif
     if (under.dielectric.a >= 0.0) {
         g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)

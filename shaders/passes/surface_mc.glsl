@@ -16,7 +16,13 @@
 // lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
 // a lobe of its own; each lobe's draws outside its own hemisphere are rejected (the density of
 // every direction is then the mixture's, above and below).
+// With GBUFFER_HAS_ANISOTROPY (KHR_materials_anisotropy), surface_set_anisotropy makes the
+// specular lobe the anisotropic GGX of lib/anisotropy.glsl (alpha_t along the direction t,
+// alpha_b = the material's across it): evaluated, and drawn by its anisotropic visible normals;
+// the energy split (1 - E_spec) and the lobe choice keep the isotropic lobe's albedo of alpha_b,
+// and the transmission lobe stays isotropic.
 #include "lib/transmission.glsl"
+#include "lib/anisotropy.glsl"
 #ifndef MULTISCATTER
 #define MULTISCATTER 0
 #endif
@@ -35,6 +41,9 @@ struct Surface {
     float a;           // alpha = clamped perceptual roughness^2
     vec3 spec_scale;   // multiple-scattering energy compensation (1 without)
     float p_spec;      // probability of sampling the specular lobe ("brdf", "mis")
+#if GBUFFER_HAS_ANISOTROPY
+    vec2 alphas;       // (alpha_t along t, alpha_b along b); alpha_t = alpha_b: isotropic
+#endif
 #if GBUFFER_HAS_CLEARCOAT
     vec3 n_c;          // the coat's normal (lib/layers.glsl), its tangent frame
     vec3 t_c;
@@ -82,6 +91,49 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
 }
 #endif
 
+#if GBUFFER_HAS_ANISOTROPY
+// KHR_materials_anisotropy of strength s along the unit direction t (in n's plane) on a
+// surface_init surface: the frame (t, b) becomes the lobe's, alpha_t grows with s.
+void surface_set_anisotropy(inout Surface s, vec3 t, float strength) {
+    s.alphas = anisotropy_alphas(s.a, strength);
+    if (s.alphas.x > s.alphas.y) {
+        s.t = t;
+        s.b = cross(s.n, t);
+    }
+}
+
+// Whether the surface's specular lobe is anisotropic.
+bool surface_anisotropic(Surface s) {
+    return s.alphas.x > s.alphas.y;
+}
+#endif
+
+// The specular BRDF (no n.l, no compensation) for l with half vector h.
+vec3 surface_specular_brdf(Surface s, vec3 l, vec3 h, float NoL, float NoH, float VoH) {
+#if GBUFFER_HAS_ANISOTROPY
+    if (surface_anisotropic(s)) {
+        return d_ggx_anisotropic(NoH, dot(s.t, h), dot(s.b, h), s.alphas.x, s.alphas.y)
+               * v_smith_ggx_correlated_anisotropic(s.NoV, NoL, dot(s.t, s.v), dot(s.b, s.v),
+                                                    dot(s.t, l), dot(s.b, l), s.alphas.x,
+                                                    s.alphas.y)
+               * f_schlick(s.f0, s.f90, VoH);
+    }
+#endif
+    return ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a);
+}
+
+// pdf of the specular lobe's visible-normal draw of l (half vector h).
+float surface_specular_pdf(Surface s, vec3 h, float NoH) {
+#if GBUFFER_HAS_ANISOTROPY
+    if (surface_anisotropic(s)) {
+        return pdf_ggx_vndf_anisotropic(vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV),
+                                        vec3(dot(h, s.t), dot(h, s.b), NoH), s.alphas.x,
+                                        s.alphas.y);
+    }
+#endif
+    return pdf_ggx_vndf(s.NoV, NoH, s.a);
+}
+
 // f(v, l) (n.l), 0 below the surface.
 vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
@@ -92,7 +144,7 @@ vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     vec3 h = normalize(s.v + l);
     float NoH = saturate(dot(s.n, h));
     float VoH = saturate(dot(s.v, h));
-    vec3 spec = ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a) * s.spec_scale;
+    vec3 spec = surface_specular_brdf(s, l, h, NoL, NoH, VoH) * s.spec_scale;
     return (s.diffuse * INV_PI + spec) * NoL;
 }
 
@@ -121,7 +173,7 @@ float surface_base_brdf_pdf(Surface s, vec3 l) {
     if (!(NoL > 0.0)) return 0.0;
     vec3 h = normalize(s.v + l);
     float NoH = saturate(dot(s.n, h));
-    return s.p_spec * pdf_ggx_vndf(s.NoV, NoH, s.a) + p_diffuse * pdf_cosine_hemisphere(NoL);
+    return s.p_spec * surface_specular_pdf(s, h, NoH) + p_diffuse * pdf_cosine_hemisphere(NoL);
 }
 
 float surface_brdf_pdf(Surface s, vec3 l) {
@@ -162,7 +214,14 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
     if (u.x < s.p_spec) {
         u.x = u.x / s.p_spec;
         vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
+#if GBUFFER_HAS_ANISOTROPY
+        vec3 h_t = surface_anisotropic(s) ? sample_ggx_vndf_anisotropic(u, v_t, s.alphas.x,
+                                                                        s.alphas.y)
+                                          : sample_ggx_vndf(u, v_t, s.a);
+        vec3 h = s.t * h_t.x + s.b * h_t.y + s.n * h_t.z;
+#else
         vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
+#endif
 #if GBUFFER_HAS_TRANSMISSION
         vec3 l_s = reflect(-s.v, h);
         return dot(s.n, l_s) > 0.0 ? l_s : vec3(0.0);  // outside its lobe's hemisphere
@@ -208,6 +267,9 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
     s.diffuse = diffuse_color(albedo, metallic) * max(1.0 - e_spec, 0.0);
     // lobe choice from the unoccluded albedos: occlusion then scales values, not sample paths
     s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+#if GBUFFER_HAS_ANISOTROPY
+    s.alphas = vec2(s.a);  // isotropic until surface_set_anisotropy
+#endif
 #if GBUFFER_HAS_SHEEN
     // the sheen (colour sheen.rgb, roughness sheen.a): drawn by its albedo max3(C) E(n.v)
     // against the base's, both kept reachable when both carry energy

@@ -43,16 +43,22 @@ def grid_columns(count: int) -> int:
     return math.ceil(math.sqrt(count))
 
 
-def sphere_grid(path, materials: list[dict], extensions_used=()):
+def sphere_grid(path, materials: list[dict], extensions_used=(), tangents: bool = False):
     """A glTF file with one sphere of radius :data:`RADIUS` per material, in a square grid
-    (:func:`grid_columns` per row) of pitch :data:`SPACING` centred on the origin, z = 0."""
+    (:func:`grid_columns` per row) of pitch :data:`SPACING` centred on the origin, z = 0;
+    ``tangents``: with TANGENT attributes (along increasing u, w = +1: the UVs' own frame)."""
     b = GltfBuilder()
     pos, nrm, uv, idx = uv_sphere()
+    phi = uv[:, 0] * 2.0 * math.pi
+    tan = np.stack([-np.sin(phi), np.zeros_like(phi), -np.cos(phi), np.ones_like(phi)],
+                   -1).astype(np.float32)
     count = len(materials)
     for k, m in enumerate(materials):
         mat = b.material(**m)
         attrs = {"POSITION": b.accessor(pos * RADIUS, minmax=True),
                  "NORMAL": b.accessor(nrm), "TEXCOORD_0": b.accessor(uv)}
+        if tangents:
+            attrs["TANGENT"] = b.accessor(tan)
         x, y = _place(k, count)
         b.mesh(attrs, b.accessor(idx), mat, node={"translation": [x, y, 0.0]})
     if extensions_used:

@@ -20,6 +20,9 @@ clearcoat_normal    3/4   the coat's tangent-space normal, as ``normal`` (x, y s
                           ``Mesh.clearcoat_normal_scale``); without it the coat has the vertex normal
 sheen_color         3/4   linear RGB (already sRGB-decoded); multiplies ``Material.sheen_color``
 sheen_roughness     4     linear; A multiplies ``Material.sheen_roughness`` (KHR_materials_sheen)
+anisotropy          3/4   linear; RG = the direction in tangent space (x 2 - 1, before
+                          ``Material.anisotropy_rotation``), B multiplies its strength
+                          (KHR_materials_anisotropy)
 =================== ===== =====================================================================
 
 How each map is sampled (texture coordinate set, ``KHR_texture_transform``, wrap and filter modes)
@@ -38,7 +41,7 @@ from ..scene.material import Material
 
 TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive", "specular",
                 "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
-                "sheen_color", "sheen_roughness")
+                "sheen_color", "sheen_roughness", "anisotropy")
 WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
 MIN_FILTERS = ("nearest", "linear", "nearest_mipmap_nearest", "linear_mipmap_nearest",
                "nearest_mipmap_linear", "linear_mipmap_linear")

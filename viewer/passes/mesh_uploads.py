@@ -19,6 +19,7 @@ were made for was evicted (:mod:`viewer.gl.programs`), so no draw reads a releas
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +38,8 @@ _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "specular_color": "USE_SPECULAR_COLOR_MAP", "clearcoat": "USE_CLEARCOAT_MAP",
                 "clearcoat_roughness": "USE_CLEARCOAT_ROUGHNESS_MAP",
                 "clearcoat_normal": "USE_CLEARCOAT_NORMAL_MAP", "sheen_color": "USE_SHEEN_COLOR_MAP",
-                "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP"}
+                "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP",
+                "anisotropy": "USE_ANISOTROPY_MAP"}
 _DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
 _CLEARCOAT_MAPS = ("clearcoat", "clearcoat_roughness", "clearcoat_normal")  # with a coat only
 _SHEEN_MAPS = ("sheen_color", "sheen_roughness")  # with a sheen only
@@ -66,18 +68,24 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     sheen = mesh.material.has_sheen
     if sheen:
         defines["USE_SHEEN"] = 1
+    aniso = mesh.material.has_anisotropy
+    if aniso:
+        defines["USE_ANISOTROPY"] = 1
     for key in mesh.textures:
         if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
-                or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen):
+                or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen) \
+                or (key == "anisotropy" and not aniso):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:
             continue
         defines[_MAP_DEFINES[key]] = 1
         defines[f"USE_UV{texcoord}"] = 1
-    if ("USE_NORMAL_MAP" in defines or "USE_CLEARCOAT_NORMAL_MAP" in defines) and \
+    if ("USE_NORMAL_MAP" in defines or "USE_CLEARCOAT_NORMAL_MAP" in defines or aniso) and \
             mesh.tangents is not None:
         defines["HAS_TANGENTS"] = 1
+    if aniso and mesh.tangents is None and uv_sets[anisotropy_frame_set(mesh)] is not None:
+        defines[f"USE_UV{anisotropy_frame_set(mesh)}"] = 1  # its cotangent frame
     if mesh.colors is not None:
         defines["USE_VERTEX_COLOR"] = 1
         if mesh.unlit:
@@ -87,6 +95,16 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     elif mesh.alpha_mode == "BLEND":  # the forward pass: blended by its alpha
         defines["ALPHA_BLEND"] = 1
     return defines
+
+
+def anisotropy_frame_set(mesh: Mesh) -> int:
+    """The texture coordinate set whose gradients give a KHR_materials_anisotropy surface its
+    tangent space where the mesh has no tangents: its anisotropy map's, else its normal map's
+    (the spec: both live in the same tangent space), else 0."""
+    for key in ("anisotropy", "normal"):
+        if key in mesh.textures:
+            return int(mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord)
+    return 0
 
 
 @dataclass(eq=False)
@@ -272,6 +290,11 @@ class MeshUploads:
         if m.has_sheen:
             _set(prog, "u_sheen_color", tuple(float(c) for c in m.sheen_color))
             _set(prog, "u_sheen_roughness", float(m.sheen_roughness))
+        if m.has_anisotropy:
+            _set(prog, "u_anisotropy_strength", float(m.anisotropy_strength))
+            _set(prog, "u_anisotropy_rotation", (math.cos(m.anisotropy_rotation),
+                                                 math.sin(m.anisotropy_rotation)))
+            _set(prog, "u_anisotropy_frame_set", anisotropy_frame_set(mesh))
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

@@ -15,13 +15,15 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
   the ``KHR_materials_clearcoat`` factors (on the vertex normal; not its maps), the
   ``KHR_materials_transmission`` / ``_volume`` factors (a transmissive surface is seen from
   both sides whatever its doubleSided: a thin wall, or a volume's inside),
-  ``KHR_materials_sheen`` factors (not its maps),
+  ``KHR_materials_sheen`` factors (not its maps), the ``KHR_materials_anisotropy`` factors
+  (in the triangle's UV frame; not its map),
   the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
   ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
 """
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -31,7 +33,7 @@ from .bvh import BVH, build_bvh, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAPS = ("base_color", "metallic_roughness", "emissive")
-MATERIAL_VEC4S = 14  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+MATERIAL_VEC4S = 15  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
 _WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 
 
@@ -141,6 +143,9 @@ def material_rows(meshes, layers) -> np.ndarray:
         r[11] = m.transmission_row()  # KHR_materials_transmission: factor, volume IOR (0: thin)
         r[12] = (*m.attenuation_coefficient(), 0.0)  # KHR_materials_volume: sigma per unit length
         r[13] = (*m.sheen_color, m.sheen_roughness)  # KHR_materials_sheen
+        # KHR_materials_anisotropy: strength, (cos, sin) of the rotation (factors only)
+        r[14] = (m.anisotropy_strength, math.cos(m.anisotropy_rotation),
+                 math.sin(m.anisotropy_rotation), 0.0)
     return rows
 
 

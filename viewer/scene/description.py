@@ -157,7 +157,7 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
     for k in ("roughness", "metallic", "specular", "ao", "specular_factor", "clearcoat",
-              "clearcoat_roughness", "transmission", "sheen_roughness"):
+              "clearcoat_roughness", "transmission", "sheen_roughness", "anisotropy_strength"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
     if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)
@@ -174,6 +174,9 @@ def parse_material(t: dict, where: str, file: str) -> Material:
                                           f"{where}.attenuation_distance", file, 1e-30, math.inf)
     if "sheen_color" in t:  # KHR_materials_sheen (Material.sheen_color)
         kw["sheen_color"] = _vec(t["sheen_color"], 3, f"{where}.sheen_color", file)
+    if "anisotropy_rotation" in t:  # KHR_materials_anisotropy (radians)
+        kw["anisotropy_rotation"] = _num(t["anisotropy_rotation"], f"{where}.anisotropy_rotation",
+                                         file, -1e30, 1e30)
     m = Material(**kw)
     try:
         m.validated(where)

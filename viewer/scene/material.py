@@ -37,13 +37,19 @@ class Material:
     # shaders/lib/layers.glsl) and its roughness (alpha = r^2)
     sheen_color: tuple[float, float, float] = (0.0, 0.0, 0.0)  # in [0, 1]
     sheen_roughness: float = 0.0  # in [0, 1]
+    # KHR_materials_anisotropy: the specular lobe's alpha along the direction grows to
+    # mix(r^2, 1, strength^2) (0 = isotropic; shaders/lib/anisotropy.glsl); the direction is the
+    # tangent turned by the rotation (radians, counter-clockwise towards the bitangent)
+    anisotropy_strength: float = 0.0  # in [0, 1]
+    anisotropy_rotation: float = 0.0  # radians, finite
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
                 "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor,
                 "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness,
                 "transmission": self.transmission,
-                "sheen_roughness": self.sheen_roughness}
+                "sheen_roughness": self.sheen_roughness,
+                "anisotropy_strength": self.anisotropy_strength}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
@@ -67,6 +73,9 @@ class Material:
                 0.0 <= float(c) <= 1.0 for c in self.attenuation_color):
             raise SceneError(f"attenuation_color = {list(self.attenuation_color)} must be 3 "
                              f"numbers in [0, 1]", where=where)
+        if not math.isfinite(float(self.anisotropy_rotation)):
+            raise SceneError(f"anisotropy_rotation = {self.anisotropy_rotation} must be a finite "
+                             f"number (radians)", where=where)
         if not float(self.attenuation_distance) > 0.0:
             raise SceneError(f"attenuation_distance = {self.attenuation_distance} must be > 0 "
                              f"(inf: no attenuation)", where=where)
@@ -101,6 +110,11 @@ class Material:
         """KHR_materials_sheen: a sheen colour > 0 (the spec: zero disables the layer)."""
         return max(self.sheen_color) > 0.0
 
+    @property
+    def has_anisotropy(self) -> bool:
+        """KHR_materials_anisotropy: a strength > 0 (0 leaves the lobe isotropic)."""
+        return self.anisotropy_strength > 0.0
+
     def dielectric(self) -> tuple[float, float, float, float]:
         """The G-buffer's ``dielectric`` channel for this material's factors: (F0 rgb, F90) of
         ``shaders/lib/brdf.glsl`` ``dielectric_f0_ior``, or (0, 0, 0, -1) without ``ior`` (the
@@ -111,7 +125,8 @@ class Material:
 # the glTF extensions' fields: a scene file names them only where they differ from the default
 EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness",
                     "transmission", "thickness", "attenuation_color", "attenuation_distance",
-                    "sheen_color", "sheen_roughness")
+                    "sheen_color", "sheen_roughness", "anisotropy_strength",
+                    "anisotropy_rotation")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

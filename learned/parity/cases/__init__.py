@@ -6,6 +6,7 @@ checks (:mod:`learned.parity.checks`) cover instead."""
 from __future__ import annotations
 
 from . import (
+    anisotropy,
     antialias,
     brdf,
     bvh,
@@ -33,7 +34,7 @@ from . import (
 )
 from .base import Arg, ParityCase
 
-MODULES = (antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ground, ibl,
+MODULES = (anisotropy, antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ground, ibl,
            layers, lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap,
            transmission)
 

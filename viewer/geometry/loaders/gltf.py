@@ -25,7 +25,8 @@ GLTF_EXTENSIONS = frozenset({"KHR_texture_transform", "KHR_mesh_quantization",
                              "KHR_lights_punctual", "KHR_materials_ior", "KHR_materials_specular",
                              "KHR_materials_unlit", "KHR_materials_clearcoat",
                              "KHR_materials_transmission", "KHR_materials_volume",
-                             "KHR_materials_variants", "KHR_materials_sheen"})
+                             "KHR_materials_variants", "KHR_materials_sheen",
+                             "KHR_materials_anisotropy"})
 # the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_1.., TEXCOORD_2..,
 # _CUSTOM)
 GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1",
@@ -142,6 +143,11 @@ def _load_gltf(path: Path, variant: str | None = None) -> MeshList:
                                   f"{sampling.texcoord}, which the primitive lacks; texture "
                                   f"ignored", stacklevel=3)
                     del fields["textures"][key], fields["sampling"][key]
+            if fields["material"].has_anisotropy and tangents is None and uv_sets[0] is None \
+                    and uv_sets[1] is None:
+                warnings.warn(f"{path}: {where}: KHR_materials_anisotropy needs a tangent space "
+                              f"(TANGENT or TEXCOORD_n), which the primitive lacks; its direction "
+                              f"is arbitrary", stacklevel=3)
             name = gmesh.name or f"mesh{mesh_index}"
             if len(gmesh.primitives) > 1:
                 name += f".{prim_index}"
@@ -158,8 +164,7 @@ def _load_gltf(path: Path, variant: str | None = None) -> MeshList:
 
 # KHR_materials_* extensions that change the BSDF and are not implemented: named as such
 # (ior, specular, unlit, clearcoat, transmission, volume and sheen are: loaders/gltf_material.py)
-_BSDF_EXTENSIONS = ("KHR_materials_iridescence",
-                    "KHR_materials_anisotropy", "KHR_materials_diffuse_transmission",
+_BSDF_EXTENSIONS = ("KHR_materials_iridescence", "KHR_materials_diffuse_transmission",
                     "KHR_materials_dispersion", "KHR_materials_pbrSpecularGlossiness")
 
 

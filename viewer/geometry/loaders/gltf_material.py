@@ -80,6 +80,8 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     material = _transmission(reader, index, material, ext)
     material, sheen_slots = _sheen(reader, index, material, ext)
     ext_slots += sheen_slots
+    material, anisotropy_slots = _anisotropy(reader, index, material, ext)
+    ext_slots += anisotropy_slots
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
              ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
@@ -133,7 +135,7 @@ def _unlit(material: Material, base, textures: dict, sampling: dict):
     (normal, occlusion, metallic-roughness and emissive maps are dropped)."""
     for key in ("metallic_roughness", "normal", "occlusion", "emissive", "specular",
                 "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
-                "sheen_color", "sheen_roughness"):
+                "sheen_color", "sheen_roughness", "anisotropy"):
         textures.pop(key, None)
         sampling.pop(key, None)
     if "base_color" in textures:
@@ -263,3 +265,18 @@ def _sheen(reader: _GltfReader, index: int, material: Material, ext: dict):
              for key, name in (("sheen_color", "sheenColorTexture"),
                                ("sheen_roughness", "sheenRoughnessTexture"))]
     return dataclasses.replace(material, sheen_color=color, sheen_roughness=rough), slots
+
+
+def _anisotropy(reader: _GltfReader, index: int, material: Material, ext: dict):
+    """``KHR_materials_anisotropy`` of material ``index``: the material with its strength and
+    rotation (radians), and the texture slot (direction in RG as [0, 1] -> [-1, 1], strength
+    in B; linear)."""
+    aniso = ext.get("KHR_materials_anisotropy")
+    if aniso is None:
+        return material, []
+    strength = _number(reader, index, aniso, "anisotropyStrength", 0.0, 0.0, 1.0)
+    rotation = _number(reader, index, aniso, "anisotropyRotation", 0.0, -math.inf, math.inf)
+    slots = [("anisotropy", _texture_info(reader, index, aniso.get("anisotropyTexture"),
+                                          "anisotropyTexture"))]
+    return dataclasses.replace(material, anisotropy_strength=strength,
+                               anisotropy_rotation=rotation), slots

@@ -183,6 +183,7 @@ void main() {
                       * (MULTISCATTER != 0 ? ibl_energy_compensation(dfg, f0) : vec3(1.0));
         c += e_spec * prefiltered * (ratio - 1.0);
     }
+#endif
 #if GBUFFER_HAS_SHEEN
     // KHR_materials_sheen (lib/layers.glsl): under the environment the base keeps the spec's
     // cheaper 1 - max3(C) E(n.v) and the sheen adds C E(n.v) irradiance(n) / pi (three.js's

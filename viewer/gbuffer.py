@@ -34,6 +34,9 @@ transmission     1   KHR_materials_transmission's factor T; background 0 = opaqu
 transmission_ior 1   KHR_materials_volume: the IOR light refracts by, 0 = thin-walled
 sheen            4   KHR_materials_sheen: colour (rgb, linear), roughness (a); background 0 = no
                      sheen; only allocated when a scene has a material with a sheen
+iridescence      3   KHR_materials_iridescence: factor, the film's thickness (nm), its IOR;
+                     background 0 = no film; only allocated when a scene has an iridescent
+                     material
 ================ === ==========================================================================
 
 Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
@@ -46,7 +49,10 @@ pays 48 (24), one with both lobes 80 (40), a sheen alone 64 (32). ``transmission
 (the colour and emission attachments have one each; the base layout one where ``ao`` is
 omitted): +0 to +16 B/px (+8). The all-features layout is 8 attachments (128 B/px, 64 at fp16),
 GL's guaranteed minimum of draw buffers: the transmission pair rides in the colour and emission
-attachments, the sheen takes the eighth. Omitted channels shrink the
+attachments, the sheen takes the eighth. ``iridescence`` (3 components) takes an attachment of
+its own, +16 B/px (+8): a scene with iridescent materials alone pays 64 B/px (32); it is not in
+the all-features layout (which would need a ninth draw buffer), so ``render.specialize = false``
+shows such a film's base without it. Omitted channels shrink the
 layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
@@ -90,6 +96,9 @@ CHANNELS: tuple[Channel, ...] = (
             optional=True),
     Channel("sheen", 4, 7, 0, (0.0, 0.0, 0.0, 0.0),
             "glTF sheen: colour (rgb), roughness", optional=True, declared_when_allocated=True),
+    Channel("iridescence", 3, 8, 0, (0.0, 0.0, 0.0),
+            "glTF iridescence: factor, film thickness (nm), film IOR", optional=True,
+            declared_when_allocated=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -132,6 +141,9 @@ class GBufferLayout:
     # the optional transmission channels (KHR_materials_transmission / _volume)
     with_transmission: bool = False
     with_sheen: bool = False  # the optional sheen channel (KHR_materials_sheen)
+    # the optional iridescence channel (KHR_materials_iridescence; never in the all-features
+    # layout: it would be a ninth attachment)
+    with_iridescence: bool = False
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -150,7 +162,8 @@ class GBufferLayout:
                                   "clearcoat": self.with_clearcoat,
                                   "transmission": self.with_transmission,
                                   "transmission_ior": self.with_transmission,
-                                  "sheen": self.with_sheen}[c.name]
+                                  "sheen": self.with_sheen,
+                                  "iridescence": self.with_iridescence}[c.name]
 
     def bytes_per_pixel(self) -> int:
         """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
@@ -189,6 +202,9 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_TRANSMISSION {int(self.with_transmission)}",
                  f"#define GBUFFER_HAS_SHEEN {int(self.with_sheen)}",
                  "#define GBUFFER_SHEEN(g) " + ("((g).sheen)" if self.with_sheen else "vec4(0.0)"),
+                 f"#define GBUFFER_HAS_IRIDESCENCE {int(self.with_iridescence)}",
+                 "#define GBUFFER_IRIDESCENCE(g) " + ("((g).iridescence)" if self.with_iridescence
+                                                      else "vec3(0.0)"),
                  "struct GBuffer {"]
         declared = [c for c in CHANNELS
                     if not c.declared_when_allocated or self._wanted_optional(c)]

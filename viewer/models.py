@@ -206,6 +206,7 @@ def contact_shadows(settings, stacks: bool) -> bool:
 CLEARCOAT_MODELS = frozenset({"ggx_split_sum", "ggx_mc", "path"})  # shade KHR_materials_clearcoat's coat
 TRANSMISSION_MODELS = frozenset({"path"})  # follow light through KHR_materials_transmission
 SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
+IRIDESCENCE_MODELS = CLEARCOAT_MODELS  # and KHR_materials_iridescence's thin film
 
 
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
@@ -232,4 +233,9 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
                              f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "
                              f"without it"))
+    if layout.with_iridescence and model.name not in IRIDESCENCE_MODELS | {"unlit"}:
+        out.append(("iridescence", f"model {model.name!r} ignores the KHR_materials_iridescence "
+                                   f"thin film (shaded by "
+                                   f"{', '.join(sorted(IRIDESCENCE_MODELS))}); the base is shown "
+                                   f"without it"))
     return out

@@ -40,6 +40,7 @@ class SceneFeatures:
     # some opaque mesh has KHR_materials_transmission (factor > 0): the transmission channel
     transmission: bool = False
     sheen: bool = False  # some mesh has a KHR_materials_sheen sheen (colour > 0)
+    iridescence: bool = False  # some mesh has a KHR_materials_iridescence film (factor > 0)
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
         metal = float(np.max(tex["metallic_roughness"][..., 2])) > 0.0
     # the glTF lobe (Material.ior) has F90 = specular_factor: a lobe wherever that is > 0
     specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal \
-        or m.clearcoat > 0.0 or m.has_sheen  # a coat or a sheen is a specular lobe
+        or m.clearcoat > 0.0 or m.has_sheen or m.has_iridescence  # so are a coat, a sheen, a film
     ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
                         and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
     return specular, ao
@@ -78,6 +79,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     """The features of ``scene`` as loaded by ``renderer`` (its geometry cache is reused)."""
     splats = meshes = stacks = False
     specular = ao = emission = blend = dielectric = clearcoat = transmission = sheen = False
+    iridescence = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -100,6 +102,7 @@ def analyse(renderer, scene) -> SceneFeatures:
                 # the forward pass's programs take the coat's define from the layout
                 clearcoat = clearcoat or mesh.material.clearcoat > 0.0
                 sheen = sheen or mesh.material.has_sheen
+                iridescence = iridescence or mesh.material.has_iridescence
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -115,7 +118,8 @@ def analyse(renderer, scene) -> SceneFeatures:
     return SceneFeatures(splats=splats, meshes=meshes, stacks=stacks, specular=specular, ao=ao,
                          constant_environment=constant, single_object=len(scene.objects) == 1,
                          emission=emission, blend=blend, dielectric=dielectric,
-                         clearcoat=clearcoat, transmission=transmission, sheen=sheen)
+                         clearcoat=clearcoat, transmission=transmission, sheen=sheen,
+                         iridescence=iridescence)
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
@@ -180,7 +184,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
                                         with_dielectric=features.dielectric,
                                         with_clearcoat=features.clearcoat,
                                         with_transmission=features.transmission,
-                                        with_sheen=features.sheen),
+                                        with_sheen=features.sheen,
+                                        with_iridescence=features.iridescence),
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

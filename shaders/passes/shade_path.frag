@@ -186,6 +186,11 @@ void main() {
                                   g.dielectric, g.clearcoat.xy,
                                   shading_normal(oct_decode(g.clearcoat.zw), v),
                                   GBUFFER_SHEEN(g));
+#if GBUFFER_HAS_IRIDESCENCE
+    // the thin film at the first hit (traced hits: the base without it)
+    surface_set_iridescence(s0.s, g.iridescence, diffuse_color(g.albedo, g.metallic),
+                            ibl_dfg(u_env_dfg, s0.s.NoV, clamp_perceptual_roughness(g.roughness)));
+#endif
 #if GBUFFER_HAS_TRANSMISSION
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);

@@ -11,12 +11,17 @@
 // max(E(n.v), E(|n.l|))) f_base (the spec's albedo scaling, exact here; the base's BTDF below
 // is scaled by it too), drawn uniformly over the hemisphere by its albedo max3(C) E(n.v) against
 // the base's (transmission included).
+// With GBUFFER_HAS_IRIDESCENCE (KHR_materials_iridescence), the base's specular Fresnel is the
+// spec's mix with the thin film's (lib/iridescence.glsl iridescence_fresnel_mix) at each half
+// vector, exactly; the diffuse keeps 1 - E_spec(n.v) with E_spec's F0 the film's at n.v
+// (iridescence_f0, the split sum's): surface_set_iridescence.
 // With GBUFFER_HAS_TRANSMISSION (KHR_materials_transmission / _volume), the base's non-specular
 // part is split by the factor T (surface_set_transmission): (1 - T) stays Lambertian, T becomes
 // lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
 // a lobe of its own; each lobe's draws outside its own hemisphere are rejected (the density of
 // every direction is then the mixture's, above and below).
 #include "lib/transmission.glsl"
+#include "lib/iridescence.glsl"
 #ifndef MULTISCATTER
 #define MULTISCATTER 0
 #endif
@@ -55,6 +60,9 @@ struct Surface {
     float e_sheen;     // E(n.v, r_sheen), lib/layers.glsl sheen_albedo
     float p_sheen;     // probability of sampling it (after the coat, before the base's lobes)
 #endif
+#if GBUFFER_HAS_IRIDESCENCE
+    vec3 film;         // KHR_materials_iridescence: factor, thickness (nm), IOR; x = 0: none
+#endif
 };
 
 #if GBUFFER_HAS_TRANSMISSION
@@ -82,6 +90,23 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
 }
 #endif
 
+#if GBUFFER_HAS_IRIDESCENCE
+// The thin film (factor, thickness nm, IOR) of a surface_init surface whose diffuse colour
+// before the energy split is `diffuse` and whose DFG terms are dfg: the Fresnel of its specular
+// lobe becomes the film's mix (surface_base_brdf_cos), the diffuse keeps 1 - E_spec(n.v) with
+// the film's F0 at n.v, and the specular lobe is drawn by that albedo. Before
+// surface_set_transmission and the occlusion.
+void surface_set_iridescence(inout Surface s, vec3 film, vec3 diffuse, vec2 dfg) {
+    s.film = film;
+    if (!(film.x > 0.0 && film.y > 0.0)) return;
+    vec3 f0 = iridescence_f0(s.f0, s.f90, s.NoV, film);
+    s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, f0) : vec3(1.0);
+    vec3 e_spec = ibl_specular_dfg(dfg, f0, s.f90) * s.spec_scale;
+    s.diffuse = diffuse * max(1.0 - e_spec, 0.0);
+    s.p_spec = specular_lobe_probability(s.diffuse, f0, s.f90, s.NoV);
+}
+#endif
+
 // f(v, l) (n.l), 0 below the surface.
 vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
@@ -92,7 +117,12 @@ vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     vec3 h = normalize(s.v + l);
     float NoH = saturate(dot(s.n, h));
     float VoH = saturate(dot(s.v, h));
+#if GBUFFER_HAS_IRIDESCENCE
+    vec3 spec = d_ggx(NoH, s.a) * v_smith_ggx_correlated(s.NoV, NoL, s.a)
+                * iridescence_fresnel_mix(s.f0, s.f90, VoH, s.film) * s.spec_scale;
+#else
     vec3 spec = ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a) * s.spec_scale;
+#endif
     return (s.diffuse * INV_PI + spec) * NoL;
 }
 
@@ -208,6 +238,9 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
     s.diffuse = diffuse_color(albedo, metallic) * max(1.0 - e_spec, 0.0);
     // lobe choice from the unoccluded albedos: occlusion then scales values, not sample paths
     s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
+#if GBUFFER_HAS_IRIDESCENCE
+    s.film = vec3(0.0);  // none until surface_set_iridescence
+#endif
 #if GBUFFER_HAS_SHEEN
     // the sheen (colour sheen.rgb, roughness sheen.a): drawn by its albedo max3(C) E(n.v)
     // against the base's, both kept reachable when both carry energy

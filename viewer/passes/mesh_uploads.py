@@ -37,10 +37,13 @@ _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "specular_color": "USE_SPECULAR_COLOR_MAP", "clearcoat": "USE_CLEARCOAT_MAP",
                 "clearcoat_roughness": "USE_CLEARCOAT_ROUGHNESS_MAP",
                 "clearcoat_normal": "USE_CLEARCOAT_NORMAL_MAP", "sheen_color": "USE_SHEEN_COLOR_MAP",
-                "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP"}
+                "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP",
+                "iridescence": "USE_IRIDESCENCE_MAP",
+                "iridescence_thickness": "USE_IRIDESCENCE_THICKNESS_MAP"}
 _DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
 _CLEARCOAT_MAPS = ("clearcoat", "clearcoat_roughness", "clearcoat_normal")  # with a coat only
 _SHEEN_MAPS = ("sheen_color", "sheen_roughness")  # with a sheen only
+_FILM_MAPS = ("iridescence", "iridescence_thickness")  # with KHR_materials_iridescence only
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
@@ -66,9 +69,13 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     sheen = mesh.material.has_sheen
     if sheen:
         defines["USE_SHEEN"] = 1
+    film = mesh.material.has_iridescence
+    if film:
+        defines["USE_IRIDESCENCE"] = 1
     for key in mesh.textures:
         if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
-                or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen):
+                or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen) \
+                or (key in _FILM_MAPS and not film):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:
@@ -270,6 +277,8 @@ class MeshUploads:
         if m.has_sheen:
             _set(prog, "u_sheen_color", tuple(float(c) for c in m.sheen_color))
             _set(prog, "u_sheen_roughness", float(m.sheen_roughness))
+        if m.has_iridescence:  # factor, thickness (the maximum), IOR, the thickness map's minimum
+            _set(prog, "u_iridescence", m.iridescence_row())
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

@@ -37,13 +37,19 @@ class Material:
     # shaders/lib/layers.glsl) and its roughness (alpha = r^2)
     sheen_color: tuple[float, float, float] = (0.0, 0.0, 0.0)  # in [0, 1]
     sheen_roughness: float = 0.0  # in [0, 1]
+    # KHR_materials_iridescence: a thin film of this strength (0 = none; shaders/lib/iridescence.glsl),
+    # IOR and thickness in nm (the thickness map's G blends min to max; without it: max)
+    iridescence: float = 0.0  # in [0, 1]
+    iridescence_ior: float = 1.3  # >= 1
+    iridescence_thickness_min: float = 100.0  # nm, >= 0
+    iridescence_thickness_max: float = 400.0  # nm, >= 0
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
                 "specular": self.specular, "ao": self.ao, "specular_factor": self.specular_factor,
                 "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness,
                 "transmission": self.transmission,
-                "sheen_roughness": self.sheen_roughness}
+                "sheen_roughness": self.sheen_roughness, "iridescence": self.iridescence}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
@@ -60,6 +66,13 @@ class Material:
                 0.0 <= float(c) < math.inf for c in self.specular_color):
             raise SceneError(f"specular_color = {list(self.specular_color)} must be 3 finite "
                              f"numbers >= 0", where=where)
+        if not (1.0 <= float(self.iridescence_ior) < math.inf):
+            raise SceneError(f"iridescence_ior = {self.iridescence_ior} must be a finite number "
+                             f">= 1", where=where)
+        for k in ("iridescence_thickness_min", "iridescence_thickness_max"):
+            if not (0.0 <= float(getattr(self, k)) < math.inf):
+                raise SceneError(f"{k} = {getattr(self, k)} must be a finite number >= 0 (nm)",
+                                 where=where)
         if not (0.0 <= float(self.thickness) < math.inf):
             raise SceneError(f"thickness = {self.thickness} must be a finite number >= 0",
                              where=where)
@@ -101,6 +114,18 @@ class Material:
         """KHR_materials_sheen: a sheen colour > 0 (the spec: zero disables the layer)."""
         return max(self.sheen_color) > 0.0
 
+    @property
+    def has_iridescence(self) -> bool:
+        """KHR_materials_iridescence: a factor > 0 (the spec: zero, the default, disables it)."""
+        return self.iridescence > 0.0
+
+    def iridescence_row(self, thickness_map: bool = False) -> tuple[float, float, float, float]:
+        """The G-buffer's ``iridescence`` channel for this material's factors: (factor, thickness
+        in nm, film IOR) and, for a thickness map, the minimum (the map's G blends it to the
+        maximum); the traced material's row (factors only: the maximum)."""
+        return (float(self.iridescence), float(self.iridescence_thickness_max),
+                float(self.iridescence_ior), float(self.iridescence_thickness_min))
+
     def dielectric(self) -> tuple[float, float, float, float]:
         """The G-buffer's ``dielectric`` channel for this material's factors: (F0 rgb, F90) of
         ``shaders/lib/brdf.glsl`` ``dielectric_f0_ior``, or (0, 0, 0, -1) without ``ior`` (the
@@ -111,7 +136,8 @@ class Material:
 # the glTF extensions' fields: a scene file names them only where they differ from the default
 EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness",
                     "transmission", "thickness", "attenuation_color", "attenuation_distance",
-                    "sheen_color", "sheen_roughness")
+                    "sheen_color", "sheen_roughness", "iridescence", "iridescence_ior",
+                    "iridescence_thickness_min", "iridescence_thickness_max")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

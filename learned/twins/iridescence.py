@@ -94,7 +94,7 @@ def iridescence_fresnel(outside_ior: torch.Tensor, film_ior: torch.Tensor,
     for m in (1, 2):
         cm = cm * r123_sqrt
         i = i + cm * 2.0 * iridescence_sensitivity(float(m) * opd, float(m) * phi)
-    return torch.where(tir[..., None], torch.ones_like(i), i.clamp_min(0.0))
+    return torch.where(tir[..., None], torch.ones_like(i), i.clamp(0.0, 1.0))
 
 
 def schlick_to_f0(f: torch.Tensor, f90: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
@@ -125,3 +125,44 @@ def iridescence_f0(f0: torch.Tensor, f90: torch.Tensor, NoV: torch.Tensor,
                                iridescence[..., 1], f0)
     mixed = _mix(f0, schlick_to_f0(film, f90, NoV), saturate(factor)[..., None])
     return torch.where(((factor > 0.0) & (iridescence[..., 1] > 0.0))[..., None], mixed, f0)
+
+
+IRIDESCENCE_ALBEDO_NODES = 32
+
+
+def iridescence_albedo_delta(f0: torch.Tensor, f90: torch.Tensor, NoV: torch.Tensor,
+                             a: torch.Tensor, iridescence: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 iridescence_albedo_delta(vec3 f0, float f90, float NoV, float a,
+    vec3 iridescence)``: f0 ``[..., 3]``, iridescence ``[..., 3]`` -> ``[..., 3]``."""
+    from .brdf import v_smith_ggx_correlated
+
+    c = saturate(NoV)
+    a = a.clamp(1e-4, 1.0)
+    a2 = a * a
+    vx = torch.sqrt((1.0 - c * c).clamp_min(0.0))
+    inv = torch.rsqrt(a2 * vx * vx + sq(c + 1e-7))
+    vh_x, vh_y = a * vx * inv, (c + 1e-7) * inv
+    lam = 2.0 * (c + torch.sqrt(a2 + (1.0 - a2) * c * c))
+    total = torch.zeros_like(f0)
+    for k in range(IRIDESCENCE_ALBEDO_NODES):
+        phi = torch.tensor(TWO_PI * (k + 0.5) / IRIDESCENCE_ALBEDO_NODES, dtype=c.dtype)
+        u1 = torch.tensor(k, dtype=torch.float32) * torch.tensor(0.6180339887498949,
+                                                                  dtype=torch.float32)
+        u1 = (u1 - torch.floor(u1)).to(c.dtype)
+        z = (1.0 - u1) * (1.0 + vh_y) - vh_y
+        sin_t = torch.sqrt((1.0 - z * z).clamp(0.0, 1.0))
+        hx, hy, hz = a * (sin_t * torch.cos(phi) + vh_x), a * sin_t * torch.sin(phi), \
+            (z + vh_y).clamp_min(0.0)
+        n = torch.rsqrt((hx * hx + hy * hy + hz * hz).clamp_min(1e-30))
+        hx, hz = hx * n, hz * n
+        VoH = vx * hx + c * hz
+        NoL = 2.0 * VoH * hz - c
+        w = torch.where(NoL > 0.0, v_smith_ggx_correlated(c, NoL, a) * NoL * lam,
+                        torch.zeros_like(NoL))
+        film = iridescence_fresnel(torch.ones_like(c), iridescence[..., 2], VoH,
+                                   iridescence[..., 1], f0)
+        total = total + (film - f_schlick(f0, f90, VoH)) * w[..., None]
+    factor = iridescence[..., 0]
+    out = total * (saturate(factor) / IRIDESCENCE_ALBEDO_NODES)[..., None]
+    return torch.where(((factor > 0.0) & (iridescence[..., 1] > 0.0))[..., None], out,
+                       torch.zeros_like(out))

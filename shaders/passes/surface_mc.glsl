@@ -13,8 +13,8 @@
 // the base's (transmission included).
 // With GBUFFER_HAS_IRIDESCENCE (KHR_materials_iridescence), the base's specular Fresnel is the
 // spec's mix with the thin film's (lib/iridescence.glsl iridescence_fresnel_mix) at each half
-// vector, exactly; the diffuse keeps 1 - E_spec(n.v) with E_spec's F0 the film's at n.v
-// (iridescence_f0, the split sum's): surface_set_iridescence.
+// vector, exactly; the diffuse keeps 1 - E_spec(n.v), E_spec the DFG terms' plus what the film
+// changes (iridescence_albedo_delta): surface_set_iridescence.
 // With GBUFFER_HAS_TRANSMISSION (KHR_materials_transmission / _volume), the base's non-specular
 // part is split by the factor T (surface_set_transmission): (1 - T) stays Lambertian, T becomes
 // lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
@@ -93,17 +93,18 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
 #if GBUFFER_HAS_IRIDESCENCE
 // The thin film (factor, thickness nm, IOR) of a surface_init surface whose diffuse colour
 // before the energy split is `diffuse` and whose DFG terms are dfg: the Fresnel of its specular
-// lobe becomes the film's mix (surface_base_brdf_cos), the diffuse keeps 1 - E_spec(n.v) with
-// the film's F0 at n.v, and the specular lobe is drawn by that albedo. Before
-// surface_set_transmission and the occlusion.
+// lobe becomes the film's mix (surface_base_brdf_cos), the diffuse keeps 1 - E_spec(n.v) of
+// the film's lobe (the DFG terms' plus iridescence_albedo_delta; the multiple-scattering
+// compensation stays the base's), and the specular lobe is drawn by the film's Fresnel at n.v.
+// Before surface_set_transmission and the occlusion.
 void surface_set_iridescence(inout Surface s, vec3 film, vec3 diffuse, vec2 dfg) {
     s.film = film;
     if (!(film.x > 0.0 && film.y > 0.0)) return;
-    vec3 f0 = iridescence_f0(s.f0, s.f90, s.NoV, film);
-    s.spec_scale = MULTISCATTER != 0 ? ibl_energy_compensation(dfg, f0) : vec3(1.0);
-    vec3 e_spec = ibl_specular_dfg(dfg, f0, s.f90) * s.spec_scale;
+    vec3 e_spec = (ibl_specular_dfg(dfg, s.f0, s.f90)
+                   + iridescence_albedo_delta(s.f0, s.f90, s.NoV, s.a, film)) * s.spec_scale;
     s.diffuse = diffuse * max(1.0 - e_spec, 0.0);
-    s.p_spec = specular_lobe_probability(s.diffuse, f0, s.f90, s.NoV);
+    s.p_spec = specular_lobe_probability(s.diffuse, iridescence_f0(s.f0, s.f90, s.NoV, film),
+                                         s.f90, s.NoV);
 }
 #endif
 

@@ -70,4 +70,11 @@ PARITY_CASES = [
                envelope="iridescence_fresnel's 3e-4 abs divided by 1 - (1 - n.v)^5, >= 0.41 "
                         "for n.v >= 0.1, floored at 1e-4 at grazing (where the clamp to [0, 1] "
                         "bounds it) -> 3e-3 abs away from the clamp"),
+    ParityCase("iridescence_albedo_delta",
+               (_F0, _COS, _COS, Arg(lo=0.002, hi=1.0, adversarial=(0.002025, 1.0)), _FILM),
+               atol=3e-3, rtol=1e-3, measured="max abs 1.9e-6 (seeds 0-7)", prepare=_film,
+               envelope="a mean of 32 iridescence_fresnel values (3e-4 abs each) times "
+                         "f cos / pdf <= 2.5, and the visible normal's float32 rounding moved "
+                         "through the film's phase (67 rad: 1e-5 rad per ulp of v.h) -> "
+                         "8e-4 abs; 3e-3 bound"),
 ]

@@ -301,22 +301,46 @@ def film_truth(mitsuba_llvm, tmp_path_factory):
     return ext, plain, ref
 
 
-# per sphere (|bias|, median per-pixel error) bounds; measured beside them in the test
-SPLIT_SUM_BOUNDS = ((0.08, 0.12), (0.10, 0.20), (0.08, 0.12), (0.08, 0.12))
+def _chromaticity_error(image, ref, count):
+    """Per sphere: the largest difference of the mean colour's chromaticity rgb / (r + g + b)
+    (what the film shifts: a hue more than a brightness)."""
+    from gltf_spheres import sphere_masks
+
+    out = []
+    for m in sphere_masks(count):
+        cov = m & (image[..., 3] > 0.999) & (ref[..., 3] > 0.999)
+        a, b = (x[cov][:, :3].astype(np.float64).sum(0) for x in (image, ref))
+        out.append(float(np.abs(a / a.sum() - b / b.sum()).max()))
+    return out
+
+
+# per sphere (|bias|, median per-pixel error, chromaticity error) bounds. Measured: bias -6.9,
+# +8.6, +2.5, +3.5 %; median 6.2, 6.7, 4.8, 4.7 %; chromaticity 0.0059, 0.0176, 0.0044, 0.0032.
+# The control's -6.9 % is the split sum's own (no film); the bubble's +8.6 % is three.js's F0 of
+# the film's Fresnel at n.v standing for the whole lobe's (and for the diffuse split: its dark
+# base hides that)
+SPLIT_SUM_BOUNDS = ((0.08, 0.10, 0.012), (0.10, 0.10, 0.03), (0.05, 0.08, 0.012),
+                    (0.05, 0.08, 0.008))
 
 
 def test_iridescent_spheres_match_the_reference(film_truth, renderer):
     """The spheres of :func:`_film_materials` (64 x 64), ggx_split_sum against ``relight
-    reference`` (128 spp, direct light): per sphere bias and median per-pixel error within
-    SPLIT_SUM_BOUNDS. The same file without the film fails them on the three films."""
+    reference`` (128 spp, direct light): per sphere bias, median per-pixel error and the mean
+    colour's chromaticity within SPLIT_SUM_BOUNDS. The same file without the film fails them on
+    each of the three films (measured: bubble bias +20.8 %, chromaticity 0.067; gold bias
+    +8.3 %, 0.026; textured chromaticity 0.013)."""
     ext, plain, ref = film_truth
     ref = ref.radiance
-    ours = per_sphere(renderer.render(ext.with_render(model="ggx_split_sum")).radiance, ref, 4)
-    base = per_sphere(renderer.render(plain.with_render(model="ggx_split_sum")).radiance, ref, 4)
-    for k, (s, (b, med)) in enumerate(zip(ours, SPLIT_SUM_BOUNDS)):
-        assert abs(s[0]) <= b and s[1] <= med, (k, s)
-    assert all(abs(s[0]) > b or s[1] > med
-               for s, (b, med) in zip(base[1:], SPLIT_SUM_BOUNDS[1:])), base
+    for scene, films in ((ext, True), (plain, False)):
+        image = renderer.render(scene.with_render(model="ggx_split_sum")).radiance
+        scores = [(*s[:2], c) for s, c in zip(per_sphere(image, ref, 4),
+                                              _chromaticity_error(image, ref, 4))]
+        within = [abs(s[0]) <= b and s[1] <= med and s[2] <= chroma
+                  for s, (b, med, chroma) in zip(scores, SPLIT_SUM_BOUNDS)]
+        if films:
+            assert all(within), scores
+        else:
+            assert within[0] and not any(within[1:]), scores
 
 
 def test_the_path_tracer_converges_to_the_reference_with_the_film(film_truth, renderer):

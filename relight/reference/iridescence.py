@@ -32,15 +32,15 @@ XYZ_TO_REC709 = ((3.2404542, -1.5371385, -0.4985314),
                  (-0.9692660, 1.8760108, 0.0415560),
                  (0.0556434, -0.2040259, 1.0572252))
 
-NUMPY = SimpleNamespace(sqrt=np.sqrt, cos=np.cos, exp=np.exp, select=np.where, clip=np.clip,
-                        maximum=np.maximum)
+NUMPY = SimpleNamespace(sqrt=np.sqrt, cos=np.cos, sin=np.sin, exp=np.exp, select=np.where,
+                        clip=np.clip, maximum=np.maximum)
 ALBEDO_NODES = 32  # lib/iridescence.glsl IRIDESCENCE_ALBEDO_NODES
 
 
 def drjit_ops(dr):
     """The operations :func:`film_fresnel` needs, from Dr.Jit."""
-    return SimpleNamespace(sqrt=dr.sqrt, cos=dr.cos, exp=dr.exp, select=dr.select, clip=dr.clip,
-                           maximum=dr.maximum)
+    return SimpleNamespace(sqrt=dr.sqrt, cos=dr.cos, sin=dr.sin, exp=dr.exp, select=dr.select,
+                           clip=dr.clip, maximum=dr.maximum)
 
 
 def albedo_node(k: int, nodes: int = ALBEDO_NODES) -> tuple[float, float]:
@@ -48,43 +48,50 @@ def albedo_node(k: int, nodes: int = ALBEDO_NODES) -> tuple[float, float]:
     return (k + 0.5) / nodes, float(np.float32(k) * np.float32(0.6180339887498949) % 1.0)
 
 
+def _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior):
+    """One point's (F_film - F_Schlick)(v.h) f cos / pdf (:func:`albedo_delta`), 3 values."""
+    a2 = a * a
+    phi = 2.0 * math.pi * u0
+    z = (1.0 - u1) * (1.0 + vh[1]) - vh[1]
+    sin_t = ops.sqrt(ops.clip(1.0 - z * z, 0.0, 1.0))
+    hx, hy, hz = a * (sin_t * ops.cos(phi) + vh[0]), a * (sin_t * ops.sin(phi)), \
+        ops.maximum(z + vh[1], 0.0)
+    inv = 1.0 / ops.sqrt(ops.maximum(hx * hx + hy * hy + hz * hz, 1e-30))
+    hx, hz = hx * inv, hz * inv
+    voh = vx * hx + c * hz
+    nol = 2.0 * voh * hz - c
+    nl = ops.clip(nol, 0.0, 1.0)
+    vis = 0.5 / ops.maximum(nl * ops.sqrt(c * c * (1.0 - a2) + a2)
+                            + c * ops.sqrt(nl * nl * (1.0 - a2) + a2), 1e-8)
+    weight = ops.select(nol > 0.0, vis * nl * lam, 0.0)
+    film = film_fresnel(ops, voh, thickness_nm, film_ior, f0)
+    x = 1.0 - ops.clip(voh, 0.0, 1.0)
+    x5 = x * x * x * x * x
+    return [(film[ch] - (f0[ch] + (f90 - f0[ch]) * x5)) * weight for ch in range(3)]
+
+
+def _view(ops, nov, a):
+    c = ops.clip(nov, 0.0, 1.0)
+    a = ops.clip(a, 1e-4, 1.0)
+    vx = ops.sqrt(ops.maximum(1.0 - c * c, 0.0))
+    norm = ops.sqrt(a * a * vx * vx + (c + 1e-7) ** 2)
+    lam = 2.0 * (c + ops.sqrt(a * a + (1.0 - a * a) * c * c))  # 1 / (pdf / D) of the reflected l
+    return c, a, vx, (a * vx / norm, (c + 1e-7) / norm), lam  # vh: the stretched view (y = 0)
+
+
 def albedo_delta(ops, f0, f90, nov, a, factor, thickness_nm, film_ior, nodes=ALBEDO_NODES):
     """lib/iridescence.glsl ``iridescence_albedo_delta``: what the film changes in the specular
     lobe's directional albedo, factor x mean over :func:`albedo_node` of (F_film - F_Schlick)(v.h)
     f cos / pdf at the visible normals those points draw (sample_ggx_vndf, Dupuy & Benyoub
     2023), 3 values. Added to the DFG table's E_spec it is the energy split's E_spec."""
-    c = ops.clip(nov, 0.0, 1.0)
-    a = ops.clip(a, 1e-4, 1.0)
-    a2 = a * a
-    vx = ops.sqrt(ops.maximum(1.0 - c * c, 0.0))
-    norm = ops.sqrt(a2 * vx * vx + (c + 1e-7) ** 2)
-    vh = (a * vx / norm, (c + 1e-7) / norm)  # the stretched view (its y is 0)
-    lam = 2.0 * (c + ops.sqrt(a2 + (1.0 - a2) * c * c))  # 1 / (pdf / D) of the reflected l
+    c, a, vx, vh, lam = _view(ops, nov, a)
     out = [0.0, 0.0, 0.0]
     for k in range(nodes):
         u0, u1 = albedo_node(k, nodes)
-        phi = 2.0 * math.pi * u0
-        z = (1.0 - u1) * (1.0 + vh[1]) - vh[1]
-        sin_t = ops.sqrt(ops.clip(1.0 - z * z, 0.0, 1.0))
-        hx, hy, hz = a * (sin_t * math.cos(phi) + vh[0]), a * (sin_t * math.sin(phi)), \
-            ops.maximum(z + vh[1], 0.0)
-        inv = 1.0 / ops.sqrt(ops.maximum(hx * hx + hy * hy + hz * hz, 1e-30))
-        hx, hy, hz = hx * inv, hy * inv, hz * inv
-        voh = vx * hx + c * hz
-        nol = 2.0 * voh * hz - c
-        nl = ops.clip(nol, 0.0, 1.0)
-        vis = 0.5 / ops.maximum(nl * ops.sqrt(c * c * (1.0 - a2) + a2)
-                                + c * ops.sqrt(nl * nl * (1.0 - a2) + a2), 1e-8)
-        weight = ops.select(nol > 0.0, vis * nl * lam, 0.0)
-        film = film_fresnel(ops, voh, thickness_nm, film_ior, f0)
-        x = 1.0 - ops.clip(voh, 0.0, 1.0)
-        x5 = x * x * x * x * x
-        for ch in range(3):
-            out[ch] = out[ch] + (film[ch] - (f0[ch] + (f90 - f0[ch]) * x5)) * weight
+        term = _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior)
+        out = [out[ch] + term[ch] for ch in range(3)]
     w = ops.select(thickness_nm > 0.0, ops.clip(factor, 0.0, 1.0), 0.0)
     return [out[ch] * (w / nodes) for ch in range(3)]
-
-
 def _schlick(ops, f0, c):
     x = 1.0 - ops.clip(c, 0.0, 1.0)
     return f0 + (1.0 - f0) * (x * x * x * x * x)
@@ -183,7 +190,20 @@ def film_fresnel_mix(mi, dr, film, f0, f90, voh):
 
 
 def film_albedo_delta(mi, dr, film, f0, f90, nov, a):
-    """:func:`albedo_delta` as an ``mi.Color3f``."""
-    c = albedo_delta(drjit_ops(dr), [f0.x, f0.y, f0.z], f90, nov, a, film["factor"],
-                     film["thickness"], film["ior"])
-    return mi.Color3f(c[0], c[1], c[2])
+    """:func:`albedo_delta` as an ``mi.Color3f``, its points in one symbolic Dr.Jit loop (the
+    unrolled sum made the plugin's kernel 32 films long: a minute of LLVM compilation)."""
+    ops = drjit_ops(dr)
+    c, a, vx, vh, lam = _view(ops, nov, a)
+    f0c = [f0.x, f0.y, f0.z]
+
+    def body(k, r, g, b):
+        t = mi.Float(k) * 0.6180339887498949  # float32, as the GLSL's fract(float(k) x ...)
+        term = _node_term(ops, f0c, f90, c, a, vx, vh, lam, (mi.Float(k) + 0.5) / ALBEDO_NODES,
+                          t - dr.floor(t), film["thickness"], film["ior"])
+        return k + 1, r + term[0], g + term[1], b + term[2]
+
+    zero = dr.zeros(mi.Float, dr.width(c))
+    _, r, g, b = dr.while_loop((mi.UInt32(0), zero, mi.Float(zero), mi.Float(zero)),
+                               lambda k, r, g, b: k < ALBEDO_NODES, body)
+    w = dr.select(film["thickness"] > 0.0, dr.clip(film["factor"], 0.0, 1.0), 0.0) / ALBEDO_NODES
+    return mi.Color3f(r * w, g * w, b * w)

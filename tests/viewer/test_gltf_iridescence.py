@@ -170,13 +170,13 @@ def _vndf_points(nov, a, u):
 def test_white_furnace_the_film_never_creates_energy():
     """The reference BSDF with a film over a white dielectric base (Lambert of albedo 1 keeping
     1 - E_spec(n.v), the strictest base) and over a white metal (F0 = 1): its directional albedo,
-    the specular lobe's integrated by 2^14 random visible normals (float64, an estimate
+    the specular lobe's integrated by 2^13 random visible normals (float64, an estimate
     independent of the 32 fixed points the energy split uses), never exceeds 1 + 0.012 (the
     quadrature's measured error <= 0.009 plus this estimate's noise, ~0.003) over n.v
-    0.02..1, roughness 0.1..1, films 100..1200 nm of IOR 1.3 and 1.8 (measured max 1.0012).
+    0.02..1, roughness 0.1..1, films 100..1200 nm of IOR 1.3 and 1.8 (measured max 1.0013).
     Without the quadrature (E_spec from the film's Fresnel at n.v, the split sum's F0) the same
     surfaces reach 1.064: asserted above 1.05, so the bound can fail."""
-    u = np.random.default_rng(7).random((1 << 14, 2))
+    u = np.random.default_rng(7).random((1 << 13, 2))
     worst = worst_cheap = 0.0
     for nov in (0.02, 0.1, 0.3, 0.7, 1.0):
         for rough in (0.1, 0.3, 0.6, 1.0):

@@ -179,7 +179,7 @@ def film_state(mi, dr, bsdf, si):
     if bsdf.iridescence_thickness_texture is not None:
         g = bsdf.iridescence_thickness_texture.eval(si).x  # the map's G (scene.py keeps it)
         thickness = dr.lerp(mi.Float(m.iridescence_thickness_min), thickness, g)
-    return dict(factor=factor, thickness=thickness, ior=float(m.iridescence_ior))
+    return {"factor": factor, "thickness": thickness, "ior": float(m.iridescence_ior)}
 
 
 def film_fresnel_mix(mi, dr, film, f0, f90, voh):

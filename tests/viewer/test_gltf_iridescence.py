@@ -181,7 +181,7 @@ def test_white_furnace_the_film_never_creates_energy():
     for nov in (0.02, 0.1, 0.3, 0.7, 1.0):
         for rough in (0.1, 0.3, 0.6, 1.0):
             a = rough * rough
-            voh, nol, w = _vndf_points(nov, a, u)
+            voh, _, w = _vndf_points(nov, a, u)
             x5 = (1.0 - voh) ** 5
             e_dfg = (w * x5).mean(), (w * (1.0 - x5)).mean()  # the DFG terms, as the table's
             for f0 in (0.04, 1.0):

@@ -38,6 +38,9 @@ anisotropy       2   KHR_materials_anisotropy: strength s times (cos, sin) of th
                      angle in the frame of the stored normal (lib/anisotropy.glsl
                      anisotropy_encode); background 0 = isotropic; only allocated when a scene
                      has an anisotropic material
+iridescence      3   KHR_materials_iridescence: factor, the film's thickness (nm), its IOR;
+                     background 0 = no film; only allocated when a scene has an iridescent
+                     material
 ================ === ==========================================================================
 
 Bytes per pixel: channels are packed into RGBA attachments of 16 bytes per pixel (``f4``) or 8
@@ -50,11 +53,13 @@ pays 48 (24), one with both lobes 80 (40), a sheen alone 64 (32). ``transmission
 (the colour and emission attachments have one each; the base layout one where ``ao`` is
 omitted): +0 to +16 B/px (+8). The all-features layout is 8 attachments (128 B/px, 64 at fp16),
 GL's guaranteed minimum of draw buffers: the transmission pair rides in the colour and emission
-attachments, the sheen takes the eighth. ``anisotropy`` (2 components) adds an attachment,
-+16 B/px (+8): 64 B/px (32) for an anisotropic scene without other optional channels (it shares
-one with the transmission pair where both are allocated); it has no room in the all-features
-layout, which carries it only for a scene that has it, without the optional channels that scene
-does not use (:func:`viewer.specialize.specialise`). Omitted channels shrink the
+attachments, the sheen takes the eighth. ``anisotropy`` (2 components) and ``iridescence`` (3)
+add up to one attachment each, +16 B/px (+8): 64 B/px (32) for a scene with one of them and no
+other optional channel (the anisotropy shares an attachment with the transmission pair where
+both are allocated). They have no room in the all-features layout, which carries them only for a
+scene that has them, without the optional channels that scene does not use
+(:func:`viewer.specialize.specialise`); a scene whose materials would need a ninth attachment is
+one error naming the channels. Omitted channels shrink the
 layout further. :meth:`GBufferLayout.bytes_per_pixel` gives any layout's figure.
 """
 from __future__ import annotations
@@ -62,6 +67,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+
+from .errors import SceneError
 
 
 @dataclass(frozen=True)
@@ -101,8 +108,12 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("anisotropy", 2, 8, 0, (0.0, 0.0),
             "glTF anisotropy: strength x (cos, sin) of its direction in the normal's frame",
             optional=True, declared_when_allocated=True),
+    Channel("iridescence", 3, 8, 0, (0.0, 0.0, 0.0),
+            "glTF iridescence: factor, film thickness (nm), film IOR", optional=True,
+            declared_when_allocated=True),
 )
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
+MAX_ATTACHMENTS = 8  # GL_MAX_DRAW_BUFFERS' guaranteed minimum (llvmpipe's value)
 _GLSL_TYPE = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
 
 
@@ -144,6 +155,7 @@ class GBufferLayout:
     with_transmission: bool = False
     with_sheen: bool = False  # the optional sheen channel (KHR_materials_sheen)
     with_anisotropy: bool = False  # the optional anisotropy channel (KHR_materials_anisotropy)
+    with_iridescence: bool = False  # the optional iridescence channel (KHR_materials_iridescence)
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -163,7 +175,19 @@ class GBufferLayout:
                                   "transmission": self.with_transmission,
                                   "transmission_ior": self.with_transmission,
                                   "sheen": self.with_sheen,
-                                  "anisotropy": self.with_anisotropy}[c.name]
+                                  "anisotropy": self.with_anisotropy,
+                                  "iridescence": self.with_iridescence}[c.name]
+
+    def check_draw_buffers(self) -> None:
+        """A SceneError naming the optional channels when this layout needs more attachments than
+        GL guarantees draw buffers (:data:`MAX_ATTACHMENTS`): a scene whose materials use every
+        extension at once. (Torch-side layouts, which allocate nothing, may list every channel.)"""
+        if len(self.attachments) > MAX_ATTACHMENTS:
+            lobes = [c.name for c in self.channels if c.optional]
+            raise SceneError(f"the scene's materials need {len(self.attachments)} G-buffer "
+                             f"attachments ({', '.join(lobes)} besides the base), more than "
+                             f"GL's guaranteed {MAX_ATTACHMENTS}; drop one of these extensions "
+                             f"from the materials")
 
     def bytes_per_pixel(self) -> int:
         """Render-target memory of this layout per pixel: RGBA attachments of 4 (``f4``) or 2
@@ -205,6 +229,9 @@ class GBufferLayout:
                  f"#define GBUFFER_HAS_ANISOTROPY {int(self.with_anisotropy)}",
                  "#define GBUFFER_ANISOTROPY(g) " + ("((g).anisotropy)" if self.with_anisotropy
                                                      else "vec2(0.0)"),
+                 f"#define GBUFFER_HAS_IRIDESCENCE {int(self.with_iridescence)}",
+                 "#define GBUFFER_IRIDESCENCE(g) " + ("((g).iridescence)" if self.with_iridescence
+                                                      else "vec3(0.0)"),
                  "struct GBuffer {"]
         declared = [c for c in CHANNELS
                     if not c.declared_when_allocated or self._wanted_optional(c)]

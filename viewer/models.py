@@ -214,6 +214,7 @@ def refracts_forward(model: str) -> bool:
     return model not in TRANSMISSION_MODELS | {"unlit"}
 SHEEN_MODELS = CLEARCOAT_MODELS  # and KHR_materials_sheen's sheen
 ANISOTROPY_MODELS = CLEARCOAT_MODELS  # and KHR_materials_anisotropy's stretched lobe
+IRIDESCENCE_MODELS = CLEARCOAT_MODELS  # and KHR_materials_iridescence's thin film
 
 
 def ignored_settings(model: ShadingModel, asked, variant: ShadeVariant) -> list[tuple[str, str]]:
@@ -276,4 +277,9 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("anisotropy", f"model {model.name!r} ignores KHR_materials_anisotropy "
                                   f"(shaded by {', '.join(sorted(ANISOTROPY_MODELS))}); the "
                                   f"specular lobe is shown isotropic"))
+    if layout.with_iridescence and model.name not in IRIDESCENCE_MODELS | {"unlit"}:
+        out.append(("iridescence", f"model {model.name!r} ignores the KHR_materials_iridescence "
+                                   f"thin film (shaded by "
+                                   f"{', '.join(sorted(IRIDESCENCE_MODELS))}); the base is shown "
+                                   f"without it"))
     return out

@@ -43,6 +43,7 @@ class SceneFeatures:
     transmission: bool = False
     sheen: bool = False  # some mesh has a KHR_materials_sheen sheen (colour > 0)
     anisotropy: bool = False  # some mesh has KHR_materials_anisotropy (strength > 0)
+    iridescence: bool = False  # some mesh has a KHR_materials_iridescence film (factor > 0)
 
 
 @dataclass(frozen=True)
@@ -71,7 +72,7 @@ def _mesh_features(mesh) -> tuple[bool, bool]:
         metal = float(np.max(tex["metallic_roughness"][..., 2])) > 0.0
     # the glTF lobe (Material.ior) has F90 = specular_factor: a lobe wherever that is > 0
     specular = (m.specular if m.ior is None else m.specular_factor) > 0.0 or metal \
-        or m.clearcoat > 0.0 or m.has_sheen  # a coat or a sheen is a specular lobe
+        or m.clearcoat > 0.0 or m.has_sheen or m.has_iridescence  # so are a coat, a sheen, a film
     # (an anisotropic lobe is the specular lobe stretched: specular only where that is)
     ao = m.ao < 1.0 or ("occlusion" in tex and float(np.min(tex["occlusion"][..., 0])) < 1.0
                         and getattr(mesh, "occlusion_strength", 1.0) > 0.0)
@@ -83,6 +84,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     splats = meshes = stacks = False
     specular = ao = emission = blend = dielectric = clearcoat = transmission = sheen = False
     anisotropy = False
+    iridescence = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -108,6 +110,7 @@ def analyse(renderer, scene) -> SceneFeatures:
                 # the forward pass's programs set the transmission fields too
                 transmission = transmission or mesh.material.transmission > 0.0
                 anisotropy = anisotropy or mesh.material.has_anisotropy
+                iridescence = iridescence or mesh.material.has_iridescence
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -123,21 +126,25 @@ def analyse(renderer, scene) -> SceneFeatures:
                          constant_environment=constant, single_object=len(scene.objects) == 1,
                          emission=emission, blend=blend, dielectric=dielectric,
                          clearcoat=clearcoat, transmission=transmission, sheen=sheen,
-                         anisotropy=anisotropy)
+                         anisotropy=anisotropy, iridescence=iridescence)
 
 
 def _all_features_layout(features: SceneFeatures | None, dtype: str) -> GBufferLayout:
-    """Every channel, every lobe: GL's guaranteed 8 draw buffers hold all but the anisotropy
-    channel, which a scene with an anisotropic material gets in place of the optional channels
-    it does not use (a scene using every one of them would need a ninth attachment)."""
-    if features is None or not features.anisotropy:
+    """Every channel, every lobe: GL's guaranteed 8 draw buffers hold all but the anisotropy and
+    iridescence channels, which a scene with such a material gets in place of the optional
+    channels it does not use (a scene using every one of them would need a ninth attachment)."""
+    if features is None or not (features.anisotropy or features.iridescence):
         return GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
                              with_dielectric=True, with_clearcoat=True, with_transmission=True,
                              with_sheen=True)
-    return GBufferLayout(with_color=features.splats, dtype=dtype, with_emission=features.emission,
-                         with_dielectric=features.dielectric, with_clearcoat=features.clearcoat,
-                         with_transmission=features.transmission, with_sheen=features.sheen,
-                         with_anisotropy=True)
+    layout = GBufferLayout(with_color=features.splats, dtype=dtype,
+                           with_emission=features.emission, with_dielectric=features.dielectric,
+                           with_clearcoat=features.clearcoat,
+                           with_transmission=features.transmission, with_sheen=features.sheen,
+                           with_anisotropy=features.anisotropy,
+                           with_iridescence=features.iridescence)
+    layout.check_draw_buffers()
+    return layout
 
 
 _SPECULAR_CHANNELS = {"roughness", "metallic", "specular"}
@@ -197,13 +204,14 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
     omit = frozenset(c for c in CHANNEL_NAMES if c not in needed and c not in _OPTIONAL)
     direct = features.stacks and not (features.meshes or features.splats) and \
         features.single_object and dtype == "f4"
-    return Specialization(GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
-                                        with_emission=features.emission,
-                                        with_dielectric=features.dielectric,
-                                        with_clearcoat=features.clearcoat,
-                                        with_transmission=features.transmission,
-                                        with_sheen=features.sheen,
-                                        with_anisotropy=features.anisotropy),
+    layout = GBufferLayout(with_color=features.splats, dtype=dtype, omit=omit,
+                           with_emission=features.emission, with_dielectric=features.dielectric,
+                           with_clearcoat=features.clearcoat,
+                           with_transmission=features.transmission, with_sheen=features.sheen,
+                           with_anisotropy=features.anisotropy,
+                           with_iridescence=features.iridescence)
+    layout.check_draw_buffers()  # a scene using every extension at once: one clear line
+    return Specialization(layout,
                           model.variant(settings, light, specular=features.specular,
                                         sun=sun, contact=contact, traceable=traceable),
                           direct_stack=direct)

@@ -226,7 +226,8 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
     h, w = size_hw
     layout = GBufferLayout(with_color=True, with_emission=True, with_dielectric=True,
                            with_clearcoat=True, with_transmission=True,
-                           with_sheen=True, with_anisotropy=True)  # every channel GL reads back
+                           with_sheen=True, with_anisotropy=True,
+                           with_iridescence=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
     base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
                                      for k in bg}
@@ -263,6 +264,9 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
         "sheen": torch.cat([wu * base["sheen"][:, :3] / safe, base["sheen"][:, 3:]], -1),
         # nor an anisotropic lobe: its strength x direction blends to 0 over them
         "anisotropy": wu * base["anisotropy"] / safe,
+        # nor a thin film: its factor blends to 0 (its thickness and IOR: underneath)
+        "iridescence": torch.cat([wu * base["iridescence"][:, :1] / safe,
+                                  base["iridescence"][:, 1:]], -1),
     }
     if median is not None:
         on_splat = (coverage >= splat_median_target(coverage, base["alpha"][:, 0])) & (median < 1e30)

@@ -21,7 +21,9 @@ integral the renderer's LUT estimates with 4096 Hammersley samples (the two agre
 
 A ``KHR_materials_clearcoat`` coat is layered over this as :mod:`relight.reference.layers` says
 (the base keeps 1 - w of itself, w = c F_c(n.v); shaders/lib/layers.glsl), a
-``KHR_materials_sheen`` sheen between them as :mod:`relight.reference.sheen` says, and
+``KHR_materials_sheen`` sheen between them as :mod:`relight.reference.sheen` says, a
+``KHR_materials_iridescence`` film changes the Fresnel term and E_spec as
+:mod:`relight.reference.iridescence` says, and
 ``KHR_materials_transmission`` / ``_volume`` split the base's non-specular part as
 :mod:`relight.reference.transmission` says (seen from both sides;
 shaders/lib/transmission.glsl), and ``KHR_materials_anisotropy`` stretches the specular lobe as
@@ -37,6 +39,7 @@ from __future__ import annotations
 import functools
 
 from .anisotropy import anisotropic_dv, anisotropic_pdf, anisotropic_sample, anisotropy_state
+from .iridescence import film_albedo_delta, film_fresnel_mix, film_state
 from .layers import coat_eval, coat_pdf, coat_state
 from .quadrature import DFG_TABLE_SIZE, MIN_PERCEPTUAL_ROUGHNESS, directional_albedo_table
 from .quadrature import brdf_cos_numpy  # noqa: F401 (the plugin's formula in numpy, for tests)
@@ -81,6 +84,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.clearcoat_texture = self.clearcoat_roughness_texture = None
             self.sheen_color_texture = self.sheen_roughness_texture = self.sheen_table = None
             self.anisotropy_texture = None
+            self.iridescence_texture = self.iridescence_thickness_texture = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -101,6 +105,8 @@ def _bsdf_class(mi, dr, variant: str):
             self.sheen_color_texture = textures.get("sheen_color")  # KHR_materials_sheen
             self.sheen_roughness_texture = textures.get("sheen_roughness")  # the map's A
             self.anisotropy_texture = textures.get("anisotropy")  # RG direction, B strength
+            self.iridescence_texture = textures.get("iridescence")  # R (KHR_materials_iridescence)
+            self.iridescence_thickness_texture = textures.get("iridescence_thickness")  # its G
             if max(material.sheen_color) > 0.0:
                 self.sheen_table = table_texture(mi, dr)
             if material.transmission > 0.0:  # seen from both sides, light passes through
@@ -158,7 +164,11 @@ def _bsdf_class(mi, dr, variant: str):
                 c_ms = 1.0 + f0 * (1.0 / dr.maximum(y, 1e-4) - 1.0)
             else:
                 c_ms = mi.Color3f(1.0)
-            e_spec = (f0 * (y - x) + f90 * x) * c_ms
+            e_spec = f0 * (y - x) + f90 * x
+            film = film_state(mi, dr, self, si)
+            if film is not None:  # what the film changes in E_spec (its Fresnel: _eval, per v.h)
+                e_spec = e_spec + film_albedo_delta(mi, dr, film, f0, f90, nov, a)
+            e_spec = e_spec * c_ms
             kd = albedo * (1.0 - metal) * dr.maximum(1.0 - e_spec, 0.0)
             p_trans = 0.0 if t is None else t["T"]  # the BTDF's share of the base's kd
             transmit, kd = kd * p_trans, kd * (1.0 - p_trans)
@@ -178,7 +188,7 @@ def _bsdf_class(mi, dr, variant: str):
             return dict(aniso=anisotropy_state(mi, dr, self, si, frame, a),
                         a=a, f0=f0, f90=f90, c_ms=c_ms, kd=kd, p_spec=p_spec, nov=nov, wi=wi,
                         frame=frame, coat=coat, t=t, transmit=transmit, p_trans=p_trans,
-                        sheen=sheen_state(mi, dr, self, si, wi, ls + ld))
+                        sheen=sheen_state(mi, dr, self, si, wi, ls + ld), film=film)
 
         def _fresnel(self, si, albedo, metal):
             """f0 and f90 at the hit: lib/brdf.glsl ``surface_f0_f90`` (module docstring)."""
@@ -230,6 +240,8 @@ def _bsdf_class(mi, dr, variant: str):
             fr = s["f0"] + (s["f90"] - s["f0"]) * x5
             if s["aniso"] is not None:  # KHR_materials_anisotropy: the stretched lobe's D V
                 d, vis = anisotropic_dv(mi, dr, s["aniso"], wi, wo, h), 1.0
+            if s["film"] is not None:
+                fr = film_fresnel_mix(mi, dr, s["film"], s["f0"], s["f90"], voh)
             value = (s["kd"] * dr.inv_pi + d * vis * fr * s["c_ms"]) * nl
             ok = (nol > 0.0) & (nov > 0.0)
             return dr.select(ok, value, 0.0)

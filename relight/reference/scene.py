@@ -125,7 +125,8 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         where = obj.path or obj.type
         textures = {}
         for key in ("base_color", "metallic_roughness", "normal", "specular_color", "clearcoat",
-                    "clearcoat_roughness", "sheen_color", "anisotropy"):
+                    "clearcoat_roughness", "sheen_color", "anisotropy",
+                    "iridescence"):
             if key in mesh.textures:
                 textures[key] = _texture(mi, mesh.textures[key], mesh.sampling.get(key), where)
         if "specular" in mesh.textures:  # KHR_materials_specular: its factor is the map's A
@@ -134,6 +135,11 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         if "sheen_roughness" in mesh.textures:  # KHR_materials_sheen: its roughness is the A
             textures["sheen_roughness"] = _texture(mi, mesh.textures["sheen_roughness"][..., 3:4],
                                                    mesh.sampling.get("sheen_roughness"), where)
+        if "iridescence_thickness" in mesh.textures:  # KHR_materials_iridescence: the map's G
+            img = mesh.textures["iridescence_thickness"]
+            textures["iridescence_thickness"] = _texture(
+                mi, img[..., 1:2] if img.shape[-1] >= 2 else img[..., :1],
+                mesh.sampling.get("iridescence_thickness"), where)
         ignored = ["occlusion map"] if "occlusion" in mesh.textures else []
         if "clearcoat_normal" in mesh.textures and mesh.material.clearcoat > 0.0:
             ignored.append("the clearcoat normal map (the coat has the vertex normal)")

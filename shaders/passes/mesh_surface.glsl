@@ -17,6 +17,8 @@
 // u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and USE_SHEEN_ROUGHNESS_MAP (A);
 // USE_ANISOTROPY (KHR_materials_anisotropy: the G-buffer's anisotropy channel,
 // passes/mesh_anisotropy.glsl) with USE_ANISOTROPY_MAP;
+// USE_IRIDESCENCE (KHR_materials_iridescence: the G-buffer's iridescence channel from
+// u_iridescence) with USE_IRIDESCENCE_MAP (R) and USE_IRIDESCENCE_THICKNESS_MAP (G);
 // USE_UV0 / USE_UV1 when a map reads that texture coordinate set;
 // USE_VERTEX_COLOR (COLOR_0 multiplies the base colour and alpha; with UNLIT_VERTEX_COLOR, a
 // KHR_materials_unlit surface, whose colour the loader made its emission, that emission too).
@@ -114,6 +116,21 @@ uniform sampler2D u_sheen_roughness_map;     // A = roughness
 uniform int u_sheen_roughness_set;
 uniform mat3 u_sheen_roughness_uv;
 uniform vec2 u_sheen_roughness_mirror;
+#endif
+#ifdef USE_IRIDESCENCE
+uniform vec4 u_iridescence;  // factor, thickness (the maximum, nm), film IOR, the minimum (nm)
+#endif
+#ifdef USE_IRIDESCENCE_MAP
+uniform sampler2D u_iridescence_map;         // R = factor
+uniform int u_iridescence_set;
+uniform mat3 u_iridescence_uv;
+uniform vec2 u_iridescence_mirror;
+#endif
+#ifdef USE_IRIDESCENCE_THICKNESS_MAP
+uniform sampler2D u_iridescence_thickness_map;  // G blends the minimum to the maximum
+uniform int u_iridescence_thickness_set;
+uniform mat3 u_iridescence_thickness_uv;
+uniform vec2 u_iridescence_thickness_mirror;
 #endif
 #ifdef USE_SPECULAR_MAP
 uniform sampler2D u_specular_map;            // A = specular factor
@@ -319,6 +336,21 @@ GBuffer mesh_surface(out float alpha) {
 #endif
 #if defined(USE_ANISOTROPY) && GBUFFER_HAS_ANISOTROPY
     g.anisotropy = mesh_anisotropy(n, normalize(v_normal_ws), facing);
+#endif
+#if defined(USE_IRIDESCENCE) && GBUFFER_HAS_IRIDESCENCE
+    // (the all-features layout has no iridescence channel: GL's 8 draw buffers are full)
+    vec3 film = u_iridescence.xyz;
+#ifdef USE_IRIDESCENCE_MAP
+    film.x *= sample_map(u_iridescence_map, map_uv(u_iridescence_set, u_iridescence_uv),
+                         u_iridescence_mirror).r;
+#endif
+#ifdef USE_IRIDESCENCE_THICKNESS_MAP
+    film.y = mix(u_iridescence.w, u_iridescence.y,
+                 sample_map(u_iridescence_thickness_map,
+                            map_uv(u_iridescence_thickness_set, u_iridescence_thickness_uv),
+                            u_iridescence_thickness_mirror).g);
+#endif
+    g.iridescence = film;
 #endif
     g.normal = n * facing;  // back faces: flip towards the viewer
     g.alpha = 1.0;

@@ -86,6 +86,11 @@ void main() {
                              fresnel.rgb, fresnel.a, g.clearcoat.xy,
                              shading_normal(oct_decode(g.clearcoat.zw), -d), GBUFFER_SHEEN(g),
                              dfg);
+    vec3 f0_lights = s.f0;  // the delta lights' F0 (the split sum's)
+#if GBUFFER_HAS_IRIDESCENCE
+    surface_set_iridescence(s, g.iridescence, diffuse_color(g.albedo, g.metallic), dfg);
+    f0_lights = iridescence_f0(s.f0, s.f90, s.NoV, s.film);
+#endif
 #if GBUFFER_HAS_TRANSMISSION
     // no rays to follow through a transmissive surface: ggx_mc shades its base opaque (a warning)
     surface_set_transmission(s, 0.0, 0.0, false);
@@ -107,11 +112,11 @@ void main() {
         vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
 #if GBUFFER_HAS_SHEEN
         // the base under the sheen, light by light (the spec's min form), and the sheen
-        vec3 lit = lights_ggx_sheen(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
+        vec3 lit = lights_ggx_sheen(diffuse_color(g.albedo, g.metallic), f0_lights, s.f90, s.a, dfg,
                                     float(MULTISCATTER), s.n, s.v, p, s.sheen, s.r_sheen,
                                     s.e_sheen);
 #else
-        vec3 lit = lights_ggx(diffuse_color(g.albedo, g.metallic), s.f0, s.f90, s.a, dfg,
+        vec3 lit = lights_ggx(diffuse_color(g.albedo, g.metallic), f0_lights, s.f90, s.a, dfg,
                               float(MULTISCATTER), s.n, s.v, p);
 #endif
 #if GBUFFER_HAS_ANISOTROPY

@@ -16,6 +16,7 @@
 #include "lib/ibl.glsl"
 #include "lib/shading.glsl"
 #include "lib/layers.glsl"
+#include "lib/iridescence.glsl"
 #include "passes/lights.glsl"
 #include "passes/rt_light.glsl"
 #include "passes/env_lights.glsl"
@@ -162,6 +163,11 @@ void main() {
     vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);
     vec3 f0 = fresnel.rgb;
     float f90 = fresnel.a;
+#if GBUFFER_HAS_IRIDESCENCE
+    // KHR_materials_iridescence (lib/iridescence.glsl): the thin film's Fresnel at n.v in place
+    // of the Schlick F0 term (three.js), for the environment's light and the lights' alike
+    f0 = iridescence_f0(f0, f90, NoV, g.iridescence);
+#endif
 #if FORWARD_TRANSMISSION
     // KHR_materials_transmission (the forward pass, passes/forward_surface.glsl): the base's
     // share T receives the opaque frame refracted through the surface in place of its

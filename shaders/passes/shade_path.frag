@@ -195,6 +195,11 @@ void main() {
     vec4 aniso = anisotropy_at(GBUFFER_ANISOTROPY(g), g.normal, s0.s.n);
     surface_set_anisotropy(s0.s, aniso.xyz, aniso.w);
 #endif
+#if GBUFFER_HAS_IRIDESCENCE
+    // the thin film at the first hit (traced hits: the base without it)
+    surface_set_iridescence(s0.s, g.iridescence, diffuse_color(g.albedo, g.metallic),
+                            ibl_dfg(u_env_dfg, s0.s.NoV, clamp_perceptual_roughness(g.roughness)));
+#endif
 #if GBUFFER_HAS_TRANSMISSION
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);

@@ -71,6 +71,9 @@ void main() {
 #if GBUFFER_HAS_ANISOTROPY
     g.anisotropy = w_under * under.anisotropy / total;  // nor an anisotropic lobe
 #endif
+#if GBUFFER_HAS_IRIDESCENCE
+    g.iridescence.x = w_under * under.iridescence.x / total;  // nor a film (its thickness, IOR:
+#endif                                                        // the surface's underneath)
     if (under.dielectric.a >= 0.0) {
         g.dielectric = (coverage * vec4(0.04, 0.04, 0.04, 1.0) + w_under * under.dielectric)
                        / total;

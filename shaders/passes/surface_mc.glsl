@@ -11,6 +11,10 @@
 // max(E(n.v), E(|n.l|))) f_base (the spec's albedo scaling, exact here; the base's BTDF below
 // is scaled by it too), drawn uniformly over the hemisphere by its albedo max3(C) E(n.v) against
 // the base's (transmission included).
+// With GBUFFER_HAS_IRIDESCENCE (KHR_materials_iridescence), the base's specular Fresnel is the
+// spec's mix with the thin film's (lib/iridescence.glsl iridescence_fresnel_mix) at each half
+// vector, exactly; the diffuse keeps 1 - E_spec(n.v), E_spec the DFG terms' plus what the film
+// changes (iridescence_albedo_delta): surface_set_iridescence.
 // With GBUFFER_HAS_TRANSMISSION (KHR_materials_transmission / _volume), the base's non-specular
 // part is split by the factor T (surface_set_transmission): (1 - T) stays Lambertian, T becomes
 // lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
@@ -23,6 +27,7 @@
 // and the transmission lobe stays isotropic.
 #include "lib/transmission.glsl"
 #include "lib/anisotropy.glsl"
+#include "lib/iridescence.glsl"
 #ifndef MULTISCATTER
 #define MULTISCATTER 0
 #endif
@@ -64,6 +69,9 @@ struct Surface {
     float e_sheen;     // E(n.v, r_sheen), lib/layers.glsl sheen_albedo
     float p_sheen;     // probability of sampling it (after the coat, before the base's lobes)
 #endif
+#if GBUFFER_HAS_IRIDESCENCE
+    vec3 film;         // KHR_materials_iridescence: factor, thickness (nm), IOR; x = 0: none
+#endif
 };
 
 #if GBUFFER_HAS_TRANSMISSION
@@ -91,6 +99,24 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
 }
 #endif
 
+#if GBUFFER_HAS_IRIDESCENCE
+// The thin film (factor, thickness nm, IOR) of a surface_init surface whose diffuse colour
+// before the energy split is `diffuse` and whose DFG terms are dfg: the Fresnel of its specular
+// lobe becomes the film's mix (surface_base_brdf_cos), the diffuse keeps 1 - E_spec(n.v) of
+// the film's lobe (the DFG terms' plus iridescence_albedo_delta; the multiple-scattering
+// compensation stays the base's), and the specular lobe is drawn by the film's Fresnel at n.v.
+// Before surface_set_transmission and the occlusion.
+void surface_set_iridescence(inout Surface s, vec3 film, vec3 diffuse, vec2 dfg) {
+    s.film = film;
+    if (!(film.x > 0.0 && film.y > 0.0)) return;
+    vec3 e_spec = (ibl_specular_dfg(dfg, s.f0, s.f90)
+                   + iridescence_albedo_delta(s.f0, s.f90, s.NoV, s.a, film)) * s.spec_scale;
+    s.diffuse = diffuse * max(1.0 - e_spec, 0.0);
+    s.p_spec = specular_lobe_probability(s.diffuse, iridescence_f0(s.f0, s.f90, s.NoV, film),
+                                         s.f90, s.NoV);
+}
+#endif
+
 #if GBUFFER_HAS_ANISOTROPY
 // KHR_materials_anisotropy of strength s along the unit direction t (in n's plane) on a
 // surface_init surface: the frame (t, b) becomes the lobe's, alpha_t grows with s.
@@ -108,6 +134,16 @@ bool surface_anisotropic(Surface s) {
 }
 #endif
 
+// The specular lobe's Fresnel at v.h: the thin film's mix where the scene has one
+// (surface_set_iridescence), else Schlick's.
+vec3 surface_fresnel(Surface s, float VoH) {
+#if GBUFFER_HAS_IRIDESCENCE
+    return iridescence_fresnel_mix(s.f0, s.f90, VoH, s.film);
+#else
+    return f_schlick(s.f0, s.f90, VoH);
+#endif
+}
+
 // The specular BRDF (no n.l, no compensation) for l with half vector h.
 vec3 surface_specular_brdf(Surface s, vec3 l, vec3 h, float NoL, float NoH, float VoH) {
 #if GBUFFER_HAS_ANISOTROPY
@@ -116,10 +152,14 @@ vec3 surface_specular_brdf(Surface s, vec3 l, vec3 h, float NoL, float NoH, floa
                * v_smith_ggx_correlated_anisotropic(s.NoV, NoL, dot(s.t, s.v), dot(s.b, s.v),
                                                     dot(s.t, l), dot(s.b, l), s.alphas.x,
                                                     s.alphas.y)
-               * f_schlick(s.f0, s.f90, VoH);
+               * surface_fresnel(s, VoH);
     }
 #endif
+#if GBUFFER_HAS_IRIDESCENCE
+    return d_ggx(NoH, s.a) * v_smith_ggx_correlated(s.NoV, NoL, s.a) * surface_fresnel(s, VoH);
+#else
     return ggx_specular_brdf(s.f0, s.f90, s.NoV, NoL, NoH, VoH, s.a);
+#endif
 }
 
 // pdf of the specular lobe's visible-normal draw of l (half vector h).
@@ -269,6 +309,9 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
     s.p_spec = specular_lobe_probability(s.diffuse, s.f0, s.f90, s.NoV);
 #if GBUFFER_HAS_ANISOTROPY
     s.alphas = vec2(s.a);  // isotropic until surface_set_anisotropy
+#endif
+#if GBUFFER_HAS_IRIDESCENCE
+    s.film = vec3(0.0);  // none until surface_set_iridescence
 #endif
 #if GBUFFER_HAS_SHEEN
     // the sheen (colour sheen.rgb, roughness sheen.a): drawn by its albedo max3(C) E(n.v)

@@ -16,9 +16,9 @@ from viewer.splats.data import make_splats
 
 def test_parity_with_glsl_on_1500_splat_scenes(programs):
     results = parity_check(programs, seeds=(0, 1), n=1500)
-    # 2 scenes x (16 channels: the glTF dielectric, clearcoat, transmission, sheen and
-    # anisotropy ones too, + the median depth)
-    assert len(results) == 34
+    # 2 scenes x (18 channels: the glTF dielectric, clearcoat, transmission, sheen, anisotropy
+    # and iridescence ones too, + the median depth)
+    assert len(results) == 36
     for r in results:
         assert r.passed, (r.name, r.max_abs)
         assert r.max_abs < PARITY_ATOL

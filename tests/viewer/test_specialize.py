@@ -80,3 +80,22 @@ def test_lone_stack_is_shaded_in_place_with_identical_output(renderer, tmp_path)
     special = renderer.render(scene, aovs=("albedo", "normal"))
     np.testing.assert_allclose(special.radiance, general.radiance, atol=1e-4, rtol=0)
     np.testing.assert_array_equal(special.aovs["albedo"], general.aovs["albedo"])
+
+
+def test_a_layout_beyond_the_draw_buffers_is_one_line_naming_its_channels():
+    """Every material extension at once needs more G-buffer attachments than GL guarantees draw
+    buffers (8): one SceneError naming them, before anything is allocated; a scene with all
+    but one lobe fits."""
+    from viewer.errors import SceneError
+    from viewer.gbuffer import MAX_ATTACHMENTS, GBufferLayout
+
+    every = dict(with_emission=True, with_dielectric=True, with_clearcoat=True,
+                 with_transmission=True, with_sheen=True, with_anisotropy=True,
+                 with_iridescence=True)
+    with pytest.raises(SceneError) as err:
+        GBufferLayout(**every).check_draw_buffers()
+    text = str(err.value)
+    assert "\n" not in text and "anisotropy" in text and "iridescence" in text
+    fits = GBufferLayout(**{**every, "with_iridescence": False})
+    assert len(fits.attachments) <= MAX_ATTACHMENTS
+    fits.check_draw_buffers()

@@ -39,10 +39,13 @@ _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "clearcoat_roughness": "USE_CLEARCOAT_ROUGHNESS_MAP",
                 "clearcoat_normal": "USE_CLEARCOAT_NORMAL_MAP", "sheen_color": "USE_SHEEN_COLOR_MAP",
                 "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP",
-                "anisotropy": "USE_ANISOTROPY_MAP"}
+                "anisotropy": "USE_ANISOTROPY_MAP",
+                "iridescence": "USE_IRIDESCENCE_MAP",
+                "iridescence_thickness": "USE_IRIDESCENCE_THICKNESS_MAP"}
 _DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
 _CLEARCOAT_MAPS = ("clearcoat", "clearcoat_roughness", "clearcoat_normal")  # with a coat only
 _SHEEN_MAPS = ("sheen_color", "sheen_roughness")  # with a sheen only
+_FILM_MAPS = ("iridescence", "iridescence_thickness")  # with KHR_materials_iridescence only
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
@@ -71,10 +74,13 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     aniso = mesh.material.has_anisotropy
     if aniso:
         defines["USE_ANISOTROPY"] = 1
+    film = mesh.material.has_iridescence
+    if film:
+        defines["USE_IRIDESCENCE"] = 1
     for key in mesh.textures:
         if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
                 or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen) \
-                or (key == "anisotropy" and not aniso):
+                or (key == "anisotropy" and not aniso) or (key in _FILM_MAPS and not film):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:
@@ -295,6 +301,8 @@ class MeshUploads:
             _set(prog, "u_anisotropy_rotation", (math.cos(m.anisotropy_rotation),
                                                  math.sin(m.anisotropy_rotation)))
             _set(prog, "u_anisotropy_frame_set", anisotropy_frame_set(mesh))
+        if m.has_iridescence:  # factor, thickness (the maximum), IOR, the thickness map's minimum
+            _set(prog, "u_iridescence", m.iridescence_row())
         units = []
         for unit, (key, (tex, sampler, sampling)) in enumerate(entry.textures.items(),
                                                                  start=first_unit):

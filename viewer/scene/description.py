@@ -157,7 +157,8 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "albedo" in t:
         kw["albedo"] = _vec(t["albedo"], 3, f"{where}.albedo", file)
     for k in ("roughness", "metallic", "specular", "ao", "specular_factor", "clearcoat",
-              "clearcoat_roughness", "transmission", "sheen_roughness", "anisotropy_strength"):
+              "clearcoat_roughness", "transmission", "sheen_roughness", "anisotropy_strength",
+              "iridescence"):
         if k in t:
             kw[k] = _num(t[k], f"{where}.{k}", file, 0.0, 1.0)
     if "ior" in t:  # KHR_materials_ior's lobe (Material.ior)
@@ -172,6 +173,10 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "attenuation_distance" in t:
         kw["attenuation_distance"] = _num(t["attenuation_distance"],
                                           f"{where}.attenuation_distance", file, 1e-30, math.inf)
+    for k in ("iridescence_ior", "iridescence_thickness_min", "iridescence_thickness_max"):
+        if k in t:  # KHR_materials_iridescence's film (IOR >= 1, thicknesses in nm)
+            kw[k] = _num(t[k], f"{where}.{k}", file, 1.0 if k == "iridescence_ior" else 0.0,
+                         1e30)
     if "sheen_color" in t:  # KHR_materials_sheen (Material.sheen_color)
         kw["sheen_color"] = _vec(t["sheen_color"], 3, f"{where}.sheen_color", file)
     if "anisotropy_rotation" in t:  # KHR_materials_anisotropy (radians)

@@ -42,6 +42,12 @@ class Material:
     # tangent turned by the rotation (radians, counter-clockwise towards the bitangent)
     anisotropy_strength: float = 0.0  # in [0, 1]
     anisotropy_rotation: float = 0.0  # radians, finite
+    # KHR_materials_iridescence: a thin film of this strength (0 = none; shaders/lib/iridescence.glsl),
+    # IOR and thickness in nm (the thickness map's G blends min to max; without it: max)
+    iridescence: float = 0.0  # in [0, 1]
+    iridescence_ior: float = 1.3  # >= 1
+    iridescence_thickness_min: float = 100.0  # nm, >= 0
+    iridescence_thickness_max: float = 400.0  # nm, >= 0
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
@@ -49,7 +55,7 @@ class Material:
                 "clearcoat": self.clearcoat, "clearcoat_roughness": self.clearcoat_roughness,
                 "transmission": self.transmission,
                 "sheen_roughness": self.sheen_roughness,
-                "anisotropy_strength": self.anisotropy_strength}
+                "anisotropy_strength": self.anisotropy_strength, "iridescence": self.iridescence}
         for k, v in vals.items():
             if not (0.0 <= float(v) <= 1.0):
                 raise SceneError(f"{k} = {v} is outside [0, 1]", where=where)
@@ -66,6 +72,13 @@ class Material:
                 0.0 <= float(c) < math.inf for c in self.specular_color):
             raise SceneError(f"specular_color = {list(self.specular_color)} must be 3 finite "
                              f"numbers >= 0", where=where)
+        if not (1.0 <= float(self.iridescence_ior) < math.inf):
+            raise SceneError(f"iridescence_ior = {self.iridescence_ior} must be a finite number "
+                             f">= 1", where=where)
+        for k in ("iridescence_thickness_min", "iridescence_thickness_max"):
+            if not (0.0 <= float(getattr(self, k)) < math.inf):
+                raise SceneError(f"{k} = {getattr(self, k)} must be a finite number >= 0 (nm)",
+                                 where=where)
         if not (0.0 <= float(self.thickness) < math.inf):
             raise SceneError(f"thickness = {self.thickness} must be a finite number >= 0",
                              where=where)
@@ -115,6 +128,18 @@ class Material:
         """KHR_materials_anisotropy: a strength > 0 (0 leaves the lobe isotropic)."""
         return self.anisotropy_strength > 0.0
 
+    @property
+    def has_iridescence(self) -> bool:
+        """KHR_materials_iridescence: a factor > 0 (the spec: zero, the default, disables it)."""
+        return self.iridescence > 0.0
+
+    def iridescence_row(self, thickness_map: bool = False) -> tuple[float, float, float, float]:
+        """The G-buffer's ``iridescence`` channel for this material's factors: (factor, thickness
+        in nm, film IOR) and, for a thickness map, the minimum (the map's G blends it to the
+        maximum); the traced material's row (factors only: the maximum)."""
+        return (float(self.iridescence), float(self.iridescence_thickness_max),
+                float(self.iridescence_ior), float(self.iridescence_thickness_min))
+
     def dielectric(self) -> tuple[float, float, float, float]:
         """The G-buffer's ``dielectric`` channel for this material's factors: (F0 rgb, F90) of
         ``shaders/lib/brdf.glsl`` ``dielectric_f0_ior``, or (0, 0, 0, -1) without ``ior`` (the
@@ -126,7 +151,8 @@ class Material:
 EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "clearcoat_roughness",
                     "transmission", "thickness", "attenuation_color", "attenuation_distance",
                     "sheen_color", "sheen_roughness", "anisotropy_strength",
-                    "anisotropy_rotation")
+                    "anisotropy_rotation", "iridescence", "iridescence_ior",
+                    "iridescence_thickness_min", "iridescence_thickness_max")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

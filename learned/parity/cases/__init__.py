@@ -17,6 +17,7 @@ from . import (
     equirect,
     ground,
     ibl,
+    iridescence,
     layers,
     lights,
     mc,
@@ -35,7 +36,7 @@ from . import (
 from .base import Arg, ParityCase
 
 MODULES = (anisotropy, antialias, brdf, bvh, common, contact, denoise, env_sampling, equirect, ground, ibl,
-           layers, lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap,
+           iridescence, layers, lights, mc, neural, path, sampling, sh, shading, shadow, shadow_net, splat, ssao, tonemap,
            transmission)
 
 __all__ = ["Arg", "ParityCase", "MODULES", "all_cases", "pass_level"]

@@ -82,6 +82,8 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     ext_slots += sheen_slots
     material, anisotropy_slots = _anisotropy(reader, index, material, ext)
     ext_slots += anisotropy_slots
+    material, film_slots = _iridescence(reader, index, material, ext)
+    ext_slots += film_slots
     slots = [("base_color", pbr.baseColorTexture if pbr else None),
              ("metallic_roughness", pbr.metallicRoughnessTexture if pbr else None),
              ("normal", gm.normalTexture), ("occlusion", gm.occlusionTexture),
@@ -135,7 +137,8 @@ def _unlit(material: Material, base, textures: dict, sampling: dict):
     (normal, occlusion, metallic-roughness and emissive maps are dropped)."""
     for key in ("metallic_roughness", "normal", "occlusion", "emissive", "specular",
                 "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
-                "sheen_color", "sheen_roughness", "anisotropy"):
+                "sheen_color", "sheen_roughness", "anisotropy", "iridescence",
+                "iridescence_thickness"):
         textures.pop(key, None)
         sampling.pop(key, None)
     if "base_color" in textures:
@@ -280,3 +283,27 @@ def _anisotropy(reader: _GltfReader, index: int, material: Material, ext: dict):
                                           "anisotropyTexture"))]
     return dataclasses.replace(material, anisotropy_strength=strength,
                                anisotropy_rotation=rotation), slots
+
+
+def _iridescence(reader: _GltfReader, index: int, material: Material, ext: dict):
+    """``KHR_materials_iridescence`` of material ``index``: the material with its film (factor,
+    IOR, thickness range in nm) and the film's texture slots (factor: R; thickness: G, linear)."""
+    film = ext.get("KHR_materials_iridescence")
+    if film is None:
+        return material, []
+    if not isinstance(film, dict):
+        raise InputError(f"material {index}: KHR_materials_iridescence {film!r} is not an "
+                         f"object", where=reader.path)
+    factor = _number(reader, index, film, "iridescenceFactor", 0.0, 0.0, 1.0)
+    # the ratified name; early drafts (and some exporters) spelled it iridescenceIOR
+    key = "iridescenceIOR" if "iridescenceIOR" in film and "iridescenceIor" not in film \
+        else "iridescenceIor"
+    ior = _number(reader, index, film, key, 1.3, 1.0, math.inf)
+    lo = _number(reader, index, film, "iridescenceThicknessMinimum", 100.0, 0.0, math.inf)
+    hi = _number(reader, index, film, "iridescenceThicknessMaximum", 400.0, 0.0, math.inf)
+    slots = [(key, _texture_info(reader, index, film.get(name), name))
+             for key, name in (("iridescence", "iridescenceTexture"),
+                               ("iridescence_thickness", "iridescenceThicknessTexture"))]
+    return dataclasses.replace(material, iridescence=factor, iridescence_ior=ior,
+                               iridescence_thickness_min=lo,
+                               iridescence_thickness_max=hi), slots

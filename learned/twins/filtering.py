@@ -64,10 +64,24 @@ def sample_trilinear(levels: list[torch.Tensor], uv: torch.Tensor, lod: torch.Te
         hi = (base == k - 1) & (frac[..., 0] > 0)
         if not (lo.any() or hi.any()):
             continue
-        s = sample_bilinear(levels[k], uv, repeat_u, weight_bits)
+        s, = _on(lo | hi, uv, lambda uv_, lv=levels[k]: (sample_bilinear(lv, uv_, repeat_u,
+                                                                          weight_bits),))
         out = out + torch.where(lo[..., None], s * (1.0 - frac), 0.0) \
                   + torch.where(hi[..., None], s * frac, 0.0)
     return out
+
+
+def _on(mask: torch.Tensor, uv: torch.Tensor, lookup) -> tuple[torch.Tensor, ...]:
+    """The tensors ``[..., C]`` of ``lookup(uv)``, evaluated only where ``mask [...]`` holds and 0
+    elsewhere (where the callers weight them by 0). A level of a mip chain is near few of the
+    lookups, and lookups are elementwise, so where ``mask`` holds the values are the full
+    evaluation's, bit for bit; this only skips the work (half of a lighting pass's twin)."""
+    if bool(mask.all()):
+        return lookup(uv)
+    shape = torch.broadcast_shapes(mask.shape, uv.shape[:-1])  # lod and uv may broadcast
+    mask, uv = mask.expand(shape), uv.expand(*shape, uv.shape[-1])
+    return tuple(torch.zeros(*mask.shape, t.shape[-1], dtype=t.dtype).index_put((mask,), t)
+                 for t in lookup(uv[mask]))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -145,7 +159,7 @@ def sample_trilinear_envelope(levels: list[torch.Tensor], uv: torch.Tensor, lod:
         if not near.any():
             continue
         h, w = levels[k].shape[:2]
-        s, dx, dy = _slopes(levels[k], uv, repeat_u)
+        s, dx, dy = _on(near, uv, lambda uv_, lv=levels[k]: _slopes(lv, uv_, repeat_u))
         value[k] = torch.where(near[..., None], s, 0.0)
         e = (q + uv_error[..., 0:1] * w) * dx + (q + uv_error[..., 1:2] * h) * dy
         wk = torch.where((base == k)[..., None], 1.0 - frac, 0.0) \

@@ -1,7 +1,8 @@
 """Fixtures shared by the learned tests, session-scoped (the tests that use one share it, as when
 they were one module): the tiny synthetic ``dataset`` (tiny_dataset.py) of the data, training and
 evaluation tests, and the weights files of the neural-shader tests (test_neural*.py): a random
-student and teacher (``weights``), a ``dfg`` student and a ``pbr3`` student."""
+student and teacher (``weights``), a smaller student (``small_weights``), a ``dfg`` student and a
+``pbr3`` student."""
 import pytest
 
 
@@ -22,6 +23,15 @@ def weights(tmp_path_factory):
     export(s, d / "s.safetensors", {"note": "test"})
     export(t, d / "t.safetensors")
     return d / "s.safetensors", d / "t.safetensors"
+
+
+@pytest.fixture(scope="session")
+def small_weights(tmp_path_factory):
+    """A student smaller than ``weights``' (8-12 hidden, one frequency) for the lighting pass in
+    every weight storage (test_neural.py: the uniform-block pass compiles 9x faster)."""
+    from neural_weights import student_file
+
+    return student_file(tmp_path_factory, "small", 1)
 
 
 @pytest.fixture(scope="session")

@@ -244,6 +244,19 @@ def ignored_settings(model: ShadingModel, asked, variant: ShadeVariant) -> list[
              f"{'it' if len(unused) == 1 else 'them'})")]
 
 
+# (lobe: its G-buffer layout flag with_<lobe>, the models that shade it, its name in the
+# warning, what the other models show instead): ignored_lobes
+_LAYERED_LOBES = (
+    ("clearcoat", CLEARCOAT_MODELS, "the KHR_materials_clearcoat coat",
+     "the base is shown uncoated"),
+    ("sheen", SHEEN_MODELS, "the KHR_materials_sheen sheen", "the base is shown without it"),
+    ("anisotropy", ANISOTROPY_MODELS, "KHR_materials_anisotropy",
+     "the specular lobe is shown isotropic"),
+    ("iridescence", IRIDESCENCE_MODELS, "the KHR_materials_iridescence thin film",
+     "the base is shown without it"),
+)
+
+
 def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
     """``(lobe, warning)`` for each glTF extension lobe the scene's G-buffer ``layout`` carries
     that ``model`` does not shade: the neural models (student and teacher) read Filament's
@@ -258,10 +271,6 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
         out.append(("dielectric", f"model {model.name!r} ignores the KHR_materials_ior / "
                                   f"KHR_materials_specular dielectric lobe (it reads Filament's "
                                   f"specular reflectance: f0 = 0.04 for those materials)"))
-    if layout.with_clearcoat and model.name not in CLEARCOAT_MODELS | {"unlit"}:
-        out.append(("clearcoat", f"model {model.name!r} ignores the KHR_materials_clearcoat "
-                                 f"coat (shaded by {', '.join(sorted(CLEARCOAT_MODELS))}); the "
-                                 f"base is shown uncoated"))
     if layout.with_transmission and refracts_forward(model.name) and (
             model.accumulates or model.network is not None):  # passes.forward.forward_model
         out.append(("transmission", f"model {model.name!r} cannot shade surfaces in a forward "
@@ -269,17 +278,8 @@ def ignored_lobes(model: ShadingModel, layout) -> list[tuple[str, str]]:
                                     f"ggx_split_sum there, refracting a copy of the opaque frame "
                                     f"(traced exactly by "
                                     f"{', '.join(sorted(TRANSMISSION_MODELS))})"))
-    if layout.with_sheen and model.name not in SHEEN_MODELS | {"unlit"}:
-        out.append(("sheen", f"model {model.name!r} ignores the KHR_materials_sheen sheen "
-                             f"(shaded by {', '.join(sorted(SHEEN_MODELS))}); the base is shown "
-                             f"without it"))
-    if layout.with_anisotropy and model.name not in ANISOTROPY_MODELS | {"unlit"}:
-        out.append(("anisotropy", f"model {model.name!r} ignores KHR_materials_anisotropy "
-                                  f"(shaded by {', '.join(sorted(ANISOTROPY_MODELS))}); the "
-                                  f"specular lobe is shown isotropic"))
-    if layout.with_iridescence and model.name not in IRIDESCENCE_MODELS | {"unlit"}:
-        out.append(("iridescence", f"model {model.name!r} ignores the KHR_materials_iridescence "
-                                   f"thin film (shaded by "
-                                   f"{', '.join(sorted(IRIDESCENCE_MODELS))}); the base is shown "
-                                   f"without it"))
+    for lobe, models, named, shown in _LAYERED_LOBES:
+        if getattr(layout, f"with_{lobe}") and model.name not in models | {"unlit"}:
+            out.append((lobe, f"model {model.name!r} ignores {named} (shaded by "
+                              f"{', '.join(sorted(models))}); {shown}"))
     return out

@@ -18,7 +18,7 @@ SHEEN_MIN_ROUGHNESS = 0.07
 SHEEN_MIN_COS = 1e-4
 
 
-@functools.cache
+@functools.lru_cache(maxsize=2)  # one entry per value of normalization
 def sheen_table(normalization: bool = False) -> torch.Tensor:
     """``SHEEN_ALBEDO_TABLE`` of ``shaders/lib/sheen_table.glsl``, float32 ``[size * size]``
     (with ``normalization``: ``SHEEN_NORMALIZATION`` ``[size]``)."""

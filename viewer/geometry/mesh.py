@@ -4,26 +4,6 @@ A :class:`Mesh` is plain numpy data: no GL objects (the G-buffer pass uploads an
 Texture maps follow glTF 2.0: texture coordinates have (0, 0) at the *top-left* of the image, so a
 numpy image (row 0 at the top) is uploaded as is and sampled with the mesh's UVs directly.
 
-texture key          C    meaning
-=================== ===== =====================================================================
-base_color          3/4   linear RGB(A), float32 (already sRGB-decoded); multiplies the albedo
-metallic_roughness  3/4   linear; G = roughness, B = metallic (glTF), multiply the factors
-normal              3/4   tangent-space normal encoded n * 0.5 + 0.5, linear; +Y = towards -v
-occlusion           1..4  linear; R = ambient occlusion
-emissive            3/4   linear RGB (already sRGB-decoded); multiplies ``Mesh.emissive``
-specular            4     linear; A = KHR_materials_specular factor (with ``Material.ior`` only)
-specular_color      3/4   linear RGB (already sRGB-decoded); multiplies ``Material.specular_color``
-clearcoat           1..4  linear; R multiplies ``Material.clearcoat`` (KHR_materials_clearcoat)
-clearcoat_roughness 2..4  linear; G multiplies ``Material.clearcoat_roughness``
-clearcoat_normal    3/4   the coat's tangent-space normal, as ``normal`` (x, y scaled by
-                          ``Mesh.clearcoat_normal_scale``); without it the coat has the vertex normal
-sheen_color         3/4   linear RGB (already sRGB-decoded); multiplies ``Material.sheen_color``
-sheen_roughness     4     linear; A multiplies ``Material.sheen_roughness`` (KHR_materials_sheen)
-anisotropy          3/4   linear; RG = the direction in tangent space (x 2 - 1, before
-                          ``Material.anisotropy_rotation``), B multiplies its strength
-                          (KHR_materials_anisotropy)
-=================== ===== =====================================================================
-=======
 ===================== ===== =====================================================================
 texture key           C     meaning
 ===================== ===== =====================================================================

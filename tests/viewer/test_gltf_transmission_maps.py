@@ -5,6 +5,7 @@ says their depths, an emissive backdrop): the loader reads both maps without a w
 mesh with a map gets the map's program variant, and per region the rasteriser's forward pass
 (split-sum) agrees with the path tracer, which agrees with ``relight reference``; the same file
 without the two maps fails the rasteriser's comparison."""
+import json
 import warnings
 
 import numpy as np
@@ -28,11 +29,11 @@ def files(tmp_path_factory):
     return mapped_glass(d / "mapped.gltf"), mapped_glass(d / "plain.gltf", maps=False)
 
 
-def test_the_maps_load_without_a_warning(files):
+def test_the_maps_load_without_a_warning(files, tmp_path):
     """Both maps are read (the pane's transmission map, the boxes' thickness and transmission
     maps packed in one image; their samplers) and nothing is warned about them; only a mesh
     that has a map gets its define (the same file without them compiles the variants it always
-    did)."""
+    did). A KHR_texture_transform on either map is read as on every other map."""
     from viewer.passes.mesh_uploads import mesh_defines
 
     mapped, plain = files
@@ -46,6 +47,18 @@ def test_the_maps_load_without_a_warning(files):
     defines = [mesh_defines(m) for m in meshes]
     assert "USE_TRANSMISSION_MAP" in defines[0] and "USE_THICKNESS_MAP" not in defines[0]
     assert {"USE_THICKNESS_MAP", "USE_TRANSMISSION_MAP"} <= set(defines[1])
+    doc = json.loads(mapped.read_text())
+    transform = {"KHR_texture_transform": {"offset": [0.5, 0.0], "scale": [2.0, 1.0]}}
+    doc["materials"][0]["extensions"]["KHR_materials_transmission"]["transmissionTexture"][
+        "extensions"] = transform
+    doc["materials"][1]["extensions"]["KHR_materials_volume"]["thicknessTexture"] = {
+        "index": 1, "extensions": transform}
+    (tmp_path / "moved.gltf").write_text(json.dumps(doc))
+    moved, messages = load_warnings(tmp_path / "moved.gltf")
+    assert messages == []
+    for mesh, key in ((moved[0], "transmission"), (moved[1], "thickness")):
+        assert (mesh.sampling[key].offset, mesh.sampling[key].scale) == ((0.5, 0.0), (2.0, 1.0))
+    assert moved[1].sampling["transmission"].offset == (0.0, 0.0)
     bare, messages = load_warnings(plain)
     assert messages == [] and not any(m.textures for m in bare)
     for m in bare:

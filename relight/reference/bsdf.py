@@ -85,6 +85,7 @@ def _bsdf_class(mi, dr, variant: str):
             self.sheen_color_texture = self.sheen_roughness_texture = self.sheen_table = None
             self.anisotropy_texture = None
             self.iridescence_texture = self.iridescence_thickness_texture = None
+            self.transmission_texture = None
 
         def configure(self, material, textures: dict, multiscatter: bool,
                       normal_scale: float = 1.0):
@@ -107,6 +108,9 @@ def _bsdf_class(mi, dr, variant: str):
             self.anisotropy_texture = textures.get("anisotropy")  # RG direction, B strength
             self.iridescence_texture = textures.get("iridescence")  # R (KHR_materials_iridescence)
             self.iridescence_thickness_texture = textures.get("iridescence_thickness")  # its G
+            # R (KHR_materials_transmission); KHR_materials_volume's thickness map is not read:
+            # the traced volume is the mesh, whose thickness the map approximates for rasterisers
+            self.transmission_texture = textures.get("transmission")
             if max(material.sheen_color) > 0.0:
                 self.sheen_table = table_texture(mi, dr)
             if material.transmission > 0.0:  # seen from both sides, light passes through
@@ -292,7 +296,7 @@ def _bsdf_class(mi, dr, variant: str):
         def _facing(self, si):
             """``si`` seen from the viewer's side (mirrored from a transmissive back face) and
             the transmission state, None for an opaque material."""
-            t = transmission_state(mi, dr, self.material, si)
+            t = transmission_state(mi, dr, self.material, si, self.transmission_texture)
             if t is None:
                 return si, None
             si, t["eta"] = facing(mi, dr, t, si)

@@ -126,7 +126,7 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         textures = {}
         for key in ("base_color", "metallic_roughness", "normal", "specular_color", "clearcoat",
                     "clearcoat_roughness", "sheen_color", "anisotropy",
-                    "iridescence"):
+                    "iridescence", "transmission"):
             if key in mesh.textures:
                 textures[key] = _texture(mi, mesh.textures[key], mesh.sampling.get(key), where)
         if "specular" in mesh.textures:  # KHR_materials_specular: its factor is the map's A

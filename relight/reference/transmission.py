@@ -25,13 +25,17 @@ import numpy as np
 MIN_PERCEPTUAL_ROUGHNESS = 0.045
 
 
-def transmission_state(mi, dr, material, si):
-    """The transmission at ``si``: factor, whether a volume, its IOR, sigma and whether ``si``
-    is seen from the back (inside); None for an opaque material."""
+def transmission_state(mi, dr, material, si, texture=None):
+    """The transmission at ``si``: factor (times ``texture``'s R, the transmissionTexture, when
+    given), whether a volume, its IOR, sigma and whether ``si`` is seen from the back (inside);
+    None for an opaque material."""
     if material is None or material.transmission <= 0.0:
         return None
     inside = mi.Frame3f.cos_theta(si.wi) < 0.0
-    return dict(T=float(material.transmission), volume=bool(material.volume),
+    factor = float(material.transmission)
+    if texture is not None:
+        factor = factor * texture.eval(si).x
+    return dict(T=factor, volume=bool(material.volume),
                 ior=float(material.volume_ior()), inside=inside,
                 sigma=mi.Color3f(*material.attenuation_coefficient()))
 

@@ -14,6 +14,9 @@
 // transmission_irradiance) and lights only the rest, 1 - T, of its diffuse with its lights; an
 // OPAQUE (or MASK, cut at u_alpha_cutoff) transmissive surface covers its pixel (alpha 1): what is
 // behind it comes through refracted_radiance, not through the blend.
+// USE_THICKNESS_MAP (with USE_TRANSMISSION and a volume): KHR_materials_volume's thicknessTexture,
+// its G times u_thickness, is the thickness refracted_radiance goes through at this fragment (read
+// here: the G-buffer has no thickness channel, the traced volume being the mesh itself).
 // Included by the virtual generated/gbuffer.glsl of viewer/passes/forward.py, after the layout's
 // struct and loader.
 #include "passes/mesh_surface.glsl"
@@ -31,14 +34,25 @@ uniform mat4 u_projection;               // view -> clip
 #ifdef ALPHA_MASK
 uniform float u_alpha_cutoff;            // glTF alphaCutoff
 #endif
+#ifdef USE_THICKNESS_MAP
+uniform sampler2D u_thickness_map;       // G = thickness (x u_thickness)
+uniform int u_thickness_set;
+uniform mat3 u_thickness_uv;
+uniform vec2 u_thickness_mirror;
+float forward_thickness = 0.0;           // u_thickness x the map's G here (gbuffer_load sets it)
+#define TRANSMISSION_THICKNESS forward_thickness
+#else
+#define TRANSMISSION_THICKNESS u_thickness
+#endif
 
 // The opaque frame's radiance seen through this fragment (three.js's getIBLVolumeRefraction, our
-// own): the view ray refracted by n (facing v) through a volume of u_thickness (thin wall: straight
-// on), the copy read where it leaves, projected to the screen, at the level the roughness chooses,
-// attenuated along the way by Beer-Lambert. An exit point behind the camera is read at this
-// fragment's own pixel; one off screen at the nearest edge.
+// own): the view ray refracted by n (facing v) through a volume of u_thickness (times the thickness
+// map's G with USE_THICKNESS_MAP; thin wall: straight on), the copy read where it leaves, projected
+// to the screen, at the level the roughness chooses, attenuated along the way by Beer-Lambert. An
+// exit point behind the camera is read at this fragment's own pixel; one off screen at the nearest
+// edge.
 vec3 refracted_radiance(GBuffer g, vec3 n, vec3 v) {
-    vec3 offset = volume_exit_offset(n, v, u_thickness, g.transmission_ior);
+    vec3 offset = volume_exit_offset(n, v, TRANSMISSION_THICKNESS, g.transmission_ior);
     vec4 clip = u_projection * (u_view * vec4(v_position_ws + offset, 1.0));
     if (!(clip.w > 1e-6)) {
         clip = u_projection * (u_view * vec4(v_position_ws, 1.0));
@@ -53,6 +67,11 @@ vec3 refracted_radiance(GBuffer g, vec3 n, vec3 v) {
 GBuffer gbuffer_load(ivec2 pixel) {
     float alpha;
     GBuffer g = mesh_surface(alpha);  // every texture lookup first (derivatives), then discard
+#if defined(USE_TRANSMISSION) && defined(USE_THICKNESS_MAP)
+    forward_thickness = u_thickness * sample_map(u_thickness_map,
+                                                 map_uv(u_thickness_set, u_thickness_uv),
+                                                 u_thickness_mirror).g;
+#endif
     GBuffer opaque = gbuffer_load_opaque(pixel);
     if (opaque.alpha > 0.0 && !(g.depth < opaque.depth)) {
         discard;  // behind (or at) the opaque surface of this pixel

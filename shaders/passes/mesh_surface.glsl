@@ -12,7 +12,9 @@
 // clearcoat channel from u_clearcoat, u_clearcoat_roughness) with USE_CLEARCOAT_MAP (R),
 // USE_CLEARCOAT_ROUGHNESS_MAP (G), USE_CLEARCOAT_NORMAL_MAP (the coat's own normal map; without
 // it the coat has the interpolated vertex normal); USE_TRANSMISSION (KHR_materials_transmission
-// / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior);
+// / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior) with
+// USE_TRANSMISSION_MAP (R; KHR_materials_volume's thickness map, USE_THICKNESS_MAP, is the forward
+// pass's: passes/forward_surface.glsl);
 // USE_SHEEN (KHR_materials_sheen: the G-buffer's sheen channel from u_sheen_color,
 // u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and USE_SHEEN_ROUGHNESS_MAP (A);
 // USE_ANISOTROPY (KHR_materials_anisotropy: the G-buffer's anisotropy channel,
@@ -77,6 +79,12 @@ uniform vec2 u_emissive_mirror;
 #ifdef USE_TRANSMISSION
 uniform float u_transmission;           // transmissionFactor
 uniform float u_transmission_ior;       // the volume's IOR, 0 = thin-walled (Material.volume_ior)
+#endif
+#ifdef USE_TRANSMISSION_MAP
+uniform sampler2D u_transmission_map;        // R = factor
+uniform int u_transmission_set;
+uniform mat3 u_transmission_uv;
+uniform vec2 u_transmission_mirror;
 #endif
 #ifdef USE_CLEARCOAT
 uniform float u_clearcoat;              // clearcoatFactor
@@ -316,6 +324,10 @@ GBuffer mesh_surface(out float alpha) {
 #endif
 #ifdef USE_TRANSMISSION
     g.transmission = u_transmission;
+#ifdef USE_TRANSMISSION_MAP
+    g.transmission *= sample_map(u_transmission_map, map_uv(u_transmission_set, u_transmission_uv),
+                                 u_transmission_mirror).r;
+#endif
     g.transmission_ior = u_transmission_ior;
 #endif
 #ifdef USE_SHEEN

@@ -26,6 +26,10 @@ iridescence_thickness 2..4  linear; G blends the film's thickness from ``iridesc
 anisotropy            3/4   linear; RG = the direction in tangent space (x 2 - 1, before
                             ``Material.anisotropy_rotation``), B multiplies its strength
                             (KHR_materials_anisotropy)
+transmission          1..4  linear; R multiplies ``Material.transmission``
+                            (KHR_materials_transmission)
+thickness             2..4  linear; G multiplies ``Material.thickness`` (KHR_materials_volume; the
+                            rasteriser's refraction reads it, the traced volume is the mesh)
 ===================== ===== =====================================================================
 
 How each map is sampled (texture coordinate set, ``KHR_texture_transform``, wrap and filter modes)
@@ -45,7 +49,7 @@ from ..scene.material import Material
 TEXTURE_KEYS = ("base_color", "metallic_roughness", "normal", "occlusion", "emissive", "specular",
                 "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
                 "sheen_color", "sheen_roughness", "anisotropy", "iridescence",
-                "iridescence_thickness")
+                "iridescence_thickness", "transmission", "thickness")
 WRAP_MODES = ("repeat", "clamp", "mirror")  # glTF REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT
 MIN_FILTERS = ("nearest", "linear", "nearest_mipmap_nearest", "linear_mipmap_nearest",
                "nearest_mipmap_linear", "linear_mipmap_linear")

@@ -41,11 +41,14 @@ _MAP_DEFINES = {"base_color": "USE_BASE_COLOR_MAP",
                 "sheen_roughness": "USE_SHEEN_ROUGHNESS_MAP",
                 "anisotropy": "USE_ANISOTROPY_MAP",
                 "iridescence": "USE_IRIDESCENCE_MAP",
-                "iridescence_thickness": "USE_IRIDESCENCE_THICKNESS_MAP"}
+                "iridescence_thickness": "USE_IRIDESCENCE_THICKNESS_MAP",
+                "transmission": "USE_TRANSMISSION_MAP", "thickness": "USE_THICKNESS_MAP"}
 _DIELECTRIC_MAPS = ("specular", "specular_color")  # read only with the glTF lobe (Material.ior)
 _CLEARCOAT_MAPS = ("clearcoat", "clearcoat_roughness", "clearcoat_normal")  # with a coat only
 _SHEEN_MAPS = ("sheen_color", "sheen_roughness")  # with a sheen only
 _FILM_MAPS = ("iridescence", "iridescence_thickness")  # with KHR_materials_iridescence only
+# KHR_materials_transmission's map with a transmission factor > 0 only, KHR_materials_volume's
+# thickness map with a volume only (Material.volume: a thin wall has no thickness to scale)
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
@@ -80,7 +83,9 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
     for key in mesh.textures:
         if key not in _MAP_DEFINES or (key in _DIELECTRIC_MAPS and mesh.material.ior is None) \
                 or (key in _CLEARCOAT_MAPS and not coat) or (key in _SHEEN_MAPS and not sheen) \
-                or (key == "anisotropy" and not aniso) or (key in _FILM_MAPS and not film):
+                or (key == "anisotropy" and not aniso) or (key in _FILM_MAPS and not film) \
+                or (key == "transmission" and mesh.material.transmission <= 0.0) \
+                or (key == "thickness" and not mesh.material.volume):
             continue
         texcoord = mesh.sampling.get(key, _DEFAULT_SAMPLING).texcoord
         if uv_sets[texcoord] is None:

@@ -77,7 +77,8 @@ def _gltf_material(reader: _GltfReader, index: int | None) -> dict:
     material, ext_slots = _dielectric(reader, index, material, ext)
     material, coat_slots, coat_normal_scale = _clearcoat(reader, index, material, ext)
     ext_slots += coat_slots
-    material = _transmission(reader, index, material, ext)
+    material, transmission_slots = _transmission(reader, index, material, ext)
+    ext_slots += transmission_slots
     material, sheen_slots = _sheen(reader, index, material, ext)
     ext_slots += sheen_slots
     material, anisotropy_slots = _anisotropy(reader, index, material, ext)
@@ -138,7 +139,7 @@ def _unlit(material: Material, base, textures: dict, sampling: dict):
     for key in ("metallic_roughness", "normal", "occlusion", "emissive", "specular",
                 "specular_color", "clearcoat", "clearcoat_roughness", "clearcoat_normal",
                 "sheen_color", "sheen_roughness", "anisotropy", "iridescence",
-                "iridescence_thickness"):
+                "iridescence_thickness", "transmission", "thickness"):
         textures.pop(key, None)
         sampling.pop(key, None)
     if "base_color" in textures:
@@ -228,14 +229,14 @@ def _clearcoat(reader: _GltfReader, index: int, material: Material, ext: dict):
     return dataclasses.replace(material, clearcoat=factor, clearcoat_roughness=rough), slots, scale
 
 
-def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict) -> Material:
+def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict):
     """``KHR_materials_transmission`` and ``KHR_materials_volume`` of material ``index``: the
-    material with its transmission factor, thickness (0: thin-walled) and attenuation. Their
-    maps (transmissionTexture, thicknessTexture) are not read: one warning per file says so."""
+    material with its transmission factor, thickness (0: thin-walled) and attenuation, and the
+    texture slots (transmissionTexture: R x the factor; thicknessTexture: G x thicknessFactor)."""
     trans = ext.get("KHR_materials_transmission")
     volume = ext.get("KHR_materials_volume")
     if trans is None and volume is None:
-        return material
+        return material, []
     factor = _number(reader, index, trans or {}, "transmissionFactor", 0.0, 0.0, 1.0)
     volume = volume if volume is not None else {}
     thickness = _number(reader, index, volume, "thicknessFactor", 0.0, 0.0, math.inf)
@@ -243,17 +244,12 @@ def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict
     if distance != math.inf:
         distance = _number(reader, index, volume, "attenuationDistance", 1.0, 1e-30, math.inf)
     color = _color(reader, index, volume, "attenuationColor", 1.0, 1.0)
-    maps = [name for table, name in ((trans, "transmissionTexture"),
-                                     (volume, "thicknessTexture"))
-            if isinstance(table, dict) and table.get(name) is not None]
-    if maps:
-        message = (f"{reader.path}: {' and '.join(maps)} not read (the factors are): "
-                   f"transmission is uniform over each material")
-        if message not in reader.unavailable_warned:
-            reader.unavailable_warned.add(message)
-            warnings.warn(message, stacklevel=4)
+    slots = [(key, _texture_info(reader, index, table.get(name), name))
+             for key, table, name in (("transmission", trans or {}, "transmissionTexture"),
+                                      ("thickness", volume, "thicknessTexture"))]
     return dataclasses.replace(material, transmission=factor, thickness=thickness,
-                               attenuation_color=color, attenuation_distance=float(distance))
+                               attenuation_color=color,
+                               attenuation_distance=float(distance)), slots
 
 
 def _sheen(reader: _GltfReader, index: int, material: Material, ext: dict):

@@ -351,7 +351,7 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
 #endif
     s.emission = f2.rgb * rt_map(m, RT_MAP_EMISSIVE, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;
-    s.transmission = rt_materials[base + RT_ROW_TRANSMISSION].xy;  // factors only
+    s.transmission = rt_materials[base + RT_ROW_TRANSMISSION].xy;  // factors (no slot yet)
     s.sigma = rt_materials[base + RT_ROW_VOLUME].xyz;
     return s;
 }

@@ -98,6 +98,19 @@ def anisotropy_encode(t, n, strength) -> torch.Tensor:
     return torch.where(len2 > 1e-20, out, torch.zeros_like(out))
 
 
+def anisotropy_map_direction(rotation, texel) -> torch.Tensor:
+    """GLSL ``vec3 anisotropy_map_direction(vec2 rotation, vec3 texel)``: the map's direction
+    (RG x 2 - 1, unit; +x where zero) turned by the rotation (cos, sin), and its B."""
+    d = texel[..., :2] * 2.0 - 1.0
+    len2 = (d * d).sum(-1, keepdim=True)
+    x = torch.zeros_like(d)
+    x[..., 0] = 1.0
+    d = torch.where(len2 > 1e-12, d * torch.rsqrt(len2.clamp_min(1e-30)), x)
+    c, s = rotation[..., 0], rotation[..., 1]
+    out = torch.stack([c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1]], dim=-1)
+    return torch.cat([out, texel[..., 2:3]], dim=-1)
+
+
 def anisotropy_decode(k, n) -> torch.Tensor:
     """GLSL ``vec4 anisotropy_decode(vec2 k, vec3 n)``: (direction, strength)."""
     s = torch.linalg.vector_norm(k, dim=-1)

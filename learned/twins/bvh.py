@@ -6,7 +6,10 @@ from __future__ import annotations
 import torch
 
 RAY_MISS = 3.0e38
-MATERIAL_ROWS = 15  # rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS)
+# rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS: RT_ROW_SLOTS factor rows,
+# then RT_MAP_SLOTS map slots of two rows; viewer/raytrace/scene.py MATERIAL_VEC4S)
+ROW_SURFACE, ROW_SLOTS, MAP_SLOTS = 1, 11, 13
+MATERIAL_ROWS = ROW_SLOTS + 2 * MAP_SLOTS
 
 
 def safe_inverse(d: torch.Tensor) -> torch.Tensor:
@@ -71,10 +74,10 @@ def _solid(tri, b, materials, maps, vertices) -> bool:
     """``rt_solid`` for the masks of the parity scenes: a MASK material's base alpha factor
     against its cutoff (the parity scenes have no maps)."""
     rows = materials[int(tri[3]) * MATERIAL_ROWS: int(tri[3]) * MATERIAL_ROWS + MATERIAL_ROWS]
-    cutoff = float(rows[1, 3])
+    cutoff = float(rows[ROW_SURFACE, 3])
     if cutoff < 0.0:
         return True
-    if float(rows[3, 3]) >= 0.0:
+    if float(rows[ROW_SLOTS, 3]) >= 0.0:  # slot 0, the base colour's map
         raise NotImplementedError("the twin tests masks by their factor only (no maps)")
     return float(rows[0, 3]) >= cutoff
 
@@ -82,7 +85,7 @@ def _solid(tri, b, materials, maps, vertices) -> bool:
 def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
                     vertices, materials) -> torch.Tensor:
     """``RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max)`` over the buffers (``nodes [2M, 4]``
-    float32 as uploaded, ``triangles [N, 4]`` int, ``vertices [2V, 4]``, ``materials [12K, 4]``),
+    float32 as uploaded, ``triangles [N, 4]`` int, ``vertices [2V, 4]``, ``materials [MATERIAL_ROWS K, 4]``),
     ray by ray in the GLSL's order: ``[R, 4]`` (t, triangle index as float, b1, b2)."""
     out = torch.zeros(o.shape[0], 4, dtype=torch.float32)
     pos = vertices[0::2, :3]

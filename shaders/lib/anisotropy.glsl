@@ -92,6 +92,17 @@ vec2 anisotropy_encode(vec3 t, vec3 n, float strength) {
     return len2 > 1e-20 ? d * (saturate(strength) * inversesqrt(len2)) : vec2(0.0);
 }
 
+// The extension's anisotropyTexture read at a point: RG the direction in tangent space (x 2 - 1;
+// unit, or +x where it is zero), turned counter-clockwise by the material's rotation
+// (cos, sin); B multiplies the strength. Returns (direction, strength multiplier). Shared by the
+// rasteriser (passes/mesh_anisotropy.glsl) and traced hits (passes/raytrace.glsl).
+vec3 anisotropy_map_direction(vec2 rotation, vec3 texel) {
+    vec2 d = texel.rg * 2.0 - 1.0;
+    d = dot(d, d) > 1e-12 ? normalize(d) : vec2(1.0, 0.0);
+    vec2 c = rotation;
+    return vec3(mat2(c.x, c.y, -c.y, c.x) * d, texel.b);
+}
+
 // anisotropy_encode's inverse for the normal n it was encoded with: (t, s), t unit in n's plane
 // (the +x axis of n's frame where s = 0).
 vec4 anisotropy_decode(vec2 k, vec3 n) {

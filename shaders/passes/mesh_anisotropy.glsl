@@ -51,12 +51,10 @@ vec2 mesh_anisotropy(vec3 n, vec3 n_vertex, float facing) {
     vec2 c = u_anisotropy_rotation;
     vec2 direction = c;
 #ifdef USE_ANISOTROPY_MAP
-    vec3 texel = sample_map(u_anisotropy_map, map_uv(u_anisotropy_set, u_anisotropy_uv),
-                            u_anisotropy_mirror).rgb;
-    vec2 d = texel.rg * 2.0 - 1.0;
-    d = dot(d, d) > 1e-12 ? normalize(d) : vec2(1.0, 0.0);
-    direction = mat2(c.x, c.y, -c.y, c.x) * d;  // turned counter-clockwise by the rotation
-    strength *= texel.b;
+    vec3 mapped = anisotropy_map_direction(c, sample_map(u_anisotropy_map,
+        map_uv(u_anisotropy_set, u_anisotropy_uv), u_anisotropy_mirror).rgb);
+    direction = mapped.xy;  // turned counter-clockwise by the rotation
+    strength *= mapped.z;
 #endif
 #if defined(HAS_TANGENTS)
     vec3 t = v_tangent_ws.xyz - n_vertex * dot(n_vertex, v_tangent_ws.xyz);

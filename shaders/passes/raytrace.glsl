@@ -3,6 +3,10 @@
 // hit, any hit), alpha-masked surfaces, and the surface a ray hits. The pure maths is
 // lib/bvh.glsl. Buffers bind at RAYTRACE_BINDING .. + 3 (viewer/raytrace/upload.py).
 #include "lib/bvh.glsl"
+// dielectric_f0_ior (the specular maps), anisotropy_map_direction: included whatever the scene
+// (the resolver includes a file once, even inside a false #if)
+#include "lib/brdf.glsl"
+#include "lib/anisotropy.glsl"
 #ifndef RAYTRACE_STACK
 #define RAYTRACE_STACK 42  // viewer.raytrace.bvh.MAX_DEPTH + 2: the deepest path's far children
 #endif
@@ -14,7 +18,38 @@ layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_material
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
-#define RT_MATERIAL_ROWS 15
+// A material's rows (viewer/raytrace/scene.py ROW, material_rows): the factors, then the map
+// slots, two rows each (KHR_texture_transform's two rows; the layer in row 0's w, -1: none; the
+// wrap modes in row 1's w).
+#define RT_ROW_BASE 0          // base colour factor (rgb), its alpha
+#define RT_ROW_SURFACE 1       // roughness, metallic, specular, MASK cutoff (-1: not masked)
+#define RT_ROW_EMISSION 2      // emissive (rgb), double-sided
+#define RT_ROW_DIELECTRIC 3    // KHR_materials_ior / _specular: F0 (rgb), F90 (a < 0: none)
+#define RT_ROW_CLEARCOAT 4     // KHR_materials_clearcoat: factor, roughness
+#define RT_ROW_TRANSMISSION 5  // KHR_materials_transmission: factor, the volume's IOR
+#define RT_ROW_VOLUME 6        // KHR_materials_volume: sigma (rgb)
+#define RT_ROW_SHEEN 7         // KHR_materials_sheen: colour (rgb), roughness
+#define RT_ROW_ANISOTROPY 8    // KHR_materials_anisotropy: strength, (cos, sin) of the rotation
+#define RT_ROW_IRIDESCENCE 9   // KHR_materials_iridescence: factor, max thickness, IOR, min
+#define RT_ROW_SPECULAR 10     // KHR_materials_specular's colour factor (rgb), KHR_materials_ior
+#define RT_ROW_SLOTS 11
+// The map-slot table (viewer/raytrace/scene.py MAP_SLOTS, the same order): slot k is rows
+// RT_ROW_SLOTS + 2k and + 1 of a material.
+#define RT_MAP_BASE_COLOR 0
+#define RT_MAP_METALLIC_ROUGHNESS 1
+#define RT_MAP_EMISSIVE 2
+#define RT_MAP_SPECULAR 3
+#define RT_MAP_SPECULAR_COLOR 4
+#define RT_MAP_CLEARCOAT 5
+#define RT_MAP_CLEARCOAT_ROUGHNESS 6
+#define RT_MAP_SHEEN_COLOR 7
+#define RT_MAP_SHEEN_ROUGHNESS 8
+#define RT_MAP_ANISOTROPY 9
+#define RT_MAP_IRIDESCENCE 10
+#define RT_MAP_IRIDESCENCE_THICKNESS 11
+#define RT_MAP_TRANSMISSION 12
+#define RT_MAP_SLOTS 13
+#define RT_MATERIAL_ROWS (RT_ROW_SLOTS + 2 * RT_MAP_SLOTS)
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -37,11 +72,16 @@ vec2 rt_map_uv(vec2 uv, vec4 row0, vec4 row1) {
                 w.y == 0 ? rep.y : (w.y == 1 ? cl.y : mir.y));
 }
 
-// Map k (0 base colour, 1 metallic-roughness, 2 emissive) of material m at texture coordinate
-// uv; `fallback` where the material has no such map.
+// Whether material m has a map in slot k (RT_MAP_*).
+bool rt_has_map(int m, int k) {
+    return rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k].w >= 0.0;
+}
+
+// The map in slot k (RT_MAP_*) of material m at texture coordinate uv; `fallback` where the
+// material has none.
 vec4 rt_map(int m, int k, vec2 uv, vec4 fallback) {
-    vec4 row0 = rt_materials[m * RT_MATERIAL_ROWS + 3 + 2 * k];
-    vec4 row1 = rt_materials[m * RT_MATERIAL_ROWS + 4 + 2 * k];
+    vec4 row0 = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k];
+    vec4 row1 = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k + 1];
     if (row0.w < 0.0) return fallback;
     return textureLod(u_rt_maps, vec3(rt_map_uv(uv, row0, row1), row0.w), 0.0);
 }
@@ -57,10 +97,10 @@ vec2 rt_uv(uvec4 tri, vec2 b) {
 // colour's alpha (factor x map) is below the cutoff; every other surface is solid.
 bool rt_solid(uvec4 tri, vec2 b) {
     int m = int(tri.w);
-    float cutoff = rt_materials[m * RT_MATERIAL_ROWS + 1].w;
+    float cutoff = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SURFACE].w;
     if (cutoff < 0.0) return true;
-    float alpha = rt_materials[m * RT_MATERIAL_ROWS].w
-                  * rt_map(m, 0, rt_uv(tri, b), vec4(1.0)).a;
+    float alpha = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_BASE].w
+                  * rt_map(m, RT_MAP_BASE_COLOR, rt_uv(tri, b), vec4(1.0)).a;
     return alpha >= cutoff;
 }
 
@@ -165,7 +205,25 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
 }
 
 // The surface a ray hit: what the path tracer shades at a secondary vertex (the material's
-// factors times its maps at TEXCOORD_0; the interpolated vertex normal; no normal map).
+// factors times its maps at TEXCOORD_0 - every map of the slot table the scene's lobes read; the
+// interpolated vertex normal; no normal map, the coat's included). A lobe's maps are read only
+// in a scene with the lobe (TRACED_*: its G-buffer channel), so a scene pays for what it uses;
+// a material without a map takes its factors exactly (a branch, not a multiplication by 1).
+#ifdef GBUFFER_HAS_DIELECTRIC
+#if GBUFFER_HAS_DIELECTRIC
+#define TRACED_SPECULAR_MAPS
+#endif
+#endif
+#ifdef GBUFFER_HAS_CLEARCOAT
+#if GBUFFER_HAS_CLEARCOAT
+#define TRACED_CLEARCOAT_MAPS
+#endif
+#endif
+#ifdef GBUFFER_HAS_IRIDESCENCE
+#if GBUFFER_HAS_IRIDESCENCE
+#define TRACED_IRIDESCENCE_FIELD
+#endif
+#endif
 struct TracedSurface {
     vec3 p;           // world position
     vec3 ng;          // geometric normal (the triangle's winding: front face)
@@ -188,6 +246,9 @@ struct TracedSurface {
     vec4 anisotropy;  // KHR_materials_anisotropy direction (unit, in n's plane), strength (w)
 #endif
 #endif
+#ifdef TRACED_IRIDESCENCE_FIELD
+    vec3 iridescence; // KHR_materials_iridescence factor (0: none), thickness (nm), film IOR
+#endif
     vec3 emission;    // radiance it emits
     bool double_sided;
     vec2 transmission; // KHR_materials_transmission factor, the volume's IOR (0: thin-walled)
@@ -201,11 +262,11 @@ struct TracedSurface {
 #endif
 
 #ifdef TRACED_ANISOTROPY_FIELD
-// KHR_materials_anisotropy at a traced hit (factors only: the map is not traced): the
-// direction (cos, sin) of the rotation (row.yz) in the triangle's UV frame (T along dp/du, B
-// along -dp/dv, as the G-buffer's cotangent frame and the reference's), put into the plane of
-// the shading normal n; (direction, strength row.x). A triangle without a UV frame takes an
-// arbitrary tangent.
+// KHR_materials_anisotropy at a traced hit: the direction (cos, sin) (row.yz: the rotation's,
+// turned by the map's direction where there is one, lib/anisotropy.glsl anisotropy_map_direction)
+// in the triangle's UV frame (T along dp/du, B along -dp/dv, as the G-buffer's cotangent frame
+// and the reference's), put into the plane of the shading normal n; (direction, strength row.x).
+// A triangle without a UV frame takes an arbitrary tangent.
 vec4 rt_anisotropy(uvec4 tri, vec3 p0, vec3 p1, vec3 p2, vec3 n, vec4 row) {
     vec2 t0 = vec2(rt_vertices[2u * tri.x].w, rt_vertices[2u * tri.x + 1u].w);
     vec2 d1 = vec2(rt_vertices[2u * tri.y].w, rt_vertices[2u * tri.y + 1u].w) - t0;
@@ -241,25 +302,65 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
     s.n = len > 1e-12 ? n / len : s.ng;
     vec2 uv = rt_uv(tri, hit.b);
     int base = m * RT_MATERIAL_ROWS;
-    vec4 f0 = rt_materials[base];
-    vec4 f1 = rt_materials[base + 1];
-    vec4 f2 = rt_materials[base + 2];
-    s.albedo = f0.rgb * rt_map(m, 0, uv, vec4(1.0)).rgb;
-    vec4 mr = rt_map(m, 1, uv, vec4(1.0));
+    vec4 f0 = rt_materials[base + RT_ROW_BASE];
+    vec4 f1 = rt_materials[base + RT_ROW_SURFACE];
+    vec4 f2 = rt_materials[base + RT_ROW_EMISSION];
+    s.albedo = f0.rgb * rt_map(m, RT_MAP_BASE_COLOR, uv, vec4(1.0)).rgb;
+    vec4 mr = rt_map(m, RT_MAP_METALLIC_ROUGHNESS, uv, vec4(1.0));
     s.roughness = clamp(f1.x * mr.g, 0.0, 1.0);
     s.metallic = clamp(f1.y * mr.b, 0.0, 1.0);
     s.specular = f1.z;
-    s.dielectric = rt_materials[base + 9];  // factors only: the specular maps are not traced
-    s.clearcoat = rt_materials[base + 10].xy;  // factors only, the coat on the vertex normal
+    s.dielectric = rt_materials[base + RT_ROW_DIELECTRIC];
+#ifdef TRACED_SPECULAR_MAPS
+    // KHR_materials_specular's maps (A: factor, RGB: colour), as passes/mesh_surface.glsl
+    if (s.dielectric.a >= 0.0
+        && (rt_has_map(m, RT_MAP_SPECULAR) || rt_has_map(m, RT_MAP_SPECULAR_COLOR))) {
+        vec4 spec = rt_materials[base + RT_ROW_SPECULAR];
+        float factor = s.dielectric.a * rt_map(m, RT_MAP_SPECULAR, uv, vec4(1.0)).a;
+        vec3 colour = spec.rgb * rt_map(m, RT_MAP_SPECULAR_COLOR, uv, vec4(1.0)).rgb;
+        s.dielectric = vec4(dielectric_f0_ior(spec.a, colour, factor), factor);
+    }
+#endif
+    s.clearcoat = rt_materials[base + RT_ROW_CLEARCOAT].xy;  // the coat on the vertex normal
+#ifdef TRACED_CLEARCOAT_MAPS
+    s.clearcoat *= vec2(rt_map(m, RT_MAP_CLEARCOAT, uv, vec4(1.0)).r,
+                        rt_map(m, RT_MAP_CLEARCOAT_ROUGHNESS, uv, vec4(1.0)).g);
+#endif
 #ifdef TRACED_SHEEN_FIELD
-    s.sheen = rt_materials[base + 13];  // factors only: the sheen maps are not traced
+    s.sheen = rt_materials[base + RT_ROW_SHEEN]
+              * vec4(rt_map(m, RT_MAP_SHEEN_COLOR, uv, vec4(1.0)).rgb,
+                     rt_map(m, RT_MAP_SHEEN_ROUGHNESS, uv, vec4(1.0)).a);
 #endif
 #ifdef TRACED_ANISOTROPY_FIELD
-    s.anisotropy = rt_anisotropy(tri, p0, p1, p2, s.n, rt_materials[base + 14]);
+    vec4 aniso = rt_materials[base + RT_ROW_ANISOTROPY];
+    if (rt_has_map(m, RT_MAP_ANISOTROPY)) {
+        vec3 dir = anisotropy_map_direction(aniso.yz, rt_map(m, RT_MAP_ANISOTROPY, uv,
+                                                             vec4(1.0)).rgb);
+        aniso = vec4(aniso.x * dir.z, dir.xy, 0.0);
+    }
+    s.anisotropy = rt_anisotropy(tri, p0, p1, p2, s.n, aniso);
 #endif
-    s.emission = f2.rgb * rt_map(m, 2, uv, vec4(1.0)).rgb;
+#ifdef TRACED_IRIDESCENCE_FIELD
+    // the film (R: factor; G blends the minimum thickness to the maximum), as mesh_surface.glsl
+    vec4 film = rt_materials[base + RT_ROW_IRIDESCENCE];
+    s.iridescence = film.xyz;
+    s.iridescence.x *= rt_map(m, RT_MAP_IRIDESCENCE, uv, vec4(1.0)).r;
+    if (rt_has_map(m, RT_MAP_IRIDESCENCE_THICKNESS)) {
+        s.iridescence.y = mix(film.w, film.y,
+                              rt_map(m, RT_MAP_IRIDESCENCE_THICKNESS, uv, vec4(1.0)).g);
+    }
+#endif
+    s.emission = f2.rgb * rt_map(m, RT_MAP_EMISSIVE, uv, vec4(1.0)).rgb;
     s.double_sided = f2.w > 0.5;
-    s.transmission = rt_materials[base + 11].xy;  // factors only: the maps are not read
-    s.sigma = rt_materials[base + 12].xyz;
+    s.transmission = rt_materials[base + RT_ROW_TRANSMISSION].xy;
+#ifdef GBUFFER_HAS_TRANSMISSION
+#if GBUFFER_HAS_TRANSMISSION
+    // transmissionTexture (R) times the factor, as passes/mesh_surface.glsl
+    if (rt_has_map(m, RT_MAP_TRANSMISSION)) {
+        s.transmission.x *= rt_map(m, RT_MAP_TRANSMISSION, uv, vec4(1.0)).r;
+    }
+#endif
+#endif
+    s.sigma = rt_materials[base + RT_ROW_VOLUME].xyz;
     return s;
 }

@@ -28,6 +28,7 @@
 #include "lib/mc.glsl"
 #include "lib/env_sampling.glsl"
 #include "lib/path.glsl"
+#include "lib/iridescence.glsl"
 #include "passes/raytrace.glsl"
 
 layout(location = 1) out vec4 o_bounce_diffuse;
@@ -195,6 +196,10 @@ vec3 rt_hit_shading(TracedSurface t, vec3 n, vec3 ng, vec3 d, vec3 e) {
                 : vec3(0.0);
         }
     }
+#ifdef TRACED_IRIDESCENCE_FIELD
+    // the thin film's Fresnel at n.v, as the split-sum shading of the first hit
+    fresnel.rgb = iridescence_f0(fresnel.rgb, fresnel.a, NoV, t.iridescence);
+#endif
     return ggx_split_sum(diffuse, fresnel.rgb, fresnel.a, 1.0, e, glossy,
                          ibl_dfg(u_env_dfg, NoV, r), float(MULTISCATTER));
 }

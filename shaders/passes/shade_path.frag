@@ -159,6 +159,12 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         if (last) break;
         s = path_vertex(t.p, ng, n, -l, t.albedo, t.roughness, t.metallic, t.specular,
                         t.dielectric, t.clearcoat, n, TRACED_SHEEN(t));
+#ifdef TRACED_IRIDESCENCE_FIELD
+        // the thin film, as at the first hit (before the transmission's split)
+        surface_set_iridescence(s.s, t.iridescence, diffuse_color(t.albedo, t.metallic),
+                                ibl_dfg(u_env_dfg, s.s.NoV,
+                                        clamp_perceptual_roughness(t.roughness)));
+#endif
 #if GBUFFER_HAS_TRANSMISSION
         surface_set_transmission(s.s, t.transmission.x, t.transmission.y, !front);
 #endif
@@ -196,7 +202,7 @@ void main() {
     surface_set_anisotropy(s0.s, aniso.xyz, aniso.w);
 #endif
 #if GBUFFER_HAS_IRIDESCENCE
-    // the thin film at the first hit (traced hits: the base without it)
+    // the thin film at the first hit (traced hits: trace_path, the same)
     surface_set_iridescence(s0.s, g.iridescence, diffuse_color(g.albedo, g.metallic),
                             ibl_dfg(u_env_dfg, s0.s.NoV, clamp_perceptual_roughness(g.roughness)));
 #endif

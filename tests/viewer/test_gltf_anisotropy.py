@@ -212,10 +212,10 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_anisotropy(anisot
     threshold 19.3) and rejects the file without the extension (29 of 144 blocks fail, max |z|
     52). ``ggx_mc`` (no visibility: the neighbours' shadows are missing; 2 x 16 spp) is within
     10 % per sphere (measured -6.4, +6.4, +4.6, +6.9 %; -5.5, +4.0, +3.8, +5.8 % at 64 spp).
-    The traced material rows carry the strength and rotation (row 14) for secondary hits
+    The traced material rows carry the strength and rotation (ROW["anisotropy"]) for secondary hits
     (raytrace.glsl rt_anisotropy: the triangle's UV frame)."""
     from relight.bench.path import block_test
-    from viewer.raytrace.scene import MATERIAL_VEC4S, material_rows
+    from viewer.raytrace.scene import MATERIAL_VEC4S, ROW, material_rows
 
     ext, plain, ref = anisotropy_truth
 
@@ -233,6 +233,6 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_anisotropy(anisot
     rows = material_rows(meshes, [{} for _ in meshes])
     for k, mesh in enumerate(meshes):
         m = mesh.material
-        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 14][:3],
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + ROW["anisotropy"]][:3],
                                    (m.anisotropy_strength, math.cos(m.anisotropy_rotation),
                                     math.sin(m.anisotropy_rotation)), atol=1e-7)

@@ -228,9 +228,9 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_coat(coat_tru
     11.8) and rejects the file without it. ``ggx_mc`` (the same BSDF without visibility: the
     neighbours' shadows are missing, so the block test is not its bound) is within 8 % per
     sphere (measured +2.6, +4.9, +2.6, -2.8 %); without the coat -20 % and worse. The traced
-    material rows carry the coat's factors (row 10) for secondary hits."""
+    material rows carry the coat's factors (ROW["clearcoat"]) for secondary hits."""
     from relight.bench.path import block_test
-    from viewer.raytrace.scene import MATERIAL_VEC4S, material_rows
+    from viewer.raytrace.scene import MATERIAL_VEC4S, ROW, material_rows
 
     ext, plain, ref = coat_truth
 
@@ -249,5 +249,5 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_coat(coat_tru
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])
     for k, mesh in enumerate(meshes):
-        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 10][:2],
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + ROW["clearcoat"]][:2],
                                    (mesh.material.clearcoat, mesh.material.clearcoat_roughness))

@@ -210,10 +210,10 @@ def test_the_path_tracer_converges_to_the_reference_with_the_lobe(ior_truth, ren
     same grid: the per-block
     z-test of tests/reference/test_path_convergence.py (8 seeds x 16 spp) passes with the
     extensions and rejects the file without them (the path tracer's own surface_init then has
-    Filament's lobe). Secondary hits read the lobe's factors from the material rows (row 9,
-    ``Material.dielectric``): checked here, and by the raytrace parity check."""
+    Filament's lobe). Secondary hits read the lobe's factors from the material rows
+    (ROW["dielectric"], ``Material.dielectric``): checked here, and by the raytrace parity check."""
     from relight.bench.path import block_test
-    from viewer.raytrace.scene import MATERIAL_VEC4S, material_rows
+    from viewer.raytrace.scene import MATERIAL_VEC4S, ROW, material_rows
 
     ext, plain, ref = ior_truth
 
@@ -228,8 +228,8 @@ def test_the_path_tracer_converges_to_the_reference_with_the_lobe(ior_truth, ren
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])
     for k, mesh in enumerate(meshes):
-        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 9], mesh.material.dielectric(),
-                                   rtol=1e-6)
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + ROW["dielectric"]],
+                                   mesh.material.dielectric(), rtol=1e-6)
 
 
 def test_neural_models_warn_once_that_they_ignore_the_dielectric_lobe(renderer, tmp_path):

@@ -189,10 +189,10 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_sheen(sheen_t
     per-block z-test (8 seeds x 16 spp) passes with the sheen (measured max |z| 2.5, threshold
     11.8) and rejects the file without it (39 of 144 blocks fail). ``ggx_mc`` (no visibility:
     the neighbours' shadows are missing) is within 8 % per sphere (measured +1.0, +3.6, +5.4,
-    +4.3 %). The traced material rows carry the sheen's factors (row 13)
+    +4.3 %). The traced material rows carry the sheen's factors (ROW["sheen"])
     for secondary hits."""
     from relight.bench.path import block_test
-    from viewer.raytrace.scene import MATERIAL_VEC4S, material_rows
+    from viewer.raytrace.scene import MATERIAL_VEC4S, ROW, material_rows
 
     ext, plain, ref = sheen_truth
 
@@ -209,7 +209,7 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_sheen(sheen_t
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])
     for k, mesh in enumerate(meshes):
-        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 13],
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + ROW["sheen"]],
                                    (*mesh.material.sheen_color, mesh.material.sheen_roughness))
 
 

@@ -211,7 +211,7 @@ def test_the_path_tracer_converges_to_the_reference_through_glass(glass_truth, r
     at depth 6 the spheres read 15-24 % low, max |z| 14.9; at 10 the difference is noise). The
     traced material rows carry the factors (rows 11, 12)."""
     from relight.bench.path import block_test
-    from viewer.raytrace.scene import MATERIAL_VEC4S, material_rows
+    from viewer.raytrace.scene import MATERIAL_VEC4S, ROW, material_rows
 
     ext, plain, ref = glass_truth
     result = block_test(_runs(renderer, ext, 8), ref)
@@ -220,9 +220,9 @@ def test_the_path_tracer_converges_to_the_reference_through_glass(glass_truth, r
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])
     for k, mesh in enumerate(meshes):
-        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 11][:2],
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + ROW["transmission"]][:2],
                                    mesh.material.transmission_row()[:2])
-        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + 12][:3],
+        np.testing.assert_allclose(rows[k * MATERIAL_VEC4S + ROW["volume"]][:3],
                                    mesh.material.attenuation_coefficient(), rtol=1e-6)
 
 

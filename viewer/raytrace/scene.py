@@ -9,16 +9,18 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
   no triangles: neither is traced (their shadows stay the shadow maps' and contact shadows');
 * alphaMode MASK surfaces are cut where the base colour's alpha is below the cutoff; **BLEND**
   surfaces are left out (they cast no shadow in the shadow maps either);
-* at a secondary hit: the material's factors, its base-colour, metallic-roughness and emissive
-  maps (``TEXCOORD_0``, ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`),
-  the ``KHR_materials_ior`` / ``specular`` factors (:meth:`Material.dielectric`, not their maps),
-  the ``KHR_materials_clearcoat`` factors (on the vertex normal; not its maps), the
-  ``KHR_materials_transmission`` / ``_volume`` factors (a transmissive surface is seen from
-  both sides whatever its doubleSided: a thin wall, or a volume's inside),
-  ``KHR_materials_sheen`` factors (not its maps), the ``KHR_materials_anisotropy`` factors
-  (in the triangle's UV frame; not its map),
-  the interpolated vertex normal; normal maps, occlusion maps, vertex colours and
-  ``TEXCOORD_1`` are read only at the first hit (the G-buffer's);
+* at a secondary hit: the material's factors and every map the rasteriser reads for them
+  (:data:`MAP_SLOTS`: base colour, metallic-roughness, emissive, ``KHR_materials_specular``'s
+  two, ``_clearcoat``'s factor and roughness, ``_sheen``'s two, ``_anisotropy``'s,
+  ``_iridescence``'s factor and thickness; ``TEXCOORD_0``, ``KHR_texture_transform``, wrap
+  modes; resampled to :data:`MAP_SIZE`), the ``KHR_materials_ior`` / ``specular`` lobe
+  (:meth:`Material.dielectric`), the ``KHR_materials_clearcoat`` coat (on the vertex normal:
+  its normal map is not traced), the ``KHR_materials_transmission`` / ``_volume`` factors (a
+  transmissive surface is seen from both sides whatever its doubleSided: a thin wall, or a
+  volume's inside), ``KHR_materials_sheen``, ``KHR_materials_anisotropy`` (in the triangle's
+  UV frame), ``KHR_materials_iridescence``'s film, the interpolated vertex normal; normal maps,
+  occlusion maps, vertex colours and ``TEXCOORD_1`` are read only at the first hit (the
+  G-buffer's: a map on ``TEXCOORD_1`` is read at ``TEXCOORD_0`` by rays);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
 """
 from __future__ import annotations
@@ -32,8 +34,39 @@ import numpy as np
 from .bvh import BVH, build_bvh, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
-MAPS = ("base_color", "metallic_roughness", "emissive")
-MATERIAL_VEC4S = 15  # rt_mats rows per material (shaders/passes/raytrace.glsl, material_rows)
+MAP_LAYER_BYTES = MAP_SIZE * MAP_SIZE * 8  # one layer of the map array (RGBA16F): 512 KiB
+
+
+def _always(material) -> bool:
+    return True
+
+
+# The map-slot table: every map a secondary hit reads, in slot order (raytrace.glsl RT_MAP_<KEY>
+# is the slot's index), each with when the rasteriser reads it
+# (viewer.passes.mesh_uploads.mesh_defines): a map the rasteriser ignores is not traced either.
+# A slot is two rows of a material (:func:`material_rows`): a new map is one entry here and its
+# RT_MAP_ define and lookup in raytrace.glsl.
+MAP_SLOTS = {
+    "base_color": _always,
+    "metallic_roughness": _always,
+    "emissive": _always,
+    "specular": lambda m: m.ior is not None,  # KHR_materials_specular: A; with the glTF lobe
+    "specular_color": lambda m: m.ior is not None,  # RGB
+    "clearcoat": lambda m: m.clearcoat > 0.0,  # KHR_materials_clearcoat: R
+    "clearcoat_roughness": lambda m: m.clearcoat > 0.0,  # G
+    "sheen_color": lambda m: m.has_sheen,  # KHR_materials_sheen: RGB
+    "sheen_roughness": lambda m: m.has_sheen,  # A
+    "anisotropy": lambda m: m.has_anisotropy,  # KHR_materials_anisotropy: RG direction, B
+    "iridescence": lambda m: m.has_iridescence,  # KHR_materials_iridescence: R
+    "iridescence_thickness": lambda m: m.has_iridescence,  # G
+    "transmission": lambda m: m.transmission > 0.0,  # KHR_materials_transmission: R
+}
+MAPS = tuple(MAP_SLOTS)
+# a material's rows (raytrace.glsl reads them at these offsets): the factors, then the slots
+ROW = {"base": 0, "surface": 1, "emission": 2, "dielectric": 3, "clearcoat": 4,
+       "transmission": 5, "volume": 6, "sheen": 7, "anisotropy": 8, "iridescence": 9,
+       "specular": 10, "slots": 11}
+MATERIAL_VEC4S = ROW["slots"] + 2 * len(MAP_SLOTS)  # raytrace.glsl RT_MATERIAL_ROWS
 _WRAP_CODES = {"repeat": 0, "clamp": 1, "mirror": 2}
 
 
@@ -45,7 +78,7 @@ class TraceGeometry:
     vertices: np.ndarray   # [V, 8] float32: position xyz, u, normal xyz, v (TEXCOORD_0)
     triangles: np.ndarray  # [N, 4] uint32: vertex indices, mesh index; in BVH leaf order
     nodes: np.ndarray      # [M, 8] float32: lo xyz, first (int bits), hi xyz, count (int bits)
-    maps: np.ndarray       # [L, MAP_SIZE, MAP_SIZE, 4] float32: every mesh's maps, one layer each
+    maps: np.ndarray       # [L, MAP_SIZE, MAP_SIZE, 4] float32: every distinct map, a layer each
     layers: list           # per mesh: {map key: layer}
     bvh: BVH
     skipped: int           # triangles left out (degenerate or non-finite)
@@ -75,6 +108,7 @@ def build_trace_geometry(meshes) -> TraceGeometry:
     """Gather ``meshes`` (world space) and build the BVH over their triangles."""
     verts, tris, layers, maps = [], [], [], []
     base, skipped = 0, 0
+    seen = {}  # id(image) -> (layer, image): the image kept alive while its id is a key
     for k, mesh in enumerate(meshes):
         p = np.asarray(mesh.positions, np.float32)
         idx = np.asarray(mesh.indices, np.int64).reshape(-1, 3)
@@ -94,10 +128,13 @@ def build_trace_geometry(meshes) -> TraceGeometry:
         tris.append(np.concatenate([idx + base, np.full((len(idx), 1), k)], axis=1))
         base += len(p)
         mine = {}
-        for key in MAPS:
-            if key in mesh.textures:
-                mine[key] = len(maps)
-                maps.append(resample_map(mesh.textures[key], MAP_SIZE))
+        for key, read in MAP_SLOTS.items():
+            if key in mesh.textures and read(mesh.material):
+                image = mesh.textures[key]
+                if id(image) not in seen:  # an image several maps share is one layer
+                    seen[id(image)] = (len(maps), image)
+                    maps.append(resample_map(image, MAP_SIZE))
+                mine[key] = seen[id(image)][0]
         layers.append(mine)
     vertices = (np.concatenate(verts).astype(np.float32) if verts
                 else np.zeros((0, 8), np.float32))
@@ -121,31 +158,36 @@ def build_trace_geometry(meshes) -> TraceGeometry:
 
 def material_rows(meshes, layers) -> np.ndarray:
     """``[K * MATERIAL_VEC4S, 4]`` float32: each mesh's material as ``raytrace.glsl`` reads it
-    (factors, alpha, emission, sidedness, each map's layer, uv transform and wrap modes)."""
+    (factors, alpha, emission, sidedness at the :data:`ROW` offsets; then each map slot of
+    :data:`MAP_SLOTS`: its layer, uv transform and wrap modes, layer -1 for none)."""
     rows = np.zeros((max(len(meshes), 1) * MATERIAL_VEC4S, 4), np.float32)
     for k, mesh in enumerate(meshes):
         m = mesh.material
         r = rows[k * MATERIAL_VEC4S:(k + 1) * MATERIAL_VEC4S]
-        r[0] = (*m.albedo, mesh.base_alpha)
+        r[ROW["base"]] = (*m.albedo, mesh.base_alpha)
         cutoff = float(mesh.alpha_cutoff) if mesh.alpha_mode == "MASK" else -1.0
-        r[1] = (m.roughness, m.metallic, m.specular, cutoff)
-        r[2] = (*mesh.emissive, float(mesh.double_sided))
+        r[ROW["surface"]] = (m.roughness, m.metallic, m.specular, cutoff)
+        r[ROW["emission"]] = (*mesh.emissive, float(mesh.double_sided))
         for j, key in enumerate(MAPS):
             layer = layers[k].get(key, -1) if k < len(layers) else -1
             sampling = mesh.sampling.get(key)
             mat = sampling.uv_matrix() if sampling is not None else np.eye(3)
             wrap = sampling.wrap if sampling is not None else ("repeat", "repeat")
-            r[3 + 2 * j] = (mat[0, 0], mat[0, 1], mat[0, 2], float(layer))
-            r[4 + 2 * j] = (mat[1, 0], mat[1, 1], mat[1, 2],
-                            float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
-        r[9] = m.dielectric()  # (F0, F90) of the glTF lobe, (0, 0, 0, -1) for none
-        r[10] = (m.clearcoat, m.clearcoat_roughness, 0.0, 0.0)  # KHR_materials_clearcoat
-        r[11] = m.transmission_row()  # KHR_materials_transmission: factor, volume IOR (0: thin)
-        r[12] = (*m.attenuation_coefficient(), 0.0)  # KHR_materials_volume: sigma per unit length
-        r[13] = (*m.sheen_color, m.sheen_roughness)  # KHR_materials_sheen
-        # KHR_materials_anisotropy: strength, (cos, sin) of the rotation (factors only)
-        r[14] = (m.anisotropy_strength, math.cos(m.anisotropy_rotation),
-                 math.sin(m.anisotropy_rotation), 0.0)
+            r[ROW["slots"] + 2 * j] = (mat[0, 0], mat[0, 1], mat[0, 2], float(layer))
+            r[ROW["slots"] + 2 * j + 1] = (mat[1, 0], mat[1, 1], mat[1, 2],
+                                           float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
+        r[ROW["dielectric"]] = m.dielectric()  # (F0, F90) of the glTF lobe, (0, 0, 0, -1) for none
+        # KHR_materials_specular's maps recompute F0 from these (dielectric_f0_ior)
+        r[ROW["specular"]] = (*m.specular_color, 0.0 if m.ior is None else float(m.ior))
+        r[ROW["clearcoat"]] = (m.clearcoat, m.clearcoat_roughness, 0.0, 0.0)
+        r[ROW["transmission"]] = m.transmission_row()  # factor, volume IOR (0: thin)
+        r[ROW["volume"]] = (*m.attenuation_coefficient(), 0.0)  # sigma per unit length
+        r[ROW["sheen"]] = (*m.sheen_color, m.sheen_roughness)  # KHR_materials_sheen
+        # KHR_materials_anisotropy: strength, (cos, sin) of the rotation
+        r[ROW["anisotropy"]] = (m.anisotropy_strength, math.cos(m.anisotropy_rotation),
+                                math.sin(m.anisotropy_rotation), 0.0)
+        # KHR_materials_iridescence: factor, thickness (the maximum), IOR, the minimum
+        r[ROW["iridescence"]] = m.iridescence_row()
     return rows
 
 

@@ -136,7 +136,8 @@ class Material:
     def iridescence_row(self, thickness_map: bool = False) -> tuple[float, float, float, float]:
         """The G-buffer's ``iridescence`` channel for this material's factors: (factor, thickness
         in nm, film IOR) and, for a thickness map, the minimum (the map's G blends it to the
-        maximum); the traced material's row (factors only: the maximum)."""
+        maximum); the traced material's row (the thickness map's G, where there is one,
+        blends the minimum to the maximum there too: passes/raytrace.glsl rt_surface)."""
         return (float(self.iridescence), float(self.iridescence_thickness_max),
                 float(self.iridescence_ior), float(self.iridescence_thickness_min))
 

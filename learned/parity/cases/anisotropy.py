@@ -50,6 +50,14 @@ PARITY_CASES = [
                atol=2e-5, rtol=1e-5, measured="max abs 7.7e-7 (seeds 0-7)",
                envelope="tangent_to_world's frame (1 / (1 + |n.z|) amplifies near n.z = -1), two dots and a normalisation amplifying by 1/|d| "
                         "(t nearly along n) -> 1e-5 abs"),
+    ParityCase("anisotropy_map_direction",
+               (Arg(kind="unit", components=2, adversarial=((1.0, 0.0), (0.0, 1.0))),
+                Arg(lo=0.0, hi=1.0, components=3,
+                    adversarial=((0.5, 0.5, 1.0), (1.0, 0.5, 0.0), (0.0, 0.0, 0.5)))),
+               atol=2e-6, rtol=1e-5, measured="exact on llvmpipe (seeds 0-7)",
+               envelope="x 2 - 1 (exact), a normalisation (~3 ulp; the zero vector takes +x "
+                        "on both sides) and a 2 x 2 rotation (2 roundings a component): "
+                        "~6 ulp of values <= 1 -> 1e-6 abs"),
     ParityCase("anisotropy_decode", (Arg(lo=-1.0, hi=1.0, components=2,
                                          adversarial=((0.0, 0.0), (1.0, 0.0), (0.3, -0.4))),
                                      _UNIT),

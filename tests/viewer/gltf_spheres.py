@@ -43,11 +43,28 @@ def grid_columns(count: int) -> int:
     return math.ceil(math.sqrt(count))
 
 
-def sphere_grid(path, materials: list[dict], extensions_used=(), tangents: bool = False):
+def extension_materials(spheres, extension: str, with_extension: bool = True) -> list[dict]:
+    """glTF materials of ``spheres``, each ``(pbrMetallicRoughness, the extension's dict or
+    None)``: the extension on those that have one (none with ``with_extension`` False: the
+    negative control's file)."""
+    out = []
+    for base, ext in spheres:
+        m = {"pbrMetallicRoughness": base}
+        if ext is not None and with_extension:
+            m["extensions"] = {extension: ext}
+        out.append(m)
+    return out
+
+
+def sphere_grid(path, materials: list[dict], extensions_used=(), tangents: bool = False,
+                texel=None):
     """A glTF file with one sphere of radius :data:`RADIUS` per material, in a square grid
     (:func:`grid_columns` per row) of pitch :data:`SPACING` centred on the origin, z = 0;
-    ``tangents``: with TANGENT attributes (along increasing u, w = +1: the UVs' own frame)."""
+    ``tangents``: with TANGENT attributes (along increasing u, w = +1: the UVs' own frame);
+    ``texel``: texture 0 is a 2 x 2 image of this RGBA8 colour (the materials' maps)."""
     b = GltfBuilder()
+    if texel is not None:
+        b.image(np.full((2, 2, 4), texel, np.uint8))
     pos, nrm, uv, idx = uv_sphere()
     phi = uv[:, 0] * 2.0 * math.pi
     tan = np.stack([-np.sin(phi), np.zeros_like(phi), -np.cos(phi), np.ones_like(phi)],
@@ -119,3 +136,27 @@ def per_sphere(image, ref, count):
                     float(np.median(np.abs(a - b).sum(-1) / np.maximum(b.sum(-1), 1e-9))),
                     a.mean(0)))
     return out
+
+
+def grid_truth(tmp_path_factory, name: str, grid, spp: int = 128):
+    """``(ext, plain, reference)``: :func:`grid_scene` of ``grid(path)`` (four spheres, with the
+    extension) and of ``grid(path, False)`` (without), and ``relight reference`` of the first
+    (``spp`` samples, max_depth 2: direct light)."""
+    import pytest
+
+    from relight.reference import ReferenceOptions, render_reference
+
+    d = tmp_path_factory.mktemp(name)
+    ext = grid_scene(grid(d / f"{name}.gltf"), 4)
+    plain = grid_scene(grid(d / "plain.gltf", False), 4)
+    with pytest.warns(UserWarning, match="single-sided culling"):
+        ref = render_reference(ext, ReferenceOptions(spp=spp, max_depth=2), progress=False)
+    return ext, plain, ref
+
+
+def mc_runs(renderer, scene, model: str, seeds: int = 8, **extra) -> np.ndarray:
+    """``[seeds, H, W, 4]`` float64: ``model`` at 16 MIS samples per pixel, one render per seed
+    (the block z-test's independent runs)."""
+    return np.asarray([renderer.render(scene.with_render(
+        model=model, samples=16, seed=s, sampling="mis", **extra)).radiance
+        for s in range(seeds)], np.float64)

@@ -10,8 +10,15 @@ import math
 
 import numpy as np
 import pytest
-from gltf_builder import GltfBuilder, image, load_warnings
-from gltf_spheres import grid_scene, per_sphere, sphere_grid
+from gltf_builder import load_warnings
+from gltf_spheres import (
+    extension_materials,
+    grid_scene,
+    grid_truth,
+    mc_runs,
+    per_sphere,
+    sphere_grid,
+)
 
 # the anisotropy texture: RG = the direction (0.71, 0.71) after x 2 - 1 (45 degrees), B = 1
 TEXEL = (218, 218, 255, 255)
@@ -37,24 +44,13 @@ def _anisotropy_materials(with_extension: bool = True) -> list[dict]:
                                                  "anisotropyRotation": math.pi / 2}),
                (pbr((0.1, 0.2, 0.6), 0.25, 0.0), {"anisotropyStrength": 0.6,
                                                   "anisotropyTexture": {"index": 0}})]
-    out = []
-    for base, aniso in spheres:
-        m = {"pbrMetallicRoughness": base}
-        if aniso is not None and with_extension:
-            m["extensions"] = {"KHR_materials_anisotropy": aniso}
-        out.append(m)
-    return out
+    return extension_materials(spheres, "KHR_materials_anisotropy", with_extension)
 
 
 def _anisotropy_grid(path, with_extension: bool = True, tangents: bool = False):
-    path = sphere_grid(path, _anisotropy_materials(with_extension),
-                       ["KHR_materials_anisotropy"] if with_extension else (), tangents)
-    doc = json.loads(path.read_text())
-    b = GltfBuilder()
-    b.image(image([[TEXEL] * 2] * 2))
-    doc["images"], doc["textures"] = b.doc["images"], b.doc["textures"]
-    path.write_text(json.dumps(doc))
-    return path
+    return sphere_grid(path, _anisotropy_materials(with_extension),
+                       ["KHR_materials_anisotropy"] if with_extension else (), tangents,
+                       texel=TEXEL)
 
 
 def test_anisotropy_loads_and_fills_its_channel_only_where_used(tmp_path, renderer):
@@ -171,14 +167,7 @@ def test_white_furnace_the_path_tracer_creates_no_energy(renderer):
 @pytest.fixture(scope="module")
 def anisotropy_truth(mitsuba_llvm, tmp_path_factory):
     """The brushed grid (with and without the extension) and its reference (128 spp, direct)."""
-    from relight.reference import ReferenceOptions, render_reference
-
-    d = tmp_path_factory.mktemp("anisotropy")
-    ext = grid_scene(_anisotropy_grid(d / "aniso.gltf"), 4)
-    plain = grid_scene(_anisotropy_grid(d / "plain.gltf", False), 4)
-    with pytest.warns(UserWarning, match="single-sided culling"):
-        ref = render_reference(ext, ReferenceOptions(spp=128, max_depth=2), progress=False)
-    return ext, plain, ref
+    return grid_truth(tmp_path_factory, "anisotropy", _anisotropy_grid)
 
 
 # per sphere (|bias|, median per-pixel error) bounds of ggx_split_sum. Measured: bias -6.5,
@@ -219,15 +208,10 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_anisotropy(anisot
 
     ext, plain, ref = anisotropy_truth
 
-    def runs(scene, model, seeds=6, **extra):
-        return np.asarray([renderer.render(scene.with_render(
-            model=model, samples=16, seed=s, sampling="mis", **extra)).radiance
-            for s in range(seeds)], np.float64)
-
-    result = block_test(runs(ext, "path", max_depth=2), ref)
+    result = block_test(mc_runs(renderer, ext, "path", seeds=6, max_depth=2), ref)
     assert result.count > 20 and result.passed, result
-    assert not block_test(runs(plain, "path", max_depth=2), ref).passed
-    mc = per_sphere(runs(ext, "ggx_mc", seeds=2).mean(0), ref.radiance, 4)
+    assert not block_test(mc_runs(renderer, plain, "path", seeds=6, max_depth=2), ref).passed
+    mc = per_sphere(mc_runs(renderer, ext, "ggx_mc", seeds=2).mean(0), ref.radiance, 4)
     assert all(abs(s[0]) <= 0.10 for s in mc), mc
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])

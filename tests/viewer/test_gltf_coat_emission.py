@@ -15,6 +15,8 @@ from gltf_builder import GltfBuilder, image, load_warnings, quad
 from gltf_spheres import (
     albedo_quadrature,
     grid_scene,
+    grid_truth,
+    mc_runs,
     per_sphere,
     sphere_grid,
     sphere_masks,
@@ -151,6 +153,11 @@ def _coat_materials(with_extensions: bool = True) -> list[dict]:
     return out
 
 
+def _coat_grid(path, with_extension: bool = True):
+    return sphere_grid(path, _coat_materials(with_extension),
+                       ["KHR_materials_clearcoat"] if with_extension else ())
+
+
 def test_clearcoat_loads_and_fills_its_channel_only_where_coated(tmp_path, renderer):
     from viewer.specialize import analyse, specialise
 
@@ -196,15 +203,7 @@ def test_white_furnace_the_coat_keeps_energy(clearcoat, rough_c):
 @pytest.fixture(scope="module")
 def coat_truth(mitsuba_llvm, tmp_path_factory):
     """The coat grid (with and without the extension) and its reference (256 spp, direct)."""
-    from relight.reference import ReferenceOptions, render_reference
-
-    d = tmp_path_factory.mktemp("coat")
-    ext = grid_scene(sphere_grid(d / "coat.gltf", _coat_materials(),
-                                 ["KHR_materials_clearcoat"]), 4)
-    plain = grid_scene(sphere_grid(d / "plain.gltf", _coat_materials(False)), 4)
-    with pytest.warns(UserWarning, match="single-sided culling"):
-        ref = render_reference(ext, ReferenceOptions(spp=256, max_depth=2), progress=False)
-    return ext, plain, ref
+    return grid_truth(tmp_path_factory, "coat", _coat_grid, spp=256)
 
 
 def test_clearcoat_spheres_match_the_reference(coat_truth, renderer):
@@ -234,17 +233,12 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_coat(coat_tru
 
     ext, plain, ref = coat_truth
 
-    def runs(scene, model, **extra):
-        return np.asarray([renderer.render(scene.with_render(
-            model=model, samples=16, seed=s, sampling="mis", **extra)).radiance
-            for s in range(8)], np.float64)
-
-    result = block_test(runs(ext, "path", max_depth=2), ref)
+    result = block_test(mc_runs(renderer, ext, "path", max_depth=2), ref)
     assert result.count > 20 and result.passed, result
-    assert not block_test(runs(plain, "path", max_depth=2), ref).passed
-    mc = per_sphere(runs(ext, "ggx_mc")[:4].mean(0), ref.radiance, 4)
+    assert not block_test(mc_runs(renderer, plain, "path", max_depth=2), ref).passed
+    mc = per_sphere(mc_runs(renderer, ext, "ggx_mc")[:4].mean(0), ref.radiance, 4)
     assert all(abs(s[0]) <= 0.08 for s in mc), mc
-    mc_plain = per_sphere(runs(plain, "ggx_mc")[:4].mean(0), ref.radiance, 4)
+    mc_plain = per_sphere(mc_runs(renderer, plain, "ggx_mc")[:4].mean(0), ref.radiance, 4)
     assert all(abs(s[0]) > 0.08 for s in mc_plain[1:3]), mc_plain
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])

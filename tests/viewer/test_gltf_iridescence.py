@@ -11,8 +11,15 @@ import math
 
 import numpy as np
 import pytest
-from gltf_builder import GltfBuilder, image, load_warnings
-from gltf_spheres import grid_scene, per_sphere, sphere_grid
+from gltf_builder import load_warnings
+from gltf_spheres import (
+    extension_materials,
+    grid_scene,
+    grid_truth,
+    mc_runs,
+    per_sphere,
+    sphere_grid,
+)
 
 from relight.reference.iridescence import (
     NUMPY,
@@ -227,24 +234,12 @@ def _film_materials(with_extension: bool = True) -> list[dict]:
                                           "iridescenceThicknessMinimum": 200.0,
                                           "iridescenceThicknessMaximum": 800.0,
                                           "iridescenceThicknessTexture": {"index": 0}})]
-    out = []
-    for base, film in films:
-        m = {"pbrMetallicRoughness": base}
-        if film is not None and with_extension:
-            m["extensions"] = {"KHR_materials_iridescence": film}
-        out.append(m)
-    return out
+    return extension_materials(films, "KHR_materials_iridescence", with_extension)
 
 
 def _film_grid(path, with_extension: bool = True):
-    path = sphere_grid(path, _film_materials(with_extension),
-                       ["KHR_materials_iridescence"] if with_extension else ())
-    doc = json.loads(path.read_text())
-    b = GltfBuilder()
-    b.image(image([[TEXEL] * 2] * 2))
-    doc["images"], doc["textures"] = b.doc["images"], b.doc["textures"]
-    path.write_text(json.dumps(doc))
-    return path
+    return sphere_grid(path, _film_materials(with_extension),
+                       ["KHR_materials_iridescence"] if with_extension else (), texel=TEXEL)
 
 
 def test_iridescence_loads_and_fills_its_channel_only_where_used(tmp_path, renderer):
@@ -291,14 +286,7 @@ def test_iridescence_loads_and_fills_its_channel_only_where_used(tmp_path, rende
 @pytest.fixture(scope="module")
 def film_truth(mitsuba_llvm, tmp_path_factory):
     """The film grid (with and without the extension) and its reference (128 spp, direct)."""
-    from relight.reference import ReferenceOptions, render_reference
-
-    d = tmp_path_factory.mktemp("iridescence")
-    ext = grid_scene(_film_grid(d / "film.gltf"), 4)
-    plain = grid_scene(_film_grid(d / "plain.gltf", False), 4)
-    with pytest.warns(UserWarning, match="single-sided culling"):
-        ref = render_reference(ext, ReferenceOptions(spp=128, max_depth=2), progress=False)
-    return ext, plain, ref
+    return grid_truth(tmp_path_factory, "iridescence", _film_grid)
 
 
 def _chromaticity_error(image, ref, count):
@@ -353,14 +341,9 @@ def test_the_path_tracer_converges_to_the_reference_with_the_film(film_truth, re
 
     ext, plain, ref = film_truth
 
-    def runs(scene):
-        return np.asarray([renderer.render(scene.with_render(
-            model="path", samples=16, seed=s, sampling="mis", max_depth=2)).radiance
-            for s in range(8)], np.float64)
-
-    result = block_test(runs(ext), ref)
+    result = block_test(mc_runs(renderer, ext, "path", max_depth=2), ref)
     assert result.count > 20 and result.passed, result
-    assert not block_test(runs(plain), ref).passed
+    assert not block_test(mc_runs(renderer, plain, "path", max_depth=2), ref).passed
 
 
 def test_a_scene_file_material_takes_a_film(renderer):

@@ -10,8 +10,15 @@ import math
 
 import numpy as np
 import pytest
-from gltf_builder import GltfBuilder, image, load_warnings
-from gltf_spheres import grid_scene, per_sphere, sphere_grid
+from gltf_builder import load_warnings
+from gltf_spheres import (
+    extension_materials,
+    grid_scene,
+    grid_truth,
+    mc_runs,
+    per_sphere,
+    sphere_grid,
+)
 
 TEXEL = (128, 230, 100, 128)  # the sheen texture: colour RGB (sRGB), roughness A
 
@@ -39,24 +46,12 @@ def _sheen_materials(with_extension: bool = True) -> list[dict]:
                                            "sheenColorTexture": {"index": 0},
                                            "sheenRoughnessFactor": 1.0,
                                            "sheenRoughnessTexture": {"index": 0}})]
-    out = []
-    for base, sheen in sheens:
-        m = {"pbrMetallicRoughness": base}
-        if sheen is not None and with_extension:
-            m["extensions"] = {"KHR_materials_sheen": sheen}
-        out.append(m)
-    return out
+    return extension_materials(sheens, "KHR_materials_sheen", with_extension)
 
 
 def _sheen_grid(path, with_extension: bool = True):
-    path = sphere_grid(path, _sheen_materials(with_extension),
-                       ["KHR_materials_sheen"] if with_extension else ())
-    doc = json.loads(path.read_text())
-    b = GltfBuilder()
-    b.image(image([[TEXEL] * 2] * 2))
-    doc["images"], doc["textures"] = b.doc["images"], b.doc["textures"]
-    path.write_text(json.dumps(doc))
-    return path
+    return sphere_grid(path, _sheen_materials(with_extension),
+                       ["KHR_materials_sheen"] if with_extension else (), texel=TEXEL)
 
 
 def test_sheen_loads_and_fills_its_channel_only_where_used(tmp_path, renderer):
@@ -148,14 +143,7 @@ def test_white_furnace_the_sheen_keeps_energy(roughness):
 @pytest.fixture(scope="module")
 def sheen_truth(mitsuba_llvm, tmp_path_factory):
     """The sheen grid (with and without the extension) and its reference (128 spp, direct)."""
-    from relight.reference import ReferenceOptions, render_reference
-
-    d = tmp_path_factory.mktemp("sheen")
-    ext = grid_scene(_sheen_grid(d / "sheen.gltf"), 4)
-    plain = grid_scene(_sheen_grid(d / "plain.gltf", False), 4)
-    with pytest.warns(UserWarning, match="single-sided culling"):
-        ref = render_reference(ext, ReferenceOptions(spp=128, max_depth=2), progress=False)
-    return ext, plain, ref
+    return grid_truth(tmp_path_factory, "sheen", _sheen_grid)
 
 
 # per sphere (|bias|, median per-pixel error) bounds. Measured: bias -0.2, +7.2, +1.6, +3.2 %,
@@ -196,15 +184,10 @@ def test_the_monte_carlo_models_converge_to_the_reference_with_the_sheen(sheen_t
 
     ext, plain, ref = sheen_truth
 
-    def runs(scene, model, **extra):
-        return np.asarray([renderer.render(scene.with_render(
-            model=model, samples=16, seed=s, sampling="mis", **extra)).radiance
-            for s in range(8)], np.float64)
-
-    result = block_test(runs(ext, "path", max_depth=2), ref)
+    result = block_test(mc_runs(renderer, ext, "path", max_depth=2), ref)
     assert result.count > 20 and result.passed, result
-    assert not block_test(runs(plain, "path", max_depth=2), ref).passed
-    mc = per_sphere(runs(ext, "ggx_mc")[:4].mean(0), ref.radiance, 4)
+    assert not block_test(mc_runs(renderer, plain, "path", max_depth=2), ref).passed
+    mc = per_sphere(mc_runs(renderer, ext, "ggx_mc")[:4].mean(0), ref.radiance, 4)
     assert all(abs(s[0]) <= 0.08 for s in mc), mc
     meshes = renderer.geometry(ext.objects[0])
     rows = material_rows(meshes, [{} for _ in meshes])

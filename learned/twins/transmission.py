@@ -1,7 +1,8 @@
 """Twins of ``shaders/lib/transmission.glsl``: KHR_materials_transmission's BTDFs (thin-walled:
 the GGX lobe mirrored through the surface; volume: Walter et al. 2007's rough dielectric
 without its Fresnel factor and radiance scale) and KHR_materials_volume's Beer-Lambert
-attenuation. Scalars ``[...]``, ``vec3`` ``[..., 3]``."""
+attenuation, KHR_materials_dispersion's per-channel IORs. Scalars ``[...]``, ``vec3``
+``[..., 3]``."""
 from __future__ import annotations
 
 import torch
@@ -68,6 +69,14 @@ def rough_refraction_pdf(a, eta, n, v, l) -> torch.Tensor:
     out = 2.0 * d_ggx(_dot(n, h), a) * VoH / (NoV + torch.sqrt(a2 + (1.0 - a2) * NoV * NoV)) \
         * jacobian
     return torch.where(ok, out, torch.zeros_like(out))
+
+
+def dispersion_iors(ior, dispersion) -> torch.Tensor:
+    """GLSL ``vec3 dispersion_iors(float ior, float dispersion)``: ior -/+ (ior - 1) 0.025
+    dispersion for red / blue, ior for green; 0 where ior is not > 0 (a thin wall)."""
+    half = (ior - 1.0) * 0.025 * dispersion
+    out = torch.stack([ior - half, ior, ior + half], -1)
+    return torch.where((ior > 0.0)[..., None], out, torch.zeros_like(out))
 
 
 def volume_attenuation(sigma: torch.Tensor, distance: torch.Tensor) -> torch.Tensor:

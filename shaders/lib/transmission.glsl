@@ -78,6 +78,16 @@ float rough_refraction_pdf(float a, float eta, vec3 n, vec3 v, vec3 l) {
            * jacobian;
 }
 
+// KHR_materials_dispersion: the IORs the red, green and blue channels refract by, from the
+// volume's `ior` and dispersion = 20 / V_d (V_d the Abbe number; 0: none) as three.js and the
+// Khronos sample viewer spread them: half spread (ior - 1) 0.025 dispersion about ior (red
+// least, blue most). A thin wall's ior 0 stays 0 in every channel.
+vec3 dispersion_iors(float ior, float dispersion) {
+    if (!(ior > 0.0)) return vec3(0.0);
+    float half_spread = (ior - 1.0) * 0.025 * dispersion;
+    return vec3(ior - half_spread, ior, ior + half_spread);
+}
+
 // Beer-Lambert: the share of light left after `distance` through a medium of attenuation
 // coefficient sigma = -ln(attenuationColor) / attenuationDistance (KHR_materials_volume).
 vec3 volume_attenuation(vec3 sigma, float distance) {

@@ -37,6 +37,13 @@ PARITY_CASES = [
                atol=1e-7, rtol=4e-6, measured="max abs 1.8e-7, rel 2.1e-6 (seeds 0-7)",
                envelope="one product and exp (GLSL exp: 3 ulp of its argument's size, here "
                         "<= 1e5 so 2e-6 rel after the product's rounding)"),
+    ParityCase("dispersion_iors",
+               (Arg(lo=1.0, hi=2.5, adversarial=(0.0, 1.0, 1.5)),
+                Arg(lo=0.0, hi=40.0, adversarial=(0.0, 20.0, 1e4))),
+               atol=1e-6, rtol=1e-6, measured="exact (seeds 0-7)",
+               envelope="two products, a difference and a sum or difference of values <= 2.5 "
+                        "(dispersion <= 40; the adversarial 1e4's larger values round "
+                        "relatively too): ~4 roundings, 5e-7 rel"),
     ParityCase("volume_exit_offset",
                (_UP, _UP, Arg(lo=0.0, hi=2.0, adversarial=(0.0, 0.8)),
                 Arg(lo=1.0, hi=2.5, adversarial=(0.0, 1.0, 1.5, 0.7))),

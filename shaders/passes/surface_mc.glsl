@@ -25,6 +25,9 @@
 // alpha_b = the material's across it): evaluated, and drawn by its anisotropic visible normals;
 // the energy split (1 - E_spec) and the lobe choice keep the isotropic lobe's albedo of alpha_b,
 // and the transmission lobe stays isotropic.
+// With GBUFFER_HAS_DISPERSION (KHR_materials_dispersion, with transmission), a dispersive
+// volume's BTDF refracts each colour channel by its own eta (surface_set_dispersion): evaluated
+// per channel, drawn by a channel chosen uniformly (surface_btdf_cos_rgb says why unbiased).
 #include "lib/transmission.glsl"
 #include "lib/anisotropy.glsl"
 #include "lib/iridescence.glsl"
@@ -62,6 +65,9 @@ struct Surface {
     vec3 transmit;     // the BTDF's colour: diffuse's share T (diffuse keeps 1 - T)
     float eta;         // eta_l / eta_v of the volume's refraction; 0 = thin-walled
     float p_trans;     // probability of the BTDF among the base's non-specular lobes (T)
+#if GBUFFER_HAS_DISPERSION
+    vec3 etas;         // eta per colour channel (each s.eta without dispersion)
+#endif
 #endif
 #if GBUFFER_HAS_SHEEN
     vec3 sheen;        // KHR_materials_sheen colour (0: none) on the base's normal
@@ -96,7 +102,48 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
     s.diffuse *= 1.0 - T;
     s.eta = ior > 0.0 ? (inside ? 1.0 / ior : ior) : 0.0;
     s.p_trans = T;
+#if GBUFFER_HAS_DISPERSION
+    s.etas = vec3(s.eta);
+#endif
 }
+
+#if GBUFFER_HAS_DISPERSION
+// KHR_materials_dispersion (20 / V_d) of a volume of `ior` on a surface_set_transmission
+// surface: each colour channel's eta from lib/transmission.glsl dispersion_iors, inverted
+// inside as s.eta is (a thin wall, ior 0, keeps none).
+void surface_set_dispersion(inout Surface s, float ior, float dispersion, bool inside) {
+    vec3 iors = dispersion_iors(ior, dispersion);
+    if (ior > 0.0) s.etas = inside ? 1.0 / iors : iors;
+}
+
+// Whether the surface's BTDF disperses (its channels refract by different etas).
+bool surface_disperses(Surface s) {
+    return s.eta > 0.0 && s.etas.r != s.etas.b;
+}
+
+// The BTDF times |n.l| per colour channel (no colour), each channel refracting by its own eta.
+// sample_surface_brdf draws a channel uniformly and refracts by its eta through a visible
+// normal, so the density of l is the mean of the three channels' (surface_btdf_pdf_rgb): the
+// estimate f_k / mean_c pdf_c of each channel k is the balance heuristic's one-sample MIS over
+// the three draws, unbiased for every channel, and the MIS weights against light sampling take
+// that same density. At a smooth interface the channels' lobes do not overlap: the drawn
+// channel carries on with 3 times its value, the other two with ~0 (a path through a ball
+// keeps the colour it entered with only where its exit draw picked the same one: that weight,
+// not a bias, is the cost).
+vec3 surface_btdf_cos_rgb(Surface s, vec3 l) {
+    if (!surface_disperses(s)) return vec3(surface_btdf_cos(s, l));
+    return vec3(rough_refraction_cos(s.a, s.etas.r, s.n, s.v, l),
+                rough_refraction_cos(s.a, s.etas.g, s.n, s.v, l),
+                rough_refraction_cos(s.a, s.etas.b, s.n, s.v, l));
+}
+
+float surface_btdf_pdf_rgb(Surface s, vec3 l) {
+    if (!surface_disperses(s)) return surface_btdf_pdf(s, l);
+    return (rough_refraction_pdf(s.a, s.etas.r, s.n, s.v, l)
+            + rough_refraction_pdf(s.a, s.etas.g, s.n, s.v, l)
+            + rough_refraction_pdf(s.a, s.etas.b, s.n, s.v, l)) / 3.0;
+}
+#endif
 #endif
 
 #if GBUFFER_HAS_IRIDESCENCE
@@ -177,7 +224,9 @@ float surface_specular_pdf(Surface s, vec3 h, float NoH) {
 // f(v, l) (n.l), 0 below the surface.
 vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
-#if GBUFFER_HAS_TRANSMISSION
+#if GBUFFER_HAS_DISPERSION
+    if (!(NoL > 0.0) && s.p_trans > 0.0) return s.transmit * surface_btdf_cos_rgb(s, l);
+#elif GBUFFER_HAS_TRANSMISSION
     if (!(NoL > 0.0) && s.p_trans > 0.0) return s.transmit * surface_btdf_cos(s, l);
 #endif
     if (!(NoL > 0.0)) return vec3(0.0);
@@ -207,7 +256,11 @@ float surface_base_brdf_pdf(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
     float p_diffuse = 1.0 - s.p_spec;
 #if GBUFFER_HAS_TRANSMISSION
+#if GBUFFER_HAS_DISPERSION
+    if (!(NoL > 0.0) && s.p_trans > 0.0) return p_diffuse * s.p_trans * surface_btdf_pdf_rgb(s, l);
+#else
     if (!(NoL > 0.0) && s.p_trans > 0.0) return p_diffuse * s.p_trans * surface_btdf_pdf(s, l);
+#endif
     p_diffuse *= 1.0 - s.p_trans;
 #endif
     if (!(NoL > 0.0)) return 0.0;
@@ -273,10 +326,23 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
 #if GBUFFER_HAS_TRANSMISSION
     if (u.x < s.p_trans) {  // the BTDF: a visible normal, then mirrored or refracted below
         u.x = u.x / s.p_trans;
+#if GBUFFER_HAS_DISPERSION
+        float eta = s.eta;
+        if (surface_disperses(s)) {  // a colour channel, uniformly, from the rest of u.x
+            float c = min(floor(u.x * 3.0), 2.0);
+            u.x = u.x * 3.0 - c;
+            eta = c < 0.5 ? s.etas.r : (c < 1.5 ? s.etas.g : s.etas.b);
+        }
+        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
+        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
+        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / eta)  // 0 on total internal reflection
+                               : mirror_through(s.n, reflect(-s.v, h));
+#else
         vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
         vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
         vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / s.eta)  // 0 on total internal reflection
                                : mirror_through(s.n, reflect(-s.v, h));
+#endif
         return -dot(s.n, l_t) > 0.0 ? l_t : vec3(0.0);
     }
     u.x = (u.x - s.p_trans) / (1.0 - s.p_trans);

@@ -27,7 +27,8 @@ def test_dispersion_loads_without_a_warning(tmp_path, renderer):
     """The prism's material reads dispersion 30 (a dispersive volume: the G-buffer's dispersion
     channel and the mesh's USE_DISPERSION define, the traced row's z); the same material as a
     thin wall (no volume) keeps the value but disperses nothing (the spec), so no channel and no
-    define; a negative or non-numeric dispersion is one line naming the file."""
+    define, and renders bit-identically to the same wall without the extension (split-sum and
+    path); a negative or non-numeric dispersion is one line naming the file."""
     from viewer.errors import InputError
     from viewer.passes.mesh_uploads import mesh_defines
     from viewer.specialize import analyse, specialise
@@ -50,8 +51,14 @@ def test_dispersion_loads_without_a_warning(tmp_path, renderer):
     assert wall.material.transmission_row()[2] == 0.0
     assert not specialise(analyse(renderer, prism_scene(thin, *SIZE)),
                           scene.render).layout.with_dispersion
+    del doc["materials"][0]["extensions"]["KHR_materials_dispersion"]
+    plain = tmp_path / "plain.gltf"
+    plain.write_text(json.dumps(doc))
+    for render in ({"raytrace": False}, {"model": "path", "samples": 1, "max_depth": 4}):
+        pair = [renderer.render(prism_scene(p, *SIZE, **render)).radiance for p in (thin, plain)]
+        assert np.array_equal(*pair), render  # no effect, no cost: the same programs
     for bad in (-1.0, "x"):
-        doc["materials"][0]["extensions"]["KHR_materials_dispersion"]["dispersion"] = bad
+        doc["materials"][0]["extensions"]["KHR_materials_dispersion"] = {"dispersion": bad}
         thin.write_text(json.dumps(doc))
         with pytest.raises(InputError, match="dispersion") as err:
             load_warnings(thin)

@@ -79,6 +79,18 @@ def dispersion_iors(ior, dispersion) -> torch.Tensor:
     return torch.where((ior > 0.0)[..., None], out, torch.zeros_like(out))
 
 
+def dispersive_refraction_cos(a, etas, n, v, l) -> torch.Tensor:
+    """GLSL ``vec3 dispersive_refraction_cos(float a, vec3 etas, vec3 n, vec3 v, vec3 l)``:
+    :func:`rough_refraction_cos` with each channel's eta, ``[..., 3]``."""
+    return torch.stack([rough_refraction_cos(a, etas[..., k], n, v, l) for k in range(3)], -1)
+
+
+def dispersive_refraction_pdf(a, etas, n, v, l) -> torch.Tensor:
+    """GLSL ``float dispersive_refraction_pdf(float a, vec3 etas, vec3 n, vec3 v, vec3 l)``:
+    the mean of :func:`rough_refraction_pdf` over the channels' etas."""
+    return sum(rough_refraction_pdf(a, etas[..., k], n, v, l) for k in range(3)) / 3.0
+
+
 def volume_attenuation(sigma: torch.Tensor, distance: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 volume_attenuation(vec3 sigma, float distance)``: exp(-sigma d)."""
     return torch.exp(-sigma * distance.clamp_min(0.0)[..., None])

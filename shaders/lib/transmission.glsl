@@ -88,6 +88,20 @@ vec3 dispersion_iors(float ior, float dispersion) {
     return vec3(ior - half_spread, ior, ior + half_spread);
 }
 
+// rough_refraction_cos per colour channel, each refracting by its own eta (etas: eta_l / eta_v
+// of red, green, blue; KHR_materials_dispersion).
+vec3 dispersive_refraction_cos(float a, vec3 etas, vec3 n, vec3 v, vec3 l) {
+    return vec3(rough_refraction_cos(a, etas.r, n, v, l), rough_refraction_cos(a, etas.g, n, v, l),
+                rough_refraction_cos(a, etas.b, n, v, l));
+}
+
+// The density of l drawn by a colour channel chosen uniformly, then refracted by its eta through
+// a visible normal: the mean of the channels' rough_refraction_pdf.
+float dispersive_refraction_pdf(float a, vec3 etas, vec3 n, vec3 v, vec3 l) {
+    return (rough_refraction_pdf(a, etas.r, n, v, l) + rough_refraction_pdf(a, etas.g, n, v, l)
+            + rough_refraction_pdf(a, etas.b, n, v, l)) / 3.0;
+}
+
 // Beer-Lambert: the share of light left after `distance` through a medium of attenuation
 // coefficient sigma = -ln(attenuationColor) / attenuationDistance (KHR_materials_volume).
 vec3 volume_attenuation(vec3 sigma, float distance) {

@@ -208,7 +208,7 @@ void main() {
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);
 #if GBUFFER_HAS_DISPERSION
-    surface_set_dispersion(s0.s, g.transmission_ior, g.dispersion, false);  // KHR_materials_dispersion
+    surface_set_dispersion(s0.s, g.transmission_ior, g.dispersion, false);
 #endif
 #endif
     vec3 sum = vec3(0.0);

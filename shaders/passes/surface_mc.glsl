@@ -25,9 +25,8 @@
 // alpha_b = the material's across it): evaluated, and drawn by its anisotropic visible normals;
 // the energy split (1 - E_spec) and the lobe choice keep the isotropic lobe's albedo of alpha_b,
 // and the transmission lobe stays isotropic.
-// With GBUFFER_HAS_DISPERSION (KHR_materials_dispersion, with transmission), a dispersive
-// volume's BTDF refracts each colour channel by its own eta (surface_set_dispersion): evaluated
-// per channel, drawn by a channel chosen uniformly (surface_btdf_cos_rgb says why unbiased).
+// With GBUFFER_HAS_DISPERSION (KHR_materials_dispersion), a dispersive volume's BTDF refracts each
+// colour channel by its own eta (surface_set_dispersion, surface_btdf_cos_rgb).
 #include "lib/transmission.glsl"
 #include "lib/anisotropy.glsl"
 #include "lib/iridescence.glsl"
@@ -121,27 +120,18 @@ bool surface_disperses(Surface s) {
     return s.eta > 0.0 && s.etas.r != s.etas.b;
 }
 
-// The BTDF times |n.l| per colour channel (no colour), each channel refracting by its own eta.
-// sample_surface_brdf draws a channel uniformly and refracts by its eta through a visible
-// normal, so the density of l is the mean of the three channels' (surface_btdf_pdf_rgb): the
-// estimate f_k / mean_c pdf_c of each channel k is the balance heuristic's one-sample MIS over
-// the three draws, unbiased for every channel, and the MIS weights against light sampling take
-// that same density. At a smooth interface the channels' lobes do not overlap: the drawn
-// channel carries on with 3 times its value, the other two with ~0 (a path through a ball
-// keeps the colour it entered with only where its exit draw picked the same one: that weight,
-// not a bias, is the cost).
+// The BTDF times |n.l| per colour channel, and the density of sample_surface_brdf's draw: a
+// channel chosen uniformly, then refracted by its eta, so the density is the channels' mean and
+// f_k / pdf is the balance heuristic's one-sample MIS over the three draws, unbiased for every
+// channel k. At a smooth interface the drawn channel carries on x3, the others ~0: noise, not bias.
 vec3 surface_btdf_cos_rgb(Surface s, vec3 l) {
-    if (!surface_disperses(s)) return vec3(surface_btdf_cos(s, l));
-    return vec3(rough_refraction_cos(s.a, s.etas.r, s.n, s.v, l),
-                rough_refraction_cos(s.a, s.etas.g, s.n, s.v, l),
-                rough_refraction_cos(s.a, s.etas.b, s.n, s.v, l));
+    return surface_disperses(s) ? dispersive_refraction_cos(s.a, s.etas, s.n, s.v, l)
+                                : vec3(surface_btdf_cos(s, l));
 }
 
 float surface_btdf_pdf_rgb(Surface s, vec3 l) {
-    if (!surface_disperses(s)) return surface_btdf_pdf(s, l);
-    return (rough_refraction_pdf(s.a, s.etas.r, s.n, s.v, l)
-            + rough_refraction_pdf(s.a, s.etas.g, s.n, s.v, l)
-            + rough_refraction_pdf(s.a, s.etas.b, s.n, s.v, l)) / 3.0;
+    return surface_disperses(s) ? dispersive_refraction_pdf(s.a, s.etas, s.n, s.v, l)
+                                : surface_btdf_pdf(s, l);
 }
 #endif
 #endif
@@ -333,16 +323,14 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
             u.x = u.x * 3.0 - c;
             eta = c < 0.5 ? s.etas.r : (c < 1.5 ? s.etas.g : s.etas.b);
         }
-        vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
-        vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
-        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / eta)  // 0 on total internal reflection
-                               : mirror_through(s.n, reflect(-s.v, h));
+#define ETA_T eta  // the drawn channel's eta
 #else
+#define ETA_T s.eta
+#endif
         vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
         vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
-        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / s.eta)  // 0 on total internal reflection
+        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / ETA_T)  // 0 on total internal reflection
                                : mirror_through(s.n, reflect(-s.v, h));
-#endif
         return -dot(s.n, l_t) > 0.0 ? l_t : vec3(0.0);
     }
     u.x = (u.x - s.p_trans) / (1.0 - s.p_trans);

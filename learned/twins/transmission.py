@@ -85,10 +85,23 @@ def dispersive_refraction_cos(a, etas, n, v, l) -> torch.Tensor:
     return torch.stack([rough_refraction_cos(a, etas[..., k], n, v, l) for k in range(3)], -1)
 
 
-def dispersive_refraction_pdf(a, etas, n, v, l) -> torch.Tensor:
-    """GLSL ``float dispersive_refraction_pdf(float a, vec3 etas, vec3 n, vec3 v, vec3 l)``:
-    the mean of :func:`rough_refraction_pdf` over the channels' etas."""
-    return sum(rough_refraction_pdf(a, etas[..., k], n, v, l) for k in range(3)) / 3.0
+def dispersive_refraction_pdf(a, etas, w, n, v, l) -> torch.Tensor:
+    """GLSL ``float dispersive_refraction_pdf(float a, vec3 etas, vec3 w, vec3 n, vec3 v, vec3
+    l)``: :func:`rough_refraction_pdf` per channel's eta, weighted by w."""
+    return sum(w[..., k] * rough_refraction_pdf(a, etas[..., k], n, v, l) for k in range(3))
+
+
+def draw_channel(w, u) -> torch.Tensor:
+    """GLSL ``vec2 draw_channel(vec3 w, float u)``: (the channel u falls in, by the shares w;
+    u rescaled within it), ``[..., 2]``; green where u is past red's and green's shares and blue's
+    is 0."""
+    r, g, b = w[..., 0], w[..., 1], w[..., 2]
+    u1 = u - r
+    red = torch.stack([torch.zeros_like(u), u / r], -1)
+    green = torch.stack([torch.ones_like(u), saturate(u1 / g.clamp_min(1e-30))], -1)
+    blue = torch.stack([torch.full_like(u, 2.0), saturate((u1 - g) / b)], -1)
+    out = torch.where(((u1 < g) | ~(b > 0.0))[..., None], green, blue)
+    return torch.where((u < r)[..., None], red, out)
 
 
 def volume_attenuation(sigma: torch.Tensor, distance: torch.Tensor) -> torch.Tensor:

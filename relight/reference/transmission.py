@@ -144,8 +144,10 @@ def btdf_sample(mi, dr, distr, eta, volume: bool, wi, sample2):
 # the BTDF is evaluated per channel, a direction is drawn by a channel chosen uniformly
 # (then that channel's visible-normal refraction), and its density is the mean of the three
 # channels' (one-sample MIS with the balance heuristic over the three draws: f_k / mean_c pdf_c
-# is an unbiased estimate of every channel k; passes/surface_mc.glsl does the same). Without
-# dispersion these are btdf_cos / _pdf / _sample of the one eta.
+# is an unbiased estimate of every channel k). The path tracer draws the channels in
+# proportion to the path's throughput instead (passes/surface_dispersion.glsl), which a BSDF
+# plugin cannot see: as unbiased, less noisy. Without dispersion these are btdf_cos / _pdf /
+# _sample of the one eta.
 
 def btdf_cos_rgb(mi, dr, a, t, wi, wo):
     """f_t |n.l| per channel (``mi.Color3f``)."""

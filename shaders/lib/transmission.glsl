@@ -95,11 +95,23 @@ vec3 dispersive_refraction_cos(float a, vec3 etas, vec3 n, vec3 v, vec3 l) {
                 rough_refraction_cos(a, etas.b, n, v, l));
 }
 
-// The density of l drawn by a colour channel chosen uniformly, then refracted by its eta through
-// a visible normal: the mean of the channels' rough_refraction_pdf.
-float dispersive_refraction_pdf(float a, vec3 etas, vec3 n, vec3 v, vec3 l) {
-    return (rough_refraction_pdf(a, etas.r, n, v, l) + rough_refraction_pdf(a, etas.g, n, v, l)
-            + rough_refraction_pdf(a, etas.b, n, v, l)) / 3.0;
+// The density of l drawn by a colour channel chosen with probabilities w (summing to 1), then
+// refracted by its eta through a visible normal: the channels' rough_refraction_pdf weighted by w.
+float dispersive_refraction_pdf(float a, vec3 etas, vec3 w, vec3 n, vec3 v, vec3 l) {
+    return dot(w, vec3(rough_refraction_pdf(a, etas.r, n, v, l),
+                       rough_refraction_pdf(a, etas.g, n, v, l),
+                       rough_refraction_pdf(a, etas.b, n, v, l)));
+}
+
+// A colour channel drawn with probabilities w (summing to 1) by u in [0, 1): (its index 0, 1 or
+// 2; u rescaled to [0, 1] within its share, for the draw that follows). A channel of
+// probability 0 is never returned (where rounding leaves u past w.r + w.g, green stands in
+// for a blue of 0).
+vec2 draw_channel(vec3 w, float u) {
+    if (u < w.r) return vec2(0.0, u / w.r);
+    u -= w.r;
+    if (u < w.g || !(w.b > 0.0)) return vec2(1.0, saturate(u / max(w.g, 1e-30)));
+    return vec2(2.0, saturate((u - w.g) / w.b));
 }
 
 // Beer-Lambert: the share of light left after `distance` through a medium of attenuation

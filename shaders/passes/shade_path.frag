@@ -125,6 +125,9 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         // a shading normal facing away from where the path came from: no light leaves it
         // towards that side (as the reference's BSDF evaluates)
         if (!(s.s.NoV > 0.0)) break;
+#if GBUFFER_HAS_DISPERSION
+        surface_weight_channels(s.s, beta);  // a dispersive BTDF's channel draw (surface_mc.glsl)
+#endif
         uint dim = uint(bounce) * DIMS_PER_BOUNCE;
         radiance += beta * path_environment(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim));
         radiance += beta * path_lights(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 1u));

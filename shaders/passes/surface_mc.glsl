@@ -66,6 +66,7 @@ struct Surface {
     float p_trans;     // probability of the BTDF among the base's non-specular lobes (T)
 #if GBUFFER_HAS_DISPERSION
     vec3 etas;         // eta per colour channel (each s.eta without dispersion)
+    vec3 channel_w;    // the probabilities of drawing each channel's refraction (sum 1)
 #endif
 #endif
 #if GBUFFER_HAS_SHEEN
@@ -103,36 +104,12 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
     s.p_trans = T;
 #if GBUFFER_HAS_DISPERSION
     s.etas = vec3(s.eta);
+    s.channel_w = vec3(1.0 / 3.0);
 #endif
 }
 
 #if GBUFFER_HAS_DISPERSION
-// KHR_materials_dispersion (20 / V_d) of a volume of `ior` on a surface_set_transmission
-// surface: each colour channel's eta from lib/transmission.glsl dispersion_iors, inverted
-// inside as s.eta is (a thin wall, ior 0, keeps none).
-void surface_set_dispersion(inout Surface s, float ior, float dispersion, bool inside) {
-    vec3 iors = dispersion_iors(ior, dispersion);
-    if (ior > 0.0) s.etas = inside ? 1.0 / iors : iors;
-}
-
-// Whether the surface's BTDF disperses (its channels refract by different etas).
-bool surface_disperses(Surface s) {
-    return s.eta > 0.0 && s.etas.r != s.etas.b;
-}
-
-// The BTDF times |n.l| per colour channel, and the density of sample_surface_brdf's draw: a
-// channel chosen uniformly, then refracted by its eta, so the density is the channels' mean and
-// f_k / pdf is the balance heuristic's one-sample MIS over the three draws, unbiased for every
-// channel k. At a smooth interface the drawn channel carries on x3, the others ~0: noise, not bias.
-vec3 surface_btdf_cos_rgb(Surface s, vec3 l) {
-    return surface_disperses(s) ? dispersive_refraction_cos(s.a, s.etas, s.n, s.v, l)
-                                : vec3(surface_btdf_cos(s, l));
-}
-
-float surface_btdf_pdf_rgb(Surface s, vec3 l) {
-    return surface_disperses(s) ? dispersive_refraction_pdf(s.a, s.etas, s.n, s.v, l)
-                                : surface_btdf_pdf(s, l);
-}
+#include "passes/surface_dispersion.glsl"
 #endif
 #endif
 
@@ -318,10 +295,10 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
         u.x = u.x / s.p_trans;
 #if GBUFFER_HAS_DISPERSION
         float eta = s.eta;
-        if (surface_disperses(s)) {  // a colour channel, uniformly, from the rest of u.x
-            float c = min(floor(u.x * 3.0), 2.0);
-            u.x = u.x * 3.0 - c;
-            eta = c < 0.5 ? s.etas.r : (c < 1.5 ? s.etas.g : s.etas.b);
+        if (surface_disperses(s)) {  // a colour channel by s.channel_w, from the rest of u.x
+            vec2 c = draw_channel(s.channel_w, u.x);
+            u.x = c.y;
+            eta = c.x < 0.5 ? s.etas.r : (c.x < 1.5 ? s.etas.g : s.etas.b);
         }
 #define ETA_T eta  // the drawn channel's eta
 #else

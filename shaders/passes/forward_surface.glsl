@@ -17,7 +17,9 @@
 // USE_THICKNESS_MAP (with USE_TRANSMISSION and a volume): KHR_materials_volume's thicknessTexture,
 // its G times u_thickness, is the thickness refracted_radiance goes through at this fragment (read
 // here: the G-buffer has no thickness channel, the traced volume being the mesh itself).
-// USE_DISPERSION (with USE_TRANSMISSION, a dispersive volume): refracted_radiance per channel.
+// USE_DISPERSION (with USE_TRANSMISSION, a dispersive volume): refracted_radiance per channel
+// where the layout has the dispersion channel (render.specialize = false's all-features layout
+// has none: the volume then refracts by its one IOR).
 // Included by the virtual generated/gbuffer.glsl of viewer/passes/forward.py, after the layout's
 // struct and loader.
 #include "passes/mesh_surface.glsl"
@@ -69,7 +71,7 @@ vec3 refracted_radiance_ior(GBuffer g, vec3 n, vec3 v, float ior) {
 // (lib/transmission.glsl dispersion_iors: red least, blue most), read where its own ray leaves
 // and attenuated along its own chord: three lookups of the copy in place of one.
 vec3 refracted_radiance(GBuffer g, vec3 n, vec3 v) {
-#ifdef USE_DISPERSION
+#if defined(USE_DISPERSION) && GBUFFER_HAS_DISPERSION
     vec3 iors = dispersion_iors(g.transmission_ior, g.dispersion);
     return vec3(refracted_radiance_ior(g, n, v, iors.r).r,
                 refracted_radiance_ior(g, n, v, iors.g).g,

@@ -334,7 +334,7 @@ GBuffer mesh_surface(out float alpha) {
 #endif
     g.transmission_ior = u_transmission_ior;
 #endif
-#ifdef USE_DISPERSION
+#if defined(USE_DISPERSION) && GBUFFER_HAS_DISPERSION
     g.dispersion = u_dispersion;
 #endif
 #ifdef USE_SHEEN

@@ -23,6 +23,30 @@ def renderer(ctx):
     return Renderer(ctx=ctx)
 
 
+def test_a_scene_file_material_takes_a_dispersion():
+    """A scene file's material names it as the loader's (``dispersion``, with ``transmission``
+    and ``thickness`` for a volume); the written scene names it only where set; a negative one is
+    one line naming the field."""
+    import tomllib
+
+    from viewer.errors import SceneError
+    from viewer.scene.description import scene_from_dict
+    from viewer.scene.files import scene_toml
+
+    def scene(material):
+        return scene_from_dict({"camera": {"size": [16, 16]},
+                                "objects": [{"type": "sphere", "material": material}]})
+
+    glass = {"transmission": 1.0, "thickness": 1.0}  # (the volume IOR: 1.5)
+    s = scene({**glass, "dispersion": 20.0})
+    assert s.objects[0].material.has_dispersion
+    assert tomllib.loads(scene_toml(s))["objects"][0]["material"]["dispersion"] == 20.0
+    assert "dispersion" not in tomllib.loads(scene_toml(scene(glass)))["objects"][0]["material"]
+    with pytest.raises(SceneError, match="dispersion") as err:
+        scene({**glass, "dispersion": -1.0})
+    assert "\n" not in str(err.value)
+
+
 def test_dispersion_loads_without_a_warning(tmp_path, renderer):
     """The prism's material reads dispersion 30 (a dispersive volume: the G-buffer's dispersion
     channel and the mesh's USE_DISPERSION define, the traced row's z); the same material as a

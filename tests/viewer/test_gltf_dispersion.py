@@ -90,18 +90,24 @@ def test_dispersion_loads_without_a_warning(tmp_path, renderer):
 
 
 @pytest.fixture(scope="module")
-def prism_truth(mitsuba_llvm, tmp_path_factory, renderer):
-    """The dispersive prism (48 x 32): its reference (32 spp), ``path`` with it (8 seeds x 8
-    spp) and without dispersion (8 seeds x 4 spp)."""
-    from relight.reference import ReferenceOptions, render_reference
-
+def prism_paths(tmp_path_factory, renderer):
+    """The dispersive prism's scene (48 x 32) and ``path`` runs with it (8 seeds x 8 spp) and
+    without dispersion (8 seeds x 4 spp)."""
     d = tmp_path_factory.mktemp("prism")
     ext = prism_scene(prism_file(d / "prism.gltf"), *SIZE)
     plain = prism_scene(prism_file(d / "plain.gltf", dispersion=None), *SIZE)
+    return ext, _runs(renderer, ext, 8, 8), _runs(renderer, plain, 8, 4)
+
+
+@pytest.fixture(scope="module")
+def prism_reference(mitsuba_llvm, prism_paths):
+    """``relight reference`` of the dispersive prism (32 spp)."""
+    from relight.reference import ReferenceOptions, render_reference
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the backdrop's single-sided culling
-        ref = render_reference(ext, ReferenceOptions(spp=32, max_depth=DEPTH), progress=False)
-    return ext, ref, _runs(renderer, ext, 8, 8), _runs(renderer, plain, 8, 4)
+        return render_reference(prism_paths[0], ReferenceOptions(spp=32, max_depth=DEPTH),
+                                progress=False)
 
 
 def _runs(renderer, scene, seeds, spp):
@@ -110,7 +116,8 @@ def _runs(renderer, scene, seeds, spp):
         for s in range(seeds)], np.float64)
 
 
-def test_the_path_tracer_converges_to_the_reference_through_a_dispersive_prism(prism_truth):
+def test_the_path_tracer_converges_to_the_reference_through_a_dispersive_prism(prism_paths,
+                                                                              prism_reference):
     """``path`` (per-channel BTDF, a channel drawn at each crossing by the path's throughput)
     against ``relight reference`` (the channel drawn uniformly: as unbiased; 8 seeds x 8 spp
     against 32 spp): the per-block z-test passes (measured max |z| 4.3, threshold 13.1, 288
@@ -118,7 +125,8 @@ def test_the_path_tracer_converges_to_the_reference_through_a_dispersive_prism(p
     without dispersion (its stripes' edges are white: 2 of 288 blocks fail, max |z| 23)."""
     from relight.bench.path import block_test
 
-    _, ref, runs, plain = prism_truth
+    _, runs, plain = prism_paths
+    ref = prism_reference
     result = block_test(runs, ref)
     assert result.count > 200 and result.passed, result
     assert not block_test(plain, ref).passed
@@ -139,7 +147,7 @@ def _channel_shifts(img, rows, cols):
     return np.array(out)
 
 
-def test_the_raster_prism_shows_the_colour_fringes_the_path_tracer_shows(tmp_path, prism_truth,
+def test_the_raster_prism_shows_the_colour_fringes_the_path_tracer_shows(tmp_path, prism_paths,
                                                                          renderer):
     """The split-sum's forward pass refracts each channel by its own IOR (three lookups of the
     transmission copy): through the prism red and blue stripes shift apart from green in the
@@ -149,7 +157,7 @@ def test_the_raster_prism_shows_the_colour_fringes_the_path_tracer_shows(tmp_pat
     refraction over the thickness factor's chord, without the back face's second refraction and
     the gap to the backdrop, shows about half of it (bound: 0.3-1.0 of the path's). Without
     dispersion the raster's channels do not move (|shift| < 0.1 px) and no warning is given."""
-    ext, _, runs, _ = prism_truth
+    ext, runs, _ = prism_paths
     rows, cols = slice(10, 24), slice(9, 39)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -32,6 +32,8 @@ clearcoat        4   KHR_materials_clearcoat: factor, perceptual roughness, the 
 transmission     1   KHR_materials_transmission's factor T; background 0 = opaque; only allocated
                      when a scene has a transmissive material (as the next)
 transmission_ior 1   KHR_materials_volume: the IOR light refracts by, 0 = thin-walled
+dispersion       1   KHR_materials_dispersion: 20 / V_d of a volume (0 = none); only allocated
+                     when a scene has a dispersive volume
 sheen            4   KHR_materials_sheen: colour (rgb, linear), roughness (a); background 0 = no
                      sheen; only allocated when a scene has a material with a sheen
 anisotropy       2   KHR_materials_anisotropy: strength s times (cos, sin) of the direction's
@@ -49,7 +51,7 @@ channel a scene needs adds one attachment, +16 B/px (+8): ``color`` (splats), ``
 (emissive meshes), ``dielectric``, ``clearcoat`` and ``sheen`` (4 components each: a whole
 attachment), so a scene with the glTF dielectric lobe pays 64 B/px (32) where one without it
 pays 48 (24), one with both lobes 80 (40), a sheen alone 64 (32). ``transmission`` and
-``transmission_ior`` (1 component each) fill free components of the attachments before them
+``transmission_ior`` (and ``dispersion``; 1 component each) fill free components of the attachments before them
 (the colour and emission attachments have one each; the base layout one where ``ao`` is
 omitted): +0 to +16 B/px (+8). The all-features layout is 8 attachments (128 B/px, 64 at fp16),
 GL's guaranteed minimum of draw buffers: the transmission pair rides in the colour and emission
@@ -103,6 +105,8 @@ CHANNELS: tuple[Channel, ...] = (
     Channel("transmission", 1, 7, 0, (0.0,), "glTF transmission factor", optional=True),
     Channel("transmission_ior", 1, 7, 1, (0.0,), "glTF volume IOR, 0 = thin-walled",
             optional=True),
+    Channel("dispersion", 1, 7, 2, (0.0,), "glTF dispersion 20 / V_d of a volume, 0 = none",
+            optional=True, declared_when_allocated=True),
     Channel("sheen", 4, 7, 0, (0.0, 0.0, 0.0, 0.0),
             "glTF sheen: colour (rgb), roughness", optional=True, declared_when_allocated=True),
     Channel("anisotropy", 2, 8, 0, (0.0, 0.0),
@@ -156,6 +160,7 @@ class GBufferLayout:
     with_sheen: bool = False  # the optional sheen channel (KHR_materials_sheen)
     with_anisotropy: bool = False  # the optional anisotropy channel (KHR_materials_anisotropy)
     with_iridescence: bool = False  # the optional iridescence channel (KHR_materials_iridescence)
+    with_dispersion: bool = False  # the optional dispersion channel (KHR_materials_dispersion)
 
     def __post_init__(self):
         unknown = set(self.omit) - set(CHANNEL_NAMES)
@@ -176,7 +181,8 @@ class GBufferLayout:
                                   "transmission_ior": self.with_transmission,
                                   "sheen": self.with_sheen,
                                   "anisotropy": self.with_anisotropy,
-                                  "iridescence": self.with_iridescence}[c.name]
+                                  "iridescence": self.with_iridescence,
+                                  "dispersion": self.with_dispersion}[c.name]
 
     def check_draw_buffers(self) -> None:
         """A SceneError naming the optional channels when this layout needs more attachments than
@@ -230,6 +236,7 @@ class GBufferLayout:
                  "#define GBUFFER_ANISOTROPY(g) " + ("((g).anisotropy)" if self.with_anisotropy
                                                      else "vec2(0.0)"),
                  f"#define GBUFFER_HAS_IRIDESCENCE {int(self.with_iridescence)}",
+                 f"#define GBUFFER_HAS_DISPERSION {int(self.with_dispersion)}",
                  "#define GBUFFER_IRIDESCENCE(g) " + ("((g).iridescence)" if self.with_iridescence
                                                       else "vec3(0.0)"),
                  "struct GBuffer {"]

@@ -44,6 +44,7 @@ class SceneFeatures:
     sheen: bool = False  # some mesh has a KHR_materials_sheen sheen (colour > 0)
     anisotropy: bool = False  # some mesh has KHR_materials_anisotropy (strength > 0)
     iridescence: bool = False  # some mesh has a KHR_materials_iridescence film (factor > 0)
+    dispersion: bool = False  # some mesh has a dispersive volume (Material.has_dispersion)
 
 
 @dataclass(frozen=True)
@@ -84,7 +85,7 @@ def analyse(renderer, scene) -> SceneFeatures:
     splats = meshes = stacks = False
     specular = ao = emission = blend = dielectric = clearcoat = transmission = sheen = False
     anisotropy = False
-    iridescence = False
+    iridescence = dispersion = False
     for obj in scene.objects:
         if obj.type == "splats":
             splats = True
@@ -111,6 +112,7 @@ def analyse(renderer, scene) -> SceneFeatures:
                 transmission = transmission or mesh.material.transmission > 0.0
                 anisotropy = anisotropy or mesh.material.has_anisotropy
                 iridescence = iridescence or mesh.material.has_iridescence
+                dispersion = dispersion or mesh.material.has_dispersion
                 if mesh.alpha_mode == "BLEND":  # forward pass: not in the G-buffer
                     blend = True
                     continue
@@ -126,14 +128,17 @@ def analyse(renderer, scene) -> SceneFeatures:
                          constant_environment=constant, single_object=len(scene.objects) == 1,
                          emission=emission, blend=blend, dielectric=dielectric,
                          clearcoat=clearcoat, transmission=transmission, sheen=sheen,
-                         anisotropy=anisotropy, iridescence=iridescence)
+                         anisotropy=anisotropy, iridescence=iridescence,
+                         dispersion=dispersion)
 
 
 def _all_features_layout(features: SceneFeatures | None, dtype: str) -> GBufferLayout:
-    """Every channel, every lobe: GL's guaranteed 8 draw buffers hold all but the anisotropy and
-    iridescence channels, which a scene with such a material gets in place of the optional
-    channels it does not use (a scene using every one of them would need a ninth attachment)."""
-    if features is None or not (features.anisotropy or features.iridescence):
+    """Every channel, every lobe: GL's guaranteed 8 draw buffers hold all but the anisotropy,
+    iridescence and dispersion channels, which a scene with such a material gets in place of the
+    optional channels it does not use (a scene using every one of them would need a ninth
+    attachment)."""
+    if features is None or not (features.anisotropy or features.iridescence
+                                or features.dispersion):
         return GBufferLayout(with_color=True, dtype=dtype, with_emission=True,
                              with_dielectric=True, with_clearcoat=True, with_transmission=True,
                              with_sheen=True)
@@ -142,7 +147,8 @@ def _all_features_layout(features: SceneFeatures | None, dtype: str) -> GBufferL
                            with_clearcoat=features.clearcoat,
                            with_transmission=features.transmission, with_sheen=features.sheen,
                            with_anisotropy=features.anisotropy,
-                           with_iridescence=features.iridescence)
+                           with_iridescence=features.iridescence,
+                           with_dispersion=features.dispersion)
     layout.check_draw_buffers()
     return layout
 
@@ -209,7 +215,8 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
                            with_clearcoat=features.clearcoat,
                            with_transmission=features.transmission, with_sheen=features.sheen,
                            with_anisotropy=features.anisotropy,
-                           with_iridescence=features.iridescence)
+                           with_iridescence=features.iridescence,
+                           with_dispersion=features.dispersion)
     layout.check_draw_buffers()  # a scene using every extension at once: one clear line
     return Specialization(layout,
                           model.variant(settings, light, specular=features.specular,

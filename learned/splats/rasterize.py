@@ -226,8 +226,8 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
     h, w = size_hw
     layout = GBufferLayout(with_color=True, with_emission=True, with_dielectric=True,
                            with_clearcoat=True, with_transmission=True,
-                           with_sheen=True, with_anisotropy=True,
-                           with_iridescence=True)  # every channel GL reads back
+                           with_sheen=True, with_anisotropy=True, with_iridescence=True,
+                           with_dispersion=True)  # every channel GL reads back
     bg = {k: torch.from_numpy(v.reshape(h * w, -1)) for k, v in layout.background(h, w).items()}
     base = bg if under is None else {k: under[k].reshape(h * w, -1) if k in under else bg[k]
                                      for k in bg}
@@ -260,6 +260,7 @@ def resolve(acc: torch.Tensor, coverage: torch.Tensor, size_hw: tuple[int, int],
         # splats are opaque: the transmission factor blends to 0 (the IOR: underneath)
         "transmission": wu * base["transmission"] / safe,
         "transmission_ior": base["transmission_ior"],
+        "dispersion": base["dispersion"],  # (KHR_materials_dispersion: underneath, as the IOR)
         # nor a sheen: its colour blends to 0 over them (its roughness: underneath)
         "sheen": torch.cat([wu * base["sheen"][:, :3] / safe, base["sheen"][:, 3:]], -1),
         # nor an anisotropic lobe: its strength x direction blends to 0 over them

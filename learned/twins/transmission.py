@@ -1,7 +1,8 @@
 """Twins of ``shaders/lib/transmission.glsl``: KHR_materials_transmission's BTDFs (thin-walled:
 the GGX lobe mirrored through the surface; volume: Walter et al. 2007's rough dielectric
 without its Fresnel factor and radiance scale) and KHR_materials_volume's Beer-Lambert
-attenuation. Scalars ``[...]``, ``vec3`` ``[..., 3]``."""
+attenuation, KHR_materials_dispersion's per-channel IORs. Scalars ``[...]``, ``vec3``
+``[..., 3]``."""
 from __future__ import annotations
 
 import torch
@@ -68,6 +69,39 @@ def rough_refraction_pdf(a, eta, n, v, l) -> torch.Tensor:
     out = 2.0 * d_ggx(_dot(n, h), a) * VoH / (NoV + torch.sqrt(a2 + (1.0 - a2) * NoV * NoV)) \
         * jacobian
     return torch.where(ok, out, torch.zeros_like(out))
+
+
+def dispersion_iors(ior, dispersion) -> torch.Tensor:
+    """GLSL ``vec3 dispersion_iors(float ior, float dispersion)``: ior -/+ (ior - 1) 0.025
+    dispersion for red / blue, ior for green; 0 where ior is not > 0 (a thin wall)."""
+    half = (ior - 1.0) * 0.025 * dispersion
+    out = torch.stack([ior - half, ior, ior + half], -1)
+    return torch.where((ior > 0.0)[..., None], out, torch.zeros_like(out))
+
+
+def dispersive_refraction_cos(a, etas, n, v, l) -> torch.Tensor:
+    """GLSL ``vec3 dispersive_refraction_cos(float a, vec3 etas, vec3 n, vec3 v, vec3 l)``:
+    :func:`rough_refraction_cos` with each channel's eta, ``[..., 3]``."""
+    return torch.stack([rough_refraction_cos(a, etas[..., k], n, v, l) for k in range(3)], -1)
+
+
+def dispersive_refraction_pdf(a, etas, w, n, v, l) -> torch.Tensor:
+    """GLSL ``float dispersive_refraction_pdf(float a, vec3 etas, vec3 w, vec3 n, vec3 v, vec3
+    l)``: :func:`rough_refraction_pdf` per channel's eta, weighted by w."""
+    return sum(w[..., k] * rough_refraction_pdf(a, etas[..., k], n, v, l) for k in range(3))
+
+
+def draw_channel(w, u) -> torch.Tensor:
+    """GLSL ``vec2 draw_channel(vec3 w, float u)``: (the channel u falls in, by the shares w;
+    u rescaled within it), ``[..., 2]``; green where u is past red's and green's shares and blue's
+    is 0."""
+    r, g, b = w[..., 0], w[..., 1], w[..., 2]
+    u1 = u - r
+    red = torch.stack([torch.zeros_like(u), u / r], -1)
+    green = torch.stack([torch.ones_like(u), saturate(u1 / g.clamp_min(1e-30))], -1)
+    blue = torch.stack([torch.full_like(u, 2.0), saturate((u1 - g) / b)], -1)
+    out = torch.where(((u1 < g) | ~(b > 0.0))[..., None], green, blue)
+    return torch.where((u < r)[..., None], red, out)
 
 
 def volume_attenuation(sigma: torch.Tensor, distance: torch.Tensor) -> torch.Tensor:

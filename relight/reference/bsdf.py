@@ -43,8 +43,8 @@ from .iridescence import film_albedo_delta, film_fresnel_mix, film_state
 from .layers import coat_eval, coat_pdf, coat_state
 from .quadrature import DFG_TABLE_SIZE, MIN_PERCEPTUAL_ROUGHNESS, directional_albedo_table
 from .quadrature import brdf_cos_numpy  # noqa: F401 (the plugin's formula in numpy, for tests)
-from .transmission import (attenuation, btdf_cos, btdf_pdf, btdf_sample, facing, mirror_z,
-                           transmission_state)
+from .transmission import (attenuation, btdf_cos_rgb, btdf_pdf_rgb, btdf_sample_rgb, facing,
+                           mirror_z, transmission_state)
 from .sheen import sheen_eval, sheen_pdf, sheen_scaling, sheen_state, table_texture
 
 def bsdf_class(mi, dr):
@@ -264,7 +264,7 @@ def _bsdf_class(mi, dr, variant: str):
             t = s["t"]
             if t is None:
                 return dr.select(ok, p, 0.0)
-            p_t = btdf_pdf(mi, dr, distr, t["eta"], t["volume"], wi, wo)
+            p_t = btdf_pdf_rgb(mi, dr, distr, t, wi, wo)
             return dr.select(ok, p, (1.0 - s["p_spec"]) * s["p_trans"] * p_t)
 
         # ---- the mi.BSDF interface ---------------------------------------------------------
@@ -280,8 +280,7 @@ def _bsdf_class(mi, dr, variant: str):
             wm = self._to_mapped(s, wo_local)
             value, pdf = self._eval(s, si, wm), self._pdf(s, si, wm, distr)
             if s["t"] is not None:  # below: the BTDF (the base's value and density are 0 there)
-                value += s["transmit"] * btdf_cos(mi, dr, s["a"], s["t"]["eta"],
-                                                  s["t"]["volume"], s["wi"], wm)
+                value += s["transmit"] * btdf_cos_rgb(mi, dr, s["a"], s["t"], s["wi"], wm)
             sh = s["sheen"]
             if sh is not None:  # the sheen over the base, in the base's (mapped) frame
                 value = value * sheen_scaling(mi, dr, self, sh, wm) + sheen_eval(mi, dr, sh,
@@ -330,8 +329,9 @@ def _bsdf_class(mi, dr, variant: str):
             if t is not None:
                 u = (sample1 - s["p_spec"]) / dr.maximum(1.0 - s["p_spec"], 1e-12)
                 through = ~spec & ~on_sheen & (u < s["p_trans"])
-                wo_m = dr.select(through, btdf_sample(mi, dr, distr, t["eta"], t["volume"], wi,
-                                                      sample2), wo_m)
+                u_channel = u / dr.maximum(s["p_trans"], 1e-12)  # the rest of u: a channel
+                wo_m = dr.select(through, btdf_sample_rgb(mi, dr, distr, t, wi, sample2,
+                                                          u_channel), wo_m)
                 keep = dr.select(through, wo_m.z < 0.0, wo_m.z > 0.0)
             wo = self._from_mapped(s, wo_m)
             spec = spec | on_sheen

@@ -78,6 +78,42 @@ float rough_refraction_pdf(float a, float eta, vec3 n, vec3 v, vec3 l) {
            * jacobian;
 }
 
+// KHR_materials_dispersion: the IORs the red, green and blue channels refract by, from the
+// volume's `ior` and dispersion = 20 / V_d (V_d the Abbe number; 0: none) as three.js and the
+// Khronos sample viewer spread them: half spread (ior - 1) 0.025 dispersion about ior (red
+// least, blue most). A thin wall's ior 0 stays 0 in every channel.
+vec3 dispersion_iors(float ior, float dispersion) {
+    if (!(ior > 0.0)) return vec3(0.0);
+    float half_spread = (ior - 1.0) * 0.025 * dispersion;
+    return vec3(ior - half_spread, ior, ior + half_spread);
+}
+
+// rough_refraction_cos per colour channel, each refracting by its own eta (etas: eta_l / eta_v
+// of red, green, blue; KHR_materials_dispersion).
+vec3 dispersive_refraction_cos(float a, vec3 etas, vec3 n, vec3 v, vec3 l) {
+    return vec3(rough_refraction_cos(a, etas.r, n, v, l), rough_refraction_cos(a, etas.g, n, v, l),
+                rough_refraction_cos(a, etas.b, n, v, l));
+}
+
+// The density of l drawn by a colour channel chosen with probabilities w (summing to 1), then
+// refracted by its eta through a visible normal: the channels' rough_refraction_pdf weighted by w.
+float dispersive_refraction_pdf(float a, vec3 etas, vec3 w, vec3 n, vec3 v, vec3 l) {
+    return dot(w, vec3(rough_refraction_pdf(a, etas.r, n, v, l),
+                       rough_refraction_pdf(a, etas.g, n, v, l),
+                       rough_refraction_pdf(a, etas.b, n, v, l)));
+}
+
+// A colour channel drawn with probabilities w (summing to 1) by u in [0, 1): (its index 0, 1 or
+// 2; u rescaled to [0, 1] within its share, for the draw that follows). A channel of
+// probability 0 is never returned (where rounding leaves u past w.r + w.g, green stands in
+// for a blue of 0).
+vec2 draw_channel(vec3 w, float u) {
+    if (u < w.r) return vec2(0.0, u / w.r);
+    u -= w.r;
+    if (u < w.g || !(w.b > 0.0)) return vec2(1.0, saturate(u / max(w.g, 1e-30)));
+    return vec2(2.0, saturate((u - w.g) / w.b));
+}
+
 // Beer-Lambert: the share of light left after `distance` through a medium of attenuation
 // coefficient sigma = -ln(attenuationColor) / attenuationDistance (KHR_materials_volume).
 vec3 volume_attenuation(vec3 sigma, float distance) {

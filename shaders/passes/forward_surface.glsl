@@ -17,6 +17,9 @@
 // USE_THICKNESS_MAP (with USE_TRANSMISSION and a volume): KHR_materials_volume's thicknessTexture,
 // its G times u_thickness, is the thickness refracted_radiance goes through at this fragment (read
 // here: the G-buffer has no thickness channel, the traced volume being the mesh itself).
+// USE_DISPERSION (with USE_TRANSMISSION, a dispersive volume): refracted_radiance per channel
+// where the layout has the dispersion channel (render.specialize = false's all-features layout
+// has none: the volume then refracts by its one IOR).
 // Included by the virtual generated/gbuffer.glsl of viewer/passes/forward.py, after the layout's
 // struct and loader.
 #include "passes/mesh_surface.glsl"
@@ -50,17 +53,32 @@ float forward_thickness = 0.0;           // u_thickness x the map's G here (gbuf
 // map's G with USE_THICKNESS_MAP; thin wall: straight on), the copy read where it leaves, projected
 // to the screen, at the level the roughness chooses, attenuated along the way by Beer-Lambert. An
 // exit point behind the camera is read at this fragment's own pixel; one off screen at the nearest
-// edge.
-vec3 refracted_radiance(GBuffer g, vec3 n, vec3 v) {
-    vec3 offset = volume_exit_offset(n, v, TRANSMISSION_THICKNESS, g.transmission_ior);
+// edge. `ior`: the volume's (g.transmission_ior; 0 for a thin wall) or one colour's.
+vec3 refracted_radiance_ior(GBuffer g, vec3 n, vec3 v, float ior) {
+    vec3 offset = volume_exit_offset(n, v, TRANSMISSION_THICKNESS, ior);
     vec4 clip = u_projection * (u_view * vec4(v_position_ws + offset, 1.0));
     if (!(clip.w > 1e-6)) {
         clip = u_projection * (u_view * vec4(v_position_ws, 1.0));
     }
     vec2 uv = clamp(clip.xy / clip.w * 0.5 + 0.5, 0.0, 1.0);
-    float lod = transmission_lod(g.roughness, g.transmission_ior, u_transmission_log2_width);
+    float lod = transmission_lod(g.roughness, ior, u_transmission_log2_width);
     vec3 behind = textureLod(u_transmission_frame, uv, lod).rgb;
     return behind * volume_attenuation(u_attenuation_sigma, length(offset));
+}
+
+// USE_DISPERSION (a dispersive volume, KHR_materials_dispersion): as three.js's
+// getIBLVolumeRefraction with DISPERSION, each colour channel refracted by its own IOR
+// (lib/transmission.glsl dispersion_iors: red least, blue most), read where its own ray leaves
+// and attenuated along its own chord: three lookups of the copy in place of one.
+vec3 refracted_radiance(GBuffer g, vec3 n, vec3 v) {
+#if defined(USE_DISPERSION) && GBUFFER_HAS_DISPERSION
+    vec3 iors = dispersion_iors(g.transmission_ior, g.dispersion);
+    return vec3(refracted_radiance_ior(g, n, v, iors.r).r,
+                refracted_radiance_ior(g, n, v, iors.g).g,
+                refracted_radiance_ior(g, n, v, iors.b).b);
+#else
+    return refracted_radiance_ior(g, n, v, g.transmission_ior);
+#endif
 }
 #endif
 

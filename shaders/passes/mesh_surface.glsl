@@ -14,7 +14,8 @@
 // it the coat has the interpolated vertex normal); USE_TRANSMISSION (KHR_materials_transmission
 // / _volume: the G-buffer's transmission channels from u_transmission, u_transmission_ior) with
 // USE_TRANSMISSION_MAP (R; KHR_materials_volume's thickness map, USE_THICKNESS_MAP, is the forward
-// pass's: passes/forward_surface.glsl);
+// pass's: passes/forward_surface.glsl) and USE_DISPERSION (a dispersive volume,
+// KHR_materials_dispersion: the G-buffer's dispersion channel from u_dispersion);
 // USE_SHEEN (KHR_materials_sheen: the G-buffer's sheen channel from u_sheen_color,
 // u_sheen_roughness) with USE_SHEEN_COLOR_MAP (linear RGB) and USE_SHEEN_ROUGHNESS_MAP (A);
 // USE_ANISOTROPY (KHR_materials_anisotropy: the G-buffer's anisotropy channel,
@@ -79,6 +80,9 @@ uniform vec2 u_emissive_mirror;
 #ifdef USE_TRANSMISSION
 uniform float u_transmission;           // transmissionFactor
 uniform float u_transmission_ior;       // the volume's IOR, 0 = thin-walled (Material.volume_ior)
+#ifdef USE_DISPERSION
+uniform float u_dispersion;             // KHR_materials_dispersion 20 / V_d (a volume's only)
+#endif
 #endif
 #ifdef USE_TRANSMISSION_MAP
 uniform sampler2D u_transmission_map;        // R = factor
@@ -329,6 +333,9 @@ GBuffer mesh_surface(out float alpha) {
                                  u_transmission_mirror).r;
 #endif
     g.transmission_ior = u_transmission_ior;
+#endif
+#if defined(USE_DISPERSION) && GBUFFER_HAS_DISPERSION
+    g.dispersion = u_dispersion;
 #endif
 #ifdef USE_SHEEN
     vec3 sheen_color = u_sheen_color;

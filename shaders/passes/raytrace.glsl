@@ -253,6 +253,12 @@ struct TracedSurface {
     bool double_sided;
     vec2 transmission; // KHR_materials_transmission factor, the volume's IOR (0: thin-walled)
     vec3 sigma;        // KHR_materials_volume's attenuation coefficient (per unit length)
+#ifdef GBUFFER_HAS_DISPERSION
+#if GBUFFER_HAS_DISPERSION
+#define TRACED_DISPERSION_FIELD
+    float dispersion;  // KHR_materials_dispersion 20 / V_d of a volume (0: none)
+#endif
+#endif
 };
 // the traced sheen (vec4(0.0) in a scene without one: TracedSurface then has no field for it)
 #ifdef TRACED_SHEEN_FIELD
@@ -362,5 +368,8 @@ TracedSurface rt_surface(RayHit hit, vec3 o, vec3 d) {
 #endif
 #endif
     s.sigma = rt_materials[base + RT_ROW_VOLUME].xyz;
+#ifdef TRACED_DISPERSION_FIELD
+    s.dispersion = rt_materials[base + RT_ROW_TRANSMISSION].z;  // Material.transmission_row
+#endif
     return s;
 }

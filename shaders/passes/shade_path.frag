@@ -16,7 +16,8 @@
 // segment's length: a volume holds nothing else). Shadow rays treat every surface, transmissive
 // or not, as a blocker, as the reference's (Mitsuba's path integrator): light through glass is
 // found by the BSDF's continuation from the glass's own vertices, each MIS-weighted against
-// that vertex's own light sampling.
+// that vertex's own light sampling. A dispersive volume (GBUFFER_HAS_DISPERSION) refracts
+// each colour channel by its own IOR (passes/surface_mc.glsl surface_set_dispersion).
 // Defines: MULTISCATTER, BACKGROUND_ENVIRONMENT, LIGHT_COUNT, LIGHT_POSITIONAL, RAYTRACED.
 #define RAYTRACED 1
 #include "passes/deferred.glsl"
@@ -124,6 +125,9 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
         // a shading normal facing away from where the path came from: no light leaves it
         // towards that side (as the reference's BSDF evaluates)
         if (!(s.s.NoV > 0.0)) break;
+#if GBUFFER_HAS_DISPERSION
+        surface_weight_channels(s.s, beta);  // a dispersive BTDF's channel draw (surface_mc.glsl)
+#endif
         uint dim = uint(bounce) * DIMS_PER_BOUNCE;
         radiance += beta * path_environment(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim));
         radiance += beta * path_lights(s, mc_sample_2d(pixel.x, pixel.y, index, u_seed, dim + 1u));
@@ -168,6 +172,9 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
 #if GBUFFER_HAS_TRANSMISSION
         surface_set_transmission(s.s, t.transmission.x, t.transmission.y, !front);
 #endif
+#ifdef TRACED_DISPERSION_FIELD
+        surface_set_dispersion(s.s, t.transmission.y, t.dispersion, !front);
+#endif
 #ifdef TRACED_ANISOTROPY_FIELD
         surface_set_anisotropy(s.s, t.anisotropy.xyz, t.anisotropy.w);
 #endif
@@ -209,6 +216,9 @@ void main() {
 #if GBUFFER_HAS_TRANSMISSION
     // the first hit is seen from outside (a camera inside a volume is not modelled)
     surface_set_transmission(s0.s, g.transmission, g.transmission_ior, false);
+#if GBUFFER_HAS_DISPERSION
+    surface_set_dispersion(s0.s, g.transmission_ior, g.dispersion, false);
+#endif
 #endif
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < u_sample_count; ++k) {

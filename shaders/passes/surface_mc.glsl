@@ -25,6 +25,8 @@
 // alpha_b = the material's across it): evaluated, and drawn by its anisotropic visible normals;
 // the energy split (1 - E_spec) and the lobe choice keep the isotropic lobe's albedo of alpha_b,
 // and the transmission lobe stays isotropic.
+// With GBUFFER_HAS_DISPERSION (KHR_materials_dispersion), a dispersive volume's BTDF refracts each
+// colour channel by its own eta (surface_set_dispersion, surface_btdf_cos_rgb).
 #include "lib/transmission.glsl"
 #include "lib/anisotropy.glsl"
 #include "lib/iridescence.glsl"
@@ -62,6 +64,10 @@ struct Surface {
     vec3 transmit;     // the BTDF's colour: diffuse's share T (diffuse keeps 1 - T)
     float eta;         // eta_l / eta_v of the volume's refraction; 0 = thin-walled
     float p_trans;     // probability of the BTDF among the base's non-specular lobes (T)
+#if GBUFFER_HAS_DISPERSION
+    vec3 etas;         // eta per colour channel (each s.eta without dispersion)
+    vec3 channel_w;    // the probabilities of drawing each channel's refraction (sum 1)
+#endif
 #endif
 #if GBUFFER_HAS_SHEEN
     vec3 sheen;        // KHR_materials_sheen colour (0: none) on the base's normal
@@ -96,7 +102,15 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
     s.diffuse *= 1.0 - T;
     s.eta = ior > 0.0 ? (inside ? 1.0 / ior : ior) : 0.0;
     s.p_trans = T;
+#if GBUFFER_HAS_DISPERSION
+    s.etas = vec3(s.eta);
+    s.channel_w = vec3(1.0 / 3.0);
+#endif
 }
+
+#if GBUFFER_HAS_DISPERSION
+#include "passes/surface_dispersion.glsl"
+#endif
 #endif
 
 #if GBUFFER_HAS_IRIDESCENCE
@@ -177,7 +191,9 @@ float surface_specular_pdf(Surface s, vec3 h, float NoH) {
 // f(v, l) (n.l), 0 below the surface.
 vec3 surface_base_brdf_cos(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
-#if GBUFFER_HAS_TRANSMISSION
+#if GBUFFER_HAS_DISPERSION
+    if (!(NoL > 0.0) && s.p_trans > 0.0) return s.transmit * surface_btdf_cos_rgb(s, l);
+#elif GBUFFER_HAS_TRANSMISSION
     if (!(NoL > 0.0) && s.p_trans > 0.0) return s.transmit * surface_btdf_cos(s, l);
 #endif
     if (!(NoL > 0.0)) return vec3(0.0);
@@ -207,7 +223,11 @@ float surface_base_brdf_pdf(Surface s, vec3 l) {
     float NoL = dot(s.n, l);
     float p_diffuse = 1.0 - s.p_spec;
 #if GBUFFER_HAS_TRANSMISSION
+#if GBUFFER_HAS_DISPERSION
+    if (!(NoL > 0.0) && s.p_trans > 0.0) return p_diffuse * s.p_trans * surface_btdf_pdf_rgb(s, l);
+#else
     if (!(NoL > 0.0) && s.p_trans > 0.0) return p_diffuse * s.p_trans * surface_btdf_pdf(s, l);
+#endif
     p_diffuse *= 1.0 - s.p_trans;
 #endif
     if (!(NoL > 0.0)) return 0.0;
@@ -273,9 +293,20 @@ vec3 sample_surface_brdf(Surface s, vec2 u) {
 #if GBUFFER_HAS_TRANSMISSION
     if (u.x < s.p_trans) {  // the BTDF: a visible normal, then mirrored or refracted below
         u.x = u.x / s.p_trans;
+#if GBUFFER_HAS_DISPERSION
+        float eta = s.eta;
+        if (surface_disperses(s)) {  // a colour channel by s.channel_w, from the rest of u.x
+            vec2 c = draw_channel(s.channel_w, u.x);
+            u.x = c.y;
+            eta = c.x < 0.5 ? s.etas.r : (c.x < 1.5 ? s.etas.g : s.etas.b);
+        }
+#define ETA_T eta  // the drawn channel's eta
+#else
+#define ETA_T s.eta
+#endif
         vec3 v_t = vec3(dot(s.v, s.t), dot(s.v, s.b), s.NoV);
         vec3 h = tangent_to_world(sample_ggx_vndf(u, v_t, s.a), s.n);
-        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / s.eta)  // 0 on total internal reflection
+        vec3 l_t = s.eta > 0.0 ? refract(-s.v, h, 1.0 / ETA_T)  // 0 on total internal reflection
                                : mirror_through(s.n, reflect(-s.v, h));
         return -dot(s.n, l_t) > 0.0 ? l_t : vec3(0.0);
     }

@@ -21,11 +21,11 @@ def test_unused_extensions_attributes_and_features_are_named_once(tmp_path):
     b = GltfBuilder()
     m = b.material(pbrMetallicRoughness={"baseColorFactor": [1, 1, 1, 1]},
                    extensions={"KHR_materials_diffuse_transmission": {},
-                               "KHR_materials_dispersion": {}})
+                               "KHR_materials_pbrSpecularGlossiness": {}})
     joints = b.accessor(np.zeros((4, 4), np.uint16))
     quad(b, m, extra_attrs={"JOINTS_0": joints, "_TEMPERATURE": b.accessor(np.zeros(4, np.float32))})
     b.doc["extensionsUsed"] = ["KHR_materials_diffuse_transmission",
-                               "KHR_materials_dispersion", "EXT_mesh_gpu_instancing"]
+                               "KHR_materials_pbrSpecularGlossiness", "EXT_mesh_gpu_instancing"]
     b.doc["animations"] = [{"channels": [], "samplers": []}]
     path = b.save(tmp_path / "ignored.gltf")
     (mesh,), messages = load_warnings(path)
@@ -34,7 +34,7 @@ def test_unused_extensions_attributes_and_features_are_named_once(tmp_path):
     (msg,) = messages
     assert "\n" not in msg and str(path) in msg
     for item in ("KHR_materials_diffuse_transmission (changes the BSDF",
-                 "KHR_materials_dispersion (changes the BSDF",
+                 "KHR_materials_pbrSpecularGlossiness (changes the BSDF",
                  "extension EXT_mesh_gpu_instancing", "attribute JOINTS_0",
                  "attribute _TEMPERATURE", "animations"):
         assert item in msg, (item, msg)

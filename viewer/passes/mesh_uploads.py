@@ -71,6 +71,8 @@ def mesh_defines(mesh: Mesh) -> dict[str, int]:
         defines["USE_CLEARCOAT"] = 1
     if mesh.material.transmission > 0.0:
         defines["USE_TRANSMISSION"] = 1
+    if mesh.material.has_dispersion:  # a dispersive volume (no effect elsewhere: no cost)
+        defines["USE_DISPERSION"] = 1
     sheen = mesh.material.has_sheen
     if sheen:
         defines["USE_SHEEN"] = 1
@@ -298,6 +300,8 @@ class MeshUploads:
         if m.transmission > 0.0:
             _set(prog, "u_transmission", float(m.transmission))
             _set(prog, "u_transmission_ior", float(m.transmission_row()[1]))
+        if m.has_dispersion:
+            _set(prog, "u_dispersion", float(m.dispersion))
         if m.has_sheen:
             _set(prog, "u_sheen_color", tuple(float(c) for c in m.sheen_color))
             _set(prog, "u_sheen_roughness", float(m.sheen_roughness))

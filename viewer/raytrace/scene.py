@@ -180,7 +180,7 @@ def material_rows(meshes, layers) -> np.ndarray:
         # KHR_materials_specular's maps recompute F0 from these (dielectric_f0_ior)
         r[ROW["specular"]] = (*m.specular_color, 0.0 if m.ior is None else float(m.ior))
         r[ROW["clearcoat"]] = (m.clearcoat, m.clearcoat_roughness, 0.0, 0.0)
-        r[ROW["transmission"]] = m.transmission_row()  # factor, volume IOR (0: thin)
+        r[ROW["transmission"]] = m.transmission_row()  # factor, volume IOR (0: thin), dispersion
         r[ROW["volume"]] = (*m.attenuation_coefficient(), 0.0)  # sigma per unit length
         r[ROW["sheen"]] = (*m.sheen_color, m.sheen_roughness)  # KHR_materials_sheen
         # KHR_materials_anisotropy: strength, (cos, sin) of the rotation

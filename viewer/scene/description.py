@@ -170,6 +170,8 @@ def parse_material(t: dict, where: str, file: str) -> Material:
     if "attenuation_color" in t:
         kw["attenuation_color"] = _vec(t["attenuation_color"], 3, f"{where}.attenuation_color",
                                        file)
+    if "dispersion" in t:  # KHR_materials_dispersion (20 / V_d; a volume's only)
+        kw["dispersion"] = _num(t["dispersion"], f"{where}.dispersion", file, 0.0, 1e30)
     if "attenuation_distance" in t:
         kw["attenuation_distance"] = _num(t["attenuation_distance"],
                                           f"{where}.attenuation_distance", file, 1e-30, math.inf)

@@ -48,6 +48,10 @@ class Material:
     iridescence_ior: float = 1.3  # >= 1
     iridescence_thickness_min: float = 100.0  # nm, >= 0
     iridescence_thickness_max: float = 400.0  # nm, >= 0
+    # KHR_materials_dispersion: 20 / V_d (the Abbe number; 0 = none): a volume refracts each
+    # colour channel by its own IOR (dispersion_iors, lib/transmission.glsl); no effect without
+    # a volume (the spec)
+    dispersion: float = 0.0  # >= 0, finite
 
     def validated(self, where: str = "material") -> "Material":
         vals = {"roughness": self.roughness, "metallic": self.metallic,
@@ -86,6 +90,9 @@ class Material:
                 0.0 <= float(c) <= 1.0 for c in self.attenuation_color):
             raise SceneError(f"attenuation_color = {list(self.attenuation_color)} must be 3 "
                              f"numbers in [0, 1]", where=where)
+        if not (0.0 <= float(self.dispersion) < math.inf):
+            raise SceneError(f"dispersion = {self.dispersion} must be a finite number >= 0",
+                             where=where)
         if not math.isfinite(float(self.anisotropy_rotation)):
             raise SceneError(f"anisotropy_rotation = {self.anisotropy_rotation} must be a finite "
                              f"number (radians)", where=where)
@@ -101,8 +108,15 @@ class Material:
 
     def transmission_row(self) -> tuple[float, float, float, float]:
         """The traced material's transmission: (factor, the volume's IOR or 0 for a thin wall,
-        the ray tracer's and the reference's eta; 0, 0)."""
-        return (float(self.transmission), self.volume_ior() if self.volume else 0.0, 0.0, 0.0)
+        the ray tracer's and the reference's eta; the volume's dispersion (0 without one); 0)."""
+        return (float(self.transmission), self.volume_ior() if self.volume else 0.0,
+                float(self.dispersion) if self.has_dispersion else 0.0, 0.0)
+
+    @property
+    def has_dispersion(self) -> bool:
+        """KHR_materials_dispersion with an effect: dispersion > 0 on a volume (the spec: only
+        volumetric refraction disperses; a thin wall or an opaque surface ignores it)."""
+        return self.dispersion > 0.0 and self.volume
 
     def volume_ior(self) -> float:
         """The IOR light refracts by: KHR_materials_ior's (1.5 without it; its 'infinite' 0
@@ -153,7 +167,7 @@ EXTENSION_FIELDS = ("ior", "specular_color", "specular_factor", "clearcoat", "cl
                     "transmission", "thickness", "attenuation_color", "attenuation_distance",
                     "sheen_color", "sheen_roughness", "anisotropy_strength",
                     "anisotropy_rotation", "iridescence", "iridescence_ior",
-                    "iridescence_thickness_min", "iridescence_thickness_max")
+                    "iridescence_thickness_min", "iridescence_thickness_max", "dispersion")
 
 
 def dielectric_f0_ior(ior: float, specular_color, specular_factor: float

@@ -37,6 +37,37 @@ PARITY_CASES = [
                atol=1e-7, rtol=4e-6, measured="max abs 1.8e-7, rel 2.1e-6 (seeds 0-7)",
                envelope="one product and exp (GLSL exp: 3 ulp of its argument's size, here "
                         "<= 1e5 so 2e-6 rel after the product's rounding)"),
+    ParityCase("dispersive_refraction_cos",
+               (_ALPHA, Arg(lo=0.5, hi=2.5, components=3,
+                            adversarial=((1.125, 1.5, 1.875), (1.5, 1.5, 1.5),
+                                         (0.8, 2.0 / 3.0, 0.55))), _UP, _UP, _UNIT),
+               atol=1e-6, rtol=5e-3,
+               measured="max rel 1.6e-4 (seeds 0-7; max abs 3.7e-3 on large near-peak values)",
+               envelope="rough_refraction_cos per channel (5e-3 rel)"),
+    ParityCase("dispersive_refraction_pdf",
+               (_ALPHA, Arg(lo=0.5, hi=2.5, components=3,
+                            adversarial=((1.125, 1.5, 1.875), (1.5, 1.5, 1.5))),
+                Arg(lo=0.0, hi=1.0, components=3, adversarial=((1 / 3, 1 / 3, 1 / 3), (1, 0, 0))),
+                _UP, _UP, _UNIT),
+               atol=1e-6, rtol=5e-3,
+               measured="max rel 4.0e-5 (seeds 0-7; max abs 0.25 on large near-peak values)",
+               envelope="rough_refraction_pdf per channel (5e-3 rel), weighted by w in a dot: "
+                        "3 roundings more"),
+    ParityCase("draw_channel",
+               (Arg(lo=0.0, hi=1.0, components=3,
+                    adversarial=((1 / 3, 1 / 3, 1 / 3), (1, 0, 0), (0, 0.5, 0.5), (0.5, 0.5, 0))),
+                Arg(lo=0.0, hi=1.0, adversarial=(0.0, 0.5, 0.99999994))),
+               atol=1e-5, rtol=1e-5, measured="exact (seeds 0-7)",
+               envelope="a difference and a quotient of values <= 1 (~2 roundings); a u within "
+                        "rounding of a share's edge could pick the neighbour channel on one "
+                        "side only: random inputs meet none"),
+    ParityCase("dispersion_iors",
+               (Arg(lo=1.0, hi=2.5, adversarial=(0.0, 1.0, 1.5)),
+                Arg(lo=0.0, hi=40.0, adversarial=(0.0, 20.0, 1e4))),
+               atol=1e-6, rtol=1e-6, measured="exact (seeds 0-7)",
+               envelope="two products, a difference and a sum or difference of values <= 2.5 "
+                        "(dispersion <= 40; the adversarial 1e4's larger values round "
+                        "relatively too): ~4 roundings, 5e-7 rel"),
     ParityCase("volume_exit_offset",
                (_UP, _UP, Arg(lo=0.0, hi=2.0, adversarial=(0.0, 0.8)),
                 Arg(lo=1.0, hi=2.5, adversarial=(0.0, 1.0, 1.5, 0.7))),

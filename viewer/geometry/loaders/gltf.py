@@ -26,7 +26,8 @@ GLTF_EXTENSIONS = frozenset({"KHR_texture_transform", "KHR_mesh_quantization",
                              "KHR_materials_unlit", "KHR_materials_clearcoat",
                              "KHR_materials_transmission", "KHR_materials_volume",
                              "KHR_materials_variants", "KHR_materials_sheen",
-                             "KHR_materials_anisotropy", "KHR_materials_iridescence"})
+                             "KHR_materials_anisotropy", "KHR_materials_iridescence",
+                             "KHR_materials_dispersion"})
 # the primitive attributes it reads (others: JOINTS_n, WEIGHTS_n, COLOR_1.., TEXCOORD_2..,
 # _CUSTOM)
 GLTF_ATTRIBUTES = frozenset({"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1",
@@ -163,10 +164,9 @@ def _load_gltf(path: Path, variant: str | None = None) -> MeshList:
 
 
 # KHR_materials_* extensions that change the BSDF and are not implemented: named as such
-# (ior, specular, unlit, clearcoat, transmission, volume, sheen, anisotropy and iridescence are:
-# loaders/gltf_material.py)
-_BSDF_EXTENSIONS = ("KHR_materials_diffuse_transmission",
-                    "KHR_materials_dispersion", "KHR_materials_pbrSpecularGlossiness")
+# (ior, specular, unlit, clearcoat, transmission, volume, sheen, anisotropy, iridescence and
+# dispersion are: loaders/gltf_material.py)
+_BSDF_EXTENSIONS = ("KHR_materials_diffuse_transmission", "KHR_materials_pbrSpecularGlossiness")
 
 
 def _extension_names(obj) -> set[str]:

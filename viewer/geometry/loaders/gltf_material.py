@@ -230,11 +230,14 @@ def _clearcoat(reader: _GltfReader, index: int, material: Material, ext: dict):
 
 
 def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict):
-    """``KHR_materials_transmission`` and ``KHR_materials_volume`` of material ``index``: the
-    material with its transmission factor, thickness (0: thin-walled) and attenuation, and the
-    texture slots (transmissionTexture: R x the factor; thicknessTexture: G x thicknessFactor)."""
+    """``KHR_materials_transmission``, ``KHR_materials_volume`` and ``KHR_materials_dispersion``
+    of material ``index``: the material with its transmission factor, thickness (0:
+    thin-walled), attenuation and dispersion, and the texture slots (transmissionTexture: R x
+    the factor; thicknessTexture: G x thicknessFactor)."""
     trans = ext.get("KHR_materials_transmission")
     volume = ext.get("KHR_materials_volume")
+    disp = _number(reader, index, ext.get("KHR_materials_dispersion", {}), "dispersion", 0.0,
+                   0.0, math.inf)  # 20 / V_d; without a volume it has no effect (the spec)
     if trans is None and volume is None:
         return material, []
     factor = _number(reader, index, trans or {}, "transmissionFactor", 0.0, 0.0, 1.0)
@@ -248,8 +251,8 @@ def _transmission(reader: _GltfReader, index: int, material: Material, ext: dict
              for key, table, name in (("transmission", trans or {}, "transmissionTexture"),
                                       ("thickness", volume, "thicknessTexture"))]
     return dataclasses.replace(material, transmission=factor, thickness=thickness,
-                               attenuation_color=color,
-                               attenuation_distance=float(distance)), slots
+                               attenuation_color=color, attenuation_distance=float(distance),
+                               dispersion=disp), slots
 
 
 def _sheen(reader: _GltfReader, index: int, material: Material, ext: dict):

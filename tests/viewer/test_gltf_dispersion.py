@@ -42,6 +42,9 @@ def test_a_scene_file_material_takes_a_dispersion():
     assert s.objects[0].material.has_dispersion
     assert tomllib.loads(scene_toml(s))["objects"][0]["material"]["dispersion"] == 20.0
     assert "dispersion" not in tomllib.loads(scene_toml(scene(glass)))["objects"][0]["material"]
+    # a material that sets ior (a field whose default is None) is written too (it was a KeyError)
+    flint = tomllib.loads(scene_toml(scene({**glass, "ior": 1.7, "dispersion": 20.0})))
+    assert flint["objects"][0]["material"]["ior"] == 1.7
     with pytest.raises(SceneError, match="dispersion") as err:
         scene({**glass, "dispersion": -1.0})
     assert "\n" not in str(err.value)

@@ -64,8 +64,9 @@ def _object_table(obj: ObjectSpec) -> dict:
             continue
         out[f.name] = _plain(value)
     if obj.material is not None:  # the glTF extensions' fields only where they are set
+        defaults = _plain(_MATERIAL_DEFAULTS)  # without the fields whose default is None (ior)
         out["material"] = {k: v for k, v in _plain(obj.material).items()
-                           if k not in EXTENSION_FIELDS or v != _plain(_MATERIAL_DEFAULTS)[k]}
+                           if k not in EXTENSION_FIELDS or v != defaults.get(k)}
     return out
 
 

@@ -58,6 +58,7 @@ class ShadowNetTrainConfig:
     limit: int | None = None  # samples per split (None: all)
     visibility_target: bool = True  # min(target, unshadowed radiance) (module doc)
     loss: str = "l2"  # "l2" | "l1" on log(1 + x) (module doc)
+    augment: float = 0.0  # > 0: exposure, tint (this log-normal sigma) and mirror (module doc)
     log_every: int = 50
     checkpoint_every: int = 200
 
@@ -105,16 +106,36 @@ def stack(batch: list[ShadowNetImage]) -> list[ShadowNetImage]:
             for g in groups.values()]
 
 
+def augmented(img: ShadowNetImage, rng: np.random.Generator, tint: float) -> ShadowNetImage:
+    """``img`` under another light: the radiance and the target times one random factor per
+    colour (exposure e^U(-1, 1) times tint e^N(0, ``tint``)), the radiance input recomputed, and
+    mirrored left-right half of the time (the normals' x negated). The best visibility
+    target / radiance is unchanged by the factors."""
+    k = torch.from_numpy(np.exp(rng.normal(0.0, tint, 3) + rng.uniform(-1.0, 1.0)))
+    k = k.float().view(1, 3, 1, 1)
+    radiance = torch.cat([img.radiance[:, :3] * k, img.radiance[:, 3:]], 1)
+    inputs = img.inputs.clone()
+    inputs[:, :3] = torch.log1p(radiance[:, :3].clamp_min(0.0))  # shadow_net_input_a
+    target, surface = img.target * k, img.surface
+    if rng.random() < 0.5:
+        radiance, inputs, target, surface = (t.flip(-1) for t in (radiance, inputs, target,
+                                                                  surface))
+        inputs[:, 4] = -inputs[:, 4]  # the normal's x (camera space, x to the right)
+    return ShadowNetImage(img.name, radiance, inputs, surface, target)
+
+
 def loss(model: ShadowNet, batch: list[ShadowNetImage], visibility_target: bool = False,
          kind: str = "l1") -> torch.Tensor:
     """The mean ``kind`` (``l1`` | ``l2``) difference of log(1 + x) over the surface pixels of
-    ``batch``; ``visibility_target``: against min(target, unshadowed radiance) (module doc)."""
+    ``batch``; ``visibility_target``: against min(target, g x unshadowed radiance), g the
+    network's gain (module doc)."""
     if kind not in ("l1", "l2"):
         raise ValueError(f"unknown loss {kind!r} (l1 | l2)")
+    gain = float(model.layers[-1].get("gain", 1.0))
     total, count = 0.0, 0
     for img in stack(batch):
         pred = shaded(model, img)[:, :3]
-        goal = torch.minimum(img.target, img.radiance[:, :3]) if visibility_target \
+        goal = torch.minimum(img.target, gain * img.radiance[:, :3]) if visibility_target \
             else img.target
         diff = torch.log1p(pred.clamp_min(0.0)) - torch.log1p(goal.clamp_min(0.0))
         err = diff.abs() if kind == "l1" else diff * diff
@@ -157,7 +178,9 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
 
     def step(m, _):
         pick = rng.choice(len(train), size=min(cfg.batch, len(train)), replace=False)
-        return loss(m, [train[i] for i in pick], cfg.visibility_target, cfg.loss)
+        batch = [augmented(train[i], rng, cfg.augment) if cfg.augment > 0 else train[i]
+                 for i in pick]
+        return loss(m, batch, cfg.visibility_target, cfg.loss)
 
     losses = _loop(run, STAGE, model, cfg.steps, cfg.lr, step)
     model.eval()

@@ -7,7 +7,9 @@ import torch
 
 from learned.neural.shadow_net import ShadowNet, load_shadow_net
 from learned.train.shadow_net import (
+    ShadowNetImage,
     ShadowNetTrainConfig,
+    augmented,
     loss,
     shadow_net_images,
     train_shadow_net,
@@ -81,3 +83,30 @@ def test_the_inputs_are_the_frames_with_the_targets_in_its_row_order(dataset, ct
         flipped = (img.radiance[:, :3] - img.target.flip(-2)).abs()[m].mean()
         assert same < flipped, (img.name, float(same), float(flipped))
         assert torch.isfinite(img.inputs).all()
+
+
+def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
+    """Exposure and tint multiply radiance and target alike (target / radiance unchanged), the
+    radiance input follows the radiance, and a mirrored image has its normals' x negated."""
+    g = torch.Generator().manual_seed(0)
+    rad = torch.rand(1, 4, 6, 5, generator=g) + 0.1
+    inputs = torch.rand(1, 9, 6, 5, generator=g)
+    img = ShadowNetImage("a", rad, inputs, torch.rand(1, 1, 6, 5, generator=g) > 0.3,
+                         torch.rand(1, 3, 6, 5, generator=g))
+    rng = np.random.default_rng(0)
+    seen = set()
+    for _ in range(8):
+        out = augmented(img, rng, 0.2)
+        flipped = not torch.equal(out.surface, img.surface)
+        seen.add(flipped)
+        ref = img if not flipped else ShadowNetImage(
+            "a", rad.flip(-1), inputs.flip(-1), img.surface.flip(-1), img.target.flip(-1))
+        ratio = out.target / out.radiance[:, :3]
+        assert torch.allclose(ratio, ref.target / ref.radiance[:, :3], rtol=1e-5)
+        assert not torch.allclose(out.radiance[:, :3], ref.radiance[:, :3])
+        assert torch.allclose(out.inputs[:, :3], torch.log1p(out.radiance[:, :3]), atol=1e-6)
+        assert torch.equal(out.radiance[:, 3:], ref.radiance[:, 3:])
+        sign = -1.0 if flipped else 1.0
+        assert torch.equal(out.inputs[:, 4], sign * ref.inputs[:, 4])
+        assert torch.equal(out.inputs[:, 3], ref.inputs[:, 3])
+    assert seen == {True, False}

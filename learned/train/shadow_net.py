@@ -56,6 +56,9 @@ class ShadowNetTrainConfig:
     architecture: dict = field(default_factory=lambda: {"levels": 5,
                                                          "widths": [8, 12, 16, 24, 32]})
     limit: int | None = None  # samples per split (None: all)
+    # more datasets whose train splits join the training images (environments that no val or
+    # test sample has; their val and test splits, if any, are not read)
+    extra_data: tuple[str, ...] = ()
     visibility_target: bool = True  # min(target, unshadowed radiance) (module doc)
     loss: str = "l2"  # "l2" | "l1" on log(1 + x) (module doc)
     augment: float = 0.0  # > 0: exposure, tint (this log-normal sigma) and mirror (module doc)
@@ -164,7 +167,8 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
     run.log(f"config {json.dumps(asdict(cfg))}")
     renderer = Renderer()
     try:
-        train = shadow_net_images(cfg.data, "train", renderer, cfg.model, cfg.limit)
+        train = [img for root in (cfg.data, *cfg.extra_data)
+                 for img in shadow_net_images(root, "train", renderer, cfg.model, cfg.limit)]
         val = (shadow_net_images(cfg.data, "val", renderer, cfg.model, cfg.limit)
                if (Path(cfg.data) / "val").is_dir() else [])
     finally:
@@ -189,6 +193,7 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
         run.log(f"val PSNR {k} the estimator: {v['psnr']:.2f} dB")
     training = {"command": " ".join(sys.argv), "seed": cfg.seed, "config": asdict(cfg),
                 "dataset_hash": dataset_hash(cfg.data, ("train",)), "steps": cfg.steps,
+                "extra_data_hashes": [dataset_hash(d, ("train",)) for d in cfg.extra_data],
                 "final_loss": losses[-1] if losses else None,
                 "val_psnr": {k: v["psnr"] for k, v in val_scores.items()}}
     path = save_shadow_net(model, Path(cfg.out) / "shadow_net.safetensors", training)

@@ -29,7 +29,8 @@ def one_thread():
 
 def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ctx, one_thread,
                                                            capsys):
-    """30 steps lower the training loss over the training images (measured: 0.080 -> 0.047)."""
+    """30 steps lower the training loss over the training images (the default log MSE,
+    measured: -4.50 -> -4.75, the MSE 22 % lower; the bound asks for 10 %)."""
     from viewer.renderer import Renderer
 
     cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=30, batch=3,
@@ -46,7 +47,9 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
         before = float(loss(ShadowNet(cfg.architecture), images, cfg.visibility_target, cfg.loss))
         after = float(loss(load_shadow_net(res["shadow_net"]), images, cfg.visibility_target,
                            cfg.loss))
-    assert len(losses) == 30 and after < 0.9 * before, (before, after)
+    # the default loss is a mean log MSE (negative): the images' MSE falls by more than 10 %
+    assert cfg.loss == "log_mse" and len(losses) == 30
+    assert after < before + np.log(0.9), (before, after)
     net = read_shadow_net(res["shadow_net"])
     assert len(net.training["dataset_hash"]) == 64 and net.training["steps"] == 30
     assert set(net.training["val_psnr"]) == {"with", "without"}

@@ -113,3 +113,14 @@ def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
         assert torch.equal(out.inputs[:, 4], sign * ref.inputs[:, 4])
         assert torch.equal(out.inputs[:, 3], ref.inputs[:, 3])
     assert seen == {True, False}
+
+
+def test_extra_datasets_join_the_training_images(dataset, tmp_path, ctx, one_thread):
+    """``extra_data``: another dataset's train split trains too (here the same one again: twice
+    the images), and its hash goes into the weights' metadata."""
+    cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=2, batch=2,
+                               limit=2, extra_data=(str(dataset),))
+    res = train_shadow_net(cfg, quiet=True)
+    assert "4 training images" in (tmp_path / "run" / "train.log").read_text()
+    net = read_shadow_net(res["shadow_net"])
+    assert net.training["extra_data_hashes"] == [net.training["dataset_hash"]]

@@ -175,7 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(with --student-target target; --install then installs it alone); "
                         "shadow_net: the viewer's neural shadow estimator alone, on --data's "
                         "targets (OUT/shadow_net.safetensors, for [render] shadow_net; "
-                        "--shadow-steps, default 2000)")
+                        "--shadow-steps, default 1000)")
     p.add_argument("--seed", type=int, metavar="N",
                    help="the training seed (default 0): network initialisation and batches")
     p.add_argument("--teacher-steps", type=_positive_int, metavar="N")

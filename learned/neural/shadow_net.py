@@ -11,6 +11,7 @@ The layers are :func:`viewer.neural.shadow_net.plan`'s and the arithmetic is the
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -31,8 +32,9 @@ from ..twins.shadow_net import shadow_net, shadow_net_apply, shadow_net_inputs
 
 class ShadowNet(nn.Module):
     """``architecture``: ``{"levels": L, "widths": [...]}`` (default: 5 levels, widths
-    8-12-16-24-32, receptive field 220 px, ~825 multiply-adds per full-resolution pixel). The
-    output layer starts near "no shadow" (bias 3: sigmoid 0.95; weights of 0.01 so that the
+    8-12-16-24-32, receptive field 220 px, ~825 multiply-adds per full-resolution pixel; with
+    ``"gain": g`` V = g sigmoid in (0, g)). The output layer starts near "no shadow" (bias 3:
+    sigmoid 0.95; with g > 1 the bias of V = 1, -log(g - 1); weights of 0.01 so that the
     gradient reaches every layer from the first step)."""
 
     kind = "shadow_net"
@@ -49,7 +51,7 @@ class ShadowNet(nn.Module):
             b = torch.zeros(layer.out_channels)
             if layer.name == "out":  # near "no shadow", with a gradient into every layer
                 w.normal_(0.0, 0.01)
-                b.fill_(3.0)
+                b.fill_(3.0 if layer.gain == 1.0 else -math.log(layer.gain - 1.0))
             self.weights[layer.name] = nn.Parameter(w)
             self.biases[layer.name] = nn.Parameter(b)
 
@@ -64,7 +66,7 @@ class ShadowNet(nn.Module):
                    ) -> torch.Tensor:
         """``[B, 3|4, H, W]`` unshadowed radiance, ``[B, 1, H, W]`` O(x), ``[B, 3, H, W]``
         normals, ``[B, 1, H, W]`` view depth, ``[B, 1, H, W]`` S(x) -> visibility
-        ``[B, 3, H, W]`` in (0, 1)."""
+        ``[B, 3, H, W]`` in (0, g) (g: the architecture's gain, 1 when absent)."""
         return shadow_net(shadow_net_inputs(radiance, ao, normal, depth, vis), self.layers,
                           self.params(), keep)
 

@@ -9,7 +9,13 @@ shadow_net.shadow_net_images`: ``ggx_split_sum`` with SSAO, times V on the surfa
 scored by :func:`.scores.psnr` over the same foreground pixels against the same path-traced
 target. Scoring the test split appends to the dataset's ledger (:func:`.scores.record_test`).
 
+The bound of the form (:func:`oracle_scores`, ``--oracle``, no weights): the best factor each
+pixel could have, V* = clamp(target / frame, 0, g) per colour, blurred (a Gaussian of sigma px
+normalised over the surfaces, as a network's smooth output would be) and multiplied into the
+same frame: what an estimator of gain g could at most score at that smoothness.
+
 ``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...]``
+``python -m learned.protocol.shadow_net DATA --split val --oracle``
 """
 from __future__ import annotations
 
@@ -19,6 +25,7 @@ from dataclasses import asdict
 
 import numpy as np
 import torch
+from torch.nn import functional as F
 
 from ..neural.shadow_net import load_shadow_net
 from ..train.shadow_net import shaded, shadow_net_images
@@ -49,7 +56,49 @@ def estimator_scores(weights: list[str], est_images, prot_images) -> dict:
     return out
 
 
-def evaluate(data: str, split: str, weights: list[str], classical: dict | None = None) -> dict:
+ORACLE_GAINS = (1.0, 2.0, 3.0)  # g = 1: the visibility's bound; above: an estimator with a gain
+ORACLE_SIGMAS = (0, 1, 2, 4)  # px; 0: per pixel (which also fits the target's noise)
+
+
+def _blur(v: torch.Tensor, mask: torch.Tensor, sigma: float) -> torch.Tensor:
+    """``v`` ``[C, H, W]`` blurred by a Gaussian of ``sigma`` px normalised over ``mask``."""
+    if sigma <= 0:
+        return v
+    r = int(3 * sigma)
+    g = torch.exp(-torch.arange(-r, r + 1, dtype=torch.float32) ** 2 / (2 * sigma ** 2))
+    g = g / g.sum()
+
+    def conv(a):
+        c = a.shape[0]
+        a = F.conv2d(F.pad(a[None], (r, r, 0, 0), mode="replicate"),
+                     g.view(1, 1, 1, -1).repeat(c, 1, 1, 1), groups=c)
+        return F.conv2d(F.pad(a, (0, 0, r, r), mode="replicate"),
+                        g.view(1, 1, -1, 1).repeat(c, 1, 1, 1), groups=c)[0]
+
+    m = mask[None].float()
+    return conv(v * m) / conv(m).clamp_min(1e-6)
+
+
+@torch.no_grad()
+def oracle_scores(est_images, prot_images) -> dict:
+    """``"g<gain> s<sigma>"`` -> per-sample PSNR of the frame times the blurred best factor
+    (module doc), over the protocol images' foreground pixels."""
+    by_name = {im.name: im for im in est_images}
+    out = {f"g{g:g} s{s:g}": [] for g in ORACLE_GAINS for s in ORACLE_SIGMAS}
+    for p in prot_images:
+        frame = _top_rows(by_name[p.name].radiance)  # [H, W, 3]
+        target = p.target_image.permute(1, 2, 0)
+        ratio = (target / frame.clamp_min(1e-6)).permute(2, 0, 1)
+        for g in ORACLE_GAINS:
+            best = torch.where(p.fg[None], ratio.clamp(0.0, g), torch.ones_like(ratio))
+            for s in ORACLE_SIGMAS:
+                v = _blur(best, p.fg, s).permute(1, 2, 0)
+                out[f"g{g:g} s{s:g}"].append(psnr((frame * v)[p.fg], p.target))
+    return out
+
+
+def evaluate(data: str, split: str, weights: list[str], classical: dict | None = None,
+             oracle: bool = False) -> dict:
     """Scores of ``split``: every classical variant (``classical``: the one chosen on val, as
     :func:`dataclasses.asdict` of :class:`Classical`; None: all of them, the best chosen here -
     on val only), the unshadowed frame and the estimators, and the paired difference of the
@@ -65,6 +114,12 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
     pool = [Classical(**classical)] if classical else variants()
     found = [(m, classical_scores(m, prot)) for m in pool]
     best, best_scores = max(found, key=lambda f: float(np.mean(f[1])))
+    if oracle:
+        return {"split": split, "samples": len(prot), "classical_name": best.name,
+                "classical_psnr": float(np.mean(best_scores)),
+                "oracle": {k: {"psnr": float(np.mean(v)),
+                               "vs_classical": paired_bootstrap(np.array(v) - best_scores)}
+                           for k, v in oracle_scores(est, prot).items()}}
     s = estimator_scores(weights, est, prot)
     diff = np.array(s["estimators"]) - np.array(best_scores)[None]
     return {"split": split, "samples": len(prot), "classical": asdict(best),
@@ -79,13 +134,20 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m learned.protocol.shadow_net")
     p.add_argument("data")
-    p.add_argument("weights", nargs="+")
+    p.add_argument("weights", nargs="*")
     p.add_argument("--split", choices=("val", "test"), default="val")
     p.add_argument("--classical", help="JSON of the variant chosen on val (test: required)")
+    p.add_argument("--oracle", action="store_true",
+                   help="the bound of the product form instead of weights (val only)")
     a = p.parse_args(argv)
+    if a.oracle and a.split != "val":
+        p.error("--oracle reads the validation split only")
+    if not a.oracle and not a.weights:
+        p.error("give the estimators' weights files (or --oracle)")
     if a.split == "test" and not a.classical:
         p.error("--split test scores the classical variant chosen on val: give --classical")
-    r = evaluate(a.data, a.split, a.weights, json.loads(a.classical) if a.classical else None)
+    r = evaluate(a.data, a.split, a.weights, json.loads(a.classical) if a.classical else None,
+                 a.oracle)
     if a.split == "test":
         r["test_scored"] = record_test(a.data, "shadow_net vs classical", a.weights,
                                        r["samples"], dataset_hash(a.data, ("test",)))

@@ -96,7 +96,8 @@ def shadow_net_conv(a: torch.Tensor, b: torch.Tensor | None, weight: torch.Tenso
                     bias: torch.Tensor, layer: dict) -> torch.Tensor:
     """Pass ``passes/shadow_net_conv.comp`` (tiled output, ``SN_OUTPUT`` 0): ``layer``'s
     convolution of ``a`` ``[B, Ca, h, w]`` (at the level its source names) and the skip ``b``
-    (``[B, Cb, H, W]`` or None), replicate padding, -> ``[B, Cout, H', W']`` after the activation.
+    (``[B, Cb, H, W]`` or None), replicate padding, -> ``[B, Cout, H', W']`` after the activation
+    times ``layer["gain"]`` (absent: 1).
     ``weight`` ``[Cout, Ca + Cb, k, k]``, ``bias`` ``[Cout]``."""
     k, stride = layer["kernel"], layer["stride"]
     if stride == 2:  # 2 x 2 taps at 2p: the level below's size, odd sides replicated
@@ -114,7 +115,9 @@ def shadow_net_conv(a: torch.Tensor, b: torch.Tensor | None, weight: torch.Tenso
         r = k // 2
         x = F.pad(x, (r, r, r, r), mode="replicate") if r else x
         y = F.conv2d(x, weight, bias)
-    return shadow_net_act(y.movedim(1, -1), layer["act"]).movedim(-1, 1)
+    y = shadow_net_act(y.movedim(1, -1), layer["act"]).movedim(-1, 1)
+    gain = float(layer.get("gain", 1.0))  # SN_GAIN: the output layer's g (1 elsewhere)
+    return y if gain == 1.0 else gain * y
 
 
 def shadow_net_inputs(radiance: torch.Tensor, ao: torch.Tensor, normal: torch.Tensor,

@@ -63,7 +63,8 @@ def _train_shadow_net(args) -> int:
                            "(a traced one: relight data OUT --protocol)", where="--stage")
     mod = _learned("learned.train.shadow_net")
     cfg = mod.ShadowNetTrainConfig(data=args.data, out=args.out,
-                                   steps=args.shadow_steps or 2000, seed=args.seed or 0)
+                                   steps=args.shadow_steps or mod.ShadowNetTrainConfig.steps,
+                                   seed=args.seed or 0)
     res = mod.train_shadow_net(cfg, quiet=args.quiet)
     if not args.quiet:
         print(f"shadow_net: {res['shadow_net']}")

@@ -9,7 +9,8 @@
 //     frame's inputs (radiance, G-buffer, SSAO's O(x) and S(x): lib/shadow_net.glsl
 //     shadow_net_input_a / _b / _c)
 //   SN_A_SLICES, SN_B_SLICES, SN_OUT_SLICES: RGBA texels per pixel of each
-//   SN_ACT 0 relu | 1 sigmoid; SN_WEIGHTS: vec4s of the weights
+//   SN_ACT 0 relu | 1 sigmoid; SN_GAIN: the activation's factor (the output layer's gain g,
+//     1 elsewhere); SN_WEIGHTS: vec4s of the weights
 //   SN_OUTPUT 0: the result into the tiled map u_out; 1: the visibility (3 channels) multiplied
 //     into the radiance image u_out in place where there is a surface (the product form)
 // Twin: learned.twins.shadow_net.shadow_net_conv.
@@ -98,12 +99,13 @@ void main() {
     vec4 radiance = imageLoad(u_out, p);
     GBuffer g = gbuffer_load(p);
     if (g.alpha > 0.0 && g.depth > 0.0) {
-        radiance.rgb *= shadow_net_act(acc[0], SN_ACT).rgb;
+        radiance.rgb *= float(SN_GAIN) * shadow_net_act(acc[0], SN_ACT).rgb;
     }
     imageStore(u_out, p, radiance);
 #else
     for (int o = 0; o < SN_OUT_SLICES; ++o) {
-        imageStore(u_out, ivec2(p.x + o * u_out_size.x, p.y), shadow_net_act(acc[o], SN_ACT));
+        imageStore(u_out, ivec2(p.x + o * u_out_size.x, p.y),
+                   float(SN_GAIN) * shadow_net_act(acc[o], SN_ACT));
     }
 #endif
 }

@@ -67,6 +67,24 @@ def test_the_receptive_field_covers_a_100_px_penumbra():
     assert 100 < min(width, height) and max(width, height) <= 220, (width, height)
 
 
+def test_a_gain_scales_the_output_and_starts_at_no_change():
+    """``"gain": g``: V = g sigmoid, in (0, g), starting near V = 1 (bias -log(g - 1)); the
+    same weights without the gain give V / g."""
+    torch.manual_seed(0)
+    arch = {"levels": 2, "widths": [4, 4], "gain": 2.0}
+    model = ShadowNet(arch)
+    x = [torch.rand(1, c, 16, 16) for c in (3, 1, 3, 1, 1)]
+    with torch.no_grad():
+        v = model.visibility(*x)
+        assert 0.98 < float(v.min()) and float(v.max()) < 1.02  # weights 0.01, bias -log 1
+        model.weights["out"].normal_(0.0, 3.0)
+        v = model.visibility(*x)
+        plain = ShadowNet({"levels": 2, "widths": [4, 4]})
+        plain.load_state_dict(model.state_dict())
+        assert float(v.max()) > 1.2 and float(v.max()) < 2.0
+        assert torch.allclose(plain.visibility(*x), v / 2.0, atol=1e-6)
+
+
 def test_saved_weights_load_back_in_torch_and_in_the_viewer(tmp_path):
     torch.manual_seed(2)
     model = ShadowNet()
@@ -94,6 +112,7 @@ def _write(path, tensors, meta):
     ("format", "not a relight shadow-estimator file"),
     ("version", "format version '9' is not supported"),
     ("architecture", "bad architecture metadata"),
+    ("gain", "bad architecture metadata .*gain 9.0 is not a number in 1.0..4.0"),
     ("shape", "tensor 'enc2.weight' is float32\\[12, 12, 3, 1\\], expected float32\\[12, 12, 3, 3\\]"),
     ("nan", "tensor 'dec3.bias' has NaN/Inf values"),
     ("missing_tensor", "missing tensor 'out.bias'"),
@@ -111,6 +130,8 @@ def test_a_bad_weights_file_is_one_line_naming_it(tmp_path, damage, message):
         meta["version"] = "9"
     elif damage == "architecture":
         meta["architecture"] = json.dumps({"levels": 5, "widths": [8, 8]})
+    elif damage == "gain":
+        meta["architecture"] = json.dumps({**DEFAULT_ARCHITECTURE, "gain": 9.0})
     elif damage == "shape":
         tensors["enc2.weight"] = tensors["enc2.weight"][..., :1].copy()
         meta = metadata(DEFAULT_ARCHITECTURE, tensors)

@@ -7,7 +7,9 @@ import torch
 
 from learned.neural.shadow_net import ShadowNet, load_shadow_net
 from learned.train.shadow_net import (
+    ShadowNetImage,
     ShadowNetTrainConfig,
+    augmented,
     loss,
     shadow_net_images,
     train_shadow_net,
@@ -27,7 +29,8 @@ def one_thread():
 
 def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ctx, one_thread,
                                                            capsys):
-    """30 steps lower the training loss over the training images (measured: 0.080 -> 0.047)."""
+    """30 steps lower the training loss over the training images (the default log MSE,
+    measured: -4.50 -> -4.75, the MSE 22 % lower; the bound asks for 10 %)."""
     from viewer.renderer import Renderer
 
     cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=30, batch=3,
@@ -44,7 +47,9 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
         before = float(loss(ShadowNet(cfg.architecture), images, cfg.visibility_target, cfg.loss))
         after = float(loss(load_shadow_net(res["shadow_net"]), images, cfg.visibility_target,
                            cfg.loss))
-    assert len(losses) == 30 and after < 0.9 * before, (before, after)
+    # the default loss is a mean log MSE (negative): the images' MSE falls by more than 10 %
+    assert cfg.loss == "log_mse" and len(losses) == 30
+    assert after < before + np.log(0.9), (before, after)
     net = read_shadow_net(res["shadow_net"])
     assert len(net.training["dataset_hash"]) == 64 and net.training["steps"] == 30
     assert set(net.training["val_psnr"]) == {"with", "without"}
@@ -81,3 +86,41 @@ def test_the_inputs_are_the_frames_with_the_targets_in_its_row_order(dataset, ct
         flipped = (img.radiance[:, :3] - img.target.flip(-2)).abs()[m].mean()
         assert same < flipped, (img.name, float(same), float(flipped))
         assert torch.isfinite(img.inputs).all()
+
+
+def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
+    """Exposure and tint multiply radiance and target alike (target / radiance unchanged), the
+    radiance input follows the radiance, and a mirrored image has its normals' x negated."""
+    g = torch.Generator().manual_seed(0)
+    rad = torch.rand(1, 4, 6, 5, generator=g) + 0.1
+    inputs = torch.rand(1, 9, 6, 5, generator=g)
+    img = ShadowNetImage("a", rad, inputs, torch.rand(1, 1, 6, 5, generator=g) > 0.3,
+                         torch.rand(1, 3, 6, 5, generator=g))
+    rng = np.random.default_rng(0)
+    seen = set()
+    for _ in range(8):
+        out = augmented(img, rng, 0.2)
+        flipped = not torch.equal(out.surface, img.surface)
+        seen.add(flipped)
+        ref = img if not flipped else ShadowNetImage(
+            "a", rad.flip(-1), inputs.flip(-1), img.surface.flip(-1), img.target.flip(-1))
+        ratio = out.target / out.radiance[:, :3]
+        assert torch.allclose(ratio, ref.target / ref.radiance[:, :3], rtol=1e-5)
+        assert not torch.allclose(out.radiance[:, :3], ref.radiance[:, :3])
+        assert torch.allclose(out.inputs[:, :3], torch.log1p(out.radiance[:, :3]), atol=1e-6)
+        assert torch.equal(out.radiance[:, 3:], ref.radiance[:, 3:])
+        sign = -1.0 if flipped else 1.0
+        assert torch.equal(out.inputs[:, 4], sign * ref.inputs[:, 4])
+        assert torch.equal(out.inputs[:, 3], ref.inputs[:, 3])
+    assert seen == {True, False}
+
+
+def test_extra_datasets_join_the_training_images(dataset, tmp_path, ctx, one_thread):
+    """``extra_data``: another dataset's train split trains too (here the same one again: twice
+    the images), and its hash goes into the weights' metadata."""
+    cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=2, batch=2,
+                               limit=2, extra_data=(str(dataset),))
+    res = train_shadow_net(cfg, quiet=True)
+    assert "4 training images" in (tmp_path / "run" / "train.log").read_text()
+    net = read_shadow_net(res["shadow_net"])
+    assert net.training["extra_data_hashes"] == [net.training["dataset_hash"]]

@@ -6,9 +6,13 @@ The estimator (thesis eq. 4.3, redesigned for the viewer) is a U-Net over the fr
     e_l = relu(conv3(relu(conv2/2(e_{l-1}))))                    l = 1..L at 1 / 2^l
     d_l = relu(conv_k([up(d_{l+1}), e_l]))                       l = L-1..1 (d_L = e_L), k = 3
                                                                  (1 at l = 1), nearest up
-    V   = sigmoid(conv1([bilinear_up(d_1), x0]))                 full resolution, 3 channels
+    V   = g sigmoid(conv1([bilinear_up(d_1), x0]))               full resolution, 3 channels
 
-and the shading is multiplied by V where there is a surface (the product form). The first
+and the shading is multiplied by V where there is a surface (the product form). The gain g
+(``"gain"`` in the architecture, 1 when absent: V is a visibility in (0, 1)) lets V also add
+light the unshadowed frame lacks (inter-reflections, the base model's missing energy): on the
+protocol's validation split over half of the frame's error is where it is too dark, which a
+visibility cannot reach (docs/measurements/students.md). The first
 operation halves the resolution, so full resolution only sees the inputs and the last 1 x 1
 layer; :func:`receptive_field` is the reach of one output pixel (``levels`` 5: 220 px, covering
 the ~100 px penumbrae of Neural Shadow Mapping's 5-level table).
@@ -16,7 +20,7 @@ the ~100 px penumbrae of Neural Shadow Mapping's 5-level table).
 The file is safetensors with float32 tensors ``<layer>.weight`` ``[out, in, k, k]`` and
 ``<layer>.bias`` ``[out]`` (the layers of :func:`plan`; input channels: the first source's then
 the skip's) and string metadata ``format`` = :data:`FORMAT`, ``version`` = :data:`FORMAT_VERSION`,
-``architecture`` (JSON ``{"levels": L, "widths": [C_1 .. C_L]}``), ``checkpoint`` (sha256 of the
+``architecture`` (JSON ``{"levels": L, "widths": [C_1 .. C_L]}``, optionally ``"gain": g``), ``checkpoint`` (sha256 of the
 tensors, :func:`viewer.neural.checkpoint_hash`) and ``training`` (JSON, free form).
 :func:`read_shadow_net` validates all of it; every problem is one :class:`WeightsError` line
 naming the file. :func:`pack_layer` lays a layer's weights out as the ``vec4`` array its pass
@@ -48,6 +52,7 @@ FORMAT_VERSION = "1"
 INPUT_CHANNELS = 9
 LEVELS_RANGE = (1, 7)
 WIDTH_MAX = 64
+GAIN_RANGE = (1.0, 4.0)  # the output's V in (0, g): g = 1 a visibility, above it also a gain
 UBO_VEC4_MAX = 4096  # 64 KiB: GL_MAX_UNIFORM_BLOCK_SIZE on llvmpipe and most GPUs
 DEFAULT_ARCHITECTURE = {"levels": 5, "widths": [8, 12, 16, 24, 32]}
 
@@ -77,6 +82,7 @@ class Layer:
     b_channels: int
     out_channels: int
     act: int
+    gain: float = 1.0  # the output times this after its activation (SN_GAIN; the last layer)
 
     @property
     def in_channels(self) -> int:
@@ -115,6 +121,10 @@ def check_architecture(arch: dict) -> tuple[int, list[int]]:
     if (not isinstance(widths, list) or len(widths) != levels
             or not all(isinstance(w, int) and 1 <= w <= WIDTH_MAX for w in widths)):
         raise ValueError(f"widths {widths!r} is not a list of {levels} integers in 1..{WIDTH_MAX}")
+    gain = arch.get("gain", 1.0)
+    if (isinstance(gain, bool) or not isinstance(gain, (int, float))
+            or not GAIN_RANGE[0] <= gain <= GAIN_RANGE[1]):
+        raise ValueError(f"gain {gain!r} is not a number in {GAIN_RANGE[0]}..{GAIN_RANGE[1]}")
     return levels, list(widths)
 
 
@@ -136,7 +146,7 @@ def plan(arch: dict) -> list[Layer]:
                             c[lv + 1], f"enc{lv}", SOURCE_MAP, c[lv], c[lv], ACT_RELU))
         coarse = f"dec{lv}"
     layers.append(Layer("out", 0, 1, 1, coarse, SOURCE_BILINEAR_UP, c[1], "input", SOURCE_FRAME,
-                        INPUT_CHANNELS, 3, ACT_SIGMOID))
+                        INPUT_CHANNELS, 3, ACT_SIGMOID, float(arch.get("gain", 1.0))))
     return layers
 
 

@@ -77,7 +77,8 @@ class ShadowNetPass:
             "SN_A_SOURCE": layer.a_source, "SN_B_SOURCE": layer.b_source,
             "SN_A_SLICES": slices(layer.a_channels), "SN_B_SLICES": slices(layer.b_channels),
             "SN_OUT_SLICES": slices(layer.out_channels), "SN_ACT": layer.act,
-            "SN_WEIGHTS": len_packed(layer), "SN_OUTPUT": int(last and not visibility)},
+            "SN_WEIGHTS": len_packed(layer), "SN_OUTPUT": int(last and not visibility),
+            "SN_GAIN": f"{float(layer.gain):.9g}"},
             virtual=self.layout.virtual_files())
 
     def run(self, net: ShadowNetFile, gbuffer_textures: dict, radiance, ssao,

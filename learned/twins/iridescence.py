@@ -105,23 +105,33 @@ def schlick_to_f0(f: torch.Tensor, f90: torch.Tensor, c: torch.Tensor) -> torch.
     return ((f - (f90 * x5)[..., None]) / (1.0 - x5).clamp_min(1e-4)[..., None]).clamp(0.0, 1.0)
 
 
+IRIDESCENCE_COAT_IOR = 1.5
+
+
+def iridescence_outside_ior(clearcoat: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float iridescence_outside_ior(float clearcoat)``: mix(1, 1.5, clearcoat)."""
+    return _mix(torch.ones_like(clearcoat), torch.full_like(clearcoat, IRIDESCENCE_COAT_IOR),
+                saturate(clearcoat))
+
+
 def iridescence_fresnel_mix(f0: torch.Tensor, f90: torch.Tensor, VoH: torch.Tensor,
-                            iridescence: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 iridescence_fresnel_mix(vec3 f0, float f90, float VoH, vec3 iridescence)``
-    (iridescence: factor, thickness nm, film IOR)."""
+                            iridescence: torch.Tensor, outside_ior: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 iridescence_fresnel_mix(vec3 f0, float f90, float VoH, vec3 iridescence,
+    float outside_ior)`` (iridescence: factor, thickness nm, film IOR)."""
     f = f_schlick(f0, f90, VoH)
     factor = iridescence[..., 0]
-    film = iridescence_fresnel(torch.ones_like(VoH), iridescence[..., 2], VoH,
+    film = iridescence_fresnel(outside_ior, iridescence[..., 2], VoH,
                                iridescence[..., 1], f0)
     mixed = _mix(f, film, saturate(factor)[..., None])
     return torch.where(((factor > 0.0) & (iridescence[..., 1] > 0.0))[..., None], mixed, f)
 
 
 def iridescence_f0(f0: torch.Tensor, f90: torch.Tensor, NoV: torch.Tensor,
-                   iridescence: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 iridescence_f0(vec3 f0, float f90, float NoV, vec3 iridescence)``."""
+                   iridescence: torch.Tensor, outside_ior: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 iridescence_f0(vec3 f0, float f90, float NoV, vec3 iridescence,
+    float outside_ior)``."""
     factor = iridescence[..., 0]
-    film = iridescence_fresnel(torch.ones_like(NoV), iridescence[..., 2], NoV,
+    film = iridescence_fresnel(outside_ior, iridescence[..., 2], NoV,
                                iridescence[..., 1], f0)
     mixed = _mix(f0, schlick_to_f0(film, f90, NoV), saturate(factor)[..., None])
     return torch.where(((factor > 0.0) & (iridescence[..., 1] > 0.0))[..., None], mixed, f0)
@@ -131,9 +141,11 @@ IRIDESCENCE_ALBEDO_NODES = 32
 
 
 def iridescence_albedo_delta(f0: torch.Tensor, f90: torch.Tensor, NoV: torch.Tensor,
-                             a: torch.Tensor, iridescence: torch.Tensor) -> torch.Tensor:
+                             a: torch.Tensor, iridescence: torch.Tensor,
+                             outside_ior: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 iridescence_albedo_delta(vec3 f0, float f90, float NoV, float a,
-    vec3 iridescence)``: f0 ``[..., 3]``, iridescence ``[..., 3]`` -> ``[..., 3]``."""
+    vec3 iridescence, float outside_ior)``: f0 ``[..., 3]``, iridescence ``[..., 3]`` ->
+    ``[..., 3]``."""
     from .brdf import v_smith_ggx_correlated
 
     c = saturate(NoV)
@@ -159,7 +171,7 @@ def iridescence_albedo_delta(f0: torch.Tensor, f90: torch.Tensor, NoV: torch.Ten
         NoL = 2.0 * VoH * hz - c
         w = torch.where(NoL > 0.0, v_smith_ggx_correlated(c, NoL, a) * NoL * lam,
                         torch.zeros_like(NoL))
-        film = iridescence_fresnel(torch.ones_like(c), iridescence[..., 2], VoH,
+        film = iridescence_fresnel(outside_ior, iridescence[..., 2], VoH,
                                    iridescence[..., 1], f0)
         total = total + (film - f_schlick(f0, f90, VoH)) * w[..., None]
     factor = iridescence[..., 0]

@@ -5,7 +5,10 @@ Dr.Jit (the plugin, :func:`drjit_ops`), channel by channel.
 
 The surface's Fresnel becomes ``mix(F_Schlick(f0, f90, v.h), F_film(v.h), factor)`` with
 ``F_film`` the reflectance of a film of IOR ``film_ior`` and thickness ``d`` nm over a base of
-normal-incidence reflectance ``f0`` seen from air (:func:`film_fresnel`); the factor is
+normal-incidence reflectance ``f0`` seen from air (:func:`film_fresnel`), or under a
+``KHR_materials_clearcoat`` coat from the coat's IOR: the spec's "Clearcoat" section evaluates
+the coat before the film, whose outside IOR becomes the coat's 1.5, ``mix(1, 1.5, clearcoat)``
+for partial coats (OpenPBR, Babylon: :func:`outside_ior`); the factor is
 ``iridescenceFactor`` times its map's R, the thickness ``mix(min, max, G)`` of the thickness map
 (``max`` without it). A film of thickness 0 is none (three.js), and the film's IOR is blended in
 from the outside's over its first 30 nm (:data:`FILM_RAMP_NM`), so it fades continuously.
@@ -35,6 +38,14 @@ XYZ_TO_REC709 = ((3.2404542, -1.5371385, -0.4985314),
 NUMPY = SimpleNamespace(sqrt=np.sqrt, cos=np.cos, sin=np.sin, exp=np.exp, select=np.where,
                         clip=np.clip, maximum=np.maximum)
 ALBEDO_NODES = 32  # lib/iridescence.glsl IRIDESCENCE_ALBEDO_NODES
+COAT_IOR = 1.5  # lib/iridescence.glsl IRIDESCENCE_COAT_IOR: KHR_materials_clearcoat's coat
+
+
+def outside_ior(clearcoat):
+    """lib/iridescence.glsl ``iridescence_outside_ior``: the IOR the film is seen from under a
+    coat of factor ``clearcoat`` in [0, 1] (0: air), ``mix(1, 1.5, clearcoat)`` (numpy or
+    Dr.Jit values; the caller clamps)."""
+    return 1.0 + (COAT_IOR - 1.0) * clearcoat
 
 
 def drjit_ops(dr):
@@ -48,7 +59,7 @@ def albedo_node(k: int, nodes: int = ALBEDO_NODES) -> tuple[float, float]:
     return (k + 0.5) / nodes, float(np.float32(k) * np.float32(0.6180339887498949) % 1.0)
 
 
-def _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior):
+def _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior, outside=1.0):
     """One point's (F_film - F_Schlick)(v.h) f cos / pdf (:func:`albedo_delta`), 3 values."""
     a2 = a * a
     phi = 2.0 * math.pi * u0
@@ -64,7 +75,7 @@ def _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior):
     vis = 0.5 / ops.maximum(nl * ops.sqrt(c * c * (1.0 - a2) + a2)
                             + c * ops.sqrt(nl * nl * (1.0 - a2) + a2), 1e-8)
     weight = ops.select(nol > 0.0, vis * nl * lam, 0.0)
-    film = film_fresnel(ops, voh, thickness_nm, film_ior, f0)
+    film = film_fresnel(ops, voh, thickness_nm, film_ior, f0, outside)
     x = 1.0 - ops.clip(voh, 0.0, 1.0)
     x5 = x * x * x * x * x
     return [(film[ch] - (f0[ch] + (f90 - f0[ch]) * x5)) * weight for ch in range(3)]
@@ -79,16 +90,19 @@ def _view(ops, nov, a):
     return c, a, vx, (a * vx / norm, (c + 1e-7) / norm), lam  # vh: the stretched view (y = 0)
 
 
-def albedo_delta(ops, f0, f90, nov, a, factor, thickness_nm, film_ior, nodes=ALBEDO_NODES):
+def albedo_delta(ops, f0, f90, nov, a, factor, thickness_nm, film_ior, nodes=ALBEDO_NODES,
+                 outside=1.0):
     """lib/iridescence.glsl ``iridescence_albedo_delta``: what the film changes in the specular
     lobe's directional albedo, factor x mean over :func:`albedo_node` of (F_film - F_Schlick)(v.h)
     f cos / pdf at the visible normals those points draw (sample_ggx_vndf, Dupuy & Benyoub
-    2023), 3 values. Added to the DFG table's E_spec it is the energy split's E_spec."""
+    2023), 3 values, the film seen from IOR ``outside``. Added to the DFG table's E_spec it is
+    the energy split's E_spec."""
     c, a, vx, vh, lam = _view(ops, nov, a)
     out = [0.0, 0.0, 0.0]
     for k in range(nodes):
         u0, u1 = albedo_node(k, nodes)
-        term = _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior)
+        term = _node_term(ops, f0, f90, c, a, vx, vh, lam, u0, u1, thickness_nm, film_ior,
+                          outside)
         out = [out[ch] + term[ch] for ch in range(3)]
     w = ops.select(thickness_nm > 0.0, ops.clip(factor, 0.0, 1.0), 0.0)
     return [out[ch] * (w / nodes) for ch in range(3)]
@@ -144,22 +158,24 @@ def film_fresnel(ops, cos_theta1, thickness_nm, film_ior, base_f0, outside_ior=1
     return [ops.select(tir, 1.0, ops.clip(i[k], 0.0, 1.0)) for k in range(3)]
 
 
-def fresnel_mix(ops, f0, f90, voh, factor, thickness_nm, film_ior):
+def fresnel_mix(ops, f0, f90, voh, factor, thickness_nm, film_ior, outside=1.0):
     """lib/iridescence.glsl ``iridescence_fresnel_mix`` (3 values per channel; ``f0`` 3 values,
-    the rest scalars): Schlick's Fresnel mixed with the film's by the factor."""
+    the rest scalars): Schlick's Fresnel mixed with the film's (seen from IOR ``outside``) by the
+    factor."""
     x = 1.0 - ops.clip(voh, 0.0, 1.0)
     x5 = x * x * x * x * x
-    film = film_fresnel(ops, voh, thickness_nm, film_ior, f0)
+    film = film_fresnel(ops, voh, thickness_nm, film_ior, f0, outside)
     w = ops.select(thickness_nm > 0.0, ops.clip(factor, 0.0, 1.0), 0.0)
     return [(f0[k] + (f90 - f0[k]) * x5) * (1.0 - w) + film[k] * w for k in range(3)]
 
 
-def split_sum_f0(ops, f0, f90, nov, factor, thickness_nm, film_ior):
+def split_sum_f0(ops, f0, f90, nov, factor, thickness_nm, film_ior, outside=1.0):
     """lib/iridescence.glsl ``iridescence_f0``: the F0 that reproduces the film's Fresnel at n.v
-    under Schlick with this f90 (three.js's Schlick_to_F0), mixed by the factor."""
+    (seen from IOR ``outside``) under Schlick with this f90 (three.js's Schlick_to_F0), mixed by
+    the factor."""
     x = 1.0 - ops.clip(nov, 0.0, 1.0)
     x5 = x * x * x * x * x
-    film = film_fresnel(ops, nov, thickness_nm, film_ior, f0)
+    film = film_fresnel(ops, nov, thickness_nm, film_ior, f0, outside)
     w = ops.select(thickness_nm > 0.0, ops.clip(factor, 0.0, 1.0), 0.0)
     return [f0[k] * (1.0 - w) + ops.clip((film[k] - f90 * x5) / ops.maximum(1.0 - x5, 1e-4),
                                          0.0, 1.0) * w for k in range(3)]
@@ -167,8 +183,10 @@ def split_sum_f0(ops, f0, f90, nov, factor, thickness_nm, film_ior):
 
 def film_state(mi, dr, bsdf, si):
     """The film at the hit: (factor, thickness nm, IOR) as Dr.Jit floats, the factor times the
-    map's R, the thickness ``mix(min, max, G)`` of the thickness map (``max`` without it); None
-    for a material without a film."""
+    map's R, the thickness ``mix(min, max, G)`` of the thickness map (``max`` without it), and
+    the IOR it is seen from (``outside``: :func:`outside_ior` of the clearcoat factor times its
+    map's R, as relight.reference.layers.coat_state reads it; 1.0 without a coat); None for a
+    material without a film."""
     m = bsdf.material
     if m is None or m.iridescence <= 0.0:
         return None
@@ -179,13 +197,20 @@ def film_state(mi, dr, bsdf, si):
     if bsdf.iridescence_thickness_texture is not None:
         g = bsdf.iridescence_thickness_texture.eval(si).x  # the map's G (scene.py keeps it)
         thickness = dr.lerp(mi.Float(m.iridescence_thickness_min), thickness, g)
-    return {"factor": factor, "thickness": thickness, "ior": float(m.iridescence_ior)}
+    outside = 1.0
+    if m.clearcoat > 0.0:
+        coat = mi.Float(m.clearcoat)
+        if bsdf.clearcoat_texture is not None:
+            coat = coat * bsdf.clearcoat_texture.eval(si).x
+        outside = outside_ior(dr.clip(coat, 0.0, 1.0))
+    return {"factor": factor, "thickness": thickness, "ior": float(m.iridescence_ior),
+            "outside": outside}
 
 
 def film_fresnel_mix(mi, dr, film, f0, f90, voh):
     """The surface's Fresnel at v.h with the film (:func:`fresnel_mix`), an ``mi.Color3f``."""
     c = fresnel_mix(drjit_ops(dr), [f0.x, f0.y, f0.z], f90, voh, film["factor"],
-                    film["thickness"], film["ior"])
+                    film["thickness"], film["ior"], film["outside"])
     return mi.Color3f(c[0], c[1], c[2])
 
 
@@ -199,7 +224,7 @@ def film_albedo_delta(mi, dr, film, f0, f90, nov, a):
     def body(k, r, g, b):
         t = mi.Float(k) * 0.6180339887498949  # float32, as the GLSL's fract(float(k) x ...)
         term = _node_term(ops, f0c, f90, c, a, vx, vh, lam, (mi.Float(k) + 0.5) / ALBEDO_NODES,
-                          t - dr.floor(t), film["thickness"], film["ior"])
+                          t - dr.floor(t), film["thickness"], film["ior"], film["outside"])
         return k + 1, r + term[0], g + term[1], b + term[2]
 
     zero = dr.zeros(mi.Float, dr.width(c))

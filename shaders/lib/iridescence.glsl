@@ -5,8 +5,11 @@
 // learned/twins/iridescence.py; float64 reference: relight/reference/iridescence.py.
 //
 // A film of IOR eta2 and thickness d (nm) over the base (F0 at normal incidence from air), seen
-// from a medium of IOR eta1 (1: air). As three.js does, the film's IOR is blended towards the
-// outside's over the first 30 nm (iridescence_film_ior), so a film of thickness 0 is no film:
+// from a medium of IOR eta1: 1 (air), or under a KHR_materials_clearcoat coat the coat's 1.5 (the
+// spec's "Clearcoat" section: the coat is evaluated before the film, whose outside IOR becomes
+// the coat's), mix(1, 1.5, clearcoat factor) for partial coats (OpenPBR's thin_film outside
+// IOR, Babylon): iridescence_outside_ior. As three.js does, the film's IOR is blended towards
+// the outside's over the first 30 nm (iridescence_film_ior), so a film of thickness 0 is no film:
 // the result is then the base's own Schlick Fresnel F0 + (1 - F0)(1 - c)^5. The specification
 // mixes it into the surface's Fresnel by the factor (iridescence_fresnel_mix); the split-sum
 // model uses the F0 that reproduces it at n.v (iridescence_f0, three.js's approximation).
@@ -20,6 +23,7 @@
 // (0.038 with 16, 0.059 with 8) over n.v 0.02..1, roughness 0.1..1, films 100..1200 nm of IOR
 // 1.3 and 1.8 over F0 0.04 and 0.9 (relight/reference/iridescence.py, 2e5 random points)
 #define IRIDESCENCE_ALBEDO_NODES 32
+#define IRIDESCENCE_COAT_IOR 1.5  // KHR_materials_clearcoat's coat (lib/layers.glsl: F0 0.04)
 
 // Fresnel's normal-incidence reflectance between media of IOR n_t (transmitted) and n_i
 // (incident), ((n_t - n_i) / (n_t + n_i))^2 (the spec's IorToFresnel0).
@@ -102,6 +106,13 @@ vec3 iridescence_fresnel(float outside_ior, float film_ior, float cos_theta1,
     return clamp(i, vec3(0.0), vec3(1.0));
 }
 
+// The IOR the film is seen from under a coat of factor `clearcoat` (0: none, air):
+// mix(1, IRIDESCENCE_COAT_IOR, clearcoat), the coat's IOR under a full coat (the spec's case),
+// continuous for partial ones (OpenPBR, Babylon); exactly 1 without a coat.
+float iridescence_outside_ior(float clearcoat) {
+    return mix(1.0, IRIDESCENCE_COAT_IOR, saturate(clearcoat));
+}
+
 // The F0 whose Schlick Fresnel with this f90 gives f at cosine c (three.js's Schlick_to_F0),
 // clamped to [0, 1]; at grazing c (1 - (1 - c)^5 -> 0) the denominator is floored at 1e-4.
 vec3 schlick_to_f0(vec3 f, float f90, float c) {
@@ -113,21 +124,23 @@ vec3 schlick_to_f0(vec3 f, float f90, float c) {
 
 // The surface's Fresnel with KHR_materials_iridescence (iridescence = (factor, thickness nm,
 // film IOR)) at v.h = VoH: mix(F_Schlick(f0, f90, VoH), F_iridescence(VoH), factor), the spec's
-// mix, from air. The film over the base uses f0 as the base's reflectance (the spec: baseF0).
-// A film of thickness 0 is none (three.js): F_Schlick exactly.
-vec3 iridescence_fresnel_mix(vec3 f0, float f90, float VoH, vec3 iridescence) {
+// mix, the film seen from a medium of IOR outside_ior (iridescence_outside_ior). The film over
+// the base uses f0 as the base's reflectance (the spec: baseF0). A film of thickness 0 is none
+// (three.js): F_Schlick exactly.
+vec3 iridescence_fresnel_mix(vec3 f0, float f90, float VoH, vec3 iridescence,
+                             float outside_ior) {
     vec3 f = f_schlick(f0, f90, VoH);
     if (!(iridescence.x > 0.0 && iridescence.y > 0.0)) return f;
-    return mix(f, iridescence_fresnel(1.0, iridescence.z, VoH, iridescence.y, f0),
+    return mix(f, iridescence_fresnel(outside_ior, iridescence.z, VoH, iridescence.y, f0),
                saturate(iridescence.x));
 }
 
 // The split-sum's F0 with the film: mix(f0, Schlick_to_F0(F_iridescence(n.v), f90, n.v),
-// factor) (three.js: the thin-film Fresnel at n.v in place of the Schlick F0 term); f0 itself
-// where the factor or the thickness is 0.
-vec3 iridescence_f0(vec3 f0, float f90, float NoV, vec3 iridescence) {
+// factor) (three.js: the thin-film Fresnel at n.v in place of the Schlick F0 term), the film
+// seen from outside_ior; f0 itself where the factor or the thickness is 0.
+vec3 iridescence_f0(vec3 f0, float f90, float NoV, vec3 iridescence, float outside_ior) {
     if (!(iridescence.x > 0.0 && iridescence.y > 0.0)) return f0;
-    vec3 f = iridescence_fresnel(1.0, iridescence.z, NoV, iridescence.y, f0);
+    vec3 f = iridescence_fresnel(outside_ior, iridescence.z, NoV, iridescence.y, f0);
     return mix(f0, schlick_to_f0(f, f90, NoV), saturate(iridescence.x));
 }
 
@@ -137,8 +150,9 @@ vec3 iridescence_f0(vec3 f0, float f90, float NoV, vec3 iridescence) {
 // sample_ggx_vndf's mapping, Dupuy & Benyoub 2023; f cos / pdf = 2 V (n.l) (n.v + sqrt(a^2 +
 // (1 - a^2) n.v^2))). Added to the DFG terms' E_spec it is the film's E_spec, which the exact
 // models' diffuse keeps 1 - of (the film's Fresnel at n.v alone over-lights the diffuse by up to
-// 15 % at grazing views of rough films). 0 without a film.
-vec3 iridescence_albedo_delta(vec3 f0, float f90, float NoV, float a, vec3 iridescence) {
+// 15 % at grazing views of rough films). The film seen from outside_ior. 0 without a film.
+vec3 iridescence_albedo_delta(vec3 f0, float f90, float NoV, float a, vec3 iridescence,
+                              float outside_ior) {
     if (!(iridescence.x > 0.0 && iridescence.y > 0.0)) return vec3(0.0);
     float c = saturate(NoV);
     a = clamp(a, 1e-4, 1.0);
@@ -157,7 +171,7 @@ vec3 iridescence_albedo_delta(vec3 f0, float f90, float NoV, float a, vec3 iride
         float NoL = 2.0 * VoH * h.z - c;
         if (!(NoL > 0.0)) continue;
         float w = v_smith_ggx_correlated(c, NoL, a) * NoL * lam;
-        sum += (iridescence_fresnel(1.0, iridescence.z, VoH, iridescence.y, f0)
+        sum += (iridescence_fresnel(outside_ior, iridescence.z, VoH, iridescence.y, f0)
                 - f_schlick(f0, f90, VoH)) * w;
     }
     return sum * (saturate(iridescence.x) / float(IRIDESCENCE_ALBEDO_NODES));

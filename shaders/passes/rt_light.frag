@@ -197,8 +197,14 @@ vec3 rt_hit_shading(TracedSurface t, vec3 n, vec3 ng, vec3 d, vec3 e) {
         }
     }
 #ifdef TRACED_IRIDESCENCE_FIELD
-    // the thin film's Fresnel at n.v, as the split-sum shading of the first hit
-    fresnel.rgb = iridescence_f0(fresnel.rgb, fresnel.a, NoV, t.iridescence);
+    // the thin film's Fresnel at n.v, as the split-sum shading of the first hit (seen from the
+    // coat's IOR under a coat)
+#ifdef TRACED_CLEARCOAT_MAPS
+    float film_outside = iridescence_outside_ior(t.clearcoat.x);
+#else
+    float film_outside = 1.0;
+#endif
+    fresnel.rgb = iridescence_f0(fresnel.rgb, fresnel.a, NoV, t.iridescence, film_outside);
 #endif
     return ggx_split_sum(diffuse, fresnel.rgb, fresnel.a, 1.0, e, glossy,
                          ibl_dfg(u_env_dfg, NoV, r), float(MULTISCATTER));

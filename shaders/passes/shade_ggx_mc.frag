@@ -88,8 +88,9 @@ void main() {
                              dfg);
     vec3 f0_lights = s.f0;  // the delta lights' F0 (the split sum's)
 #if GBUFFER_HAS_IRIDESCENCE
-    surface_set_iridescence(s, g.iridescence, diffuse_color(g.albedo, g.metallic), dfg);
-    f0_lights = iridescence_f0(s.f0, s.f90, s.NoV, s.film);
+    surface_set_iridescence(s, g.iridescence, g.clearcoat.x, diffuse_color(g.albedo, g.metallic),
+                            dfg);
+    f0_lights = iridescence_f0(s.f0, s.f90, s.NoV, s.film, s.film_outside);
 #endif
 #if GBUFFER_HAS_TRANSMISSION
     // no rays to follow through a transmissive surface: ggx_mc shades its base opaque (a warning)

@@ -165,8 +165,14 @@ void main() {
     float f90 = fresnel.a;
 #if GBUFFER_HAS_IRIDESCENCE
     // KHR_materials_iridescence (lib/iridescence.glsl): the thin film's Fresnel at n.v in place
-    // of the Schlick F0 term (three.js), for the environment's light and the lights' alike
-    f0 = iridescence_f0(f0, f90, NoV, g.iridescence);
+    // of the Schlick F0 term (three.js), for the environment's light and the lights' alike; under
+    // a coat the film is seen from the coat's IOR (the spec: the coat is evaluated first)
+#if GBUFFER_HAS_CLEARCOAT
+    float film_outside = iridescence_outside_ior(g.clearcoat.x);
+#else
+    float film_outside = 1.0;
+#endif
+    f0 = iridescence_f0(f0, f90, NoV, g.iridescence, film_outside);
 #endif
 #if FORWARD_TRANSMISSION
     // KHR_materials_transmission (the forward pass, passes/forward_surface.glsl): the base's

@@ -165,7 +165,8 @@ vec3 trace_path(PathVertex s0, uvec2 pixel, uint index) {
                         t.dielectric, t.clearcoat, n, TRACED_SHEEN(t));
 #ifdef TRACED_IRIDESCENCE_FIELD
         // the thin film, as at the first hit (before the transmission's split)
-        surface_set_iridescence(s.s, t.iridescence, diffuse_color(t.albedo, t.metallic),
+        surface_set_iridescence(s.s, t.iridescence, t.clearcoat.x,
+                                diffuse_color(t.albedo, t.metallic),
                                 ibl_dfg(u_env_dfg, s.s.NoV,
                                         clamp_perceptual_roughness(t.roughness)));
 #endif
@@ -210,7 +211,8 @@ void main() {
 #endif
 #if GBUFFER_HAS_IRIDESCENCE
     // the thin film at the first hit (traced hits: trace_path, the same)
-    surface_set_iridescence(s0.s, g.iridescence, diffuse_color(g.albedo, g.metallic),
+    surface_set_iridescence(s0.s, g.iridescence, g.clearcoat.x,
+                            diffuse_color(g.albedo, g.metallic),
                             ibl_dfg(u_env_dfg, s0.s.NoV, clamp_perceptual_roughness(g.roughness)));
 #endif
 #if GBUFFER_HAS_TRANSMISSION

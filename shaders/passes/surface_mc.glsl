@@ -14,7 +14,8 @@
 // With GBUFFER_HAS_IRIDESCENCE (KHR_materials_iridescence), the base's specular Fresnel is the
 // spec's mix with the thin film's (lib/iridescence.glsl iridescence_fresnel_mix) at each half
 // vector, exactly; the diffuse keeps 1 - E_spec(n.v), E_spec the DFG terms' plus what the film
-// changes (iridescence_albedo_delta): surface_set_iridescence.
+// changes (iridescence_albedo_delta): surface_set_iridescence. Under a coat the film is seen
+// from the coat's IOR (iridescence_outside_ior of the coat factor; 1 in a scene without a coat).
 // With GBUFFER_HAS_TRANSMISSION (KHR_materials_transmission / _volume), the base's non-specular
 // part is split by the factor T (surface_set_transmission): (1 - T) stays Lambertian, T becomes
 // lib/transmission.glsl's BTDF below the surface (thin-walled, or refracting with eta), drawn as
@@ -77,6 +78,7 @@ struct Surface {
 #endif
 #if GBUFFER_HAS_IRIDESCENCE
     vec3 film;         // KHR_materials_iridescence: factor, thickness (nm), IOR; x = 0: none
+    float film_outside;  // the IOR the film is seen from: 1 (air), 1.5 under a full coat
 #endif
 };
 
@@ -119,14 +121,23 @@ void surface_set_transmission(inout Surface s, float T, float ior, bool inside) 
 // lobe becomes the film's mix (surface_base_brdf_cos), the diffuse keeps 1 - E_spec(n.v) of
 // the film's lobe (the DFG terms' plus iridescence_albedo_delta; the multiple-scattering
 // compensation stays the base's), and the specular lobe is drawn by the film's Fresnel at n.v.
-// Before surface_set_transmission and the occlusion.
-void surface_set_iridescence(inout Surface s, vec3 film, vec3 diffuse, vec2 dfg) {
+// `coat`: the surface's clearcoat factor (0: none): the film is seen from the coat's IOR
+// (iridescence_outside_ior; the spec evaluates the coat before the film), from air in a scene
+// without a coat. Before surface_set_transmission and the occlusion.
+void surface_set_iridescence(inout Surface s, vec3 film, float coat, vec3 diffuse, vec2 dfg) {
     s.film = film;
+#if GBUFFER_HAS_CLEARCOAT
+    s.film_outside = iridescence_outside_ior(coat);
+#else
+    s.film_outside = 1.0;
+#endif
     if (!(film.x > 0.0 && film.y > 0.0)) return;
     vec3 e_spec = (ibl_specular_dfg(dfg, s.f0, s.f90)
-                   + iridescence_albedo_delta(s.f0, s.f90, s.NoV, s.a, film)) * s.spec_scale;
+                   + iridescence_albedo_delta(s.f0, s.f90, s.NoV, s.a, film, s.film_outside))
+                  * s.spec_scale;
     s.diffuse = diffuse * max(1.0 - e_spec, 0.0);
-    s.p_spec = specular_lobe_probability(s.diffuse, iridescence_f0(s.f0, s.f90, s.NoV, film),
+    s.p_spec = specular_lobe_probability(s.diffuse,
+                                         iridescence_f0(s.f0, s.f90, s.NoV, film, s.film_outside),
                                          s.f90, s.NoV);
 }
 #endif
@@ -152,7 +163,7 @@ bool surface_anisotropic(Surface s) {
 // (surface_set_iridescence), else Schlick's.
 vec3 surface_fresnel(Surface s, float VoH) {
 #if GBUFFER_HAS_IRIDESCENCE
-    return iridescence_fresnel_mix(s.f0, s.f90, VoH, s.film);
+    return iridescence_fresnel_mix(s.f0, s.f90, VoH, s.film, s.film_outside);
 #else
     return f_schlick(s.f0, s.f90, VoH);
 #endif
@@ -343,6 +354,7 @@ Surface surface_init(vec3 n, vec3 v, vec3 albedo, float roughness, float metalli
 #endif
 #if GBUFFER_HAS_IRIDESCENCE
     s.film = vec3(0.0);  // none until surface_set_iridescence
+    s.film_outside = 1.0;
 #endif
 #if GBUFFER_HAS_SHEEN
     // the sheen (colour sheen.rgb, roughness sheen.a): drawn by its albedo max3(C) E(n.v)

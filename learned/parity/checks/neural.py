@@ -13,6 +13,7 @@ from learned.export import load_model
 from learned.neural.lighting import lighting_from_gl
 from learned.twins.neural import shade_neural
 from viewer.gl.kernels import run_kernel
+from viewer.models import sample_count
 from viewer.neural import (
     MODEL_KINDS,
     STUDENT_KERNEL,
@@ -23,7 +24,6 @@ from viewer.neural import (
     load_network,
     required_settings,
 )
-from viewer.models import sample_count
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
@@ -283,7 +283,10 @@ def check_teachers(programs, weights=None) -> list:
 
 
 def checks() -> dict:
-    """This module's pass checks: name -> (model or None, check(programs) -> results)."""
+    """This module's pass checks: name -> (model or None, check(programs) -> results).
+    ``model:neural:<storage>`` and ``model:neural_teacher`` also take ``weights=`` (a weights
+    file of their network's kind; default: the shipped one), so the suite can run them on small
+    networks (tests/shaders/test_library_parity.py)."""
     found, register_pass_check = collector()
     # one check per weight storage (``neural:network[:<storage>]``, ``model:neural[:<storage>]``),
     # so a run can leave one storage out by name (tests/shaders/test_float_paths.py: ubo)
@@ -293,8 +296,8 @@ def checks() -> dict:
             lambda programs, storage=storage: [check_network(programs, storage=storage)])
         if storage != "const":
             register_pass_check("model:neural" + suffix, model="neural")(
-                lambda programs, storage=storage: [
-                    check_model(programs, "neural", {"neural_storage": storage})])
+                lambda programs, weights=None, storage=storage: [
+                    check_model(programs, "neural", {"neural_storage": storage}, weights)])
     register_pass_check("model:neural", model="neural")(
         lambda programs: [check_model(programs, "neural", v)
                           for v in ({}, {"ao": False, "background": "transparent"})]

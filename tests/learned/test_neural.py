@@ -52,7 +52,12 @@ def test_every_weight_storage_matches_torch(programs, weights, small_weights, st
 
 def test_weights_over_16_kib_go_to_a_storage_block(programs, weights, monkeypatch):
     """``ubo`` storage above the 16 KiB minimum uniform-block size is a read-only SSBO (a small
-    limit stands in for a big network: a real one compiles for minutes on llvmpipe)."""
+    limit stands in for a big network: a real one compiles for minutes on llvmpipe): the kernel,
+    and a lighting pass (a teacher with hidden layers of 8, as the shipped teacher's 18 KiB of
+    weights are a storage block; tests/shaders/test_library_parity.py runs its check on a small
+    network)."""
+    import shutil
+
     import viewer.neural as vn
 
     net = load_network(weights[0], "student")
@@ -63,6 +68,14 @@ def test_weights_over_16_kib_go_to_a_storage_block(programs, weights, monkeypatc
     monkeypatch.setitem(net._code, "ubo", code)
     r = tn.check_network(programs, weights[0], "ubo")
     assert r.passed and r.max_abs <= 1e-4, r
+    teacher = tn.other_teacher()  # a fresh file: its code is generated under the small limit
+    try:
+        assert load_network(teacher, "teacher").code("ubo").binding == "ssbo"
+        r = tn.check_model(programs, "neural_teacher",
+                           {"samples": 4, "sampling": "uniform", "neural_storage": "ubo"}, teacher)
+        assert r.passed and r.name.endswith("neural_storage=ubo"), r
+    finally:
+        shutil.rmtree(teacher.parent, ignore_errors=True)
 
 
 def test_unknown_weight_storage_is_a_scene_error():

@@ -14,7 +14,6 @@ import torch
 from learned.twins.forward import ForwardLayer, shade_forward
 from viewer.models import model_info
 from viewer.passes.forward import forward_model, forward_variant
-from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
 
 from ..results import compare_envelope, device_filter_bits
@@ -27,6 +26,7 @@ from .models import (
     env_for_pass,
     gl_gbuffer,
     gl_texture,
+    one_renderer,
 )
 
 # (model, render settings, with the [light]): every model that runs forward, and ggx_mc, whose
@@ -40,8 +40,9 @@ def checks() -> dict:
     found, register_pass_check = collector()
 
     def check(programs):
-        return [_check_forward(programs, model, settings, light)
-                for model, settings, light in VARIANTS]
+        with one_renderer(programs) as r:  # programs and environment built once (models.py)
+            return [_check_forward(programs, model, settings, light, r)
+                    for model, settings, light in VARIANTS]
 
     register_pass_check("forward:blend")(check)
     return found
@@ -72,7 +73,7 @@ def blended_quads():
     return out
 
 
-def _check_forward(programs, model: str, settings: dict, light: bool):
+def _check_forward(programs, model: str, settings: dict, light: bool, renderer):
     quads = blended_quads()
     doc = PARITY_SCENE if not light else {**PARITY_SCENE, "light": PARITY_LIGHT}
     opaque_doc = doc
@@ -80,42 +81,38 @@ def _check_forward(programs, model: str, settings: dict, light: bool):
                                                for i in range(len(quads))]}
     scene = scene_from_dict(doc).with_render(model=model, **settings)
     opaque_scene = scene_from_dict(opaque_doc).with_render(model=model, **settings)
-    renderer = Renderer(ctx=programs.ctx)
     for obj, quad in zip(scene.objects[-len(quads):], quads):
         renderer.add_geometry(obj, [quad])
-    try:
-        targets = renderer.draw(scene)
-        glsl = gl_texture(targets.radiance)
-        opaque = gl_gbuffer(targets)
-        if not (opaque["depth"][..., 0] > 0).any():
-            raise AssertionError("the opaque G-buffer has no depth channel")
-        radiance = torch.from_numpy(gl_texture(renderer.draw(opaque_scene).radiance))
-        camera = targets.camera
-        view = camera.view_matrix()
-        layers = []
-        for obj, quad in zip(scene.objects[-len(quads):], quads):
-            alone = dataclasses.replace(scene, objects=(obj,)).with_render(specialize=False)
-            solid = dataclasses.replace(quad, alpha_mode="OPAQUE")
-            renderer.add_geometry(obj, [solid])
-            lo, hi = quad.bounds()
-            alpha = float(quad.base_alpha) * (1.0 if quad.colors is None
-                                              else float(quad.colors[0, 3]))
-            layers.append(ForwardLayer(gbuffer=gl_gbuffer(renderer.draw(alone)), alpha=alpha,
-                                       centre_depth=float(-(view[2, :3] @ ((lo + hi) * 0.5)
-                                                            + view[2, 3]))))
-        # the forward model shades the environment's sun itself when it can (as the renderer)
-        sun = scene.render.sun and model_info(forward_model(model)).analytic_sun
-        env = env_for_pass(renderer, scene, sun=sun)
-        envelope = {"weight_bits": device_filter_bits(programs)}
-        with torch.enable_grad():  # the envelope differentiates through the lookups
-            ref = shade_forward(forward_model(model), radiance, opaque, layers, camera, env,
-                                scene.environment.intensity,
-                                math.radians(scene.environment.rotation_deg),
-                                forward_variant(scene.render, scene.light,
-                                                sun=env["sun"] is not None).defines,
-                                light=scene.light, envelope=envelope).detach().numpy()
-    finally:
-        renderer.release()
+    targets = renderer.draw(scene)
+    glsl = gl_texture(targets.radiance)
+    opaque = gl_gbuffer(targets)
+    if not (opaque["depth"][..., 0] > 0).any():
+        raise AssertionError("the opaque G-buffer has no depth channel")
+    radiance = torch.from_numpy(gl_texture(renderer.draw(opaque_scene).radiance))
+    camera = targets.camera
+    view = camera.view_matrix()
+    layers = []
+    for obj, quad in zip(scene.objects[-len(quads):], quads):
+        alone = dataclasses.replace(scene, objects=(obj,)).with_render(specialize=False)
+        solid = dataclasses.replace(quad, alpha_mode="OPAQUE")
+        renderer.add_geometry(obj, [solid])
+        lo, hi = quad.bounds()
+        alpha = float(quad.base_alpha) * (1.0 if quad.colors is None
+                                          else float(quad.colors[0, 3]))
+        layers.append(ForwardLayer(gbuffer=gl_gbuffer(renderer.draw(alone)), alpha=alpha,
+                                   centre_depth=float(-(view[2, :3] @ ((lo + hi) * 0.5)
+                                                        + view[2, 3]))))
+    # the forward model shades the environment's sun itself when it can (as the renderer)
+    sun = scene.render.sun and model_info(forward_model(model)).analytic_sun
+    env = env_for_pass(renderer, scene, sun=sun)
+    envelope = {"weight_bits": device_filter_bits(programs)}
+    with torch.enable_grad():  # the envelope differentiates through the lookups
+        ref = shade_forward(forward_model(model), radiance, opaque, layers, camera, env,
+                            scene.environment.intensity,
+                            math.radians(scene.environment.rotation_deg),
+                            forward_variant(scene.render, scene.light,
+                                            sun=env["sun"] is not None).defines,
+                            light=scene.light, envelope=envelope).detach().numpy()
     name = f"forward:{model}" + ("" if not settings else ":" + ",".join(
         f"{k}={v}" for k, v in settings.items())) + (":light" if light else "")
     bound = MODEL_ATOL + MODEL_RTOL * np.abs(ref)

@@ -13,6 +13,7 @@ from learned.export import load_model
 from learned.neural.lighting import lighting_from_gl
 from learned.twins.neural import shade_neural
 from viewer.gl.kernels import run_kernel
+from viewer.models import sample_count
 from viewer.neural import (
     MODEL_KINDS,
     STUDENT_KERNEL,
@@ -23,14 +24,13 @@ from viewer.neural import (
     load_network,
     required_settings,
 )
-from viewer.models import sample_count
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
 
 from ..results import compare, compare_envelope, device_filter_bits
 from . import collector
-from .models import PARITY_SCENE, gl_gbuffer, gl_texture
+from .models import PARITY_SCENE, gl_gbuffer, gl_texture, one_renderer
 
 NETWORK_ATOL = 1e-4  # the issue's float32 bound for outputs in [0, 1]
 
@@ -102,10 +102,14 @@ def check_network(programs, weights=None, storage: str = "const"):
 
 
 def check_model(programs, model: str, variant: dict, weights=None, label: str = "",
-                environment: dict | None = None):
+                environment: dict | None = None, renderer=None):
     """GL lighting pass of ``model`` on ``weights`` (default: the shipped file) vs its torch twin
     :func:`learned.twins.neural.shade_neural`; named ``model:<model>[:<variant>][:<label>]``.
-    ``environment``: the scene's ``[environment]`` table instead of the parity scene's."""
+    ``environment``: the scene's ``[environment]`` table instead of the parity scene's;
+    ``renderer``: a check's :func:`~.models.one_renderer` (default: one for this frame alone)."""
+    if renderer is None:
+        with one_renderer(programs) as own:
+            return check_model(programs, model, variant, weights, label, environment, own)
     kind = MODEL_KINDS[model]
     path = weights or default_weights(kind)
     key = "weights" if kind == "student" else "teacher_weights"
@@ -114,34 +118,30 @@ def check_model(programs, model: str, variant: dict, weights=None, label: str = 
                                                **{key: str(path)}, **variant)
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
     net_model = load_model(path, kind)
-    renderer = Renderer(ctx=programs.ctx)
-    try:
-        targets = renderer.draw(scene)
-        gb = gl_gbuffer(targets)
-        # a student with a learned indirect factor runs the indirect pass after its lighting
-        # pass: the lighting pass's output is the direct target (check_indirect_factor: the rest)
-        glsl = gl_texture(targets.direct if targets.indirect_factor is not None
-                          else targets.radiance)
-        # a student whose base shades the environment's sun: the pass ran with SUN_LIGHT and the
-        # IBL without the sun (Renderer.specialization)
-        defines = dict(shade_defines(model, scene.render))
-        if targets.variant.defines.get("SUN_LIGHT", 0):
-            defines["SUN_LIGHT"] = 1
-        if targets.variant.defines.get("ENV_LIGHTS", 0):  # the environment's other lights
-            defines["ENV_LIGHTS"] = targets.variant.defines["ENV_LIGHTS"]
-        lighting = lighting_from_gl(renderer, scene.environment,
-                                    sun=bool(defines.get("SUN_LIGHT", 0)))
-        ssao = None
-        if scene.render.ssao.enabled:
-            ssao = torch.from_numpy(gl_texture(targets.ssao).copy())
-        envelope = {"weight_bits": device_filter_bits(programs)}
-        grad = torch.enable_grad() if model == "neural" else torch.no_grad()
-        with grad:  # the student's envelope differentiates through the network to its lookups
-            ref = shade_neural(model, net_model, gb, targets.camera, lighting, defines,
-                               (0, sample_count(scene.render)), scene.render.mc.seed,
-                               envelope=envelope, ssao=ssao).detach().numpy()
-    finally:
-        renderer.release()
+    targets = renderer.draw(scene)
+    gb = gl_gbuffer(targets)
+    # a student with a learned indirect factor runs the indirect pass after its lighting
+    # pass: the lighting pass's output is the direct target (check_indirect_factor: the rest)
+    glsl = gl_texture(targets.direct if targets.indirect_factor is not None
+                      else targets.radiance)
+    # a student whose base shades the environment's sun: the pass ran with SUN_LIGHT and the
+    # IBL without the sun (Renderer.specialization)
+    defines = dict(shade_defines(model, scene.render))
+    if targets.variant.defines.get("SUN_LIGHT", 0):
+        defines["SUN_LIGHT"] = 1
+    if targets.variant.defines.get("ENV_LIGHTS", 0):  # the environment's other lights
+        defines["ENV_LIGHTS"] = targets.variant.defines["ENV_LIGHTS"]
+    lighting = lighting_from_gl(renderer, scene.environment,
+                                sun=bool(defines.get("SUN_LIGHT", 0)))
+    ssao = None
+    if scene.render.ssao.enabled:
+        ssao = torch.from_numpy(gl_texture(targets.ssao).copy())
+    envelope = {"weight_bits": device_filter_bits(programs)}
+    grad = torch.enable_grad() if model == "neural" else torch.no_grad()
+    with grad:  # the student's envelope differentiates through the network to its lookups
+        ref = shade_neural(model, net_model, gb, targets.camera, lighting, defines,
+                           (0, sample_count(scene.render)), scene.render.mc.seed,
+                           envelope=envelope, ssao=ssao).detach().numpy()
     name = f"model:{model}" + ("" if not variant else ":" + ",".join(
         f"{k}={v}" for k, v in variant.items())) + (f":{label}" if label else "")
     if model == "neural_teacher":
@@ -268,22 +268,26 @@ def check_teachers(programs, weights=None) -> list:
     ``env`` and of ``uniform`` sampling (the latter over a transparent background from a UBO),
     and on a random teacher of the other input form (:func:`other_teacher`, labelled
     ``light_input=true|false``)."""
-    out = [check_model(programs, "neural_teacher", v, weights)
-           for v in ({"samples": 8, "sampling": "env"},
-                     {"samples": 8, "sampling": "uniform", "background": "transparent",
-                      "neural_storage": "ubo"})]
     other = other_teacher(weights)
     try:
-        light = load_network(other, "teacher").light_input
-        out.append(check_model(programs, "neural_teacher", {"samples": 8, "sampling": "env"},
-                               other, label=f"light_input={str(light).lower()}"))
+        with one_renderer(programs) as r:
+            out = [check_model(programs, "neural_teacher", v, weights, renderer=r)
+                   for v in ({"samples": 8, "sampling": "env"},
+                             {"samples": 8, "sampling": "uniform", "background": "transparent",
+                              "neural_storage": "ubo"})]
+            light = load_network(other, "teacher").light_input
+            out.append(check_model(programs, "neural_teacher", {"samples": 8, "sampling": "env"},
+                                   other, label=f"light_input={str(light).lower()}", renderer=r))
     finally:
         shutil.rmtree(other.parent, ignore_errors=True)
     return out
 
 
 def checks() -> dict:
-    """This module's pass checks: name -> (model or None, check(programs) -> results)."""
+    """This module's pass checks: name -> (model or None, check(programs) -> results).
+    ``model:neural:<storage>`` and ``model:neural_teacher`` also take ``weights=`` (a weights
+    file of their network's kind; default: the shipped one), so the suite can run them on small
+    networks (tests/shaders/test_library_parity.py)."""
     found, register_pass_check = collector()
     # one check per weight storage (``neural:network[:<storage>]``, ``model:neural[:<storage>]``),
     # so a run can leave one storage out by name (tests/shaders/test_float_paths.py: ubo)
@@ -293,11 +297,14 @@ def checks() -> dict:
             lambda programs, storage=storage: [check_network(programs, storage=storage)])
         if storage != "const":
             register_pass_check("model:neural" + suffix, model="neural")(
-                lambda programs, storage=storage: [
-                    check_model(programs, "neural", {"neural_storage": storage})])
+                lambda programs, weights=None, storage=storage: [
+                    check_model(programs, "neural", {"neural_storage": storage}, weights)])
+    def check_neural(programs):
+        with one_renderer(programs) as r:
+            return [check_model(programs, "neural", v, renderer=r)
+                    for v in ({}, {"ao": False, "background": "transparent"})]
+
     register_pass_check("model:neural", model="neural")(
-        lambda programs: [check_model(programs, "neural", v)
-                          for v in ({}, {"ao": False, "background": "transparent"})]
-        + check_indirect_factor(programs))
+        lambda programs: check_neural(programs) + check_indirect_factor(programs))
     register_pass_check("model:neural_teacher", model="neural_teacher")(check_teachers)
     return found

@@ -20,9 +20,9 @@ def test_parity_compares_every_channel_of_both_scenes(programs):
     function) is `relight parity`'s ``splats``, which tests/shaders/test_library_parity.py runs
     (it was run twice, about 11 s each)."""
     results = parity_check(programs, seeds=(0, 1), n=150)
-    # 2 scenes x (18 channels: the glTF dielectric, clearcoat, transmission, sheen, anisotropy
-    # and iridescence ones too, + the median depth)
-    assert len(results) == 36
+    # 2 scenes x (19 channels: the glTF dielectric, clearcoat, transmission, sheen, anisotropy,
+    # iridescence and dispersion ones too, + the median depth)
+    assert len(results) == 38
     for r in results:
         assert r.passed, (r.name, r.max_abs)
         assert r.max_abs < PARITY_ATOL

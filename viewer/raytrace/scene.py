@@ -12,9 +12,9 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
 * at a secondary hit: the material's factors and every map the rasteriser reads for them
   (:data:`MAP_SLOTS`: base colour, metallic-roughness, emissive, ``KHR_materials_specular``'s
   two, ``_clearcoat``'s factor and roughness, ``_sheen``'s two, ``_anisotropy``'s,
-  ``_iridescence``'s factor and thickness; ``TEXCOORD_0``, ``KHR_texture_transform``, wrap
-  modes; resampled to :data:`MAP_SIZE`), the ``KHR_materials_ior`` / ``specular`` lobe
-  (:meth:`Material.dielectric`), the ``KHR_materials_clearcoat`` coat (on the vertex normal:
+  ``_iridescence``'s factor and thickness, ``_transmission``'s; ``TEXCOORD_0``,
+  ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`), the
+  ``KHR_materials_ior`` / ``specular`` lobe (:meth:`Material.dielectric`), the ``KHR_materials_clearcoat`` coat (on the vertex normal:
   its normal map is not traced), the ``KHR_materials_transmission`` / ``_volume`` factors (a
   transmissive surface is seen from both sides whatever its doubleSided: a thin wall, or a
   volume's inside), ``KHR_materials_sheen``, ``KHR_materials_anisotropy`` (in the triangle's
@@ -156,10 +156,31 @@ def build_trace_geometry(meshes) -> TraceGeometry:
     return TraceGeometry(vertices, triangles, nodes, stack, layers, bvh, skipped)
 
 
-def material_rows(meshes, layers) -> np.ndarray:
+def slot_rows(meshes, layers) -> np.ndarray:
+    """``[K, 2 * len(MAP_SLOTS), 4]`` float32: each mesh's map slots as :func:`material_rows`
+    writes them (layer, uv transform and wrap modes; layer -1 for none). They depend on the
+    traced geometry's layers and the meshes' samplers only, not on material sliders, so an
+    uploaded scene computes them once (:class:`viewer.raytrace.upload.TraceBuffers`)."""
+    out = np.zeros((max(len(meshes), 1), 2 * len(MAPS), 4), np.float32)
+    for k, mesh in enumerate(meshes):
+        for j, key in enumerate(MAPS):
+            layer = layers[k].get(key, -1) if k < len(layers) else -1
+            sampling = mesh.sampling.get(key)
+            mat = sampling.uv_matrix() if sampling is not None else np.eye(3)
+            wrap = sampling.wrap if sampling is not None else ("repeat", "repeat")
+            out[k, 2 * j] = (mat[0, 0], mat[0, 1], mat[0, 2], float(layer))
+            out[k, 2 * j + 1] = (mat[1, 0], mat[1, 1], mat[1, 2],
+                                 float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
+    return out
+
+
+def material_rows(meshes, layers, slots: np.ndarray | None = None) -> np.ndarray:
     """``[K * MATERIAL_VEC4S, 4]`` float32: each mesh's material as ``raytrace.glsl`` reads it
     (factors, alpha, emission, sidedness at the :data:`ROW` offsets; then each map slot of
-    :data:`MAP_SLOTS`: its layer, uv transform and wrap modes, layer -1 for none)."""
+    :data:`MAP_SLOTS`: its layer, uv transform and wrap modes, layer -1 for none; ``slots``:
+    :func:`slot_rows` of the same meshes and layers, computed here when not given)."""
+    if slots is None:
+        slots = slot_rows(meshes, layers)
     rows = np.zeros((max(len(meshes), 1) * MATERIAL_VEC4S, 4), np.float32)
     for k, mesh in enumerate(meshes):
         m = mesh.material
@@ -168,14 +189,7 @@ def material_rows(meshes, layers) -> np.ndarray:
         cutoff = float(mesh.alpha_cutoff) if mesh.alpha_mode == "MASK" else -1.0
         r[ROW["surface"]] = (m.roughness, m.metallic, m.specular, cutoff)
         r[ROW["emission"]] = (*mesh.emissive, float(mesh.double_sided))
-        for j, key in enumerate(MAPS):
-            layer = layers[k].get(key, -1) if k < len(layers) else -1
-            sampling = mesh.sampling.get(key)
-            mat = sampling.uv_matrix() if sampling is not None else np.eye(3)
-            wrap = sampling.wrap if sampling is not None else ("repeat", "repeat")
-            r[ROW["slots"] + 2 * j] = (mat[0, 0], mat[0, 1], mat[0, 2], float(layer))
-            r[ROW["slots"] + 2 * j + 1] = (mat[1, 0], mat[1, 1], mat[1, 2],
-                                           float(_WRAP_CODES[wrap[0]] + 3 * _WRAP_CODES[wrap[1]]))
+        r[ROW["slots"]:] = slots[k]
         r[ROW["dielectric"]] = m.dielectric()  # (F0, F90) of the glTF lobe, (0, 0, 0, -1) for none
         # KHR_materials_specular's maps recompute F0 from these (dielectric_f0_ior)
         r[ROW["specular"]] = (*m.specular_color, 0.0 if m.ior is None else float(m.ior))

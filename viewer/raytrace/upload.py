@@ -9,7 +9,14 @@ import time
 import numpy as np
 
 from ..cache import BoundedCache, CacheStats
-from .scene import MAP_SIZE, TraceGeometry, build_trace_geometry, material_rows, traced_meshes
+from .scene import (
+    MAP_SIZE,
+    TraceGeometry,
+    build_trace_geometry,
+    material_rows,
+    slot_rows,
+    traced_meshes,
+)
 
 BINDINGS = (2, 3, 4, 5)  # nodes, triangles, vertices, materials (raytrace.glsl)
 
@@ -26,6 +33,7 @@ class TraceBuffers:
         self.vertices = ctx.buffer(_bytes(geometry.vertices))
         self.materials = ctx.buffer(reserve=16)
         self._material_key = None
+        self._slots = None  # slot_rows of the meshes: fixed for these meshes' geometry
         layers = max(int(geometry.maps.shape[0]), 1)
         data = (geometry.maps.astype(np.float16) if geometry.maps.shape[0]
                 else np.ones((1, MAP_SIZE, MAP_SIZE, 4), np.float16))
@@ -41,7 +49,9 @@ class TraceBuffers:
 
     def set_materials(self, meshes) -> None:
         """Upload the meshes' materials when they changed since the last call (sliders)."""
-        rows = material_rows(meshes, self.geometry.layers)
+        if self._slots is None or self._slots.shape[0] != max(len(meshes), 1):
+            self._slots = slot_rows(meshes, self.geometry.layers)
+        rows = material_rows(meshes, self.geometry.layers, self._slots)
         key = rows.tobytes()
         if key != self._material_key:
             if self.materials.size != len(key):

@@ -14,8 +14,8 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
   two, ``_clearcoat``'s factor and roughness, ``_sheen``'s two, ``_anisotropy``'s,
   ``_iridescence``'s factor and thickness, ``_transmission``'s; ``TEXCOORD_0``,
   ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`), the
-  ``KHR_materials_ior`` / ``specular`` lobe (:meth:`Material.dielectric`), the ``KHR_materials_clearcoat`` coat (on the vertex normal:
-  its normal map is not traced), the ``KHR_materials_transmission`` / ``_volume`` factors (a
+  ``KHR_materials_ior`` / ``specular`` lobe (:meth:`Material.dielectric`), the
+  ``KHR_materials_clearcoat`` coat (on the vertex normal: its normal map is not traced), the ``KHR_materials_transmission`` / ``_volume`` factors (a
   transmissive surface is seen from both sides whatever its doubleSided: a thin wall, or a
   volume's inside), ``KHR_materials_sheen``, ``KHR_materials_anisotropy`` (in the triangle's
   UV frame), ``KHR_materials_iridescence``'s film, the interpolated vertex normal; normal maps,

@@ -10,17 +10,17 @@ What rays see, and what they do not (the reference's choices, :mod:`relight.refe
 * alphaMode MASK surfaces are cut where the base colour's alpha is below the cutoff; **BLEND**
   surfaces are left out (they cast no shadow in the shadow maps either);
 * at a secondary hit: the material's factors and every map the rasteriser reads for them
-  (:data:`MAP_SLOTS`: base colour, metallic-roughness, emissive, ``KHR_materials_specular``'s
-  two, ``_clearcoat``'s factor and roughness, ``_sheen``'s two, ``_anisotropy``'s,
-  ``_iridescence``'s factor and thickness, ``_transmission``'s; ``TEXCOORD_0``,
-  ``KHR_texture_transform``, wrap modes; resampled to :data:`MAP_SIZE`), the
-  ``KHR_materials_ior`` / ``specular`` lobe (:meth:`Material.dielectric`), the
-  ``KHR_materials_clearcoat`` coat (on the vertex normal: its normal map is not traced), the ``KHR_materials_transmission`` / ``_volume`` factors (a
-  transmissive surface is seen from both sides whatever its doubleSided: a thin wall, or a
-  volume's inside), ``KHR_materials_sheen``, ``KHR_materials_anisotropy`` (in the triangle's
-  UV frame), ``KHR_materials_iridescence``'s film, the interpolated vertex normal; normal maps,
-  occlusion maps, vertex colours and ``TEXCOORD_1`` are read only at the first hit (the
-  G-buffer's: a map on ``TEXCOORD_1`` is read at ``TEXCOORD_0`` by rays);
+  (:data:`MAP_SLOTS`: base colour, metallic-roughness, emissive, ``KHR_materials_specular``'s two,
+  ``_clearcoat``'s factor and roughness, ``_sheen``'s two, ``_anisotropy``'s, ``_iridescence``'s
+  factor and thickness, ``_transmission``'s; ``TEXCOORD_0``, ``KHR_texture_transform``, wrap modes;
+  resampled to :data:`MAP_SIZE`), the ``KHR_materials_ior`` / ``specular`` lobe
+  (:meth:`Material.dielectric`), the ``KHR_materials_clearcoat`` coat (on the vertex normal: its
+  normal map is not traced), the ``KHR_materials_transmission`` / ``_volume`` factors (a
+  transmissive surface is seen from both sides whatever its doubleSided: a thin wall, or a volume's
+  inside), ``KHR_materials_sheen``, ``KHR_materials_anisotropy`` (in the triangle's UV frame),
+  ``KHR_materials_iridescence``'s film, the interpolated vertex normal; normal maps, occlusion maps,
+  vertex colours and ``TEXCOORD_1`` are read only at the first hit (the G-buffer's: a map on
+  ``TEXCOORD_1`` is read at ``TEXCOORD_0`` by rays);
 * degenerate (zero-area) and non-finite triangles are left out with a warning naming the mesh.
 """
 from __future__ import annotations

@@ -27,6 +27,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from .layers import coat_factor
+
 FILM_RAMP_NM = 30.0  # lib/iridescence.glsl IRIDESCENCE_FILM_RAMP_NM
 _VAL = (5.4856e-13, 4.4201e-13, 5.2481e-13)
 _POS = (1.6810e+06, 1.7953e+06, 2.2084e+06)
@@ -185,7 +187,7 @@ def film_state(mi, dr, bsdf, si):
     """The film at the hit: (factor, thickness nm, IOR) as Dr.Jit floats, the factor times the
     map's R, the thickness ``mix(min, max, G)`` of the thickness map (``max`` without it), and
     the IOR it is seen from (``outside``: :func:`outside_ior` of the clearcoat factor times its
-    map's R, as relight.reference.layers.coat_state reads it; 1.0 without a coat); None for a
+    map's R, :func:`relight.reference.layers.coat_factor`; 1.0 without a coat); None for a
     material without a film."""
     m = bsdf.material
     if m is None or m.iridescence <= 0.0:
@@ -197,12 +199,8 @@ def film_state(mi, dr, bsdf, si):
     if bsdf.iridescence_thickness_texture is not None:
         g = bsdf.iridescence_thickness_texture.eval(si).x  # the map's G (scene.py keeps it)
         thickness = dr.lerp(mi.Float(m.iridescence_thickness_min), thickness, g)
-    outside = 1.0
-    if m.clearcoat > 0.0:
-        coat = mi.Float(m.clearcoat)
-        if bsdf.clearcoat_texture is not None:
-            coat = coat * bsdf.clearcoat_texture.eval(si).x
-        outside = outside_ior(dr.clip(coat, 0.0, 1.0))
+    coat = coat_factor(mi, dr, bsdf, si)
+    outside = 1.0 if coat is None else outside_ior(coat)
     return {"factor": factor, "thickness": thickness, "ior": float(m.iridescence_ior),
             "outside": outside}
 

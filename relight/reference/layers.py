@@ -45,22 +45,32 @@ def coat_cos_numpy(clearcoat, roughness, n_dot_v, wo) -> np.ndarray:
     return np.where(wo[:, 2] > 0, w * d * vis * nl, 0.0)
 
 
-def coat_state(mi, dr, bsdf, si, dfg, table_size: int):
-    """The coat at the hit: its weight w, alpha, albedo w dfg.y (``dfg``: the plugin's table
-    texture of ``table_size`` texels a side), n.v and distribution; None for a material
-    without a coat."""
+def coat_factor(mi, dr, bsdf, si):
+    """KHR_materials_clearcoat's factor at the hit, times its map's R, in [0, 1] (a Dr.Jit
+    float); None for a material without a coat."""
     m = bsdf.material
     if m is None or m.clearcoat <= 0.0:
         return None
     c = mi.Float(m.clearcoat)
     if bsdf.clearcoat_texture is not None:
         c = c * bsdf.clearcoat_texture.eval(si).x
+    return dr.clip(c, 0.0, 1.0)
+
+
+def coat_state(mi, dr, bsdf, si, dfg, table_size: int):
+    """The coat at the hit: its weight w, alpha, albedo w dfg.y (``dfg``: the plugin's table
+    texture of ``table_size`` texels a side), n.v and distribution; None for a material
+    without a coat."""
+    c = coat_factor(mi, dr, bsdf, si)
+    if c is None:
+        return None
+    m = bsdf.material
     rough = mi.Float(m.clearcoat_roughness)
     if bsdf.clearcoat_roughness_texture is not None:
         rough = rough * bsdf.clearcoat_roughness_texture.eval(si).y
     r = dr.clip(rough, MIN_PERCEPTUAL_ROUGHNESS, 1.0)
     nov = dr.clip(mi.Frame3f.cos_theta(si.wi), 0.0, 1.0)
-    w = clearcoat_weight(dr.clip(c, 0.0, 1.0), nov)
+    w = clearcoat_weight(c, nov)
     _, y = dfg.eval(mi.Point2f((nov * (table_size - 1) + 0.5) / table_size,
                                (r * (table_size - 1) + 0.5) / table_size))
     return dict(w=w, a=r * r, albedo=w * y, nov=nov,

@@ -142,6 +142,12 @@ def _bsdf_class(mi, dr, variant: str):
             scale = dr.rsqrt(dr.maximum(dr.maximum(dr.squared_norm(t), dr.squared_norm(b)),
                                         1e-30))
             n = dr.normalize(t * (x * scale) + b * (y * scale) + mi.Vector3f(0.0, 0.0, 1.0) * z)
+            # a mapped normal facing away from the viewer is bent towards it until n.v = 1e-4,
+            # as the rasteriser's shading_normal (lib/shading.glsl) and glTF viewers' clamped
+            # n.v shade it; left as it is, every direction is "below" it and the pixel is black
+            # (the plasma gun's grazing barrel: 12 pixels of zero radiance, zero variance)
+            nv = dr.dot(n, si.wi)
+            n = dr.select(nv < 1e-4, dr.normalize(n + (1e-4 - nv) * si.wi), n)
             return mi.Frame3f(n)
 
         def _surface(self, si, t=None):

@@ -127,3 +127,31 @@ def test_emissive_surfaces_emit_and_light_the_scene(mitsuba_llvm, renderer, tmp_
     print(f"floor under the lamp, rays / reference: {ratio:.3f}")
     # measured 0.993 (llvmpipe); the reference at 64 spp and the tier at 8 frames are noisy
     assert np.all(traced[floor][:, 0] > 0.0) and 0.8 < ratio < 1.2, ratio
+
+
+def test_a_mapped_normal_facing_away_from_the_viewer_is_bent_not_black(mitsuba_llvm, renderer,
+                                                                       tmp_path):
+    """A normal map tilting the normal 75 degrees away from a camera 14 degrees above the quad:
+    the mapped n.v is negative. The reference bends it towards the viewer as the rasteriser's
+    shading_normal does (glTF viewers clamp n.v likewise) instead of returning black (the plasma
+    gun's grazing barrel was 12 zero-radiance pixels in the old references). Bound: the mean of
+    the covered pixels within 15 % of ggx_mc's (the bent normal is the same in both; the rest is
+    noise of 256 spp and the sampled lobes' clipping); black gives -100 %."""
+    tilt = (math.sin(math.radians(75.0)), 0.0, math.cos(math.radians(75.0)))
+    path = quad_gltf(tmp_path / "away.gltf", {"pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 0.5}},
+        _encode(tilt))
+    scene = scene_from_dict({
+        "camera": {"position": [-2.0, 0.0, 0.5], "target": [0.0, 0.0, 0.0], "fov_y": 12,
+                   "size": [16, 16]},
+        "environment": {"procedural": "sky", "width": 128, "sun_azimuth_deg": 60.0},
+        "render": {"multiscatter": False, "ao": False, "tonemap": "none",
+                   "background": "transparent"},
+        "objects": [{"type": "mesh", "path": str(path)}]})
+    ref = render_reference(scene, ReferenceOptions(spp=256, max_depth=2), progress=False)
+    mc = renderer.render(scene.with_render(model="ggx_mc", samples=512, sampling="mis")).radiance
+    covered = (ref.radiance[..., 3] > 0.99) & (mc[..., 3] > 0.99)
+    assert covered.sum() >= 8
+    assert (ref.radiance[covered][:, :3].sum(-1) > 0).all()
+    ratio = ref.radiance[covered][:, :3].mean() / mc[covered][:, :3].mean()
+    assert abs(ratio - 1.0) < 0.15, ratio

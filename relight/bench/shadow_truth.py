@@ -38,6 +38,7 @@ from .truth import REFERENCE_SCENES, REFERENCES, TruthScene
 
 SHADOW_SCENE_DIR = ASSET_ROOT / "scenes" / "shadows"  # apart from the fidelity scenes' folder
 HELDOUT_SCENE_DIR = ASSET_ROOT / "scenes" / "heldout"  # scored only, never tuned on (bench rays)
+VALIDATION_SCENE_DIR = ASSET_ROOT / "scenes" / "validation"  # where bench rays' designs are chosen
 
 SHADOW_SCENES = ("sky_shadow_spheres", "esplanade_shadow_spheres", "park_sphere_on_plane",
                  "studio_key_spheres", "studio_sphere_on_plane")
@@ -79,10 +80,11 @@ def _casters(scene, changes=None) -> str:
 
 
 def truth_scene(name: str, suite: str) -> TruthScene | None:
-    """The scene ``name`` (the shadow scenes' folder, the held-out scenes', else the fidelity
-    scenes') with its stored reference, or None with a warning naming ``suite`` when either is
-    missing."""
-    path = next((p for p in (SHADOW_SCENE_DIR / f"{name}.toml", HELDOUT_SCENE_DIR / f"{name}.toml")
+    """The scene ``name`` (the shadow scenes' folder, the held-out scenes', the validation
+    scenes', else the fidelity scenes') with its stored reference, or None with a warning naming
+    ``suite`` when either is missing."""
+    path = next((p for p in (d / f"{name}.toml" for d in (SHADOW_SCENE_DIR, HELDOUT_SCENE_DIR,
+                                                           VALIDATION_SCENE_DIR))
                  if p.is_file()), REFERENCE_SCENES / f"{name}.toml")
     ts = TruthScene(name, path, REFERENCES / f"{name}.exr")
     if not ts.path.is_file() or not ts.reference.is_file():

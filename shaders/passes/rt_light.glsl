@@ -32,7 +32,8 @@ vec3 rt_diffuse_irradiance(ivec2 pixel, vec3 irradiance) {
 vec3 rt_specular_radiance(ivec2 pixel, vec3 prefiltered) {
 #if RT_LIGHT
     vec4 r = texelFetch(u_rt_light0, pixel, 0);
-    return prefiltered * rt_ratio(r.z, r.w) + texelFetch(u_rt_light2, pixel, 0).rgb;
+    vec4 b = texelFetch(u_rt_light2, pixel, 0);
+    return prefiltered * rt_ratio(r.z, r.w) + (b.a > 1e-4 ? b.rgb / b.a : vec3(0.0));
 #else
     return prefiltered;
 #endif

@@ -12,9 +12,9 @@ Rows of two kinds:
   (``relight.reference.compare.score``: covered pixels, peak the reference's 99.9th percentile)
   and the tier's gain over the baseline, with ``split``: ``tuned`` for the scenes the tier's
   knobs (filter steps, the diffuse rays' blur) were chosen on (read their gains as measured, not
-  predicted), ``validation`` for :data:`VALIDATION` (where later designs were chosen, beside the
-  tuned scenes) and ``heldout`` for :data:`HELDOUT` (``assets/scenes/heldout``: the spheres under the
-  two HDRIs the tuned scenes lack, the gallery's textured glTF on a floor under every bundled
+  predicted), ``validation`` for :data:`VALIDATION` (where later designs were chosen, beside
+  the tuned scenes) and ``heldout`` for :data:`HELDOUT` (``assets/scenes/heldout``: the spheres
+  under the two HDRIs the tuned scenes lack, the gallery's textured glTF on a floor under every bundled
   HDRI), added after the knobs were fixed and scored once per shipped result; their references
   are antialiased (rays jittered over the pixel, 4096 spp), so every rung renders them with
   :data:`REFERENCE_SSAA` (the ``ssaa`` column). Each split has its mean row.

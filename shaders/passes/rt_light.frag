@@ -182,7 +182,8 @@ vec3 rt_one_light_irradiance(vec3 p, vec3 n, vec3 ng, vec3 l_env, float u) {
 // its GGX split sum (lib/shading.glsl ggx_split_sum, the shading pass's own energy split), the
 // glossy part the light along the mirror direction - the environment's chain at its roughness
 // where one ray escapes, else the surface that ray meets, Lambertian under the irradiance map
-// (unshadowed) and the analytic lights (behind their shadow rays), plus its emission. Without the glossy part a metal hit
+// (unshadowed) and the analytic lights (behind their shadow rays), plus its emission. Without
+// the glossy part a metal hit
 // sent nothing on (the park spheres' floor lost 5.5 % of its light).
 vec3 rt_hit_shading(TracedSurface t, vec3 n, vec3 ng, vec3 d, vec3 e) {
     vec3 diffuse = diffuse_color(t.albedo, t.metallic);

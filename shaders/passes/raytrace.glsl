@@ -50,6 +50,16 @@ uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray m
 #define RT_MAP_TRANSMISSION 12
 #define RT_MAP_SLOTS 13
 #define RT_MATERIAL_ROWS (RT_ROW_SLOTS + 2 * RT_MAP_SLOTS)
+// What the scene's traced materials use (viewer/raytrace/upload.py TraceBuffers.defines; a pass
+// that does not say assumes everything): llvmpipe runs both sides of a branch for its 8 lanes,
+// so a mask test or a map lookup no material needs costs its full price at every call unless
+// it is compiled out.
+#ifndef RT_MASKS
+#define RT_MASKS 1     // whether some material is alphaMode MASK (rt_solid reads its alpha)
+#endif
+#ifndef RT_MAPS
+#define RT_MAPS 8191   // the map slots some material has a map in: bit k for slot k
+#endif
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -74,12 +84,14 @@ vec2 rt_map_uv(vec2 uv, vec4 row0, vec4 row1) {
 
 // Whether material m has a map in slot k (RT_MAP_*).
 bool rt_has_map(int m, int k) {
+    if (((RT_MAPS >> k) & 1) == 0) return false;
     return rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k].w >= 0.0;
 }
 
 // The map in slot k (RT_MAP_*) of material m at texture coordinate uv; `fallback` where the
 // material has none.
 vec4 rt_map(int m, int k, vec2 uv, vec4 fallback) {
+    if (((RT_MAPS >> k) & 1) == 0) return fallback;
     vec4 row0 = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k];
     vec4 row1 = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k + 1];
     if (row0.w < 0.0) return fallback;
@@ -96,6 +108,9 @@ vec2 rt_uv(uvec4 tri, vec2 b) {
 // Whether triangle `tri` is solid at barycentrics b: alphaMode MASK cuts it where the base
 // colour's alpha (factor x map) is below the cutoff; every other surface is solid.
 bool rt_solid(uvec4 tri, vec2 b) {
+#if !RT_MASKS
+    return true;
+#endif
     int m = int(tri.w);
     float cutoff = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SURFACE].w;
     if (cutoff < 0.0) return true;

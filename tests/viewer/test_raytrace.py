@@ -1,7 +1,9 @@
 """The ray-tracing core (viewer/raytrace, passes/raytrace.glsl): the BVH's structure, and the GL
 traversal against a brute-force search over every triangle in float64 (the truth: an independent
 computation, not the twin), on a sphere resting on a floor, a soup of random triangles with
-masked-out ones, a degenerate pile of coincident centroids, and bad geometry."""
+masked-out ones, a degenerate pile of coincident centroids, and bad geometry; the material
+defines the rays pass compiles with."""
+import dataclasses
 import warnings
 
 import numpy as np
@@ -11,8 +13,8 @@ from learned.parity.checks.raytrace import parity_rays, parity_scenes, trace_gl
 from viewer.geometry import primitives
 from viewer.geometry.mesh import Mesh
 from viewer.raytrace.bvh import MAX_DEPTH, MAX_LEAF, build_bvh, triangle_boxes
-from viewer.raytrace.scene import build_trace_geometry
-from viewer.raytrace.upload import TraceBuffers
+from viewer.raytrace.scene import MAPS, build_trace_geometry, material_rows
+from viewer.raytrace.upload import TraceBuffers, material_defines
 
 # float32 positions and arithmetic against float64: distances to ~1e-6 relative of the scene's
 # size (measured: max 2.6e-5 over 2,000 rays on the sphere and floor, t <= 7)
@@ -182,3 +184,15 @@ def test_bad_geometry_is_skipped_with_a_warning(programs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         build_trace_geometry([good])  # clean geometry warns of nothing
+
+
+def test_material_defines_say_what_the_materials_use():
+    """RT_MASKS and RT_MAPS (what the rays pass compiles in): nothing for plain materials, the
+    mask for an alphaMode MASK mesh, bit k for a map in slot k (scene.MAPS order)."""
+    plain = primitives.sphere(radius=1.0, segments=8, rings=4)
+    masked = dataclasses.replace(plain, alpha_mode="MASK", alpha_cutoff=0.5)
+    assert material_defines(material_rows([plain], [{}])) == {"RT_MASKS": 0, "RT_MAPS": 0}
+    assert material_defines(material_rows([plain, masked], [{}, {}]))["RT_MASKS"] == 1
+    k = MAPS.index("emissive")
+    both = material_rows([plain, plain], [{"base_color": 0}, {"emissive": 1}])
+    assert material_defines(both) == {"RT_MASKS": 0, "RT_MAPS": 1 | (1 << k)}

@@ -11,6 +11,9 @@ import numpy as np
 from ..cache import BoundedCache, CacheStats
 from .scene import (
     MAP_SIZE,
+    MAPS,
+    MATERIAL_VEC4S,
+    ROW,
     TraceGeometry,
     build_trace_geometry,
     material_rows,
@@ -33,6 +36,7 @@ class TraceBuffers:
         self.vertices = ctx.buffer(_bytes(geometry.vertices))
         self.materials = ctx.buffer(reserve=16)
         self._material_key = None
+        self.defines = {"RT_MASKS": 1, "RT_MAPS": (1 << len(MAPS)) - 1}  # set_materials
         self._slots = None  # slot_rows of the meshes: fixed for these meshes' geometry
         layers = max(int(geometry.maps.shape[0]), 1)
         data = (geometry.maps.astype(np.float16) if geometry.maps.shape[0]
@@ -58,6 +62,7 @@ class TraceBuffers:
                 self.materials.orphan(len(key))
             self.materials.write(key)
             self._material_key = key
+            self.defines = material_defines(rows)
 
     def bind(self, prog, unit: int) -> int:
         """Bind the buffers to raytrace.glsl's points and the map array to ``unit``."""
@@ -109,6 +114,17 @@ class TraceStore:
 
     def release(self) -> None:
         self._cache.clear()
+
+
+def material_defines(rows: np.ndarray) -> dict:
+    """What ``rows`` (:func:`~viewer.raytrace.scene.material_rows`) use, as raytrace.glsl's
+    defines: ``RT_MASKS`` (some material is alphaMode MASK: a cutoff >= 0) and ``RT_MAPS`` (bit
+    k: some material has a map in slot k), so a pass compiles out what no material needs."""
+    per = rows.reshape(-1, MATERIAL_VEC4S, 4)
+    masks = bool((per[:, ROW["surface"], 3] >= 0.0).any())
+    layers = per[:, ROW["slots"]::2, 3]  # each slot's layer, -1: none
+    bits = sum(1 << k for k in range(len(MAPS)) if (layers[:, k] >= 0.0).any())
+    return {"RT_MASKS": int(masks), "RT_MAPS": int(bits)}
 
 
 def _bytes(a: np.ndarray) -> bytes:

@@ -21,7 +21,12 @@ from .scene import (
     traced_meshes,
 )
 
-BINDINGS = (2, 3, 4, 5)  # nodes, triangles, vertices, materials (raytrace.glsl)
+BINDINGS = (3, 4, 5)  # triangles, vertices, materials (raytrace.glsl's storage buffers)
+# The traversal's nodes and triangle edges are RGBA32F textures of TEXEL_ROW texels a row
+# (raytrace.glsl RT_TEXEL_ROW), read with texelFetch: llvmpipe fetches a texel for all 8 lanes
+# at once where it reads a storage buffer lane by lane and component by component, each
+# bounds-checked (Mesa 22.3).
+TEXEL_ROW = 4096
 
 
 class TraceBuffers:
@@ -31,7 +36,8 @@ class TraceBuffers:
         self.ctx = ctx
         self.geometry = geometry
         self.node_count = int(geometry.nodes.shape[0])
-        self.nodes = ctx.buffer(_bytes(geometry.nodes))
+        self.nodes = _texels(ctx, geometry.nodes)
+        self.edges = _texels(ctx, geometry.edges)
         self.triangles = ctx.buffer(_bytes(geometry.triangles))
         self.vertices = ctx.buffer(_bytes(geometry.vertices))
         self.materials = ctx.buffer(reserve=16)
@@ -47,9 +53,10 @@ class TraceBuffers:
 
     @property
     def nbytes(self) -> int:
-        return int(self.nodes.size + self.triangles.size + self.vertices.size
-                   + self.materials.size + self.maps.width * self.maps.height
-                   * self.maps.layers * 8)
+        return int(self.triangles.size + self.vertices.size + self.materials.size
+                   + 16 * self.nodes.width * self.nodes.height
+                   + 16 * self.edges.width * self.edges.height
+                   + self.maps.width * self.maps.height * self.maps.layers * 8)
 
     def set_materials(self, meshes) -> None:
         """Upload the meshes' materials when they changed since the last call (sliders)."""
@@ -65,10 +72,15 @@ class TraceBuffers:
             self.defines = material_defines(rows)
 
     def bind(self, prog, unit: int) -> int:
-        """Bind the buffers to raytrace.glsl's points and the map array to ``unit``."""
-        for buf, point in zip((self.nodes, self.triangles, self.vertices, self.materials),
-                              BINDINGS):
+        """Bind the buffers to raytrace.glsl's points, the node and edge textures and the map
+        array to texture units from ``unit``; returns the next free unit."""
+        for buf, point in zip((self.triangles, self.vertices, self.materials), BINDINGS):
             buf.bind_to_storage_buffer(point)
+        for name, tex in (("u_rt_nodes", self.nodes), ("u_rt_edges", self.edges)):
+            if name in prog:
+                tex.use(unit)
+                prog[name].value = unit
+                unit += 1
         if "u_rt_maps" in prog:
             self.maps.use(unit)
             prog["u_rt_maps"].value = unit
@@ -78,7 +90,8 @@ class TraceBuffers:
         return unit
 
     def release(self) -> None:
-        for obj in (self.nodes, self.triangles, self.vertices, self.materials, self.maps):
+        for obj in (self.nodes, self.triangles, self.vertices, self.edges, self.materials,
+                    self.maps):
             obj.release()
 
 
@@ -125,6 +138,20 @@ def material_defines(rows: np.ndarray) -> dict:
     layers = per[:, ROW["slots"]::2, 3]  # each slot's layer, -1: none
     bits = sum(1 << k for k in range(len(MAPS)) if (layers[:, k] >= 0.0).any())
     return {"RT_MASKS": int(masks), "RT_MAPS": int(bits)}
+
+
+def _texels(ctx, a: np.ndarray):
+    """``a`` (float32, 4 a texel in row-major order) as an RGBA32F texture of TEXEL_ROW texels a
+    row (the last row padded with zeros; at least one texel)."""
+    flat = np.ascontiguousarray(a, np.float32).reshape(-1, 4)
+    width = min(TEXEL_ROW, max(len(flat), 1))
+    rows = max(-(-len(flat) // width), 1)
+    data = np.zeros((rows * width, 4), np.float32)
+    data[:len(flat)] = flat
+    tex = ctx.texture((width, rows), 4, data.tobytes(), dtype="f4")
+    tex.filter = (ctx.NEAREST, ctx.NEAREST)
+    tex.repeat_x = tex.repeat_y = False
+    return tex
 
 
 def _bytes(a: np.ndarray) -> bytes:

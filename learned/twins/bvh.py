@@ -33,12 +33,11 @@ def ray_aabb(o: torch.Tensor, inv_d: torch.Tensor, lo: torch.Tensor, hi: torch.T
     return torch.where(t_near <= t_far, t_near, torch.full_like(t_near, RAY_MISS))
 
 
-def ray_triangle(o: torch.Tensor, d: torch.Tensor, p0: torch.Tensor, p1: torch.Tensor,
-                 p2: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2)`` (Moller-Trumbore):
-    ``(t, b1, b2)``, ``(-1, 0, 0)`` for a miss."""
-    e1 = p1 - p0
-    e2 = p2 - p0
+def ray_triangle_edges(o: torch.Tensor, d: torch.Tensor, p0: torch.Tensor, e1: torch.Tensor,
+                       e2: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ray_triangle_edges(vec3 o, vec3 d, vec3 p0, vec3 e1, vec3 e2)``
+    (Moller-Trumbore on the triangle p0, p0 + e1, p0 + e2): ``(t, b1, b2)``, ``(-1, 0, 0)`` for a
+    miss."""
     pv = torch.cross(d, e2, dim=-1)
     det = (e1 * pv).sum(-1)
     ok = det != 0.0
@@ -54,6 +53,13 @@ def ray_triangle(o: torch.Tensor, d: torch.Tensor, p0: torch.Tensor, p1: torch.T
                         torch.where(hit, b2, zero)], dim=-1)
 
 
+def ray_triangle(o: torch.Tensor, d: torch.Tensor, p0: torch.Tensor, p1: torch.Tensor,
+                 p2: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2)``: ray_triangle_edges
+    with ``e1 = p1 - p0``, ``e2 = p2 - p0``."""
+    return ray_triangle_edges(o, d, p0, p1 - p0, p2 - p0)
+
+
 def ray_offset(p: torch.Tensor, ng: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 ray_offset(vec3 p, vec3 ng, vec3 d)``: p moved off the surface towards d."""
     scale = 1.0e-4 * torch.clamp(p.abs().amax(-1), min=1.0)
@@ -63,11 +69,10 @@ def ray_offset(p: torch.Tensor, ng: torch.Tensor, d: torch.Tensor) -> torch.Tens
 
 # ---- the traversal (passes/raytrace.glsl) -------------------------------------------------------
 
-def _node(nodes: torch.Tensor, i: int):
-    a, c = nodes[2 * i], nodes[2 * i + 1]
-    first = int(a[3:4].view(torch.int32))
-    count = int(c[3:4].view(torch.int32))
-    return a[:3], c[:3], first, count
+def _child(nodes: torch.Tensor, row: int, side: int):
+    """Child ``side`` (0 left, 1 right) of interior row ``row``: lo, hi, ref, count."""
+    a, c = nodes[4 * row + 2 * side], nodes[4 * row + 2 * side + 1]
+    return a[:3], c[:3], int(a[3:4].view(torch.int32)), int(c[3:4].view(torch.int32))
 
 
 def _solid(tri, b, materials, maps, vertices) -> bool:
@@ -84,9 +89,10 @@ def _solid(tri, b, materials, maps, vertices) -> bool:
 
 def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
                     vertices, materials) -> torch.Tensor:
-    """``RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max)`` over the buffers (``nodes [2M, 4]``
-    float32 as uploaded, ``triangles [N, 4]`` int, ``vertices [2V, 4]``, ``materials [MATERIAL_ROWS K, 4]``),
-    ray by ray in the GLSL's order: ``[R, 4]`` (t, triangle index as float, b1, b2)."""
+    """``RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max)`` over the buffers (``nodes [4K, 4]``
+    float32 as uploaded: viewer/raytrace/bvh.py child_pairs, ``triangles [N, 4]`` int,
+    ``vertices [2V, 4]``, ``materials [MATERIAL_ROWS K, 4]``), ray by ray in the GLSL's order:
+    ``[R, 4]`` (t, triangle index as float, b1, b2)."""
     out = torch.zeros(o.shape[0], 4, dtype=torch.float32)
     pos = vertices[0::2, :3]
     for r in range(o.shape[0]):
@@ -94,14 +100,13 @@ def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes
         tri_best, bb = -1, (0.0, 0.0)
         if nodes.shape[0] > 0:
             inv = safe_inverse(dd)
-            lo, hi, _, _ = _node(nodes, 0)
             stack = []
-            node = 0 if float(ray_aabb(oo, inv, lo, hi, torch.tensor(best))) < RAY_MISS else None
-            while node is not None:
-                lo, hi, first, count = _node(nodes, node)
+            cur = (0, 0)  # (ref, count): interior row 0, the root
+            while cur is not None:
+                ref, count = cur
                 nxt = None
                 if count > 0:
-                    for i in range(first, first + count):
+                    for i in range(ref, ref + count):
                         tri = triangles[i]
                         h = ray_triangle(oo, dd, pos[int(tri[0])], pos[int(tri[1])],
                                          pos[int(tri[2])])
@@ -110,20 +115,21 @@ def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes
                             best, tri_best, bb = float(h[0]), i, (float(h[1]), float(h[2]))
                 else:
                     tb = torch.tensor(best)
-                    tl = float(ray_aabb(oo, inv, *_node(nodes, first)[:2], tb))
-                    tr = float(ray_aabb(oo, inv, *_node(nodes, first + 1)[:2], tb))
-                    near = first if tl <= tr else first + 1
+                    left, right = _child(nodes, ref, 0), _child(nodes, ref, 1)
+                    tl = float(ray_aabb(oo, inv, left[0], left[1], tb))
+                    tr = float(ray_aabb(oo, inv, right[0], right[1], tb))
+                    near, far = (left, right) if tl <= tr else (right, left)
                     if min(tl, tr) < RAY_MISS:
                         if max(tl, tr) < RAY_MISS:
-                            stack.append((first + 1 if near == first else first, max(tl, tr)))
-                        nxt = near
+                            stack.append((far[2:], max(tl, tr)))
+                        nxt = near[2:]
                 if nxt is None:
                     while stack:
                         cand, t_near = stack.pop()
                         if t_near < best:
                             nxt = cand
                             break
-                node = nxt
+                cur = nxt
         out[r] = torch.tensor([best, float(tri_best), bb[0], bb[1]])
     return out
 

@@ -26,12 +26,11 @@ float ray_aabb(vec3 o, vec3 inv_d, vec3 lo, vec3 hi, float t_max) {
 }
 
 // Moller & Trumbore 1997, "Fast, Minimum Storage Ray/Triangle Intersection": the hit of the ray
-// o + t d with the triangle (p0, p1, p2) as (t, b1, b2), b1 and b2 the barycentric weights of p1
-// and p2; t = -1 where the ray is parallel to the triangle's plane or passes outside it. Both
-// faces are hit (culling is the caller's). A hit behind the origin has t < 0.
-vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
-    vec3 e1 = p1 - p0;
-    vec3 e2 = p2 - p0;
+// o + t d with the triangle (p0, p0 + e1, p0 + e2) as (t, b1, b2), b1 and b2 the barycentric
+// weights of its 2nd and 3rd vertices; t = -1 where the ray is parallel to the triangle's plane or
+// passes outside it. Both faces are hit (culling is the caller's). A hit behind the origin has
+// t < 0. The edges as given (the traversal reads them precomputed: passes/raytrace.glsl).
+vec3 ray_triangle_edges(vec3 o, vec3 d, vec3 p0, vec3 e1, vec3 e2) {
     vec3 pv = cross(d, e2);
     float det = dot(e1, pv);
     if (det == 0.0) return vec3(-1.0, 0.0, 0.0);
@@ -43,6 +42,11 @@ vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
     float b2 = dot(d, qv) * inv_det;
     if (b2 < 0.0 || b1 + b2 > 1.0) return vec3(-1.0, 0.0, 0.0);
     return vec3(dot(e2, qv) * inv_det, b1, b2);
+}
+
+// ray_triangle_edges of the triangle (p0, p1, p2): e1 = p1 - p0, e2 = p2 - p0.
+vec3 ray_triangle(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
+    return ray_triangle_edges(o, d, p0, p1 - p0, p2 - p0);
 }
 
 // Where a ray leaving surface point p (geometric normal ng) along d starts: p moved off the

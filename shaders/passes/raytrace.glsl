@@ -1,7 +1,8 @@
 // raytrace.glsl (pass chunk) - rays against the scene's triangles: the BVH and triangle buffers
 // viewer/raytrace uploads (viewer/raytrace/scene.py says what they hold), its traversal (closest
 // hit, any hit), alpha-masked surfaces, and the surface a ray hits. The pure maths is
-// lib/bvh.glsl. Buffers bind at RAYTRACE_BINDING .. + 3 (viewer/raytrace/upload.py).
+// lib/bvh.glsl. Buffers bind at 3 .. 5 (viewer/raytrace/upload.py BINDINGS); the nodes and the
+// triangles' edges are textures (upload.py says why).
 #include "lib/bvh.glsl"
 // dielectric_f0_ior (the specular maps), anisotropy_map_direction: included whatever the scene
 // (the resolver includes a file once, even inside a false #if)
@@ -11,10 +12,14 @@
 #define RAYTRACE_STACK 42  // viewer.raytrace.bvh.MAX_DEPTH + 2: the deepest path's far children
 #endif
 
-layout(std430, binding = 2) readonly buffer RaytraceNodes { vec4 rt_nodes[]; };       // 2 a node
 layout(std430, binding = 3) readonly buffer RaytraceTriangles { uvec4 rt_triangles[]; };
 layout(std430, binding = 4) readonly buffer RaytraceVertices { vec4 rt_vertices[]; }; // 2 a vertex
 layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_materials[]; }; // RT_MATERIAL_ROWS each
+#define RT_TEXEL_ROW_LOG2 12  // texels a row of u_rt_nodes and u_rt_edges: upload.py TEXEL_ROW
+// 4 texels an interior node: its children's (lo, ref), (hi, count) (viewer/raytrace/bvh.py
+// child_pairs)
+uniform sampler2D u_rt_nodes;
+uniform sampler2D u_rt_edges;  // 3 texels a triangle: p0, p1 - p0, p2 - p0 (xyz)
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
@@ -50,6 +55,16 @@ uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray m
 #define RT_MAP_TRANSMISSION 12
 #define RT_MAP_SLOTS 13
 #define RT_MATERIAL_ROWS (RT_ROW_SLOTS + 2 * RT_MAP_SLOTS)
+// What the scene's traced materials use (viewer/raytrace/upload.py TraceBuffers.defines; a pass
+// that does not say assumes everything): llvmpipe runs both sides of a branch for its 8 lanes,
+// so a mask test or a map lookup no material needs costs its full price at every call unless
+// it is compiled out.
+#ifndef RT_MASKS
+#define RT_MASKS 1     // whether some material is alphaMode MASK (rt_solid reads its alpha)
+#endif
+#ifndef RT_MAPS
+#define RT_MAPS 8191   // the map slots some material has a map in: bit k for slot k
+#endif
 
 struct RayHit {
     float t;        // distance along the (unit) ray; t_max where nothing was hit
@@ -58,6 +73,11 @@ struct RayHit {
 };
 
 vec3 rt_position(uint v) { return rt_vertices[2u * v].xyz; }
+
+// Texel i of u_rt_nodes or u_rt_edges.
+vec4 rt_texel(sampler2D s, int i) {
+    return texelFetch(s, ivec2(i & ((1 << RT_TEXEL_ROW_LOG2) - 1), i >> RT_TEXEL_ROW_LOG2), 0);
+}
 
 // A traced map's coordinate: u, v through the map's KHR_texture_transform rows and its wrap
 // modes (code = wrap_s + 3 wrap_t: 0 repeat, 1 clamp, 2 mirrored repeat).
@@ -74,12 +94,14 @@ vec2 rt_map_uv(vec2 uv, vec4 row0, vec4 row1) {
 
 // Whether material m has a map in slot k (RT_MAP_*).
 bool rt_has_map(int m, int k) {
+    if (((RT_MAPS >> k) & 1) == 0) return false;
     return rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k].w >= 0.0;
 }
 
 // The map in slot k (RT_MAP_*) of material m at texture coordinate uv; `fallback` where the
 // material has none.
 vec4 rt_map(int m, int k, vec2 uv, vec4 fallback) {
+    if (((RT_MAPS >> k) & 1) == 0) return fallback;
     vec4 row0 = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k];
     vec4 row1 = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SLOTS + 2 * k + 1];
     if (row0.w < 0.0) return fallback;
@@ -96,6 +118,9 @@ vec2 rt_uv(uvec4 tri, vec2 b) {
 // Whether triangle `tri` is solid at barycentrics b: alphaMode MASK cuts it where the base
 // colour's alpha (factor x map) is below the cutoff; every other surface is solid.
 bool rt_solid(uvec4 tri, vec2 b) {
+#if !RT_MASKS
+    return true;
+#endif
     int m = int(tri.w);
     float cutoff = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SURFACE].w;
     if (cutoff < 0.0) return true;
@@ -104,11 +129,18 @@ bool rt_solid(uvec4 tri, vec2 b) {
     return alpha >= cutoff;
 }
 
-// ray_triangle against triangle i of rt_triangles (its vertices fetched).
+// ray_triangle against triangle i of rt_triangles: its p0, p1 - p0, p2 - p0 as uploaded
+// (rt_edges; three reads, where the vertices took four, one after the other).
 vec3 rt_triangle(int i, vec3 o, vec3 d) {
-    uvec4 tri = rt_triangles[i];
-    return ray_triangle(o, d, rt_position(tri.x), rt_position(tri.y), rt_position(tri.z));
+    return ray_triangle_edges(o, d, rt_texel(u_rt_edges, 3 * i).xyz,
+                              rt_texel(u_rt_edges, 3 * i + 1).xyz,
+                              rt_texel(u_rt_edges, 3 * i + 2).xyz);
 }
+
+// The traversal walks child entries (viewer/raytrace/bvh.py child_pairs): (ref, count) is an
+// interior node's row (count 0) or a leaf's triangles; a node's visit tests its two children's
+// boxes, goes to the nearer one it enters and stacks the other. The root's own box is not tested:
+// a ray that misses it misses both children (each inside it; the slab test is monotone).
 
 // The nearest solid triangle the ray o + t d (d unit) hits for 0 < t < t_max.
 RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
@@ -119,17 +151,14 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
     if (u_rt_node_count == 0) return hit;
     vec3 inv_d = safe_inverse(d);
     int stack[RAYTRACE_STACK];
+    int stack_count[RAYTRACE_STACK];
     float stack_t[RAYTRACE_STACK];
     int sp = 0;
-    int node = 0;
-    if (ray_aabb(o, inv_d, rt_nodes[0].xyz, rt_nodes[1].xyz, hit.t) == RAY_MISS) return hit;
+    int ref = 0;
+    int count = 0;
     for (;;) {
-        vec4 a = rt_nodes[2 * node];
-        vec4 c = rt_nodes[2 * node + 1];
-        int first = floatBitsToInt(a.w);
-        int count = floatBitsToInt(c.w);
         if (count > 0) {
-            for (int i = first; i < first + count; ++i) {
+            for (int i = ref; i < ref + count; ++i) {
                 vec3 r = rt_triangle(i, o, d);
                 if (r.x > 0.0 && r.x < hit.t && rt_solid(rt_triangles[i], r.yz)) {
                     hit.t = r.x;
@@ -138,18 +167,20 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
                 }
             }
         } else {
-            int l = first;
-            float tl = ray_aabb(o, inv_d, rt_nodes[2 * l].xyz, rt_nodes[2 * l + 1].xyz, hit.t);
-            float tr = ray_aabb(o, inv_d, rt_nodes[2 * l + 2].xyz, rt_nodes[2 * l + 3].xyz, hit.t);
-            int near = tl <= tr ? l : l + 1;
-            float t_far = max(tl, tr);
+            vec4 l0 = rt_texel(u_rt_nodes, 4 * ref), l1 = rt_texel(u_rt_nodes, 4 * ref + 1);
+            vec4 r0 = rt_texel(u_rt_nodes, 4 * ref + 2), r1 = rt_texel(u_rt_nodes, 4 * ref + 3);
+            float tl = ray_aabb(o, inv_d, l0.xyz, l1.xyz, hit.t);
+            float tr = ray_aabb(o, inv_d, r0.xyz, r1.xyz, hit.t);
             if (min(tl, tr) != RAY_MISS) {
-                if (t_far != RAY_MISS && sp < RAYTRACE_STACK) {
-                    stack[sp] = near == l ? l + 1 : l;
-                    stack_t[sp] = t_far;
+                bool left = tl <= tr;
+                if (max(tl, tr) != RAY_MISS && sp < RAYTRACE_STACK) {
+                    stack[sp] = floatBitsToInt(left ? r0.w : l0.w);
+                    stack_count[sp] = floatBitsToInt(left ? r1.w : l1.w);
+                    stack_t[sp] = max(tl, tr);
                     ++sp;
                 }
-                node = near;
+                ref = floatBitsToInt(left ? l0.w : r0.w);
+                count = floatBitsToInt(left ? l1.w : r1.w);
                 continue;
             }
         }
@@ -158,7 +189,8 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
         while (sp > 0) {
             --sp;
             if (stack_t[sp] < hit.t) {
-                node = stack[sp];
+                ref = stack[sp];
+                count = stack_count[sp];
                 found = true;
                 break;
             }
@@ -173,33 +205,37 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
     if (u_rt_node_count == 0) return false;
     vec3 inv_d = safe_inverse(d);
     int stack[RAYTRACE_STACK];
+    int stack_count[RAYTRACE_STACK];
     int sp = 0;
-    int node = 0;
-    if (ray_aabb(o, inv_d, rt_nodes[0].xyz, rt_nodes[1].xyz, t_max) == RAY_MISS) return false;
+    int ref = 0;
+    int count = 0;
     for (;;) {
-        vec4 a = rt_nodes[2 * node];
-        vec4 c = rt_nodes[2 * node + 1];
-        int first = floatBitsToInt(a.w);
-        int count = floatBitsToInt(c.w);
         if (count > 0) {
-            for (int i = first; i < first + count; ++i) {
+            for (int i = ref; i < ref + count; ++i) {
                 vec3 r = rt_triangle(i, o, d);
                 if (r.x > 0.0 && r.x < t_max && rt_solid(rt_triangles[i], r.yz)) return true;
             }
         } else {
-            int l = first;
-            float tl = ray_aabb(o, inv_d, rt_nodes[2 * l].xyz, rt_nodes[2 * l + 1].xyz, t_max);
-            float tr = ray_aabb(o, inv_d, rt_nodes[2 * l + 2].xyz, rt_nodes[2 * l + 3].xyz, t_max);
+            vec4 l0 = rt_texel(u_rt_nodes, 4 * ref), l1 = rt_texel(u_rt_nodes, 4 * ref + 1);
+            vec4 r0 = rt_texel(u_rt_nodes, 4 * ref + 2), r1 = rt_texel(u_rt_nodes, 4 * ref + 3);
+            float tl = ray_aabb(o, inv_d, l0.xyz, l1.xyz, t_max);
+            float tr = ray_aabb(o, inv_d, r0.xyz, r1.xyz, t_max);
             if (tl != RAY_MISS || tr != RAY_MISS) {
                 if (tl != RAY_MISS && tr != RAY_MISS && sp < RAYTRACE_STACK) {
-                    stack[sp++] = l + 1;
+                    stack[sp] = floatBitsToInt(r0.w);
+                    stack_count[sp] = floatBitsToInt(r1.w);
+                    ++sp;
                 }
-                node = tl != RAY_MISS ? l : l + 1;
+                bool left = tl != RAY_MISS;
+                ref = floatBitsToInt(left ? l0.w : r0.w);
+                count = floatBitsToInt(left ? l1.w : r1.w);
                 continue;
             }
         }
         if (sp == 0) break;
-        node = stack[--sp];
+        --sp;
+        ref = stack[sp];
+        count = stack_count[sp];
     }
     return false;
 }

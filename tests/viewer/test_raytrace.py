@@ -1,7 +1,9 @@
 """The ray-tracing core (viewer/raytrace, passes/raytrace.glsl): the BVH's structure, and the GL
 traversal against a brute-force search over every triangle in float64 (the truth: an independent
 computation, not the twin), on a sphere resting on a floor, a soup of random triangles with
-masked-out ones, a degenerate pile of coincident centroids, and bad geometry."""
+masked-out ones, a single leaf, a degenerate pile of coincident centroids, and bad geometry; the
+GPU's node layout and the material defines the rays pass compiles with."""
+import dataclasses
 import warnings
 
 import numpy as np
@@ -10,9 +12,9 @@ import pytest
 from learned.parity.checks.raytrace import parity_rays, parity_scenes, trace_gl
 from viewer.geometry import primitives
 from viewer.geometry.mesh import Mesh
-from viewer.raytrace.bvh import MAX_DEPTH, MAX_LEAF, build_bvh, triangle_boxes
-from viewer.raytrace.scene import build_trace_geometry
-from viewer.raytrace.upload import TraceBuffers
+from viewer.raytrace.bvh import MAX_DEPTH, MAX_LEAF, build_bvh, child_pairs, triangle_boxes
+from viewer.raytrace.scene import MAPS, build_trace_geometry, material_rows
+from viewer.raytrace.upload import TraceBuffers, material_defines
 
 # float32 positions and arithmetic against float64: distances to ~1e-6 relative of the scene's
 # size (measured: max 2.6e-5 over 2,000 rays on the sphere and floor, t <= 7)
@@ -182,3 +184,63 @@ def test_bad_geometry_is_skipped_with_a_warning(programs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         build_trace_geometry([good])  # clean geometry warns of nothing
+
+
+def test_child_pairs_hold_each_interior_nodes_children():
+    """The GPU's layout (bvh.child_pairs): a row per interior node, the root first, its two
+    children's boxes and where they lead (a row, or a leaf's triangles); a root that is a leaf
+    gets one row with that leaf on both sides."""
+    rng = np.random.default_rng(2)
+    p = rng.uniform(-1, 1, (300, 3)).astype(np.float32)
+    bvh = build_bvh(*triangle_boxes(p, np.arange(300).reshape(100, 3)))
+    rows = child_pairs(bvh)
+    inner = np.flatnonzero(bvh.count == 0)
+    assert rows.shape == (len(inner), 16) and inner[0] == 0
+    row_of = {int(node): k for k, node in enumerate(inner)}
+    for k, node in enumerate(inner):
+        for side, child in enumerate((bvh.first[node], bvh.first[node] + 1)):
+            entry = rows[k, 8 * side:8 * side + 8]
+            ref, count = entry[3:4].view(np.int32)[0], entry[7:8].view(np.int32)[0]
+            assert np.array_equal(entry[0:3], bvh.lo[child])
+            assert np.array_equal(entry[4:7], bvh.hi[child])
+            assert count == bvh.count[child]
+            assert ref == (bvh.first[child] if count > 0 else row_of[int(child)])
+    single = build_bvh(*triangle_boxes(p[:6], np.arange(6).reshape(2, 3)))
+    assert single.node_count == 1
+    root = child_pairs(single)
+    assert root.shape == (1, 16) and np.array_equal(root[0, :8], root[0, 8:])
+    assert root[0, 7:8].view(np.int32)[0] == 2
+
+
+def test_a_single_leaf_scene_is_traced(programs):
+    """Two triangles: the BVH is one leaf (child_pairs' root row holds it twice); the GL
+    traversal still finds the brute force's nearest hit, once."""
+    mesh = Mesh(positions=np.array([[-1, 0, -1], [1, 0, -1], [0, 0, 1], [-1, 1, -1], [1, 1, -1],
+                                    [0, 1, 1]], np.float32),
+                normals=np.tile([[0, 1, 0]], (6, 1)).astype(np.float32),
+                indices=np.arange(6, dtype=np.uint32).reshape(2, 3))
+    geo = build_trace_geometry([mesh])
+    assert geo.bvh.node_count == 1
+    buffers = TraceBuffers(programs.ctx, geo)
+    try:
+        buffers.set_materials([mesh])
+        rays = parity_rays(200, seed=4)
+        gl = trace_gl(programs, buffers, rays)
+    finally:
+        buffers.release()
+    truth = _brute([mesh], rays)
+    hit = np.isfinite(truth)
+    assert hit.any() and np.array_equal(gl[:, 1] >= 0, hit)
+    assert np.abs(gl[hit, 0] - truth[hit]).max() < T_TOL * max(1.0, truth[hit].max())
+
+
+def test_material_defines_say_what_the_materials_use():
+    """RT_MASKS and RT_MAPS (what the rays pass compiles in): nothing for plain materials, the
+    mask for an alphaMode MASK mesh, bit k for a map in slot k (scene.MAPS order)."""
+    plain = primitives.sphere(radius=1.0, segments=8, rings=4)
+    masked = dataclasses.replace(plain, alpha_mode="MASK", alpha_cutoff=0.5)
+    assert material_defines(material_rows([plain], [{}])) == {"RT_MASKS": 0, "RT_MAPS": 0}
+    assert material_defines(material_rows([plain, masked], [{}, {}]))["RT_MASKS"] == 1
+    k = MAPS.index("emissive")
+    both = material_rows([plain, plain], [{"base_color": 0}, {"emissive": 1}])
+    assert material_defines(both) == {"RT_MASKS": 0, "RT_MAPS": 1 | (1 << k)}

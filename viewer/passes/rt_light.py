@@ -39,6 +39,7 @@ class RTLightPass:
         """This frame's rays into ``out_fbo`` (three RGBA32F attachments); ``sampling``: the
         environment's distribution (:class:`~viewer.environment.sampling.EnvSampling`)."""
         defines = {k: v for k, v in variant_defines.items() if k in TRACE_DEFINES}
+        defines.update(trace.defines)  # what the traced materials use (RT_MASKS, RT_MAPS)
         prog = self._program("passes/rt_light.frag", defines)
         unit = bind_gbuffer(prog, gbuffer_textures)
         unit = ibl.bind(prog, unit)

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bvh import BVH, build_bvh, triangle_boxes
+from .bvh import BVH, build_bvh, child_pairs, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAP_LAYER_BYTES = MAP_SIZE * MAP_SIZE * 8  # one layer of the map array (RGBA16F): 512 KiB
@@ -77,7 +77,8 @@ class TraceGeometry:
 
     vertices: np.ndarray   # [V, 8] float32: position xyz, u, normal xyz, v (TEXCOORD_0)
     triangles: np.ndarray  # [N, 4] uint32: vertex indices, mesh index; in BVH leaf order
-    nodes: np.ndarray      # [M, 8] float32: lo xyz, first (int bits), hi xyz, count (int bits)
+    nodes: np.ndarray      # [K, 16] float32: interior nodes' child pairs (bvh.child_pairs)
+    edges: np.ndarray      # [N, 12] float32: p0, p1 - p0, p2 - p0 (xyz, w 0), as triangles
     maps: np.ndarray       # [L, MAP_SIZE, MAP_SIZE, 4] float32: every distinct map, a layer each
     layers: list           # per mesh: {map key: layer}
     bvh: BVH
@@ -86,7 +87,7 @@ class TraceGeometry:
     @property
     def nbytes(self) -> int:
         return int(self.vertices.nbytes + self.triangles.nbytes + self.nodes.nbytes
-                   + self.maps.nbytes // 2)  # maps are uploaded as half floats
+                   + self.edges.nbytes + self.maps.nbytes // 2)  # maps are uploaded as half floats
 
     @property
     def triangle_count(self) -> int:
@@ -146,14 +147,16 @@ def build_trace_geometry(meshes) -> TraceGeometry:
     lo, hi = triangle_boxes(vertices[:, :3], triangles[:, :3].astype(np.int64))
     bvh = build_bvh(lo, hi)
     triangles = triangles[bvh.order]
-    nodes = np.zeros((bvh.node_count, 8), np.float32)
-    nodes[:, 0:3] = bvh.lo
-    nodes[:, 3] = bvh.first.view(np.float32)
-    nodes[:, 4:7] = bvh.hi
-    nodes[:, 7] = bvh.count.view(np.float32)
+    # what the traversal tests a triangle with (float32 differences, as ray_triangle takes them)
+    p = vertices[:, :3][triangles[:, :3].astype(np.int64)]  # [N, 3, 3]
+    edges = np.zeros((len(triangles), 3, 4), np.float32)
+    edges[:, 0, :3] = p[:, 0]
+    edges[:, 1, :3] = p[:, 1] - p[:, 0]
+    edges[:, 2, :3] = p[:, 2] - p[:, 0]
     stack = (np.stack(maps).astype(np.float32) if maps
              else np.zeros((0, MAP_SIZE, MAP_SIZE, 4), np.float32))
-    return TraceGeometry(vertices, triangles, nodes, stack, layers, bvh, skipped)
+    return TraceGeometry(vertices, triangles, child_pairs(bvh), edges.reshape(-1, 12), stack,
+                         layers, bvh, skipped)
 
 
 def slot_rows(meshes, layers) -> np.ndarray:

@@ -11,6 +11,9 @@ import numpy as np
 from ..cache import BoundedCache, CacheStats
 from .scene import (
     MAP_SIZE,
+    MAPS,
+    MATERIAL_VEC4S,
+    ROW,
     TraceGeometry,
     build_trace_geometry,
     material_rows,
@@ -18,7 +21,12 @@ from .scene import (
     traced_meshes,
 )
 
-BINDINGS = (2, 3, 4, 5)  # nodes, triangles, vertices, materials (raytrace.glsl)
+BINDINGS = (3, 4, 5)  # triangles, vertices, materials (raytrace.glsl's storage buffers)
+# The traversal's nodes and triangle edges are RGBA32F textures of TEXEL_ROW texels a row
+# (raytrace.glsl RT_TEXEL_ROW), read with texelFetch: llvmpipe fetches a texel for all 8 lanes
+# at once where it reads a storage buffer lane by lane and component by component, each
+# bounds-checked (Mesa 22.3).
+TEXEL_ROW = 4096
 
 
 class TraceBuffers:
@@ -28,11 +36,13 @@ class TraceBuffers:
         self.ctx = ctx
         self.geometry = geometry
         self.node_count = int(geometry.nodes.shape[0])
-        self.nodes = ctx.buffer(_bytes(geometry.nodes))
+        self.nodes = _texels(ctx, geometry.nodes)
+        self.edges = _texels(ctx, geometry.edges)
         self.triangles = ctx.buffer(_bytes(geometry.triangles))
         self.vertices = ctx.buffer(_bytes(geometry.vertices))
         self.materials = ctx.buffer(reserve=16)
         self._material_key = None
+        self.defines = {"RT_MASKS": 1, "RT_MAPS": (1 << len(MAPS)) - 1}  # set_materials
         self._slots = None  # slot_rows of the meshes: fixed for these meshes' geometry
         layers = max(int(geometry.maps.shape[0]), 1)
         data = (geometry.maps.astype(np.float16) if geometry.maps.shape[0]
@@ -43,9 +53,10 @@ class TraceBuffers:
 
     @property
     def nbytes(self) -> int:
-        return int(self.nodes.size + self.triangles.size + self.vertices.size
-                   + self.materials.size + self.maps.width * self.maps.height
-                   * self.maps.layers * 8)
+        return int(self.triangles.size + self.vertices.size + self.materials.size
+                   + 16 * self.nodes.width * self.nodes.height
+                   + 16 * self.edges.width * self.edges.height
+                   + self.maps.width * self.maps.height * self.maps.layers * 8)
 
     def set_materials(self, meshes) -> None:
         """Upload the meshes' materials when they changed since the last call (sliders)."""
@@ -58,12 +69,18 @@ class TraceBuffers:
                 self.materials.orphan(len(key))
             self.materials.write(key)
             self._material_key = key
+            self.defines = material_defines(rows)
 
     def bind(self, prog, unit: int) -> int:
-        """Bind the buffers to raytrace.glsl's points and the map array to ``unit``."""
-        for buf, point in zip((self.nodes, self.triangles, self.vertices, self.materials),
-                              BINDINGS):
+        """Bind the buffers to raytrace.glsl's points, the node and edge textures and the map
+        array to texture units from ``unit``; returns the next free unit."""
+        for buf, point in zip((self.triangles, self.vertices, self.materials), BINDINGS):
             buf.bind_to_storage_buffer(point)
+        for name, tex in (("u_rt_nodes", self.nodes), ("u_rt_edges", self.edges)):
+            if name in prog:
+                tex.use(unit)
+                prog[name].value = unit
+                unit += 1
         if "u_rt_maps" in prog:
             self.maps.use(unit)
             prog["u_rt_maps"].value = unit
@@ -73,7 +90,8 @@ class TraceBuffers:
         return unit
 
     def release(self) -> None:
-        for obj in (self.nodes, self.triangles, self.vertices, self.materials, self.maps):
+        for obj in (self.nodes, self.triangles, self.vertices, self.edges, self.materials,
+                    self.maps):
             obj.release()
 
 
@@ -109,6 +127,31 @@ class TraceStore:
 
     def release(self) -> None:
         self._cache.clear()
+
+
+def material_defines(rows: np.ndarray) -> dict:
+    """What ``rows`` (:func:`~viewer.raytrace.scene.material_rows`) use, as raytrace.glsl's
+    defines: ``RT_MASKS`` (some material is alphaMode MASK: a cutoff >= 0) and ``RT_MAPS`` (bit
+    k: some material has a map in slot k), so a pass compiles out what no material needs."""
+    per = rows.reshape(-1, MATERIAL_VEC4S, 4)
+    masks = bool((per[:, ROW["surface"], 3] >= 0.0).any())
+    layers = per[:, ROW["slots"]::2, 3]  # each slot's layer, -1: none
+    bits = sum(1 << k for k in range(len(MAPS)) if (layers[:, k] >= 0.0).any())
+    return {"RT_MASKS": int(masks), "RT_MAPS": int(bits)}
+
+
+def _texels(ctx, a: np.ndarray):
+    """``a`` (float32, 4 a texel in row-major order) as an RGBA32F texture of TEXEL_ROW texels a
+    row (the last row padded with zeros; at least one texel)."""
+    flat = np.ascontiguousarray(a, np.float32).reshape(-1, 4)
+    width = min(TEXEL_ROW, max(len(flat), 1))
+    rows = max(-(-len(flat) // width), 1)
+    data = np.zeros((rows * width, 4), np.float32)
+    data[:len(flat)] = flat
+    tex = ctx.texture((width, rows), 4, data.tobytes(), dtype="f4")
+    tex.filter = (ctx.NEAREST, ctx.NEAREST)
+    tex.repeat_x = tex.repeat_y = False
+    return tex
 
 
 def _bytes(a: np.ndarray) -> bytes:

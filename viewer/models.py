@@ -40,6 +40,10 @@ class ShadeVariant:
     def defines(self) -> dict[str, int]:
         return dict(self.define_items)
 
+    def with_defines(self, extra: dict[str, int]) -> ShadeVariant:
+        """This variant with ``extra`` defines added (or overriding)."""
+        return ShadeVariant(self.model, tuple(sorted({**self.defines, **extra}.items())))
+
 
 @dataclass(frozen=True)
 class ShadingModel:

@@ -32,6 +32,10 @@ vec3 rt_diffuse_irradiance(ivec2 pixel, vec3 irradiance) {
 vec3 rt_specular_radiance(ivec2 pixel, vec3 prefiltered) {
 #if RT_LIGHT
     vec4 r = texelFetch(u_rt_light0, pixel, 0);
+    // target 2: (radiance x w, w), w = 1 where the ratio above holds the lobe's share and the
+    // Monte Carlo weights of a wide lobe (passes/rt_light.frag) where it is 0; those weights
+    // are F x G2 / G1 >= ~0.04 x 0.5 for any ray above the surface, so a mean under 1e-4 means
+    // no ray of the window and the filter's footprint left the surface (no light to divide)
     vec4 b = texelFetch(u_rt_light2, pixel, 0);
     return prefiltered * rt_ratio(r.z, r.w) + (b.a > 1e-4 ? b.rgb / b.a : vec3(0.0));
 #else

@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..models import ShadeVariant, ShadingModel, model_info, refracts_forward, sample_count
+from ..models import ShadingModel, model_info, refracts_forward, sample_count
 from ..neural import learns_indirect, needs_env_visibility
 from ..passes.forward import (forward_meshes, forward_model, forward_variant,
                                warn_unshadowed)
@@ -277,8 +277,7 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
              + tuple(name for name, _, _, _ in shadows.values()) + tuple(rt_light))
     variant = cascade_variant(spec.variant, shadows)
     if ssao is not None and ssao.occlusion == SN_VISIBILITY:
-        variant = ShadeVariant(variant.model, tuple(sorted({**variant.defines,
-                                                            "SSAO_SHADOW_NET": 1}.items())))
+        variant = variant.with_defines({"SSAO_SHADOW_NET": 1})
     env_sampling = renderer.env_sampling(scene) if "cdf" in model.needs else None
     # the IBL without the sun a SUN_LIGHT pass shades itself
     ibl = res.ibl(scene.environment, sun=bool(spec.variant.defines.get("SUN_LIGHT")))

@@ -163,7 +163,7 @@ def cascade_variant(variant: ShadeVariant, shadows: dict) -> ShadeVariant:
             extra["SUN_CASCADES" if i == "sun" else "LIGHT_CASCADES"] = 1
     if not extra:
         return variant
-    return ShadeVariant(variant.model, tuple(sorted({**variant.defines, **extra}.items())))
+    return variant.with_defines(extra)
 
 
 def _directional(bounds, direction, shadow, camera):

@@ -103,8 +103,7 @@ class ShadePass:
         if trace is not None and "RT_MASKS" in trace.defines:
             # a tracing model (path) compiles out the alpha test and the map lookups that no
             # traced material uses, as the rays pass does (TraceBuffers.defines)
-            variant = ShadeVariant(variant.model, tuple(sorted(
-                {**variant.defines, **trace.defines}.items())))
+            variant = variant.with_defines(trace.defines)
         found = model_network(settings.model, settings)  # the weights file, looked up once
         prog = self._program(variant, found)
         unit = bind_gbuffer(prog, gbuffer_textures)

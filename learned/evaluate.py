@@ -28,9 +28,9 @@ from tqdm import tqdm
 
 from viewer.models import MODELS
 from viewer.renderer import Renderer
-from viewer.scene.description import scene_from_dict
 
 from .data.reader import list_samples, load_sample
+from .data.scene import sample_scene
 from .export import load_model
 from .parity.checks.neural import student_inputs
 
@@ -140,13 +140,6 @@ def achromatic_error(rgb: np.ndarray, fg: np.ndarray) -> float:
     y = np.maximum(rgb @ np.array([0.2126, 0.7152, 0.0722]), CHROMA_EPS)
     spread = (rgb.max(-1) - rgb.min(-1)) / y
     return 100.0 * float(spread[fg].max())
-
-
-def sample_scene(sample, **render):
-    return scene_from_dict({
-        "environment": {"path": str(sample.environment)},
-        "objects": [{"type": "gbuffer", "path": str(sample.folder)}],
-        "render": {"tonemap": "none", **render}}, file=str(sample.folder / "scene"))
 
 
 GROUPS = ("kind", "environment")  # what ``evaluate(by=...)`` can break the means down by

@@ -1,5 +1,6 @@
-"""Datasets in the FFHQ256-PBR layout: :mod:`.reader` (load samples and splits) and
-:mod:`.generator` (synthetic samples rendered by the workbench itself)."""
+"""Datasets in the FFHQ256-PBR layout: :mod:`.reader` (load samples and splits),
+:mod:`.generator` (synthetic samples rendered by the workbench itself) and :mod:`.scene` (a
+sample as a scene the viewer draws: from its image-space stack or from its meshes)."""
 from .reader import DatasetError, Sample, list_samples, load_sample
 
 __all__ = ["DatasetError", "Sample", "list_samples", "load_sample"]

@@ -14,19 +14,29 @@ pixel could have, V* = clamp(target / frame, 0, g) per colour, blurred (a Gaussi
 normalised over the surfaces, as a network's smooth output would be) and multiplied into the
 same frame: what an estimator of gain g could at most score at that smoothness.
 
+Geometry (``--geometry``, default ``stack``): every frame - the estimator's and the G-buffer
+and screen-space inputs of the classical variants - drawn from each sample's image-space stack,
+or (``mesh``) from the meshes the generator drew it from (:mod:`learned.data.scene`: the same
+G-buffer, but the viewer's frame of a mesh scene, with its shadow maps of the environment's sun
+and compact lights); the foreground and the target are the stack's either way.
+
 ``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...]``
-``python -m learned.protocol.shadow_net DATA --split val --oracle``
+``python -m learned.protocol.shadow_net DATA --split val --oracle [--geometry mesh]``
 """
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from dataclasses import asdict
 
 import numpy as np
 import torch
 from torch.nn import functional as F
 
+from viewer.errors import RelightError
+
+from ..data.scene import GEOMETRIES
 from ..neural.shadow_net import load_shadow_net
 from ..train.shadow_net import shaded, shadow_net_images
 from ..train.stages import load_images
@@ -98,31 +108,34 @@ def oracle_scores(est_images, prot_images) -> dict:
 
 
 def evaluate(data: str, split: str, weights: list[str], classical: dict | None = None,
-             oracle: bool = False) -> dict:
+             oracle: bool = False, geometry: str = "stack") -> dict:
     """Scores of ``split``: every classical variant (``classical``: the one chosen on val, as
     :func:`dataclasses.asdict` of :class:`Classical`; None: all of them, the best chosen here -
     on val only), the unshadowed frame and the estimators, and the paired difference of the
-    estimators to the chosen classical variant."""
+    estimators to the chosen classical variant; every frame drawn from ``geometry`` (module
+    doc)."""
     from viewer.renderer import Renderer
 
     renderer = Renderer()
     try:
-        prot = load_images(data, split, renderer, sun=True, multiscatter=True)
-        est = shadow_net_images(data, split, renderer)
+        prot = load_images(data, split, renderer, sun=True, multiscatter=True, geometry=geometry)
+        est = shadow_net_images(data, split, renderer, geometry=geometry)
     finally:
         renderer.release()
     pool = [Classical(**classical)] if classical else variants()
     found = [(m, classical_scores(m, prot)) for m in pool]
     best, best_scores = max(found, key=lambda f: float(np.mean(f[1])))
     if oracle:
-        return {"split": split, "samples": len(prot), "classical_name": best.name,
+        return {"split": split, "geometry": geometry, "samples": len(prot),
+                "classical_name": best.name,
                 "classical_psnr": float(np.mean(best_scores)),
                 "oracle": {k: {"psnr": float(np.mean(v)),
                                "vs_classical": paired_bootstrap(np.array(v) - best_scores)}
                            for k, v in oracle_scores(est, prot).items()}}
     s = estimator_scores(weights, est, prot)
     diff = np.array(s["estimators"]) - np.array(best_scores)[None]
-    return {"split": split, "samples": len(prot), "classical": asdict(best),
+    return {"split": split, "geometry": geometry, "samples": len(prot),
+            "classical": asdict(best),
             "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
             "frame_psnr": float(np.mean(s["frame"])),
             "estimator_psnr": [float(np.mean(v)) for v in s["estimators"]],
@@ -139,6 +152,8 @@ def main(argv=None) -> int:
     p.add_argument("--classical", help="JSON of the variant chosen on val (test: required)")
     p.add_argument("--oracle", action="store_true",
                    help="the bound of the product form instead of weights (val only)")
+    p.add_argument("--geometry", choices=GEOMETRIES, default="stack",
+                   help="draw the frames from the image-space stacks or the samples' meshes")
     a = p.parse_args(argv)
     if a.oracle and a.split != "val":
         p.error("--oracle reads the validation split only")
@@ -146,10 +161,15 @@ def main(argv=None) -> int:
         p.error("give the estimators' weights files (or --oracle)")
     if a.split == "test" and not a.classical:
         p.error("--split test scores the classical variant chosen on val: give --classical")
-    r = evaluate(a.data, a.split, a.weights, json.loads(a.classical) if a.classical else None,
-                 a.oracle)
+    try:
+        r = evaluate(a.data, a.split, a.weights,
+                     json.loads(a.classical) if a.classical else None, a.oracle, a.geometry)
+    except RelightError as exc:  # e.g. a sample without the meshes --geometry mesh draws
+        print(f"{p.prog}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
     if a.split == "test":
-        r["test_scored"] = record_test(a.data, "shadow_net vs classical", a.weights,
+        what = "shadow_net vs classical" + (f" ({a.geometry})" if a.geometry != "stack" else "")
+        r["test_scored"] = record_test(a.data, what, a.weights,
                                        r["samples"], dataset_hash(a.data, ("test",)))
     print(json.dumps(r, indent=1))
     return 0

@@ -41,7 +41,8 @@ import torch
 from viewer.renderer import Renderer
 
 from ..data.reader import list_samples, load_sample
-from ..evaluate import metrics, sample_scene
+from ..data.scene import geometry_scene
+from ..evaluate import metrics
 from ..neural.shadow_net import ShadowNet, save_shadow_net
 from ..parity.checks.shadow_net import frame_inputs
 from ..protocol.data import dataset_hash
@@ -86,12 +87,14 @@ class ShadowNetImage:
 
 
 def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_sum",
-                      limit: int | None = None) -> list[ShadowNetImage]:
-    """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator)."""
+                      limit: int | None = None, geometry: str = "stack") -> list[ShadowNetImage]:
+    """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator),
+    from its image-space stack or (``geometry = "mesh"``) from the meshes it was generated from
+    (:func:`learned.data.scene.geometry_scene`)."""
     out = []
     for folder in list_samples(root, split)[:limit]:
         sample = load_sample(folder)
-        scene = sample_scene(sample, model=model, ssao=True)
+        scene = geometry_scene(sample, geometry, model=model, ssao=True)
         targets = renderer.draw(scene)
         radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
         target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order

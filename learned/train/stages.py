@@ -53,21 +53,24 @@ class TrainImage:
     lighting_sun: Lighting | None = None
 
 
-def screen_space_inputs(renderer, sample) -> tuple[np.ndarray, np.ndarray]:
+def screen_space_inputs(renderer, sample, geometry: str = "stack"
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """The SSAO pass's occlusion O(x) and the environment's screen-space visibility S(x) on the
     sample's own G-buffer, ``[H, W]`` each (row 0 at the top): computed by the renderer's GL pass
     (``passes/ssao.frag`` with ``SSAO_ENV_VIS``, default SSAO settings) exactly as a student with
     ``vis`` inputs gets them at run time; the pass's torch twin (``learned.twins.ssao``) is held
-    to it by the ``ssao:env_visibility`` parity check."""
-    from ..evaluate import sample_scene
+    to it by the ``ssao:env_visibility`` parity check. ``geometry``: drawn from the sample's
+    stack or from its meshes (:func:`learned.data.scene.geometry_scene`)."""
+    from ..data.scene import geometry_scene
     from ..parity.checks.models import gl_texture
 
-    scene = sample_scene(sample, model="ggx_split_sum", ssao=True)
+    scene = geometry_scene(sample, geometry, model="ggx_split_sum", ssao=True)
     img = gl_texture(renderer.environment_visibility(scene, renderer.draw(scene)))[::-1]
     return np.ascontiguousarray(img[..., 0]), np.ascontiguousarray(img[..., 1])
 
 
-def screen_space_indirect(renderer, sample, multiscatter: bool = False) -> np.ndarray:
+def screen_space_indirect(renderer, sample, multiscatter: bool = False,
+                          geometry: str = "stack") -> np.ndarray:
     """The indirect pass's one-bounce light L_ind (eq. 6.22, ``passes/ssao.frag`` with
     ``SSAO_INDIRECT``, default settings) on the sample's own G-buffer, ``[H, W, 3]`` (row 0 at the
     top): the frame of ``ggx_split_sum`` + SSAO + indirect minus its direct target, computed by the
@@ -75,37 +78,46 @@ def screen_space_indirect(renderer, sample, multiscatter: bool = False) -> np.nd
     ``split3`` student with ``vis`` inputs and an untrained indirect factor renders as its own;
     a trained student's direct light differs a little, so at run time the pass gathers a slightly
     different L_ind than the student was trained with. ``multiscatter``: the base of a student
-    with ``"multiscatter": true`` (ggx_split_sum's default)."""
-    from ..evaluate import sample_scene
+    with ``"multiscatter": true`` (ggx_split_sum's default). ``geometry``: as
+    :func:`screen_space_inputs`."""
+    from ..data.scene import geometry_scene
     from ..parity.checks.models import gl_texture
 
-    scene = sample_scene(sample, model="ggx_split_sum", ssao=True, indirect=True,
-                         multiscatter=bool(multiscatter))  # split3's start
+    scene = geometry_scene(sample, geometry, model="ggx_split_sum", ssao=True, indirect=True,
+                           multiscatter=bool(multiscatter))  # split3's start
     targets = renderer.draw(scene)
     out = gl_texture(targets.radiance)[..., :3] - gl_texture(targets.direct)[..., :3]
     return np.ascontiguousarray(out[::-1])
 
 
 def load_images(root: str, split: str, renderer, sun: bool = False,
-                multiscatter: bool = False) -> list[TrainImage]:
+                multiscatter: bool = False, geometry: str = "stack") -> list[TrainImage]:
     """Every usable sample of ``split``; ``sun``: also the lighting of a student whose base
     shades the environment's sun (``TrainImage.lighting_sun``); ``multiscatter``: the indirect
-    light gathered from the direct light of a base with multiple scattering."""
+    light gathered from the direct light of a base with multiple scattering. ``geometry``
+    ``"mesh"``: the G-buffer channels and the screen-space inputs from the sample's mesh scene
+    (:mod:`learned.data.scene`) instead of its stack; the foreground and the targets are the
+    stack's either way."""
+    from ..data.scene import GEOMETRIES, mesh_channels
+
+    if geometry not in GEOMETRIES:
+        raise ValueError(f"geometry={geometry!r}: expected one of {GEOMETRIES}")
     out = []
     for folder in list_samples(root, split):
         s = load_sample(folder)
         fg = torch.from_numpy(s.foreground())
         if not fg.any():
             continue
-        ch = {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in s.channels.items()}
+        channels = mesh_channels(renderer, s) if geometry == "mesh" else s.channels
+        ch = {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in channels.items()}
         v = -torch.from_numpy(s.view_dirs())
         spec = EnvironmentSpec(path=str(s.environment))
         lighting = lighting_from_gl(renderer, spec)
         lighting_sun = lighting_from_gl(renderer, spec, sun=True) if sun else None
         target = torch.from_numpy(np.ascontiguousarray(s.target))
         unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
-        ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s))
-        indirect = torch.from_numpy(screen_space_indirect(renderer, s, multiscatter))
+        ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s, geometry))
+        indirect = torch.from_numpy(screen_space_indirect(renderer, s, multiscatter, geometry))
         out.append(TrainImage(
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],
             target=target[fg], unshadowed=unshadowed[fg], target_image=target.permute(2, 0, 1),

@@ -11,7 +11,9 @@ scene kind, and the image-stack convention of :mod:`viewer.geometry.imagespace`:
 looking down -Z, +Y up), at ``camera.json``'s ``fov_y`` and the stack's size; the environment is
 the sample's ``env.exr`` (rotation and intensity baked in). A sample whose geometry was itself an
 image G-buffer (``gbuffer_fraction``), or whose ``meta.json`` or mesh files are missing, has no
-mesh scene: one :class:`~learned.data.reader.DatasetError` naming the file.
+mesh scene, nor has a sample whose stack was degraded (``meta.json`` ``degrade``: its meshes
+would draw the true G-buffer, not its degraded one): one
+:class:`~learned.data.reader.DatasetError` naming the file.
 
 ``geometry`` (:data:`GEOMETRIES`) names the two for the callers that draw a sample either way
 (:func:`geometry_scene`); :func:`mesh_channels` reads the mesh scene's G-buffer back in the
@@ -73,9 +75,13 @@ def mesh_scene_dict(sample, meshes: Path | None = None) -> dict:
         raise DatasetError("missing: the objects the sample was drawn from (meta.json)",
                            where=meta)
     try:
-        objects = json.loads(meta.read_text()).get("objects")
+        info = json.loads(meta.read_text())
+        objects, degraded = info.get("objects"), info.get("degrade")
     except (ValueError, AttributeError) as exc:
         raise DatasetError(f"not valid JSON ({exc})", where=meta) from None
+    if degraded is not None:  # learned.protocol.degrade, or the generator's `degrade`
+        raise DatasetError("the sample's G-buffer is degraded ('degrade'): its meshes would "
+                           "draw the true one; draw the clean dataset's meshes", where=meta)
     if not isinstance(objects, list) or not objects:
         raise DatasetError("no 'objects' list: the generator's scene is not recorded", where=meta)
     meshes = Path(meshes) if meshes is not None else mesh_folder(Path(sample.folder))

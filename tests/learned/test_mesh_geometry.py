@@ -81,9 +81,9 @@ def test_the_mesh_scene_rasterises_the_stacks_g_buffer_and_frame(data, renderer)
 
 def test_a_moved_object_or_a_missing_mesh_is_caught(data, tmp_path, renderer):
     """The check above can fail: the sphere moved by 0.1 no longer covers the stack's pixels;
-    a mesh file that is not in _meshes, and a sample whose geometry was an image G-buffer
-    (what the generator records for one: ``{"type": "gbuffer"}``), are one line naming
-    meta.json."""
+    a mesh file that is not in _meshes, a sample whose geometry was an image G-buffer (what
+    the generator records for one: ``{"type": "gbuffer"}``) and a degraded sample (whose
+    meshes would draw the true G-buffer) are one line naming meta.json."""
     sphere = next(f for f in list_samples(data, "val")
                   if load_sample(f).kind == "sphere_on_plane")
     root = tmp_path / "moved"
@@ -108,6 +108,9 @@ def test_a_moved_object_or_a_missing_mesh_is_caught(data, tmp_path, renderer):
                              lambda meta: meta.update(objects=[{"type": "gbuffer"}]))
     with pytest.raises(DatasetError, match="geometry was an image G-buffer"):
         sample_mesh_scene(load_sample(list_samples(stack, "val")[0]))
+    degraded, meta_path = _copy(data, tmp_path / "c", lambda meta: meta.update(degrade={}))
+    with pytest.raises(DatasetError, match="G-buffer is degraded"):
+        sample_mesh_scene(load_sample(list_samples(degraded, "val")[0]))
 
 
 def test_the_protocol_scores_the_mesh_frames(data, tmp_path, capsys):

@@ -71,6 +71,8 @@ class ShadowNetTrainConfig:
     visibility_target: bool = False  # min(target, g x unshadowed radiance) (module doc)
     loss: str = "log_mse"  # "log_mse" (the metric) | "l2" | "l1" on log(1 + x) (module doc)
     augment: float = 0.2  # > 0: exposure, tint (this log-normal sigma) and mirror (module doc)
+    # the frames drawn from each sample's image-space stack or its meshes (learned.data.scene)
+    geometry: str = "stack"
     log_every: int = 50
     checkpoint_every: int = 200
 
@@ -194,8 +196,9 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
     renderer = Renderer()
     try:
         train = [img for root in (cfg.data, *cfg.extra_data)
-                 for img in shadow_net_images(root, "train", renderer, cfg.model, cfg.limit)]
-        val = (shadow_net_images(cfg.data, "val", renderer, cfg.model, cfg.limit)
+                 for img in shadow_net_images(root, "train", renderer, cfg.model, cfg.limit,
+                                              cfg.geometry)]
+        val = (shadow_net_images(cfg.data, "val", renderer, cfg.model, cfg.limit, cfg.geometry)
                if (Path(cfg.data) / "val").is_dir() else [])
     finally:
         renderer.release()

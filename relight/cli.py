@@ -10,8 +10,8 @@
     relight info [--json] [--weights [FILE ...]]
     relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--seed N] [--install]
                   [--compare-students]
-    relight data OUT --preset truth-train|heldout-kinds|heldout-env [--count N] [--size S]
-                 [--spp N] [--seed N]
+    relight data OUT --preset truth-train|heldout-kinds|heldout-env|shadow-extra|shadow-val
+                 [--count N] [--size S] [--spp N] [--seed N]
     relight data OUT --protocol [--count N] [--size S] [--spp N] [--seed N]
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
@@ -258,15 +258,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="truth-train: the path-traced training truth (480 samples; the shipped "
                         "student's); heldout-kinds: held-out scene kinds and environment (40 "
                         "samples); heldout-env: the training scene kinds under a held-out "
-                        "environment (40 samples) - learned/data/presets.py")
+                        "environment (40 samples); shadow-extra / shadow-val: the shadow "
+                        "estimator's extra training (160) / second validation (60) scenes under "
+                        "training HDRIs - learned/data/presets.py")
     p.add_argument("--count", type=_positive_int, metavar="N",
                    help="samples (default the preset's; fewer: its first N samples)")
     p.add_argument("--size", type=_positive_int, metavar="S",
-                   help="square image size (default the preset's 64; changes every sample: not "
-                        "the preset's dataset any more)")
+                   help="square image size (default the preset's: 64, shadow-*: 96; changes "
+                        "every sample: not the preset's dataset any more)")
     p.add_argument("--spp", type=_positive_int, metavar="N",
-                   help="path-traced samples per pixel of the targets (default the preset's 256; "
-                        "changes the targets' noise: not the preset's dataset any more)")
+                   help="path-traced samples per pixel of the targets (default the preset's: "
+                        "256, shadow-*: 64; changes the targets' noise: not the preset's "
+                        "dataset any more)")
     p.add_argument("--seed", type=int, metavar="N",
                    help="random seed (default the preset's; another seed draws other scenes: "
                         "not the preset's held-out set any more)")

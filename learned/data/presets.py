@@ -8,7 +8,18 @@ in one place (``relight data OUT --preset NAME``; ``relight train --targets refe
 - ``heldout-kinds``: :func:`held_out_config` of it (40 samples, seed 1): scene kinds and
   environments no training sample has (nested and convex scenes under the esplanade HDRI alone);
 - ``heldout-env``: the training scene kinds under an environment no training sample has (40
-  samples, seed 7, the esplanade HDRI alone).
+  samples, seed 7, the esplanade HDRI alone);
+- ``shadow-extra``: more training scenes for the neural shadow estimator (``relight train --stage
+  shadow_net --shadow-extra-data``; issue 38): 160 samples, 96², 64 spp, seed 300, every one in
+  the train split, the truth scene kinds under five training HDRIs alone
+  (:data:`SHADOW_EXTRA_ENV_PATHS`: bridge, dawn, night, sunrise, venice);
+- ``shadow-val``: a second validation set for the estimator's design choices
+  (``--shadow-val-data``): the same recipe, 60 samples, seed 400, every one in the val split,
+  under three other training HDRIs (:data:`SHADOW_VAL_ENV_PATHS`: city, forest, sunset).
+
+None of the eight training HDRIs (assets/environments/training/README.md) lights a protocol split
+(learned.protocol.data: val esplanade, test park) or another preset, and the two shadow presets
+share none.
 
 Samples draw from ``default_rng([seed, i])``, so a preset regenerates its dataset sample for
 sample (a smaller ``count`` gives its first samples); overriding ``size``, ``seed`` or
@@ -28,6 +39,15 @@ from .generator import (
 from .reader import DatasetError
 
 
+# assets/environments/training/, repository-relative as ENVIRONMENTS (issue 38's HDRIs)
+def _training_envs(*names: str) -> tuple[str, ...]:
+    return tuple(f"assets/environments/training/{n}.exr" for n in names)
+
+
+SHADOW_EXTRA_ENV_PATHS = _training_envs("bridge", "dawn", "night", "sunrise", "venice")
+SHADOW_VAL_ENV_PATHS = _training_envs("city", "forest", "sunset")
+
+
 def truth_train() -> GeneratorConfig:
     return GeneratorConfig(count=480, size=64, samples=256, seed=0, gbuffer_fraction=0.0,
                            targets="reference", reference_spp=256, scene_kinds=TRUTH_KINDS,
@@ -43,8 +63,20 @@ def heldout_env() -> GeneratorConfig:
                    env_procedural=())
 
 
+def shadow_extra() -> GeneratorConfig:
+    return GeneratorConfig(count=160, size=96, samples=256, seed=300, gbuffer_fraction=0.0,
+                           targets="reference", reference_spp=64, scene_kinds=TRUTH_KINDS,
+                           env_paths=SHADOW_EXTRA_ENV_PATHS, env_procedural=(), split="train")
+
+
+def shadow_val() -> GeneratorConfig:
+    return replace(shadow_extra(), count=60, seed=400, env_paths=SHADOW_VAL_ENV_PATHS,
+                   split="val")
+
+
 # name -> its configuration (relight data --preset NAME)
-PRESETS = {"truth-train": truth_train, "heldout-kinds": heldout_kinds, "heldout-env": heldout_env}
+PRESETS = {"truth-train": truth_train, "heldout-kinds": heldout_kinds, "heldout-env": heldout_env,
+           "shadow-extra": shadow_extra, "shadow-val": shadow_val}
 # the fields an override may change (relight data's --count, --size, --spp, --seed)
 OVERRIDABLE = ("count", "size", "reference_spp", "seed")
 

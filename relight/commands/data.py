@@ -62,7 +62,7 @@ def cmd_data(args) -> int:
     if args.quiet or out.get("rank", 0) != 0:
         return 0
     preset = PRESETS[args.preset]()
-    splits = {s: sum(split_of(i) == s for i in range(config.count))
+    splits = {s: sum(split_of(i, config) == s for i in range(config.count))
               for s in ("train", "val", "test")}
     by = " by rank 0" if "rank" in out else ""
     print(f"{args.out}: preset {args.preset}, {config.count} samples "
@@ -84,6 +84,10 @@ def cmd_data(args) -> int:
     if args.preset == "truth-train":
         print(f"next: relight train --data {args.out} --student-target target ... "
               f"(assets/weights/README.md); relight eval {args.out} --split test")
+    elif args.preset in ("shadow-extra", "shadow-val"):
+        flag = "extra" if args.preset == "shadow-extra" else "val"
+        print(f"next: relight train --stage shadow_net --data PROTOCOL_DATA "
+              f"--shadow-{flag}-data {args.out}")
     else:
         print(f"next: relight eval {args.out} --split all")
         print(f"      relight bench --out runs/bench --heldout {args.out}")

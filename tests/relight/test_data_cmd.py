@@ -35,6 +35,17 @@ STORED = {
     "heldout-env": _COMMON | {
         "count": 40, "seed": 7, "scene_kinds": _TRUTH_KINDS,
         "env_paths": ["assets/environments/esplanade.exr"], "env_procedural": []},
+    # the neural shadow estimator's extra training and second validation sets (issue 38)
+    "shadow-extra": _COMMON | {
+        "count": 160, "size": 96, "reference_spp": 64, "seed": 300, "scene_kinds": _TRUTH_KINDS,
+        "env_paths": [f"assets/environments/training/{n}.exr"
+                      for n in ("bridge", "dawn", "night", "sunrise", "venice")],
+        "env_procedural": [], "split": "train"},
+    "shadow-val": _COMMON | {
+        "count": 60, "size": 96, "reference_spp": 64, "seed": 400, "scene_kinds": _TRUTH_KINDS,
+        "env_paths": [f"assets/environments/training/{n}.exr"
+                      for n in ("city", "forest", "sunset")],
+        "env_procedural": [], "split": "val"},
 }
 
 
@@ -64,6 +75,30 @@ def test_presets_are_the_documented_recipe():
         assert held.seed != train.seed
     assert not set(PRESETS["heldout-kinds"]().scene_kinds) & set(train.scene_kinds)
     assert PRESETS["heldout-env"]().scene_kinds == train.scene_kinds
+
+
+def test_shadow_presets_share_no_environment_with_each_other_or_the_protocol():
+    """shadow-extra and shadow-val: files that exist, no environment (resolved) or seed in common
+    with each other, with the protocol's val (esplanade) and test (park) splits, or with the
+    other presets; every sample in the preset's one split."""
+    from learned.protocol.data import SPLIT_ENVIRONMENTS
+
+    ids = lambda paths: {gen._env_identity(e) for e in paths}
+    extra, val = PRESETS["shadow-extra"](), PRESETS["shadow-val"]()
+    for cfg in (extra, val):
+        assert cfg.env_paths and not cfg.env_procedural
+        assert all(gen.config.env_file(e).is_file() for e in cfg.env_paths), cfg.env_paths
+    assert len(ids(extra.env_paths)) == 5 and len(ids(val.env_paths)) == 3
+    assert not ids(extra.env_paths) & ids(val.env_paths)
+    held = ids(SPLIT_ENVIRONMENTS["val"][1] + SPLIT_ENVIRONMENTS["test"][1])
+    others = ids(e for n in ("truth-train", "heldout-kinds", "heldout-env")
+                 for e in PRESETS[n]().env_paths)
+    assert len(held) == 2 and held <= others
+    for cfg in (extra, val):
+        assert not ids(cfg.env_paths) & others
+    assert len({PRESETS[n]().seed for n in PRESETS}) == len(PRESETS)
+    assert [gen.split_of(i, extra) for i in (0, 8, 9)] == ["train"] * 3
+    assert [gen.split_of(i, val) for i in (0, 8, 9)] == ["val"] * 3
 
 
 def test_train_targets_reference_uses_the_truth_preset():

@@ -10,6 +10,8 @@
     relight info [--json] [--weights [FILE ...]]
     relight train [--data DIR] [--out RUN] [--quick] [--stage S] [--seed N] [--install]
                   [--compare-students]
+    relight train --stage shadow_net --data DIR [--shadow-extra-data DIR ...]
+                  [--shadow-val-data DIR ...] [--shadow-degrade L,L] [--shadow-geometry G]
     relight data OUT --preset truth-train|heldout-kinds|heldout-env|shadow-extra|shadow-val
                  [--count N] [--size S] [--spp N] [--seed N]
     relight data OUT --protocol [--count N] [--size S] [--spp N] [--seed N]
@@ -59,6 +61,7 @@ from .commands import (
     cmd_view,
 )
 from .commands.scene import add_asset_arguments, cmd_scene, glue_up_values, model_help
+from .commands.train import add_shadow_net_arguments
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -180,6 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the training seed (default 0): network initialisation and batches")
     p.add_argument("--teacher-steps", type=_positive_int, metavar="N")
     p.add_argument("--shadow-steps", type=_positive_int, metavar="N")
+    add_shadow_net_arguments(p)  # --shadow-extra-data, -val-data, -degrade, -geometry
     p.add_argument("--student-steps", type=_positive_int, metavar="N")
     p.add_argument("--batch-pixels", type=_positive_int, metavar="N",
                    help="foreground pixels per step (teacher and student)")

@@ -27,6 +27,19 @@ A batch of ``batch`` images per step
 validation split only: the final weights' validation score (PSNR of the product, and of the
 unshadowed render, over the surfaces) goes into the file's ``training`` metadata with the
 command, the seed and the training data's hash.
+
+More data (issue 38): ``extra_data``, datasets whose train splits join the training images
+(``relight data --preset shadow-extra``: environments no val or test sample has);
+``degrade_levels``, the train splits of ``data`` and of every ``extra_data`` again at each of
+these G-buffer degradation levels (in (0, 1]; :func:`learned.protocol.degrade.degraded_dataset`,
+written once under ``ROOT/_degraded/<level>/train``, resumable), the degraded images joining the
+training set, so that the estimator sees the estimated G-buffers the protocol scores it on too
+(drawn from their stacks: ``geometry = "mesh"`` would draw the true G-buffer, and is refused);
+``val_data``, datasets whose val split is scored after training like ``data``'s own
+(``--preset shadow-val``: a second validation set for design choices), per dataset in the
+summary's and the metadata's ``val_data``. The metadata records the hashes of the extra and the
+degraded training data (``extra_data_hashes``; ``degraded_data_hashes``, dataset by dataset,
+level by level) and of every ``val_data`` set.
 """
 from __future__ import annotations
 
@@ -40,16 +53,19 @@ import torch
 
 from viewer.renderer import Renderer
 
-from ..data.reader import list_samples, load_sample
+from ..data.reader import DatasetError, list_samples, load_sample
 from ..data.scene import geometry_scene
 from ..evaluate import metrics
 from ..neural.shadow_net import ShadowNet, save_shadow_net
 from ..parity.checks.shadow_net import frame_inputs
 from ..protocol.data import dataset_hash
+from ..protocol.degrade import degraded_dataset
 from ..twins.shadow_net import shadow_net, shadow_net_apply
 from .runner import Run, _loop
 
 STAGE = "shadow_net"
+MESH_DEGRADED = ("degraded G-buffers are drawn from their image-space stacks: a sample's meshes "
+                 "draw the true one (geometry 'stack' with degrade_levels)")
 
 
 @dataclass
@@ -73,6 +89,11 @@ class ShadowNetTrainConfig:
     augment: float = 0.2  # > 0: exposure, tint (this log-normal sigma) and mirror (module doc)
     # the frames drawn from each sample's image-space stack or its meshes (learned.data.scene)
     geometry: str = "stack"
+    # the train splits of data and extra_data again at each of these degradation levels (in
+    # (0, 1]; learned.protocol.degrade, written once under ROOT/_degraded/<level>/train)
+    degrade_levels: tuple[float, ...] = ()
+    # more datasets whose val split is scored after training, as data's own (module doc)
+    val_data: tuple[str, ...] = ()
     log_every: int = 50
     checkpoint_every: int = 200
 
@@ -189,22 +210,35 @@ def scores(model: ShadowNet | None, images: list[ShadowNetImage]) -> dict:
 
 
 def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
-    """Train on ``cfg.data``'s train split, score on its val split, write
-    ``OUT/shadow_net.safetensors``; returns a summary."""
+    """Train on ``cfg.data``'s train split (with ``extra_data``'s and their degraded copies),
+    score on its val split and ``val_data``'s, write ``OUT/shadow_net.safetensors``; returns a
+    summary."""
+    bad = [lv for lv in cfg.degrade_levels if not 0.0 < float(lv) <= 1.0]
+    if bad:
+        raise ValueError(f"degrade_levels: {bad[0]!r} is not in (0, 1]")
+    if cfg.degrade_levels and cfg.geometry == "mesh":  # learned.data.scene refuses them
+        raise ValueError(MESH_DEGRADED)
+    for d in cfg.val_data:
+        if not (Path(d) / "val").is_dir():
+            raise DatasetError("no 'val' split folder to score (val_data)", where=d)
     run = Run(cfg, 0, quiet)
     run.log(f"config {json.dumps(asdict(cfg))}")
+    roots = (cfg.data, *cfg.extra_data)
+    degraded = tuple(str(degraded_dataset(r, lv, ("train",), progress=not quiet))
+                     for r in roots for lv in cfg.degrade_levels)
     renderer = Renderer()
+    images = lambda root, split: shadow_net_images(root, split, renderer, cfg.model, cfg.limit,
+                                                   cfg.geometry)
     try:
-        train = [img for root in (cfg.data, *cfg.extra_data)
-                 for img in shadow_net_images(root, "train", renderer, cfg.model, cfg.limit,
-                                              cfg.geometry)]
-        val = (shadow_net_images(cfg.data, "val", renderer, cfg.model, cfg.limit, cfg.geometry)
-               if (Path(cfg.data) / "val").is_dir() else [])
+        train = [img for root in (*roots, *degraded) for img in images(root, "train")]
+        val = images(cfg.data, "val") if (Path(cfg.data) / "val").is_dir() else []
+        more_val = {d: images(d, "val") for d in cfg.val_data}
     finally:
         renderer.release()
     if not train:
         raise ValueError(f"{cfg.data}: no training samples")
-    run.log(f"{len(train)} training images, {len(val)} validation images")
+    run.log(f"{len(train)} training images ({len(degraded)} degraded sets), {len(val)} "
+            f"validation images" + "".join(f", {len(v)} of {d}" for d, v in more_val.items()))
     torch.manual_seed(cfg.seed)
     model = ShadowNet(cfg.architecture)
     rng = np.random.default_rng([cfg.seed, 38])
@@ -220,10 +254,21 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
     val_scores = {"with": scores(model, val), "without": scores(None, val)} if val else {}
     for k, v in val_scores.items():
         run.log(f"val PSNR {k} the estimator: {v['psnr']:.2f} dB")
+    more_scores = {d: {"with": scores(model, v), "without": scores(None, v)}
+                   for d, v in more_val.items()}
+    for d, sc in more_scores.items():
+        run.log(f"{d} val PSNR with / without the estimator: {sc['with']['psnr']:.2f} / "
+                f"{sc['without']['psnr']:.2f} dB")
     training = {"command": " ".join(sys.argv), "seed": cfg.seed, "config": asdict(cfg),
                 "dataset_hash": dataset_hash(cfg.data, ("train",)), "steps": cfg.steps,
                 "extra_data_hashes": [dataset_hash(d, ("train",)) for d in cfg.extra_data],
+                "degrade_levels": list(cfg.degrade_levels),
+                "degraded_data_hashes": [dataset_hash(d, ("train",)) for d in degraded],
                 "final_loss": losses[-1] if losses else None,
-                "val_psnr": {k: v["psnr"] for k, v in val_scores.items()}}
+                "val_psnr": {k: v["psnr"] for k, v in val_scores.items()},
+                "val_data": {d: {"with": sc["with"]["psnr"], "without": sc["without"]["psnr"],
+                                 "dataset_hash": dataset_hash(d, ("val",))}
+                             for d, sc in more_scores.items()}}
     path = save_shadow_net(model, Path(cfg.out) / "shadow_net.safetensors", training)
-    return {"shadow_net": str(path), "losses": losses, "val": val_scores}
+    return {"shadow_net": str(path), "losses": losses, "val": val_scores,
+            "val_data": more_scores}

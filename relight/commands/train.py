@@ -21,6 +21,8 @@ TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixe
 def cmd_train(args) -> int:
     """Synthetic data (unless --data) -> teacher -> shadow estimator -> distilled student, or
     (--compare-students) the measured comparison of the candidate student designs."""
+    if args.stage != "shadow_net":
+        shadow_net_options(args)  # a --shadow-* option without the stage: one line naming it
     over = {k: getattr(args, k) for k in TRAIN_OVERRIDES if getattr(args, k) is not None}
     if "teacher_light_input" in over:  # --teacher-light-input on | off
         over["teacher_light_input"] = over["teacher_light_input"] == "on"
@@ -64,13 +66,79 @@ def _train_shadow_net(args) -> int:
     mod = _learned("learned.train.shadow_net")
     cfg = mod.ShadowNetTrainConfig(data=args.data, out=args.out,
                                    steps=args.shadow_steps or mod.ShadowNetTrainConfig.steps,
-                                   seed=args.seed or 0)
+                                   seed=args.seed or 0, **shadow_net_options(args))
+    if cfg.degrade_levels and cfg.geometry == "mesh":
+        raise RelightError(mod.MESH_DEGRADED, where="--shadow-degrade")
     res = mod.train_shadow_net(cfg, quiet=args.quiet)
     if not args.quiet:
         print(f"shadow_net: {res['shadow_net']}")
         for k, v in res["val"].items():
             print(f"val PSNR {k} the estimator: {v['psnr']:.2f} dB")
+        for d, sc in res.get("val_data", {}).items():
+            print(f"{d}: val PSNR with / without the estimator: {sc['with']['psnr']:.2f} / "
+                  f"{sc['without']['psnr']:.2f} dB")
     return 0
+
+
+# --shadow-* option -> the field of learned.train.shadow_net.ShadowNetTrainConfig it sets (an
+# omitted option keeps the field's default)
+SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val_data",
+                      "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry"}
+
+
+def add_shadow_net_arguments(p) -> None:
+    """The options of ``relight train --stage shadow_net`` (:data:`SHADOW_NET_OPTIONS`)."""
+    p.add_argument("--shadow-extra-data", nargs="+", metavar="DIR",
+                   help="--stage shadow_net: more datasets whose train splits join the training "
+                        "images (relight data OUT --preset shadow-extra)")
+    p.add_argument("--shadow-val-data", nargs="+", metavar="DIR",
+                   help="--stage shadow_net: more datasets whose val split is scored after "
+                        "training (relight data OUT --preset shadow-val)")
+    p.add_argument("--shadow-degrade", metavar="L,L",
+                   help="--stage shadow_net: the train splits again with their G-buffers "
+                        "degraded at these levels in (0, 1] (written once under "
+                        "DATA/_degraded/<level>)")
+    p.add_argument("--shadow-geometry", choices=("stack", "mesh"),
+                   help="--stage shadow_net: frames drawn from each sample's image-space stack "
+                        "or from its meshes")
+
+
+def shadow_net_options(args) -> dict:
+    """The given ``--shadow-*`` options as ShadowNetTrainConfig fields, checked: a one-line
+    :class:`RelightError` naming the option."""
+    out = {}
+    for opt, name in SHADOW_NET_OPTIONS.items():
+        value = getattr(args, opt, None)
+        if value is None:
+            continue
+        flag = "--" + opt.replace("_", "-")
+        if args.stage != "shadow_net":
+            raise RelightError(f"{flag} is an option of the shadow estimator's training: give "
+                               "--stage shadow_net", where=flag)
+        if opt == "shadow_degrade":
+            value = _levels(value, flag)
+        elif opt in ("shadow_extra_data", "shadow_val_data"):
+            split = "train" if opt == "shadow_extra_data" else "val"
+            for d in value:
+                if not (Path(d) / split).is_dir():
+                    raise RelightError(f"{d}: no {split!r} split folder (a dataset of relight "
+                                       "data)", where=flag)
+            value = tuple(value)
+        out[name] = value
+    return out
+
+
+def _levels(text: str, flag: str) -> tuple[float, ...]:
+    """``0.25,0.5`` -> (0.25, 0.5): distinct levels in (0, 1]."""
+    try:
+        levels = tuple(float(t) for t in text.split(","))
+    except ValueError:
+        raise RelightError(f"not comma-separated numbers: {text!r}", where=flag) from None
+    if not all(0.0 < lv <= 1.0 for lv in levels):
+        raise RelightError(f"levels must be in (0, 1], got {text!r}", where=flag)
+    if len(set(levels)) != len(levels):
+        raise RelightError(f"levels repeat: {text!r}", where=flag)
+    return levels
 
 
 def _truth_data(args) -> str:

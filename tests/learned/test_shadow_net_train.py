@@ -124,3 +124,79 @@ def test_extra_datasets_join_the_training_images(dataset, tmp_path, ctx, one_thr
     assert "4 training images" in (tmp_path / "run" / "train.log").read_text()
     net = read_shadow_net(res["shadow_net"])
     assert net.training["extra_data_hashes"] == [net.training["dataset_hash"]]
+
+
+def test_degraded_copies_and_more_val_sets(dataset, tmp_path, ctx, one_thread):
+    """``degrade_levels``: one level doubles the training images (the train split again with
+    degraded G-buffers: other inputs, the same targets), its hash and level in the metadata;
+    ``val_data``: another dataset's val split scored with and without the estimator, in the
+    summary and in the metadata under its name."""
+    import shutil
+
+    data = tmp_path / "d"  # a copy: the degraded data is written beside the shared fixture's
+    shutil.copytree(dataset, data)
+    cfg = ShadowNetTrainConfig(data=str(data), out=str(tmp_path / "run"), steps=2, batch=2,
+                               limit=2, degrade_levels=(0.5,), val_data=(str(dataset),))
+    res = train_shadow_net(cfg, quiet=True)
+    log = (tmp_path / "run" / "train.log").read_text()
+    assert "4 training images (1 degraded sets)" in log, log
+    assert (data / "_degraded" / "0.5" / "train").is_dir()
+    (sc,) = res["val_data"].values()
+    assert set(res["val_data"]) == {str(dataset)} and set(sc) == {"with", "without"}
+    # the same val split as data's own: the same scores
+    assert sc["without"]["psnr"] == pytest.approx(res["val"]["without"]["psnr"], abs=1e-9)
+    assert sc["with"]["psnr"] == pytest.approx(res["val"]["with"]["psnr"], abs=1e-6)
+    t = read_shadow_net(res["shadow_net"]).training
+    assert t["degrade_levels"] == [0.5] and len(t["degraded_data_hashes"]) == 1
+    assert t["degraded_data_hashes"][0] != t["dataset_hash"]
+    entry = t["val_data"][str(dataset)]
+    assert entry["with"] == pytest.approx(sc["with"]["psnr"]) and len(entry["dataset_hash"]) == 64
+    from viewer.renderer import Renderer
+
+    r = Renderer(ctx=ctx)
+    try:
+        plain = shadow_net_images(str(data), "train", r, limit=2)
+        worse = shadow_net_images(str(data / "_degraded" / "0.5"), "train", r, limit=2)
+    finally:
+        r.release()
+    for a, b in zip(plain, worse):
+        assert a.name == b.name and torch.equal(a.target, b.target)
+        assert not torch.equal(a.inputs, b.inputs)
+
+
+def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
+    """``relight train --stage shadow_net``'s --shadow-* options reach ShadowNetTrainConfig (an
+    omitted one keeps the field's default); a bad value is one line naming the option."""
+    import learned.train.shadow_net as mod
+    from relight.cli import main
+
+    seen = []
+    monkeypatch.setattr(mod, "train_shadow_net", lambda cfg, quiet=False: seen.append(cfg) or {
+        "shadow_net": "x", "val": {}, "val_data": {}})
+    base = ["train", "--stage", "shadow_net", "--data", str(dataset), "--out",
+            str(tmp_path / "run"), "-q"]
+    assert main(base + ["--shadow-extra-data", str(dataset), str(dataset), "--shadow-val-data",
+                        str(dataset), "--shadow-degrade", "0.25,1", "--shadow-geometry",
+                        "stack"]) == 0
+    assert main(base + ["--shadow-geometry", "mesh"]) == 0
+    assert main(base) == 0
+    given, mesh, default = seen
+    assert given.extra_data == (str(dataset),) * 2 and given.val_data == (str(dataset),)
+    assert given.degrade_levels == (0.25, 1.0) and given.geometry == "stack"
+    assert mesh.geometry == "mesh" and mesh.degrade_levels == ()
+    ref = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"))
+    assert default == ref
+    capsys.readouterr()
+    for flag, args in (("--shadow-degrade", ["--shadow-degrade", "0"]),
+                       ("--shadow-degrade", ["--shadow-degrade", "0.5,1.5"]),
+                       ("--shadow-degrade", ["--shadow-degrade", "half"]),
+                       ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)]),
+                       # a degraded sample's meshes draw the true G-buffer: refused
+                       ("--shadow-degrade", ["--shadow-degrade", "0.5", "--shadow-geometry",
+                                             "mesh"])):
+        assert main(base + args) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"relight: error: {flag}: ") and err.count("\n") == 1, err
+    argv = ["train", "--stage", "teacher", "--data", str(dataset), "--shadow-degrade", "0.5"]
+    assert main(argv) == 2
+    assert "--shadow-degrade" in capsys.readouterr().err and len(seen) == 3

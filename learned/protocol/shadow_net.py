@@ -35,10 +35,12 @@ import torch
 from torch.nn import functional as F
 
 from viewer.errors import RelightError
+from viewer.neural.shadow_net import read_shadow_net
 
+from ..data.reader import DatasetError
 from ..data.scene import GEOMETRIES
 from ..neural.shadow_net import load_shadow_net
-from ..train.shadow_net import shaded, shadow_net_images
+from ..train.shadow_net import frame_settings, shaded, shadow_net_images
 from ..train.stages import load_images
 from .classical import Classical, variants
 from .data import dataset_hash
@@ -107,34 +109,51 @@ def oracle_scores(est_images, prot_images) -> dict:
     return out
 
 
+def weights_frame(weights: list[str]) -> dict:
+    """The frame every file of ``weights`` multiplies (:func:`learned.train.shadow_net.
+    frame_settings`); a one-line :class:`~learned.data.reader.DatasetError` naming the first
+    file that disagrees with the others (their products are scored on one set of frames)."""
+    frames = [(w, frame_settings(read_shadow_net(w).training)) for w in weights]
+    for w, f in frames[1:]:
+        if f != frames[0][1]:
+            raise DatasetError(f"trained on other frames ({f}) than {frames[0][0]} "
+                               f"({frames[0][1]}): score them apart", where=w)
+    return frames[0][1] if frames else frame_settings({})
+
+
 def evaluate(data: str, split: str, weights: list[str], classical: dict | None = None,
-             oracle: bool = False, geometry: str = "stack") -> dict:
+             oracle: bool = False, geometry: str = "stack", indirect: bool | None = None
+             ) -> dict:
     """Scores of ``split``: every classical variant (``classical``: the one chosen on val, as
     :func:`dataclasses.asdict` of :class:`Classical`; None: all of them, the best chosen here -
     on val only), the unshadowed frame and the estimators, and the paired difference of the
     estimators to the chosen classical variant; every frame drawn from ``geometry`` (module
-    doc)."""
+    doc), the estimators' with the indirect light if they were trained on such frames
+    (:func:`weights_frame`; ``indirect`` overrides it, e.g. for ``oracle``)."""
     from viewer.renderer import Renderer
 
+    if indirect is None:
+        indirect = bool(weights_frame(weights)["indirect"])
     renderer = Renderer()
     try:
         prot = load_images(data, split, renderer, sun=True, multiscatter=True, geometry=geometry)
-        est = shadow_net_images(data, split, renderer, geometry=geometry)
+        est = shadow_net_images(data, split, renderer, geometry=geometry,
+                                indirect=indirect)
     finally:
         renderer.release()
     pool = [Classical(**classical)] if classical else variants()
     found = [(m, classical_scores(m, prot)) for m in pool]
     best, best_scores = max(found, key=lambda f: float(np.mean(f[1])))
     if oracle:
-        return {"split": split, "geometry": geometry, "samples": len(prot),
-                "classical_name": best.name,
+        return {"split": split, "geometry": geometry, "indirect": indirect,
+                "samples": len(prot), "classical_name": best.name,
                 "classical_psnr": float(np.mean(best_scores)),
                 "oracle": {k: {"psnr": float(np.mean(v)),
                                "vs_classical": paired_bootstrap(np.array(v) - best_scores)}
                            for k, v in oracle_scores(est, prot).items()}}
     s = estimator_scores(weights, est, prot)
     diff = np.array(s["estimators"]) - np.array(best_scores)[None]
-    return {"split": split, "geometry": geometry, "samples": len(prot),
+    return {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
             "classical": asdict(best),
             "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
             "frame_psnr": float(np.mean(s["frame"])),
@@ -154,6 +173,9 @@ def main(argv=None) -> int:
                    help="the bound of the product form instead of weights (val only)")
     p.add_argument("--geometry", choices=GEOMETRIES, default="stack",
                    help="draw the frames from the image-space stacks or the samples' meshes")
+    p.add_argument("--indirect", action="store_true",
+                   help="with --oracle: frames with the indirect light (weights: their own "
+                        "training frames, from their metadata)")
     a = p.parse_args(argv)
     if a.oracle and a.split != "val":
         p.error("--oracle reads the validation split only")
@@ -163,7 +185,8 @@ def main(argv=None) -> int:
         p.error("--split test scores the classical variant chosen on val: give --classical")
     try:
         r = evaluate(a.data, a.split, a.weights,
-                     json.loads(a.classical) if a.classical else None, a.oracle, a.geometry)
+                     json.loads(a.classical) if a.classical else None, a.oracle, a.geometry,
+                     True if a.indirect else None)
     except RelightError as exc:  # e.g. a sample without the meshes --geometry mesh draws
         print(f"{p.prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code

@@ -89,6 +89,10 @@ class ShadowNetTrainConfig:
     augment: float = 0.2  # > 0: exposure, tint (this log-normal sigma) and mirror (module doc)
     # the frames drawn from each sample's image-space stack or its meshes (learned.data.scene)
     geometry: str = "stack"
+    # the frame the estimator multiplies has the screen-space one-bounce indirect light (module
+    # doc); recorded in the weights' training metadata ("frame"), read by the protocol's scoring
+    # and checked by the viewer (viewer.graph.shadow_net)
+    indirect: bool = False
     # the train splits of data and extra_data again at each of these degradation levels (in
     # (0, 1]; learned.protocol.degrade, written once under ROOT/_degraded/<level>/train)
     degrade_levels: tuple[float, ...] = ()
@@ -110,20 +114,30 @@ class ShadowNetImage:
 
 
 def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_sum",
-                      limit: int | None = None, geometry: str = "stack") -> list[ShadowNetImage]:
+                      limit: int | None = None, geometry: str = "stack",
+                      indirect: bool = False) -> list[ShadowNetImage]:
     """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator),
-    from its image-space stack or (``geometry = "mesh"``) from the meshes it was generated from
-    (:func:`learned.data.scene.geometry_scene`)."""
+    with the screen-space one-bounce indirect light if ``indirect`` (the frame the estimator
+    multiplies: :func:`frame_settings`), from its image-space stack or (``geometry = "mesh"``)
+    from the meshes it was generated from (:func:`learned.data.scene.geometry_scene`)."""
     out = []
     for folder in list_samples(root, split)[:limit]:
         sample = load_sample(folder)
-        scene = geometry_scene(sample, geometry, model=model, ssao=True)
+        scene = geometry_scene(sample, geometry, model=model, ssao=True, indirect=indirect)
         targets = renderer.draw(scene)
         radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
         target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order
         out.append(ShadowNetImage(sample.name, radiance, inputs, surface,
                                   target.permute(2, 0, 1)[None].float()))
     return out
+
+
+def frame_settings(training: dict) -> dict:
+    """The frame a weights file's estimator was trained to multiply, from its ``training``
+    metadata: ``{"model", "ssao", "indirect", "geometry"}`` (files written before the record:
+    split-sum with SSAO, no indirect light, stacks)."""
+    frame = {"model": "ggx_split_sum", "ssao": True, "indirect": False, "geometry": "stack"}
+    return frame | dict(training.get("frame") or {})
 
 
 def shaded(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
@@ -228,7 +242,7 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
                      for r in roots for lv in cfg.degrade_levels)
     renderer = Renderer()
     images = lambda root, split: shadow_net_images(root, split, renderer, cfg.model, cfg.limit,
-                                                   cfg.geometry)
+                                                   cfg.geometry, cfg.indirect)
     try:
         train = [img for root in (*roots, *degraded) for img in images(root, "train")]
         val = images(cfg.data, "val") if (Path(cfg.data) / "val").is_dir() else []
@@ -260,6 +274,8 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
         run.log(f"{d} val PSNR with / without the estimator: {sc['with']['psnr']:.2f} / "
                 f"{sc['without']['psnr']:.2f} dB")
     training = {"command": " ".join(sys.argv), "seed": cfg.seed, "config": asdict(cfg),
+                "frame": {"model": cfg.model, "ssao": True, "indirect": bool(cfg.indirect),
+                          "geometry": cfg.geometry},
                 "dataset_hash": dataset_hash(cfg.data, ("train",)), "steps": cfg.steps,
                 "extra_data_hashes": [dataset_hash(d, ("train",)) for d in cfg.extra_data],
                 "degrade_levels": list(cfg.degrade_levels),

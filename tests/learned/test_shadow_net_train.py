@@ -200,3 +200,50 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
     argv = ["train", "--stage", "teacher", "--data", str(dataset), "--shadow-degrade", "0.5"]
     assert main(argv) == 2
     assert "--shadow-degrade" in capsys.readouterr().err and len(seen) == 3
+
+
+def test_the_frame_it_multiplies_is_recorded_scored_and_checked(dataset, tmp_path, ctx,
+                                                                one_thread):
+    """``indirect``: the frames carry the one-bounce indirect light (more light, never less, on
+    the surfaces); the weights record it (``frame``), the protocol draws their frames from it and
+    refuses files trained on different frames, and the viewer warns when a scene's frame is not
+    the one the file was trained on."""
+    import warnings
+    from types import SimpleNamespace
+
+    from learned.data.reader import DatasetError
+    from learned.protocol.shadow_net import weights_frame
+    from learned.train.shadow_net import frame_settings
+    from viewer.graph.shadow_net import check_frame
+    from viewer.renderer import Renderer
+    from viewer.scene.settings import RenderSettings
+
+    r = Renderer(ctx=ctx)
+    try:
+        plain = shadow_net_images(str(dataset), "train", r, limit=2)
+        lit = shadow_net_images(str(dataset), "train", r, limit=2, indirect=True)
+    finally:
+        r.release()
+    for a, b in zip(plain, lit):
+        m = a.surface.expand(-1, 3, -1, -1)
+        extra = (b.radiance[:, :3] - a.radiance[:, :3])[m]
+        # the indirect light only adds (float32 rounding: 1e-5 of the radiance)
+        assert extra.min() > -1e-5 * float(a.radiance[:, :3].abs().max()) and extra.sum() > 0
+    files = {}
+    for ind in (False, True):
+        cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / f"r{ind}"), steps=2,
+                                   batch=2, limit=2, indirect=ind)
+        files[ind] = train_shadow_net(cfg, quiet=True)["shadow_net"]
+        assert frame_settings(read_shadow_net(files[ind]).training)["indirect"] is ind
+    assert frame_settings({})["indirect"] is False  # files written before the record
+    assert weights_frame([files[True]])["indirect"] is True
+    with pytest.raises(DatasetError) as info:
+        weights_frame([files[True], files[False]])
+    assert "\n" not in str(info.value) and files[False] in str(info.value)
+    net = SimpleNamespace(path=files[True], training=read_shadow_net(files[True]).training)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_frame(net, RenderSettings().with_flat(ssao=True, indirect=True))
+        assert not caught
+        check_frame(net, RenderSettings().with_flat(ssao=True, indirect=False))
+    assert len(caught) == 1 and "set indirect = true" in str(caught[0].message)

@@ -17,6 +17,8 @@ otherwise. ``[render] shadow_net_use`` says where the visibility V goes:
   takes the mean of V's colours for both, as they are one number each)."""
 from __future__ import annotations
 
+import warnings
+
 from ..errors import SceneError
 from ..neural.format import WeightsError
 from ..neural.shadow_net import SOURCE_FRAME, load_shadow_net
@@ -43,6 +45,19 @@ def visibility_route(settings) -> bool:
     return True
 
 
+def check_frame(net, settings) -> None:
+    """Warn (one line naming the file) when the frame is not the one the estimator was trained
+    to multiply: its ``training`` metadata's ``frame.indirect`` (``learned.train.shadow_net.
+    frame_settings``; files without the record: no indirect light) against ``[render]
+    indirect``. V then corrects light the frame has not got (or lacks the light it has)."""
+    trained = bool((net.training.get("frame") or {}).get("indirect", False))
+    if trained != bool(settings.ssao.indirect):
+        warnings.warn(f"{net.path}: the shadow estimator was trained on frames "
+                      f"{'with' if trained else 'without'} the indirect light and this frame has "
+                      f"indirect = {str(bool(settings.ssao.indirect)).lower()}: set indirect = "
+                      f"{str(trained).lower()} for the image it was scored on", stacklevel=2)
+
+
 def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: str | None,
                       radiance: str = "radiance", visibility: str | None = None) -> None:
     """Declare the estimator when ``scene.render.neural.shadow_net`` names a file: its layers
@@ -54,6 +69,7 @@ def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: s
     if path is None:
         return
     net = load_shadow_net(path)
+    check_frame(net, scene.render)
     if occlusion is None:
         raise WeightsError("the shadow estimator reads SSAO's occlusion, and this frame has no "
                            "SSAO pass (ray-traced light, on by default, replaces it): set "

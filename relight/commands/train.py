@@ -67,7 +67,7 @@ def _train_shadow_net(args) -> int:
     cfg = mod.ShadowNetTrainConfig(data=args.data, out=args.out,
                                    steps=args.shadow_steps or mod.ShadowNetTrainConfig.steps,
                                    seed=args.seed or 0, **shadow_net_options(args))
-    if cfg.degrade_levels and cfg.geometry == "mesh":
+    if mod.levels(cfg) and cfg.geometry == "mesh":
         raise RelightError(mod.MESH_DEGRADED, where="--shadow-degrade")
     res = mod.train_shadow_net(cfg, quiet=args.quiet)
     if not args.quiet:
@@ -95,9 +95,10 @@ def add_shadow_net_arguments(p) -> None:
                    help="--stage shadow_net: more datasets whose val split is scored after "
                         "training (relight data OUT --preset shadow-val)")
     p.add_argument("--shadow-degrade", metavar="L,L",
-                   help="--stage shadow_net: the train splits again with their G-buffers "
+                   help="--stage shadow_net: DATA's train split again with its G-buffers "
                         "degraded at these levels in (0, 1] (written once under "
-                        "DATA/_degraded/<level>)")
+                        "DATA/_degraded/<level>; default 0.25,0.75 for stacks, none for "
+                        "meshes; 'none': no degraded copies)")
     p.add_argument("--shadow-geometry", choices=("stack", "mesh"),
                    help="--stage shadow_net: frames drawn from each sample's image-space stack "
                         "or from its meshes")
@@ -129,7 +130,10 @@ def shadow_net_options(args) -> dict:
 
 
 def _levels(text: str, flag: str) -> tuple[float, ...]:
-    """``0.25,0.5`` -> (0.25, 0.5): distinct levels in (0, 1]."""
+    """``0.25,0.5`` -> (0.25, 0.5): distinct levels in (0, 1]; ``none`` -> () (no degraded
+    copies)."""
+    if text.strip().lower() == "none":
+        return ()
     try:
         levels = tuple(float(t) for t in text.split(","))
     except ValueError:

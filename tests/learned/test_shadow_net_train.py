@@ -34,12 +34,13 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
     from viewer.renderer import Renderer
 
     cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=30, batch=3,
-                               lr=1e-3, log_every=10, checkpoint_every=10, limit=4)
+                               lr=1e-3, log_every=10, checkpoint_every=10, limit=4,
+                               degrade_levels=())  # (none written beside the shared fixture)
     res = train_shadow_net(cfg, quiet=True)
     losses = res["losses"]
     r = Renderer(ctx=ctx)
     try:
-        images = shadow_net_images(str(dataset), "train", r, limit=4)
+        images = shadow_net_images(str(dataset), "train", r, limit=4, indirect=cfg.indirect)
     finally:
         r.release()
     torch.manual_seed(cfg.seed)
@@ -119,7 +120,7 @@ def test_extra_datasets_join_the_training_images(dataset, tmp_path, ctx, one_thr
     """``extra_data``: another dataset's train split trains too (here the same one again: twice
     the images), and its hash goes into the weights' metadata."""
     cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=2, batch=2,
-                               limit=2, extra_data=(str(dataset),))
+                               limit=2, extra_data=(str(dataset),), degrade_levels=())
     res = train_shadow_net(cfg, quiet=True)
     assert "4 training images" in (tmp_path / "run" / "train.log").read_text()
     net = read_shadow_net(res["shadow_net"])
@@ -183,7 +184,9 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
     given, mesh, default = seen
     assert given.extra_data == (str(dataset),) * 2 and given.val_data == (str(dataset),)
     assert given.degrade_levels == (0.25, 1.0) and given.geometry == "stack"
-    assert mesh.geometry == "mesh" and mesh.degrade_levels == ()
+    assert mesh.geometry == "mesh" and mod.levels(mesh) == ()
+    assert mod.levels(default) == mod.DEFAULT_DEGRADE_LEVELS  # stacks: degraded copies
+    assert main(base + ["--shadow-degrade", "none"]) == 0 and seen.pop().degrade_levels == ()
     ref = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"))
     assert default == ref
     capsys.readouterr()
@@ -232,7 +235,7 @@ def test_the_frame_it_multiplies_is_recorded_scored_and_checked(dataset, tmp_pat
     files = {}
     for ind in (False, True):
         cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / f"r{ind}"), steps=2,
-                                   batch=2, limit=2, indirect=ind)
+                                   batch=2, limit=2, indirect=ind, degrade_levels=())
         files[ind] = train_shadow_net(cfg, quiet=True)["shadow_net"]
         assert frame_settings(read_shadow_net(files[ind]).training)["indirect"] is ind
     assert frame_settings({})["indirect"] is False  # files written before the record

@@ -6,6 +6,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from assets import ASSET_ROOT
+
+# the neural shadow estimator trained on mesh frames (assets/weights/shadow_net_mesh.json)
+SHADOW_NET_MESH = ASSET_ROOT / "weights" / "shadow_net_mesh.safetensors"
 ERROR_MAX = 0.5  # relative error at the top of the error colour map
 DEFAULT_OUT = "assets/docs/gallery"
 DEFAULT_CACHE = "out/gallery-cache"
@@ -26,6 +30,11 @@ CASES: tuple[Case, ...] = (
     Case("ggx_split_sum", {"model": "ggx_split_sum"}, hero=True),
     Case("ggx_split_sum + SSAO + indirect",
          {"model": "ggx_split_sum", "ssao": True, "indirect": True}),
+    Case("ggx_split_sum + SSAO + indirect, no rays",
+         {"model": "ggx_split_sum", "ssao": True, "indirect": True, "raytrace": False}),
+    Case("ggx_split_sum + SSAO + indirect + shadow estimator",
+         {"model": "ggx_split_sum", "ssao": True, "indirect": True, "raytrace": False,
+          "shadow_net": str(SHADOW_NET_MESH)}),
     Case("ggx_mc 256 spp", {"model": "ggx_mc", "samples": 256}, hero=True),
     Case("neural", {"model": "neural"}, hero=True),
     Case("neural_teacher 128 spp", {"model": "neural_teacher", "samples": 128}),

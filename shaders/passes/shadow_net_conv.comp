@@ -29,6 +29,7 @@ uniform ivec2 u_out_size;  // the output's level size
 uniform ivec2 u_frame_size;
 uniform sampler2D u_radiance;  // the unshadowed radiance (SN_OUTPUT 0 with a frame source)
 uniform sampler2D u_ssao;      // r: O(x), g: S(x) (SSAO_ENV_VIS)
+uniform mat3 u_view_rotation;  // world -> view: the estimator reads view-space normals
 layout(rgba32f) uniform image2D u_out;
 
 #define SN_IN_SLICES (SN_A_SLICES + SN_B_SLICES)
@@ -50,7 +51,7 @@ vec4 frame_input(ivec2 q, int s) {
         return shadow_net_input_c(texelFetch(u_ssao, q, 0).g);
     }
     GBuffer g = gbuffer_load(q);
-    return shadow_net_input_b(g.normal, g.depth);
+    return shadow_net_input_b(u_view_rotation * g.normal, g.depth);
 }
 
 vec4 source(sampler2D map, ivec2 size, int kind, ivec2 q, int s) {

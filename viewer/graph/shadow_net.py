@@ -76,6 +76,7 @@ def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: s
                            "raytrace = false (--set raytrace=false)",
                            where=path)
     size = tuple(int(s) for s in camera.size)
+    rotation = camera.view_matrix()[:3, :3]  # the estimator reads view-space normals
     maps = {name: g.create(f"shadow_net/{name}", TextureDesc(tiled, 4, "f4"))
             for name, tiled in map_sizes(net, size).items()}
     if visibility is not None:
@@ -91,7 +92,8 @@ def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: s
         def run(f, only=(layer.name,), used=used, last=last):
             spass.run(net, f["gbuffer"].textures, f[radiance].texture, f[occlusion].texture,
                       {name: f[maps[name]].texture for name in used}, size, only=only,
-                      visibility=f[visibility].texture if last and visibility else None)
+                      visibility=f[visibility].texture if last and visibility else None,
+                      view_rotation=rotation)
         out = (visibility or radiance) if last else maps[layer.name]
         name = (f"shadow_net:{layer.name}" if not last else
                 "shadow_net" if visibility is None else "shadow_net:visibility")

@@ -83,12 +83,17 @@ class ShadowNetPass:
 
     def run(self, net: ShadowNetFile, gbuffer_textures: dict, radiance, ssao,
             maps: dict, frame_size: tuple[int, int], visibility=None,
-            only: tuple[str, ...] | None = None) -> None:
+            only: tuple[str, ...] | None = None, view_rotation=None) -> None:
         """Every layer of ``net`` (``only``: just those, reading the maps the others left):
         ``maps`` holds a texture of :func:`map_sizes` per layer; ``radiance`` (RGBA32F, frame
         size) is read by the first layer and multiplied by the visibility in place by the last,
         unless ``visibility`` (an RGBA32F texture of the frame's size) is given, which then
-        receives the visibility instead (1 on the background is not applied: the raw map)."""
+        receives the visibility instead (1 on the background is not applied: the raw map).
+        ``view_rotation``: the camera's world -> view 3 x 3 rotation (None: the identity), which
+        turns the G-buffer's world-space normals into the view-space normals the estimator
+        reads (its training cameras look down -Z from the origin: view = world there)."""
+        rotation = np.eye(3) if view_rotation is None else np.asarray(view_rotation)[:3, :3]
+        rotation = np.ascontiguousarray(rotation.T, dtype="f4").tobytes()  # column-major
         uploaded = self._weights.get(net.checkpoint)
         if uploaded is None:
             uploaded = _Uploaded(self.ctx, net)
@@ -101,6 +106,7 @@ class ShadowNetPass:
             prog = self.program(layer, visibility is not None)
             out = (visibility if visibility is not None else radiance) if last \
                 else maps[layer.name]
+            _set(prog, "u_view_rotation", rotation)
             self._dispatch(prog, layer, uploaded.buffers[layer.name], gbuffer_textures,
                            radiance, ssao, maps, frame_size, out, write_radiance=last and
                            visibility is None)

@@ -73,7 +73,7 @@ def untile(arr: np.ndarray, channels: int) -> torch.Tensor:
 def frame_inputs(renderer, scene, targets) -> tuple[torch.Tensor, ...]:
     """What the estimator reads in the frame ``targets`` that ``renderer`` drew for ``scene``
     without it (drawn with SSAO), in GL row order: ``radiance [1, 4, H, W]`` (unshadowed),
-    ``inputs [1, 9, H, W]``, ``surface [1, 1, H, W]`` and ``ssao [H, W, 4]`` (r: the frame's
+    ``inputs [1, 9, H, W]`` (the normals in view space, as the pass reads them), ``surface [1, 1, H, W]`` and ``ssao [H, W, 4]`` (r: the frame's
     O(x); g: S(x), which the frame's SSAO pass writes only when something reads it: here from
     :meth:`viewer.renderer.Renderer.environment_visibility`, the same pass on the same G-buffer,
     whose g the blur passes through unchanged)."""
@@ -86,7 +86,10 @@ def frame_inputs(renderer, scene, targets) -> tuple[torch.Tensor, ...]:
     ssao = gl_texture(targets.ssao)
     ssao[..., 1] = gl_texture(renderer.environment_visibility(scene, targets))[..., 1]
     occ = chw(torch.from_numpy(ssao))
-    inputs = shadow_net_inputs(radiance, occ[:, :1], chw(gb["normal"]), chw(gb["depth"]),
+    # the pass reads view-space normals (u_view_rotation): the G-buffer's world normals rotated
+    rot = torch.from_numpy(np.asarray(targets.camera.view_matrix()[:3, :3], np.float32))
+    normal = torch.einsum("ij,hwj->hwi", rot, torch.as_tensor(gb["normal"]))
+    inputs = shadow_net_inputs(radiance, occ[:, :1], chw(normal), chw(gb["depth"]),
                                occ[:, 1:2])
     surface = (gb["alpha"][..., 0] > 0.0) & (gb["depth"][..., 0] > 0.0)
     return radiance, inputs, surface[None, None], ssao
@@ -103,7 +106,7 @@ def run_gl_layers(programs, net, targets, ssao: np.ndarray) -> tuple[dict, np.nd
     occ = ctx.texture(SIZE, 4, np.ascontiguousarray(ssao, np.float32).tobytes(), dtype="f4")
     try:
         spass.run(net, targets.gbuffer.textures, targets.radiance, occ, maps, SIZE,
-                  visibility=vis)
+                  visibility=vis, view_rotation=targets.camera.view_matrix())
         out = {layer.name: untile(gl_texture(maps[layer.name]), layer.out_channels)
                for layer in net.layers[:-1]}
         return out, gl_texture(vis)

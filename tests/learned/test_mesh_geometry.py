@@ -132,3 +132,32 @@ def test_the_protocol_scores_the_mesh_frames(data, tmp_path, capsys):
     assert sn.main([str(broken), "--split", "val", "--oracle", "--geometry", "mesh"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(meta_path) in err and "'gone'" in err
+
+
+def test_the_shadow_trade_scores_every_option_against_the_targets(data, renderer, tmp_path):
+    """``relight.bench.shadow_trade``: on meshes every visibility option, the rays included, is
+    scored per sample against the targets (SSAO's own difference is 0; the estimator, here seeded
+    random weights, and the rays change the image); on stacks the rays are not offered (no
+    triangles); the cost rows time each option's frame against SSAO's in one run; the command
+    writes its table."""
+    from learned.parity.checks.shadow_net import parity_weights
+    from relight.bench.run import BenchConfig
+    from relight.bench.scenes import demo_scene
+    from relight.bench.shadow_trade import OPTIONS, accuracy, cost, main, trade_rows
+
+    weights = str(parity_weights(tmp_path))
+    mesh = accuracy(str(data), "val", weights, "mesh", renderer)
+    assert list(mesh) == list(OPTIONS) and all(len(v) == len(KINDS) for v in mesh.values())
+    assert all(np.isfinite(v).all() for v in mesh.values())
+    assert mesh["SSAO x shadow estimator"] != mesh["SSAO"]
+    assert mesh["ray-traced tier"] != mesh["SSAO"]
+    stack = accuracy(str(data), "val", weights, "stack", renderer)
+    assert "ray-traced tier" not in stack and len(stack) == len(OPTIONS) - 1
+    costs = cost(renderer, demo_scene(), weights, BenchConfig(frames=3, warmup=0), size=(32, 32))
+    rows = trade_rows(mesh, costs)
+    assert rows[0]["option"] == "SSAO" and rows[0]["vs_ssao"] == 0.0
+    assert all(r["ratio_frame"] > 0 and r["samples"] == len(KINDS) for r in rows)
+    out = tmp_path / "trade"
+    assert main([str(data), weights, "--geometry", "mesh", "--no-cost", "--out", str(out)]) == 0
+    table = (out / "shadow_trade.md").read_text()
+    assert all(f"| {name} |" in table for name in OPTIONS)

@@ -35,12 +35,12 @@ import torch
 from torch.nn import functional as F
 
 from viewer.errors import RelightError
-from viewer.neural.shadow_net import read_shadow_net
+from viewer.neural.shadow_net import frame_settings, read_shadow_net
 
 from ..data.reader import DatasetError
 from ..data.scene import GEOMETRIES
 from ..neural.shadow_net import load_shadow_net
-from ..train.shadow_net import frame_settings, shaded, shadow_net_images
+from ..train.shadow_net import shaded, shadow_net_images
 from ..train.stages import load_images
 from .classical import Classical, variants
 from .data import dataset_hash
@@ -110,7 +110,7 @@ def oracle_scores(est_images, prot_images) -> dict:
 
 
 def weights_frame(weights: list[str]) -> dict:
-    """The frame every file of ``weights`` multiplies (:func:`learned.train.shadow_net.
+    """The frame every file of ``weights`` multiplies (:func:`viewer.neural.shadow_net.
     frame_settings`); a one-line :class:`~learned.data.reader.DatasetError` naming the first
     file that disagrees with the others (their products are scored on one set of frames)."""
     frames = [(w, frame_settings(read_shadow_net(w).training)) for w in weights]

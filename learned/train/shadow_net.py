@@ -123,7 +123,7 @@ def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_s
                       indirect: bool = False) -> list[ShadowNetImage]:
     """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator),
     with the screen-space one-bounce indirect light if ``indirect`` (the frame the estimator
-    multiplies: :func:`frame_settings`), from its image-space stack or (``geometry = "mesh"``)
+    multiplies: :func:`viewer.neural.shadow_net.frame_settings`), from its image-space stack or (``geometry = "mesh"``)
     from the meshes it was generated from (:func:`learned.data.scene.geometry_scene`)."""
     out = []
     for folder in list_samples(root, split)[:limit]:
@@ -135,14 +135,6 @@ def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_s
         out.append(ShadowNetImage(sample.name, radiance, inputs, surface,
                                   target.permute(2, 0, 1)[None].float()))
     return out
-
-
-def frame_settings(training: dict) -> dict:
-    """The frame a weights file's estimator was trained to multiply, from its ``training``
-    metadata: ``{"model", "ssao", "indirect", "geometry"}`` (files written before the record:
-    split-sum with SSAO, no indirect light, stacks)."""
-    frame = {"model": "ggx_split_sum", "ssao": True, "indirect": False, "geometry": "stack"}
-    return frame | dict(training.get("frame") or {})
 
 
 def shaded(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:

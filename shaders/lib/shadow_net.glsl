@@ -10,8 +10,8 @@ vec4 shadow_net_input_a(vec3 radiance, float ao) {
     return vec4(log(vec3(1.0) + max(radiance, vec3(0.0))), ao);
 }
 
-// The other four: the view-space normal (the pass rotates the G-buffer's) and the view depth as 1 / (1 + z), 0 on the
-// background (z = 0).
+// The other four: the view-space normal (the pass rotates the G-buffer's) and the view depth
+// as 1 / (1 + z), 0 on the background (z = 0).
 vec4 shadow_net_input_b(vec3 normal, float depth) {
     return vec4(normal, depth > 0.0 ? 1.0 / (1.0 + depth) : 0.0);
 }

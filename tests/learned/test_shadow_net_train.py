@@ -216,7 +216,7 @@ def test_the_frame_it_multiplies_is_recorded_scored_and_checked(dataset, tmp_pat
 
     from learned.data.reader import DatasetError
     from learned.protocol.shadow_net import weights_frame
-    from learned.train.shadow_net import frame_settings
+    from viewer.neural.shadow_net import frame_settings
     from viewer.graph.shadow_net import check_frame
     from viewer.renderer import Renderer
     from viewer.scene.settings import RenderSettings

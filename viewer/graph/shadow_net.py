@@ -21,7 +21,7 @@ import warnings
 
 from ..errors import SceneError
 from ..neural.format import WeightsError
-from ..neural.shadow_net import SOURCE_FRAME, load_shadow_net
+from ..neural.shadow_net import SOURCE_FRAME, frame_settings, load_shadow_net
 from ..passes.shadow_net import map_sizes
 from .graph import FrameGraph
 from .resources import TextureDesc
@@ -47,10 +47,9 @@ def visibility_route(settings) -> bool:
 
 def check_frame(net, settings) -> None:
     """Warn (one line naming the file) when the frame is not the one the estimator was trained
-    to multiply: its ``training`` metadata's ``frame.indirect`` (``learned.train.shadow_net.
-    frame_settings``; files without the record: no indirect light) against ``[render]
-    indirect``. V then corrects light the frame has not got (or lacks the light it has)."""
-    trained = bool((net.training.get("frame") or {}).get("indirect", False))
+    to multiply (:func:`viewer.neural.shadow_net.frame_settings`; files without the record: no
+    indirect light) against ``[render] indirect``. V then corrects light the frame has not got (or lacks the light it has)."""
+    trained = bool(frame_settings(net.training)["indirect"])
     if trained != bool(settings.ssao.indirect):
         warnings.warn(f"{net.path}: the shadow estimator was trained on frames "
                       f"{'with' if trained else 'without'} the indirect light and this frame has "

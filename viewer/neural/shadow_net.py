@@ -231,6 +231,15 @@ def metadata(arch: dict, tensors: dict, training: dict | None = None) -> dict[st
             "checkpoint": checkpoint_hash(tensors), "training": json.dumps(training or {})}
 
 
+def frame_settings(training: dict) -> dict:
+    """The frame a weights file's estimator was trained to multiply, from its ``training``
+    metadata: ``{"model", "ssao", "indirect", "geometry"}`` (files written before the record:
+    split-sum with SSAO, no indirect light, stacks). Read by the viewer's check
+    (:func:`viewer.graph.shadow_net.check_frame`) and the protocol's scoring."""
+    frame = {"model": "ggx_split_sum", "ssao": True, "indirect": False, "geometry": "stack"}
+    return frame | dict(training.get("frame") or {})
+
+
 def read_shadow_net(path: str | os.PathLike) -> ShadowNetFile:
     """Read and validate the estimator's weights file ``path``; every problem is a one-line
     :class:`WeightsError` naming the file."""

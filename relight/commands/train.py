@@ -83,7 +83,8 @@ def _train_shadow_net(args) -> int:
 # --shadow-* option -> the field of learned.train.shadow_net.ShadowNetTrainConfig it sets (an
 # omitted option keeps the field's default)
 SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val_data",
-                      "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry"}
+                      "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry",
+                      "shadow_energy": "energy_weight", "shadow_linear": "linear_weight"}
 
 
 def add_shadow_net_arguments(p) -> None:
@@ -102,6 +103,12 @@ def add_shadow_net_arguments(p) -> None:
     p.add_argument("--shadow-geometry", choices=("stack", "mesh"),
                    help="--stage shadow_net: frames drawn from each sample's image-space stack "
                         "or from its meshes")
+    p.add_argument("--shadow-energy", type=float, metavar="W",
+                   help="--stage shadow_net: weight of the loss term that keeps each image's "
+                        "energy and its highlights' (default 1; 0: off, the release before)")
+    p.add_argument("--shadow-linear", type=float, metavar="W",
+                   help="--stage shadow_net: weight of the loss term on the linear image's "
+                        "relative error (default 0: off)")
 
 
 def shadow_net_options(args) -> dict:
@@ -125,6 +132,8 @@ def shadow_net_options(args) -> dict:
                     raise RelightError(f"{d}: no {split!r} split folder (a dataset of relight "
                                        "data)", where=flag)
             value = tuple(value)
+        elif opt in ("shadow_energy", "shadow_linear") and not 0.0 <= value < float("inf"):
+            raise RelightError(f"a loss weight must be finite and >= 0, got {value}", where=flag)
         out[name] = value
     return out
 

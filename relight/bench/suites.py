@@ -171,7 +171,7 @@ def _suite_real_assets(renderer, scenes, config, cache) -> list[dict]:
     """Issue 38's real-asset criterion: every bundled glTF on a floor under every bundled HDRI,
     the student and split-sum with the same visibility against path-traced truth, with a verdict
     per row (:mod:`relight.bench.real_assets`; ``--quick``: one scene). Traces its truth once
-    (about 10 minutes on two cores), then reads it from the cache."""
+    (5.5 minutes for the whole run on two shared cores), then reads it from the cache."""
     from .real_assets import suite_rows
 
     return suite_rows(renderer, scenes, config, cache)

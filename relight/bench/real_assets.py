@@ -347,6 +347,8 @@ def main(argv=None) -> int:
     try:
         if a.spp is not None and a.spp < 1:
             raise RelightError("--spp must be at least 1", where="--spp")
+        if Path(a.out).exists() and not Path(a.out).is_dir():
+            raise RelightError("--out must be a folder", where=a.out)
         changes = {"out": Path(a.out), "progress": not a.quiet}
         if a.size:
             changes["size"] = _parse_size(a.size)

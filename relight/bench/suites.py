@@ -167,6 +167,16 @@ def _suite_shadow_net(renderer, scenes, config, cache) -> list[dict]:
     return shadow_net_rows(renderer, scenes["mesh"], config)
 
 
+def _suite_real_assets(renderer, scenes, config, cache) -> list[dict]:
+    """Issue 38's real-asset criterion: every bundled glTF on a floor under every bundled HDRI,
+    the student and split-sum with the same visibility against path-traced truth, with a verdict
+    per row (:mod:`relight.bench.real_assets`; ``--quick``: one scene). Traces its truth once
+    (5.5 minutes for the whole run on two shared cores), then reads it from the cache."""
+    from .real_assets import suite_rows
+
+    return suite_rows(renderer, scenes, config, cache)
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
@@ -176,5 +186,6 @@ SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_spl
                                "memory": _suite_memory, "shadow_truth": _suite_shadow_truth,
                                "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp,
                                "path": _suite_path, "rays": _suite_rays,
-                               "shadow_net": _suite_shadow_net}
+                               "shadow_net": _suite_shadow_net,
+                               "real_assets": _suite_real_assets}
 

@@ -23,8 +23,12 @@ def gallery_scene(environment: tuple[str, str, float], size: tuple[int, int] | N
     return scene.with_camera(size=size) if size is not None else scene
 
 
-def _truth(scene, name: str, options: GalleryOptions, spp: int):
-    """The path-traced reference of ``scene``, from the cache when it has this configuration."""
+def cached_truth(scene, name: str, options: GalleryOptions, spp: int):
+    """The path-traced reference of ``scene`` (``options.cache / <name>.exr``, with its
+    ``.stderr.exr`` and ``.json``), from the cache when it holds this scene's configuration
+    (:func:`relight.reference.render.config_key`: camera, environment, objects, render settings,
+    reference options) with at least ``spp`` samples; else traced and written over that one file.
+    Also :mod:`relight.bench.real_assets`' truth."""
     from ..reference import ReferenceOptions, read_reference, render_reference, write_reference
     from ..reference.render import finished_reference
 
@@ -62,7 +66,7 @@ def asset_panel(renderer, options: GalleryOptions, log) -> tuple[list[dict], lis
         name = env[0]
         scene = gallery_scene(env, options.size)
         log(f"{name}: path tracing ({spp} spp)")
-        truth = _truth(scene, name, options, spp)
+        truth = cached_truth(scene, name, options, spp)
         truths[name] = {k: truth.meta.get(k) for k in ("spp", "max_depth", "variant", "mitsuba",
                                                         "seconds", "size")}
         images, errors = {}, {}

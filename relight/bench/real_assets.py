@@ -1,0 +1,368 @@
+"""Issue 38's real-asset criterion as a bench: every bundled glTF model on a floor under every
+bundled HDRI, rendered with the neural student and with split-sum given the same visibility
+evidence, scored against the path-traced truth.
+
+``python -m relight.bench.real_assets [--out DIR] [--spp N] [--size WxH] [--quick]`` (also
+``relight bench --suite real_assets``) writes ``real_assets.json``, ``real_assets.md`` (the table
+and a summary line counting the failures) and ``real_assets.png`` (a contact sheet) into ``--out``.
+
+**Scenes** (:func:`asset_scene`): each model of :data:`ASSETS` opened as ``relight render MODEL
+--env HDRI --floor slab`` opens it (:func:`viewer.scene.assets.open_assets`: upright, framed by the
+auto camera, a floor touching its lowest point) under each ``assets/environments/*.exr`` at
+rotation 0, its compact sun as it is. The floor is the matte grey *slab*, not the default
+*catcher*: the catcher draws only the shadows it receives over the environment, which the path
+tracer has no counterpart for (it would trace a white Lambertian plane). The viewer has no
+setting that removes or dims an HDRI's compact sun (``[render] sun = false`` keeps its light and
+only looks it up through the prefiltered maps), so there is no run without it.
+
+**Cases** (:func:`cases`): split-sum and the student with the default render (``raytrace =
+true``: ray-traced visibility and bounce), both screen-space (``raytrace = false``, SSAO +
+indirect light), and split-sum screen-space with the mesh shadow estimator
+(``assets/weights/shadow_net_mesh.safetensors``) in the frame it was trained on
+(:func:`viewer.neural.shadow_net.frame_settings`). Each non-split-sum case is judged against the
+split-sum case with the same visibility evidence (:attr:`Case.baseline`).
+
+**Truth**: Mitsuba 3 with our BSDF (:mod:`relight.reference`), cached as the gallery caches it
+(:func:`relight.gallery.panels.cached_truth`: one file per scene under ``<out>/cache``, keyed by
+everything that changes the image), so a second run only rasterises.
+
+**Per row** (:mod:`relight.bench.real_assets_metrics` has the measures and their tolerances):
+PSNR, median relative error and energy bias (:func:`relight.reference.compare.score`); the
+floor's speckle beside the reference's own and split-sum's; the invented-shadow fraction; and a
+verdict on the issue's three conditions.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .real_assets_metrics import (
+    PSNR_TOL,
+    SHADOW_MODEL_DARKER,
+    SHADOW_TOL,
+    SHADOW_TRUTH_DARKER,
+    SPECKLE_TOL,
+    floor_mask,
+    invented_shadow,
+    relative_difference,
+    speckle,
+    verdict,
+)
+
+# (name, glTF file under assets/models): every bundled model (cge_base_level is a small diorama
+# standing on its own ground; its fence's MASK and the booth's BLEND alpha are traced opaque by
+# the reference, which lowers every case's score there alike)
+ASSETS: tuple[tuple[str, str], ...] = (
+    ("cge_plasma_gun", "cge_plasma_gun/plasma.gltf"),
+    ("texture_transform_test", "texture_transform_test/TextureTransformTest.gltf"),
+    ("cge_base_level", "cge_base_level/levels/base_level.gltf"),
+)
+FLOOR = "slab"
+DEFAULT_SIZE = (160, 120)
+DEFAULT_SPP = 256
+QUICK = (("cge_plasma_gun",), ("lobby",), 64)  # assets, environments, spp of --quick
+# the HDRI of the small sheet: where the student's screen-space speckle was worst (issue 36)
+SHEET_ENV = "lobby"
+SCREEN = {"raytrace": False, "ssao": True, "indirect": True}  # screen-space visibility evidence
+
+
+@dataclass(frozen=True)
+class Case:
+    """One rendering of every scene: a label, the ``[render]`` settings it changes and the label
+    of the split-sum case with the same visibility evidence (None: it is that baseline)."""
+
+    label: str
+    render: dict = field(default_factory=dict)
+    baseline: str | None = None
+
+
+def shadow_net_file() -> Path:
+    from assets import ASSET_ROOT
+
+    return ASSET_ROOT / "weights" / "shadow_net_mesh.safetensors"
+
+
+def cases() -> tuple[Case, ...]:
+    """The five cases of the module docstring; the estimator's frame read from its weights."""
+    from viewer.neural.shadow_net import frame_settings, read_shadow_net
+
+    net = shadow_net_file()
+    frame = frame_settings(read_shadow_net(net).training)
+    return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
+            Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
+            Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),
+            Case("neural, screen", {"model": "neural", **SCREEN}, "split-sum, screen"),
+            Case("split-sum, screen + estimator",
+                 {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
+                  "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
+                 "split-sum, screen"))
+
+
+def environments() -> list[tuple[str, Path]]:
+    """Every bundled HDRI, ``(name, path)``, sorted by name."""
+    from assets import ASSET_ROOT
+
+    return [(p.stem, p) for p in sorted((ASSET_ROOT / "environments").glob("*.exr"))]
+
+
+def asset_scene(model: str | Path, env: Path, size: tuple[int, int]):
+    """``relight render MODEL --env ENV --floor slab --size WxH``'s scene (rotation 0)."""
+    from assets import ASSET_ROOT
+    from viewer.scene.assets import open_assets
+
+    path = Path(model) if Path(model).is_absolute() else ASSET_ROOT / "models" / model
+    return open_assets([path], env=str(env), floor=FLOOR, size=size).scene
+
+
+@dataclass(frozen=True)
+class Options:
+    out: Path = Path("runs/real_assets")
+    cache: Path | None = None  # None: <out>/cache
+    size: tuple[int, int] = DEFAULT_SIZE
+    spp: int = DEFAULT_SPP
+    assets: tuple[str, ...] | None = None        # names of ASSETS (None: all)
+    environments: tuple[str, ...] | None = None  # HDRI names (None: all)
+    progress: bool = True
+
+    @classmethod
+    def quick(cls, **changes) -> Options:
+        assets, envs, spp = QUICK
+        return cls(**({"assets": assets, "environments": envs, "spp": spp} | changes))
+
+
+def scene_rows(renderer, name: str, scene, truth, case_list) -> tuple[list[dict], dict]:
+    """The rows of one scene (one per case, in order) and its display tiles by case label (and
+    ``"reference"``)."""
+    from relight.gallery.images import display
+    from relight.reference.compare import coverage_mask, score
+
+    radiance, floors = {}, None
+    for case in case_list:
+        frame = renderer.render(scene.with_render(**case.render),
+                                aovs=("normal", "depth") if floors is None else ())
+        radiance[case.label] = frame.radiance
+        if floors is None:  # the floor from the first case's G-buffer (every case draws the same)
+            floors = floor_mask(frame, scene)
+    ref_lum_speckle = speckle(truth.radiance, floors)
+    rows = []
+    for case in case_list:
+        img = radiance[case.label]
+        mask = coverage_mask(img, truth)
+        s = score(img, truth, mask)
+        row = {"scene": name, "case": case.label, "psnr_db": round(s.psnr, 2),
+               "median_rel_%": round(100 * s.median_rel, 2), "bias_%": round(100 * s.bias, 2),
+               "pixels": s.pixels, "floor_pixels": int(floors.sum()),
+               "speckle": round(speckle(img, floors), 5),
+               "speckle_reference": round(ref_lum_speckle, 5)}
+        if case.baseline is not None:
+            base = radiance[case.baseline]
+            row["baseline"] = case.baseline
+            row["speckle_baseline"] = round(speckle(base, floors), 5)
+            row["invented_shadow_%"] = round(100 * invented_shadow(img, base, truth.radiance,
+                                                                   mask), 3)
+            row["differs_%"] = round(100 * relative_difference(img, base, mask), 3)
+        rows.append(row)
+    by_label = {r["case"]: r for r in rows}
+    for row in rows:
+        if "baseline" in row:
+            row.update(verdict(row, by_label[row["baseline"]]))
+    tiles = {label: display(img) for label, img in radiance.items()}
+    tiles["reference"] = display(truth.radiance)
+    return rows, tiles
+
+
+def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
+    """Render, score and write the whole matrix (module docstring); returns the report."""
+    from relight.gallery.cases import GalleryOptions
+    from relight.gallery.panels import cached_truth
+    from viewer.renderer import Renderer
+
+    t0 = time.perf_counter()
+    out = Path(options.out)
+    out.mkdir(parents=True, exist_ok=True)
+    cache = Path(options.cache) if options.cache else out / "cache"
+    truth_options = GalleryOptions(cache=cache, progress=options.progress)
+    log = (lambda m: print(f"real_assets: {m}", file=sys.stderr, flush=True)) \
+        if options.progress else (lambda m: None)
+    assets = [a for a in ASSETS if options.assets is None or a[0] in options.assets]
+    envs = [e for e in environments() if options.environments is None
+            or e[0] in options.environments]
+    case_list = cases()
+    own = renderer is None
+    renderer = Renderer() if own else renderer
+    rows, sheet, truths = [], [], {}
+    try:
+        with warnings.catch_warnings():
+            # the gun's skin and animations are ignored (bind pose); a few degenerate triangles
+            warnings.filterwarnings("ignore", message=".*ignored \\(not supported\\).*")
+            warnings.filterwarnings("ignore", message=".*degenerate or not finite.*")
+            for asset, file in assets:
+                for env_name, env_path in envs:
+                    name = f"{asset}/{env_name}"
+                    scene = asset_scene(file, env_path, options.size)
+                    log(f"{name}: truth ({options.spp} spp)")
+                    truth = cached_truth(scene, f"{asset}_{env_name}", truth_options,
+                                         options.spp)
+                    truths[name] = {k: truth.meta.get(k) for k in ("spp", "seconds", "variant")}
+                    log(f"{name}: rasterising {len(case_list)} cases")
+                    scene_r, tiles = scene_rows(renderer, name, scene, truth, case_list)
+                    rows += scene_r
+                    sheet.append((name, tiles))
+        machine = _machine(renderer)
+    finally:
+        if own:
+            renderer.release()
+    report = {"command": command, "seconds": round(time.perf_counter() - t0, 1),
+              "size": list(options.size), "spp": options.spp, "floor": FLOOR,
+              "machine": machine, "truth": truths,
+              "cases": [{"label": c.label, "render": c.render, "baseline": c.baseline}
+                        for c in case_list],
+              "tolerances": {"speckle_ratio": SPECKLE_TOL, "invented_shadow": SHADOW_TOL,
+                             "model_darker": SHADOW_MODEL_DARKER,
+                             "truth_darker": SHADOW_TRUTH_DARKER, "psnr_db": PSNR_TOL},
+              "rows": rows, "summary": summary(rows)}
+    write(report, sheet, out, [c.label for c in case_list])
+    return report
+
+
+def _machine(renderer) -> dict:
+    """Where it ran (not :func:`relight.bench.run.machine_info`: run imports the suites, which
+    import this)."""
+    import os
+    import platform
+
+    from viewer.gl import gl_info
+
+    return {"gl": {k: v for k, v in gl_info(renderer.ctx).items() if k != "extensions"},
+            "cpus": os.cpu_count(), "platform": platform.platform(),
+            "python": sys.version.split()[0], "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+
+
+def summary(rows: list[dict]) -> dict:
+    """Failures per judged case and condition, and the rows judged."""
+    out: dict = {}
+    for r in rows:
+        if "baseline" not in r:
+            continue
+        s = out.setdefault(r["case"], {"rows": 0, "speckle": 0, "shadow": 0, "psnr": 0,
+                                       "failed_rows": 0})
+        s["rows"] += 1
+        for k in ("speckle", "shadow", "psnr"):
+            s[k] += not r[f"{k}_ok"]
+        s["failed_rows"] += not r["ok"]
+    return out
+
+
+def summary_line(summary_: dict) -> str:
+    return "; ".join(f"{case}: {s['failed_rows']} of {s['rows']} scenes fail (speckle "
+                     f"{s['speckle']}, invented shadow {s['shadow']}, PSNR {s['psnr']})"
+                     for case, s in summary_.items())
+
+
+def markdown(report: dict) -> str:
+    t = report["tolerances"]
+    m = report["machine"]
+    made = (f"Made by `{report['command']}` in {report['seconds']:.0f} s on "
+            f"{m['gl'].get('renderer')} ({m['cpus']} CPUs), {m['date']}; "
+            f"{report['size'][0]}x{report['size'][1]}, truth {report['spp']} spp "
+            "(Mitsuba 3, our BSDF, depth 6), traced in "
+            f"{sum(v['seconds'] or 0 for v in report['truth'].values()):.0f} s when first made "
+            "(then cached: a second run only rasterises).")
+    rule = (f"Verdict per judged row (against split-sum with the same visibility): speckle "
+            f"<= {t['speckle_ratio']} x split-sum's; invented shadow < "
+            f"{100 * t['invented_shadow']:g} % of the covered pixels (darker than split-sum by "
+            f"> {100 * (1 - t['model_darker']):g} % where the truth is not darker by > "
+            f"{100 * (1 - t['truth_darker']):g} %, 3x3-blurred); PSNR >= split-sum's - "
+            f"{t['psnr_db']} dB.")
+    head = ("| scene | case | PSNR dB | median rel % | bias % | floor speckle (reference, "
+            "split-sum) | differs from split-sum % | invented shadow % | verdict |")
+    lines = [made, "", rule, "", f"**{summary_line(report['summary'])}**", "", head,
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in report["rows"]:
+        sp = f"{r['speckle']:.4f} ({r['speckle_reference']:.4f}"
+        sp += f", {r['speckle_baseline']:.4f})" if "speckle_baseline" in r else ")"
+        verdict_ = "" if "ok" not in r else ("ok" if r["ok"] else "FAIL: " + ", ".join(
+            k for k in ("speckle", "shadow", "psnr") if not r[f"{k}_ok"]))
+        lines.append(f"| {r['scene']} | {r['case']} | {r['psnr_db']:.2f} | "
+                     f"{r['median_rel_%']:.1f} | {r['bias_%']:+.1f} | {sp} | "
+                     f"{r.get('differs_%', '')} | {r.get('invented_shadow_%', '')} | "
+                     f"{verdict_} |")
+    return "\n".join(lines) + "\n"
+
+
+def write(report: dict, sheet: list, out: Path, labels: list[str]) -> list[Path]:
+    """``real_assets.json``, ``real_assets.md``, the contact sheet ``real_assets.png`` (a row per
+    scene, the reference then every case) and ``real_assets_lobby.png`` (the scenes under
+    :data:`SHEET_ENV` alone: small enough for the documentation), at the render's size in the
+    gallery's display transform, saved as RGB (not the gallery's dithered palette, whose dither
+    would read as speckle)."""
+    from relight.gallery.images import compose
+
+    (out / "real_assets.json").write_text(json.dumps(report, indent=1) + "\n")
+    (out / "real_assets.md").write_text(markdown(report))
+    files = [out / "real_assets.json", out / "real_assets.md"]
+    cols = ["reference"] + labels
+    note = f"truth: Mitsuba 3, {report['spp']} spp; display: exposure 0, ACES, sRGB"
+    for path, part in ((out / "real_assets.png", sheet),
+                       (out / f"real_assets_{SHEET_ENV}.png",
+                        [(n, t) for n, t in sheet if n.endswith(f"/{SHEET_ENV}")])):
+        if part:
+            img = compose([[tiles[c] for c in cols] for _, tiles in part],
+                          [c.replace(", ", ",\n") for c in cols], [n for n, _ in part], note=note)
+            img.save(path, optimize=True)
+            files.append(path)
+    return files
+
+
+def suite_rows(renderer, scenes, config, cache) -> list[dict]:
+    """``relight bench --suite real_assets``: the matrix (``--quick``: :data:`QUICK`), its
+    truth cached in ``cache/real_assets`` and its files written beside ``bench``'s."""
+    opts = Options(out=cache.parent / "real_assets", cache=cache / "real_assets")
+    opts = Options.quick(out=opts.out, cache=opts.cache) if config.quick else opts
+    report = run(opts, renderer=renderer, command="relight bench --suite real_assets")
+    return report["rows"]
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m relight.bench.real_assets",
+                                description="Issue 38's real-asset criterion: every bundled glTF "
+                                "on a floor under every bundled HDRI, neural and split-sum with "
+                                "the same visibility, against the path-traced truth.")
+    p.add_argument("--out", default="runs/real_assets", help="output folder (truth cached in "
+                   "OUT/cache)")
+    p.add_argument("--spp", type=int, help=f"truth samples per pixel (default {DEFAULT_SPP}; "
+                   f"--quick {QUICK[2]})")
+    p.add_argument("--size", help=f"WxH (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})")
+    p.add_argument("--quick", action="store_true", help="one asset under one HDRI, 64 spp")
+    p.add_argument("-q", "--quiet", action="store_true")
+    a = p.parse_args(argv)
+    from relight.commands.common import _parse_size
+    from viewer.errors import RelightError
+
+    try:
+        if a.spp is not None and a.spp < 1:
+            raise RelightError("--spp must be at least 1", where="--spp")
+        if Path(a.out).exists() and not Path(a.out).is_dir():
+            raise RelightError("--out must be a folder", where=a.out)
+        changes = {"out": Path(a.out), "progress": not a.quiet}
+        if a.size:
+            changes["size"] = _parse_size(a.size)
+        if a.spp:
+            changes["spp"] = a.spp
+        opts = Options.quick(**changes) if a.quick else Options(**changes)
+        cmd = " ".join(["python -m relight.bench.real_assets", *(argv or sys.argv[1:])])
+        report = run(opts, command=cmd)
+    except RelightError as exc:
+        print(f"{p.prog}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    print(markdown(report))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -105,7 +105,7 @@ def add_shadow_net_arguments(p) -> None:
                         "or from its meshes")
     p.add_argument("--shadow-energy", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term that keeps each image's "
-                        "energy and its highlights' (default 1; 0: off, the release before)")
+                        "energy and its highlights' (default 0: off)")
     p.add_argument("--shadow-linear", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term on the linear image's "
                         "relative error (default 0: off)")

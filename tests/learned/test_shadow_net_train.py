@@ -31,9 +31,8 @@ def one_thread():
 
 def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ctx, one_thread,
                                                            capsys):
-    """30 steps lower the training loss over the training images (the default log MSE plus the
-    energy term; the log MSE alone measured -4.50 -> -4.75 before the energy term, the MSE 22 %
-    lower; the bound asks for 10 %)."""
+    """30 steps lower the training loss over the training images (the default log MSE,
+    measured: -4.50 -> -4.75, the MSE 22 % lower; the bound asks for 10 %)."""
     from viewer.renderer import Renderer
 
     cfg = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"), steps=30, batch=3,
@@ -52,8 +51,7 @@ def test_the_estimator_trains_resumes_and_records_its_data(dataset, tmp_path, ct
         before = float(loss(ShadowNet(cfg.architecture), images, *terms))
         after = float(loss(load_shadow_net(res["shadow_net"]), images, *terms))
         print(f"training loss {before:.3f} -> {after:.3f}")
-    # the default loss is a mean log MSE (negative) plus the energy term: as if the images' MSE
-    # fell by more than 10 %
+    # the default loss is a mean log MSE (negative): the images' MSE falls by more than 10 %
     assert cfg.loss == "log_mse" and len(losses) == 30
     assert after < before + np.log(0.9), (before, after)
     net = read_shadow_net(res["shadow_net"])
@@ -216,13 +214,13 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
             str(tmp_path / "run"), "-q"]
     assert main(base + ["--shadow-extra-data", str(dataset), str(dataset), "--shadow-val-data",
                         str(dataset), "--shadow-degrade", "0.25,1", "--shadow-geometry",
-                        "stack", "--shadow-energy", "0", "--shadow-linear", "0.5"]) == 0
+                        "stack", "--shadow-energy", "1", "--shadow-linear", "0.5"]) == 0
     assert main(base + ["--shadow-geometry", "mesh"]) == 0
     assert main(base) == 0
     given, mesh, default = seen
     assert given.extra_data == (str(dataset),) * 2 and given.val_data == (str(dataset),)
     assert given.degrade_levels == (0.25, 1.0) and given.geometry == "stack"
-    assert given.energy_weight == 0.0 and given.linear_weight == 0.5
+    assert given.energy_weight == 1.0 and given.linear_weight == 0.5
     assert mesh.geometry == "mesh" and mod.levels(mesh) == ()
     assert mod.levels(default) == mod.DEFAULT_DEGRADE_LEVELS  # stacks: degraded copies
     assert main(base + ["--shadow-degrade", "none"]) == 0 and seen.pop().degrade_levels == ()

@@ -27,7 +27,8 @@ import numpy as np
 
 from viewer.scene.description import Scene
 
-from .scene import MASKED_INTEGRATOR, ReferenceError, check_traceable, to_mitsuba
+from .scene import (ALPHA_TRACING, MASKED_INTEGRATOR, ReferenceError, alpha_modes,
+                    check_traceable, to_mitsuba)
 
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 AOVS = ("normal", "depth")
@@ -135,10 +136,16 @@ def camera_rays(camera, jitter: np.ndarray | None = None) -> np.ndarray:
 # ---- rendering ----------------------------------------------------------------------------------
 
 def config_key(scene: Scene, options: ReferenceOptions) -> str:
-    """A digest of everything a checkpoint's samples depend on."""
-    text = json.dumps({"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
-                       "options": {k: v for k, v in asdict(options).items()
-                                   if k not in ("spp", "batch_spp")}}, sort_keys=True)
+    """A digest of everything a checkpoint's samples depend on (with glTF alphaMode MASK or
+    BLEND: how it is traced, :data:`~relight.reference.scene.ALPHA_TRACING`; scenes without
+    keep their keys)."""
+    data = {"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
+            "options": {k: v for k, v in asdict(options).items()
+                        if k not in ("spp", "batch_spp")}}
+    modes = alpha_modes(scene)
+    if modes:
+        data["alpha"] = [ALPHA_TRACING, modes]
+    text = json.dumps(data, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -294,12 +301,12 @@ def _covered(mi, dr, mscene, ray, sampler):
     for _ in range(MAX_LAYERS):
         si = mscene.ray_intersect(ray, active)
         active = active & si.is_valid()
+        if not dr.any(active):  # (scalar: a miss has no BSDF to call)
+            return hit
         through = si.bsdf(ray).eval_null_transmission(si, active)[0]
         u = sampler.next_1d(active)
         hit = hit | (active & (u >= through))
         active = active & (u < through)
-        if not dr.any(active):
-            return hit
         ray = si.spawn_ray(ray.d)
     return hit | active
 

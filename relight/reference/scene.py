@@ -7,7 +7,10 @@ pass does), :class:`~relight.reference.bsdf` for every surface, and every punctu
 :mod:`relight.reference.render` traces the rasteriser's own per-pixel rays."""
 from __future__ import annotations
 
+import json
+import struct
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +38,9 @@ MASKED_INTEGRATOR = "volpath"
 # the *interpolated* alpha >= cutoff (the rasteriser's test) and 0 below cutoff - 1 / slope
 # (a band of 1.5e-5 in alpha; float32 texel values up to 6.6e4 keep ~1e-7 of it)
 CUTOFF_SLOPE = 65536.0
+# how alphaMode is traced, in the key of cached truths (render.config_key) of scenes that have
+# one: 1 = MASK / BLEND coverage (before it: traced opaque, unversioned)
+ALPHA_TRACING = 1
 
 
 class ReferenceError(RelightError):
@@ -53,6 +59,31 @@ def check_traceable(scene: Scene) -> None:
         raise ReferenceError("the scene has no objects to path-trace (splats and image-space "
                              "stacks added in memory have no geometry either)",
                              where=scene.source or "scene")
+
+
+def alpha_modes(scene: Scene) -> list[str]:
+    """The alphaMode values other than OPAQUE that the glTF files of ``scene``'s mesh objects
+    declare, read from their JSON alone (no geometry, so a cache lookup stays cheap); a file
+    that cannot be read adds nothing (loading it reports the problem)."""
+    found = set()
+    for obj in scene.objects:
+        path = Path(obj.path) if obj.type == "mesh" and obj.path else None
+        if path is None or path.suffix.lower() not in (".gltf", ".glb"):
+            continue
+        try:
+            with path.open("rb") as f:
+                if path.suffix.lower() == ".glb":  # header (12 bytes), then the JSON chunk
+                    f.seek(12)
+                    length, _ = struct.unpack("<II", f.read(8))
+                    doc = json.loads(f.read(length))
+                else:
+                    doc = json.load(f)
+        except (OSError, ValueError, struct.error):
+            continue
+        found.update(str(m.get("alphaMode", "OPAQUE")) for m in doc.get("materials", ())
+                     if isinstance(m, dict))
+    found.discard("OPAQUE")
+    return sorted(found)
 
 
 def environment_bitmap(scene: Scene) -> np.ndarray:

@@ -92,6 +92,20 @@ def test_mask_cuts_where_the_interpolated_alpha_is_below_the_cutoff(mitsuba_llvm
     assert seen[:, :9].max() < 0.2, seen[:, :9].max()
 
 
+def test_mask_coverage_on_the_scalar_backend(mitsuba_llvm, tmp_path):
+    """The scalar backend's coverage walk through cut-outs (a ray that passes the quad and
+    misses everything has no BSDF to ask: it crashed before): 8 x 8, alphaCutoff 0.25, cut from
+    u = 0.5625 (columns 5-7, centres at u >= 0.67; column 4's at 0.56 stays)."""
+    path = _quad(tmp_path / "mask.gltf", BLACK, LEFT_HALF,
+                 {"alphaMode": "MASK", "alphaCutoff": 0.25})
+    ref = render_reference(_front(path, size=8), ReferenceOptions(spp=1, max_depth=2,
+                                                                  variant="scalar_rgb"),
+                           progress=False)
+    assert ref.meta["variant"] == "scalar_rgb"
+    cover = ref.radiance[..., 3]
+    assert np.all(cover[:, :5] == 1.0) and np.all(cover[:, 5:] == 0.0), cover[0]
+
+
 def test_mask_cut_outs_let_shadow_rays_through(mitsuba_llvm, tmp_path):
     """A directional light straight down through a horizontal LEFT_HALF quad (cutoff 0.5) onto
     a white floor, seen from above past the quad's edge: the floor under the opaque half is in
@@ -150,3 +164,27 @@ def test_opaque_ignores_alpha_and_traces_as_before(mitsuba_llvm, tmp_path):
     a = render_reference(with_alpha, opts, progress=False).radiance
     b = render_reference(rgb, opts, progress=False).radiance
     np.testing.assert_array_equal(a, b)
+
+
+def test_cache_keys_change_with_alpha_tracing_only_for_scenes_with_alpha(tmp_path, monkeypatch):
+    """Cached truths (relight.gallery.panels.cached_truth) are keyed by config_key: a scene whose
+    glTF (.gltf or .glb) declares MASK or BLEND is keyed by how alpha is traced, so truths traced
+    before (opaque) are not reused; an OPAQUE scene's key does not depend on it."""
+    import struct
+
+    from relight.reference import render, scene as ref_scene
+
+    mask = _front(_quad(tmp_path / "m.gltf", BLACK, LEFT_HALF, {"alphaMode": "MASK"}))
+    opaque = _front(_quad(tmp_path / "o.gltf", BLACK, LEFT_HALF))
+    doc = (tmp_path / "m.gltf").read_bytes()
+    doc += b" " * (-len(doc) % 4)  # the JSON chunk padded to 4 bytes with spaces
+    (tmp_path / "m.glb").write_bytes(b"glTF" + struct.pack("<II", 2, 20 + len(doc))
+                                     + struct.pack("<II", len(doc), 0x4E4F534A) + doc)
+    glb = _front(tmp_path / "m.glb")
+    assert ref_scene.alpha_modes(mask) == ["MASK"] == ref_scene.alpha_modes(glb)
+    assert ref_scene.alpha_modes(opaque) == []
+    opts = ReferenceOptions()
+    before = [render.config_key(s, opts) for s in (mask, glb, opaque)]
+    monkeypatch.setattr(render, "ALPHA_TRACING", render.ALPHA_TRACING + 1)
+    after = [render.config_key(s, opts) for s in (mask, glb, opaque)]
+    assert before[0] != after[0] and before[1] != after[1] and before[2] == after[2]

@@ -194,6 +194,8 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry, masked: list):
                            if mesh.alpha_mode != "OPAQUE" else "COLOR_0")
         if mesh.tangents is not None and mesh.material.has_anisotropy:
             ignored.append("TANGENT (the anisotropy's tangent space is the UVs')")
+        if mesh.alpha_mode != "OPAQUE" and mesh.has_emission:
+            ignored.append(f"alphaMode {mesh.alpha_mode} on the emission (cut-outs still emit)")
         see_through = mesh.material.transmission > 0.0  # the plugin shades both sides
         if not mesh.double_sided and not see_through:
             ignored.append("single-sided culling (back faces are black, not see-through)")

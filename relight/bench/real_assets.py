@@ -55,8 +55,9 @@ from .real_assets_metrics import (
 )
 
 # (name, glTF file under assets/models): every bundled model (cge_base_level is a small diorama
-# standing on its own ground; its fence's MASK and the booth's BLEND alpha are traced opaque by
-# the reference, which lowers every case's score there alike)
+# standing on its own ground; the reference traces its fence's MASK as a cut-out and the
+# booth's BLEND alpha as stochastic coverage, where the rasteriser blends the booth in its
+# forward pass and its rays leave it out)
 ASSETS: tuple[tuple[str, str], ...] = (
     ("cge_plasma_gun", "cge_plasma_gun/plasma.gltf"),
     ("texture_transform_test", "texture_transform_test/TextureTransformTest.gltf"),

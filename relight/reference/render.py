@@ -27,12 +27,14 @@ import numpy as np
 
 from viewer.scene.description import Scene
 
-from .scene import ReferenceError, check_traceable, to_mitsuba
+from .scene import (ALPHA_TRACING, MASKED_INTEGRATOR, ReferenceError, alpha_modes,
+                    check_traceable, to_mitsuba)
 
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 AOVS = ("normal", "depth")
 MIN_LLVM = 19  # Dr.Jit 1.x miscompiles with LLVM 15 (tried: a code-generation abort)
 MAX_LANES = 1 << 22  # lanes per batch on the LLVM backend (~1 GB of JIT state at depth 6)
+MAX_LAYERS = 16  # alpha-covered surfaces a coverage ray passes before it counts as a hit
 
 
 @dataclass(frozen=True)
@@ -134,10 +136,16 @@ def camera_rays(camera, jitter: np.ndarray | None = None) -> np.ndarray:
 # ---- rendering ----------------------------------------------------------------------------------
 
 def config_key(scene: Scene, options: ReferenceOptions) -> str:
-    """A digest of everything a checkpoint's samples depend on."""
-    text = json.dumps({"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
-                       "options": {k: v for k, v in asdict(options).items()
-                                   if k not in ("spp", "batch_spp")}}, sort_keys=True)
+    """A digest of everything a checkpoint's samples depend on (with glTF alphaMode MASK or
+    BLEND: how it is traced, :data:`~relight.reference.scene.ALPHA_TRACING`; scenes without
+    keep their keys)."""
+    data = {"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
+            "options": {k: v for k, v in asdict(options).items()
+                        if k not in ("spp", "batch_spp")}}
+    modes = alpha_modes(scene)
+    if modes:
+        data["alpha"] = [ALPHA_TRACING, modes]
+    text = json.dumps(data, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -173,7 +181,9 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
     mi, dr, variant = load_mitsuba(options.variant)
     t0 = time.perf_counter()
     try:
-        mscene = mi.load_dict(to_mitsuba(scene, mi, dr, options.max_depth, options.geometry))
+        desc = to_mitsuba(scene, mi, dr, options.max_depth, options.geometry)
+        masked = desc["integrator"]["type"] == MASKED_INTEGRATOR  # some alphaMode coverage
+        mscene = mi.load_dict(desc)
     except ReferenceError:
         raise
     except Exception as exc:  # noqa: BLE001 - Mitsuba's own message, on one line
@@ -212,7 +222,8 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
         else:
             dirs = np.broadcast_to(centre_dirs[:, None], (n_pix, count, 3))
         values, hit = _trace(mi, dr, mscene, integrator, origin, dirs.reshape(-1, 3),
-                             seed=(options.seed * 1_000_003 + b) & 0x7FFFFFFF, scalar=scalar)
+                             seed=(options.seed * 1_000_003 + b) & 0x7FFFFFFF, scalar=scalar,
+                             masked=masked)
         values = values.reshape(n_pix, count, 3)
         hit = hit.reshape(n_pix, count)
         if scene.render.display.background == "transparent":
@@ -249,8 +260,10 @@ def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(
     return ref
 
 
-def _trace(mi, dr, mscene, integrator, origin, dirs, seed: int, scalar: bool):
-    """Radiance ``[N, 3]`` float64 and first-hit mask ``[N]`` of one sample along each ray."""
+def _trace(mi, dr, mscene, integrator, origin, dirs, seed: int, scalar: bool,
+           masked: bool = False):
+    """Radiance ``[N, 3]`` float64 and first-hit mask ``[N]`` of one sample along each ray
+    (``masked``: the scene has alpha coverage, :func:`_covered` decides the hit)."""
     n = dirs.shape[0]
     if scalar:
         out = np.zeros((n, 3))
@@ -261,7 +274,8 @@ def _trace(mi, dr, mscene, integrator, origin, dirs, seed: int, scalar: bool):
             ray = mi.Ray3f(mi.Point3f(*origin), mi.Vector3f(*dirs[k]))
             value, _, _ = integrator.sample(mscene, sampler, ray)
             out[k] = np.array(value, np.float64).reshape(3)
-            hit[k] = bool(mscene.ray_intersect(ray).is_valid())
+            hit[k] = bool(_covered(mi, dr, mscene, ray, sampler) if masked else
+                          mscene.ray_intersect(ray).is_valid())
         return out, hit
     o = mi.Point3f(np.ascontiguousarray(np.broadcast_to(origin[:, None], (3, n)), np.float32))
     d = mi.Vector3f(np.ascontiguousarray(dirs.T, np.float32))
@@ -269,9 +283,32 @@ def _trace(mi, dr, mscene, integrator, origin, dirs, seed: int, scalar: bool):
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(seed, n)
     value, _, _ = integrator.sample(mscene, sampler, ray)
-    hit = mscene.ray_intersect(ray).is_valid()
+    hit = (_covered(mi, dr, mscene, ray, sampler) if masked else
+           mscene.ray_intersect(ray).is_valid())
     dr.eval(value, hit)
     return np.array(value, np.float64).T, np.array(hit, bool)
+
+
+def _covered(mi, dr, mscene, ray, sampler):
+    """Whether ``ray`` is covered (the image's alpha) in a scene with alphaMode surfaces: it
+    passes a ``mask`` surface with probability ``eval_null_transmission`` (1 - opacity: 0 or 1
+    for MASK, so the test is exact; 1 - alpha for BLEND, drawn independently of the radiance's
+    own path, so the coverage's mean is right but a transparent background zeroes a BLEND
+    pixel's radiance by an uncorrelated draw) and stops at the first surface it does not pass,
+    after at most :data:`MAX_LAYERS` of them (counted as a hit)."""
+    hit = mi.Bool(False)
+    active = mi.Bool(True)
+    for _ in range(MAX_LAYERS):
+        si = mscene.ray_intersect(ray, active)
+        active = active & si.is_valid()
+        if not dr.any(active):  # (scalar: a miss has no BSDF to call)
+            return hit
+        through = si.bsdf(ray).eval_null_transmission(si, active)[0]
+        u = sampler.next_1d(active)
+        hit = hit | (active & (u >= through))
+        active = active & (u < through)
+        ray = si.spawn_ray(ray.d)
+    return hit | active
 
 
 def _first_hit_aovs(mi, mscene, cam, origin, dirs, names, scalar):

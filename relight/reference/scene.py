@@ -7,7 +7,10 @@ pass does), :class:`~relight.reference.bsdf` for every surface, and every punctu
 :mod:`relight.reference.render` traces the rasteriser's own per-pixel rays."""
 from __future__ import annotations
 
+import json
+import struct
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -25,6 +28,19 @@ from .lights import mitsuba_light
 
 TRACEABLE = ("sphere", "plane", "material_grid", "mesh")
 GEOMETRIES = ("mesh", "analytic")
+# Mitsuba's ``path`` integrator lets a ``mask`` BSDF block every shadow ray (``ray_test`` sees
+# the surface, cut out or not) and spends a bounce on each pass through; ``volpath`` (no media
+# here) carries shadow rays through by ``eval_null_transmission`` and counts only real bounces,
+# so a scene with alpha coverage is traced with it. Scenes without keep ``path`` (same images).
+MASKED_INTEGRATOR = "volpath"
+# alphaMode MASK as an opacity texture: (alpha - cutoff) x slope + 1 per texel, which the bitmap
+# interpolates (bilinear: linear in alpha) and ``mask`` clamps to [0, 1], so opacity is 1 where
+# the *interpolated* alpha >= cutoff (the rasteriser's test) and 0 below cutoff - 1 / slope
+# (a band of 1.5e-5 in alpha; float32 texel values up to 6.6e4 keep ~1e-7 of it)
+CUTOFF_SLOPE = 65536.0
+# how alphaMode is traced, in the key of cached truths (render.config_key) of scenes that have
+# one: 1 = MASK / BLEND coverage (before it: traced opaque, unversioned)
+ALPHA_TRACING = 1
 
 
 class ReferenceError(RelightError):
@@ -43,6 +59,31 @@ def check_traceable(scene: Scene) -> None:
         raise ReferenceError("the scene has no objects to path-trace (splats and image-space "
                              "stacks added in memory have no geometry either)",
                              where=scene.source or "scene")
+
+
+def alpha_modes(scene: Scene) -> list[str]:
+    """The alphaMode values other than OPAQUE that the glTF files of ``scene``'s mesh objects
+    declare, read from their JSON alone (no geometry, so a cache lookup stays cheap); a file
+    that cannot be read adds nothing (loading it reports the problem)."""
+    found = set()
+    for obj in scene.objects:
+        path = Path(obj.path) if obj.type == "mesh" and obj.path else None
+        if path is None or path.suffix.lower() not in (".gltf", ".glb"):
+            continue
+        try:
+            with path.open("rb") as f:
+                if path.suffix.lower() == ".glb":  # header (12 bytes), then the JSON chunk
+                    f.seek(12)
+                    length, _ = struct.unpack("<II", f.read(8))
+                    doc = json.loads(f.read(length))
+                else:
+                    doc = json.load(f)
+        except (OSError, ValueError, struct.error):
+            continue
+        found.update(str(m.get("alphaMode", "OPAQUE")) for m in doc.get("materials", ())
+                     if isinstance(m, dict))
+    found.discard("OPAQUE")
+    return sorted(found)
 
 
 def environment_bitmap(scene: Scene) -> np.ndarray:
@@ -96,11 +137,13 @@ def to_mitsuba(scene: Scene, mi, dr, max_depth: int, geometry: str = "mesh") -> 
         [m.positions.reshape(-1, 3) for obj in scene.objects for m in cache.get(obj)]))
     for i, light in enumerate(scene.light or ()):
         d[f"light_{i}"] = mitsuba_light(light, mi, bounds, scene.source or "[[lights]]")
-    count = 0
+    count, masked = 0, []
     for obj in scene.objects:
-        for shape in _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
+        for shape in _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry, masked):
             d[f"shape_{count}"] = shape
             count += 1
+    if masked:  # alphaMode MASK / BLEND coverage: shadow rays must pass the cut-outs
+        d["integrator"]["type"] = MASKED_INTEGRATOR
     return d
 
 
@@ -109,7 +152,8 @@ def _bsdf(bsdf_type, material: Material, textures: dict, multiscatter: bool,
     return bsdf_type().configure(material, textures, multiscatter, normal_scale)
 
 
-def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
+def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry, masked: list):
+    """The Mitsuba shapes of ``obj``; each mesh given alpha coverage is appended to ``masked``."""
     if geometry == "analytic" and obj.type in ("sphere", "material_grid"):
         balls = ([(obj.center, obj.material)] if obj.type == "sphere" else
                  [(tuple((b.bounds()[0] + b.bounds()[1]) / 2.0), b.material)
@@ -146,11 +190,12 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         if any(sm.texcoord != 0 for sm in mesh.sampling.values()):
             ignored.append("TEXCOORD_1 (read as TEXCOORD_0)")
         if mesh.colors is not None:
-            ignored.append("COLOR_0")
+            ignored.append("COLOR_0 (nor its alpha in alphaMode coverage)"
+                           if mesh.alpha_mode != "OPAQUE" else "COLOR_0")
         if mesh.tangents is not None and mesh.material.has_anisotropy:
             ignored.append("TANGENT (the anisotropy's tangent space is the UVs')")
-        if mesh.alpha_mode != "OPAQUE":
-            ignored.append(f"alphaMode {mesh.alpha_mode} (traced opaque)")
+        if mesh.alpha_mode != "OPAQUE" and mesh.has_emission:
+            ignored.append(f"alphaMode {mesh.alpha_mode} on the emission (cut-outs still emit)")
         see_through = mesh.material.transmission > 0.0  # the plugin shades both sides
         if not mesh.double_sided and not see_through:
             ignored.append("single-sided culling (back faces are black, not see-through)")
@@ -161,8 +206,35 @@ def _shapes(obj, mi, dr, bsdf_type, multiscatter, geometry):
         bsdf = _bsdf(bsdf_type, mesh.material, textures, multiscatter, mesh.normal_scale)
         if mesh.double_sided and not see_through:  # back faces: the normal flipped (G-buffer)
             bsdf = mi.load_dict({"type": "twosided", "bsdf": bsdf})
+        opacity = _opacity(mi, mesh, where)
+        if opacity is not None:  # glTF alphaMode: a cut-out / partly covering surface
+            bsdf = mi.load_dict({"type": "mask", "opacity": opacity, "bsdf": bsdf})
+            masked.append(mesh)
         emitter = _emitter(mi, mesh, where) if mesh.has_emission else None
         yield _mesh(mi, dr, mesh, bsdf, emitter)
+
+
+def _opacity(mi, mesh, where):
+    """glTF 2.0 alpha coverage as the ``opacity`` of Mitsuba's ``mask`` BSDF (None: covered
+    everywhere, no mask). The alpha is baseColorFactor's x the base colour map's A, read with
+    that map's sampling (transform, wrap, filter). MASK: opacity 1 where alpha >= alphaCutoff,
+    0 elsewhere (the ray passes straight through, no refraction; :data:`CUTOFF_SLOPE`); BLEND:
+    opacity = alpha, which ``mask`` reads as the probability of a hit (stochastic coverage)."""
+    factor = float(mesh.base_alpha)
+    image = mesh.textures.get("base_color")
+    alpha = (None if image is None or image.shape[-1] < 4 else
+             np.asarray(image[..., 3:4], np.float64) * factor)
+    if mesh.alpha_mode == "MASK":
+        cutoff = float(mesh.alpha_cutoff)
+        if alpha is None:
+            return None if factor >= cutoff else 0.0
+        return _texture(mi, (alpha - cutoff) * CUTOFF_SLOPE + 1.0,
+                        mesh.sampling.get("base_color"), where, mono=True)
+    if mesh.alpha_mode == "BLEND":
+        if alpha is None:
+            return None if factor >= 1.0 else factor
+        return _texture(mi, alpha, mesh.sampling.get("base_color"), where, mono=True)
+    return None
 
 
 def _emitter(mi, mesh, where):
@@ -185,13 +257,15 @@ def _sphere(mi, center, radius, bsdf):
 _WRAP = {"repeat": "repeat", "clamp": "clamp", "mirror": "mirror"}  # ours -> Mitsuba
 
 
-def _texture(mi, image: np.ndarray, sampling=None, where: str = "mesh"):
+def _texture(mi, image: np.ndarray, sampling=None, where: str = "mesh", mono: bool = False):
     """A Mitsuba bitmap texture read as the G-buffer pass reads ``image``: raw (linear) values,
     the ``KHR_texture_transform`` as ``to_uv``, the wrap mode, nearest or bilinear magnification.
     Mitsuba has one wrap mode for both axes (u's is used, with a warning when v's differs) and no
     mip-mapping: at a pixel centre the path tracer sees the texture unfiltered, the rasteriser a
-    mip-mapped footprint (a minification blur the reference does not have)."""
-    img = np.ascontiguousarray(image[..., :3] if image.shape[-1] >= 3 else
+    mip-mapped footprint (a minification blur the reference does not have). ``mono``: one
+    channel (``image``'s first), read by ``eval_1`` as it is (an RGB one would be its luminance)."""
+    img = np.ascontiguousarray(image[..., :1] if mono else
+                               image[..., :3] if image.shape[-1] >= 3 else
                                np.repeat(image[..., :1], 3, axis=-1), dtype=np.float32)
     d = {"type": "bitmap", "bitmap": mi.Bitmap(img), "raw": True,
          "filter_type": "bilinear", "wrap_mode": "repeat"}

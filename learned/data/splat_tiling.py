@@ -4,17 +4,18 @@ albedo, roughness, metallic and the surface normal), for drawing a scene through
 splat G-buffer path instead of its rasteriser (:func:`scene_splats`).
 
 Every splat is a flat Gaussian lying in its surface (the third axis, along the normal, is
-:data:`THIN` of the in-plane one), sized from the camera: a surface at depth ``d`` is tiled
-``spacing`` pixels apart (``spacing * d * 2 tan(fov_y / 2) / H`` in world units; depths below
-:data:`NEAR` count as :data:`NEAR`), so a far surface gets larger splats and the count follows
-the image, not the scene's size.
+:data:`THIN` of the in-plane one), sized from the camera: a surface at depth ``d`` facing it gets
+one splat per ``spacing^2`` px^2 (a spacing of ``spacing * d * 2 tan(fov_y / 2) / H`` in world
+units; depths below :data:`NEAR` count as :data:`NEAR`), so a far surface gets larger splats and
+the count follows the image, not the scene's size.
 
-* **Spheres** (and a ``material_grid``'s balls) - a Fibonacci lattice on the exact sphere, tiled at its nearest point's depth;
-  radial normals.
+* **Spheres** (and a ``material_grid``'s balls) - a Fibonacci lattice on the exact sphere, one
+  cell per spacing^2 at its nearest point's depth; radial normals.
 * **Triangles** (meshes, and planes, whose two triangles the rasteriser draws): each triangle
-  is split at its edges' midpoints, recursively, until a piece's longest edge is at most the
-  spacing at its nearest corner's depth (area-weighted: a large triangle gets proportionally
-  many splats, a piece far away fewer), and every piece becomes one splat at its centroid whose
+  is split at its edges' midpoints, recursively, until a piece covers at most ``spacing^2``
+  px^2 as the camera sees it and no edge of it is longer than :data:`WORLD_CAP` spacings at its
+  nearest corner's depth (area-weighted: a large triangle gets proportionally many splats, a
+  piece far away or seen edge-on fewer), and every piece becomes one splat at its centroid whose
   in-plane covariance is the piece's own (``(1/12) sum_i (v_i - m)(v_i - m)^T``, a uniform
   triangle's) times :data:`SIGMA_SCALE` squared, oriented to the triangle's normal. Its normal
   is the rasteriser's shading normal (the vertex normals interpolated at the centroid), its
@@ -130,6 +131,11 @@ def split_triangles(tris: np.ndarray, view: _View, cull: bool
                              f"the camera for a spacing of {view.spacing} px")
         bary = np.einsum("cij,tjk->tcik", _MIDPOINTS, bary).reshape(-1, 3, 3)
         parent = np.repeat(parent, 4)
+    else:
+        if len(parent):
+            raise ValueError(f"pieces still too large after {_MAX_LEVELS} splits")
+    if not done_p:
+        return np.zeros(0, np.int64), np.zeros((0, 3, 3))
     return np.concatenate(done_p), np.concatenate(done_b)
 
 
@@ -254,7 +260,7 @@ def sphere_splats(center, radius: float, material, view: _View) -> Splats:
     """A Fibonacci lattice of flat splats on the exact sphere (module doc)."""
     c = np.asarray(center, np.float64)
     step = float(view.step(view.local(c)[2] - radius))
-    n = max(16, int(math.ceil(4.0 * math.pi * radius ** 2 / step ** 2)))
+    n = max(16, math.ceil(4.0 * math.pi * radius ** 2 / step ** 2))
     if n > MAX_SPLATS:
         raise ValueError(f"a sphere of radius {radius} needs {n} splats (> {MAX_SPLATS})")
     i = np.arange(n) + 0.5

@@ -15,13 +15,23 @@ mesh scene, nor has a sample whose stack was degraded (``meta.json`` ``degrade``
 would draw the true G-buffer, not its degraded one): one
 :class:`~learned.data.reader.DatasetError` naming the file.
 
-``geometry`` (:data:`GEOMETRIES`) names the two for the callers that draw a sample either way
-(:func:`geometry_scene`); :func:`mesh_channels` reads the mesh scene's G-buffer back in the
+A third way (:func:`sample_splat_scene`): the same geometry tiled with Gaussian splats that carry
+its true materials (:func:`learned.data.splat_tiling.scene_splats`: what a perfect capture and
+decomposition would give), drawn by the viewer's splat G-buffer path; the same refusals as the
+mesh scene. The cloud is written once per content to the user's cache
+(``cache_root() / "splat_samples"``, :func:`viewer.environment.disk_cache.cache_root`: a
+``RELIGHT_CACHE_DIR`` moves it; the oldest files beyond :data:`SPLAT_CACHE_BYTES` are removed),
+for the scene's ``splats`` object names a file.
+
+``geometry`` (:data:`GEOMETRIES`) names the three for the callers that draw a sample any way
+(:func:`geometry_scene`); :func:`geometry_channels` reads a scene's G-buffer back in the
 reader's channel layout (``Sample.channels``).
 """
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +41,11 @@ from viewer.scene.description import scene_from_dict
 
 from .reader import DatasetError
 
-GEOMETRIES = ("stack", "mesh")  # the sample's image-space G-buffer | the meshes it was drawn from
+# the sample's image-space G-buffer | the meshes it was drawn from | those tiled with splats
+GEOMETRIES = ("stack", "mesh", "splat")
+SPLAT_FOLDER = "splat_samples"  # under the user's relight cache
+SPLAT_CACHE_BYTES = 2 << 30  # the oldest clouds beyond this are removed
+SPLAT_FORMAT = 1  # bump when the tiling changes: older cached clouds are then not reused
 MESH_FOLDER = "_meshes"  # the generator's mesh cache, beside the splits
 MESH_OBJECTS = ("sphere", "plane", "mesh")  # the object types the generator's scenes have
 # the G-buffer channels of learned.data.reader.Sample.channels
@@ -121,18 +135,86 @@ def sample_mesh_scene(sample, meshes: Path | None = None, **render):
         raise DatasetError(exc.problem, where=Path(sample.folder) / "meta.json") from None
 
 
+def splat_file(sample, meshes: Path | None = None, spacing: float | None = None,
+               cache: Path | None = None) -> Path:
+    """The cached ``.ply`` of the splats tiling ``sample``'s mesh scene (module doc), made if
+    missing; ``spacing``: px between splats (default :data:`learned.data.splat_tiling.SPACING`);
+    ``cache``: the folder (default the user's cache)."""
+    from viewer.environment.disk_cache import cache_root, file_digest
+    from viewer.splats.ply import write_ply
+
+    from .splat_tiling import SPACING, scene_splats
+
+    spacing = SPACING if spacing is None else float(spacing)
+    doc = mesh_scene_dict(sample, meshes)
+    files = sorted({o["path"] for o in doc["objects"] if o["type"] == "mesh"})
+    key = hashlib.sha256(json.dumps(
+        [SPLAT_FORMAT, spacing, doc, [file_digest(f) for f in files]],
+        sort_keys=True).encode()).hexdigest()[:24]
+    folder = Path(cache) if cache is not None else cache_root() / SPLAT_FOLDER
+    path = folder / f"{Path(sample.folder).name}_{key}.ply"
+    if path.is_file():
+        return path
+    where = Path(sample.folder) / "meta.json"
+    try:
+        scene = scene_from_dict(doc, file=str(sample.folder / "scene"))
+        splats = scene_splats(scene, spacing)
+    except (SceneError, ValueError) as exc:  # a recorded object the tiler or viewer refuses
+        raise DatasetError(getattr(exc, "problem", str(exc)), where=where) from None
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    write_ply(tmp, splats, comments=[f"tiled from {where}"])
+    os.replace(tmp, path)
+    _trim(folder, keep=path)
+    return path
+
+
+def _trim(folder: Path, keep: Path, max_bytes: int = SPLAT_CACHE_BYTES) -> None:
+    files = sorted(folder.glob("*.ply"), key=lambda p: p.stat().st_mtime)
+    total = sum(p.stat().st_size for p in files)
+    for p in files:
+        if total <= max_bytes:
+            break
+        if p != keep:
+            total -= p.stat().st_size
+            p.unlink(missing_ok=True)
+
+
+def sample_splat_scene(sample, meshes: Path | None = None, spacing: float | None = None,
+                       cache: Path | None = None, **render):
+    """``sample`` drawn from its mesh scene tiled with splats of the true materials
+    (:func:`splat_file`), lit by its environment, with the render settings ``render`` (tone
+    mapping off) as :func:`sample_scene` draws its stack."""
+    path = splat_file(sample, meshes, spacing, cache)
+    w, h = sample.size
+    return scene_from_dict({
+        "camera": {"position": [0.0, 0.0, 0.0], "target": [0.0, 0.0, -1.0],
+                   "up": [0.0, 1.0, 0.0], "fov_y": float(sample.fov_y), "size": [w, h]},
+        "environment": {"path": str(sample.environment)},
+        "objects": [{"type": "splats", "path": str(path)}],
+        "render": {"tonemap": "none", **render}}, file=str(sample.folder / "scene"))
+
+
 def geometry_scene(sample, geometry: str = "stack", **render):
-    """:func:`sample_scene` (``"stack"``) or :func:`sample_mesh_scene` (``"mesh"``)."""
+    """:func:`sample_scene` (``"stack"``), :func:`sample_mesh_scene` (``"mesh"``) or
+    :func:`sample_splat_scene` (``"splat"``)."""
     if geometry == "stack":
         return sample_scene(sample, **render)
     if geometry == "mesh":
         return sample_mesh_scene(sample, **render)
+    if geometry == "splat":
+        return sample_splat_scene(sample, **render)
     raise ValueError(f"geometry={geometry!r}: expected one of {GEOMETRIES}")
 
 
-def mesh_channels(renderer, sample) -> dict[str, np.ndarray]:
-    """The G-buffer of ``sample``'s mesh scene read back from ``renderer``: channel ->
+def geometry_channels(renderer, sample, geometry: str = "mesh") -> dict[str, np.ndarray]:
+    """The G-buffer of ``sample``'s ``geometry`` scene read back from ``renderer``: channel ->
     ``[H, W, C]`` float32, row 0 at the top, in ``Sample.channels``' layout (background pixels
     hold the G-buffer's background values, as the reader sets them)."""
-    frame = renderer.render(sample_mesh_scene(sample, model="unlit"), aovs=CHANNELS)
+    frame = renderer.render(geometry_scene(sample, geometry, model="unlit"), aovs=CHANNELS)
     return {k: np.ascontiguousarray(frame.aovs[k], np.float32) for k in CHANNELS}
+
+
+def mesh_channels(renderer, sample) -> dict[str, np.ndarray]:
+    """:func:`geometry_channels` of the mesh scene."""
+    return geometry_channels(renderer, sample, "mesh")

@@ -18,10 +18,12 @@ Geometry (``--geometry``, default ``stack``): every frame - the estimator's and 
 and screen-space inputs of the classical variants - drawn from each sample's image-space stack,
 or (``mesh``) from the meshes the generator drew it from (:mod:`learned.data.scene`: the same
 G-buffer, but the viewer's frame of a mesh scene, with its shadow maps of the environment's sun
-and compact lights); the foreground and the target are the stack's either way.
+and compact lights), or (``splat``) from those meshes tiled with splats of their true materials
+(the viewer's splat G-buffer; splats cast the shadow maps too); the foreground and the target
+are the stack's every way.
 
 ``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...]``
-``python -m learned.protocol.shadow_net DATA --split val --oracle [--geometry mesh]``
+``python -m learned.protocol.shadow_net DATA --split val --oracle [--geometry mesh|splat]``
 """
 from __future__ import annotations
 
@@ -172,7 +174,8 @@ def main(argv=None) -> int:
     p.add_argument("--oracle", action="store_true",
                    help="the bound of the product form instead of weights (val only)")
     p.add_argument("--geometry", choices=GEOMETRIES, default="stack",
-                   help="draw the frames from the image-space stacks or the samples' meshes")
+                   help="draw the frames from the image-space stacks, the samples' meshes, or "
+                        "those meshes tiled with splats")
     p.add_argument("--indirect", action="store_true",
                    help="with --oracle: frames with the indirect light (weights: their own "
                         "training frames, from their metadata)")

@@ -95,10 +95,10 @@ def load_images(root: str, split: str, renderer, sun: bool = False,
     """Every usable sample of ``split``; ``sun``: also the lighting of a student whose base
     shades the environment's sun (``TrainImage.lighting_sun``); ``multiscatter``: the indirect
     light gathered from the direct light of a base with multiple scattering. ``geometry``
-    ``"mesh"``: the G-buffer channels and the screen-space inputs from the sample's mesh scene
-    (:mod:`learned.data.scene`) instead of its stack; the foreground and the targets are the
+    ``"mesh"`` (``"splat"``): the G-buffer channels and the screen-space inputs from the sample's
+    mesh scene (tiled with splats; :mod:`learned.data.scene`) instead of its stack; the foreground and the targets are the
     stack's either way."""
-    from ..data.scene import GEOMETRIES, mesh_channels
+    from ..data.scene import GEOMETRIES, geometry_channels
 
     if geometry not in GEOMETRIES:
         raise ValueError(f"geometry={geometry!r}: expected one of {GEOMETRIES}")
@@ -108,7 +108,7 @@ def load_images(root: str, split: str, renderer, sun: bool = False,
         fg = torch.from_numpy(s.foreground())
         if not fg.any():
             continue
-        channels = mesh_channels(renderer, s) if geometry == "mesh" else s.channels
+        channels = s.channels if geometry == "stack" else geometry_channels(renderer, s, geometry)
         ch = {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in channels.items()}
         v = -torch.from_numpy(s.view_dirs())
         spec = EnvironmentSpec(path=str(s.environment))

@@ -5,20 +5,24 @@ cost in one run.
 Options (:data:`OPTIONS`, all ``ggx_split_sum`` with the indirect light and the shadow maps):
 SSAO alone (contact shadows off), SSAO with screen-space contact shadows, SSAO times the neural
 shadow estimator (a weights file), and the ray-traced tier (mesh geometry only: a G-buffer stack
-has no triangles to trace).
+and a splat cloud have no triangles to trace).
 
 Accuracy: the protocol's metric (:func:`learned.protocol.scores.psnr`: Reinhard-mapped, over each
 sample's foreground) of the option's frame against the split's path-traced targets, the mean over
 the samples and its paired difference to the first option (95 % bootstrap over the samples,
-:func:`learned.protocol.scores.paired_bootstrap`). Frames are drawn from the samples' stacks or
-meshes (``geometry``, :func:`learned.data.scene.geometry_scene`). Validation splits only by
+:func:`learned.protocol.scores.paired_bootstrap`). Frames are drawn from the samples' stacks,
+meshes or those meshes tiled with splats of their true materials (``geometry``,
+:func:`learned.data.scene.geometry_scene`; the splat frames' G-buffer comes from the viewer's
+splat pass). Validation splits only by
 default: scoring ``test`` appends to the dataset's ledger like every test scoring.
 
 Cost: each option's whole frame against the first option's at ``size`` on the bench's mesh scene
-(the demo; or any scene), in alternating blocks (:func:`relight.bench.timing.time_pair`): the ratio of
+(the demo; or any scene; for ``splat`` the demo tiled with splats at that size,
+:func:`cost_scene`), in alternating blocks (:func:`relight.bench.timing.time_pair`): the ratio of
 their medians in one run is the number to quote; milliseconds on a shared CPU are noise.
 
-``python -m relight.bench.shadow_trade DATA WEIGHTS [--split val] [--geometry mesh] [--out DIR]``
+``python -m relight.bench.shadow_trade DATA WEIGHTS [--split val] [--geometry mesh|splat]
+[--out DIR]``
 writes ``shadow_trade.json`` and ``shadow_trade.md``.
 """
 from __future__ import annotations
@@ -49,9 +53,15 @@ def option_settings(name: str, weights: str) -> dict:
                    for k, v in OPTIONS[name].items()}
 
 
+def options(geometry: str) -> list[str]:
+    """The options of :data:`OPTIONS` that ``geometry`` can draw: the rays need triangles."""
+    return [n for n in OPTIONS if geometry == "mesh" or n != "ray-traced tier"]
+
+
 def accuracy(data: str, split: str, weights: str, geometry: str = "stack",
              renderer=None) -> dict:
-    """Option name -> per-sample protocol PSNR on ``split`` (the rays option only for meshes)."""
+    """Option name -> per-sample protocol PSNR on ``split`` (the rays option only for meshes:
+    :func:`options`)."""
     from learned.data.reader import list_samples, load_sample
     from learned.data.scene import geometry_scene
     from learned.protocol.scores import psnr
@@ -59,7 +69,7 @@ def accuracy(data: str, split: str, weights: str, geometry: str = "stack",
 
     own = renderer is None
     renderer = renderer or Renderer()
-    names = [n for n in OPTIONS if geometry == "mesh" or n != "ray-traced tier"]
+    names = options(geometry)
     out: dict[str, list[float]] = {n: [] for n in names}
     try:
         for folder in list_samples(data, split):
@@ -78,19 +88,41 @@ def accuracy(data: str, split: str, weights: str, geometry: str = "stack",
     return out
 
 
-def cost(renderer, scene, weights: str, config, size=SIZE) -> dict:
-    """Option name -> (its frame's median ms, the first option's in the same blocks)."""
+def cost(renderer, scene, weights: str, config, names=tuple(OPTIONS), size=SIZE) -> dict:
+    """Option name -> (its frame's median ms, the first option's in the same blocks), for the
+    options ``names``."""
     from .timing import time_pair
 
     base = scene.with_camera(size=size).with_render(**option_settings("SSAO", weights))
     out = {}
-    for n in OPTIONS:
+    for n in names:
         other = scene.with_camera(size=size).with_render(**option_settings(n, weights))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             (ms, _), (base_ms, _) = time_pair(renderer, other, base, size, config)
         out[n] = (ms, base_ms)
     return out
+
+
+def cost_scene(geometry: str, folder: Path, size=SIZE):
+    """The scene the options are timed on: the bench's demo, or (``splat``) the demo's surfaces
+    tiled with splats as its camera sees them at ``size``
+    (:func:`learned.data.splat_tiling.scene_splats`), written to ``folder/demo_splats.ply``."""
+    import dataclasses
+
+    from learned.data.splat_tiling import scene_splats
+    from viewer.scene.description import ObjectSpec
+    from viewer.splats.ply import write_ply
+
+    from .scenes import demo_scene
+
+    scene = demo_scene()
+    if geometry != "splat":
+        return scene
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "demo_splats.ply"
+    write_ply(path, scene_splats(scene.with_camera(size=size)))
+    return dataclasses.replace(scene, objects=(ObjectSpec("splats", path=str(path)),))
 
 
 def trade_rows(scores: dict, costs: dict | None) -> list[dict]:
@@ -126,7 +158,7 @@ def main(argv=None) -> int:
     p.add_argument("data", help="a protocol dataset (relight data OUT --protocol)")
     p.add_argument("weights", help="the shadow estimator's weights file")
     p.add_argument("--split", default="val", choices=("val", "test"))
-    p.add_argument("--geometry", default="stack", choices=("stack", "mesh"))
+    p.add_argument("--geometry", default="stack", choices=("stack", "mesh", "splat"))
     p.add_argument("--out", default="runs/shadow_trade")
     p.add_argument("--no-cost", action="store_true", help="accuracy only")
     a = p.parse_args(argv)
@@ -135,13 +167,13 @@ def main(argv=None) -> int:
     from viewer.renderer import Renderer
 
     from .run import BenchConfig
-    from .scenes import demo_scene
 
     renderer = Renderer()
+    out = Path(a.out)
     try:
         scores = accuracy(a.data, a.split, a.weights, a.geometry, renderer)
-        costs = None if a.no_cost else cost(renderer, demo_scene(), a.weights,
-                                            BenchConfig())
+        costs = None if a.no_cost else cost(renderer, cost_scene(a.geometry, out), a.weights,
+                                            BenchConfig(), options(a.geometry))
     except RelightError as exc:
         print(f"{p.prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code
@@ -154,7 +186,6 @@ def main(argv=None) -> int:
 
         record_test(a.data, f"shadow trade ({a.geometry})", [a.weights],
                     len(next(iter(scores.values()))), dataset_hash(a.data, ("test",)))
-    out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     cmd = "python -m relight.bench.shadow_trade " + " ".join(argv or sys.argv[1:])
     (out / "shadow_trade.json").write_text(json.dumps(

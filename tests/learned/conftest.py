@@ -2,8 +2,17 @@
 they were one module): the tiny synthetic ``dataset`` (tiny_dataset.py) of the data, training and
 evaluation tests, and the weights files of the neural-shader tests (test_neural*.py): a random
 student and teacher (``weights``), a smaller student (``small_weights``), a ``dfg`` student and a
-``pbr3`` student."""
+``pbr3`` student; the tiny rasteriser-target split with meshes (``mesh_dataset``) of the mesh and
+splat geometry tests."""
 import pytest
+
+
+@pytest.fixture(scope="session")
+def mesh_dataset(tmp_path_factory, ctx):
+    """mesh_dataset.py's split, made once."""
+    from mesh_dataset import make_mesh_dataset
+
+    return make_mesh_dataset(tmp_path_factory.mktemp("meshes") / "d", ctx)
 
 
 @pytest.fixture(scope="session")
@@ -50,8 +59,9 @@ def pbr_weights(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def dataset(tmp_path_factory, ctx):
-    from learned.data.generator import generate
     from tiny_dataset import TINY
+
+    from learned.data.generator import generate
     from viewer.renderer import Renderer
 
     root = tmp_path_factory.mktemp("data") / "d"

@@ -5,32 +5,18 @@ maps, the same frame; a moved object or a missing mesh file is caught; and
 ``python -m learned.protocol.shadow_net --geometry mesh`` runs end to end."""
 import json
 import shutil
-from dataclasses import replace
 
 import numpy as np
 import pytest
+from mesh_dataset import MESH_KINDS as KINDS
 
 from learned.data.reader import DatasetError, list_samples, load_sample
 from learned.data.scene import mesh_channels, sample_mesh_scene, sample_scene
 
-KINDS = ("gltf", "concave", "sphere_on_plane")
-
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory, ctx):
-    from learned.data.generator import generate
-    from learned.protocol.data import protocol_configs
-    from viewer.renderer import Renderer
-
-    config = replace(protocol_configs({"val": len(KINDS)}, size=32, targets="rasteriser",
-                                      seed=5)["val"], samples=4, env_width=32, scene_kinds=KINDS)
-    root = tmp_path_factory.mktemp("meshes") / "d"
-    r = Renderer(ctx=ctx)
-    try:
-        generate(root, config, renderer=r, progress=False)
-    finally:
-        r.release()
-    return root
+def data(mesh_dataset):
+    return mesh_dataset
 
 
 @pytest.fixture

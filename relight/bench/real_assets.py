@@ -20,7 +20,10 @@ true``: ray-traced visibility and bounce), both screen-space (``raytrace = false
 indirect light), and split-sum screen-space with the mesh shadow estimator
 (``assets/weights/shadow_net_mesh.safetensors``) in the frame it was trained on
 (:func:`viewer.neural.shadow_net.frame_settings`). Each non-split-sum case is judged against the
-split-sum case with the same visibility evidence (:attr:`Case.baseline`).
+split-sum case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
+(:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
+floor, drawn with the screen-space cases alone (splats have no triangles to trace), against the
+gun's own truth; its failures are counted apart ("(splats)").
 
 **Truth**: Mitsuba 3 with our BSDF (:mod:`relight.reference`), cached as the gallery caches it
 (:func:`relight.gallery.panels.cached_truth`: one file per scene under ``<out>/cache``, keyed by
@@ -53,6 +56,7 @@ from .real_assets_metrics import (
     speckle,
     verdict,
 )
+from .real_assets_splats import SPLAT_ASSETS, splat_cases, splat_scene
 
 # (name, glTF file under assets/models): every bundled model (cge_base_level is a small diorama
 # standing on its own ground; the reference traces its fence's MASK as a cut-out and the
@@ -214,6 +218,11 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
                     scene_r, tiles = scene_rows(renderer, name, scene, truth, case_list)
                     rows += scene_r
                     sheet.append((name, tiles))
+            for name, asset, env_name, scene, truth in _splat_scenes(options, envs, cache):
+                log(f"{name}: rasterising the splat capture")
+                scene_r, tiles = scene_rows(renderer, name, scene, truth, splat_cases(case_list))
+                rows += [r | {"geometry": "splats"} for r in scene_r]
+                sheet.append((name, tiles))
         machine = _machine(renderer)
     finally:
         if own:
@@ -229,6 +238,24 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
               "rows": rows, "summary": summary(rows)}
     write(report, sheet, out, [c.label for c in case_list])
     return report
+
+
+def _splat_scenes(options: Options, envs, cache: Path):
+    """(name, asset, HDRI, the splat scene, its model's cached truth) of every
+    :data:`~.real_assets_splats.SPLAT_ASSETS` entry whose name ``options.assets`` selects."""
+    from relight.gallery.cases import GalleryOptions
+    from relight.gallery.panels import cached_truth
+
+    files = dict(ASSETS)
+    truth_options = GalleryOptions(cache=cache, progress=options.progress)
+    for name, asset in SPLAT_ASSETS:
+        if options.assets is not None and name not in options.assets:
+            continue
+        for env_name, env_path in envs:
+            scene = asset_scene(files[asset], env_path, options.size)
+            truth = cached_truth(scene, f"{asset}_{env_name}", truth_options, options.spp)
+            yield (f"{name}/{env_name}", asset, env_name, splat_scene(scene, cache, name),
+                   truth)
 
 
 def _machine(renderer) -> dict:
@@ -250,7 +277,8 @@ def summary(rows: list[dict]) -> dict:
     for r in rows:
         if "baseline" not in r:
             continue
-        s = out.setdefault(r["case"], {"rows": 0, "speckle": 0, "shadow": 0, "psnr": 0,
+        key = r["case"] + (" (splats)" if r.get("geometry") == "splats" else "")
+        s = out.setdefault(key, {"rows": 0, "speckle": 0, "shadow": 0, "psnr": 0,
                                        "failed_rows": 0})
         s["rows"] += 1
         for k in ("speckle", "shadow", "psnr"):
@@ -313,7 +341,7 @@ def write(report: dict, sheet: list, out: Path, labels: list[str]) -> list[Path]
                        (out / f"real_assets_{SHEET_ENV}.png",
                         [(n, t) for n, t in sheet if n.endswith(f"/{SHEET_ENV}")])):
         if part:
-            img = compose([[tiles[c] for c in cols] for _, tiles in part],
+            img = compose([[tiles.get(c) for c in cols] for _, tiles in part],
                           [c.replace(", ", ",\n") for c in cols], [n for n, _ in part], note=note)
             img.save(path, optimize=True)
             files.append(path)

@@ -1,0 +1,58 @@
+"""The real-asset bench's splat capture (issue 38: "a splat capture" among the real assets): a
+bundled glTF model tiled with flat Gaussians of its true materials, standing on the same slab
+floor under the same HDRI, against the path-traced truth of the model itself.
+
+The cloud is what a perfect capture and decomposition of the model would give
+(:func:`learned.data.splat_tiling.scene_splats`: about one splat per pixel of the camera,
+each with its surface's albedo, roughness, metallic and interpolated vertex normal; the gun's
+normal map is not applied), written once per model, size and tiler version under the bench's
+truth cache (one ``.ply`` per model and size: the cache's bound). The floor stays the slab mesh,
+so the truth is the mesh scene's, already cached. Splats have no triangles to trace, so only
+the screen-space cases are drawn (:data:`SPLAT_CASES`): split-sum, the student, and the shadow
+estimator, each with SSAO and the indirect light.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import replace
+from pathlib import Path
+
+# (name, the model of relight.bench.real_assets.ASSETS whose scene is tiled)
+SPLAT_ASSETS: tuple[tuple[str, str], ...] = (("cge_plasma_gun_splats", "cge_plasma_gun"),)
+SPLAT_CASES = ("split-sum, screen", "neural, screen", "split-sum, screen + estimator")
+
+
+def splat_scene(scene, cache: Path, name: str):
+    """``scene`` with its mesh objects replaced by one cloud tiling them (module doc), its other
+    objects (the slab floor, a plane) kept."""
+    from learned.data.splat_tiling import SPACING, scene_splats
+    from viewer.environment.disk_cache import file_digest
+    from viewer.scene.description import ObjectSpec
+    from viewer.splats.ply import write_ply
+
+    models = [o for o in scene.objects if o.type == "mesh"]
+    rest = tuple(o for o in scene.objects if o.type != "mesh")
+    if not models:
+        raise ValueError(f"{name}: no mesh object to tile with splats")
+    files = sorted(o.path for o in models if o.path)
+    key = hashlib.sha256(json.dumps(
+        [SPACING, list(scene.camera.size), [repr(o) for o in models],
+         [file_digest(f) for f in files]], sort_keys=True).encode()).hexdigest()[:16]
+    folder = Path(cache) / "splats"
+    path = folder / f"{name}_{scene.camera.size[0]}x{scene.camera.size[1]}_{key}.ply"
+    if not path.is_file():
+        cloud = scene_splats(replace(scene, objects=tuple(models)), SPACING)
+        folder.mkdir(parents=True, exist_ok=True)
+        for old in folder.glob(f"{name}_{scene.camera.size[0]}x{scene.camera.size[1]}_*.ply"):
+            old.unlink()  # another version of the same cloud: one file per model and size
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        write_ply(tmp, cloud, comments=[f"tiled from {files[0] if files else name}"])
+        os.replace(tmp, path)
+    return replace(scene, objects=(ObjectSpec(type="splats", path=str(path)),) + rest)
+
+
+def splat_cases(case_list):
+    """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`)."""
+    return tuple(c for c in case_list if c.label in SPLAT_CASES)

@@ -19,8 +19,10 @@ only looks it up through the prefiltered maps), so there is no run without it.
 true``: ray-traced visibility and bounce), both screen-space (``raytrace = false``, SSAO +
 indirect light), and split-sum screen-space with the mesh shadow estimator
 (``assets/weights/shadow_net_mesh.safetensors``) in the frame it was trained on
-(:func:`viewer.neural.shadow_net.frame_settings`). Each non-split-sum case is judged against the
-split-sum case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
+(:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student screen-space with
+the estimator's visibility in place of SSAO's occlusion and the student's S(x) (``shadow_net_use
+= "visibility"``: the issue's "usable by every model"). Each non-split-sum case is judged against
+the split-sum case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
 floor, drawn with the screen-space cases alone (splats have no triangles to trace), against the
 gun's own truth; its failures are counted apart ("(splats)").
@@ -56,7 +58,7 @@ from .real_assets_metrics import (
     speckle,
     verdict,
 )
-from .real_assets_splats import SPLAT_ASSETS, splat_cases, splat_scene
+from .real_assets_splats import splat_cases, splat_scenes
 
 # (name, glTF file under assets/models): every bundled model (cge_base_level is a small diorama
 # standing on its own ground; the reference traces its fence's MASK as a cut-out and the
@@ -93,11 +95,13 @@ def shadow_net_file() -> Path:
 
 
 def cases() -> tuple[Case, ...]:
-    """The five cases of the module docstring; the estimator's frame read from its weights."""
+    """The seven cases of the module docstring; the estimator's frame read from its weights."""
     from viewer.neural.shadow_net import frame_settings, read_shadow_net
 
     net = shadow_net_file()
     frame = frame_settings(read_shadow_net(net).training)
+    # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
+    V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
     return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
             Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
             Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),
@@ -105,7 +109,9 @@ def cases() -> tuple[Case, ...]:
             Case("split-sum, screen + estimator",
                  {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
                   "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
-                 "split-sum, screen"))
+                 "split-sum, screen"),
+            Case("split-sum, estimator's V", {"model": "ggx_split_sum", **V_USE}),
+            Case("neural, estimator's V", {"model": "neural", **V_USE}, "split-sum, estimator's V"))
 
 
 def environments() -> list[tuple[str, Path]]:
@@ -218,7 +224,7 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
                     scene_r, tiles = scene_rows(renderer, name, scene, truth, case_list)
                     rows += scene_r
                     sheet.append((name, tiles))
-            for name, asset, env_name, scene, truth in _splat_scenes(options, envs, cache):
+            for name, scene, truth in splat_scenes(options, envs, cache):
                 log(f"{name}: rasterising the splat capture")
                 scene_r, tiles = scene_rows(renderer, name, scene, truth, splat_cases(case_list))
                 rows += [r | {"geometry": "splats"} for r in scene_r]
@@ -238,24 +244,6 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
               "rows": rows, "summary": summary(rows)}
     write(report, sheet, out, [c.label for c in case_list])
     return report
-
-
-def _splat_scenes(options: Options, envs, cache: Path):
-    """(name, asset, HDRI, the splat scene, its model's cached truth) of every
-    :data:`~.real_assets_splats.SPLAT_ASSETS` entry whose name ``options.assets`` selects."""
-    from relight.gallery.cases import GalleryOptions
-    from relight.gallery.panels import cached_truth
-
-    files = dict(ASSETS)
-    truth_options = GalleryOptions(cache=cache, progress=options.progress)
-    for name, asset in SPLAT_ASSETS:
-        if options.assets is not None and name not in options.assets:
-            continue
-        for env_name, env_path in envs:
-            scene = asset_scene(files[asset], env_path, options.size)
-            truth = cached_truth(scene, f"{asset}_{env_name}", truth_options, options.spp)
-            yield (f"{name}/{env_name}", asset, env_name, splat_scene(scene, cache, name),
-                   truth)
 
 
 def _machine(renderer) -> dict:

@@ -9,7 +9,8 @@ normal map is not applied), written once per model, size and tiler version under
 truth cache (one ``.ply`` per model and size: the cache's bound). The floor stays the slab mesh,
 so the truth is the mesh scene's, already cached. Splats have no triangles to trace, so only
 the screen-space cases are drawn (:data:`SPLAT_CASES`): split-sum, the student, and the shadow
-estimator, each with SSAO and the indirect light.
+estimator, each with SSAO and the indirect light, and split-sum and the student with the
+estimator's visibility in place of SSAO's.
 """
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from pathlib import Path
 
 # (name, the model of relight.bench.real_assets.ASSETS whose scene is tiled)
 SPLAT_ASSETS: tuple[tuple[str, str], ...] = (("cge_plasma_gun_splats", "cge_plasma_gun"),)
-SPLAT_CASES = ("split-sum, screen", "neural, screen", "split-sum, screen + estimator")
+SPLAT_CASES = ("split-sum, screen", "neural, screen", "split-sum, screen + estimator",
+               "split-sum, estimator's V", "neural, estimator's V")
 
 
 def splat_scene(scene, cache: Path, name: str):
@@ -56,3 +58,23 @@ def splat_scene(scene, cache: Path, name: str):
 def splat_cases(case_list):
     """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`)."""
     return tuple(c for c in case_list if c.label in SPLAT_CASES)
+
+
+def splat_scenes(options, envs, cache: Path):
+    """(name, the splat scene, its model's cached truth) of every :data:`SPLAT_ASSETS` entry
+    that ``options.assets`` selects (:class:`relight.bench.real_assets.Options`), under each
+    HDRI of ``envs``."""
+    from relight.gallery.cases import GalleryOptions
+    from relight.gallery.panels import cached_truth
+
+    from .real_assets import ASSETS, asset_scene
+
+    files = dict(ASSETS)
+    truth_options = GalleryOptions(cache=cache, progress=options.progress)
+    for name, asset in SPLAT_ASSETS:
+        if options.assets is not None and name not in options.assets:
+            continue
+        for env_name, env_path in envs:
+            scene = asset_scene(files[asset], env_path, options.size)
+            truth = cached_truth(scene, f"{asset}_{env_name}", truth_options, options.spp)
+            yield f"{name}/{env_name}", splat_scene(scene, cache, name), truth

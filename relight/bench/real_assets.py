@@ -224,7 +224,8 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
                     scene_r, tiles = scene_rows(renderer, name, scene, truth, case_list)
                     rows += scene_r
                     sheet.append((name, tiles))
-            for name, scene, truth in splat_scenes(options, envs, cache):
+            for name, scene, truth in splat_scenes(options, envs, cache, dict(ASSETS),
+                                                   asset_scene):
                 log(f"{name}: rasterising the splat capture")
                 scene_r, tiles = scene_rows(renderer, name, scene, truth, splat_cases(case_list))
                 rows += [r | {"geometry": "splats"} for r in scene_r]

@@ -60,21 +60,19 @@ def splat_cases(case_list):
     return tuple(c for c in case_list if c.label in SPLAT_CASES)
 
 
-def splat_scenes(options, envs, cache: Path):
+def splat_scenes(options, envs, cache: Path, files: dict, scene_of):
     """(name, the splat scene, its model's cached truth) of every :data:`SPLAT_ASSETS` entry
     that ``options.assets`` selects (:class:`relight.bench.real_assets.Options`), under each
-    HDRI of ``envs``."""
+    HDRI of ``envs``; ``files``: model name -> glTF file, ``scene_of(file, env, size)``: its
+    mesh scene (:func:`relight.bench.real_assets.asset_scene`)."""
     from relight.gallery.cases import GalleryOptions
     from relight.gallery.panels import cached_truth
 
-    from .real_assets import ASSETS, asset_scene
-
-    files = dict(ASSETS)
     truth_options = GalleryOptions(cache=cache, progress=options.progress)
     for name, asset in SPLAT_ASSETS:
         if options.assets is not None and name not in options.assets:
             continue
         for env_name, env_path in envs:
-            scene = asset_scene(files[asset], env_path, options.size)
+            scene = scene_of(files[asset], env_path, options.size)
             truth = cached_truth(scene, f"{asset}_{env_name}", truth_options, options.spp)
             yield f"{name}/{env_name}", splat_scene(scene, cache, name), truth

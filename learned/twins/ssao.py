@@ -193,7 +193,7 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
               seed: int, direct: torch.Tensor | None = None, vis_dirs: torch.Tensor | None = None,
               vis_steps: int = 16, vis_radius: float = 2.0, env_rotation: float = 0.0,
               factor: torch.Tensor | None = None, scale: int = 1,
-              gather: bool = False) -> torch.Tensor:
+              gather: bool = False, denoise: bool = False) -> torch.Tensor:
     """Twin of ``passes/ssao.frag``: G-buffer channels ``[H, W, C]`` (GL order) -> ``[H, W, 4]``:
     O(x) in every channel, or (with ``direct`` [H, W, 4]) direct + L_ind (eq. 6.22). With
     ``vis_dirs`` (``[8, 3]``, environment frame: ``SSAO_ENV_VIS``) the g channel holds the
@@ -203,15 +203,19 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
     ``[ceil(H / k), ceil(W / k), 4]`` (:func:`ssao_upsample` brings it to full resolution, as
     ``passes/ssao_upsample.frag`` does); ``gather`` (with ``direct``, ``SSAO_GATHER``) returns the
     low-resolution gathered light (E, 1) (0 off surfaces); with ``direct`` and no ``gather`` the
-    gather then the full-resolution composite (direct + (1 - m) a f E with E upsampled)."""
+    gather then the full-resolution composite (direct + (1 - m) a f E with E upsampled).
+    ``denoise`` (scale 1, ``ssao_indirect_denoise``): E through :func:`ssao_blur` before the
+    composite (``SSAO_COMPOSITE`` at k = 1)."""
     g = gbuffer
     view = _View(g, camera)
     h, w = view.h, view.w
     k = int(scale)
-    if direct is not None and k > 1 and not gather:  # the composite pass
+    if direct is not None and (k > 1 or denoise) and not gather:  # the composite pass
         e = ssao_pass(g, camera, rays, steps, radius, thickness, seed, direct=direct, scale=k,
-                      gather=True)[..., :3]
-        return _composite(g, direct, ssao_upsample(e, g, camera, k, 0.0), factor)
+                      gather=True)
+        if denoise and k == 1:
+            e = ssao_blur(e, g, camera)
+        return _composite(g, direct, ssao_upsample(e[..., :3], g, camera, k, 0.0), factor)
     th, tw = -(-h // k), -(-w // k)
     ty, tx = torch.meshgrid(torch.arange(th), torch.arange(tw), indexing="ij")
     q = ssao_sample_pixel(torch.stack([tx, ty], dim=-1), k, (w, h))

@@ -21,8 +21,9 @@ indirect light), and split-sum screen-space with the mesh shadow estimator
 (``assets/weights/shadow_net_mesh.safetensors``) in the frame it was trained on
 (:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student screen-space with
 the estimator's visibility in place of SSAO's occlusion and the student's S(x) (``shadow_net_use
-= "visibility"``: the issue's "usable by every model"). Each non-split-sum case is judged against
-the split-sum case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
+= "visibility"``: the issue's "usable by every model"), also with the screen-space bounce
+denoised (``ssao_indirect_denoise``). Each non-split-sum case is judged against the split-sum
+case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
 floor, drawn with the screen-space cases alone (splats have no triangles to trace), against the
 gun's own truth; its failures are counted apart ("(splats)").
@@ -95,13 +96,14 @@ def shadow_net_file() -> Path:
 
 
 def cases() -> tuple[Case, ...]:
-    """The seven cases of the module docstring; the estimator's frame read from its weights."""
+    """The nine cases of the module docstring; the estimator's frame read from its weights."""
     from viewer.neural.shadow_net import frame_settings, read_shadow_net
 
     net = shadow_net_file()
     frame = frame_settings(read_shadow_net(net).training)
     # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
     V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
+    V_DN = V_USE | {"ssao_indirect_denoise": True}  # and the bounce through the bilateral blur
     return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
             Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
             Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),
@@ -111,7 +113,11 @@ def cases() -> tuple[Case, ...]:
                   "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
                  "split-sum, screen"),
             Case("split-sum, estimator's V", {"model": "ggx_split_sum", **V_USE}),
-            Case("neural, estimator's V", {"model": "neural", **V_USE}, "split-sum, estimator's V"))
+            Case("neural, estimator's V", {"model": "neural", **V_USE},
+                 "split-sum, estimator's V"),
+            Case("split-sum, V, denoised bounce", {"model": "ggx_split_sum", **V_DN}),
+            Case("neural, V, denoised bounce", {"model": "neural", **V_DN},
+                 "split-sum, V, denoised bounce"))
 
 
 def environments() -> list[tuple[str, Path]]:

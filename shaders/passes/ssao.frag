@@ -37,7 +37,8 @@
 // SSAO_GATHER, full resolution) upsamples E jointly bilaterally (u_gathered) and adds
 // (1 - m) a f E at each pixel with its own albedo, metalness and factor.
 // Defines: SSAO_INDIRECT (0/1), SSAO_ENV_VIS (0/1), SSAO_INDIRECT_FACTOR (0/1), SSAO_HITS (0-7),
-// SSAO_MARCH_REST (0/1, indirect mode), SSAO_SCALE (>= 1), SSAO_GATHER (0/1, indirect mode). Twin: learned.twins.ssao.ssao_pass (it marches in both
+// SSAO_MARCH_REST (0/1, indirect mode), SSAO_SCALE (>= 1), SSAO_GATHER (0/1, indirect mode),
+// SSAO_COMPOSITE (0/1, indirect mode: the composite half; default: at k > 1 without GATHER). Twin: learned.twins.ssao.ssao_pass (it marches in both
 // modes: recorded hits change no result).
 #include "passes/deferred.glsl"
 #include "lib/shading.glsl"
@@ -49,8 +50,12 @@
 #ifndef SSAO_GATHER
 #define SSAO_GATHER 0
 #endif
-// the full-resolution half of the indirect light at reduced scale: no rays, E upsampled
+// the full-resolution half of the indirect light at reduced scale, or at scale 1 after the
+// gathered E went through passes/ssao_blur.frag (render.ssao_indirect_denoise: the pass sets
+// SSAO_COMPOSITE 1): no rays, E upsampled (at k = 1 read at the pixel itself)
+#ifndef SSAO_COMPOSITE
 #define SSAO_COMPOSITE (SSAO_INDIRECT != 0 && SSAO_SCALE > 1 && SSAO_GATHER == 0)
+#endif
 
 uniform int u_rays;
 uniform int u_steps;

@@ -66,9 +66,9 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
         rows = report["rows"]
         assert [x["case"] for x in rows] == [c.label for c in cases()]
         judged = [x for x in rows if "baseline" in x]
-        assert len(judged) == 4 and all("ok" in x and "invented_shadow_%" in x for x in judged)
+        assert len(judged) == 5 and all("ok" in x and "invented_shadow_%" in x for x in judged)
         assert all(np.isfinite(x["psnr_db"]) and x["floor_pixels"] > 50 for x in rows)
-        assert sum(s["rows"] for s in report["summary"].values()) == 4
+        assert sum(s["rows"] for s in report["summary"].values()) == 5
         for name in ("real_assets.json", "real_assets.md", "real_assets.png"):
             assert (tmp_path / name).is_file()
         assert json.loads((tmp_path / "real_assets.json").read_text())["spp"] == 8

@@ -1,8 +1,8 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
     gbuffer -> splats -> ssao -> ssao_upsample -> ssao_blur -> shadow<i> -> shade
-            -> indirect_gather -> indirect -> shadow_net -> transmission_copy -> forward
-            -> ssaa_resolve -> tonemap -> fxaa
+            -> indirect_gather -> indirect_denoise -> indirect -> shadow_net -> transmission_copy
+            -> forward -> ssaa_resolve -> tonemap -> fxaa
 
 ``transmission_copy`` (only in a scene with a KHR_materials_transmission surface under a model
 that refracts it in the forward pass, :func:`viewer.models.refracts_forward`) keeps a mip-mapped
@@ -30,7 +30,7 @@ from ..passes.forward import (forward_meshes, forward_model, forward_variant,
                                warn_unshadowed)
 from ..passes.gbuffer import GBufferTargets
 from ..passes.ground import scene_catcher
-from ..passes.ssao import hit_targets, low_resolution
+from ..passes.ssao import denoised, hit_targets, low_resolution, staged
 from ..scene.camera import Camera
 from ..scene.description import Scene
 from ..specialize import Specialization
@@ -328,22 +328,30 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
     hits = ssao.hits if ssao else ()
     ind_reads = ("gbuffer", "direct") + hits + (("indirect_factor",) if factor else ())
     ind_inputs = {"ssao": settings.ssao, "seed": settings.mc.seed}
-    if k > 1:  # gathered at low resolution, composited at full resolution
-        gathered = g.create(f"gathered/{k}", TextureDesc(low_resolution(size, k), 4, "f4"),
-                            kept=True)
+    two_step = staged(settings)
+    if two_step:  # gathered (at low resolution, or denoised), composited at full resolution
+        raw = g.create(f"gathered/{k}", TextureDesc(low_resolution(size, k), 4, "f4"), True)
 
         def gather(f):
-            sspass.gather(f["gbuffer"].textures, f["direct"].texture, f[gathered].fbo, camera,
+            sspass.gather(f["gbuffer"].textures, f["direct"].texture, f[raw].fbo, camera,
                           settings, hits=[f[h].texture for h in hits])
         g.add_pass("indirect_gather", gather, reads=("gbuffer", "direct") + hits,
-                   writes=(gathered,), inputs=ind_inputs)
+                   writes=(raw,), inputs=ind_inputs)
+        # denoised: the gathered E through SSAO's bilateral blur (scale 1)
+        gathered = g.create("gathered/blur", TextureDesc(size, 4, "f4"), kept=True) \
+            if denoised(settings) else raw
+        if gathered != raw:
+            def blur_gathered(f):
+                sspass.blur(f["gbuffer"].textures, f[raw].texture, f[gathered].fbo, camera, False)
+            g.add_pass("indirect_denoise", blur_gathered, reads=("gbuffer", raw),
+                       writes=(gathered,), inputs={"blur": True})
         ind_reads += (gathered,)
 
     def indirect_light(f):
         fac = f["indirect_factor"].texture if factor else None
-        if k > 1:
+        if two_step:
             sspass.composite(f["gbuffer"].textures, f["direct"].texture, f["radiance"].fbo,
-                             camera, settings, f[f"gathered/{k}"].texture, factor=fac,
+                             camera, settings, f[gathered].texture, factor=fac,
                              ground=ground)
         else:  # reads the occlusion pass's hits; marches the rays itself without that pass
             sspass.indirect(f["gbuffer"].textures, f["direct"].texture, f["radiance"].fbo,

@@ -58,6 +58,18 @@ def hit_targets(rays: int) -> int:
     return min(-(-max(int(rays), 0) // HITS_PER_TARGET), HIT_TARGETS_MAX)
 
 
+def denoised(settings: RenderSettings) -> bool:
+    """Whether the indirect light's gathered E goes through the bilateral blur before it is added
+    (``ssao_indirect_denoise`` at scale 1; at k > 1 the upsampling filters it)."""
+    return bool(settings.ssao.indirect_denoise) and int(settings.ssao.scale) == 1
+
+
+def staged(settings: RenderSettings) -> bool:
+    """Whether the indirect light is gather then composite (reduced scale, or denoised) rather
+    than one pass."""
+    return int(settings.ssao.scale) > 1 or denoised(settings)
+
+
 class SSAOPass:
     def __init__(self, programs, layout: GBufferLayout):
         self.programs = programs
@@ -84,6 +96,7 @@ class SSAOPass:
                                                    < settings.ssao.rays),
                                                "SSAO_SCALE": scale,
                                                "SSAO_GATHER": int(gather),
+                                               "SSAO_COMPOSITE": int(composite),
                                                "BACKGROUND_ENVIRONMENT": 0},
                                       virtual=self.layout.virtual_files())
         unit = bind_gbuffer(prog, gbuffer_textures)
@@ -167,25 +180,32 @@ class SSAOPass:
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
                  settings: RenderSettings, factor=None, hits=None, gather_fbo=None,
-                 ground=None) -> None:
+                 ground=None, blur_fbo=None) -> None:
         """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``; with
         ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind. ``hits``:
         the hit targets :meth:`occlusion` recorded for the same G-buffer, camera and settings
         (read instead of marching the rays again); ``None`` marches. At ``settings.ssao.scale``
         k > 1 this is :meth:`gather` into ``gather_fbo`` (one RGBA32F target of
-        :func:`low_resolution`) then :meth:`composite`. ``ground``: the scene's shadow catcher
-        (:func:`viewer.passes.ground.scene_catcher`), which gets no bounce light."""
+        :func:`low_resolution`) then :meth:`composite`; at k = 1 with
+        ``settings.ssao.indirect_denoise`` the same at full resolution with :meth:`blur` between,
+        into ``blur_fbo`` (:func:`staged`, :func:`denoised`). ``ground``: the scene's shadow
+        catcher (:func:`viewer.passes.ground.scene_catcher`), which gets no bounce light."""
         hits = self._check_hits(hits, settings)
-        if int(settings.ssao.scale) == 1:
+        if not staged(settings):
             self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
                       factor=factor, n_hits=len(hits), hits=hits, ground=ground)
             return
-        if gather_fbo is None:
-            raise ValueError(f"ssao scale {settings.ssao.scale}: the indirect light needs a "
-                             f"low-resolution gather target")
+        if gather_fbo is None or (denoised(settings) and blur_fbo is None):
+            raise ValueError(f"ssao scale {settings.ssao.scale}, indirect denoise "
+                             f"{settings.ssao.indirect_denoise}: the indirect light needs a "
+                             f"gather target{' and a blur target' if denoised(settings) else ''}")
         self.gather(gbuffer_textures, direct, gather_fbo, camera, settings, hits=hits)
-        self.composite(gbuffer_textures, direct, out_fbo, camera, settings,
-                       gather_fbo.color_attachments[0], factor=factor, ground=ground)
+        gathered = gather_fbo.color_attachments[0]
+        if denoised(settings):
+            self.blur(gbuffer_textures, gathered, blur_fbo, camera, env_vis=False)
+            gathered = blur_fbo.color_attachments[0]
+        self.composite(gbuffer_textures, direct, out_fbo, camera, settings, gathered,
+                       factor=factor, ground=ground)
 
     def gather(self, gbuffer_textures: dict, direct, gather_fbo, camera: Camera,
                settings: RenderSettings, hits=None) -> None:

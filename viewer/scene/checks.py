@@ -119,7 +119,8 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "ray_frames" in t:
         kw["ray_frames"] = _int(t["ray_frames"], "render.ray_frames", file, 1,
                                      4096)
-    for k in ("ssao", "indirect", "shadows", "ssao_blur", "raytrace", "ray_denoise"):
+    for k in ("ssao", "indirect", "shadows", "ssao_blur", "ssao_indirect_denoise", "raytrace",
+              "ray_denoise"):
         if k in t:
             if not isinstance(t[k], bool):
                 raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)

@@ -126,6 +126,44 @@ def checks() -> dict:
                 robust_compare("ssao:scale:indirect", final_gl, final,
                                indirect_steps(gb, direct, targets.camera, s.ssao, pad=2 * k))]
 
+    @register_pass_check("ssao:denoise")
+    def check_ssao_denoise(programs):
+        """The denoised indirect light at scale 1 (``ssao_indirect_denoise``): the gather at full
+        resolution, the bilateral blur on the GL gather (the filter alone) and the whole indirect
+        light (the blur spreads a flipped ray's step over its 5 x 5 footprint: ``pad`` 2)."""
+        scene = scene_from_dict(PARITY_SCENE).with_render(
+            shadows=False, model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6,
+            ssao_steps=8, ssao_radius=0.6, ssao_thickness=0.3, seed=3,
+            ssao_indirect_denoise=True)
+        renderer = Renderer(ctx=programs.ctx)
+        try:
+            targets = renderer.draw(scene)
+            gb = gl_gbuffer(targets)
+            gathered_gl = gl_texture(targets.targets["gathered/1"].texture)
+            blurred_gl = gl_texture(targets.targets["gathered/blur"].texture)
+            direct, final_gl = gl_texture(targets.direct), gl_texture(targets.radiance)
+            s = scene.render
+            args = (gb, targets.camera, s.ssao.rays, s.ssao.steps, s.ssao.radius,
+                    s.ssao.thickness, s.mc.seed)
+            surface = ((gb["alpha"][..., 0] > 0.0) & (gb["depth"][..., 0] > 0.0))[..., None]
+            with torch.no_grad():
+                gathered = ssao_pass(*args, direct=torch.from_numpy(direct), gather=True).numpy()
+                blurred = torch.where(surface, ssao_blur(torch.from_numpy(gathered_gl), gb,
+                                                         targets.camera),
+                                      torch.ones(4)).numpy()
+                final = ssao_pass(*args, direct=torch.from_numpy(direct), denoise=True).numpy()
+        finally:
+            renderer.release()
+        rel = float(np.abs(blurred_gl - blurred).max() / max(np.abs(blurred).max(), 1e-6))
+        return [robust_compare("ssao:denoise:gather", gathered_gl, gathered,
+                               gather_steps(gb, direct, targets.camera, s.ssao, 1)),
+                ParityResult("ssao:denoise:blur", float(np.abs(blurred_gl - blurred).max()), rel,
+                             "rel 2e-5", rel <= 2e-5, "pass", "the blur of ssao:blur on E",
+                             "a normalised weighted mean: its error is the weights' relative "
+                             "error (ssao:blur's bound, 2e-5) times the values' spread"),
+                robust_compare("ssao:denoise:indirect", final_gl, final,
+                               indirect_steps(gb, direct, targets.camera, s.ssao, pad=2))]
+
     return found
 
 

@@ -204,7 +204,7 @@ def ssao_pass(gbuffer: dict, camera, rays: int, steps: int, radius: float, thick
     ``passes/ssao_upsample.frag`` does); ``gather`` (with ``direct``, ``SSAO_GATHER``) returns the
     low-resolution gathered light (E, 1) (0 off surfaces); with ``direct`` and no ``gather`` the
     gather then the full-resolution composite (direct + (1 - m) a f E with E upsampled).
-    ``denoise`` (scale 1, ``ssao_indirect_denoise``): E through :func:`ssao_blur` before the
+    ``denoise`` (scale 1, ``indirect_blur``): E through :func:`ssao_blur` before the
     composite (``SSAO_COMPOSITE`` at k = 1)."""
     g = gbuffer
     view = _View(g, camera)

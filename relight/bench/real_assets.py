@@ -22,7 +22,7 @@ indirect light), and split-sum screen-space with the mesh shadow estimator
 (:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student screen-space with
 the estimator's visibility in place of SSAO's occlusion and the student's S(x) (``shadow_net_use
 = "visibility"``: the issue's "usable by every model"), also with the screen-space bounce
-denoised (``ssao_indirect_denoise``). Each non-split-sum case is judged against the split-sum
+denoised (``indirect_blur``). Each non-split-sum case is judged against the split-sum
 case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
 floor, drawn with the screen-space cases alone (splats have no triangles to trace), against the
@@ -103,7 +103,7 @@ def cases() -> tuple[Case, ...]:
     frame = frame_settings(read_shadow_net(net).training)
     # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
     V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
-    V_DN = V_USE | {"ssao_indirect_denoise": True}  # and the bounce through the bilateral blur
+    V_DN = V_USE | {"indirect_blur": True}  # and the bounce through the bilateral blur
     return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
             Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
             Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),

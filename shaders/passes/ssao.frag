@@ -51,7 +51,7 @@
 #define SSAO_GATHER 0
 #endif
 // the full-resolution half of the indirect light at reduced scale, or at scale 1 after the
-// gathered E went through passes/ssao_blur.frag (render.ssao_indirect_denoise: the pass sets
+// gathered E went through passes/ssao_blur.frag (render.indirect_blur: the pass sets
 // SSAO_COMPOSITE 1): no rays, E upsampled (at k = 1 read at the pixel itself)
 #ifndef SSAO_COMPOSITE
 #define SSAO_COMPOSITE (SSAO_INDIRECT != 0 && SSAO_SCALE > 1 && SSAO_GATHER == 0)

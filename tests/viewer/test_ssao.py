@@ -176,7 +176,7 @@ def test_hit_targets_hold_four_rays_each():
 
 @pytest.mark.parametrize("key,value", [("ssao_rays", 0), ("ssao_steps", 1.5), ("ssao_radius", 0),
                                        ("ssao_thickness", -1.0), ("ssao", "yes"),
-                                       ("ssao_indirect_denoise", 1),
+                                       ("indirect_blur", 1),
                                        ("mis_heuristic", "max")])
 def test_bad_knobs_are_scene_errors(key, value):
     with pytest.raises(SceneError, match=key):

@@ -95,8 +95,8 @@ def test_ssao_blur_is_a_render_setting(renderer):
 
 
 def test_the_denoised_indirect_light_keeps_its_energy_and_loses_its_speckle(renderer):
-    """``ssao_indirect_denoise``: the one-bounce light gathered at full resolution goes through
-    the same bilateral blur before it is added (passes: indirect_gather, indirect_denoise,
+    """``indirect_blur``: the one-bounce light gathered at full resolution goes through
+    the same bilateral blur before it is added (passes: indirect_gather, indirect_blur,
     indirect). On the floor beside the red wall (the band the wall's bounce lights) the
     pixel-to-pixel noise of the indirect light falls (measured 8 rays: 62x less
     neighbour-difference variance), and the bounce's total over the surfaces stays (measured
@@ -110,7 +110,7 @@ def test_the_denoised_indirect_light_keeps_its_energy_and_loses_its_speckle(rend
     covered = plain.gbuffer.read(["alpha"])["alpha"][..., 0] > 0
     floor = plain.gbuffer.read(["normal"])["normal"][..., 1] > 0.9
     assert "gathered/blur" not in plain.targets
-    den = renderer.draw(scene([FLOOR, WALL], **common, ssao_indirect_denoise=True))
+    den = renderer.draw(scene([FLOOR, WALL], **common, indirect_blur=True))
     assert "gathered/blur" in den.targets
     np.testing.assert_array_equal(_read(den, "direct")[..., :3], direct)
     smooth = _read(den, "radiance")[..., :3] - direct
@@ -125,5 +125,5 @@ def test_the_denoised_indirect_light_keeps_its_energy_and_loses_its_speckle(rend
     assert pair.sum() > 300 and total > 10.0  # a lit, noisy band
     assert var(smooth) <= var(noisy) / 5
     assert abs(lum(smooth)[covered].sum() / total - 1) < 0.02
-    again = renderer.draw(scene([FLOOR, WALL], **common, ssao_indirect_denoise=False))
+    again = renderer.draw(scene([FLOOR, WALL], **common, indirect_blur=False))
     np.testing.assert_array_equal(_read(again, "radiance"), before)

@@ -1,7 +1,7 @@
 """The renderer's frame as a frame graph: every pass of a frame declared in the order it runs.
 
     gbuffer -> splats -> ssao -> ssao_upsample -> ssao_blur -> shadow<i> -> shade
-            -> indirect_gather -> indirect_denoise -> indirect -> shadow_net -> transmission_copy
+            -> indirect_gather -> indirect_blur -> indirect -> shadow_net -> transmission_copy
             -> forward -> ssaa_resolve -> tonemap -> fxaa
 
 ``transmission_copy`` (only in a scene with a KHR_materials_transmission surface under a model
@@ -343,7 +343,7 @@ def _lighting_passes(g: FrameGraph, renderer, req: FrameRequest, ssao: SSAOOutpu
         if gathered != raw:
             def blur_gathered(f):
                 sspass.blur(f["gbuffer"].textures, f[raw].texture, f[gathered].fbo, camera, False)
-            g.add_pass("indirect_denoise", blur_gathered, reads=("gbuffer", raw),
+            g.add_pass("indirect_blur", blur_gathered, reads=("gbuffer", raw),
                        writes=(gathered,), inputs={"blur": True})
         ind_reads += (gathered,)
 

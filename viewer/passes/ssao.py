@@ -60,8 +60,8 @@ def hit_targets(rays: int) -> int:
 
 def denoised(settings: RenderSettings) -> bool:
     """Whether the indirect light's gathered E goes through the bilateral blur before it is added
-    (``ssao_indirect_denoise`` at scale 1; at k > 1 the upsampling filters it)."""
-    return bool(settings.ssao.indirect_denoise) and int(settings.ssao.scale) == 1
+    (``indirect_blur`` at scale 1; at k > 1 the upsampling filters it)."""
+    return bool(settings.ssao.indirect_blur) and int(settings.ssao.scale) == 1
 
 
 def staged(settings: RenderSettings) -> bool:
@@ -187,7 +187,7 @@ class SSAOPass:
         (read instead of marching the rays again); ``None`` marches. At ``settings.ssao.scale``
         k > 1 this is :meth:`gather` into ``gather_fbo`` (one RGBA32F target of
         :func:`low_resolution`) then :meth:`composite`; at k = 1 with
-        ``settings.ssao.indirect_denoise`` the same at full resolution with :meth:`blur` between,
+        ``settings.ssao.indirect_blur`` the same at full resolution with :meth:`blur` between,
         into ``blur_fbo`` (:func:`staged`, :func:`denoised`). ``ground``: the scene's shadow
         catcher (:func:`viewer.passes.ground.scene_catcher`), which gets no bounce light."""
         hits = self._check_hits(hits, settings)
@@ -197,7 +197,7 @@ class SSAOPass:
             return
         if gather_fbo is None or (denoised(settings) and blur_fbo is None):
             raise ValueError(f"ssao scale {settings.ssao.scale}, indirect denoise "
-                             f"{settings.ssao.indirect_denoise}: the indirect light needs a "
+                             f"{settings.ssao.indirect_blur}: the indirect light needs a "
                              f"gather target{' and a blur target' if denoised(settings) else ''}")
         self.gather(gbuffer_textures, direct, gather_fbo, camera, settings, hits=hits)
         gathered = gather_fbo.color_attachments[0]

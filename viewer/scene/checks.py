@@ -119,7 +119,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "ray_frames" in t:
         kw["ray_frames"] = _int(t["ray_frames"], "render.ray_frames", file, 1,
                                      4096)
-    for k in ("ssao", "indirect", "shadows", "ssao_blur", "ssao_indirect_denoise", "raytrace",
+    for k in ("ssao", "indirect", "shadows", "ssao_blur", "indirect_blur", "raytrace",
               "ray_denoise"):
         if k in t:
             if not isinstance(t[k], bool):

@@ -41,8 +41,8 @@ class SSAOSettings:
     # the one-bounce light gathered at full resolution (scale 1) through the same blur before
     # it is added (SSAO_COMPOSITE at k = 1: gather, ssao_blur, composite): the gather's 8 rays
     # a pixel are speckle on a floor, most of the screen-space frame's (TOML:
-    # ssao_indirect_denoise; at k > 1 the joint bilateral upsampling filters it already)
-    indirect_denoise: bool = False
+    # indirect_blur; at k > 1 the joint bilateral upsampling filters it already)
+    indirect_blur: bool = False
 
     def __bool__(self):  # `if settings.ssao:` would always be true: say where the switch is
         raise TypeError("SSAOSettings has no truth value: use settings.ssao.enabled")
@@ -227,7 +227,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ssao_thickness": ("ssao", "thickness"),
     "ssao_scale": ("ssao", "scale"),
     "ssao_blur": ("ssao", "blur"),
-    "ssao_indirect_denoise": ("ssao", "indirect_denoise"),
+    "indirect_blur": ("ssao", "indirect_blur"),
     "weights": ("neural", "weights"),
     "teacher_weights": ("neural", "teacher_weights"),
     "shadow_net": ("neural", "shadow_net"),

@@ -128,13 +128,13 @@ def checks() -> dict:
 
     @register_pass_check("ssao:denoise")
     def check_ssao_denoise(programs):
-        """The denoised indirect light at scale 1 (``ssao_indirect_denoise``): the gather at full
+        """The denoised indirect light at scale 1 (``indirect_blur``): the gather at full
         resolution, the bilateral blur on the GL gather (the filter alone) and the whole indirect
         light (the blur spreads a flipped ray's step over its 5 x 5 footprint: ``pad`` 2)."""
         scene = scene_from_dict(PARITY_SCENE).with_render(
             shadows=False, model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6,
             ssao_steps=8, ssao_radius=0.6, ssao_thickness=0.3, seed=3,
-            ssao_indirect_denoise=True)
+            indirect_blur=True)
         renderer = Renderer(ctx=programs.ctx)
         try:
             targets = renderer.draw(scene)

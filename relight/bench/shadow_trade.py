@@ -3,7 +3,8 @@ rasterised frame beside the others, each with its accuracy on a protocol dataset
 cost in one run.
 
 Options (:data:`OPTIONS`, all ``ggx_split_sum`` with the indirect light and the shadow maps):
-SSAO alone (contact shadows off), SSAO with screen-space contact shadows, SSAO times the neural
+SSAO alone (contact shadows off), SSAO with screen-space contact shadows, SSAO with the
+one-bounce light through the bilateral blur (``indirect_blur``), SSAO times the neural
 shadow estimator (a weights file), and the ray-traced tier (mesh geometry only: a G-buffer stack
 and a splat cloud have no triangles to trace).
 
@@ -42,6 +43,7 @@ BASE = {"model": "ggx_split_sum", "ssao": True, "indirect": True, "raytrace": Fa
 OPTIONS = {
     "SSAO": {"contact_shadows": "off"},
     "SSAO + contact shadows": {"contact_shadows": "on"},
+    "SSAO, blurred bounce": {"contact_shadows": "off", "indirect_blur": True},
     "SSAO x shadow estimator": {"contact_shadows": "off", "shadow_net": "{weights}"},
     "ray-traced tier": {"raytrace": True, "ssao": False, "indirect": False},
 }

@@ -2,12 +2,10 @@
 cuts the surface where the (bilinearly read) base colour alpha is below alphaCutoff, as the
 rasteriser's alpha test does, for camera rays and shadow rays alike; BLEND covers a fraction
 alpha of the samples; OPAQUE ignores alpha and traces as it always did."""
-import base64
-import io
-import json
 import math
 
 import numpy as np
+from reference_quad import quad_gltf
 from relight.reference import ReferenceOptions, render_reference
 from viewer.scene.description import scene_from_dict
 
@@ -22,40 +20,8 @@ LEFT_HALF = np.concatenate([np.full((4, 2, 4), 255, np.uint8),
 def _quad(path, material: dict, rgba=None, extra: dict | None = None):
     """A 1 x 1 quad at z = 0 facing +Z (u along +x) with ``material``; ``rgba`` (8-bit) becomes
     its base colour texture (clamp-to-edge); ``extra``: more material keys (alphaMode ...)."""
-    from PIL import Image
-
-    pos = np.float32([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
-    nrm = np.float32([[0, 0, 1]] * 4)
-    uv = np.float32([[0, 1], [1, 1], [1, 0], [0, 0]])
-    idx = np.uint16([0, 1, 2, 0, 2, 3])
-    blob = pos.tobytes() + nrm.tobytes() + uv.tobytes() + idx.tobytes()
     mat = {"pbrMetallicRoughness": dict(material), "doubleSided": True, **(extra or {})}
-    doc = {
-        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                     + base64.b64encode(blob).decode()}],
-        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
-                        {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-                        {"buffer": 0, "byteOffset": 96, "byteLength": 32},
-                        {"buffer": 0, "byteOffset": 128, "byteLength": 12}],
-        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-                       "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0]},
-                      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
-                      {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
-                      {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}],
-        "materials": [mat],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
-                                    "indices": 3, "material": 0}]}]}
-    if rgba is not None:
-        png = io.BytesIO()
-        Image.fromarray(np.asarray(rgba, np.uint8)).save(png, format="PNG")
-        doc["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}]
-        doc["samplers"] = [{"wrapS": 33071, "wrapT": 33071}]
-        doc["textures"] = [{"source": 0, "sampler": 0}]
-        mat["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
-    path.write_text(json.dumps(doc))
-    return path
+    return quad_gltf(path, mat, rgba, "baseColorTexture", {"wrapS": 33071, "wrapT": 33071})
 
 
 def _front(path, background="transparent", size=16):

@@ -1,14 +1,12 @@
 """glTF materials in the path-traced reference: normal maps tilt the shading frame with the
 G-buffer's tangent-space convention (the reference equals the rasteriser's Monte-Carlo model on a
 thin quad, where neither has visibility to add), and emission lights the scene."""
-import base64
-import io
-import json
 import math
 
 import numpy as np
 from scipy import stats
 
+from reference_quad import quad_gltf as shared_quad
 from relight.reference import ReferenceOptions, render_reference
 from relight.reference.compare import z_test
 from viewer.scene.description import scene_from_dict
@@ -19,42 +17,10 @@ MATERIAL = {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1],
 
 
 def quad_gltf(path, material: dict, normal_map_rgb=None):
-    """A 1 x 1 quad at z = 0 facing +Z (u along +x, v down along -y, glTF conventions) with
-    ``material``; ``normal_map_rgb`` (8-bit RGB) becomes a 2 x 2 constant normal texture."""
-    from PIL import Image
-
-    pos = np.float32([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
-    nrm = np.float32([[0, 0, 1]] * 4)
-    uv = np.float32([[0, 1], [1, 1], [1, 0], [0, 0]])
-    idx = np.uint16([0, 1, 2, 0, 2, 3])
-    blob = pos.tobytes() + nrm.tobytes() + uv.tobytes() + idx.tobytes()
-    material = json.loads(json.dumps(material))
-    doc = {
-        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
-                     + base64.b64encode(blob).decode()}],
-        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
-                        {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-                        {"buffer": 0, "byteOffset": 96, "byteLength": 32},
-                        {"buffer": 0, "byteOffset": 128, "byteLength": 12}],
-        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-                       "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0]},
-                      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
-                      {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
-                      {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}],
-        "materials": [material],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
-                                    "indices": 3, "material": 0}]}]}
-    if normal_map_rgb is not None:
-        png = io.BytesIO()
-        Image.fromarray(np.full((2, 2, 3), normal_map_rgb, np.uint8)).save(png, format="PNG")
-        doc["images"] = [{"uri": "data:image/png;base64,"
-                          + base64.b64encode(png.getvalue()).decode()}]
-        doc["textures"] = [{"source": 0}]
-        material["normalTexture"] = {"index": 0}
-    path.write_text(json.dumps(doc))
-    return path
+    """The shared quad (reference_quad.quad_gltf) with a 2 x 2 constant normal texture of
+    ``normal_map_rgb`` (8-bit RGB)."""
+    image = None if normal_map_rgb is None else np.full((2, 2, 3), normal_map_rgb, np.uint8)
+    return shared_quad(path, material, image)
 
 
 def _scene(path):

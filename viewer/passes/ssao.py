@@ -180,32 +180,30 @@ class SSAOPass:
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
                  settings: RenderSettings, factor=None, hits=None, gather_fbo=None,
-                 ground=None, blur_fbo=None) -> None:
+                 ground=None) -> None:
         """``direct`` (RGBA32F texture, L_dir) plus L_ind of eq. 6.22 into ``out_fbo``; with
         ``factor`` (a texture, r channel: a neural student's learned factor) f L_ind. ``hits``:
         the hit targets :meth:`occlusion` recorded for the same G-buffer, camera and settings
         (read instead of marching the rays again); ``None`` marches. At ``settings.ssao.scale``
         k > 1 this is :meth:`gather` into ``gather_fbo`` (one RGBA32F target of
-        :func:`low_resolution`) then :meth:`composite`; at k = 1 with
-        ``settings.ssao.indirect_blur`` the same at full resolution with :meth:`blur` between,
-        into ``blur_fbo`` (:func:`staged`, :func:`denoised`). ``ground``: the scene's shadow
-        catcher (:func:`viewer.passes.ground.scene_catcher`), which gets no bounce light."""
+        :func:`low_resolution`) then :meth:`composite`. With ``indirect_blur`` (:func:`denoised`)
+        the frame graph runs :meth:`gather`, :meth:`blur` and :meth:`composite` itself (a
+        ``ValueError`` here). ``ground``: the scene's shadow catcher
+        (:func:`viewer.passes.ground.scene_catcher`), which gets no bounce light."""
         hits = self._check_hits(hits, settings)
-        if not staged(settings):
+        if denoised(settings):
+            raise ValueError("indirect_blur: the indirect light is gathered, blurred and "
+                             "composited as three passes of the frame (viewer/graph/frame.py)")
+        if int(settings.ssao.scale) == 1:
             self._run(True, gbuffer_textures, out_fbo, camera, settings, direct=direct,
                       factor=factor, n_hits=len(hits), hits=hits, ground=ground)
             return
-        if gather_fbo is None or (denoised(settings) and blur_fbo is None):
-            raise ValueError(f"ssao scale {settings.ssao.scale}, indirect denoise "
-                             f"{settings.ssao.indirect_blur}: the indirect light needs a "
-                             f"gather target{' and a blur target' if denoised(settings) else ''}")
+        if gather_fbo is None:
+            raise ValueError(f"ssao scale {settings.ssao.scale}: the indirect light needs a "
+                             f"low-resolution gather target")
         self.gather(gbuffer_textures, direct, gather_fbo, camera, settings, hits=hits)
-        gathered = gather_fbo.color_attachments[0]
-        if denoised(settings):
-            self.blur(gbuffer_textures, gathered, blur_fbo, camera, env_vis=False)
-            gathered = blur_fbo.color_attachments[0]
-        self.composite(gbuffer_textures, direct, out_fbo, camera, settings, gathered,
-                       factor=factor, ground=ground)
+        self.composite(gbuffer_textures, direct, out_fbo, camera, settings,
+                       gather_fbo.color_attachments[0], factor=factor, ground=ground)
 
     def gather(self, gbuffer_textures: dict, direct, gather_fbo, camera: Camera,
                settings: RenderSettings, hits=None) -> None:

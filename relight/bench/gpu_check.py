@@ -5,19 +5,25 @@ Steps, in order of what matters most, each a ``relight`` process of its own (a c
 one does not lose the others), each given what is left of ``--budget`` seconds (480 by default;
 a step that runs out is stopped and recorded, the steps after it are recorded as not run):
 
-1. ``info``: ``relight info``, printed first and saved (``info.txt``, ``info.json``), so every
+1. ``info``: ``relight info``, printed first and saved (``info.txt``, ``info.json``; the host's
+   CPU count and platform in ``host.json``), so every
    number after it carries the card's name;
 2. ``parity``: ``relight parity --json`` -> ``parity.json`` (exit status 1 when a check fails:
    recorded, the check goes on);
 3. ``path``: ``relight bench --suite path --quick`` -> ``bench/path.md``, ``bench/path.json``
    (the path tracer against truth, beside Mitsuba, the BVH: :mod:`relight.bench.path`);
-4. ``suites``: ``relight bench --quick`` with the GPU-bound extra suites ``mc_convergence``,
-   ``shadows``, ``antialias``, ``splats``, ``neural``, ``clamps`` -> ``bench/<suite>.md``;
+4. ``suites``: ``relight bench --quick`` with the GPU-bound extra suites (:data:`SUITES`:
+   ``mc_convergence``, ``shadows``, ``antialias``, ``splats``, ``neural``, ``clamps``,
+   ``shadow_net``, then ``rays``, the longest, last) -> ``bench/<suite>.md``, each written as it
+   finishes;
 5. ``main``: ``relight bench --quick`` -> ``bench/bench.md`` (every model's frame time and error,
    against truth too, ``pareto.png``). It reuses the suites measured above (``relight bench``
    resumes finished suites); the CPU-bound or minutes-long ones (:data:`LEFT_OUT`: held-out
-   data, environments, memory, shadow_truth, penumbra, splat_decomp) are written empty first,
-   so it does not measure them.
+   data, environments, memory, shadow_truth, penumbra, splat_decomp, real_assets) and any suite
+   the ``suites`` step did not finish are written empty first (``summary.json`` lists the
+   latter), so it does not measure them. If the step stops before its tables are written, the
+   rows it measured (``bench/rows.jsonl``) are written as ``bench/bench.md`` anyway, headed as
+   partial, with the card's name from ``info.json`` (:func:`partial_main_report`).
 
 ``summary.md`` / ``summary.json`` in ``DIR``: the renderer string, each step's command, exit
 status, seconds and outputs, the parity tally. Exit status 0 when every step ran and exited 0.
@@ -29,16 +35,20 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-SUITES = ("mc_convergence", "shadows", "antialias", "splats", "neural", "clamps")
+# the rays suite last: on an H200 (2026-11-28) it ran past 3 minutes inside the main step
+SUITES = ("mc_convergence", "shadows", "antialias", "splats", "neural", "clamps", "shadow_net",
+          "rays")
 # relight bench's suites the main step leaves out: CPU-bound (Mitsuba, torch training, new
 # processes) or minutes long; their results do not depend on the GPU much
-LEFT_OUT = ("heldout", "environments", "memory", "shadow_truth", "penumbra", "splat_decomp")
+LEFT_OUT = ("heldout", "environments", "memory", "shadow_truth", "penumbra", "splat_decomp",
+            "real_assets")
 STEPS = ("info", "parity", "path", "suites", "main")
 BUDGET_S = 480.0
 
@@ -101,7 +111,10 @@ def run_check(out: str | Path, budget: float = BUDGET_S, steps=STEPS,
             continue
         log = out / "logs" / f"{name}.log"
         if name == "main":
-            for suite in LEFT_OUT:  # relight bench resumes finished suites: these count as done
+            # relight bench resumes finished suites: these count as done
+            entry["suites_not_measured"] = [s for s in SUITES
+                                            if not (out / "bench" / f"{s}.json").exists()]
+            for suite in (*LEFT_OUT, *entry["suites_not_measured"]):
                 path = out / "bench" / f"{suite}.json"
                 if not path.exists():
                     path.write_text("[]\n")
@@ -120,8 +133,12 @@ def run_check(out: str | Path, budget: float = BUDGET_S, steps=STEPS,
             with open(out / "info.json", "w") as f:
                 _run(["info", "--json"], 60, f, subprocess.DEVNULL, env)
             summary["renderer"] = _renderer(out / "info.json", text)
+            (out / "host.json").write_text(json.dumps(
+                {"cpus": os.cpu_count(), "platform": platform.platform()}))
         elif name == "parity":
             entry["parity"] = _parity_tally(out / "parity.json")
+        elif name == "main" and rc != 0:
+            entry["partial_rows"] = partial_main_report(out)
         entry["outputs"] = _outputs(out, name)
         print(f"gpu_check: {name}: {entry['status']} in {entry['seconds']} s "
               f"({entry['command']})", flush=True)
@@ -129,6 +146,38 @@ def run_check(out: str | Path, budget: float = BUDGET_S, steps=STEPS,
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
     (out / "summary.md").write_text(summary_markdown(summary))
     return summary
+
+
+def partial_main_report(out: str | Path) -> int:
+    """Where the main step stopped before writing its tables (``bench/bench.md`` missing or
+    older than ``bench/rows.jsonl``), write them from the rows it measured, with the machine
+    read from ``info.json`` and a first line saying the table is partial. Returns the number of
+    rows written (0: nothing to do)."""
+    from .report import write_reports
+
+    out = Path(out)
+    rows_path, md = out / "bench" / "rows.jsonl", out / "bench" / "bench.md"
+    if not rows_path.is_file() or (md.is_file()
+                                   and md.stat().st_mtime >= rows_path.stat().st_mtime):
+        return 0
+    rows = [json.loads(line) for line in rows_path.read_text().splitlines() if line.strip()]
+    if not rows:
+        return 0
+    info = {}
+    for name in ("info.json", "host.json"):  # the card; the host's CPUs (the info step's)
+        try:
+            info.update(json.loads((out / name).read_text()))
+        except (OSError, ValueError):
+            pass
+    machine = {"gl": {"renderer": info.get("renderer", "unknown renderer")},
+               "cpus": info.get("cpus", "?"), "platform": info.get("platform", "?"),
+               "date": time.strftime("%Y-%m-%d %H:%M:%S",
+                                     time.localtime(rows_path.stat().st_mtime))}
+    write_reports(out / "bench", {"machine": machine, "results": rows})
+    md.write_text("**Partial**: the main step stopped before it finished; these are the "
+                  f"{len(rows)} rows it had measured (`bench/rows.jsonl`), no extra suites.\n\n"
+                  + md.read_text())
+    return len(rows)
 
 
 def _renderer(info_json: Path, text: str) -> str | None:

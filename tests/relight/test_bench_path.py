@@ -137,3 +137,32 @@ def test_gpu_check_prints_the_renderer_and_stops_a_step_past_its_budget(tmp_path
     assert [(e["step"], e["status"]) for e in summary["steps"]] == [
         ("parity", "timed out"), ("path", "not run (budget spent)")]
     assert not summary["complete"]
+
+
+def test_gpu_check_writes_a_partial_main_table_from_the_rows_it_measured(tmp_path):
+    """A main step stopped at the budget (an H200 lease, 2026-11-28: the rays suite ran past it)
+    still leaves its measured rows as ``bench/bench.md``, headed as partial, with the card's name
+    from ``info.json``; a finished table newer than the rows is left alone."""
+    import json
+    import os
+
+    from relight.bench.gpu_check import partial_main_report
+
+    (tmp_path / "bench").mkdir()
+    assert partial_main_report(tmp_path) == 0  # no rows: nothing written
+    (tmp_path / "info.json").write_text(json.dumps({"renderer": "Card X/PCIe"}))
+    (tmp_path / "host.json").write_text(json.dumps({"cpus": 16, "platform": "Linux-test"}))
+    row = {"scene": "mesh", "model": "unlit", "variant": "default", "samples": 1,
+           "size": [160, 100], "ms": 0.17, "psnr": 15.7, "ssim": 0.67, "flip": 0.4,
+           "rmse": 0.66, "passes": {"gbuffer": 0.14}}
+    rows = tmp_path / "bench" / "rows.jsonl"
+    rows.write_text("\n".join(json.dumps({**row, "model": m, "ms": ms})
+                              for m, ms in (("unlit", 0.17), ("blinn_phong", 0.21))) + "\n")
+    assert partial_main_report(tmp_path) == 2
+    md = (tmp_path / "bench" / "bench.md").read_text()
+    assert md.startswith("**Partial**") and "2 rows" in md
+    assert "Card X/PCIe (16 CPUs, Linux-test)" in md
+    assert "| mesh | blinn_phong | default | 1 | 160x100 | 0.21 |" in md
+    t = rows.stat().st_mtime + 10
+    os.utime(tmp_path / "bench" / "bench.md", (t, t))
+    assert partial_main_report(tmp_path) == 0  # the table is newer than the rows

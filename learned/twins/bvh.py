@@ -10,6 +10,7 @@ RAY_MISS = 3.0e38
 # then RT_MAP_SLOTS map slots of two rows; viewer/raytrace/scene.py MATERIAL_VEC4S)
 ROW_SURFACE, ROW_SLOTS, MAP_SLOTS = 1, 11, 13
 MATERIAL_ROWS = ROW_SLOTS + 2 * MAP_SLOTS
+ENTERED_ONLY = -2.0  # a proxy's cutoff: solid where rays enter it (raytrace.glsl RT_ENTERED_ONLY)
 
 
 def safe_inverse(d: torch.Tensor) -> torch.Tensor:
@@ -75,11 +76,16 @@ def _child(nodes: torch.Tensor, row: int, side: int):
     return a[:3], c[:3], int(a[3:4].view(torch.int32)), int(c[3:4].view(torch.int32))
 
 
-def _solid(tri, b, materials, maps, vertices) -> bool:
+def _solid(tri, b, materials, maps, vertices, d) -> bool:
     """``rt_solid`` for the masks of the parity scenes: a MASK material's base alpha factor
-    against its cutoff (the parity scenes have no maps)."""
+    against its cutoff (the parity scenes have no maps); a proxy (cutoff ENTERED_ONLY) solid where
+    the ray along ``d`` enters it, against the triangle's counter-clockwise face."""
     rows = materials[int(tri[3]) * MATERIAL_ROWS: int(tri[3]) * MATERIAL_ROWS + MATERIAL_ROWS]
     cutoff = float(rows[ROW_SURFACE, 3])
+    if cutoff == ENTERED_ONLY:
+        p = vertices[0::2, :3]
+        p0, p1, p2 = p[int(tri[0])], p[int(tri[1])], p[int(tri[2])]
+        return float((torch.linalg.cross(p1 - p0, p2 - p0) * d).sum()) < 0.0
     if cutoff < 0.0:
         return True
     if float(rows[ROW_SLOTS, 3]) >= 0.0:  # slot 0, the base colour's map
@@ -111,7 +117,7 @@ def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes
                         h = ray_triangle(oo, dd, pos[int(tri[0])], pos[int(tri[1])],
                                          pos[int(tri[2])])
                         if 0.0 < float(h[0]) < best and _solid(tri, h[1:], materials, None,
-                                                              vertices):
+                                                              vertices, dd):
                             best, tri_best, bb = float(h[0]), i, (float(h[1]), float(h[2]))
                 else:
                     tb = torch.tensor(best)

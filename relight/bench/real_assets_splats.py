@@ -7,10 +7,11 @@ The cloud is what a perfect capture and decomposition of the model would give
 each with its surface's albedo, roughness, metallic and interpolated vertex normal; the gun's
 normal map is not applied), written once per model, size and tiler version under the bench's
 truth cache (one ``.ply`` per model and size: the cache's bound). The floor stays the slab mesh,
-so the truth is the mesh scene's, already cached. Splats have no triangles to trace, so only
-the screen-space cases are drawn (:data:`SPLAT_CASES`): split-sum, the student, and the shadow
-estimator, each with SSAO and the indirect light, and split-sum and the student with the
-estimator's visibility in place of SSAO's.
+so the truth is the mesh scene's, already cached. Rays see the cloud as its Gaussians' opaque
+cores (:mod:`viewer.raytrace.splat_proxies`), so the cases drawn (:data:`SPLAT_CASES`) are
+split-sum and the student with rays (the default render), and the screen-space ones: split-sum,
+the student, and the shadow estimator, each with SSAO and the indirect light, and split-sum and
+the student with the estimator's visibility in place of SSAO's.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from pathlib import Path
 
 # (name, the model of relight.bench.real_assets.ASSETS whose scene is tiled)
 SPLAT_ASSETS: tuple[tuple[str, str], ...] = (("cge_plasma_gun_splats", "cge_plasma_gun"),)
-SPLAT_CASES = ("split-sum, screen", "neural, screen", "split-sum, screen + estimator",
+SPLAT_CASES = ("split-sum, rays", "neural, rays", "split-sum, screen", "neural, screen", "split-sum, screen + estimator",
                "split-sum, estimator's V", "neural, estimator's V",
                "split-sum, V, denoised bounce", "neural, V, denoised bounce")
 

@@ -5,8 +5,8 @@ cost in one run.
 Options (:data:`OPTIONS`, all ``ggx_split_sum`` with the indirect light and the shadow maps):
 SSAO alone (contact shadows off), SSAO with screen-space contact shadows, SSAO with the
 one-bounce light through the bilateral blur (``indirect_blur``), SSAO times the neural
-shadow estimator (a weights file), and the ray-traced tier (mesh geometry only: a G-buffer stack
-and a splat cloud have no triangles to trace).
+shadow estimator (a weights file), and the ray-traced tier (meshes, and splats as their opaque
+cores; a G-buffer stack has no geometry off-screen to trace).
 
 Accuracy: the protocol's metric (:func:`learned.protocol.scores.psnr`: Reinhard-mapped, over each
 sample's foreground) of the option's frame against the split's path-traced targets, the mean over
@@ -56,13 +56,14 @@ def option_settings(name: str, weights: str) -> dict:
 
 
 def options(geometry: str) -> list[str]:
-    """The options of :data:`OPTIONS` that ``geometry`` can draw: the rays need triangles."""
-    return [n for n in OPTIONS if geometry == "mesh" or n != "ray-traced tier"]
+    """The options of :data:`OPTIONS` that ``geometry`` can draw: the rays need geometry (meshes,
+    or splats' opaque cores: :mod:`viewer.raytrace.splat_proxies`), which a stack has not."""
+    return [n for n in OPTIONS if geometry != "stack" or n != "ray-traced tier"]
 
 
 def accuracy(data: str, split: str, weights: str, geometry: str = "stack",
              renderer=None) -> dict:
-    """Option name -> per-sample protocol PSNR on ``split`` (the rays option only for meshes:
+    """Option name -> per-sample protocol PSNR on ``split`` (the rays option not for stacks:
     :func:`options`)."""
     from learned.data.reader import list_samples, load_sample
     from learned.data.scene import geometry_scene

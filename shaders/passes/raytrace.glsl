@@ -28,6 +28,7 @@ uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray m
 // wrap modes in row 1's w).
 #define RT_ROW_BASE 0          // base colour factor (rgb), its alpha
 #define RT_ROW_SURFACE 1       // roughness, metallic, specular, MASK cutoff (-1: not masked)
+#define RT_ENTERED_ONLY -2.0   // that cutoff for a proxy solid where rays enter (scene.ENTERED_ONLY)
 #define RT_ROW_EMISSION 2      // emissive (rgb), double-sided
 #define RT_ROW_DIELECTRIC 3    // KHR_materials_ior / _specular: F0 (rgb), F90 (a < 0: none)
 #define RT_ROW_CLEARCOAT 4     // KHR_materials_clearcoat: factor, roughness
@@ -60,7 +61,7 @@ uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray m
 // so a mask test or a map lookup no material needs costs its full price at every call unless
 // it is compiled out.
 #ifndef RT_MASKS
-#define RT_MASKS 1     // whether some material is alphaMode MASK (rt_solid reads its alpha)
+#define RT_MASKS 1     // whether some material is alphaMode MASK or a proxy (rt_solid reads them)
 #endif
 #ifndef RT_MAPS
 #define RT_MAPS 8191   // the map slots some material has a map in: bit k for slot k
@@ -115,14 +116,19 @@ vec2 rt_uv(uvec4 tri, vec2 b) {
     return t0 * (1.0 - b.x - b.y) + t1 * b.x + t2 * b.y;
 }
 
-// Whether triangle `tri` is solid at barycentrics b: alphaMode MASK cuts it where the base
-// colour's alpha (factor x map) is below the cutoff; every other surface is solid.
-bool rt_solid(uvec4 tri, vec2 b) {
+// Whether triangle i (`tri`) is solid at barycentrics b for a ray along d: alphaMode MASK cuts
+// it where the base colour's alpha (factor x map) is below the cutoff; a closed proxy (cutoff
+// RT_ENTERED_ONLY: a splat's opaque core, viewer/raytrace/splat_proxies.py) is solid only where
+// the ray enters it, against its outward (counter-clockwise) face; every other surface is solid.
+bool rt_solid(int i, uvec4 tri, vec2 b, vec3 d) {
 #if !RT_MASKS
     return true;
 #endif
     int m = int(tri.w);
     float cutoff = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SURFACE].w;
+    if (cutoff == RT_ENTERED_ONLY)
+        return dot(cross(rt_texel(u_rt_edges, 3 * i + 1).xyz, rt_texel(u_rt_edges, 3 * i + 2).xyz),
+                   d) < 0.0;
     if (cutoff < 0.0) return true;
     float alpha = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_BASE].w
                   * rt_map(m, RT_MAP_BASE_COLOR, rt_uv(tri, b), vec4(1.0)).a;
@@ -160,7 +166,7 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
         if (count > 0) {
             for (int i = ref; i < ref + count; ++i) {
                 vec3 r = rt_triangle(i, o, d);
-                if (r.x > 0.0 && r.x < hit.t && rt_solid(rt_triangles[i], r.yz)) {
+                if (r.x > 0.0 && r.x < hit.t && rt_solid(i, rt_triangles[i], r.yz, d)) {
                     hit.t = r.x;
                     hit.triangle = i;
                     hit.b = r.yz;
@@ -213,7 +219,7 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
         if (count > 0) {
             for (int i = ref; i < ref + count; ++i) {
                 vec3 r = rt_triangle(i, o, d);
-                if (r.x > 0.0 && r.x < t_max && rt_solid(rt_triangles[i], r.yz)) return true;
+                if (r.x > 0.0 && r.x < t_max && rt_solid(i, rt_triangles[i], r.yz, d)) return true;
             }
         } else {
             vec4 l0 = rt_texel(u_rt_nodes, 4 * ref), l1 = rt_texel(u_rt_nodes, 4 * ref + 1);

@@ -119,9 +119,9 @@ def test_a_moved_sphere_and_the_mesh_scenes_refusals(mesh_dataset, renderer, tmp
 
 
 def test_the_shadow_trade_on_splats(mesh_dataset, renderer, tmp_path):
-    """``relight.bench.shadow_trade`` with ``geometry = "splat"``: SSAO, contact shadows and the
-    estimator (seeded random weights, which change the image) scored per sample, no rays (splats
-    have no triangles); the scene they are timed on is the demo tiled with splats (``cost``
+    """``relight.bench.shadow_trade`` with ``geometry = "splat"``: SSAO, contact shadows, the
+    estimator (seeded random weights, which change the image) and the rays (which see the splats'
+    opaque cores: viewer/raytrace/splat_proxies.py) scored per sample; the scene they are timed on is the demo tiled with splats (``cost``
     itself: test_mesh_geometry.py)."""
     from learned.parity.checks.shadow_net import parity_weights
     from relight.bench.shadow_trade import OPTIONS, accuracy, cost_scene, options
@@ -129,9 +129,11 @@ def test_the_shadow_trade_on_splats(mesh_dataset, renderer, tmp_path):
 
     weights = str(parity_weights(tmp_path))
     got = accuracy(str(mesh_dataset), "val", weights, "splat", renderer)
-    assert list(got) == [n for n in OPTIONS if n != "ray-traced tier"] == options("splat")
+    assert list(got) == list(OPTIONS) == options("splat")
+    assert options("stack") == [n for n in OPTIONS if n != "ray-traced tier"]
     assert all(len(v) == len(MESH_KINDS) and np.isfinite(v).all() for v in got.values())
     assert got["SSAO x shadow estimator"] != got["SSAO"]
+    assert got["ray-traced tier"] != got["SSAO"]
     scene = cost_scene("splat", tmp_path / "cost", size=(32, 32))
     assert [o.type for o in scene.objects] == ["splats"]
     cloud = read_ply(scene.objects[0].path)  # the ten balls' albedo and the floor's grey

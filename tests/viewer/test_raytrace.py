@@ -23,15 +23,19 @@ T_TOL = 1e-4
 
 def _brute(meshes, rays):
     """(t, mesh, solid) of the nearest hit of each ray in float64 over every triangle, honouring
-    the masks of parity_scenes (base_alpha below the cutoff: no hit), and whether anything is hit."""
-    tris, solid = [], []
+    the masks of parity_scenes (base_alpha below the cutoff: no hit) and the splat proxies' one
+    side (solid only where a ray enters: against the counter-clockwise face), and whether
+    anything is hit."""
+    tris, solid, entered = [], [], []
     for m in meshes:
         p = np.asarray(m.positions, np.float64)[np.asarray(m.indices, np.int64)]
         tris.append(p)
         cut = m.alpha_mode == "MASK" and m.base_alpha < m.alpha_cutoff
         solid.append(np.full(len(p), not cut))
+        entered.append(np.full(len(p), getattr(m, "entered_only", False)))
     v = np.concatenate(tris)
     solid = np.concatenate(solid)
+    entered = np.concatenate(entered)
     v0, e1, e2 = v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     out = np.full(len(rays), np.inf)
     for i, r in enumerate(rays.astype(np.float64)):
@@ -44,7 +48,8 @@ def _brute(meshes, rays):
             qv = np.cross(tv, e1)
             b2 = (qv * d).sum(1) / det
             t = (e2 * qv).sum(1) / det
-        ok = solid & (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & (t < t_max)
+        front = (np.cross(e1, e2) * d).sum(1) < 0.0  # the ray enters through this face
+        ok = solid & (front | ~entered) & (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & (t < t_max)
         if ok.any():
             out[i] = t[ok].min()
     return out

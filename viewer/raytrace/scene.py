@@ -5,8 +5,9 @@ texture array, and the BVH (:mod:`.bvh`) over them.
 
 What rays see, and what they do not (the reference's choices, :mod:`relight.reference.scene`):
 
-* meshes and primitives; **image-space stacks** have no geometry off-screen and **splat clouds**
-  no triangles: neither is traced (their shadows stay the shadow maps' and contact shadows');
+* meshes and primitives; **splat clouds** as their Gaussians' opaque cores, closed proxies that
+  block a ray where the shadow maps' rule does (:mod:`.splat_proxies`); **image-space stacks**
+  have no geometry off-screen and are not traced (their shadows stay contact shadows');
 * alphaMode MASK surfaces are cut where the base colour's alpha is below the cutoff; **BLEND**
   surfaces are left out (they cast no shadow in the shadow maps either);
 * at a secondary hit: the material's factors and every map the rasteriser reads for them
@@ -35,6 +36,9 @@ from .bvh import BVH, build_bvh, child_pairs, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAP_LAYER_BYTES = MAP_SIZE * MAP_SIZE * 8  # one layer of the map array (RGBA16F): 512 KiB
+# a material's cutoff (surface row, w) marking a closed proxy solid only where a ray enters it
+# (raytrace.glsl rt_solid; the splats' opaque cores, :mod:`.splat_proxies`); -1: no mask
+ENTERED_ONLY = -2.0
 
 
 def _always(material) -> bool:
@@ -95,11 +99,17 @@ class TraceGeometry:
 
 
 def traced_meshes(contents) -> list:
-    """The meshes rays see among ``(obj, content)`` pairs: meshes and primitives, not splats,
-    image stacks or alphaMode BLEND surfaces."""
+    """The meshes rays see among ``(obj, content)`` pairs: meshes and primitives, splat clouds'
+    opaque cores (:func:`~viewer.raytrace.splat_proxies.splat_proxies`); not image stacks or
+    alphaMode BLEND surfaces."""
+    from .splat_proxies import splat_proxies
+
     out = []
     for obj, content in contents:
-        if obj.type in ("splats", "gbuffer"):
+        if obj.type == "gbuffer":
+            continue
+        if obj.type == "splats":
+            out.extend(splat_proxies(content))
             continue
         out.extend(m for m in content if m.alpha_mode != "BLEND")
     return out
@@ -190,6 +200,8 @@ def material_rows(meshes, layers, slots: np.ndarray | None = None) -> np.ndarray
         r = rows[k * MATERIAL_VEC4S:(k + 1) * MATERIAL_VEC4S]
         r[ROW["base"]] = (*m.albedo, mesh.base_alpha)
         cutoff = float(mesh.alpha_cutoff) if mesh.alpha_mode == "MASK" else -1.0
+        if getattr(mesh, "entered_only", False):
+            cutoff = ENTERED_ONLY
         r[ROW["surface"]] = (m.roughness, m.metallic, m.specular, cutoff)
         r[ROW["emission"]] = (*mesh.emissive, float(mesh.double_sided))
         r[ROW["slots"]:] = slots[k]

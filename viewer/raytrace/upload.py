@@ -10,6 +10,7 @@ import numpy as np
 
 from ..cache import BoundedCache, CacheStats
 from .scene import (
+    ENTERED_ONLY,
     MAP_SIZE,
     MAPS,
     MATERIAL_VEC4S,
@@ -131,10 +132,12 @@ class TraceStore:
 
 def material_defines(rows: np.ndarray) -> dict:
     """What ``rows`` (:func:`~viewer.raytrace.scene.material_rows`) use, as raytrace.glsl's
-    defines: ``RT_MASKS`` (some material is alphaMode MASK: a cutoff >= 0) and ``RT_MAPS`` (bit
+    defines: ``RT_MASKS`` (some material is alphaMode MASK, a cutoff >= 0, or a proxy solid only
+    where rays enter it, :data:`~viewer.raytrace.scene.ENTERED_ONLY`) and ``RT_MAPS`` (bit
     k: some material has a map in slot k), so a pass compiles out what no material needs."""
     per = rows.reshape(-1, MATERIAL_VEC4S, 4)
-    masks = bool((per[:, ROW["surface"], 3] >= 0.0).any())
+    cutoff = per[:, ROW["surface"], 3]
+    masks = bool(((cutoff >= 0.0) | (cutoff == ENTERED_ONLY)).any())
     layers = per[:, ROW["slots"]::2, 3]  # each slot's layer, -1: none
     bits = sum(1 << k for k in range(len(MAPS)) if (layers[:, k] >= 0.0).any())
     return {"RT_MASKS": int(masks), "RT_MAPS": int(bits)}

@@ -1,6 +1,7 @@
 """The BVH traversal of ``passes/raytrace.glsl`` (closest hit and any hit, alpha-masked
 surfaces) against :mod:`learned.twins.bvh`, on small scenes: a tessellated sphere on a floor, and
-a soup of random triangles some of which are masked out. The twin walks the same tree in the same
+a soup of random triangles some of which are masked out, a splat cloud's opaque cores (solid only
+where rays enter them). The twin walks the same tree in the same
 order, so the triangle indices agree exactly and the distances to float32 rounding; the tests
 (``tests/viewer/test_raytrace.py``) check both against a brute-force search in float64."""
 from __future__ import annotations
@@ -13,8 +14,10 @@ from viewer.geometry import primitives
 from viewer.geometry.mesh import Mesh
 from viewer.gl.kernels import run_kernel
 from viewer.raytrace.scene import build_trace_geometry, material_rows
+from viewer.raytrace.splat_proxies import splat_proxies
 from viewer.raytrace.upload import TraceBuffers
 from viewer.scene.material import Material
+from viewer.splats.data import Splats, make_splats
 
 from ..results import compare
 from . import collector
@@ -23,9 +26,10 @@ RAYS = 192  # the twin walks the tree ray by ray in Python: a few hundred keep i
 
 
 def parity_scenes() -> dict[str, list]:
-    """name -> meshes: ``sphere_floor`` (a sphere resting on a floor) and ``soup_masked`` (60
+    """name -> meshes: ``sphere_floor`` (a sphere resting on a floor), ``soup_masked`` (60
     random triangles, a third of them in an alphaMode MASK mesh whose alpha is below its cutoff,
-    so rays pass through them)."""
+    so rays pass through them) and ``splat_cores`` (a splat cloud's opaque cores over a floor:
+    closed proxies solid only where rays enter them)."""
     rng = np.random.default_rng(5)
 
     def soup(n, material=Material(), **kw):
@@ -40,7 +44,19 @@ def parity_scenes() -> dict[str, list]:
                                            rings=12),
                          primitives.plane(center=(0.0, -1.0, 0.0), size=(6.0, 6.0))],
         "soup_masked": [soup(40), soup(20, alpha_mode="MASK", alpha_cutoff=0.5, base_alpha=0.3)],
+        "splat_cores": [*splat_proxies(_cloud(rng)),
+                        primitives.plane(center=(0.0, -1.0, 0.0), size=(6.0, 6.0))],
     }
+
+
+def _cloud(rng) -> Splats:
+    """40 splats over the parity scenes' space, a quarter of them too faint to have a core, some
+    rays starting inside the cores (parity_rays' origins reach into them)."""
+    n = 40
+    return make_splats(means=rng.uniform(-1.2, 1.2, (n, 3)) + (0.0, 0.6, 0.0),
+                       scales=rng.uniform(0.05, 0.5, (n, 3)),
+                       rotations=rng.normal(size=(n, 4)),
+                       opacities=np.where(np.arange(n) % 4 == 0, 0.4, rng.uniform(0.55, 0.99, n)))
 
 
 def parity_rays(n: int, seed: int = 0) -> np.ndarray:
@@ -86,7 +102,7 @@ def checks() -> dict:
                     torch.from_numpy(material_rows(meshes, geo.layers))).numpy()
             results.append(compare(f"bvh_closest_hit:{name}:triangle", gl[:, 1], ref[:, 1],
                                    atol=0.0, rtol=0.0, kind="pass",
-                                   measured="identical indices (sphere_floor, soup_masked)",
+                                   measured="identical indices (sphere_floor, soup_masked, splat_cores)",
                                    envelope="same tree, same order, same ray_triangle roundings: "
                                             "a different index would be a traversal bug (the "
                                             "rays avoid edges only by chance; none of the "

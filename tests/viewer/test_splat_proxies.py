@@ -231,3 +231,17 @@ def test_a_sheet_of_flat_splats_does_not_shadow_itself_under_rays(renderer):
     ratio = float(np.median(splat[inner] / np.maximum(mesh[inner], 1e-6)))
     print(f"splat sheet / mesh floor under rays: median {ratio:.3f}")
     assert 0.95 < ratio < 1.05
+
+
+def test_a_cloud_beyond_the_trace_budget_keeps_its_largest_cores_and_says_so(monkeypatch):
+    import viewer.raytrace.splat_proxies as sp
+
+    monkeypatch.setattr(sp, "MAX_TRACED", 50)
+    splats = _cloud(200, seed=5, opacity=0.9)
+    with pytest.warns(UserWarning, match="rays see the 50 largest of its 200 opaque splats"):
+        meshes = sp.splat_proxies(splats)
+    assert len(meshes[0].indices) == 20 * 50
+    volume = np.prod(splats.scales, axis=1)  # same opacity: the cores' volumes order as these
+    kept = np.sort(np.argsort(-volume)[:50])
+    centres = meshes[0].positions.reshape(-1, 12, 3).mean(axis=1)
+    np.testing.assert_allclose(centres, splats.means[kept], atol=1e-5)

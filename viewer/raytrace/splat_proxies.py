@@ -20,7 +20,8 @@ Materials at a secondary hit: the splat's albedo, roughness and metallic, one te
 a ``base_color`` and a ``metallic_roughness`` map of :data:`~viewer.raytrace.scene.MAP_SIZE`
 squared texels (each vertex's TEXCOORD_0 is its splat's texel centre; the factors are 1), so a
 cloud becomes one proxy mesh per ``MAP_SIZE^2`` = 65 536 splats, each with its own two map layers.
-The normal at every vertex is the splat's (stored, or its shortest axis), double-sided.
+The normal at every vertex is the splat's (stored, or its shortest axis), double-sided. At most
+:data:`MAX_TRACED` cores are traced (the largest first, with a warning naming the cloud).
 
 Proxies are made once per cloud and kept while the cloud lives (a weak map keyed by the
 :class:`~viewer.splats.data.Splats` object, which the bounded geometry cache owns), so the traced
@@ -29,6 +30,7 @@ scene's cache key, the proxies' identities, is stable from frame to frame.
 from __future__ import annotations
 
 import math
+import warnings
 import weakref
 from dataclasses import dataclass
 
@@ -40,6 +42,11 @@ from ..splats.data import Splats, quat_to_matrix
 from .scene import MAP_SIZE
 
 OPAQUE_AT = 0.5  # the shadow maps' opacity threshold (viewer.passes.shadow)
+# at most this many cores are traced, the largest (core volume) first: 100 000 cores are 2 M
+# triangles, about 240 MB of traced scene (within the renderer's 256 MB raytrace budget) and a
+# 9.4 s BVH build on the 2-core CI machine; a larger cloud's smaller splats are left to the
+# shadow maps, with a warning
+MAX_TRACED = 100_000
 PER_MESH = MAP_SIZE * MAP_SIZE
 
 _PHI = (1.0 + math.sqrt(5.0)) / 2.0
@@ -97,6 +104,13 @@ def _build(splats: Splats) -> list[ProxyMesh]:
     scales = np.asarray(splats.scales, np.float64)
     keep = np.flatnonzero((r > 0.0) & np.isfinite(splats.means).all(axis=1)
                           & (scales > 0.0).all(axis=1) & np.isfinite(scales).all(axis=1))
+    if len(keep) > MAX_TRACED:
+        volume = r[keep] ** 3 * scales[keep].prod(axis=1)
+        largest = np.sort(keep[np.argsort(-volume, kind="stable")[:MAX_TRACED]])
+        warnings.warn(f"{splats.source or 'a splat cloud'}: rays see the {MAX_TRACED:,} largest "
+                      f"of its {len(keep):,} opaque splats (the rest cast shadows in the shadow "
+                      f"maps only)", stacklevel=4)
+        keep = largest
     meshes = []
     for start in range(0, len(keep), PER_MESH):
         ids = keep[start:start + PER_MESH]

@@ -172,7 +172,7 @@ def path_rows(renderer, cfg: PathBenchConfig = PathBenchConfig(), progress: bool
 
 def scene_row(renderer, scene, ref: Reference, cfg: PathBenchConfig, name: str) -> dict:
     """The ``kind = "scene"`` row of ``scene`` against ``ref`` without Mitsuba's columns."""
-    from viewer.raytrace.scene import traced_meshes
+    from viewer.raytrace.gather import traced_meshes
 
     base = scene.with_render(model="path", max_depth=cfg.max_depth)
     renderer.resources.trace.release()  # this scene's BVH built afresh (scenes share meshes)

@@ -25,8 +25,8 @@ the estimator's visibility in place of SSAO's occlusion and the student's S(x) (
 denoised (``indirect_blur``). Each non-split-sum case is judged against the split-sum
 case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
-floor, drawn with the screen-space cases alone (splats have no triangles to trace), against the
-gun's own truth; its failures are counted apart ("(splats)").
+floor, drawn the same nine ways (rays see the splats' opaque cores:
+:mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted apart ("(splats)").
 
 **Truth**: Mitsuba 3 with our BSDF (:mod:`relight.reference`), cached as the gallery caches it
 (:func:`relight.gallery.panels.cached_truth`: one file per scene under ``<out>/cache``, keyed by

@@ -98,23 +98,6 @@ class TraceGeometry:
         return int(self.triangles.shape[0])
 
 
-def traced_meshes(contents) -> list:
-    """The meshes rays see among ``(obj, content)`` pairs: meshes and primitives, splat clouds'
-    opaque cores (:func:`~viewer.raytrace.splat_proxies.splat_proxies`); not image stacks or
-    alphaMode BLEND surfaces."""
-    from .splat_proxies import splat_proxies
-
-    out = []
-    for obj, content in contents:
-        if obj.type == "gbuffer":
-            continue
-        if obj.type == "splats":
-            out.extend(splat_proxies(content))
-            continue
-        out.extend(m for m in content if m.alpha_mode != "BLEND")
-    return out
-
-
 def build_trace_geometry(meshes) -> TraceGeometry:
     """Gather ``meshes`` (world space) and build the BVH over their triangles."""
     verts, tris, layers, maps = [], [], [], []

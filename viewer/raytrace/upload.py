@@ -19,8 +19,8 @@ from .scene import (
     build_trace_geometry,
     material_rows,
     slot_rows,
-    traced_meshes,
 )
+from .gather import traced_meshes
 
 BINDINGS = (3, 4, 5)  # triangles, vertices, materials (raytrace.glsl's storage buffers)
 # The traversal's nodes and triangle edges are RGBA32F textures of TEXEL_ROW texels a row

@@ -171,11 +171,28 @@ def renderer(ctx):
     r.release()
 
 
+def _sheet():
+    """A floor of 160 x 160 flat splats at y = 0 (normals up, opacity 0.99), 8 m square."""
+    from viewer.splats.data import Splats
+
+    g = np.linspace(-4, 4, 160, dtype=np.float32)
+    gx, gz = np.meshgrid(g, g)
+    n = gx.size
+    return Splats(means=np.stack([gx.ravel(), np.zeros(n, np.float32), gz.ravel()], 1),
+                   scales=np.tile(np.float32([0.04, 0.002, 0.04]), (n, 1)),
+                   rotations=np.tile(np.float32([1, 0, 0, 0]), (n, 1)),
+                   opacities=np.full(n, 0.99, np.float32), sh=np.full((n, 1, 3), 0.5, np.float32),
+                   albedo=np.full((n, 3), 0.5, np.float32), roughness=np.full(n, 0.9, np.float32),
+                   metallic=np.zeros(n, np.float32),
+                   normals=np.tile(np.float32([0, 1, 0]), (n, 1)), has_materials=True)
+
+
 def test_rays_see_a_splat_sphere_as_they_see_the_mesh_sphere(renderer):
     """A sphere of 3000 splats above a floor under a white sky darkens the floor around it under
     rays as the mesh sphere of the same radius does (measured: 0.039 against 0.034): the darkening of the floor ring 0.8-1.3 m
     from the axis (outside both silhouettes) is 80-120 % of the mesh sphere's. Before the
-    proxies rays did not see splats: the ratio was 0."""
+    proxies rays did not see splats: the ratio was 0. The same with the floor a sheet of splats
+    (a scene of splats alone, which the rays then skipped altogether)."""
     import dataclasses
 
     from shadow_scenes import CENTER, FLOOR, RADIUS, SPHERE
@@ -196,9 +213,18 @@ def test_rays_see_a_splat_sphere_as_they_see_the_mesh_sphere(renderer):
     ring = (rho > 0.8) & (rho < 1.3)
     dark_mesh = float((bare[ring] - mesh[ring]).mean() / bare[ring].mean())
     dark_splat = float((bare[ring] - splat[ring]).mean() / bare[ring].mean())
-    print(f"floor ring darkening: mesh sphere {dark_mesh:.3f}, splat sphere {dark_splat:.3f}")
+    # a scene of splats alone (the floor a sheet of flat splats) is traced too
+    floor = ObjectSpec(type="splats", path="in-memory-proxy-floor")
+    renderer.add_geometry(floor, _sheet())
+    bare_s = renderer.render(dataclasses.replace(sc, objects=(floor,))).radiance[..., :3].mean(-1)
+    both = renderer.render(dataclasses.replace(sc, objects=(floor, obj))) \
+        .radiance[..., :3].mean(-1)
+    dark_all = float((bare_s[ring] - both[ring]).mean() / bare_s[ring].mean())
+    print(f"floor ring darkening: mesh sphere {dark_mesh:.3f}, splat sphere {dark_splat:.3f}, "
+          f"splats alone {dark_all:.3f}")
     assert dark_mesh > 0.025  # measured 0.034 (llvmpipe, 64 px)
     assert 0.8 * dark_mesh < dark_splat < 1.2 * dark_mesh
+    assert 0.8 * dark_mesh < dark_all < 1.2 * dark_mesh
 
 
 def test_a_sheet_of_flat_splats_does_not_shadow_itself_under_rays(renderer):
@@ -210,18 +236,8 @@ def test_a_sheet_of_flat_splats_does_not_shadow_itself_under_rays(renderer):
     from shadow_scenes import FLOOR
 
     from viewer.scene.description import ObjectSpec
-    from viewer.splats.data import Splats
 
-    g = np.linspace(-4, 4, 160, dtype=np.float32)
-    gx, gz = np.meshgrid(g, g)
-    n = gx.size
-    sheet = Splats(means=np.stack([gx.ravel(), np.zeros(n, np.float32), gz.ravel()], 1),
-                   scales=np.tile(np.float32([0.04, 0.002, 0.04]), (n, 1)),
-                   rotations=np.tile(np.float32([1, 0, 0, 0]), (n, 1)),
-                   opacities=np.full(n, 0.99, np.float32), sh=np.full((n, 1, 3), 0.5, np.float32),
-                   albedo=np.full((n, 3), 0.5, np.float32), roughness=np.full(n, 0.9, np.float32),
-                   metallic=np.zeros(n, np.float32),
-                   normals=np.tile(np.float32([0, 1, 0]), (n, 1)), has_materials=True)
+    sheet = _sheet()
     obj = ObjectSpec(type="splats", path="in-memory-proxy-sheet")
     renderer.add_geometry(obj, sheet)
     mesh = renderer.render(_sky_scene([FLOOR])).radiance[..., :3].mean(-1)

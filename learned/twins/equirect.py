@@ -13,7 +13,7 @@ def equirect_uv(dir: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec2 equirect_uv(vec3 dir)``: ``[..., 3]`` -> ``[..., 2]`` (u, v) in [0, 1]."""
     x, y, z = dir[..., 0], dir[..., 1], dir[..., 2]
     rho = torch.sqrt(x * x + z * z)
-    phi = torch.where(rho > 0.0, torch.atan2(x, -z), torch.zeros_like(x))
+    phi = torch.where(rho > 1e-18, torch.atan2(x, -z), torch.zeros_like(x))
     theta = torch.atan2(rho, y)
     return torch.stack([phi * (0.5 * INV_PI) + 0.5, theta * INV_PI], dim=-1)
 

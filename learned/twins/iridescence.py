@@ -33,9 +33,11 @@ def ior_to_fresnel0(n_t: torch.Tensor, n_i: torch.Tensor) -> torch.Tensor:
 
 
 def fresnel0_to_ior(f0: torch.Tensor) -> torch.Tensor:
-    """GLSL ``vec3 fresnel0_to_ior(vec3 f0)``: (1 + sqrt f0) / (1 - sqrt f0), f0 < 0.9999."""
-    s = torch.sqrt(f0.clamp(0.0, 0.9999))
-    return (1.0 + s) / (1.0 - s)
+    """GLSL ``vec3 fresnel0_to_ior(vec3 f0)``: (1 + sqrt f0) / (1 - sqrt f0) as
+    (1 + sqrt f0)^2 / (1 - f0), f0 <= 0.9999."""
+    f = f0.clamp(0.0, 0.9999)
+    s1 = 1.0 + torch.sqrt(f)
+    return s1 * s1 / (1.0 - f)
 
 
 def _smoothstep(e0: float, e1: float, x: torch.Tensor) -> torch.Tensor:

@@ -29,7 +29,7 @@ def vogel_disk(i, n, phi) -> torch.Tensor:
     n = torch.as_tensor(n, dtype=torch.float32)
     phi = torch.as_tensor(phi, dtype=torch.float32)
     r = torch.sqrt((i + 0.5) / n)
-    theta = i * 2.39996323 + phi
+    theta = 6.28318531 * torch.frac(i * 0.381966011 + phi * 0.159154943)
     return torch.stack([r * torch.cos(theta), r * torch.sin(theta)], dim=-1)
 
 

@@ -7,10 +7,11 @@
 
 // Inverse of equirect_dir: u = atan(x, -z) / 2pi + 0.5, v = acos(y) / pi. v is computed as
 // atan(|xz|, y) / pi (the same angle, but well conditioned at the poles where acos is not).
-// dir need not be normalised; at the poles (x = z = 0) u is 0.5.
+// dir need not be normalised; at the poles (|xz| <= 1e-18) u is 0.5: below that x^2 + z^2 can
+// be a denormal, which a GPU may flush to zero (an H200 did: u 0.5 where atan gave 0.75).
 vec2 equirect_uv(vec3 dir) {
     float rho = length(dir.xz);
-    float phi = rho > 0.0 ? atan(dir.x, -dir.z) : 0.0;
+    float phi = rho > 1e-18 ? atan(dir.x, -dir.z) : 0.0;
     float theta = atan(rho, dir.y);
     return vec2(phi * (0.5 * INV_PI) + 0.5, theta * INV_PI);
 }

@@ -34,9 +34,12 @@ vec3 ior_to_fresnel0(vec3 n_t, float n_i) {
 
 // The IOR (against air) whose normal-incidence reflectance is f0 (the spec's Fresnel0ToIor;
 // f0 is clamped below 1: three.js's guard against an infinite IOR).
+// (1 + s) / (1 - s) = (1 + s)^2 / (1 - f0): no 1 - s to cancel near the clamp (1 - f0 is exact
+// there), so a sqrt's last ulps are not amplified 2e4 times.
 vec3 fresnel0_to_ior(vec3 f0) {
-    vec3 s = sqrt(clamp(f0, vec3(0.0), vec3(0.9999)));
-    return (vec3(1.0) + s) / (vec3(1.0) - s);
+    vec3 f = clamp(f0, vec3(0.0), vec3(0.9999));
+    vec3 s1 = vec3(1.0) + sqrt(f);
+    return s1 * s1 / (vec3(1.0) - f);
 }
 
 // The film's effective IOR: eta2 blended in from the outside's eta1 over the first

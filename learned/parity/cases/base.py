@@ -59,4 +59,7 @@ class ParityCase:
     measured: str = ""
     envelope: str = ""
     n: int = 4096
+    # a phase: compared modulo ``period`` (the shorter way round), so a fract that wraps on one
+    # side and not the other (a rounding apart) is the same phase, not an error of one period
+    period: float | None = None
     prepare: Callable | None = field(default=None, compare=False)  # optional fixup of drawn inputs

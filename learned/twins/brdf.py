@@ -81,10 +81,12 @@ def v_smith_ggx_correlated(NoV: torch.Tensor, NoL: torch.Tensor, a: torch.Tensor
 
 def f_schlick(f0: torch.Tensor, f90: torch.Tensor, VoH: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 f_schlick(vec3 f0, float f90, float VoH)``: f0 ``[..., 3]``, others ``[...]``."""
-    x = 1.0 - saturate(VoH)
+    c = saturate(VoH)
+    x = 1.0 - c
     x2 = x * x
-    x5 = (x2 * x2 * x)[..., None]
-    return f0 + (f90[..., None] - f0) * x5
+    x5 = x2 * x2 * x
+    one_minus_x5 = c * (1.0 + x * (1.0 + x * (1.0 + x * (1.0 + x))))
+    return f0 * one_minus_x5[..., None] + (f90 * x5)[..., None]
 
 
 def fd_lambert() -> torch.Tensor:

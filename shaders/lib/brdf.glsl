@@ -75,11 +75,16 @@ float v_smith_ggx_correlated(float NoV, float NoL, float a) {
 }
 
 // Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering", eq. 15.
+// As f0 (1 - x^5) + f90 x^5 with 1 - x^5 = c (1 + x + x^2 + x^3 + x^4), c = VoH: two terms >= 0,
+// so nothing cancels where f0 + (f90 - f0) x^5 would (f90 < f0 and VoH -> 0: an H200 and torch
+// then differed by 0.7 % of a GGX lobe whose D V is 1e11).
 vec3 f_schlick(vec3 f0, float f90, float VoH) {
-    float x = 1.0 - saturate(VoH);
+    float c = saturate(VoH);
+    float x = 1.0 - c;
     float x2 = x * x;
     float x5 = x2 * x2 * x;  // explicit product: pow() is exp2(5 log2 x) and loses precision
-    return f0 + (vec3(f90) - f0) * x5;
+    float one_minus_x5 = c * (1.0 + x * (1.0 + x * (1.0 + x * (1.0 + x))));
+    return f0 * one_minus_x5 + vec3(f90 * x5);
 }
 
 // Lambert 1760; the normalised diffuse BRDF 1/pi (Filament Fd_Lambert).

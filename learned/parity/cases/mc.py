@@ -80,11 +80,10 @@ PARITY_CASES = [
                (Arg(components=3, adversarial=((0.04, 0.04, 0.04), (1.0, 1.0, 1.0))),
                 Arg(adversarial=(0.0, 1.0)), _DOT, _DOT, _DOT, _DOT, _ALPHA),
                atol=1e-6, rtol=2e-5, measured="max rel 2.4e-7 (seeds 0-7)", n=1024,
-               envelope="D (14 ulp) V (12 ulp) F (f_schlick, 24 x 2^-24 without cancellation): "
-                        "first-order on the random draws <= 73% of the tolerance; NOT covered: "
-                        "grid f0 = 1, f90 = 0, VoH = 1e-6, where F = 1 - x^5 cancels to 5e-6 and "
-                        "D V ~1e11 make F's 1.3e-6 abs 24% (needs x..x^5 kept unrounded, as x87 "
-                        "does; FMA cannot change products-only chains)"),
+               envelope="D (14 ulp) V (12 ulp) F (f_schlick, ~15 ulp rel: its two terms never "
+                        "cancel): first-order on the random draws <= 73% of the tolerance, also "
+                        "at the grid's f0 = 1, f90 = 0, VoH = 1e-6 (F = 5e-6, D V ~1e11), where "
+                        "the old f0 + (f90 - f0) x^5 cancelled: 0.74 % apart on an H200"),
     ParityCase("specular_lobe_probability",
                (Arg(components=3, adversarial=((0.0, 0.0, 0.0),)),
                 Arg(components=3, adversarial=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))),

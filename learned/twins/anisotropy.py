@@ -54,9 +54,11 @@ def sample_ggx_vndf_anisotropic(u, v, at, ab) -> torch.Tensor:
     vh = _normalize(torch.stack([at * v[..., 0], ab * v[..., 1],
                                  v[..., 2].clamp_min(0.0) + 1e-7], dim=-1))
     phi = (2.0 * math.pi) * u[..., 0]
-    z = (1.0 - u[..., 1]) * (1.0 + vh[..., 2]) - vh[..., 2]
-    sin_theta = torch.sqrt((1.0 - z * z).clamp(0.0, 1.0))
-    hh = torch.stack([sin_theta * torch.cos(phi), sin_theta * torch.sin(phi), z], dim=-1) + vh
+    d = (vh[..., 0] * vh[..., 0] + vh[..., 1] * vh[..., 1]) / (1.0 + vh[..., 2])
+    e = (1.0 - u[..., 1]) * (1.0 + vh[..., 2]) + d
+    sin_theta = torch.sqrt((e * (2.0 - e)).clamp(0.0, 1.0))
+    hh = torch.stack([sin_theta * torch.cos(phi) + vh[..., 0],
+                      sin_theta * torch.sin(phi) + vh[..., 1], e - d], dim=-1)
     h = torch.stack([at * hh[..., 0], ab * hh[..., 1], hh[..., 2].clamp_min(0.0)], dim=-1)
     len2 = (h * h).sum(-1, keepdim=True)
     up = torch.zeros_like(h)

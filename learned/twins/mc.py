@@ -124,10 +124,11 @@ def sample_ggx_vndf(u: torch.Tensor, v: torch.Tensor, a: torch.Tensor) -> torch.
     vh = _normalize(torch.stack([a * v[..., 0], a * v[..., 1], v[..., 2].clamp_min(0.0) + 1e-7],
                                 dim=-1))
     phi = (2.0 * math.pi) * u[..., 0]
-    z = (1.0 - u[..., 1]) * (1.0 + vh[..., 2]) - vh[..., 2]
-    sin_theta = torch.sqrt((1.0 - z * z).clamp(0.0, 1.0))
-    c = torch.stack([sin_theta * torch.cos(phi), sin_theta * torch.sin(phi), z], dim=-1)
-    hh = c + vh
+    d = (vh[..., 0] * vh[..., 0] + vh[..., 1] * vh[..., 1]) / (1.0 + vh[..., 2])
+    e = (1.0 - u[..., 1]) * (1.0 + vh[..., 2]) + d
+    sin_theta = torch.sqrt((e * (2.0 - e)).clamp(0.0, 1.0))
+    hh = torch.stack([sin_theta * torch.cos(phi) + vh[..., 0],
+                      sin_theta * torch.sin(phi) + vh[..., 1], e - d], dim=-1)
     h = torch.stack([a * hh[..., 0], a * hh[..., 1], hh[..., 2].clamp_min(0.0)], dim=-1)
     len2 = (h * h).sum(-1, keepdim=True)
     up = torch.zeros_like(h)

@@ -53,9 +53,11 @@ vec3 sample_ggx_vndf_anisotropic(vec2 u, vec3 v, float at, float ab) {
     ab = max(saturate(ab), ANISOTROPY_MIN_ALPHA);
     vec3 vh = normalize(vec3(at * v.x, ab * v.y, max(v.z, 0.0) + 1e-7));
     float phi = TWO_PI * u.x;
-    float z = (1.0 - u.y) * (1.0 + vh.z) - vh.z;
-    float sin_theta = sqrt(clamp(1.0 - z * z, 0.0, 1.0));
-    vec3 hh = vec3(sin_theta * cos(phi), sin_theta * sin(phi), z) + vh;
+    // e = 1 + z, d = 1 - vh.z: as sample_ggx_vndf (no cancellation at the cap's rim)
+    float d = dot(vh.xy, vh.xy) / (1.0 + vh.z);
+    float e = (1.0 - u.y) * (1.0 + vh.z) + d;
+    float sin_theta = sqrt(clamp(e * (2.0 - e), 0.0, 1.0));
+    vec3 hh = vec3(sin_theta * cos(phi) + vh.x, sin_theta * sin(phi) + vh.y, e - d);
     vec3 h = vec3(at * hh.x, ab * hh.y, max(hh.z, 0.0));
     float len2 = dot(h, h);
     return len2 > 1e-30 ? h * inversesqrt(len2) : vec3(0.0, 0.0, 1.0);

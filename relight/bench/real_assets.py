@@ -26,7 +26,8 @@ denoised (``indirect_blur``). Each non-split-sum case is judged against the spli
 case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
 floor, drawn the same nine ways (rays see the splats' opaque cores:
-:mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted apart ("(splats)").
+:mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted
+apart ("(splats)").
 
 **Truth**: Mitsuba 3 with our BSDF (:mod:`relight.reference`), cached as the gallery caches it
 (:func:`relight.gallery.panels.cached_truth`: one file per scene under ``<out>/cache``, keyed by

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..geometry.mesh import Mesh
 from ..scene.material import Material
-from ..splats.data import Splats, quat_to_matrix
+from ..splats.data import Splats, min_axis, quat_to_matrix
 from .scene import MAP_SIZE
 
 OPAQUE_AT = 0.5  # the shadow maps' opacity threshold (viewer.passes.shadow)
@@ -90,13 +90,14 @@ def splat_proxies(splats: Splats) -> list[ProxyMesh]:
     return found
 
 
-def _splat_normals(splats: Splats, axes: np.ndarray) -> np.ndarray:
-    n = np.asarray(splats.normals, np.float64)
+def _splat_normals(normals: np.ndarray, rotations: np.ndarray,
+                   scales: np.ndarray) -> np.ndarray:
+    """Each splat's unit normal: the stored one, or (zero stored) its shortest axis."""
+    n = np.asarray(normals, np.float64)
     length = np.linalg.norm(n, axis=1)
-    shortest = np.take_along_axis(axes, np.argmin(splats.scales, axis=1)[:, None, None]
-                                  .repeat(3, axis=1), axis=2)[..., 0]  # R's column
-    n = np.where(length[:, None] > 1e-12, n / np.maximum(length, 1e-30)[:, None], shortest)
-    return n
+    stored = length > 1e-12
+    return np.where(stored[:, None], n / np.where(stored, length, 1.0)[:, None],
+                    min_axis(np.asarray(rotations, np.float64), scales))
 
 
 def _build(splats: Splats) -> list[ProxyMesh]:
@@ -125,7 +126,8 @@ def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int) 
         :, None, :]
     pos = (np.asarray(splats.means, np.float64)[ids, None, :]
            + np.einsum("nij,vj->nvi", m, ICO_VERTICES))  # [n, 12, 3]
-    normals = np.repeat(_splat_normals(splats.subset(ids), rot)[:, None, :], 12, axis=1)
+    normals = np.repeat(_splat_normals(splats.normals[ids], splats.rotations[ids],
+                                       splats.scales[ids])[:, None, :], 12, axis=1)
     texel = np.arange(n)
     uv = np.stack([(texel % MAP_SIZE + 0.5) / MAP_SIZE, (texel // MAP_SIZE + 0.5) / MAP_SIZE], 1)
     base = np.zeros((PER_MESH, 4), np.float32)
@@ -138,10 +140,10 @@ def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int) 
     indices = (np.arange(n, dtype=np.int64)[:, None, None] * 12 + ICO_FACES[None]).reshape(-1, 3)
     name = f"{splats.source or 'splats'} (opaque cores, part {part + 1})"
     return ProxyMesh(positions=pos.reshape(-1, 3).astype(np.float32),
-                normals=normals.reshape(-1, 3).astype(np.float32),
-                uvs=np.repeat(uv[:, None, :], 12, axis=1).reshape(-1, 2).astype(np.float32),
-                indices=indices.astype(np.uint32),
-                material=Material(albedo=(1.0, 1.0, 1.0), roughness=1.0, metallic=1.0),
-                textures={"base_color": base.reshape(MAP_SIZE, MAP_SIZE, 4),
-                          "metallic_roughness": mr.reshape(MAP_SIZE, MAP_SIZE, 4)},
-                double_sided=True, alpha_mode="OPAQUE", name=name, source=splats.source)
+                     normals=normals.reshape(-1, 3).astype(np.float32),
+                     uvs=np.repeat(uv[:, None, :], 12, axis=1).reshape(-1, 2).astype(np.float32),
+                     indices=indices.astype(np.uint32),
+                     material=Material(albedo=(1.0, 1.0, 1.0), roughness=1.0, metallic=1.0),
+                     textures={"base_color": base.reshape(MAP_SIZE, MAP_SIZE, 4),
+                               "metallic_roughness": mr.reshape(MAP_SIZE, MAP_SIZE, 4)},
+                     double_sided=True, alpha_mode="OPAQUE", name=name, source=splats.source)

@@ -119,6 +119,18 @@ def concat(parts: list[Splats]) -> Splats:
 
 # ---- quaternions and SH ----------------------------------------------------------------------
 
+def min_axis(rot: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """[N, 3] the unit shortest axis of each Gaussian (ties: lowest index), as in
+    ``splat_min_axis`` (shaders/lib/splat.glsl): the column of R for the smallest of ``scale``
+    (sigmas or their logs: the same order); zero quaternions give the identity."""
+    norm = np.linalg.norm(rot, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q = np.where(norm > 0, rot / np.where(norm > 0, norm, 1.0), [[1.0, 0.0, 0.0, 0.0]])
+    r = quat_to_matrix(q)
+    k = np.argmin(scale, axis=1)
+    return r[np.arange(len(k)), :, k]
+
+
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """``[N, 4]`` unit quaternions (w, x, y, z) -> ``[N, 3, 3]`` rotation matrices."""
     w, x, y, z = (q[:, i] for i in range(4))

@@ -49,7 +49,7 @@ from plyfile import PlyData, PlyElement
 
 from ..errors import InputError
 from .compressed import CHUNK, CHUNK_COLOR, PACKED, SPLATS_PER_CHUNK, _compressed
-from .data import SH_C0, SH_COUNTS, Splats, quat_to_matrix
+from .data import SH_C0, SH_COUNTS, Splats, min_axis, quat_to_matrix
 from .validate import MAX_SIGMA, MIN_SIGMA, fields_to_splats
 
 # the compressed layout's and the validation's names stay importable from here
@@ -139,7 +139,7 @@ def _vertex_layout(vertex, path: Path):
         fields["metallic"] = _sigmoid(cols(GSHADER[1:])).mean(axis=1)
         used |= set(GSHADER)
         if all(c in props for c in NXYZ):
-            fields["normals"] = _min_axis(fields["rot"], fields["log_scale"]) + cols(NXYZ)
+            fields["normals"] = min_axis(fields["rot"], fields["log_scale"]) + cols(NXYZ)
             used |= set(NXYZ)
         return layout, fields, used
     fields["sh"] = _sh(props, col, dc, path)
@@ -187,17 +187,6 @@ def _sh(props, col, dc, path) -> np.ndarray:
         for j in range(k - 1):
             sh[:, 1 + j, c] = col(f"f_rest_{c * (k - 1) + j}")
     return sh
-
-
-def _min_axis(rot: np.ndarray, log_scale: np.ndarray) -> np.ndarray:
-    """[N, 3] the unit shortest axis of each Gaussian (ties: lowest index), as in
-    ``splat_min_axis`` (shaders/lib/splat.glsl); zero quaternions give the identity."""
-    norm = np.linalg.norm(rot, axis=1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        q = np.where(norm > 0, rot / np.where(norm > 0, norm, 1.0), [[1.0, 0.0, 0.0, 0.0]])
-    r = quat_to_matrix(q)
-    k = np.argmin(log_scale, axis=1)
-    return r[np.arange(len(k)), :, k]
 
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:

@@ -57,8 +57,15 @@ INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular
 # every input in the order :func:`learned.neural.lighting.student_features` returns them (twin:
 # viewer.neural.STUDENT_ALL_INPUTS); "vis": the screen-space visibility of the environment's light
 ALL_INPUTS = INPUTS + ("dfg.a", "dfg.b", "vis")
-FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"), "vis": INPUTS + ("vis",),
-                  "dfg-vis": ALL_INPUTS}
+# "ssao": the network reads neither ao nor S(x); ao (material AO x the SSAO pass's O(x)) is only
+# the occlusion factor, applied as the classical models apply it (issue 38: the students that
+# read screen-space evidence turned its noise and stretch into speckle and invented shadows)
+FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"),
+                  "ssao": tuple(i for i in INPUTS if i != "ao"),
+                  "vis": INPUTS + ("vis",), "dfg-vis": ALL_INPUTS}
+# the input sets whose ao is the material AO times the SSAO pass's O(x) (twin:
+# viewer.neural.contract.STUDENT_SSAO_FEATURES)
+OCCLUSION_FEATURES = ("ssao", "vis", "dfg-vis")
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
@@ -124,6 +131,9 @@ class Student(nn.Module):
         if indirect != "none" and OUTPUTS[output] != 3:
             raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
                              f"(pbr3 or split3), not {output!r}")
+        if features == "ssao" and occlusion != "factor":
+            raise ValueError("a student with ssao features applies ao only as a factor: "
+                             f"occlusion must be 'factor', not {occlusion!r}")
         if sun and output != "split3":
             raise ValueError(f"a student with the sun needs the split3 output form, not {output!r}")
         if multiscatter and output != "split3":
@@ -166,7 +176,13 @@ class Student(nn.Module):
 
     @property
     def reads_visibility(self) -> bool:
+        """Whether it reads S(x), the SSAO pass's visibility of the environment's light."""
         return "vis" in self.inputs
+
+    @property
+    def reads_occlusion(self) -> bool:
+        """Whether its ao input is the material AO times the SSAO pass's O(x)."""
+        return self.features in OCCLUSION_FEATURES
 
     @property
     def learns_indirect(self) -> bool:

@@ -214,8 +214,9 @@ def distillation_targets(images, unshadowed, shadow: ShadowUNet | None) -> list[
 def design_features(model: Student, images: list[TrainImage]) -> list[tuple]:
     """:func:`student_features` of every image as ``model`` sees them at run time: a student with
     ``vis`` inputs runs with SSAO (``viewer.neural.required_settings``), so its ao input is the
-    material AO times the SSAO pass's O(x) and its vis input the pass's S(x); any other student
-    gets the material AO (the renderer multiplies SSAO in only when the user turns it on). A
+    material AO times the SSAO pass's O(x) and its vis input the pass's S(x); a student with
+    ``ssao`` inputs gets the same ao and no S(x); any other student gets the material AO (the
+    renderer multiplies SSAO in only when the user turns it on). A
     student whose base shades the sun (``model.sun``) reads the IBL without it and gets the sun's
     arguments as a fourth tensor (``TrainImage.lighting_sun``, ``load_images(..., sun=True)``)."""
     sun = getattr(model, "sun", False)
@@ -230,7 +231,9 @@ def design_features(model: Student, images: list[TrainImage]) -> list[tuple]:
     if model.reads_visibility:
         return [student_features(img.gb, img.v, lighting(img), img.gb["ao"][:, 0] * img.ssao,
                                  img.vis, dominant=model.dominant, sun=sun) for img in images]
-    return [student_features(img.gb, img.v, lighting(img), img.gb["ao"][:, 0],
+    ao = (lambda img: img.gb["ao"][:, 0] * img.ssao) if model.reads_occlusion else \
+        (lambda img: img.gb["ao"][:, 0])
+    return [student_features(img.gb, img.v, lighting(img), ao(img),
                              dominant=model.dominant, sun=sun) for img in images]
 
 

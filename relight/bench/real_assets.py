@@ -17,15 +17,16 @@ only looks it up through the prefiltered maps), so there is no run without it.
 
 **Cases** (:func:`cases`): split-sum and the student with the default render (``raytrace =
 true``: ray-traced visibility and bounce), both screen-space (``raytrace = false``, SSAO +
-indirect light), and split-sum screen-space with the mesh shadow estimator
+indirect light, the bounce denoised as by default), the student before this one (which read
+S(x): :func:`sx_student_file`) screen-space, and split-sum screen-space with the mesh shadow
+estimator
 (``assets/weights/shadow_net_mesh.safetensors``) in the frame it was trained on
 (:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student screen-space with
 the estimator's visibility in place of SSAO's occlusion and the student's S(x) (``shadow_net_use
-= "visibility"``: the issue's "usable by every model"), also with the screen-space bounce
-denoised (``indirect_blur``). Each non-split-sum case is judged against the split-sum
+= "visibility"``: the issue's "usable by every model"). Each non-split-sum case is judged against the split-sum
 case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
-floor, drawn the same nine ways (rays see the splats' opaque cores:
+floor, drawn the same eight ways (rays see the splats' opaque cores:
 :mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted
 apart ("(splats)").
 
@@ -96,29 +97,36 @@ def shadow_net_file() -> Path:
     return ASSET_ROOT / "weights" / "shadow_net_mesh.safetensors"
 
 
+def sx_student_file() -> Path:
+    """The student shipped before issue 38's ``ssao`` student: its network read S(x), the SSAO
+    pass's visibility of the environment's light (``features = "vis"``), kept for comparison."""
+    from assets import ASSET_ROOT
+
+    return ASSET_ROOT / "weights" / "students" / "sx-w32x2-split-sun.safetensors"
+
+
 def cases() -> tuple[Case, ...]:
-    """The nine cases of the module docstring; the estimator's frame read from its weights."""
+    """The eight cases of the module docstring; the estimator's frame read from its weights."""
     from viewer.neural.shadow_net import frame_settings, read_shadow_net
 
     net = shadow_net_file()
     frame = frame_settings(read_shadow_net(net).training)
     # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
     V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
-    V_DN = V_USE | {"indirect_blur": True}  # and the bounce through the bilateral blur
     return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
             Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
             Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),
             Case("neural, screen", {"model": "neural", **SCREEN}, "split-sum, screen"),
+            Case("neural S(x), screen",
+                 {"model": "neural", "weights": str(sx_student_file()), **SCREEN},
+                 "split-sum, screen"),
             Case("split-sum, screen + estimator",
                  {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
                   "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
                  "split-sum, screen"),
             Case("split-sum, estimator's V", {"model": "ggx_split_sum", **V_USE}),
             Case("neural, estimator's V", {"model": "neural", **V_USE},
-                 "split-sum, estimator's V"),
-            Case("split-sum, V, denoised bounce", {"model": "ggx_split_sum", **V_DN}),
-            Case("neural, V, denoised bounce", {"model": "neural", **V_DN},
-                 "split-sum, V, denoised bounce"))
+                 "split-sum, estimator's V"))
 
 
 def environments() -> list[tuple[str, Path]]:

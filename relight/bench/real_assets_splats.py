@@ -24,8 +24,8 @@ from pathlib import Path
 # (name, the model of relight.bench.real_assets.ASSETS whose scene is tiled)
 SPLAT_ASSETS: tuple[tuple[str, str], ...] = (("cge_plasma_gun_splats", "cge_plasma_gun"),)
 SPLAT_CASES = ("split-sum, rays", "neural, rays", "split-sum, screen", "neural, screen",
-               "split-sum, screen + estimator", "split-sum, estimator's V", "neural, estimator's V",
-               "split-sum, V, denoised bounce", "neural, V, denoised bounce")
+               "neural S(x), screen", "split-sum, screen + estimator",
+               "split-sum, estimator's V", "neural, estimator's V")
 
 
 def splat_scene(scene, cache: Path, name: str):

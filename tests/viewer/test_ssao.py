@@ -128,7 +128,8 @@ def test_indirect_reads_the_occlusion_rays_hits(ctx, rays):
     renderer = Renderer(ctx=ctx)  # fresh targets: only the hit targets this ray count needs
     try:
         sc = scene(SPHERES, target=(0, 0.3, -1), ssao=True, indirect=True, ssao_rays=rays,
-                   ssao_steps=8, ssao_radius=0.6, ssao_thickness=0.5)
+                   ssao_steps=8, ssao_radius=0.6, ssao_thickness=0.5,
+                   indirect_blur=False)  # the pass's own composite, not the frame's three
         t = renderer.draw(sc)
         reused, direct, ao = (_read(t, n) for n in ("radiance", "direct", "ssao"))
         covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0

@@ -133,7 +133,8 @@ def test_indirect_at_scale_brightens_creases_only(renderer, k):
 
 def test_scale_one_draws_the_full_scale_pass_alone(ctx):
     """k = 1 marches every pixel into the frame's own targets: no low-resolution target, no
-    upsampling pass; k = 2 has both (a fresh renderer: targets outlive frames)."""
+    upsampling pass; k = 2 has both (a fresh renderer: targets outlive frames). The bounce's
+    blur is off: at k = 1 it gathers into targets of its own (test_ssao_blur.py)."""
     from viewer.gl.timing import PassTimer
 
     r = Renderer(ctx=ctx)
@@ -141,7 +142,8 @@ def test_scale_one_draws_the_full_scale_pass_alone(ctx):
     try:
         drawn = {}
         for k in (1, 2):
-            sc = scene([FLOOR, WALL, HANGING], ssao=True, indirect=True, ssao_scale=k, **SSAO)
+            sc = scene([FLOOR, WALL, HANGING], ssao=True, indirect=True, ssao_scale=k,
+                       indirect_blur=False, **SSAO)
             timer.enabled = True
             timer.reset()
             t = r.draw(sc)

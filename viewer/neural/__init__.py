@@ -28,21 +28,20 @@ Imports: :mod:`viewer.errors`, :mod:`viewer.cache`; never torch.
 """
 from .contract import (DEFAULT_FEATURES, DEFAULT_LIGHT_INPUT, DEFAULT_OUTPUT, INDIRECT_HIDDEN,
                        STUDENT_ALL_INPUTS, STUDENT_FEATURES, STUDENT_INDIRECT, STUDENT_INPUTS,
-                       STUDENT_OUTPUTS, TEACHER_INPUTS, expected_networks, teacher_inputs)
+                       STUDENT_OUTPUTS, STUDENT_SSAO_FEATURES, TEACHER_INPUTS, expected_networks, teacher_inputs)
 from .format import (FORMAT, FORMAT_VERSION, KINDS, MODEL_KINDS, TENSOR_PARTS, NetworkFile,
                      WeightsError, checkpoint_hash, default_weights, read_weights, tensor_name)
 from .glsl import (UBO_MIN_MAX_BYTES, WEIGHT_BINDINGS, WEIGHT_STORAGES, WEIGHT_TEXTURE_WIDTH,
                    NetworkCode, generate_glsl)
 from .kernels import STUDENT_KERNEL, STUDENT_KERNEL_ENTRY, STUDENT_KERNEL_GROUP, mlp_kernel
 from .network import (Network, learns_indirect, load_network, model_network, needs_env_visibility,
-                      reads_visibility,
-                      required_settings, shades_sun, virtual_files)
+                      reads_occlusion, reads_visibility, required_settings, shades_sun, virtual_files)
 from .upload import NeuralWeights
 
 __all__ = [
     # contract, format
     "DEFAULT_FEATURES", "DEFAULT_OUTPUT", "FORMAT", "FORMAT_VERSION", "INDIRECT_HIDDEN", "KINDS", "MODEL_KINDS",
-    "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INDIRECT", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "TEACHER_INPUTS", "TENSOR_PARTS",
+    "STUDENT_ALL_INPUTS", "STUDENT_FEATURES", "STUDENT_INDIRECT", "STUDENT_INPUTS", "STUDENT_OUTPUTS", "STUDENT_SSAO_FEATURES", "TEACHER_INPUTS", "TENSOR_PARTS",
     "DEFAULT_LIGHT_INPUT", "NetworkFile", "WeightsError", "checkpoint_hash", "default_weights",
     "expected_networks", "read_weights", "teacher_inputs", "tensor_name",
     # glsl
@@ -52,7 +51,7 @@ __all__ = [
     "STUDENT_KERNEL", "STUDENT_KERNEL_ENTRY", "STUDENT_KERNEL_GROUP", "mlp_kernel",
     # network
     "Network", "learns_indirect", "load_network", "model_network", "needs_env_visibility",
-    "reads_visibility", "required_settings",
+    "reads_occlusion", "reads_visibility", "required_settings",
     "shades_sun", "virtual_files",
     # upload
     "NeuralWeights",

@@ -12,10 +12,18 @@ STUDENT_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "
 # passes/ssao.frag with SSAO_ENV_VIS), read by students that see visibility
 STUDENT_ALL_INPUTS = STUDENT_INPUTS + ("dfg.a", "dfg.b", "vis")
 # student input sets (architecture "features"; twin: learned.neural.student.FEATURE_INPUTS), each
-# a subsequence of STUDENT_ALL_INPUTS
+# a subsequence of STUDENT_ALL_INPUTS. "ssao": base's inputs but ao, which (the material AO times
+# the SSAO pass's occlusion O(x): the renderer runs SSAO for it, without S(x)) enters only as the
+# occlusion factor on the diffuse light, as every classical model applies it: the network reads
+# no screen-space evidence, whose noise and stretch the students that read it turned into
+# speckle and invented shadows on real assets (issue 38)
 STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "dfg.b"),
+                    "ssao": tuple(i for i in STUDENT_INPUTS if i != "ao"),
                     "vis": STUDENT_INPUTS + ("vis",),
                     "dfg-vis": STUDENT_ALL_INPUTS}
+# the input sets whose ao input is the material AO times the SSAO pass's O(x): the renderer runs
+# SSAO for them whatever [render] ssao says (twin: learned.neural.student.OCCLUSION_FEATURES)
+STUDENT_SSAO_FEATURES = ("ssao", "vis", "dfg-vis")
 # student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
 # outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag
 # combines the factors with the lighting by lib/neural.glsl's neural_student_radiance[_pbr].
@@ -143,6 +151,10 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
     if kind == "student" and arch.get("occlusion", DEFAULT_OCCLUSION) not in STUDENT_OCCLUSION:
         raise ValueError(f"student occlusion {arch['occlusion']!r} "
                          f"(known: {', '.join(STUDENT_OCCLUSION)})")
+    if kind == "student" and features == "ssao" and \
+            arch.get("occlusion", DEFAULT_OCCLUSION) != "factor":
+        raise ValueError("student features 'ssao' apply ao only as a factor: occlusion must be "
+                         "'factor'")
     indirect = arch.get("indirect", DEFAULT_INDIRECT) if kind == "student" else DEFAULT_INDIRECT
     if indirect not in STUDENT_INDIRECT:
         raise ValueError(f"student indirect {indirect!r} (known: {', '.join(STUDENT_INDIRECT)})")

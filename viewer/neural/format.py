@@ -14,7 +14,7 @@ format          ``relight-neural-shader``
 version         ``1`` (:data:`FORMAT_VERSION`)
 kind            ``student`` (model ``neural``) or ``teacher`` (model ``neural_teacher``)
 architecture    JSON (:func:`architecture`): ``{"networks": {name: {"sizes": [...], "activations":
-                [...]}}, "hidden": ..., "num_freqs": L, "inputs": [...], "features": "base" | "dfg" | "vis" | "dfg-vis",
+                [...]}}, "hidden": ..., "num_freqs": L, "inputs": [...], "features": "base" | "dfg" | "ssao" | "vis" | "dfg-vis",
                 "output": "free6" | "pbr3"}`` (students; no ``features`` = ``base``: the 8 inputs of
                 :data:`STUDENT_INPUTS`, ``dfg`` adds the split-sum LUT, ``vis`` the screen-space visibility of the environment's
                 light (the renderer then runs SSAO with ``SSAO_ENV_VIS``); no ``output`` = ``free6``:
@@ -129,7 +129,8 @@ class NetworkFile:
 
     @property
     def features(self) -> str:
-        """Student input set (``base`` | ``dfg`` | ``vis`` | ``dfg-vis``, :data:`STUDENT_FEATURES`)."""
+        """Student input set (``base`` | ``dfg`` | ``ssao`` | ``vis`` | ``dfg-vis``,
+        :data:`STUDENT_FEATURES`)."""
         return str(self.architecture.get("features", DEFAULT_FEATURES))
 
     @property

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..cache import BoundedCache, CacheStats
+from .contract import STUDENT_SSAO_FEATURES
 from .format import (MODEL_KINDS, STUDENT_FEATURES, NetworkFile, WeightsError, default_weights,
                      read_weights)
 from .glsl import WEIGHT_STORAGES, NetworkCode, generate_glsl
@@ -94,6 +95,16 @@ def reads_visibility(settings) -> bool:
         "vis" in STUDENT_FEATURES.get(found[0].features, ())
 
 
+def reads_occlusion(settings) -> bool:
+    """Whether the lighting pass of ``settings.model`` is a student trained with the SSAO pass's
+    occlusion O(x) in its ao input (``ssao``, ``vis`` or ``dfg-vis`` features,
+    :data:`~viewer.neural.contract.STUDENT_SSAO_FEATURES`): it then needs the SSAO pass, whatever
+    ``[render] ssao`` says (and S(x) only if it :func:`reads_visibility`)."""
+    found = model_network(settings.model, settings)
+    return found is not None and found[0].kind == "student" and \
+        found[0].features in STUDENT_SSAO_FEATURES
+
+
 def needs_env_visibility(settings) -> bool:
     """Whether the frame's SSAO pass writes S(x) (``SSAO_ENV_VIS``): for a student that reads it
     (:func:`reads_visibility`) or the neural shadow estimator (``[render] shadow_net``), which
@@ -121,14 +132,14 @@ def shades_sun(settings) -> bool:
 
 def required_settings(settings):
     """``settings`` with what the model's network needs switched on: SSAO for a student that reads
-    its occlusion and visibility inputs from it (it was trained on them; without the pass its ao
-    input would be the material's alone and its vis input 1), the indirect pass for a student that
+    its occlusion (and visibility) inputs from it (:func:`reads_occlusion`: it was trained on them;
+    without the pass its ao input would be the material's alone and its vis input 1), the indirect pass for a student that
     learned a factor on its light (trained on direct + factor x indirect), the analytic sun for a
     student whose base shades it (``render.sun = false`` would leave its sun out); SSAO, too, for
     the neural shadow estimator (``render.shadow_net``), which reads its occlusion. Unchanged for
     every other model."""
     flat = {}
-    if (reads_visibility(settings) or settings.neural.shadow_net is not None) \
+    if (reads_occlusion(settings) or settings.neural.shadow_net is not None) \
             and not settings.ssao.enabled:  # the shadow estimator reads O(x) too
         flat["ssao"] = True
     if learns_indirect(settings) and not settings.ssao.indirect:

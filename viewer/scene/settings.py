@@ -41,8 +41,9 @@ class SSAOSettings:
     # the one-bounce light gathered at full resolution (scale 1) through the same blur before
     # it is added (SSAO_COMPOSITE at k = 1: gather, ssao_blur, composite): the gather's 8 rays
     # a pixel are speckle on a floor, most of the screen-space frame's (TOML:
-    # indirect_blur; at k > 1 the joint bilateral upsampling filters it already)
-    indirect_blur: bool = False
+    # indirect_blur; at k > 1 the joint bilateral upsampling filters it already). On by default
+    # since it never lowered a measured score (docs/explanation/models.md)
+    indirect_blur: bool = True
 
     def __bool__(self):  # `if settings.ssao:` would always be true: say where the switch is
         raise TypeError("SSAOSettings has no truth value: use settings.ssao.enabled")

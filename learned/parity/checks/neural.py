@@ -211,7 +211,9 @@ def _check_indirect_factor(programs, path) -> list:
 
     from .ssao import robust_compare
 
-    scene = scene_from_dict(PARITY_SCENE).with_render(shadows=False, model="neural", weights=str(path))
+    scene = scene_from_dict(PARITY_SCENE).with_render(
+        shadows=False, model="neural", weights=str(path),
+        indirect_blur=False)  # the factor on the pass's own composite (the blur: ssao:denoise)
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
     assert scene.render.ssao.indirect, "the student's indirect pass is not forced on"
     net_model = load_model(path, "student")

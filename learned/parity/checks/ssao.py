@@ -27,7 +27,8 @@ def checks() -> dict:
         scene = scene_from_dict(PARITY_SCENE).with_render(
             shadows=False, model="ggx_split_sum", ssao=True, indirect=True, ssao_rays=6,
             ssao_steps=8,
-            ssao_radius=0.6, ssao_thickness=0.3, seed=3)
+            ssao_radius=0.6, ssao_thickness=0.3, seed=3,
+            indirect_blur=False)  # the pass's own composite; the blur: ssao:denoise
         renderer = Renderer(ctx=programs.ctx)
         try:
             targets = renderer.draw(scene)

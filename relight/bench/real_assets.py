@@ -98,8 +98,7 @@ def shadow_net_file() -> Path:
 
 
 def sx_student_file() -> Path:
-    """The student shipped before issue 38's ``ssao`` student: its network read S(x), the SSAO
-    pass's visibility of the environment's light (``features = "vis"``), kept for comparison."""
+    """The student shipped before the ``ssao`` student, whose network read S(x) (``vis``)."""
     from assets import ASSET_ROOT
 
     return ASSET_ROOT / "weights" / "students" / "sx-w32x2-split-sun.safetensors"

@@ -17,7 +17,7 @@ from learned.parity.checks import shadow_net as check_module
 from learned.parity.checks.models import gl_gbuffer, gl_texture
 from learned.twins.neural import shade_neural
 from viewer.errors import SceneError
-from viewer.neural import default_weights, reads_visibility, required_settings
+from viewer.neural import default_weights, reads_occlusion, reads_visibility, required_settings
 from viewer.neural.shadow_net import DEFAULT_ARCHITECTURE, metadata, random_tensors
 from viewer.passes.shade import shade_defines
 from viewer.renderer import Renderer
@@ -97,15 +97,21 @@ def test_a_visibility_of_one_is_no_occlusion_for_the_classical_models(tmp_path):
     assert np.abs(ssao - plain).max() > 1e-2
 
 
-def test_the_students_visibility_input_is_the_estimators(tmp_path):
+@pytest.mark.parametrize("student", ["shipped", "sx"])
+def test_the_students_visibility_input_is_the_estimators(tmp_path, student):
     """V = (0.2, 0.5, 0.35) everywhere: the student's lighting pass equals its torch twin given
-    their mean, 0.35, as its S(x) and O(x) inputs (the parity check's envelope), and not its twin
-    on the frame's SSAO."""
+    their mean, 0.35, as its O(x) (the shipped student, whose diffuse factor it scales) or as its
+    S(x) and O(x) inputs (the S(x) student shipped before), within the parity check's envelope,
+    and not its twin on the frame's SSAO."""
+    from relight.bench.real_assets import sx_student_file
+
+    weights = default_weights("student") if student == "shipped" else sx_student_file()
     path = constant_weights(tmp_path, (0.2, 0.5, 0.35))
-    scene = _scene(model="neural", shadow_net=str(path), shadow_net_use="visibility")
+    scene = _scene(model="neural", shadow_net=str(path), shadow_net_use="visibility",
+                   weights=str(weights))
     scene = dataclasses.replace(scene, render=required_settings(scene.render))
-    assert reads_visibility(scene.render)  # the shipped student reads S(x)
-    weights = default_weights("student")
+    assert reads_occlusion(scene.render)
+    assert reads_visibility(scene.render) == (student == "sx")
     renderer = Renderer()
     try:
         targets = renderer.draw(scene)
@@ -120,7 +126,7 @@ def test_the_students_visibility_input_is_the_estimators(tmp_path):
                 defines[k] = targets.variant.defines[k]
         lighting = lighting_from_gl(renderer, scene.environment,
                                     sun=bool(defines.get("SUN_LIGHT", 0)))
-        net = load_model(weights, "student")
+        net = load_model(str(weights), "student")
         twin = {}
         for name, occ in (("estimator", torch.full_like(ssao, 0.35)), ("ssao", ssao)):
             envelope = {"weight_bits": 8}
@@ -136,4 +142,5 @@ def test_the_students_visibility_input_is_the_estimators(tmp_path):
     bound = 1e-4 + 5e-4 * np.abs(twin["estimator"][..., :3]) + twin["estimator:bound"]
     err = np.abs(glsl[..., :3] - twin["estimator"][..., :3])
     assert (err <= bound).all(), float((err - bound).max())
-    assert np.abs(glsl[..., :3] - twin["ssao"][..., :3]).max() > 10 * bound.max()
+    off = (np.abs(glsl[..., :3] - twin["ssao"][..., :3]) > 10 * bound).any(-1)
+    assert off.mean() > 0.3, off.mean()  # most pixels: the sky is the same either way

@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from relight.bench.real_assets import sx_student_file
 from viewer.gl.timing import PassTimer
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict
@@ -23,8 +24,10 @@ BASE = {
     # tests/viewer/test_rt_light.py's
     "render": {"tonemap": "none", "ssao_rays": 6, "ssao_steps": 6, "raytrace": False},
 }
-CASES = {  # the student reads SSAO, the visibility S(x) and the indirect light (with hits)
+CASES = {  # the student reads SSAO and the indirect light (with hits); the S(x) student also
+    # the visibility S(x), whose directions turn with the environment
     "neural": {"model": "neural"},
+    "neural S(x)": {"model": "neural", "weights": str(sx_student_file())},
     "split+ssao+indirect": {"ssao": True, "indirect": True},
     "split+ssao+indirect 1/2": {"ssao": True, "indirect": True, "ssao_scale": 2},
 }
@@ -108,7 +111,7 @@ CHANGES = {  # change -> (the change, the passes it must draw again)
 
 @pytest.mark.parametrize("change", list(CHANGES))
 def test_what_enters_the_gbuffer_or_ssao_redraws_them(renderer, change):
-    scene = _scene(CASES["neural"])
+    scene = _scene(CASES["neural S(x)"])
     make, must = CHANGES[change]
     _frame(renderer, scene)
     changed = make(scene)

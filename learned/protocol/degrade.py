@@ -146,7 +146,9 @@ def _degrade_sample(folder: Path, final: Path, level: float) -> None:
     ch = _gbuffer_channels(sample)
     degraded, recipe = estimate_errors(ch, sample.unoccluded, int(meta["seed"]),
                                        int(meta["index"]), level)
-    tmp = final.with_name(final.name + ".tmp")
+    # a folder of this process's own: two trainings writing the same copy at once (each sample
+    # is seeded, so both write the same files) would otherwise share, and break, one folder
+    tmp = final.with_name(f"{final.name}.{os.getpid()}.tmp")  # list_samples skips *.tmp
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)
@@ -156,7 +158,12 @@ def _degrade_sample(folder: Path, final: Path, level: float) -> None:
             shutil.copyfile(folder / name, tmp / name)
     meta["degrade"] = recipe
     (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
-    os.replace(tmp, final)
+    try:
+        os.replace(tmp, final)
+    except OSError:
+        if not final.is_dir():
+            raise
+        shutil.rmtree(tmp)  # another process finished the same sample first
 
 
 __all__ = ["LEVELS", "degraded_dataset", "estimate_errors", "level_bits", "quantise"]

@@ -76,6 +76,8 @@ from ..twins.shadow_net import shadow_net, shadow_net_apply
 from .runner import Run, _loop
 
 STAGE = "shadow_net"
+SHIPPED_ARCHITECTURE = {"levels": 5, "widths": [8, 12, 16, 24, 32], "gain": 3.0,
+                        "env_visibility": False}
 DEFAULT_DEGRADE_LEVELS = (0.25, 0.75)  # chosen on validation (module doc)
 MESH_DEGRADED = ("degraded G-buffers are drawn from their image-space stacks: a sample's meshes "
                  "draw the true one (geometry 'stack' with degrade_levels)")
@@ -90,9 +92,9 @@ class ShadowNetTrainConfig:
     batch: int = 8
     seed: int = 0
     model: str = "ggx_split_sum"  # the model whose frames the estimator multiplies
-    architecture: dict = field(default_factory=lambda: {"levels": 5,
-                                                         "widths": [8, 12, 16, 24, 32],
-                                                         "gain": 3.0})
+    # the shipped design: 5 levels, gain 3, and no S(x) input ("env_visibility": false; issue 38:
+    # the estimators that read S(x) invented shadows on real assets, docs/measurements)
+    architecture: dict = field(default_factory=lambda: dict(SHIPPED_ARCHITECTURE))
     limit: int | None = None  # samples per split (None: all)
     # more datasets whose train splits join the training images (environments that no val or
     # test sample has; their val and test splits, if any, are not read)

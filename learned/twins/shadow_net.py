@@ -92,13 +92,24 @@ def _at_output(x: torch.Tensor, kind: int, size: tuple[int, int]) -> torch.Tenso
     return x
 
 
+def _frame_input(x: torch.Tensor | None, layer: dict, source: int) -> torch.Tensor | None:
+    """``x`` as the pass reads it: the frame's inputs (``source`` 4) with S(x), their last
+    channel (:func:`shadow_net_input_c`), held at 1 for an estimator that does not read it."""
+    if x is None or source != SOURCE_FRAME or layer.get("env_vis", True):
+        return x
+    return torch.cat([x[:, :8], torch.ones_like(x[:, 8:9])], 1)
+
+
 def shadow_net_conv(a: torch.Tensor, b: torch.Tensor | None, weight: torch.Tensor,
                     bias: torch.Tensor, layer: dict) -> torch.Tensor:
     """Pass ``passes/shadow_net_conv.comp`` (tiled output, ``SN_OUTPUT`` 0): ``layer``'s
     convolution of ``a`` ``[B, Ca, h, w]`` (at the level its source names) and the skip ``b``
     (``[B, Cb, H, W]`` or None), replicate padding, -> ``[B, Cout, H', W']`` after the activation
-    times ``layer["gain"]`` (absent: 1).
+    times ``layer["gain"]`` (absent: 1). A frame source (the inputs) with ``layer["env_vis"]``
+    false reads 1 for S(x) (``SN_ENV_VIS`` 0).
     ``weight`` ``[Cout, Ca + Cb, k, k]``, ``bias`` ``[Cout]``."""
+    a = _frame_input(a, layer, layer["a_source"])
+    b = _frame_input(b, layer, layer["b_source"])
     k, stride = layer["kernel"], layer["stride"]
     if stride == 2:  # 2 x 2 taps at 2p: the level below's size, odd sides replicated
         x = a

@@ -2,6 +2,7 @@
 comparison of student designs), optionally on path-traced targets (``--targets reference``)."""
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 from viewer.errors import RelightError
@@ -84,7 +85,8 @@ def _train_shadow_net(args) -> int:
 # omitted option keeps the field's default)
 SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val_data",
                       "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry",
-                      "shadow_energy": "energy_weight", "shadow_linear": "linear_weight"}
+                      "shadow_energy": "energy_weight", "shadow_linear": "linear_weight",
+                      "shadow_env_visibility": "architecture"}
 
 
 def add_shadow_net_arguments(p) -> None:
@@ -106,6 +108,12 @@ def add_shadow_net_arguments(p) -> None:
     p.add_argument("--shadow-energy", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term that keeps each image's "
                         "energy and its highlights' (default 0: off)")
+    p.add_argument("--shadow-env-visibility", action=argparse.BooleanOptionalAction,
+                   default=None,
+                   help="--stage shadow_net: whether the estimator reads S(x), the SSAO pass's "
+                        "visibility of the environment's light (default no: the estimators that "
+                        "read it invented shadows on real assets; the frame then marches no "
+                        "S(x))")
     p.add_argument("--shadow-linear", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term on the linear image's "
                         "relative error (default 0: off)")
@@ -134,6 +142,10 @@ def shadow_net_options(args) -> dict:
             value = tuple(value)
         elif opt in ("shadow_energy", "shadow_linear") and not 0.0 <= value < float("inf"):
             raise RelightError(f"a loss weight must be finite and >= 0, got {value}", where=flag)
+        elif opt == "shadow_env_visibility":
+            from learned.train.shadow_net import SHIPPED_ARCHITECTURE
+
+            value = SHIPPED_ARCHITECTURE | {"env_visibility": bool(value)}
         out[name] = value
     return out
 

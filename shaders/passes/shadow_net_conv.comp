@@ -11,6 +11,8 @@
 //   SN_A_SLICES, SN_B_SLICES, SN_OUT_SLICES: RGBA texels per pixel of each
 //   SN_ACT 0 relu | 1 sigmoid; SN_GAIN: the activation's factor (the output layer's gain g,
 //     1 elsewhere); SN_WEIGHTS: vec4s of the weights
+//   SN_ENV_VIS 1: the frame's S(x) input from u_ssao's g channel; 0: 1 (an estimator that does
+//     not read it: architecture "env_visibility": false)
 //   SN_OUTPUT 0: the result into the tiled map u_out; 1: the visibility (3 channels) multiplied
 //     into the radiance image u_out in place where there is a surface (the product form)
 // Twin: learned.twins.shadow_net.shadow_net_conv.
@@ -48,7 +50,7 @@ vec4 frame_input(ivec2 q, int s) {
         return shadow_net_input_a(frame_radiance(q).rgb, texelFetch(u_ssao, q, 0).r);
     }
     if (s == 2) {
-        return shadow_net_input_c(texelFetch(u_ssao, q, 0).g);
+        return shadow_net_input_c(SN_ENV_VIS != 0 ? texelFetch(u_ssao, q, 0).g : 1.0);
     }
     GBuffer g = gbuffer_load(q);
     return shadow_net_input_b(u_view_rotation * g.normal, g.depth);

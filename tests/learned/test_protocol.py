@@ -94,6 +94,26 @@ def test_degraded_inputs_change_every_estimated_channel_not_the_targets(protocol
             "degrade"]["bits"] == 4
 
 
+def test_two_writers_of_one_degraded_sample_do_not_collide(protocol, tmp_path):
+    """Two trainings making the same degraded copy at once: each writes its own temporary
+    folder, and the one that finds the sample already finished drops its own (both are the
+    same seeded files), where one shared temporary folder failed ("Directory not empty")."""
+    from learned.protocol.degrade import _degrade_sample
+
+    folder = list_samples(protocol, "val")[0]
+    first, final = tmp_path / "first", tmp_path / "copy" / folder.name
+    _degrade_sample(folder, first, 0.5)
+    final.parent.mkdir()
+    import shutil
+
+    shutil.copytree(first, final)  # the other writer finished first
+    _degrade_sample(folder, final, 0.5)
+    assert sorted(p.name for p in final.parent.iterdir()) == [folder.name]
+    for name in ("meta.json", "albedo.exr"):
+        if (first / name).is_file():
+            assert (first / name).read_bytes() == (final / name).read_bytes()
+
+
 def test_estimate_errors_grow_with_the_level_and_are_deterministic(protocol):
     from learned.protocol.degrade import estimate_errors
 

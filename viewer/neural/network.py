@@ -11,6 +11,7 @@ from .contract import STUDENT_SSAO_FEATURES
 from .format import (MODEL_KINDS, STUDENT_FEATURES, NetworkFile, WeightsError, default_weights,
                      read_weights)
 from .glsl import WEIGHT_STORAGES, NetworkCode, generate_glsl
+from .shadow_net import load_shadow_net, reads_env_visibility
 
 
 @dataclass(frozen=True)
@@ -107,9 +108,14 @@ def reads_occlusion(settings) -> bool:
 
 def needs_env_visibility(settings) -> bool:
     """Whether the frame's SSAO pass writes S(x) (``SSAO_ENV_VIS``): for a student that reads it
-    (:func:`reads_visibility`) or the neural shadow estimator (``[render] shadow_net``), which
-    takes it as an input."""
-    return reads_visibility(settings) or settings.neural.shadow_net is not None
+    (:func:`reads_visibility`) or a neural shadow estimator (``[render] shadow_net``) that takes
+    it as an input (its architecture's ``"env_visibility"``, true when absent)."""
+    if reads_visibility(settings):
+        return True
+    path = settings.neural.shadow_net
+    if path is None:
+        return False
+    return reads_env_visibility(load_shadow_net(path).architecture)
 
 
 def learns_indirect(settings) -> bool:

@@ -83,6 +83,9 @@ class Layer:
     out_channels: int
     act: int
     gain: float = 1.0  # the output times this after its activation (SN_GAIN; the last layer)
+    # whether a frame source reads S(x) (SN_ENV_VIS); False: the input channel holds 1, the
+    # architecture's "env_visibility": false (the frame then marches no S(x) for it)
+    env_vis: bool = True
 
     @property
     def in_channels(self) -> int:
@@ -125,19 +128,28 @@ def check_architecture(arch: dict) -> tuple[int, list[int]]:
     if (isinstance(gain, bool) or not isinstance(gain, (int, float))
             or not GAIN_RANGE[0] <= gain <= GAIN_RANGE[1]):
         raise ValueError(f"gain {gain!r} is not a number in {GAIN_RANGE[0]}..{GAIN_RANGE[1]}")
+    if not isinstance(arch.get("env_visibility", True), bool):
+        raise ValueError(f"env_visibility {arch['env_visibility']!r} is not true or false")
     return levels, list(widths)
+
+
+def reads_env_visibility(arch: dict) -> bool:
+    """Whether an estimator of ``arch`` reads S(x), the SSAO pass's visibility of the
+    environment's light (``"env_visibility"``, true when absent)."""
+    return bool(arch.get("env_visibility", True))
 
 
 def plan(arch: dict) -> list[Layer]:
     """The layers of ``arch`` in the order they run (see the module's docstring)."""
     levels, widths = check_architecture(arch)
     c = [INPUT_CHANNELS] + widths
+    vis = reads_env_visibility(arch)
     layers = []
     for lv in range(1, levels + 1):
         prev = "input" if lv == 1 else f"enc{lv - 1}"
         src = SOURCE_FRAME if lv == 1 else SOURCE_MAP
         layers.append(Layer(f"down{lv}", lv, 2, 2, prev, src, c[lv - 1], None, SOURCE_NONE, 0,
-                            c[lv], ACT_RELU))
+                            c[lv], ACT_RELU, env_vis=vis))
         layers.append(Layer(f"enc{lv}", lv, 3, 1, f"down{lv}", SOURCE_MAP, c[lv], None,
                             SOURCE_NONE, 0, c[lv], ACT_RELU))
     coarse = f"enc{levels}"
@@ -146,7 +158,7 @@ def plan(arch: dict) -> list[Layer]:
                             c[lv + 1], f"enc{lv}", SOURCE_MAP, c[lv], c[lv], ACT_RELU))
         coarse = f"dec{lv}"
     layers.append(Layer("out", 0, 1, 1, coarse, SOURCE_BILINEAR_UP, c[1], "input", SOURCE_FRAME,
-                        INPUT_CHANNELS, 3, ACT_SIGMOID, float(arch.get("gain", 1.0))))
+                        INPUT_CHANNELS, 3, ACT_SIGMOID, float(arch.get("gain", 1.0)), vis))
     return layers
 
 

@@ -78,7 +78,7 @@ class ShadowNetPass:
             "SN_A_SLICES": slices(layer.a_channels), "SN_B_SLICES": slices(layer.b_channels),
             "SN_OUT_SLICES": slices(layer.out_channels), "SN_ACT": layer.act,
             "SN_WEIGHTS": len_packed(layer), "SN_OUTPUT": int(last and not visibility),
-            "SN_GAIN": f"{float(layer.gain):.9g}"},
+            "SN_GAIN": f"{float(layer.gain):.9g}", "SN_ENV_VIS": int(layer.env_vis)},
             virtual=self.layout.virtual_files())
 
     def run(self, net: ShadowNetFile, gbuffer_textures: dict, radiance, ssao,

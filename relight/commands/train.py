@@ -111,9 +111,9 @@ def add_shadow_net_arguments(p) -> None:
     p.add_argument("--shadow-env-visibility", action=argparse.BooleanOptionalAction,
                    default=None,
                    help="--stage shadow_net: whether the estimator reads S(x), the SSAO pass's "
-                        "visibility of the environment's light (default no: the estimators that "
-                        "read it invented shadows on real assets; the frame then marches no "
-                        "S(x))")
+                        "visibility of the environment's light (default: stacks yes, their only "
+                        "cast-shadow evidence; meshes no, their shadow maps cast the sun's, and "
+                        "the estimators that read it invented shadows on real assets)")
     p.add_argument("--shadow-linear", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term on the linear image's "
                         "relative error (default 0: off)")
@@ -145,7 +145,7 @@ def shadow_net_options(args) -> dict:
         elif opt == "shadow_env_visibility":
             from learned.train.shadow_net import SHIPPED_ARCHITECTURE
 
-            value = SHIPPED_ARCHITECTURE | {"env_visibility": bool(value)}
+            value = SHIPPED_ARCHITECTURE | {"env_visibility": bool(value)}  # else the geometry's
         out[name] = value
     return out
 

@@ -226,9 +226,13 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
     assert main(base + ["--shadow-degrade", "none"]) == 0 and seen.pop().degrade_levels == ()
     ref = ShadowNetTrainConfig(data=str(dataset), out=str(tmp_path / "run"))
     assert default == ref
-    assert default.architecture["env_visibility"] is False  # the shipped design reads no S(x)
-    assert main(base + ["--shadow-env-visibility"]) == 0
-    assert seen.pop().architecture == mod.SHIPPED_ARCHITECTURE | {"env_visibility": True}
+    # S(x) by the geometry: stacks read it, meshes not (the shipped files); the option decides
+    assert mod.architecture(default)["env_visibility"] is True
+    assert mod.architecture(mesh)["env_visibility"] is False
+    assert main(base + ["--shadow-geometry", "mesh", "--shadow-env-visibility"]) == 0
+    assert mod.architecture(seen.pop())["env_visibility"] is True
+    assert main(base + ["--no-shadow-env-visibility"]) == 0
+    assert mod.architecture(seen.pop())["env_visibility"] is False
     capsys.readouterr()
     for flag, args in (("--shadow-degrade", ["--shadow-degrade", "0"]),
                        ("--shadow-degrade", ["--shadow-degrade", "0.5,1.5"]),

@@ -4,13 +4,14 @@ The bench's mesh scene at 512^2 with SSAO (the estimator reads its occlusion) an
 shadow_net``: every timed frame runs both, so each frame gives the ratio of the estimator's fenced
 time (its layers' passes and the product's, summed) to SSAO's occlusion pass (``ratio_ssao``, the issue's budget: at most 2),
 and to SSAO with its blur (``ratio_ssao_blur``); the medians over the frames are reported, not
-ratios of medians. SSAO in those frames also marches S(x), the visibility of the environment's
-light the estimator reads (``SSAO_ENV_VIS``: 8 directions x 16 steps more per pixel); the frames
-without the estimator have SSAO without it, so ``ratio_ssao_plain`` is the estimator against
-plain SSAO (the frames' medians, same run, alternating blocks). The whole frame with the estimator is also timed against the same frame
+ratios of medians. For an estimator that reads S(x), the visibility of the environment's light,
+SSAO in those frames also marches it (``SSAO_ENV_VIS``: 8 directions x 16 steps more per pixel;
+the shipped mesh file does not read it); the frames without the estimator have SSAO without
+it, so ``ratio_ssao_plain`` is the estimator against plain SSAO (the frames' medians, same run, alternating blocks). The whole frame with the estimator is also timed against the same frame
 without it in alternating blocks (:func:`~relight.bench.timing.time_pair`: ``ratio_frame``).
-The cost does not depend on the weights' values: without a trained file the suite times seeded
-random weights of the default architecture (``weights`` says which). Absolute milliseconds on a
+The cost does not depend on the weights' values, only on the architecture: ``relight bench``
+times the shipped mesh file, and seeded random weights of the default architecture without a
+file (``weights`` says which). Absolute milliseconds on a
 shared CPU are noise; the ratios measured in one run are the numbers to quote."""
 from __future__ import annotations
 
@@ -33,6 +34,15 @@ from viewer.neural.shadow_net import (
 from .timing import time_pair
 
 SIZE = (512, 512)
+
+
+def _shown(path) -> str:
+    """``path`` as the table shows it: relative to the repository for a shipped file."""
+    from assets import ASSET_ROOT
+
+    p = Path(path).resolve()
+    root = ASSET_ROOT.resolve().parent
+    return str(p.relative_to(root)) if p.is_relative_to(root) else str(path)
 
 
 def _random_weights(folder: Path) -> Path:
@@ -82,7 +92,7 @@ def shadow_net_rows(renderer, scene, config, size=SIZE, weights: str | None = No
     ratios = [f["estimator"] / f["ssao"] for f in frames]
     blurred = [f["estimator"] / (f["ssao"] + f.get("ssao_blur", 0.0)) for f in frames]
     return [{"kind": "shadow_net", "size": f"{size[0]}x{size[1]}",
-             "weights": str(weights) if weights else "random (default architecture)",
+             "weights": _shown(weights) if weights else "random (default architecture)",
              "levels": net.architecture["levels"],
              "widths": ",".join(str(w) for w in net.architecture["widths"]),
              "receptive_field_px": receptive_field(net.architecture),

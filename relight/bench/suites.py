@@ -161,10 +161,16 @@ def _suite_path(renderer, scenes, config, cache) -> list[dict]:
 
 def _suite_shadow_net(renderer, scenes, config, cache) -> list[dict]:
     """The neural shadow estimator's time at 512^2 beside SSAO's in the same frames, and the
-    whole frame with and without it (:mod:`relight.bench.shadow_net`)."""
+    whole frame with and without it (:mod:`relight.bench.shadow_net`): the shipped mesh file
+    (it reads no S(x), so the frame marches none), and seeded random weights of the default
+    architecture (which read S(x)) when it is missing."""
+    from assets import ASSET_ROOT
+
     from .shadow_net import shadow_net_rows
 
-    return shadow_net_rows(renderer, scenes["mesh"], config)
+    shipped = ASSET_ROOT / "weights" / "shadow_net_mesh.safetensors"
+    return shadow_net_rows(renderer, scenes["mesh"], config,
+                           weights=str(shipped) if shipped.is_file() else None)
 
 
 def _suite_real_assets(renderer, scenes, config, cache) -> list[dict]:

@@ -49,6 +49,7 @@ from learned.twins.neural import (NEURAL_OUTPUT_SCALE, neural_indirect_factor,
                                   neural_student_radiance, neural_student_radiance_pbr,
                                   neural_student_radiance_split, neural_student_sun_split)
 from learned.twins.shading import diffuse_color
+from viewer.neural.contract import STUDENT_SSAO_FEATURES
 
 from .encoding import encoded_size, fourier_encode
 
@@ -63,9 +64,6 @@ ALL_INPUTS = INPUTS + ("dfg.a", "dfg.b", "vis")
 FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"),
                   "ssao": tuple(i for i in INPUTS if i != "ao"),
                   "vis": INPUTS + ("vis",), "dfg-vis": ALL_INPUTS}
-# the input sets whose ao is the material AO times the SSAO pass's O(x) (twin:
-# viewer.neural.contract.STUDENT_SSAO_FEATURES)
-OCCLUSION_FEATURES = ("ssao", "vis", "dfg-vis")
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
@@ -182,7 +180,7 @@ class Student(nn.Module):
     @property
     def reads_occlusion(self) -> bool:
         """Whether its ao input is the material AO times the SSAO pass's O(x)."""
-        return self.features in OCCLUSION_FEATURES
+        return self.features in STUDENT_SSAO_FEATURES
 
     @property
     def learns_indirect(self) -> bool:

@@ -11,7 +11,7 @@ import torch
 from neural_weights import student_file
 
 from learned.export import load_model
-from learned.neural.student import Student
+from learned.neural.student import FEATURE_INPUTS, Student
 from learned.parity.checks import neural as tn
 from viewer.neural import (load_network, needs_env_visibility, reads_occlusion,
                            reads_visibility, required_settings)
@@ -49,6 +49,7 @@ def test_the_network_never_reads_the_occlusion():
             p.normal_(0.0, 1.0)
         assert (base.network_outputs(lo) - base.network_outputs(hi)).abs().max() > 1e-3
     assert "ao" not in STUDENT_FEATURES["ssao"] and "vis" not in STUDENT_FEATURES["ssao"]
+    assert FEATURE_INPUTS == STUDENT_FEATURES  # the torch side's input sets are the viewer's
 
 
 def test_ssao_needs_the_occlusion_factor():

@@ -62,4 +62,4 @@ def test_the_student_draws_no_speckle_on_the_floor(renderer):
           f"student {ours_s:.4f}, split-sum {base_s:.4f}, the S(x) student {old:.4f}")
     assert ours <= 1.15 * base, (ours, base)
     assert ours_s <= 1.15 * base_s, (ours_s, base_s)  # the real-asset bench's tolerance
-    assert old > 1.5 * base_s, (old, base_s)  # the check can fail: it does on the old inputs
+    assert old > 2.0 * base_s, (old, base_s)  # the check can fail: it does on the old inputs

@@ -22,7 +22,7 @@ STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "d
                     "vis": STUDENT_INPUTS + ("vis",),
                     "dfg-vis": STUDENT_ALL_INPUTS}
 # the input sets whose ao input is the material AO times the SSAO pass's O(x): the renderer runs
-# SSAO for them whatever [render] ssao says (twin: learned.neural.student.OCCLUSION_FEATURES)
+# SSAO for them whatever [render] ssao says (learned.neural.student.Student.reads_occlusion)
 STUDENT_SSAO_FEATURES = ("ssao", "vis", "dfg-vis")
 # student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
 # outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag

@@ -224,7 +224,8 @@ class Renderer:
 
     def blended(self, scene: Scene) -> list:
         """The scene's transparent meshes (glTF ``alphaMode: BLEND``), in file order."""
-        return [m for obj in scene.objects if obj.type not in ("gbuffer", "splats")
+        return [m for obj in scene.objects
+                if obj.type not in ("gbuffer", "splats") and not obj.shadow_only
                 for m in self.geometry(obj) if m.alpha_mode == "BLEND"]
 
     def graph(self, scene: Scene, size: tuple[int, int] | None = None, aovs=()) -> FrameGraph:

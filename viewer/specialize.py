@@ -103,7 +103,9 @@ def analyse(renderer, scene) -> SceneFeatures:
                 if "ao" in ch:
                     ao = ao or bool(ch["ao"][..., 0][fg].min() < 1.0)
         else:
-            meshes = True
+            meshes = True  # shadow casters only too: the maps and rays draw them
+            if obj.shadow_only:  # not in the G-buffer: their materials are never shaded
+                continue
             for mesh in content:
                 # the forward pass's programs take the coat's define from the layout
                 clearcoat = clearcoat or mesh.material.clearcoat > 0.0

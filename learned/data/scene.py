@@ -11,14 +11,16 @@ scene kind, and the image-stack convention of :mod:`viewer.geometry.imagespace`:
 looking down -Z, +Y up), at ``camera.json``'s ``fov_y`` and the stack's size; the environment is
 the sample's ``env.exr`` (rotation and intensity baked in). A sample whose geometry was itself an
 image G-buffer (``gbuffer_fraction``), or whose ``meta.json`` or mesh files are missing, has no
-mesh scene, nor has a sample whose stack was degraded (``meta.json`` ``degrade``: its meshes
-would draw the true G-buffer, not its degraded one): one
-:class:`~learned.data.reader.DatasetError` naming the file.
+mesh scene: one :class:`~learned.data.reader.DatasetError` naming the file. A sample whose
+stack was degraded (``meta.json`` ``degrade``: an estimated G-buffer of a known geometry) has
+one of its own: its degraded stack seen, its meshes as shadow casters only (``shadow_only``: in
+the shadow maps and rays, not in the G-buffer), since its meshes seen would draw the true
+G-buffer.
 
 A third way (:func:`sample_splat_scene`): the same geometry tiled with Gaussian splats that carry
 its true materials (:func:`learned.data.splat_tiling.scene_splats`: what a perfect capture and
 decomposition would give), drawn by the viewer's splat G-buffer path; the same refusals as the
-mesh scene. The cloud is written once per content to the user's cache
+mesh scene, a degraded sample's included. The cloud is written once per content to the user's cache
 (``cache_root() / "splat_samples"``, :func:`viewer.environment.disk_cache.cache_root`: a
 ``RELIGHT_CACHE_DIR`` moves it; the oldest files beyond :data:`SPLAT_CACHE_BYTES` are removed),
 for the scene's ``splats`` object names a file.
@@ -80,10 +82,12 @@ def _mesh_file(stem: str, meshes: Path, meta: Path) -> Path:
     return found[0]
 
 
-def mesh_scene_dict(sample, meshes: Path | None = None) -> dict:
+def mesh_scene_dict(sample, meshes: Path | None = None, casters: bool = False) -> dict:
     """The scene dict (``scene_from_dict`` format, without environment and render settings) of
     the geometry ``sample`` was drawn from (module doc); ``meshes``: the folder of its mesh files
-    (default :func:`mesh_folder`)."""
+    (default :func:`mesh_folder`); ``casters``: every object a shadow caster only
+    (``shadow_only``: in the shadow maps and rays, not in the G-buffer), which a degraded sample
+    allows (:func:`sample_mesh_scene`)."""
     meta = Path(sample.folder) / "meta.json"
     if not meta.is_file():
         raise DatasetError("missing: the objects the sample was drawn from (meta.json)",
@@ -93,7 +97,7 @@ def mesh_scene_dict(sample, meshes: Path | None = None) -> dict:
         objects, degraded = info.get("objects"), info.get("degrade")
     except (ValueError, AttributeError) as exc:
         raise DatasetError(f"not valid JSON ({exc})", where=meta) from None
-    if degraded is not None:  # learned.protocol.degrade, or the generator's `degrade`
+    if degraded is not None and not casters:  # learned.protocol.degrade, or the generator's
         raise DatasetError("the sample's G-buffer is degraded ('degrade'): its meshes would "
                            "draw the true one; draw the clean dataset's meshes", where=meta)
     if not isinstance(objects, list) or not objects:
@@ -113,6 +117,8 @@ def mesh_scene_dict(sample, meshes: Path | None = None) -> dict:
             if "mesh" not in obj:
                 raise DatasetError("a mesh object without its file's stem ('mesh')", where=meta)
             obj["path"] = str(_mesh_file(str(obj.pop("mesh")), meshes, meta))
+        if casters:
+            obj["shadow_only"] = True
         out.append(obj)
     w, h = sample.size
     return {"camera": {"position": [0.0, 0.0, 0.0], "target": [0.0, 0.0, -1.0],
@@ -125,14 +131,33 @@ def sample_mesh_scene(sample, meshes: Path | None = None, **render):
     its environment, with the render settings ``render`` (tone mapping off), as
     :func:`sample_scene` draws its stack: with the ray-traced tier off unless ``render`` turns it
     on (on by default wherever there are triangles to trace, its rays would take the place of
-    the SSAO pass that a stack, which has none, is drawn with)."""
-    doc = mesh_scene_dict(sample, meshes) | {
+    the SSAO pass that a stack, which has none, is drawn with).
+
+    A degraded sample (``meta.json`` ``degrade``: an estimated G-buffer of a known geometry) is
+    drawn from its degraded stack, with its meshes as shadow casters only: the camera sees the
+    estimated G-buffer, and the shadow maps and rays hold the true meshes."""
+    if _degraded(sample):
+        doc = mesh_scene_dict(sample, meshes, casters=True)
+        doc["objects"] = [{"type": "gbuffer", "path": str(sample.folder)}, *doc["objects"]]
+    else:
+        doc = mesh_scene_dict(sample, meshes)
+    doc |= {
         "environment": {"path": str(sample.environment)},
         "render": {"tonemap": "none", "raytrace": False, **render}}
     try:
         return scene_from_dict(doc, file=str(sample.folder / "scene"))
     except SceneError as exc:  # a recorded object the viewer refuses: name the record
         raise DatasetError(exc.problem, where=Path(sample.folder) / "meta.json") from None
+
+
+def _degraded(sample) -> bool:
+    """Whether ``sample``'s ``meta.json`` records a degradation (``degrade``); False where it
+    cannot be read (:func:`mesh_scene_dict` names the problem)."""
+    try:
+        info = json.loads((Path(sample.folder) / "meta.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(info, dict) and info.get("degrade") is not None
 
 
 def splat_file(sample, meshes: Path | None = None, spacing: float | None = None,

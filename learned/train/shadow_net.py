@@ -43,8 +43,9 @@ More data (issue 38): ``extra_data``, datasets whose train splits join the train
 (in (0, 1]; :func:`learned.protocol.degrade.degraded_dataset`, written once under
 ``DATA/_degraded/<level>/train``, resumable), the degraded images joining the training set, so
 that the estimator sees the estimated G-buffers the protocol scores it on too (drawn from their
-stacks: ``geometry = "mesh"`` would draw the true G-buffer, and is refused). ``None`` (the
-default): :data:`DEFAULT_DEGRADE_LEVELS` for stacks, none for meshes. Only ``data``'s: with
+stacks; with ``geometry = "mesh"`` the degraded stack with the true meshes as shadow casters
+only, :func:`learned.data.scene.sample_mesh_scene`). ``None`` (the default):
+:data:`DEFAULT_DEGRADE_LEVELS` for stacks, none for meshes. Only ``data``'s: with
 ``extra_data`` degraded too (two thirds of the images degraded) the estimator scored 0.4-0.8 dB
 less on clean validation images and at degradation 0.5 alike (docs/measurements/students.md);
 ``val_data``, datasets whose val split is scored after training like ``data``'s own
@@ -78,8 +79,6 @@ from .runner import Run, _loop
 STAGE = "shadow_net"
 SHIPPED_ARCHITECTURE = {"levels": 5, "widths": [8, 12, 16, 24, 32], "gain": 3.0}
 DEFAULT_DEGRADE_LEVELS = (0.25, 0.75)  # chosen on validation (module doc)
-MESH_DEGRADED = ("degraded G-buffers are drawn from their image-space stacks: a sample's meshes "
-                 "draw the true one (geometry 'stack' with degrade_levels)")
 
 
 @dataclass
@@ -298,8 +297,6 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
     bad = [lv for lv in cfg.degrade_levels if not 0.0 < float(lv) <= 1.0]
     if bad:
         raise ValueError(f"degrade_levels: {bad[0]!r} is not in (0, 1]")
-    if cfg.degrade_levels and cfg.geometry == "mesh":  # learned.data.scene refuses them
-        raise ValueError(MESH_DEGRADED)
     for d in cfg.val_data:
         if not (Path(d) / "val").is_dir():
             raise DatasetError("no 'val' split folder to score (val_data)", where=d)

@@ -68,8 +68,6 @@ def _train_shadow_net(args) -> int:
     cfg = mod.ShadowNetTrainConfig(data=args.data, out=args.out,
                                    steps=args.shadow_steps or mod.ShadowNetTrainConfig.steps,
                                    seed=args.seed or 0, **shadow_net_options(args))
-    if mod.levels(cfg) and cfg.geometry == "mesh":
-        raise RelightError(mod.MESH_DEGRADED, where="--shadow-degrade")
     res = mod.train_shadow_net(cfg, quiet=args.quiet)
     if not args.quiet:
         print(f"shadow_net: {res['shadow_net']}")

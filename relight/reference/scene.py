@@ -55,6 +55,11 @@ def check_traceable(scene: Scene) -> None:
                 f"objects[{i}] is {obj.type!r}, which has no path-traceable geometry "
                 f"(relight reference renders {', '.join(TRACEABLE)})",
                 where=scene.source or "scene")
+        if obj.shadow_only:
+            raise ReferenceError(
+                f"objects[{i}] is a shadow caster only (shadow_only): the path tracer has no "
+                "object its camera does not see",
+                where=scene.source or "scene")
     if not scene.objects:
         raise ReferenceError("the scene has no objects to path-trace (splats and image-space "
                              "stacks added in memory have no geometry either)",

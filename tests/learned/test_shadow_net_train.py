@@ -233,16 +233,16 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
     assert mod.architecture(seen.pop())["env_visibility"] is True
     assert main(base + ["--no-shadow-env-visibility"]) == 0
     assert mod.architecture(seen.pop())["env_visibility"] is False
+    # meshes with degraded copies: their degraded stacks, the meshes casting (test_mesh_geometry)
+    assert main(base + ["--shadow-geometry", "mesh", "--shadow-degrade", "0.5"]) == 0
+    assert mod.levels(seen.pop()) == (0.5,)
     capsys.readouterr()
     for flag, args in (("--shadow-degrade", ["--shadow-degrade", "0"]),
                        ("--shadow-degrade", ["--shadow-degrade", "0.5,1.5"]),
                        ("--shadow-degrade", ["--shadow-degrade", "half"]),
                        ("--shadow-energy", ["--shadow-energy", "-1"]),
                        ("--shadow-linear", ["--shadow-linear", "nan"]),
-                       ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)]),
-                       # a degraded sample's meshes draw the true G-buffer: refused
-                       ("--shadow-degrade", ["--shadow-degrade", "0.5", "--shadow-geometry",
-                                             "mesh"])):
+                       ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)])):
         assert main(base + args) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"relight: error: {flag}: ") and err.count("\n") == 1, err

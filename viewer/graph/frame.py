@@ -160,7 +160,7 @@ def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
     # KHR_materials_transmission surfaces the forward pass refracts are not in the G-buffer
     through = refracts_forward(scene.render.model) and any(
         m.material.transmission > 0.0 for obj, c in contents
-        if obj.type not in ("gbuffer", "splats") for m in c)
+        if obj.type not in ("gbuffer", "splats") and not obj.shadow_only for m in c)
     if through:
         identity["forward_transmission"] = True
 
@@ -171,9 +171,9 @@ def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
         for obj, content in contents:
             if obj.type == "gbuffer":
                 gpass.draw_image(gb, content)
-            elif obj.type != "splats":  # alphaMode BLEND (and refracted): the forward pass
-                meshes.extend(m for m in content if m.alpha_mode != "BLEND"
-                              and not (through and m.material.transmission > 0.0))
+            elif obj.type != "splats" and not obj.shadow_only:  # a caster only: maps, rays
+                meshes.extend(m for m in content if m.alpha_mode != "BLEND"  # BLEND, refracted:
+                              and not (through and m.material.transmission > 0.0))  # forward
         if meshes:
             gpass.draw_meshes(gb, camera, meshes)
     g.add_pass("gbuffer", gbuffer, writes=("gbuffer",), inputs=identity)

@@ -76,9 +76,11 @@ FALLBACK_MODEL = "ggx_split_sum"  # shades blended surfaces for models that cann
 def forward_meshes(renderer, scene) -> list[Mesh]:
     """The meshes the forward pass draws, in file order: the transparent ones (glTF ``alphaMode:
     BLEND``) and, under a model that refracts them here (:func:`viewer.models.refracts_forward`),
-    the transmissive ones (KHR_materials_transmission factor > 0); the G-buffer holds the rest."""
+    the transmissive ones (KHR_materials_transmission factor > 0); the G-buffer holds the rest.
+    A shadow caster only (``shadow_only``) is drawn by neither."""
     through = refracts_forward(scene.render.model)
-    return [m for obj in scene.objects if obj.type not in ("gbuffer", "splats")
+    return [m for obj in scene.objects
+            if obj.type not in ("gbuffer", "splats") and not obj.shadow_only
             for m in renderer.geometry(obj)
             if m.alpha_mode == "BLEND" or (through and m.material.transmission > 0.0)]
 

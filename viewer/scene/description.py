@@ -22,6 +22,7 @@ Example::
     type = "sphere"                  # sphere | plane | material_grid | mesh | gbuffer | splats
     center = [0, 0, 0]
     radius = 1.0
+    # shadow_only = true             # casts shadows (maps, rays) but the camera does not see it
     [objects.material]
     albedo = [0.8, 0.2, 0.2]
     roughness = 0.3
@@ -92,6 +93,8 @@ __all__ = ["BACKGROUNDS", "MIS_HEURISTICS", "OBJECT_TYPES", "PRECISIONS", "TONEM
 
 
 OBJECT_TYPES = ("sphere", "plane", "material_grid", "mesh", "gbuffer", "splats")
+# the types that can be shadow casters only (``shadow_only``): triangles the maps and rays draw
+SHADOW_ONLY_TYPES = ("sphere", "plane", "material_grid", "mesh")
 
 
 @dataclass(frozen=True)
@@ -114,6 +117,9 @@ class ObjectSpec:
     near: float = 1.0  # gbuffer depth normalisation (thesis appendix B.2)
     far: float = 800.0
     variant: str | None = None  # mesh: a glTF KHR_materials_variants name (None: the defaults)
+    # a shadow caster only: in the shadow maps and the rays, not in the G-buffer (the camera does
+    # not see it); a proxy of geometry that an image-space stack shows (SHADOW_ONLY_TYPES)
+    shadow_only: bool = False
 
 
 @dataclass(frozen=True)
@@ -252,7 +258,7 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
     if "type" not in t:
         raise SceneError(f"{where} has no type (one of {', '.join(OBJECT_TYPES)})", where=file)
     typ = _str(t["type"], f"{where}.type", file, OBJECT_TYPES)
-    common = {"type", "material"}
+    common = {"type", "material"} | ({"shadow_only"} if typ in SHADOW_ONLY_TYPES else set())
     allowed = {
         "sphere": {"center", "radius"},
         "plane": {"center", "size", "normal", "catcher"},
@@ -278,6 +284,14 @@ def parse_object(t: dict, index: int, file: str, base: Path) -> ObjectSpec:
             raise SceneError(f"{where}.catcher must be true or false, got {t['catcher']!r}",
                              where=file)
         kw["catcher"] = t["catcher"]
+    if "shadow_only" in t:
+        if not isinstance(t["shadow_only"], bool):
+            raise SceneError(f"{where}.shadow_only must be true or false, got "
+                             f"{t['shadow_only']!r}", where=file)
+        if t["shadow_only"] and kw.get("catcher"):
+            raise SceneError(f"{where} cannot be both a shadow catcher and shadow_only (a "
+                             "catcher is seen; shadow_only is not)", where=file)
+        kw["shadow_only"] = t["shadow_only"]
     for k in ("rows", "cols"):
         if k in t:
             kw[k] = _int(t[k], f"{where}.{k}", file, 1, 64)

@@ -11,7 +11,8 @@ import pytest
 from mesh_dataset import MESH_KINDS as KINDS
 
 from learned.data.reader import DatasetError, list_samples, load_sample
-from learned.data.scene import mesh_channels, mesh_scene_dict, sample_mesh_scene, sample_scene
+from learned.data.scene import (DEGRADED_SHADOW_BIAS, mesh_channels, mesh_scene_dict,
+                                sample_mesh_scene, sample_scene)
 
 
 @pytest.fixture(scope="module")
@@ -107,7 +108,8 @@ def test_a_degraded_sample_is_its_stack_with_the_meshes_casting(data, tmp_path, 
     values and to 5 % on all: a floor plane is in the maps here (an image stack's pixels have
     no box: viewer/graph/shadows.py) and left out of the mesh scene's, where nothing else reads
     them (measured: 1.2 % of the values differ, by at most 2.1 %). The stack alone, without the
-    casters, misses those shadows (some sample's frame differs by more than 5 %)."""
+    casters, misses those shadows (some sample's frame differs by more than 5 %). Compared at
+    the mesh scene's shadow bias, 1; a degraded scene's default is DEGRADED_SHADOW_BIAS."""
     copy = tmp_path / "deg"
     shutil.copytree(data, copy)
     missing = 0.0
@@ -115,7 +117,8 @@ def test_a_degraded_sample_is_its_stack_with_the_meshes_casting(data, tmp_path, 
         meta = json.loads((folder / "meta.json").read_text())
         (folder / "meta.json").write_text(json.dumps(meta | {"degrade": {}}))
         s = load_sample(folder)
-        scene = sample_mesh_scene(s, model="ggx_split_sum", ssao=True)
+        assert sample_mesh_scene(s).render.shadow.bias == DEGRADED_SHADOW_BIAS
+        scene = sample_mesh_scene(s, model="ggx_split_sum", ssao=True, shadow_bias=1.0)
         kinds = [(o.type, o.shadow_only) for o in scene.objects]
         assert kinds[0] == ("gbuffer", False) and all(so for _, so in kinds[1:]), kinds
         assert len(kinds) == 1 + len(meta["objects"])

@@ -117,8 +117,8 @@ class ObjectSpec:
     near: float = 1.0  # gbuffer depth normalisation (thesis appendix B.2)
     far: float = 800.0
     variant: str | None = None  # mesh: a glTF KHR_materials_variants name (None: the defaults)
-    # a shadow caster only: in the shadow maps and the rays, not in the G-buffer (the camera does
-    # not see it); a proxy of geometry that an image-space stack shows (SHADOW_ONLY_TYPES)
+    # a shadow caster only: drawn into the shadow maps and traced by the rays, not drawn into the
+    # G-buffer, so the camera does not see it (a proxy of the geometry an image stack shows)
     shadow_only: bool = False
 
 

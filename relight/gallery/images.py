@@ -69,17 +69,37 @@ def _font(size: int):
         return ImageFont.load_default()
 
 
+def wrap_label(label: str, width: float, measure) -> str:
+    """``label`` with its spaces turned into line breaks wherever a line would be wider than
+    ``width`` (``measure(text)``: its drawn width); a word wider than that keeps its own line."""
+    lines = []
+    for para in label.split("\n"):
+        words = para.split(" ")
+        line = words[0]
+        for word in words[1:]:
+            if measure(f"{line} {word}") <= width:
+                line = f"{line} {word}"
+            else:
+                lines.append(line)
+                line = word
+        lines.append(line)
+    return "\n".join(lines)
+
+
 def compose(grid: list[list[np.ndarray | None]], col_labels: list[str], row_labels: list[str],
             scale: int = 1, note: str | None = None, font_size: int = 13):
     """A PIL image of ``grid`` (rows of equally sized uint8 tiles, ``None`` left blank) with a
-    label above each column and left of each row (rows with an empty label get none)."""
+    label above each column (wrapped to the tile's width) and left of each row (rows with an
+    empty label get none)."""
     from PIL import Image, ImageDraw
 
     tiles = [t for row in grid for t in row if t is not None]
     th, tw = tiles[0].shape[0] * scale, tiles[0].shape[1] * scale
     font = _font(font_size)
-    left = 8 + max((int(ImageDraw.Draw(Image.new("RGB", (1, 1))).textlength(s, font=font))
-                    for s in row_labels), default=0)
+    measure = ImageDraw.Draw(Image.new("RGB", (1, 1))).textlength
+    col_labels = [wrap_label(label, tw - 4, lambda t: measure(t, font=font))
+                  for label in col_labels]
+    left = 8 + max((int(measure(s, font=font)) for s in row_labels), default=0)
     lines = max((label.count("\n") + 1 for label in col_labels), default=1)
     top, gap = lines * (font_size + 2) + 8, 2
     bottom = font_size + 10 if note else 0

@@ -111,7 +111,7 @@ def test_compose_labels_scale_and_note():
     font_size = 11
     rows = ["park", "sky_conductor"]
     grid = [[_tile(10, 6, 8), _tile(11, 6, 8)], [_tile(12, 6, 8), _tile(13, 6, 8)]]
-    img = compose(grid, ["one\n+ two", "x"], rows, scale=2, note="a note", font_size=font_size)
+    img = compose(grid, ["a\nb", "x"], rows, scale=2, note="a note", font_size=font_size)
     measure = ImageDraw.Draw(Image.new("RGB", (1, 1)))
     left = 8 + max(int(measure.textlength(s, font=_font(font_size))) for s in rows)
     top = 2 * (font_size + 2) + 8   # two lines in the tallest column label
@@ -129,6 +129,30 @@ def test_compose_labels_scale_and_note():
             assert (px[y:y + th, 4:left - 2] != 255).any()  # the row's label beside it
     assert (px[-bottom:] != 255).any()        # the note under the grid
     assert (px[-bottom:, left + tw:] == 255).all()  # "a note" is short: right of it stays white
+
+
+def test_compose_wraps_a_label_wider_than_its_tile():
+    """A column label wider than its tile breaks at spaces into lines that fit (a word wider
+    than the tile keeps a line of its own), and the label band grows by those lines: the
+    gallery's long case names no longer run into each other."""
+    from PIL import Image, ImageDraw
+
+    from relight.gallery.images import _font, wrap_label
+
+    font = _font(13)
+    width = lambda t: ImageDraw.Draw(Image.new("RGB", (1, 1))).textlength(t, font=font)
+    label = "ggx_split_sum + SSAO + indirect + shadow estimator"
+    wrapped = wrap_label(label, 96, width)
+    assert wrapped.replace("\n", " ") == label and wrapped.count("\n") >= 2
+    assert all(width(line) <= 96 for line in wrapped.split("\n"))
+    assert wrap_label("short", 96, width) == "short"
+    assert wrap_label("averyveryverylongword x", 20, width) == "averyveryverylongword\nx"
+    grid = [[_tile(1, 50, 100), _tile(2, 50, 100)]]
+    one = compose(grid, ["a", "b"], [""], font_size=13)
+    long = compose(grid, [label, "b"], [""], font_size=13)
+    lines = wrap_label(label, 96, width).count("\n") + 1
+    assert long.size[1] - one.size[1] == (lines - 1) * (13 + 2)
+    assert long.size[0] == one.size[0]
 
 
 # ---- report -------------------------------------------------------------------------------------

@@ -19,9 +19,9 @@ and screen-space inputs of the classical variants - drawn from each sample's ima
 or (``mesh``) from the meshes the generator drew it from (:mod:`learned.data.scene`: the same
 G-buffer, but the viewer's frame of a mesh scene, with its shadow maps of the environment's sun
 and compact lights; for a degraded copy, ``DATA/_degraded/<level>``, its degraded stack seen and
-its meshes as shadow casters only), or (``splat``) from those meshes tiled with splats of their true materials
-(the viewer's splat G-buffer; splats cast the shadow maps too); the foreground and the target
-are the stack's every way.
+its meshes as shadow casters only), or (``splat``) from those meshes tiled with splats of their
+true materials (the viewer's splat G-buffer; splats cast the shadow maps too); the foreground and
+the target are the stack's every way.
 
 ``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...]``
 ``python -m learned.protocol.shadow_net DATA --split val --oracle [--geometry mesh|splat]``

@@ -166,10 +166,15 @@ def reset_camera(state: ViewerState) -> ViewerState:
     return replace(state, camera=cam)
 
 
+def with_object(state: ViewerState, index: int, **changes) -> ViewerState:
+    """The state with object ``index``'s fields ``changes`` set (the panel's per-object
+    switches); a material the user set on that object in the panel stays on top of it."""
+    objects = list(state.scene.objects)
+    objects[index] = replace(objects[index], **changes)
+    return replace(state, scene=replace(state.scene, objects=tuple(objects)))
+
+
 def with_variant(state: ViewerState, index: int, variant: str | None) -> ViewerState:
     """The state with object ``index`` (a glTF mesh) showing its ``KHR_materials_variants``
-    ``variant`` (None: the file's default materials); a material the user set on that object
-    in the panel stays on top of it."""
-    objects = list(state.scene.objects)
-    objects[index] = replace(objects[index], variant=variant)
-    return replace(state, scene=replace(state.scene, objects=tuple(objects)))
+    ``variant`` (None: the file's default materials)."""
+    return with_object(state, index, variant=variant)

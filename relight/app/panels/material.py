@@ -4,9 +4,10 @@ from __future__ import annotations
 from dataclasses import replace
 
 from viewer.geometry.loaders import material_variants
+from viewer.scene.description import SHADOW_ONLY_TYPES
 from viewer.scene.material import Material
 
-from ..state import MATERIAL_FIELDS, MaterialOverride, with_variant
+from ..state import MATERIAL_FIELDS, MaterialOverride, with_object, with_variant
 
 AS_AUTHORED = "as authored"  # the variant picker's first choice: the file's default materials
 
@@ -60,6 +61,10 @@ class MaterialPanel:
                 imgui.text_disabled(obj.path)  # wrapped at the panel's edge
             if obj.type == "mesh" and obj.path:
                 self._variant_picker(state, i, obj)
+            if obj.type in SHADOW_ONLY_TYPES and not obj.catcher:  # casts, is not seen
+                toggled, on = self._checkbox(f"shadow caster only##so{i}", obj.shadow_only)
+                if toggled:
+                    state.scene = with_object(state, i, shadow_only=on).scene
             m = materials[i]
             if m is None:
                 on, _ = self._checkbox(f"override file materials##obj{i}", False)

@@ -88,8 +88,9 @@ def analyse(renderer, scene) -> SceneFeatures:
     iridescence = dispersion = False
     for obj in scene.objects:
         if obj.type == "splats":
-            splats = True
-            specular = True  # splats carry per-splat materials; never assume them away
+            splats = True  # a caster only too: the rays see its opaque cores
+            # splats carry per-splat materials; never assume them away (unless never shaded)
+            specular = specular or not obj.shadow_only
             continue
         content = renderer.geometry(obj)
         if obj.type == "gbuffer":

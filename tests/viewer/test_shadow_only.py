@@ -3,7 +3,8 @@ in the G-buffer, the proxy geometry of what an image-space stack shows. Judged a
 scene with the object seen: the floor around it is the same floor, shadow included, to float
 rounding; without the caster that shadow is gone; the camera sees the floor, not the sphere,
 where the sphere would stand; its material never specialises the lighting pass; the key is
-refused where it means nothing, and the path tracer refuses it in one line."""
+refused where it means nothing, and the path tracer refuses it in one line. A splat cloud can be
+a caster only too."""
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -68,6 +69,41 @@ def test_a_caster_only_shadows_the_floor_as_the_seen_object_does(renderer, raytr
     assert r_over_g[0] < 1.1 and r_over_g[1] > 3.0, r_over_g
 
 
+def test_a_splat_cloud_casts_only(renderer):
+    """A splat sphere as a caster only: the G-buffer's albedo is the bare floor's everywhere
+    (exactly: the splat pass draws nothing), where the seen cloud's is not, and the floor holds
+    the cloud's shadow (its analytic core under a tenth of the bare floor, as
+    tests/viewer/test_shadows.py asks of a seen cloud)."""
+    import dataclasses
+
+    from shadow_scenes import CENTER, RADIUS
+    from test_shadows import analytic_shadow
+
+    from viewer.scene.description import ObjectSpec
+    from viewer.splats.generate import sphere_splats
+
+    cloud = sphere_splats(3000, radius=RADIUS)
+    cloud = dataclasses.replace(cloud, means=cloud.means + CENTER.astype(np.float32))
+    seen_obj = ObjectSpec(type="splats", path="in-memory-splat-caster")
+    renderer.add_geometry(seen_obj, cloud)
+    # added once: the geometry cache's key leaves shadow_only out (the switch loads nothing)
+    caster_obj = dataclasses.replace(seen_obj, shadow_only=True)
+    base = scene([FLOOR])
+
+    def render(*extra):
+        sc = dataclasses.replace(base, objects=base.objects + extra)
+        return renderer.render(sc, aovs=("albedo",))
+
+    bare, seen, caster = render(), render(seen_obj), render(caster_obj)
+    np.testing.assert_array_equal(caster.aovs["albedo"], bare.aovs["albedo"])
+    assert np.abs(seen.aovs["albedo"] - bare.aovs["albedo"]).max() > 0.05
+    x, z = floor_points()
+    core = ndimage.binary_erosion(analytic_shadow(DIRECTION, x, z), iterations=3)
+    assert core.sum() > 100
+    lit, free = caster.radiance[..., 0], bare.radiance[..., 0]
+    assert np.median(lit[core] / np.maximum(free[core], 1e-6)) < 0.1
+
+
 def test_a_casters_material_does_not_specialise_the_lighting_pass(renderer):
     """The floor has no specular lobe (specular 0, dielectric); a metal sphere seen turns the
     lobe on, the same sphere as a caster only does not (its material is never shaded)."""
@@ -96,7 +132,7 @@ def test_the_key_is_checked_and_saved(tmp_path):
     with pytest.raises(SceneError, match="both a shadow catcher and shadow_only"):
         scene([{**FLOOR, "catcher": True, "shadow_only": True}])
     with pytest.raises(SceneError, match="shadow_only"):
-        scene([{"type": "splats", "path": str(path), "shadow_only": True}])
+        scene([{"type": "gbuffer", "path": str(tmp_path), "shadow_only": True}])
 
 
 def test_the_reference_refuses_a_caster_only():

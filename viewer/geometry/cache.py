@@ -270,7 +270,10 @@ def _shape_key(obj: ObjectSpec) -> ObjectSpec:
 
     Primitives take their material as uniforms (a grid only its albedo); a mesh's override only
     decides whether its own texture maps are kept, so just its presence is part of the key.
+    Whether it is a shadow caster only (``shadow_only``) changes where it is drawn, not what.
     """
+    if obj.shadow_only:
+        obj = dataclasses.replace(obj, shadow_only=False)
     if obj.type in ("sphere", "plane", "material_grid"):
         return dataclasses.replace(obj, material=None)
     if obj.type == "mesh" and obj.material is not None:

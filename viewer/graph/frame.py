@@ -156,7 +156,7 @@ def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
         return
     g.create("gbuffer", GBufferDesc(spec.layout, tuple(camera.size)), kept=True)
     contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
-    clouds = [c for obj, c in contents if obj.type == "splats"]
+    clouds = [c for obj, c in contents if obj.type == "splats" and not obj.shadow_only]
     # KHR_materials_transmission surfaces the forward pass refracts are not in the G-buffer
     through = refracts_forward(scene.render.model) and any(
         m.material.transmission > 0.0 for obj, c in contents

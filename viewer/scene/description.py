@@ -93,8 +93,8 @@ __all__ = ["BACKGROUNDS", "MIS_HEURISTICS", "OBJECT_TYPES", "PRECISIONS", "TONEM
 
 
 OBJECT_TYPES = ("sphere", "plane", "material_grid", "mesh", "gbuffer", "splats")
-# the types that can be shadow casters only (``shadow_only``): triangles the maps and rays draw
-SHADOW_ONLY_TYPES = ("sphere", "plane", "material_grid", "mesh")
+# the types that can be shadow casters only (``shadow_only``): what the maps and rays draw
+SHADOW_ONLY_TYPES = ("sphere", "plane", "material_grid", "mesh", "splats")
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from .models import ShadeVariant, model_info, refracts_forward
 @dataclass(frozen=True)
 class SceneFeatures:
     splats: bool = False
+    # meshes, and any caster only (shadow_only, splats too): what the maps and rays alone draw
     meshes: bool = False
     stacks: bool = False
     specular: bool = True  # some surface has f0 > 0 (dielectric specular > 0, or metallic > 0)
@@ -87,10 +88,12 @@ def analyse(renderer, scene) -> SceneFeatures:
     anisotropy = False
     iridescence = dispersion = False
     for obj in scene.objects:
+        if obj.type == "splats" and obj.shadow_only:
+            meshes = True  # drawn by the maps and rays alone, as a mesh is: no colour channel
+            continue
         if obj.type == "splats":
-            splats = True  # a caster only too: the rays see its opaque cores
-            # splats carry per-splat materials; never assume them away (unless never shaded)
-            specular = specular or not obj.shadow_only
+            splats = True
+            specular = True  # splats carry per-splat materials; never assume them away
             continue
         content = renderer.geometry(obj)
         if obj.type == "gbuffer":

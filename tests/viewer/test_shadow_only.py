@@ -95,6 +95,10 @@ def test_a_splat_cloud_casts_only(renderer):
         return renderer.render(sc, aovs=("albedo",))
 
     bare, seen, caster = render(), render(seen_obj), render(caster_obj)
+    # the splat pass's colour channel only where a cloud is seen
+    layout = lambda *extra: renderer.specialization(
+        dataclasses.replace(base, objects=base.objects + extra)).layout.with_color
+    assert layout(seen_obj) and not layout(caster_obj)
     np.testing.assert_array_equal(caster.aovs["albedo"], bare.aovs["albedo"])
     assert np.abs(seen.aovs["albedo"] - bare.aovs["albedo"]).max() > 0.05
     x, z = floor_points()

@@ -23,7 +23,7 @@ from .models import ShadeVariant, model_info, refracts_forward
 @dataclass(frozen=True)
 class SceneFeatures:
     splats: bool = False
-    # meshes, and any caster only (shadow_only, splats too): what the maps and rays alone draw
+    # meshes, or casters only (shadow_only, splat clouds too): something for the maps and rays
     meshes: bool = False
     stacks: bool = False
     specular: bool = True  # some surface has f0 > 0 (dielectric specular > 0, or metallic > 0)

@@ -9,11 +9,10 @@ and a summary line counting the failures) and ``real_assets.png`` (a contact she
 **Scenes** (:func:`asset_scene`): each model of :data:`ASSETS` opened as ``relight render MODEL
 --env HDRI --floor slab`` opens it (:func:`viewer.scene.assets.open_assets`: upright, framed by the
 auto camera, a floor touching its lowest point) under each ``assets/environments/*.exr`` at
-rotation 0, its compact sun as it is. The floor is the matte grey *slab*, not the default
-*catcher*: the catcher draws only the shadows it receives over the environment, which the path
-tracer has no counterpart for (it would trace a white Lambertian plane). The viewer has no
-setting that removes or dims an HDRI's compact sun (``[render] sun = false`` keeps its light and
-only looks it up through the prefiltered maps), so there is no run without it.
+rotation 0, its compact sun as it is and, where it has one, again without it (:func:`lightings`:
+``--sun-strength 0``, scenes named ``MODEL/HDRI-nosun``). The floor is the matte grey *slab*, not
+the default *catcher*: the catcher draws only the shadows it receives over the environment, which
+the path tracer has no counterpart for (it would trace a white Lambertian plane).
 
 **Cases** (:func:`cases`): split-sum and the student with the default render (``raytrace =
 true``: ray-traced visibility and bounce), both screen-space (``raytrace = false``, SSAO +
@@ -42,13 +41,13 @@ verdict on the issue's three conditions.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .real_assets_report import SHEET_ENV, markdown, summary, summary_line, write
 from .real_assets_metrics import (
     PSNR_TOL,
     SHADOW_MODEL_DARKER,
@@ -76,8 +75,7 @@ FLOOR = "slab"
 DEFAULT_SIZE = (160, 120)
 DEFAULT_SPP = 256
 QUICK = (("cge_plasma_gun",), ("lobby",), 64)  # assets, environments, spp of --quick
-# the HDRI of the small sheet: where the student's screen-space speckle was worst (issue 36)
-SHEET_ENV = "lobby"
+SUNLESS = "-nosun"  # the name suffix of an HDRI's variant without its compact sun
 SCREEN = {"raytrace": False, "ssao": True, "indirect": True}  # screen-space visibility evidence
 
 
@@ -135,13 +133,32 @@ def environments() -> list[tuple[str, Path]]:
     return [(p.stem, p) for p in sorted((ASSET_ROOT / "environments").glob("*.exr"))]
 
 
-def asset_scene(model: str | Path, env: Path, size: tuple[int, int]):
-    """``relight render MODEL --env ENV --floor slab --size WxH``'s scene (rotation 0)."""
+def lightings(envs: list[tuple[str, Path]], sunless: bool = True
+              ) -> list[tuple[str, Path, float]]:
+    """``(name, HDRI, sun_strength)``: each of ``envs`` as it is and, where it has a compact sun
+    (:func:`viewer.environment.sun.extract_lights` finds one), also without it, named
+    ``NAME-nosun`` (``--sun-strength 0``: the sky the sun stood in); a map without one (lobby)
+    has no second variant, it would be the same map."""
+    from viewer.environment.maps import EnvironmentSpec, load_environment
+    from viewer.environment.sun import extract_lights
+
+    out = []
+    for name, path in envs:
+        out.append((name, path, 1.0))
+        if sunless and extract_lights(load_environment(EnvironmentSpec(path=str(path))))[1]:
+            out.append((f"{name}{SUNLESS}", path, 0.0))
+    return out
+
+
+def asset_scene(model: str | Path, env: Path, size: tuple[int, int], sun_strength: float = 1.0):
+    """``relight render MODEL --env ENV --floor slab --size WxH [--sun-strength S]``'s scene
+    (rotation 0)."""
     from assets import ASSET_ROOT
     from viewer.scene.assets import open_assets
 
     path = Path(model) if Path(model).is_absolute() else ASSET_ROOT / "models" / model
-    return open_assets([path], env=str(env), floor=FLOOR, size=size).scene
+    scene = open_assets([path], env=str(env), floor=FLOOR, size=size).scene
+    return scene if sun_strength == 1.0 else scene.with_environment(sun_strength=sun_strength)
 
 
 @dataclass(frozen=True)
@@ -152,6 +169,7 @@ class Options:
     spp: int = DEFAULT_SPP
     assets: tuple[str, ...] | None = None        # names of ASSETS (None: all)
     environments: tuple[str, ...] | None = None  # HDRI names (None: all)
+    sunless: bool = True  # each HDRI with a compact sun also without it (lightings)
     progress: bool = True
 
     @classmethod
@@ -215,8 +233,8 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
     log = (lambda m: print(f"real_assets: {m}", file=sys.stderr, flush=True)) \
         if options.progress else (lambda m: None)
     assets = [a for a in ASSETS if options.assets is None or a[0] in options.assets]
-    envs = [e for e in environments() if options.environments is None
-            or e[0] in options.environments]
+    envs = lightings([e for e in environments() if options.environments is None
+                      or e[0] in options.environments], options.sunless)
     case_list = cases()
     own = renderer is None
     renderer = Renderer() if own else renderer
@@ -227,9 +245,9 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
             warnings.filterwarnings("ignore", message=".*ignored \\(not supported\\).*")
             warnings.filterwarnings("ignore", message=".*degenerate or not finite.*")
             for asset, file in assets:
-                for env_name, env_path in envs:
+                for env_name, env_path, sun in envs:
                     name = f"{asset}/{env_name}"
-                    scene = asset_scene(file, env_path, options.size)
+                    scene = asset_scene(file, env_path, options.size, sun)
                     log(f"{name}: truth ({options.spp} spp)")
                     truth = cached_truth(scene, f"{asset}_{env_name}", truth_options,
                                          options.spp)
@@ -272,83 +290,6 @@ def _machine(renderer) -> dict:
     return {"gl": {k: v for k, v in gl_info(renderer.ctx).items() if k != "extensions"},
             "cpus": os.cpu_count(), "platform": platform.platform(),
             "python": sys.version.split()[0], "date": time.strftime("%Y-%m-%d %H:%M:%S")}
-
-
-def summary(rows: list[dict]) -> dict:
-    """Failures per judged case and condition, and the rows judged."""
-    out: dict = {}
-    for r in rows:
-        if "baseline" not in r:
-            continue
-        key = r["case"] + (" (splats)" if r.get("geometry") == "splats" else "")
-        s = out.setdefault(key, {"rows": 0, "speckle": 0, "shadow": 0, "psnr": 0,
-                                       "failed_rows": 0})
-        s["rows"] += 1
-        for k in ("speckle", "shadow", "psnr"):
-            s[k] += not r[f"{k}_ok"]
-        s["failed_rows"] += not r["ok"]
-    return out
-
-
-def summary_line(summary_: dict) -> str:
-    return "; ".join(f"{case}: {s['failed_rows']} of {s['rows']} scenes fail (speckle "
-                     f"{s['speckle']}, invented shadow {s['shadow']}, PSNR {s['psnr']})"
-                     for case, s in summary_.items())
-
-
-def markdown(report: dict) -> str:
-    t = report["tolerances"]
-    m = report["machine"]
-    made = (f"Made by `{report['command']}` in {report['seconds']:.0f} s on "
-            f"{m['gl'].get('renderer')} ({m['cpus']} CPUs), {m['date']}; "
-            f"{report['size'][0]}x{report['size'][1]}, truth {report['spp']} spp "
-            "(Mitsuba 3, our BSDF, depth 6), traced in "
-            f"{sum(v['seconds'] or 0 for v in report['truth'].values()):.0f} s when first made "
-            "(then cached: a second run only rasterises).")
-    rule = (f"Verdict per judged row (against split-sum with the same visibility): speckle "
-            f"<= {t['speckle_ratio']} x split-sum's; invented shadow < "
-            f"{100 * t['invented_shadow']:g} % of the covered pixels (darker than split-sum by "
-            f"> {100 * (1 - t['model_darker']):g} % where the truth is not darker by > "
-            f"{100 * (1 - t['truth_darker']):g} %, 3x3-blurred); PSNR >= split-sum's - "
-            f"{t['psnr_db']} dB.")
-    head = ("| scene | case | PSNR dB | median rel % | bias % | floor speckle (reference, "
-            "split-sum) | differs from split-sum % | invented shadow % | verdict |")
-    lines = [made, "", rule, "", f"**{summary_line(report['summary'])}**", "", head,
-             "|---|---|---|---|---|---|---|---|---|"]
-    for r in report["rows"]:
-        sp = f"{r['speckle']:.4f} ({r['speckle_reference']:.4f}"
-        sp += f", {r['speckle_baseline']:.4f})" if "speckle_baseline" in r else ")"
-        verdict_ = "" if "ok" not in r else ("ok" if r["ok"] else "FAIL: " + ", ".join(
-            k for k in ("speckle", "shadow", "psnr") if not r[f"{k}_ok"]))
-        lines.append(f"| {r['scene']} | {r['case']} | {r['psnr_db']:.2f} | "
-                     f"{r['median_rel_%']:.1f} | {r['bias_%']:+.1f} | {sp} | "
-                     f"{r.get('differs_%', '')} | {r.get('invented_shadow_%', '')} | "
-                     f"{verdict_} |")
-    return "\n".join(lines) + "\n"
-
-
-def write(report: dict, sheet: list, out: Path, labels: list[str]) -> list[Path]:
-    """``real_assets.json``, ``real_assets.md``, the contact sheet ``real_assets.png`` (a row per
-    scene, the reference then every case) and ``real_assets_lobby.png`` (the scenes under
-    :data:`SHEET_ENV` alone: small enough for the documentation), at the render's size in the
-    gallery's display transform, saved as RGB (not the gallery's dithered palette, whose dither
-    would read as speckle)."""
-    from relight.gallery.images import compose
-
-    (out / "real_assets.json").write_text(json.dumps(report, indent=1) + "\n")
-    (out / "real_assets.md").write_text(markdown(report))
-    files = [out / "real_assets.json", out / "real_assets.md"]
-    cols = ["reference"] + labels
-    note = f"truth: Mitsuba 3, {report['spp']} spp; display: exposure 0, ACES, sRGB"
-    for path, part in ((out / "real_assets.png", sheet),
-                       (out / f"real_assets_{SHEET_ENV}.png",
-                        [(n, t) for n, t in sheet if n.endswith(f"/{SHEET_ENV}")])):
-        if part:
-            img = compose([[tiles.get(c) for c in cols] for _, tiles in part],
-                          [c.replace(", ", ",\n") for c in cols], [n for n, _ in part], note=note)
-            img.save(path, optimize=True)
-            files.append(path)
-    return files
 
 
 def suite_rows(renderer, scenes, config, cache) -> list[dict]:

@@ -65,8 +65,9 @@ def splat_cases(case_list):
 def splat_scenes(options, envs, cache: Path, files: dict, scene_of):
     """(name, the splat scene, its model's cached truth) of every :data:`SPLAT_ASSETS` entry
     that ``options.assets`` selects (:class:`relight.bench.real_assets.Options`), under each
-    HDRI of ``envs``; ``files``: model name -> glTF file, ``scene_of(file, env, size)``: its
-    mesh scene (:func:`relight.bench.real_assets.asset_scene`)."""
+    lighting of ``envs`` (``(name, HDRI, sun_strength)``, :func:`~relight.bench.real_assets.lightings`);
+    ``files``: model name -> glTF file, ``scene_of(file, env, size, sun_strength)``: its mesh
+    scene (:func:`relight.bench.real_assets.asset_scene`)."""
     from relight.gallery.cases import GalleryOptions
     from relight.gallery.panels import cached_truth
 
@@ -74,7 +75,7 @@ def splat_scenes(options, envs, cache: Path, files: dict, scene_of):
     for name, asset in SPLAT_ASSETS:
         if options.assets is not None and name not in options.assets:
             continue
-        for env_name, env_path in envs:
-            scene = scene_of(files[asset], env_path, options.size)
+        for env_name, env_path, sun in envs:
+            scene = scene_of(files[asset], env_path, options.size, sun)
             truth = cached_truth(scene, f"{asset}_{env_name}", truth_options, options.spp)
             yield f"{name}/{env_name}", splat_scene(scene, cache, name), truth

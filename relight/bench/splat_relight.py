@@ -93,6 +93,8 @@ def render_splats(renderer, scene: Scene, splats: Splats, environment: Environme
 
 def truth_key(scene: Scene, environment: EnvironmentSpec, spp: int, max_depth: int) -> str:
     blob = repr((scene.camera, scene.objects, environment, spp, max_depth, "analytic"))
+    if environment.sun_strength != 1.0:  # not in the spec's repr at its default
+        blob += repr(("sun_strength", environment.sun_strength))
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

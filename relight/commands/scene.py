@@ -7,6 +7,7 @@ import os
 
 from viewer.errors import SceneError
 
+from .argtypes import _nonnegative_float
 from .common import _demo_path, _parse_size, parse_settings
 
 ENV_HELP = ("environment: sky | studio (default) | white | an equirect .exr/.hdr (linear) or "
@@ -15,6 +16,8 @@ UP_HELP = ("the assets' up axis: +Y | +Z | -Y | -Z | +X | -X (default: glTF +Y; 
            "the header's marker, else detected; said in one line)")
 FLOOR_HELP = ("a ground under the assets: catcher (the default of a bare --floor: only the "
               "shadows it receives, fading into the environment) | slab (a matte grey plane)")
+SUN_HELP = ("the environment's compact sun times this (0: the same sky without its sun; default "
+            "1), baked into the map the viewer and the reference both light with")
 VARIANT_HELP = ("a glTF material variant (KHR_materials_variants) by name, for every glTF "
                 "object (an unknown name lists the file's)")
 SET_HELP = ("a [render] setting by its scene-file key, the value as in TOML (repeatable: --set "
@@ -32,6 +35,7 @@ def add_asset_arguments(p, model: bool = True, size: bool = True) -> None:
     """The options every command that opens assets takes (``model``/``size``: also those two,
     for a command that does not have them yet)."""
     p.add_argument("--env", metavar="FILE|sky|studio|white", help=ENV_HELP)
+    p.add_argument("--sun-strength", type=_nonnegative_float, metavar="S", help=SUN_HELP)
     p.add_argument("--up", metavar="AXIS", help=UP_HELP)
     p.add_argument("--floor", nargs="?", const="catcher", choices=("catcher", "slab"),
                    help=FLOOR_HELP)
@@ -61,7 +65,8 @@ def open_input(args):
     """``(scene, contents)`` of the command line's positionals: none (the built-in demo), one
     scene file, or asset files; ``contents`` is what :func:`viewer.scene.assets.open_assets` loaded
     (hand it to the renderer with :func:`hand_over`). ``--env`` replaces a scene file's
-    environment; ``--up`` and ``--floor`` are for assets only; ``--set KEY=VALUE`` changes
+    environment (``--sun-strength`` scales its sun, either way); ``--up`` and ``--floor`` are
+    for assets only; ``--set KEY=VALUE`` changes
     ``[render]`` settings of either (checked before anything is loaded); ``--variant NAME``
     sets every glTF object's material variant (:func:`with_variant`)."""
     from viewer.scene.assets import environment_spec, is_scene_file, open_assets
@@ -89,14 +94,21 @@ def open_input(args):
 
             scene = replace(scene, environment=environment_spec(env))
         scene = scene.with_render(**settings) if settings else scene
-        return with_variant(scene, getattr(args, "variant", None)), ()
+        return with_variant(with_sun_strength(scene, args), getattr(args, "variant", None)), ()
     size = _parse_size(args.size) if getattr(args, "size", None) else None
     opened = open_assets(inputs, env=env or "studio", up=up, floor=floor, size=size)
     scene = opened.scene.with_render(**settings) if settings else opened.scene
+    scene = with_sun_strength(scene, args)
     variant = getattr(args, "variant", None)
     if variant is None:
         return scene, opened.contents
     return with_variant(scene, variant), ()  # reloaded with the variant's materials
+
+
+def with_sun_strength(scene, args):
+    """``scene`` with ``--sun-strength`` (when given) as its environment's ``sun_strength``."""
+    strength = getattr(args, "sun_strength", None)
+    return scene if strength is None else scene.with_environment(sun_strength=strength)
 
 
 def with_variant(scene, variant: str | None):
@@ -158,9 +170,9 @@ def cmd_scene(args) -> int:
     if args.size and scene.camera.size != _parse_size(args.size):  # a scene file's camera
         scene = scene.with_camera(size=_parse_size(args.size))
     words = ["relight", "scene", *(args.scene or [])]
-    for opt in ("env", "up", "model", "size", "variant"):
+    for opt in ("env", "sun_strength", "up", "model", "size", "variant"):
         if getattr(args, opt, None) is not None:
-            words += [f"--{opt}", str(getattr(args, opt))]
+            words += [f"--{opt.replace('_', '-')}", str(getattr(args, opt))]
     if args.floor:
         words += ["--floor"] + ([] if args.floor == "catcher" else [args.floor])
     for setting in args.set or ():

@@ -138,13 +138,15 @@ def camera_rays(camera, jitter: np.ndarray | None = None) -> np.ndarray:
 def config_key(scene: Scene, options: ReferenceOptions) -> str:
     """A digest of everything a checkpoint's samples depend on (with glTF alphaMode MASK or
     BLEND: how it is traced, :data:`~relight.reference.scene.ALPHA_TRACING`; scenes without
-    keep their keys)."""
+    keep their keys; so do those at the default ``sun_strength``)."""
     data = {"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
             "options": {k: v for k, v in asdict(options).items()
                         if k not in ("spp", "batch_spp")}}
     modes = alpha_modes(scene)
     if modes:
         data["alpha"] = [ALPHA_TRACING, modes]
+    if scene.environment.sun_strength != 1.0:  # not in the repr at its default (maps.py)
+        data["sun_strength"] = float(scene.environment.sun_strength)
     text = json.dumps(data, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -3,13 +3,15 @@
 Every environment is ``[H, W, 3]`` float32 linear radiance with ``H = W / 2`` and ``W`` a power of
 two, in the project's equirect convention (row 0 is the zenith +Y; u = 0.5 is -Z, u = 0.75 is +X;
 see ``shaders/lib/equirect.glsl``). Intensity and rotation are *not* baked in: they are shader
-uniforms (``u_env_intensity``, ``u_env_rotation``) so sliders cost nothing.
+uniforms (``u_env_intensity``, ``u_env_rotation``) so sliders cost nothing. The compact sun's
+strength (``sun_strength``, with any other compact light) is baked in: 0 is the same sky without it
+(:func:`scale_sun`), a map the IBL, the path model and the reference all see alike.
 """
 from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,7 +20,10 @@ from ..imageio import pixel_type, read_image
 
 PROCEDURAL = ("sky", "studio", "white")
 MAX_WIDTH = 2048
-_ASPECT_TOLERANCE = 0.02  # a file is "2:1" if |W / H - 2| <= 2 * this
+_ASPECT_TOLERANCE = 0.02
+# scale_sun: rounds of extraction (esplanade.exr: two lamps near the zenith, then a third that
+# carries 6 % of what is left once they are gone; none after)
+SUN_ROUNDS = 4  # a file is "2:1" if |W / H - 2| <= 2 * this
 # integer pixel types: display-referred (sRGB-encoded) images, decoded to linear on load
 DISPLAY_TYPES = ("uint8", "int8", "uint16", "int16")
 
@@ -33,6 +38,17 @@ class EnvironmentSpec:
     sun_elevation_deg: float = 35.0  # "sky": sun height above the horizon
     sun_azimuth_deg: float = 30.0    # "sky": from -Z towards +X (0 = straight ahead, 90 = +X)
     sun_radiance: float = 2000.0     # "sky": the sun disc's radiance (the zenith sky is ~0.45)
+    # the light of the compact sun (and any other compact light, viewer/environment/sun.py
+    # extract_lights) times this, baked into the map: 0 is the sky without them. Left out of repr (the reference's
+    # and the caches' keys) at its default, so keys made before it stay valid: config_key and
+    # the disk key add it when it is not 1.
+    sun_strength: float = field(default=1.0, repr=False)
+
+    def __post_init__(self):
+        s = self.sun_strength
+        if isinstance(s, bool) or not isinstance(s, (int, float)) or not math.isfinite(s) \
+                or s < 0.0:
+            raise ValueError(f"sun_strength must be a finite number >= 0, got {s!r}")
 
 
 def load_environment(spec: EnvironmentSpec) -> np.ndarray:
@@ -44,8 +60,40 @@ def load_environment(spec: EnvironmentSpec) -> np.ndarray:
     2048). Negative, NaN and Inf texels become 0 with one warning naming the file and the count.
 
     Raises :class:`InputError` for unreadable files or ones not ~2:1, and :class:`SceneError` for
-    an unknown procedural name or neither a path nor a procedural name.
+    an unknown procedural name or neither a path nor a procedural name. ``spec.sun_strength``
+    other than 1 scales the compact sun (:func:`scale_sun`).
     """
+    env = _load(spec)
+    if spec.sun_strength != 1.0:
+        env = scale_sun(env, spec.sun_strength, str(spec.path or spec.procedural))
+    return env
+
+
+def scale_sun(env: np.ndarray, strength: float, where: str) -> np.ndarray:
+    """``env`` with the light of its compact lights (its sun, lamps: the regions
+    :func:`viewer.environment.sun.extract_lights` takes out, again on what is left until it
+    finds none, at most :data:`SUN_ROUNDS` times) times ``strength``:
+    their texels keep the sky around them plus ``strength`` times the light they carried above
+    it, so 0 leaves the sky they stood in and 1 the map itself. A map without a compact light is
+    returned unchanged, with one warning naming it (the setting would otherwise change nothing
+    silently)."""
+    from .sun import extract_lights
+
+    residual, lights = extract_lights(env)
+    for _ in range(SUN_ROUNDS - 1):  # a weaker light passes the share rule once they are gone
+        residual, more = extract_lights(residual)
+        if not more:
+            break
+    if not lights:
+        warnings.warn(f"{where}: no compact sun found (nothing 1000 x brighter than the median "
+                      f"carrying 5 % of the light); sun_strength {strength:g} changes nothing",
+                      stacklevel=3)
+        return env
+    out = residual.astype(np.float64) + strength * (env.astype(np.float64) - residual)
+    return np.maximum(out, 0.0).astype(np.float32)
+
+
+def _load(spec: EnvironmentSpec) -> np.ndarray:
     if spec.path is not None:
         return _load_file(str(spec.path))
     if spec.procedural is None:

@@ -209,7 +209,10 @@ class EnvironmentStore:
             if pixel_type(spec.path) in DISPLAY_TYPES:  # sRGB-decoded: apart from entries
                 source += ("srgb",)  # cached before 8-bit files were decoded (taken as linear)
         else:
-            source = ("procedural", dataclasses.asdict(spec))
+            source = ("procedural", {k: v for k, v in dataclasses.asdict(spec).items()
+                                     if k != "sun_strength"})
+        if spec.sun_strength != 1.0:  # keys made before the setting stay valid at its default
+            source += (("sun_strength", float(spec.sun_strength)),)
         return digest_key("environment", source, dataclasses.asdict(self.options))
 
     def _build(self, spec: EnvironmentSpec) -> Environment:

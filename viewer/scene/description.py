@@ -17,6 +17,7 @@ Example::
     procedural = "sky"               # "sky" | "studio" | "white", or path = "studio.exr"
     intensity = 1.0
     rotation_deg = 0                 # about +Y, counter-clockwise seen from above
+    # sun_strength = 1.0             # the compact sun's light times this (0: the sky without it)
 
     [[objects]]
     type = "sphere"                  # sphere | plane | material_grid | mesh | gbuffer | splats
@@ -237,8 +238,8 @@ def parse_environment(t: dict, file: str, base: Path) -> EnvironmentSpec:
             kw[k] = _path(v, "environment.path", file, base)
         elif k == "procedural":
             kw[k] = _str(v, "environment.procedural", file)
-        elif k == "intensity":
-            kw[k] = _num(v, "environment.intensity", file, 0.0)
+        elif k in ("intensity", "sun_strength"):
+            kw[k] = _num(v, f"environment.{k}", file, 0.0)
         elif isinstance(v, int) and not isinstance(v, bool) and k in ("width",):
             kw[k] = _int(v, f"environment.{k}", file, 8, 8192)
         else:

@@ -76,8 +76,8 @@ _PROCEDURAL_ONLY = ("width", "sun_elevation_deg", "sun_azimuth_deg", "sun_radian
 
 def _environment_table(env) -> dict:
     """``[environment]``: every field, except that a file environment leaves out the procedural
-    sky's ``width`` and ``sun_*`` keys, which mean nothing for a file (they load back as their
-    defaults)."""
+    sky's ``width``, sun position and sun radiance, which mean nothing for a file (they load back
+    as their defaults)."""
     out = _table(env)
     if env.path is not None:
         for name in _PROCEDURAL_ONLY:

@@ -69,10 +69,25 @@ class ScenePanels:
         intensity = self._slider("intensity", env.intensity, 0.0, 10.0)
         rotation = self._slider("rotation", env.rotation_deg, -180.0, 180.0, "%.1f deg")
         if (intensity, rotation) != (env.intensity, env.rotation_deg):
-            state.environment = replace(env, intensity=intensity, rotation_deg=rotation)
+            state.environment = env = replace(env, intensity=intensity, rotation_deg=rotation)
+        self._sun_strength(state, env)
         imgui.text_disabled("drop an .hdr/.exr on the window to use it")
         imgui.separator()
         self._directional_light(viewer.state)
+
+    def _sun_strength(self, state, env) -> None:
+        """The environment's compact sun, 0 (the sky without it) to 4 x: baked into the map, so
+        the environment is rebuilt (its IBL, sun and shadow maps) when the slider is let go, not
+        while it is dragged."""
+        imgui = self.imgui
+        pending = getattr(self, "_sun_pending", None)
+        value = self._slider("sun strength", env.sun_strength if pending is None else pending,
+                             0.0, 4.0, "%.2f x")
+        if value != (env.sun_strength if pending is None else pending):
+            self._sun_pending = pending = value
+        if pending is not None and imgui.is_item_deactivated_after_edit():
+            state.environment = replace(env, sun_strength=max(float(pending), 0.0))
+            self._sun_pending = None
 
     def _directional_light(self, state) -> None:
         """The scene's [light]: on/off, azimuth/elevation, colour, intensity. Values are written

@@ -38,11 +38,11 @@ class EnvironmentSpec:
     sun_elevation_deg: float = 35.0  # "sky": sun height above the horizon
     sun_azimuth_deg: float = 30.0    # "sky": from -Z towards +X (0 = straight ahead, 90 = +X)
     sun_radiance: float = 2000.0     # "sky": the sun disc's radiance (the zenith sky is ~0.45)
-    # the light of the compact sun (and any other compact light, viewer/environment/sun.py
-    # extract_lights) times this, baked into the map: 0 is the sky without them. Left out of repr (the reference's
-    # and the caches' keys) at its default, so keys made before it stay valid: config_key and
-    # the disk key add it when it is not 1.
+    # the light of the compact sun (and of any other compact light the viewer extracts) times
+    # this, baked into the map: 0 is the sky without them, 1 the map as it is
     sun_strength: float = field(default=1.0, repr=False)
+    # (sun_strength is out of the repr, which the reference's and the caches' keys hash, so keys
+    # made before it stay valid; config_key and the disk key add it when it is not 1)
 
     def __post_init__(self):
         s = self.sun_strength

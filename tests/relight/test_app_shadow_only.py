@@ -5,7 +5,7 @@ saved scene says ``shadow_only``; unticking brings the sphere back. A shadow-cat
 such switch (a catcher is what the camera sees)."""
 import numpy as np
 import pytest
-from viewer_helpers import click, release, shown, to_linear
+from viewer_helpers import click, release, scene_image
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
@@ -39,19 +39,12 @@ def test_the_switch_hides_the_sphere_and_keeps_its_shadow(tmp_path):
         assert "shadow caster only##so1" in v.ui.rects
         assert "shadow caster only##so2" not in v.ui.rects  # the catcher
 
-        def image():
-            v.state.show_ui = False
-            rgb = to_linear(shown(v))[..., :3]
-            v.state.show_ui = True
-            v.run(frames=2)
-            return rgb
-
-        seen = image()
+        seen = scene_image(v)
         red = seen[..., 0] > 2.0 * seen[..., 1] + 0.02  # the sphere's pixels
         assert red.sum() > 0.01 * 480 * 900  # the bound it had in the 900 px window, in pixels
         _click(v, "shadow caster only##so1")
         assert v.state.scene.objects[1].shadow_only
-        cast = image()
+        cast = scene_image(v)
         assert not (cast[..., 0] > 2.0 * cast[..., 1] + 0.02).any()  # no red left
         floor = ~red
         lit = np.percentile(seen[floor][:, 1], 90)
@@ -64,4 +57,4 @@ def test_the_switch_hides_the_sphere_and_keeps_its_shadow(tmp_path):
         assert load_scene(path).objects[1].shadow_only
         _click(v, "shadow caster only##so1")
         assert not v.state.scene.objects[1].shadow_only
-        np.testing.assert_allclose(image(), seen, atol=1e-6)
+        np.testing.assert_allclose(scene_image(v), seen, atol=1e-6)

@@ -2,7 +2,7 @@
 not rebuild the environment (the scene keeps its sun while the button is down); letting go sets
 ``sun_strength`` near 0, the image loses the sun's light, and the saved scene (what "save scene" writes) says so."""
 import pytest
-from viewer_helpers import click, release, shown, to_linear
+from viewer_helpers import click, release, scene_image
 
 pytestmark = pytest.mark.gui
 imgui_bundle = pytest.importorskip("imgui_bundle", reason="the viewer needs imgui-bundle ([gui])")
@@ -25,20 +25,13 @@ def test_the_slider_applies_when_let_go(tmp_path):
         v.ui.open_all, v.state.show_overlay = True, False
         v.run(frames=2)
 
-        def image():
-            v.state.show_ui = False
-            rgb = to_linear(shown(v))[..., :3]
-            v.state.show_ui = True
-            v.run(frames=2)
-            return rgb
-
-        lit = image()
+        lit = scene_image(v)
         x0, y0, x1, y1 = v.ui.rects["sun strength"]
         click(v, x0 + 2, (y0 + y1) / 2)  # pressed, not yet released
         assert v.state.environment.sun_strength == 1.0
         release(v)
         assert v.state.environment.sun_strength < 0.1
-        dark = image()
+        dark = scene_image(v)
         assert dark.sum() < 0.8 * lit.sum()
         assert v.save_scene(str(tmp_path / "s.toml"))
         path = tmp_path / "s.toml"

@@ -30,6 +30,15 @@ def to_linear(rgba8: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
+def scene_image(viewer) -> np.ndarray:
+    """The shown frame with the panel hidden for it, linear RGB; the panel is back after."""
+    viewer.state.show_ui = False
+    rgb = to_linear(shown(viewer))[..., :3]
+    viewer.state.show_ui = True
+    viewer.run(frames=2)
+    return rgb
+
+
 def headless(ctx, scene, **kw):
     r = Renderer(ctx=ctx)
     try:

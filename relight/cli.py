@@ -45,6 +45,7 @@ from viewer.errors import AssetNote, RelightError
 from . import gallery
 from . import graph as graph_command
 from .commands import (
+    _fraction,
     _hidden,
     _nonnegative_float,
     _positive_int,
@@ -279,6 +280,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, metavar="N",
                    help="random seed (default the preset's; another seed draws other scenes: "
                         "not the preset's held-out set any more)")
+    p.add_argument("--sunless", type=_fraction, metavar="F",
+                   help="the share of samples lit without the environment's compact sun and "
+                        "lamps (sun_strength 0; default 0; 1: the preset's scenes, all sunless)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=cmd_data)
 

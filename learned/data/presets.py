@@ -77,8 +77,8 @@ def shadow_val() -> GeneratorConfig:
 # name -> its configuration (relight data --preset NAME)
 PRESETS = {"truth-train": truth_train, "heldout-kinds": heldout_kinds, "heldout-env": heldout_env,
            "shadow-extra": shadow_extra, "shadow-val": shadow_val}
-# the fields an override may change (relight data's --count, --size, --spp, --seed)
-OVERRIDABLE = ("count", "size", "reference_spp", "seed")
+# the fields an override may change (relight data's --count, --size, --spp, --seed, --sunless)
+OVERRIDABLE = ("count", "size", "reference_spp", "seed", "sunless_fraction")
 
 
 def preset_config(name: str, **overrides) -> GeneratorConfig:

@@ -7,7 +7,7 @@ parser that maps the command line onto them is :mod:`relight.cli`. Torch-side co
 Every name below is importable from ``relight.commands`` itself."""
 from __future__ import annotations
 
-from .argtypes import _hidden, _nonnegative_float, _positive_int, _seeds
+from .argtypes import _fraction, _hidden, _nonnegative_float, _positive_int, _seeds
 from .bench import cmd_bench
 from .common import DEMO_SCENE, _context_options, _demo_path, _learned, _parse_size
 from .data import _data_config, cmd_data
@@ -27,6 +27,6 @@ __all__ = [
     "cmd_view", "reference_tracer",
     # private, for relight.cli and the tests
     "_context_options", "_data_config", "_demo_path", "_hidden", "_learned",
-    "_nonnegative_float", "_parse_size", "_positive_int", "_seeds", "_truth_config",
+    "_fraction", "_nonnegative_float", "_parse_size", "_positive_int", "_seeds", "_truth_config",
     "_truth_data",
 ]

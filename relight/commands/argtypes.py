@@ -25,6 +25,13 @@ def _nonnegative_float(text: str) -> float:
     return value
 
 
+def _fraction(text: str) -> float:
+    value = _nonnegative_float(text)
+    if value > 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text}")
+    return value
+
+
 def _hidden(text: str) -> tuple[int, ...]:
     """``--student-hidden 32,32`` -> (32, 32)."""
     try:

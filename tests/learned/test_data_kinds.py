@@ -281,3 +281,36 @@ def test_datasets_written_before_the_new_fields_still_resume(tmp_path, generate_
     shutil.rmtree(root / "train")
     with pytest.raises(DatasetError, match="another configuration"):
         generate_data(root, GeneratorConfig(count=1, size=16, samples=4, env_width=32, degrade=0.5))
+
+
+def test_sunless_samples_lose_the_sun_and_keep_the_scenes(tmp_path):
+    """sunless_fraction: at 1 every sample's environment is the same draw as at 0 without its
+    compact sun (the same source, intensity and rotation: the same scenes); at 0.5 about half are
+    sunless, and the recipe says which; out of [0, 1] is refused; relight data --sunless sets it
+    on a preset and refuses a share over 1."""
+    from dataclasses import replace
+
+    from viewer.environment.sun import extract_lights
+
+    base = GeneratorConfig(env_procedural=("sky",), env_width=64)
+    dark = replace(base, sunless_fraction=1.0)
+    for i in range(4):
+        env0, info0 = gen.random_environment(np.random.default_rng([0, i]), base)
+        env1, info1 = gen.random_environment(np.random.default_rng([0, i]), dark)
+        assert extract_lights(env0)[1] and not extract_lights(env1)[1]
+        assert info1 == info0 | {"sun_strength": 0.0}
+        # the same sky, scaled and turned as the sunny draw is: only the sun's texels differ
+        same = np.all(np.isclose(env1, env0, rtol=1e-6, atol=0.0), axis=2)
+        assert same.mean() > 0.99 and (env1[~same] < env0[~same]).all()
+    half = replace(base, sunless_fraction=0.5)
+    flags = [gen.random_environment(np.random.default_rng([0, i]), half)[1].get("sun_strength")
+             for i in range(40)]
+    assert 10 <= flags.count(0.0) <= 30 and set(flags) <= {None, 0.0}
+    with pytest.raises(DatasetError, match="sunless_fraction 1.5 is not in"):
+        gen.check_config(replace(base, sunless_fraction=1.5))
+    from learned.data.presets import preset_config
+    from relight.cli import main
+
+    assert preset_config("heldout-env", sunless_fraction=1.0).sunless_fraction == 1.0
+    with pytest.raises(SystemExit):
+        main(["data", str(tmp_path / "d"), "--preset", "heldout-env", "--sunless", "2"])

@@ -39,6 +39,10 @@ class GeneratorConfig:
     # are (noisy normals, shading baked into albedo, biased roughness) at this strength (<= 1);
     # the targets stay those of the true scene (degrade_inputs)
     degrade: float = 0.0
+    # the share of samples whose environment loses its compact sun and lamps (its sun_strength
+    # 0: viewer.environment.maps.scale_sun; a procedural sky keeps its sky, the studio its
+    # softboxes); 0 draws nothing, 1 makes every sample's sunless (the same scenes as 0 gives)
+    sunless_fraction: float = 0.0
     # "" (default): sample i goes to the split SPLIT_PATTERN[i % 10]; "train" | "val" | "test":
     # every sample goes there (the protocol's datasets, learned.protocol.data: one configuration
     # per split, its own seed and environments, its summary in dataset.<split>.json)
@@ -178,6 +182,9 @@ def check_config(config: GeneratorConfig, tracer=None) -> None:
                            "the fixed pattern)", where="split")
     if not 0.0 <= config.degrade <= 1.0:
         raise DatasetError(f"degrade {config.degrade} is not in [0, 1]", where="degrade")
+    if not 0.0 <= config.sunless_fraction <= 1.0:
+        raise DatasetError(f"sunless_fraction {config.sunless_fraction} is not in [0, 1]",
+                           where="sunless_fraction")
     if config.targets == "reference":
         if config.gbuffer_fraction > 0:
             raise DatasetError("image G-buffers have no geometry to path-trace: use "

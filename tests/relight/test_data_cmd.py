@@ -20,8 +20,9 @@ from relight.commands import _data_config, _truth_config
 _COMMON = {"size": 64, "samples": 256, "env_width": 128, "meshes": True, "gbuffer_fraction": 0.0,
            "gbuffers": [], "targets": "reference", "reference_spp": 256, "reference_depth": 4,
            "degrade": 0.0,
-           # added since (the default reproduces the stored sets: the fixed split pattern)
-           "split": ""}
+           # added since (the defaults reproduce the stored sets: the fixed split pattern, no
+           # sunless samples)
+           "split": "", "sunless_fraction": 0.0}
 _TRUTH_KINDS = ["random", "sphere_on_plane", "cluster", "random", "touching_spheres", "concave",
                 "random", "cluster", "gltf"]
 STORED = {

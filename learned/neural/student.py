@@ -223,6 +223,16 @@ class Student(nn.Module):
         n = 6 if self.output == "free6" else 3
         return torch.relu(NEURAL_OUTPUT_SCALE * outputs[:, :n] - 1.0).sum(-1).mean()
 
+    def deviation(self, outputs: torch.Tensor) -> torch.Tensor:
+        """How far the direct-light corrections of :meth:`network_outputs` ``outputs`` leave the
+        split-sum base either way: the mean over pixels of the sum over the corrections of
+        (S k - 1)^2 (the indirect factor excluded). The penalty of
+        ``TrainConfig.student_direct_penalty``: a student that reads only the material and n.v
+        has no evidence of the scene's visibility, so a direct correction it learns is a change of
+        the BRDF (the white furnace sees it), not of the light."""
+        n = 6 if self.output == "free6" else 3
+        return ((NEURAL_OUTPUT_SCALE * outputs[:, :n] - 1.0) ** 2).sum(-1).mean()
+
     def weights(self, x: torch.Tensor, outputs: torch.Tensor | None = None) -> torch.Tensor:
         """``x [N, k]`` (:data:`ALL_INPUTS` order, :meth:`select`) -> the factors ``k [N, 6]``
         (``free6``: k_diffuse rgb, k_specular rgb) or ``[N, 3]`` (``pbr3``: k_d, k_a, k_b) in
@@ -244,7 +254,7 @@ class Student(nn.Module):
 
     def forward(self, x: torch.Tensor, irradiance: torch.Tensor, prefiltered: torch.Tensor,
                 indirect: torch.Tensor | None = None, sun: torch.Tensor | None = None,
-                with_gain: bool = False):
+                with_gain: bool = False, with_deviation: bool = False):
         """Radiance ``[N, 3]`` from :func:`learned.neural.lighting.student_features` (``x`` holds
         albedo, roughness, metallic, specular first: the material of the ``pbr3`` form): the
         lighting pass's direct light, plus ``indirect`` (``[N, 3]``, the indirect pass's
@@ -252,10 +262,13 @@ class Student(nn.Module):
         (``student_features(..., sun=True)``; a student with :attr:`sun` only): the
         environment's sun, shaded with the same factors (``neural_student_sun_split``).
         ``with_gain``: returns (radiance, :meth:`gain`) from the one evaluation (so that a
-        DistributedDataParallel wrapper sees a single forward)."""
+        DistributedDataParallel wrapper sees a single forward); ``with_deviation`` as well:
+        (radiance, gain, :meth:`deviation`)."""
         outputs = self.network_outputs(x)
         k = self.weights(x, outputs)
         out = self._shade(k, x, irradiance, prefiltered, indirect, sun)
+        if with_deviation:
+            return out, self.gain(outputs), self.deviation(outputs)
         return (out, self.gain(outputs)) if with_gain else out
 
     def _shade(self, k, x, irradiance, prefiltered, indirect, sun):

@@ -45,6 +45,12 @@ class TrainConfig:
     # base misses (a floor seen in a sphere's lower half) is otherwise learned as a brighter
     # direct term, which new scenes without those surfaces do not have (README "Against truth")
     student_gain_penalty: float = 1.0
+    # weight of Student.deviation: how far its direct-light corrections leave the split-sum base
+    # either way (0: off). A student reading only the material and n.v can correct its direct
+    # light only by changing the BRDF; trained under sunless skies it learned to dim it (the
+    # white furnace 0.7 % dark), the visibility error of its screen-space base turned into
+    # material
+    student_direct_penalty: float = 0.0
     distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
     # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
     # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)

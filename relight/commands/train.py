@@ -16,6 +16,7 @@ TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixe
                    "light_samples", "strategy", "student_target", "student_features",
                    "student_output", "student_hidden", "student_indirect",
                    "student_sun", "student_multiscatter", "student_gain_penalty",
+                   "student_direct_penalty",
                    "teacher_light_input", "seed")
 
 

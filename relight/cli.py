@@ -229,7 +229,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "split-sum base to its loss (default 1, the shipped student's; 0: off)")
     p.add_argument("--student-direct-penalty", type=_nonnegative_float, metavar="W", default=None,
                    help="add W x the squared distance of the student's direct-light corrections "
-                        "from its split-sum base, either way, to its loss (default 0: off)")
+                        "from its split-sum base, either way, to its loss (default 100, the "
+                        "shipped student's; 0: off)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "

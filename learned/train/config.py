@@ -47,10 +47,10 @@ class TrainConfig:
     student_gain_penalty: float = 1.0
     # weight of Student.deviation: how far its direct-light corrections leave the split-sum base
     # either way (0: off). A student reading only the material and n.v can correct its direct
-    # light only by changing the BRDF; trained under sunless skies it learned to dim it (the
-    # white furnace 0.7 % dark), the visibility error of its screen-space base turned into
-    # material
-    student_direct_penalty: float = 0.0
+    # light only by changing the BRDF; trained under sunless skies without it, it learned to dim
+    # it (the white furnace 0.7 % dark), the visibility error of its screen-space base turned into
+    # material. 100 (the shipped student's) holds its direct factors at 1 to the fourth decimal
+    student_direct_penalty: float = 100.0
     distill_loss: str = "log_l1"  # "l1" on radiance | "log_l1" on log(1 + radiance)
     # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
     # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)
@@ -77,6 +77,7 @@ STUDENT_TARGETS = ("teacher", "target")
 SHIPPED_STUDENT = {"student_hidden": (32, 32), "student_features": "ssao",
                    "student_output": "split3", "student_indirect": "factor", "student_sun": True,
                    "student_multiscatter": True, "student_gain_penalty": 1.0,
+                   "student_direct_penalty": 100.0,
                    "student_steps": 24000, "student_target": "target", "batch_pixels": 2048}
 # the Student keyword arguments of that design
 SHIPPED_STUDENT_DESIGN = {"hidden": (32, 32), "features": "ssao", "output": "split3",

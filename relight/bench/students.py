@@ -66,8 +66,10 @@ def compare_students(out: str, data: str | None = None, designs: dict | None = N
         data = str(out_path / "data")
         generate(data, GeneratorConfig(**QUICK_DATA), progress=not quiet)
     # the comparison's recipe, as its stored table was made: a teacher with the light input and
-    # no gain penalty (TrainConfig's defaults are now the shipped student's and teacher's)
-    recipe = {"teacher_light_input": True, "student_gain_penalty": 0.0}
+    # no gain or direct penalty (TrainConfig's defaults are now the shipped student's and
+    # teacher's)
+    recipe = {"teacher_light_input": True, "student_gain_penalty": 0.0,
+              "student_direct_penalty": 0.0}
     cfg = TrainConfig.quick(data, out, **(recipe | overrides))
     run = Run(cfg, 0, quiet)
     run.log(f"compare students {sorted(designs)} config {json.dumps(asdict(cfg))}")

@@ -135,7 +135,8 @@ def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, ctx):
     for weight in (0.0, 5.0):
         cfg = TrainConfig(data=str(dataset), out=str(tmp_path / f"run{weight}"), student_steps=150,
                           batch_pixels=128, lr=1e-2, checkpoint_every=1000, log_every=1000,
-                          student_target="target", student_gain_penalty=weight)
+                          student_target="target", student_gain_penalty=weight,
+                          student_direct_penalty=0.0)  # the gain penalty alone
         model, _ = distill_student(Run(cfg, 0, quiet=True), images, targets, design=design,
                                    feats=feats)
         with torch.no_grad():
@@ -185,7 +186,8 @@ def test_direct_penalty_holds_the_direct_factors_either_way(tmp_path, ctx):
     for weight in (0.0, 100.0):
         cfg = TrainConfig(data=str(dataset), out=str(tmp_path / f"run{weight}"), student_steps=150,
                           batch_pixels=128, lr=1e-2, checkpoint_every=1000, log_every=1000,
-                          student_target="target", student_direct_penalty=weight)
+                          student_target="target", student_direct_penalty=weight,
+                          student_gain_penalty=0.0)  # the direct penalty alone
         model, _ = distill_student(Run(cfg, 0, quiet=True), images, targets, design=design,
                                    feats=feats)
         with torch.no_grad():

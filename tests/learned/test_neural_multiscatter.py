@@ -1,8 +1,9 @@
 """A ``split3`` student whose base has ``ggx_split_sum``'s multiple-scattering compensation
 (architecture ``"multiscatter": true``), and the training penalty on corrections that brighten the
 base (``TrainConfig.student_gain_penalty``): the untrained student renders the classical model's
-default, GLSL and torch agree on a perturbed one, files without the key render as before, and the
-penalty keeps a student that its targets pull brighter close to its base."""
+default, GLSL and torch agree on a perturbed one, files without the key render as before, the
+penalty keeps a student that its targets pull brighter close to its base, and the direct penalty
+(``student_direct_penalty``) keeps one that its targets pull darker at its base."""
 import numpy as np
 import pytest
 import torch
@@ -100,31 +101,39 @@ def test_gain_measures_only_brightening():
     assert out.shape == (64, 3) and gain.item() == pytest.approx(expected, rel=1e-6)
 
 
-def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, ctx):
+@pytest.fixture(scope="module")
+def training_images(tmp_path_factory, ctx):
+    """(dataset folder, its train images): ten tiny generated samples the penalty tests train on."""
+    from learned.data.generator import GeneratorConfig, generate
+    from learned.train import load_images
+    from viewer.renderer import Renderer
+
+    dataset = tmp_path_factory.mktemp("penalties") / "data"
+    r = Renderer(ctx=ctx)
+    try:
+        generate(dataset, GeneratorConfig(count=10, size=16, samples=4, seed=3, env_width=32),
+                 renderer=r, progress=False)
+        return dataset, load_images(str(dataset), "train", r, multiscatter=True)
+    finally:
+        r.release()
+
+
+def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, training_images):
     """The options reach the config; on targets 1.6x the base's own radiance (which pull every
     correction up) the student trained without the penalty brightens its base, and with
     ``student_gain_penalty = 5`` brightens it several times less, the same data, seed and steps.
     The exported file records multiscatter."""
-    from learned.data.generator import GeneratorConfig, generate
-    from learned.train import TrainConfig, load_images
+    from learned.train import TrainConfig
     from learned.train.runner import Run
     from learned.train.stages import design_features, distill_student
     from relight.cli import build_parser
-    from viewer.renderer import Renderer
 
     args = build_parser().parse_args(["train", "--out", str(tmp_path / "x"),
                                       "--student-multiscatter", "--student-gain-penalty", "1"])
     assert args.student_multiscatter is True and args.student_gain_penalty == 1.0
     with pytest.raises(SystemExit):
         build_parser().parse_args(["train", "--student-gain-penalty", "-1"])
-    dataset = tmp_path / "data"
-    r = Renderer(ctx=ctx)
-    try:
-        generate(dataset, GeneratorConfig(count=10, size=16, samples=4, seed=3, env_width=32),
-                 renderer=r, progress=False)
-        images = load_images(str(dataset), "train", r, multiscatter=True)
-    finally:
-        r.release()
+    dataset, images = training_images
     design = {"hidden": (8, 8), "features": "vis", "output": "split3", "indirect": "factor",
               "multiscatter": True}
     base = Student(**design)
@@ -149,29 +158,20 @@ def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, ctx):
     assert load_network(path, "student").multiscatter
 
 
-def test_direct_penalty_holds_the_direct_factors_either_way(tmp_path, ctx):
+def test_direct_penalty_holds_the_direct_factors_either_way(tmp_path, training_images):
     """``student_direct_penalty``: on targets 0.6x the base's radiance (which pull every
     correction down, where the gain penalty does nothing) the student trained without it darkens
     its direct factors, and with a weight of 100 stays at the base's (S k = 1 within 2 %), the
     same data, seed and steps; Student.deviation is the mean squared distance, 0 untrained at
     k = 0.5; the option reaches the config."""
-    from learned.data.generator import GeneratorConfig, generate
-    from learned.train import TrainConfig, load_images
+    from learned.train import TrainConfig
     from learned.train.runner import Run
     from learned.train.stages import design_features, distill_student
     from relight.cli import build_parser
-    from viewer.renderer import Renderer
 
     args = build_parser().parse_args(["train", "--student-direct-penalty", "100"])
     assert args.student_direct_penalty == 100.0
-    dataset = tmp_path / "data"
-    r = Renderer(ctx=ctx)
-    try:
-        generate(dataset, GeneratorConfig(count=10, size=16, samples=4, seed=3, env_width=32),
-                 renderer=r, progress=False)
-        images = load_images(str(dataset), "train", r, multiscatter=True)
-    finally:
-        r.release()
+    dataset, images = training_images
     design = {"hidden": (8, 8), "features": "ssao", "output": "split3", "indirect": "factor",
               "multiscatter": True}
     base = Student(**design)

@@ -130,3 +130,21 @@ def test_the_splat_capture_tiles_the_gun_and_keeps_its_floor(tmp_path, ctx):
     assert not (gun & ~tiled & ~ring).any()  # no hole
     spill = int((tiled & ~gun & ~ring).sum())  # splats overlap 1.6x: a 2nd px beyond the edge
     assert spill <= 0.05 * gun.sum(), spill
+
+
+def test_each_hdri_with_a_sun_is_also_judged_without_it():
+    """lightings: an HDRI with a compact sun (park) comes twice, as it is and as ``park-nosun``
+    at sun_strength 0; one without (lobby) once; ``sunless=False`` keeps the maps alone; the
+    sunless scene's environment says so (what relight render --sun-strength 0 opens)."""
+    from relight.bench.real_assets import SUNLESS, asset_scene, environments, lightings
+
+    envs = dict(environments())
+    got = lightings([("lobby", envs["lobby"]), ("park", envs["park"])])
+    assert got == [("lobby", envs["lobby"], 1.0), ("park", envs["park"], 1.0),
+                   ("park" + SUNLESS, envs["park"], 0.0)]
+    assert lightings([("park", envs["park"])], sunless=False) == [("park", envs["park"], 1.0)]
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*ignored \\(not supported\\).*")
+        scene = asset_scene("texture_transform_test/TextureTransformTest.gltf", envs["park"],
+                            (16, 12), 0.0)
+    assert scene.environment.sun_strength == 0.0 and scene.environment.path == str(envs["park"])

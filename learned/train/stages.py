@@ -281,14 +281,11 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
         ind = images[k].indirect[idx] if model.learns_indirect else None
         args = (x, irr, pre, ind, *sun) if model.learns_indirect or sun else (x, irr, pre)
         fixed = extra[k][idx] if extra[k] is not None else 0.0
-        if cfg.student_direct_penalty > 0.0:  # + the penalty on any direct correction
+        if cfg.student_gain_penalty > 0.0 or cfg.student_direct_penalty > 0.0:
+            # + the penalties on brightening the direct light and on any direct correction
             pred, gain, dev = ddp(*args, with_deviation=True)
             return (distill_loss(pred + fixed, targets[k][idx], cfg.distill_loss)
                     + cfg.student_gain_penalty * gain + cfg.student_direct_penalty * dev)
-        if cfg.student_gain_penalty > 0.0:  # + the penalty on brightening the direct light
-            pred, gain = ddp(*args, with_gain=True)
-            return (distill_loss(pred + fixed, targets[k][idx], cfg.distill_loss)
-                    + cfg.student_gain_penalty * gain)
         return distill_loss(ddp(*args) + fixed, targets[k][idx], cfg.distill_loss)
 
     losses = _loop(run, stage, model, cfg.student_steps, cfg.lr, step)

@@ -11,6 +11,7 @@ import torch
 from learned.export import export, load_model
 from learned.neural.student import Student
 from learned.parity.checks import neural as tn
+from learned.twins.neural import NEURAL_OUTPUT_SCALE
 from viewer.neural import load_network
 
 
@@ -118,14 +119,26 @@ def training_images(tmp_path_factory, ctx):
         r.release()
 
 
+def _trained(training_images, out, design, feats, targets, **penalties):
+    """A student of ``design`` trained 150 steps on ``targets`` with the given penalties."""
+    from learned.train import TrainConfig
+    from learned.train.runner import Run
+    from learned.train.stages import distill_student
+
+    dataset, images = training_images
+    cfg = TrainConfig(data=str(dataset), out=str(out), student_steps=150, batch_pixels=128,
+                      lr=1e-2, checkpoint_every=1000, log_every=1000, student_target="target",
+                      **penalties)
+    return distill_student(Run(cfg, 0, quiet=True), images, targets, design=design,
+                           feats=feats)[0]
+
+
 def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, training_images):
     """The options reach the config; on targets 1.6x the base's own radiance (which pull every
     correction up) the student trained without the penalty brightens its base, and with
     ``student_gain_penalty = 5`` brightens it several times less, the same data, seed and steps.
     The exported file records multiscatter."""
-    from learned.train import TrainConfig
-    from learned.train.runner import Run
-    from learned.train.stages import design_features, distill_student
+    from learned.train.stages import design_features
     from relight.cli import build_parser
 
     args = build_parser().parse_args(["train", "--out", str(tmp_path / "x"),
@@ -133,7 +146,7 @@ def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, training_images)
     assert args.student_multiscatter is True and args.student_gain_penalty == 1.0
     with pytest.raises(SystemExit):
         build_parser().parse_args(["train", "--student-gain-penalty", "-1"])
-    dataset, images = training_images
+    _, images = training_images
     design = {"hidden": (8, 8), "features": "vis", "output": "split3", "indirect": "factor",
               "multiscatter": True}
     base = Student(**design)
@@ -142,12 +155,8 @@ def test_gain_penalty_keeps_the_student_near_its_base(tmp_path, training_images)
         targets = [1.6 * base(*f[:3], img.indirect) for f, img in zip(feats, images)]
     gains = {}
     for weight in (0.0, 5.0):
-        cfg = TrainConfig(data=str(dataset), out=str(tmp_path / f"run{weight}"), student_steps=150,
-                          batch_pixels=128, lr=1e-2, checkpoint_every=1000, log_every=1000,
-                          student_target="target", student_gain_penalty=weight,
-                          student_direct_penalty=0.0)  # the gain penalty alone
-        model, _ = distill_student(Run(cfg, 0, quiet=True), images, targets, design=design,
-                                   feats=feats)
+        model = _trained(training_images, tmp_path / f"run{weight}", design, feats, targets,
+                         student_gain_penalty=weight, student_direct_penalty=0.0)  # gain alone
         with torch.no_grad():
             gains[weight] = float(np.mean([model.gain(model.network_outputs(f[0])).item()
                                            for f in feats]))
@@ -164,14 +173,12 @@ def test_direct_penalty_holds_the_direct_factors_either_way(tmp_path, training_i
     its direct factors, and with a weight of 100 stays at the base's (S k = 1 within 2 %), the
     same data, seed and steps; Student.deviation is the mean squared distance, 0 untrained at
     k = 0.5; the option reaches the config."""
-    from learned.train import TrainConfig
-    from learned.train.runner import Run
-    from learned.train.stages import design_features, distill_student
+    from learned.train.stages import design_features
     from relight.cli import build_parser
 
     args = build_parser().parse_args(["train", "--student-direct-penalty", "100"])
     assert args.student_direct_penalty == 100.0
-    dataset, images = training_images
+    _, images = training_images
     design = {"hidden": (8, 8), "features": "ssao", "output": "split3", "indirect": "factor",
               "multiscatter": True}
     base = Student(**design)
@@ -184,14 +191,10 @@ def test_direct_penalty_holds_the_direct_factors_either_way(tmp_path, training_i
         targets = [0.6 * base(*f[:3], img.indirect) for f, img in zip(feats, images)]
     spread = {}
     for weight in (0.0, 100.0):
-        cfg = TrainConfig(data=str(dataset), out=str(tmp_path / f"run{weight}"), student_steps=150,
-                          batch_pixels=128, lr=1e-2, checkpoint_every=1000, log_every=1000,
-                          student_target="target", student_direct_penalty=weight,
-                          student_gain_penalty=0.0)  # the direct penalty alone
-        model, _ = distill_student(Run(cfg, 0, quiet=True), images, targets, design=design,
-                                   feats=feats)
+        model = _trained(training_images, tmp_path / f"run{weight}", design, feats, targets,
+                         student_direct_penalty=weight, student_gain_penalty=0.0)  # direct alone
         with torch.no_grad():
-            k = torch.cat([model.network_outputs(f[0])[:, :3] for f in feats]) * 2.0
+            k = torch.cat([model.network_outputs(f[0])[:, :3] for f in feats]) * NEURAL_OUTPUT_SCALE
         spread[weight] = float((k - 1.0).abs().max())
     assert spread[0.0] > 0.1, spread  # the pull down is learned without the penalty
     assert spread[100.0] < 0.02, spread

@@ -3,7 +3,6 @@ configuration's files, at a random intensity and rotation (:func:`random_environ
 from __future__ import annotations
 
 import functools
-import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -25,7 +24,7 @@ def random_environment(rng, config: GeneratorConfig) -> tuple[np.ndarray, dict]:
                                sun_elevation_deg=float(rng.uniform(10.0, 70.0)),
                                sun_azimuth_deg=float(rng.uniform(-180.0, 180.0)))
         sun = _sun_strength(rng, config)
-        env = _quietly(load_environment, replace(spec, sun_strength=sun))
+        env = load_environment(replace(spec, sun_strength=sun))
     else:  # a file: loaded (and its texel warnings given) once per process
         sun = _sun_strength(rng, config)
         env = _file_environment(str(env_file(pick)), config.env_width, sun)
@@ -50,17 +49,10 @@ def _sun_strength(rng, config: GeneratorConfig) -> float:
     return 0.0 if float(rng.random()) < f else 1.0
 
 
-def _quietly(load, spec: EnvironmentSpec) -> np.ndarray:
-    """``load(spec)`` without scale_sun's warning for a map with no compact light (the training
-    HDRIs mostly have none: sunless is then the map itself, which is what is wanted)."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=".*no compact sun found.*")
-        return load(spec)
-
 
 @functools.lru_cache(maxsize=8)
 def _file_environment(path: str, width: int, sun_strength: float = 1.0) -> np.ndarray:
-    env = _quietly(load_environment, EnvironmentSpec(path=path, width=width,
-                                                     sun_strength=sun_strength))
+    # a map without a compact light is sunless already: scale_sun says so once per file
+    env = load_environment(EnvironmentSpec(path=path, width=width, sun_strength=sun_strength))
     env.setflags(write=False)
     return env

@@ -12,11 +12,12 @@
                   [--compare-students]
     relight train --stage shadow_net --data DIR [--shadow-extra-data DIR ...]
                   [--shadow-val-data DIR ...] [--shadow-degrade L,L] [--shadow-geometry G]
-    relight data OUT --preset truth-train|heldout-kinds|heldout-env|shadow-extra|shadow-val
+    relight data OUT --preset truth-train|heldout-kinds|heldout-env|shadow-extra|shadow-val|shadow-blocks|shadow-blocks-val
                  [--count N] [--size S] [--spp N] [--seed N]
     relight data OUT --protocol [--count N] [--size S] [--spp N] [--seed N]
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
+    relight eval DATA --factors [--split val] [--weights NAME=FILE ...]
     relight eval DATA --protocol [--seeds 0,1,2] [--degrade LEVEL] [--student-steps N]
                  [--weights NAME=FILE]
     relight graph [SCENE.toml] [--then KEY=VALUE] [--dot FILE] [--json]
@@ -271,7 +272,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "samples); heldout-env: the training scene kinds under a held-out "
                         "environment (40 samples); shadow-extra / shadow-val: the shadow "
                         "estimator's extra training (160) / second validation (60) scenes under "
-                        "training HDRIs - learned/data/presets.py")
+                        "training HDRIs; shadow-blocks / shadow-blocks-val: made objects (boxes, "
+                        "panels, pipes, arches) for it, 160 / 40 - learned/data/presets.py")
     p.add_argument("--count", type=_positive_int, metavar="N",
                    help="samples (default the preset's; fewer: its first N samples)")
     p.add_argument("--size", type=_positive_int, metavar="S",
@@ -292,8 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("eval", help="PSNR / SSIM / HDR-FLIP of every model on held-out samples")
     p.add_argument("data", help="dataset root (FFHQ256-PBR layout with targets)")
-    p.add_argument("--split", default="test",
-                   help="train | val | test (default) | all (a held-out dataset: every sample)")
+    p.add_argument("--split", default=None,
+                   help="train | val | test (default; --factors: val) | all (a held-out dataset: "
+                        "every sample)")
     p.add_argument("--teacher-samples", type=int, default=128)
     p.add_argument("--limit", type=int, help="at most this many samples")
     p.add_argument("--weights", action="append", default=[], metavar="NAME=FILE",
@@ -307,6 +310,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also break the means down by the samples' scene kind or environment "
                         "(meta.json), one row per group and model; group 'all' is every sample")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--factors", action="store_true",
+                   help="instead of scoring: what each student learned, the means of its "
+                        "split-sum corrections (1 = ggx_split_sum) and its bounce gain's "
+                        "percentiles over the split's surfaces (the shipped student, or each "
+                        "--weights; learned/factors.py)")
     p.add_argument("--protocol", action="store_true",
                    help="the evaluation protocol on a protocol dataset (relight data OUT "
                         "--protocol): students of --seeds trained on train, the strongest "

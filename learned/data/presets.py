@@ -17,7 +17,11 @@ in one place (``relight data OUT --preset NAME``; ``relight train --targets refe
   (:data:`SHADOW_EXTRA_ENV_PATHS`: bridge, dawn, night, sunrise, venice);
 - ``shadow-val``: a second validation set for the estimator's design choices
   (``--shadow-val-data``): the same recipe, 60 samples, seed 400, every one in the val split,
-  under three other training HDRIs (:data:`SHADOW_VAL_ENV_PATHS`: city, forest, sunset).
+  under three other training HDRIs (:data:`SHADOW_VAL_ENV_PATHS`: city, forest, sunset);
+- ``shadow-blocks`` / ``shadow-blocks-val``: made objects for the estimator (the ``blocks``
+  kind: boxes of any proportions, thin standing panels, open pipes, arches) with shadow-extra's
+  recipe under its five HDRIs (160 train samples, seed 302) and with shadow-val's under its
+  three (40 val samples, seed 402).
 
 None of the eight training HDRIs (assets/environments/training/README.md) lights a protocol split
 (learned.protocol.data: val esplanade, test park) or another preset, and the two shadow presets
@@ -82,9 +86,20 @@ def shadow_val() -> GeneratorConfig:
                    split="val")
 
 
+def shadow_blocks() -> GeneratorConfig:
+    # made objects (the "blocks" kind) under shadow-extra's five HDRIs, seed 302
+    return replace(shadow_extra(), seed=302, scene_kinds=("blocks",))
+
+
+def shadow_blocks_val() -> GeneratorConfig:
+    # the same kind under shadow-val's three HDRIs, seed 402, 40 samples
+    return replace(shadow_val(), count=40, seed=402, scene_kinds=("blocks",))
+
+
 # name -> its configuration (relight data --preset NAME)
 PRESETS = {"truth-train": truth_train, "heldout-kinds": heldout_kinds, "heldout-env": heldout_env,
-           "shadow-extra": shadow_extra, "shadow-val": shadow_val}
+           "shadow-extra": shadow_extra, "shadow-val": shadow_val,
+           "shadow-blocks": shadow_blocks, "shadow-blocks-val": shadow_blocks_val}
 # the fields an override may change (relight data's --count, --size, --spp, --seed, --sunless)
 OVERRIDABLE = ("count", "size", "reference_spp", "seed", "sunless_fraction")
 

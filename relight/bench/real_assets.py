@@ -74,7 +74,9 @@ ASSETS: tuple[tuple[str, str], ...] = (
 FLOOR = "slab"
 DEFAULT_SIZE = (160, 120)
 DEFAULT_SPP = 256
-QUICK = (("cge_plasma_gun",), ("lobby",), 64)  # assets, environments, spp of --quick
+# assets, environments, spp of --quick: the gun under lobby (no sun) and under sky with its sun
+# and without it (three scenes: every kind of lighting the full matrix judges)
+QUICK = (("cge_plasma_gun",), ("lobby", "sky"), 64)
 SUNLESS = "-nosun"  # the name suffix of an HDRI's variant without its compact sun
 SCREEN = {"raytrace": False, "ssao": True, "indirect": True}  # screen-space visibility evidence
 
@@ -311,7 +313,8 @@ def main(argv=None) -> int:
     p.add_argument("--spp", type=int, help=f"truth samples per pixel (default {DEFAULT_SPP}; "
                    f"--quick {QUICK[2]})")
     p.add_argument("--size", help=f"WxH (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})")
-    p.add_argument("--quick", action="store_true", help="one asset under one HDRI, 64 spp")
+    p.add_argument("--quick", action="store_true", help="one asset under lobby and sky (with its "
+                   "sun and without), 64 spp")
     p.add_argument("-q", "--quiet", action="store_true")
     a = p.parse_args(argv)
     from relight.commands.common import _parse_size

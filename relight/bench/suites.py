@@ -176,7 +176,8 @@ def _suite_shadow_net(renderer, scenes, config, cache) -> list[dict]:
 def _suite_real_assets(renderer, scenes, config, cache) -> list[dict]:
     """Issue 38's real-asset criterion: every bundled glTF on a floor under every bundled HDRI,
     the student and split-sum with the same visibility against path-traced truth, with a verdict
-    per row (:mod:`relight.bench.real_assets`; ``--quick``: one scene). Traces its truth once
+    per row (:mod:`relight.bench.real_assets`; ``--quick``: the gun under lobby and under sky
+    with and without its sun). Traces its truth once
     (5.5 minutes for the whole run on two shared cores), then reads it from the cache."""
     from .real_assets import suite_rows
 

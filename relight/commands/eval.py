@@ -13,6 +13,8 @@ def cmd_eval(args) -> int:
     """PSNR, SSIM and HDR-FLIP of every model against the Monte-Carlo targets of a split, or
     (``--protocol``) the evaluation protocol (:mod:`learned.protocol.run`)."""
     if getattr(args, "protocol", False):
+        if getattr(args, "factors", False):
+            raise RelightError("--factors and --protocol are two different runs", where="--factors")
         return _protocol(args)
     for flag, value in (("--degrade", getattr(args, "degrade", 0.0)),
                         ("--student-steps", getattr(args, "student_steps", None))):
@@ -30,7 +32,9 @@ def cmd_eval(args) -> int:
     for path in (args.teacher_weights, args.shadow_weights):
         if path is not None and not Path(path).is_file():
             raise RelightError("weights file not found", where=path)
-    rows = ev.evaluate(args.data, split=args.split, teacher_samples=args.teacher_samples,
+    if getattr(args, "factors", False):
+        return _factors(args, students)
+    rows = ev.evaluate(args.data, split=args.split or "test", teacher_samples=args.teacher_samples,
                        limit=args.limit, students=students, by=args.by,
                        teacher_weights=args.teacher_weights, shadow_weights=args.shadow_weights)
     if args.json:
@@ -61,4 +65,16 @@ def _protocol(args) -> int:
                              level=float(args.degrade), shipped=shipped, **kw)
     report = run.run_protocol(cfg)
     print(json.dumps(report, indent=1) if args.json else run.format_report(report))
+    return 0
+
+
+def _factors(args, students: dict) -> int:
+    """``relight eval DATA --factors``: the statistics of each student's corrections
+    (:mod:`learned.factors`); the shipped student without ``--weights``."""
+    from viewer.neural import default_weights
+
+    factors = _learned("learned.factors")
+    students = students or {"shipped": str(default_weights("student"))}
+    rows = factors.student_factors(args.data, args.split or "val", students, args.limit)
+    print(json.dumps(rows, indent=1) if args.json else factors.format_factors(rows))
     return 0

@@ -16,7 +16,7 @@ from learned.data import generator as gen
 from learned.data.generator import GeneratorConfig
 from viewer.geometry.loaders import load_mesh
 
-NEW_KINDS = ("cluster", "concave", "gltf", "nested")
+NEW_KINDS = ("cluster", "concave", "gltf", "nested", "blocks")
 
 
 def _sample(root, index):
@@ -93,7 +93,8 @@ def test_new_kinds_rest_on_the_floor_without_intersecting(kind, files):
     for i in range(8):
         scene = gen.kind_scene(kind, np.random.default_rng([5, i]), cfg, meshes, shapes)
         floor_y, bodies = _bodies(scene)
-        assert len(bodies) >= {"cluster": 2, "concave": 1, "gltf": 1, "nested": 2}[kind]
+        assert len(bodies) >= {"cluster": 2, "concave": 1, "gltf": 1, "nested": 2,
+                               "blocks": 2}[kind]
         for k, b in enumerate(bodies):
             low = b[1][1] - b[2] if b[0] == "sphere" else b[1][..., 1].min()
             if kind == "nested" and k == 1:  # in a bowl or a box: resting on it, not the floor
@@ -105,13 +106,54 @@ def test_new_kinds_rest_on_the_floor_without_intersecting(kind, files):
             for q in range(p + 1, len(bodies)):
                 gaps[p, q] = gaps[q, p] = _gap(bodies[p], bodies[q])
         assert gaps.min() > -2e-3, (kind, i, gaps)
-        if kind in ("cluster", "gltf") and len(bodies) > 1:
+        if kind in ("cluster", "gltf") and len(bodies) > 1:  # blocks: placed by their footprint
+            # circles, which a panel or a pipe fills little of
             assert gaps.min(1).max() < 0.45, (kind, i, gaps)
         if kind == "nested":
             assert gaps[0, 1] < 0.01, (i, scene["objects"][0]["path"], gaps[0, 1])
         touching += int((gaps < 1e-6).sum())
     if kind == "cluster":
         assert touching > 0
+
+
+def test_blocks_draw_every_made_shape_with_flat_faces(files):
+    """Over 24 scenes the blocks kind draws every shape of BLOCK_SHAPES and every box form: a
+    thin panel standing (one horizontal extent under 0.1, its height over 0.35) among them.
+    A box's faces are flat (its loaded normals take exactly the six axis directions of its
+    linear map), and a pipe is open: no vertex comes within 0.4 of its radius of its axis (its
+    wall is 0.42-0.5; a closed end would put vertices on the axis)."""
+    meshes, shapes = files
+    cfg = GeneratorConfig(scene_kinds=("blocks",))
+    seen, panels = set(), 0
+    for i in range(24):
+        scene = gen.kind_scene("blocks", np.random.default_rng([6, i]), cfg, meshes, shapes)
+        for o in scene["objects"]:
+            if o["type"] != "mesh":
+                continue
+            name = o["path"].rsplit("block_", 1)[1].split(".")[0]
+            seen.add(name)
+            t = np.array(o["transform"])
+            ms = load_mesh(o["path"], transform=t)
+            if name == "box":
+                lin = t[:3, :3]
+                axes = np.linalg.inv(lin).T
+                axes /= np.linalg.norm(axes, axis=0)
+                dirs = np.concatenate([axes.T, -axes.T])
+                n = ms[0].normals
+                assert np.abs(n @ dirs.T).max(1).min() > 1 - 1e-5
+                ext = np.linalg.norm(lin, axis=0)  # the box's extents (yaw only, no pitch)
+                if min(ext[0], ext[2]) < 0.1 and ext[1] > 0.35:
+                    panels += 1
+            if name == "tube":
+                p = ms[0].positions.astype(np.float64)
+                axis = t[:3, :3] @ np.array([0.0, 0.0, 1.0])
+                r = float(np.linalg.norm(t[:3, 0]))
+                axis /= np.linalg.norm(axis)
+                d = p - t[:3, 3]
+                radial = np.linalg.norm(d - np.outer(d @ axis, axis), axis=1)
+                assert radial.min() > 0.4 * r, (i, "the pipe is closed along its axis")
+    assert seen == set(gen.BLOCK_SHAPES)
+    assert panels > 0
 
 
 def test_new_kinds_are_deterministic_and_leave_old_kinds_alone(files):
@@ -131,7 +173,7 @@ def test_new_kinds_are_deterministic_and_leave_old_kinds_alone(files):
 
 
 # ---- truth: visibility matters, glTF textures in both paths -------------------------------------
-TRUTH = GeneratorConfig(count=4, size=32, samples=128, seed=4, env_width=32,
+TRUTH = GeneratorConfig(count=len(NEW_KINDS), size=32, samples=128, seed=4, env_width=32,
                         env_procedural=("studio",), scene_kinds=NEW_KINDS, targets="reference",
                         reference_spp=32, reference_depth=4)
 
@@ -141,7 +183,7 @@ def truth(tmp_path_factory, generate_data, mitsuba_llvm):
     root = tmp_path_factory.mktemp("kinds") / "d"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        assert generate_data(root, TRUTH)["written"] == 4
+        assert generate_data(root, TRUTH)["written"] == len(NEW_KINDS)
     return root, [str(w.message) for w in caught]
 
 

@@ -117,3 +117,60 @@ def test_eval_scores_a_given_teacher_and_the_teacher_times_shadow(dataset, tmp_p
     old = {(row["model"], row["variant"]): row for row in shipped}[("neural_teacher", "64 spp env")]
     assert old["psnr"] != glsl["psnr"]  # the given file, not the shipped one
     assert abs((1 + two["bias"]) / (1 + glsl["bias"]) - 1) < 0.05, (two, glsl)
+
+
+def _split_student(path, b_direct: float, b_indirect: float):
+    """A split3 student with the shipped student's parts whose every output is a constant: its
+    last layers' weights zero, their biases ``b_direct`` on k_b alone (k_d, k_a stay at
+    sigmoid(0)) and ``b_indirect`` on the bounce gain."""
+    from learned.export import export
+    from learned.neural.student import Student
+
+    s = Student(hidden=(8, 8), features="ssao", output="split3", indirect="factor", sun=True,
+                multiscatter=True)
+    with torch.no_grad():
+        s.layers[-1].bias[2] = b_direct
+        s.indirect_layers[-1].bias[0] = b_indirect
+    export(s, path)
+    return path
+
+
+def test_eval_factors_reports_a_students_corrections(dataset, tmp_path, ctx, capsys):
+    """``relight eval DATA --factors``: over the split's surface pixels the mean of each
+    correction S k and the bounce gain's percentiles; for students whose outputs are constants
+    these are 2 sigmoid(bias) exactly (1 where the bias is 0: ggx_split_sum), on every pixel.
+    A free6 student is refused in one line."""
+    from learned.factors import student_factors
+    from viewer.renderer import Renderer
+
+    a = _split_student(tmp_path / "a.safetensors", 0.0, 0.0)
+    b = _split_student(tmp_path / "b.safetensors", -1.0, 0.7)
+    r = Renderer(ctx=ctx)
+    try:
+        rows = student_factors(str(dataset), "val", {"a": str(a), "b": str(b)}, renderer=r)
+    finally:
+        r.release()
+    ra, rb = rows
+    assert ra["pixels"] == rb["pixels"] > 50
+    two_sig = lambda x: 2.0 / (1.0 + np.exp(-x))  # noqa: E731
+    assert [ra[k] for k in ("k_d", "k_a", "k_b", "k_i")] == pytest.approx([1, 1, 1, 1], abs=1e-6)
+    assert ra["k_i_above_1"] == 0.0
+    assert [rb["k_d"], rb["k_a"]] == pytest.approx([1, 1], abs=1e-6)
+    assert rb["k_b"] == pytest.approx(two_sig(-1.0), abs=1e-6)
+    for key in ("k_i", "k_i_p10", "k_i_p50", "k_i_p90"):
+        assert rb[key] == pytest.approx(two_sig(0.7), abs=1e-6)
+    assert rb["k_i_above_1"] == 1.0
+
+    from relight.cli import main
+
+    assert main(["eval", str(dataset), "--factors", "--weights", f"b={b}"]) == 0
+    out = capsys.readouterr().out
+    assert "k_b" in out and f"{two_sig(0.7):.4f}" in out and f"{two_sig(-1.0):.4f}" in out
+    from learned.export import export
+    from learned.neural.student import Student
+
+    export(Student(hidden=(4,)), tmp_path / "free6.safetensors")
+    assert main(["eval", str(dataset), "--factors", "--weights",
+                 f"f={tmp_path / 'free6.safetensors'}"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "free6" in err[0]

@@ -15,7 +15,7 @@ from relight.cli import build_parser, main
 from relight.commands import _data_config, _truth_config
 
 # the configurations in dataset.json of the stored sets (runs/truth2, runs/heldout-kinds,
-# runs/heldout-env; count aside), as JSON: a preset that drifts from them (a changed default of
+# runs/heldout-env, runs/shadow-*; count aside), as JSON: a preset that drifts from them (a changed default of
 # GeneratorConfig included) no longer regenerates those sets
 _COMMON = {"size": 64, "samples": 256, "env_width": 128, "meshes": True, "gbuffer_fraction": 0.0,
            "gbuffers": [], "targets": "reference", "reference_spp": 256, "reference_depth": 4,
@@ -45,6 +45,17 @@ STORED = {
         "env_procedural": [], "split": "train"},
     "shadow-val": _COMMON | {
         "count": 60, "size": 96, "reference_spp": 64, "seed": 400, "scene_kinds": _TRUTH_KINDS,
+        "env_paths": [f"assets/environments/training/{n}.exr"
+                      for n in ("city", "forest", "sunset")],
+        "env_procedural": [], "split": "val"},
+    # made objects for the estimator (runs/shadow-blocks, runs/shadow-blocks-val)
+    "shadow-blocks": _COMMON | {
+        "count": 160, "size": 96, "reference_spp": 64, "seed": 302, "scene_kinds": ["blocks"],
+        "env_paths": [f"assets/environments/training/{n}.exr"
+                      for n in ("bridge", "dawn", "night", "sunrise", "venice")],
+        "env_procedural": [], "split": "train"},
+    "shadow-blocks-val": _COMMON | {
+        "count": 40, "size": 96, "reference_spp": 64, "seed": 402, "scene_kinds": ["blocks"],
         "env_paths": [f"assets/environments/training/{n}.exr"
                       for n in ("city", "forest", "sunset")],
         "env_procedural": [], "split": "val"},

@@ -68,6 +68,7 @@ models), ``scenes`` (the scene dict of each kind), ``environments`` (:func:`rand
 as geometry) and ``write`` (:func:`generate` and one sample).
 """
 from .config import (
+    BLOCK_SHAPES,
     CONCAVE_SHAPES,
     ENVIRONMENTS,
     FORMAT,
@@ -98,7 +99,7 @@ from .config import _env_identity  # noqa: F401
 from .shapes import _mesh_files, _shape_files  # noqa: F401
 
 __all__ = [
-    "CONCAVE_SHAPES", "ENVIRONMENTS", "FORMAT", "GLTF_MODELS", "HELD_OUT_ENV_PATHS",
+    "BLOCK_SHAPES", "CONCAVE_SHAPES", "ENVIRONMENTS", "FORMAT", "GLTF_MODELS", "HELD_OUT_ENV_PATHS",
     "HELD_OUT_KINDS", "PROCEDURAL_ENVIRONMENTS", "SCENE_KINDS", "SPLIT_PATTERN", "TARGETS",
     "TRUTH_ENV_PATHS", "TRUTH_KINDS", "GeneratorConfig", "check_config", "degrade_inputs",
     "env_file", "generate", "held_out_config", "kind_scene", "perturb_materials",

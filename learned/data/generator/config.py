@@ -57,9 +57,12 @@ TARGETS = ("rasteriser", "reference")
 # (CONCAVE_SHAPES: a bowl, an open box, a room corner of two walls, a torus lying flat: self-
 # occlusion and inter-reflection); "gltf": 1-3 textured glTF models (GLTF_MODELS) and spheres on a
 # floor (textures through both the rasteriser and the tracer); "nested": a concave mesh with a
-# sphere resting inside it (in the bowl, the box, the corner, the torus's hole)
+# sphere resting inside it (in the bowl, the box, the corner, the torus's hole); "blocks": 2-5
+# boxes of any proportions (cubes, slabs, posts, thin standing panels), open pipes lying or
+# standing and arches, sometimes a sphere, resting on a floor (BLOCK_SHAPES: the flat faces,
+# sharp edges, thin walls and tunnels of made objects, none of which the other kinds have)
 SCENE_KINDS = ("random", "convex", "sphere_on_plane", "touching_spheres", "cluster", "concave",
-               "gltf", "nested")
+               "gltf", "nested", "blocks")
 # the kinds of `relight train --targets reference`: a third random scenes, the rest scenes where
 # visibility and inter-reflection matter
 TRUTH_KINDS = ("random", "sphere_on_plane", "cluster", "random", "touching_spheres", "concave",
@@ -68,6 +71,7 @@ TRUTH_KINDS = ("random", "sphere_on_plane", "cluster", "random", "touching_spher
 # nested scenes (a sphere inside a concave mesh)
 HELD_OUT_KINDS = ("nested", "convex")
 CONCAVE_SHAPES = ("bowl", "open_box", "corner", "ring")
+BLOCK_SHAPES = ("box", "tube", "arch")
 GLTF_MODELS = ("vase", "crate")
 # the real HDRIs (assets/environments: small, very bright suns), repository-relative; the
 # training truth sees sky and park, the held-out sets esplanade

@@ -12,7 +12,7 @@ import numpy as np
 from viewer.geometry.loaders import load_mesh
 
 from ..reader import DatasetError
-from .config import CONCAVE_SHAPES, GLTF_MODELS, SCENE_KINDS, GeneratorConfig
+from .config import BLOCK_SHAPES, CONCAVE_SHAPES, GLTF_MODELS, SCENE_KINDS, GeneratorConfig
 from .shapes import _nested_spot
 
 
@@ -188,6 +188,48 @@ def _concave_scene(kind: str, rng, config: GeneratorConfig, shapes: dict[str, Pa
     return {"camera": _camera(fov, config.size), "objects": objects}
 
 
+def _block_body(rng, shapes: dict[str, Path]) -> dict:
+    """One body of the "blocks" kind: a unit shape of :data:`BLOCK_SHAPES` under a random yaw
+    and scale. A box is a cube, a slab, a post or a thin panel standing on an edge (half its
+    bodies); a pipe lies or stands (a third); an arch stands."""
+    shape = BLOCK_SHAPES[int(rng.choice(len(BLOCK_SHAPES), p=(0.5, 0.25, 0.25)))]
+    yaw = _yaw(float(rng.uniform(0, 2 * math.pi)))
+    u = rng.uniform
+    if shape == "box":
+        form = int(rng.integers(0, 4))
+        if form == 0:  # a cube-ish block
+            dims = u(0.3, 0.8, 3)
+        elif form == 1:  # a slab lying
+            dims = (u(0.5, 1.3), u(0.04, 0.2), u(0.5, 1.3))
+        elif form == 2:  # a post
+            dims = (u(0.08, 0.3), u(0.6, 1.4), u(0.08, 0.3))
+        else:  # a thin panel standing on its long edge
+            dims = (u(0.4, 1.2), u(0.4, 1.0), u(0.02, 0.08))
+        linear = yaw @ np.diag([float(d) for d in dims])
+    elif shape == "tube":
+        r, length = float(u(0.3, 0.7)), float(u(0.6, 1.8))
+        lie = np.eye(3) if rng.random() < 2 / 3 else _pitch(-math.pi / 2)
+        linear = yaw @ lie @ np.diag([r, r, length * r])
+    else:
+        linear = yaw @ np.diag([float(u(0.6, 1.2)), float(u(0.5, 1.0)), float(u(0.3, 1.0))])
+    return {"path": shapes[f"block_{shape}"], "linear": linear}
+
+
+def _blocks_scene(rng, config: GeneratorConfig, shapes: dict[str, Path]) -> dict:
+    """"blocks": 2-5 bodies of :func:`_block_body` (a sixth of them spheres) resting on a floor,
+    touching or close to each other."""
+    floor_y = float(rng.uniform(-1.1, -0.7))
+    cx, cz = float(rng.uniform(-0.4, 0.4)), float(rng.uniform(-4.4, -3.6))
+    fov = float(rng.uniform(35.0, 50.0))
+    bodies = [{"radius": float(rng.uniform(0.15, 0.4))} if k and rng.random() < 1 / 6
+              else _block_body(rng, shapes) for k in range(int(rng.integers(2, 6)))]
+    where = _place(rng, bodies, cx, cz)
+    objects = [_resting(b, *xz, floor_y, _material(rng)) for b, xz in zip(bodies, where)
+               if xz is not None]
+    objects.append(_floor(floor_y, _material(rng)))
+    return {"camera": _camera(fov, config.size), "objects": objects}
+
+
 def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
     """A scene dict (``viewer.scene.description.scene_from_dict`` format) without its environment."""
     objects = []
@@ -218,14 +260,16 @@ def random_scene(rng, config: GeneratorConfig, meshes: dict[str, Path]) -> dict:
 def kind_scene(kind: str, rng, config: GeneratorConfig, meshes: dict[str, Path],
                shapes: dict[str, Path] | None = None) -> dict:
     """The scene dict of sample kind ``kind`` (:data:`SCENE_KINDS`), without its environment.
-    ``shapes``: the concave shapes and glTF models (:func:`.shapes._shape_files`) the kinds
-    cluster, concave, gltf and nested draw from."""
+    ``shapes``: the concave shapes, block shapes and glTF models (:func:`.shapes._shape_files`)
+    the kinds cluster, concave, gltf, nested and blocks draw from."""
     if kind == "random":
         return random_scene(rng, config, meshes)
-    if kind in ("cluster", "gltf", "concave", "nested"):
+    if kind in ("cluster", "gltf", "concave", "nested", "blocks"):
         if kind != "cluster" and not shapes:
             raise DatasetError(f"scene kind {kind!r} needs the generator's shape files "
                                "(_shape_files)", where="scene_kinds")
+        if kind == "blocks":
+            return _blocks_scene(rng, config, shapes)
         if kind in ("cluster", "gltf"):
             return _cluster_scene(kind, rng, config, meshes, shapes or {})
         return _concave_scene(kind, rng, config, shapes)

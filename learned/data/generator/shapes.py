@@ -1,6 +1,6 @@
 """The mesh files the generator's scenes draw from, written once into the dataset's ``_meshes``
-cache: the random scenes' trimesh primitives (:func:`_mesh_files`), and the concave shapes and
-textured glTF models of the visibility scene kinds (:func:`_shape_files`), with where a sphere
+cache: the random scenes' trimesh primitives (:func:`_mesh_files`), and the concave shapes, the
+blocks kind's unit shapes and the textured glTF models of the visibility scene kinds (:func:`_shape_files`), with where a sphere
 rests inside each concave shape (:func:`_nested_spot`)."""
 from __future__ import annotations
 
@@ -93,6 +93,28 @@ def _ring() -> trimesh.Trimesh:
 
 
 _CONCAVE_MAKERS = {"bowl": _bowl, "open_box": _open_box, "corner": _corner, "ring": _ring}
+
+
+# the "blocks" kind's unit shapes (BLOCK_SHAPES), scaled per body by the scene (non-uniformly:
+# a cube, a slab, a post or a thin standing panel from the one box); shaded smooth with the
+# creases split (flat box faces, round tube walls)
+def _block_box() -> trimesh.Trimesh:
+    return trimesh.creation.box((1.0, 1.0, 1.0)).smooth_shaded
+
+
+def _block_tube() -> trimesh.Trimesh:
+    """An open pipe along z: outer radius 0.5, wall 0.08, length 1 (one looks into it)."""
+    return trimesh.creation.annulus(0.42, 0.5, 1.0, sections=48).smooth_shaded
+
+
+def _block_arch() -> trimesh.Trimesh:
+    """Two legs and a lintel (1 wide, 1 tall, 0.5 deep): a tunnel half its width."""
+    return _boxes([((0.25, 0.75, 0.5), (-0.375, 0.375, 0.0)),
+                   ((0.25, 0.75, 0.5), (0.375, 0.375, 0.0)),
+                   ((1.0, 0.25, 0.5), (0.0, 0.875, 0.0))]).smooth_shaded
+
+
+_BLOCK_MAKERS = {"box": _block_box, "tube": _block_tube, "arch": _block_arch}
 
 
 def _nested_spot(shape: str, rng) -> tuple[np.ndarray, float]:
@@ -207,10 +229,14 @@ def _gltf_model(kind: str, path: Path) -> None:
 
 
 def _shape_files(cache: Path, rank: int = 0) -> dict[str, Path]:
-    """The concave shapes (``concave_<name>.obj``, OBJ: double-sided) and the textured glTF
-    models (``gltf_<name>.glb``) of the new scene kinds, written once into the mesh cache."""
+    """The concave shapes (``concave_<name>.obj``, OBJ: double-sided), the blocks kind's unit
+    shapes (``block_<name>.obj``, keys ``block_<name>``) and the textured glTF models
+    (``gltf_<name>.glb``) of the new scene kinds, written once into the mesh cache."""
     cache.mkdir(parents=True, exist_ok=True)
     out = {}
+    for name, make in _BLOCK_MAKERS.items():
+        out[f"block_{name}"] = _cached_file(cache, f"block_{name}.obj",
+                                            lambda p, make=make: make().export(p), rank)
     for name, make in _CONCAVE_MAKERS.items():
         out[name] = _cached_file(cache, f"concave_{name}.obj",
                                  lambda p, make=make: make().export(p), rank)

@@ -78,7 +78,7 @@ def generate(root: str | os.PathLike, config: GeneratorConfig = GeneratorConfig(
     os.replace(tmp_info, info_path)
     meshes = _mesh_files(root / "_meshes", rank) if config.meshes else {}
     shapes = (_shape_files(root / "_meshes", rank)
-              if set(config.scene_kinds) & {"cluster", "concave", "gltf", "nested"} else {})
+              if set(config.scene_kinds) & {"cluster", "concave", "gltf", "nested", "blocks"} else {})
     mine = [i for i in range(config.count) if shard_of(i, rank, world)]
     own = renderer is None
     renderer = renderer or Renderer()

@@ -113,6 +113,7 @@ def _write(path, tensors, meta):
     ("version", "format version '9' is not supported"),
     ("architecture", "bad architecture metadata"),
     ("gain", "bad architecture metadata .*gain 9.0 is not a number in 1.0..4.0"),
+    ("upsample", "bad architecture metadata .*upsample 'cubic' is not one of nearest, bilinear"),
     ("shape", "tensor 'enc2.weight' is float32\\[12, 12, 3, 1\\], expected float32\\[12, 12, 3, 3\\]"),
     ("nan", "tensor 'dec3.bias' has NaN/Inf values"),
     ("missing_tensor", "missing tensor 'out.bias'"),
@@ -132,6 +133,8 @@ def test_a_bad_weights_file_is_one_line_naming_it(tmp_path, damage, message):
         meta["architecture"] = json.dumps({"levels": 5, "widths": [8, 8]})
     elif damage == "gain":
         meta["architecture"] = json.dumps({**DEFAULT_ARCHITECTURE, "gain": 9.0})
+    elif damage == "upsample":
+        meta["architecture"] = json.dumps({**DEFAULT_ARCHITECTURE, "upsample": "cubic"})
     elif damage == "shape":
         tensors["enc2.weight"] = tensors["enc2.weight"][..., :1].copy()
         meta = metadata(DEFAULT_ARCHITECTURE, tensors)

@@ -6,6 +6,8 @@ The estimator (thesis eq. 4.3, redesigned for the viewer) is a U-Net over the fr
     e_l = relu(conv3(relu(conv2/2(e_{l-1}))))                    l = 1..L at 1 / 2^l
     d_l = relu(conv_k([up(d_{l+1}), e_l]))                       l = L-1..1 (d_L = e_L), k = 3
                                                                  (1 at l = 1), nearest up
+                                                                 (``"upsample": "bilinear"``:
+                                                                 bilinear into d_1)
     V   = g sigmoid(conv1([bilinear_up(d_1), x0]))               full resolution, 3 channels
 
 and the shading is multiplied by V where there is a surface (the product form). The gain g
@@ -20,7 +22,10 @@ the ~100 px penumbrae of Neural Shadow Mapping's 5-level table).
 The file is safetensors with float32 tensors ``<layer>.weight`` ``[out, in, k, k]`` and
 ``<layer>.bias`` ``[out]`` (the layers of :func:`plan`; input channels: the first source's then
 the skip's) and string metadata ``format`` = :data:`FORMAT`, ``version`` = :data:`FORMAT_VERSION`,
-``architecture`` (JSON ``{"levels": L, "widths": [C_1 .. C_L]}``, optionally ``"gain": g``), ``checkpoint`` (sha256 of the
+``architecture`` (JSON ``{"levels": L, "widths": [C_1 .. C_L]}``, optionally ``"gain": g``,
+``"env_visibility": false`` and ``"upsample": "bilinear"``: the 1 x 1 decoder at half resolution
+reads the level below bilinear-upsampled, not nearest, so that V shows no blocks of the coarse
+levels), ``checkpoint`` (sha256 of the
 tensors, :func:`viewer.neural.checkpoint_hash`) and ``training`` (JSON, free form).
 :func:`read_shadow_net` validates all of it; every problem is one :class:`WeightsError` line
 naming the file. :func:`pack_layer` lays a layer's weights out as the ``vec4`` array its pass
@@ -55,6 +60,9 @@ WIDTH_MAX = 64
 GAIN_RANGE = (1.0, 4.0)  # the output's V in (0, g): g = 1 a visibility, above it also a gain
 UBO_VEC4_MAX = 4096  # 64 KiB: GL_MAX_UNIFORM_BLOCK_SIZE on llvmpipe and most GPUs
 DEFAULT_ARCHITECTURE = {"levels": 5, "widths": [8, 12, 16, 24, 32]}
+# how the last decoder (1 x 1, half resolution) reads the level below ("upsample"; the others,
+# 3 x 3, read it nearest: the pass samples bilinear for 1 x 1 kernels only)
+UPSAMPLES = ("nearest", "bilinear")
 
 # sources of a layer's inputs (SN_A_SOURCE / SN_B_SOURCE of passes/shadow_net_conv.comp)
 SOURCE_NONE, SOURCE_MAP, SOURCE_NEAREST_UP, SOURCE_BILINEAR_UP, SOURCE_FRAME = 0, 1, 2, 3, 4
@@ -130,6 +138,8 @@ def check_architecture(arch: dict) -> tuple[int, list[int]]:
         raise ValueError(f"gain {gain!r} is not a number in {GAIN_RANGE[0]}..{GAIN_RANGE[1]}")
     if not isinstance(arch.get("env_visibility", True), bool):
         raise ValueError(f"env_visibility {arch['env_visibility']!r} is not true or false")
+    if arch.get("upsample", "nearest") not in UPSAMPLES:
+        raise ValueError(f"upsample {arch['upsample']!r} is not one of {', '.join(UPSAMPLES)}")
     return levels, list(widths)
 
 
@@ -153,8 +163,10 @@ def plan(arch: dict) -> list[Layer]:
         layers.append(Layer(f"enc{lv}", lv, 3, 1, f"down{lv}", SOURCE_MAP, c[lv], None,
                             SOURCE_NONE, 0, c[lv], ACT_RELU))
     coarse = f"enc{levels}"
+    up1 = SOURCE_BILINEAR_UP if arch.get("upsample") == "bilinear" else SOURCE_NEAREST_UP
     for lv in range(levels - 1, 0, -1):
-        layers.append(Layer(f"dec{lv}", lv, 3 if lv > 1 else 1, 1, coarse, SOURCE_NEAREST_UP,
+        layers.append(Layer(f"dec{lv}", lv, 3 if lv > 1 else 1, 1, coarse,
+                            up1 if lv == 1 else SOURCE_NEAREST_UP,
                             c[lv + 1], f"enc{lv}", SOURCE_MAP, c[lv], c[lv], ACT_RELU))
         coarse = f"dec{lv}"
     layers.append(Layer("out", 0, 1, 1, coarse, SOURCE_BILINEAR_UP, c[1], "input", SOURCE_FRAME,

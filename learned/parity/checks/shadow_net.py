@@ -48,7 +48,7 @@ SIZE = (75, 53)
 LAYER_ATOL, LAYER_RTOL = 2e-5, 1e-4
 NET_ATOL, NET_RTOL = 2e-5, 1e-4
 # the default layers with a gain, so that SN_GAIN is exercised (g = 1 is the default's identity)
-PARITY_ARCHITECTURE = {**DEFAULT_ARCHITECTURE, "gain": 1.5}
+PARITY_ARCHITECTURE = {**DEFAULT_ARCHITECTURE, "gain": 1.5, "upsample": "bilinear"}
 
 
 def parity_weights(folder: Path, seed: int = 7) -> Path:

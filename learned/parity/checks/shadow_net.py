@@ -2,7 +2,8 @@
 :mod:`learned.twins.shadow_net`, on the parity scene's frame at an odd size (75 x 53: every level
 has an odd side somewhere, so the replicated borders and the crops of the upsampling are
 exercised) with seeded random weights of the default architecture with an output gain of 1.5
-(``SN_GAIN``: V in (0, 1.5)).
+(``SN_GAIN``: V in (0, 1.5)) and the bilinear last decoder (``"upsample": "bilinear"``: dec1
+reads bilinear, dec2-4 nearest, so both upsampling sources are checked layer by layer).
 
 * ``shadow_net:layers`` - each layer alone: the twin of the layer on the maps GL left for its
   inputs, against the map GL wrote (the error of one layer, not the chain's).

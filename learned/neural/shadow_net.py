@@ -21,6 +21,7 @@ from torch import nn
 
 from viewer.neural.shadow_net import (
     DEFAULT_ARCHITECTURE,
+    demodulates,
     metadata,
     plan,
     read_shadow_net,
@@ -62,21 +63,31 @@ class ShadowNet(nn.Module):
     def params(self) -> dict:
         return {name: (self.weights[name], self.biases[name]) for name in self.weights}
 
-    def visibility(self, radiance, ao, normal, depth, vis, keep: dict | None = None
-                   ) -> torch.Tensor:
-        """``[B, 3|4, H, W]`` unshadowed radiance, ``[B, 1, H, W]`` O(x), ``[B, 3, H, W]``
-        normals, ``[B, 1, H, W]`` view depth, ``[B, 1, H, W]`` S(x) -> visibility
-        ``[B, 3, H, W]`` in (0, g) (g: the architecture's gain, 1 when absent)."""
-        return shadow_net(shadow_net_inputs(radiance, ao, normal, depth, vis), self.layers,
-                          self.params(), keep)
+    @property
+    def demodulates(self) -> bool:
+        """Whether it reads the radiance over the base colour (``"demodulate"``)."""
+        return demodulates(self.architecture)
 
-    def forward(self, radiance, ao, normal, depth, vis, surface) -> torch.Tensor:
+    def visibility(self, radiance, ao, normal, depth, vis, keep: dict | None = None,
+                   albedo=None) -> torch.Tensor:
+        """``[B, 3|4, H, W]`` unshadowed radiance, ``[B, 1, H, W]`` O(x), ``[B, 3, H, W]``
+        normals, ``[B, 1, H, W]`` view depth, ``[B, 1, H, W]`` S(x) (and ``[B, 3, H, W]`` base
+        colour ``albedo``: needed by an estimator that :attr:`demodulates`) -> visibility
+        ``[B, 3, H, W]`` in (0, g) (g: the architecture's gain, 1 when absent)."""
+        if self.demodulates and albedo is None:
+            raise ValueError("this estimator reads the radiance over the base colour "
+                             "(architecture \"demodulate\"): give the albedo")
+        inputs = shadow_net_inputs(radiance, ao, normal, depth, vis,
+                                   albedo if self.demodulates else None)
+        return shadow_net(inputs, self.layers, self.params(), keep)
+
+    def forward(self, radiance, ao, normal, depth, vis, surface, albedo=None) -> torch.Tensor:
         """The shaded radiance ``[B, 4, H, W]``: rgb times the visibility where ``surface``
         ``[B, 1, H, W]`` (bool) holds."""
         if radiance.shape[1] == 3:
             radiance = torch.cat([radiance, torch.ones_like(radiance[:, :1])], 1)
-        return shadow_net_apply(radiance, self.visibility(radiance, ao, normal, depth, vis),
-                                surface)
+        return shadow_net_apply(radiance, self.visibility(radiance, ao, normal, depth, vis,
+                                                          albedo=albedo), surface)
 
     def tensors(self) -> dict[str, np.ndarray]:
         """The file's tensors, ``<layer>.weight`` / ``<layer>.bias`` float32."""

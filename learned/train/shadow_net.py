@@ -70,10 +70,11 @@ from ..data.reader import DatasetError, list_samples, load_sample
 from ..data.scene import geometry_scene
 from ..evaluate import metrics
 from ..neural.shadow_net import ShadowNet, save_shadow_net
+from ..parity.checks.models import gl_gbuffer
 from ..parity.checks.shadow_net import frame_inputs
 from ..protocol.data import dataset_hash
 from ..protocol.degrade import degraded_dataset
-from ..twins.shadow_net import shadow_net, shadow_net_apply
+from ..twins.shadow_net import shadow_net, shadow_net_apply, shadow_net_demodulate
 from .runner import Run, _loop
 
 STAGE = "shadow_net"
@@ -129,6 +130,10 @@ class ShadowNetImage:
     inputs: torch.Tensor    # [1, 9, H, W] learned.twins.shadow_net.shadow_net_inputs
     surface: torch.Tensor   # [1, 1, H, W] bool
     target: torch.Tensor    # [1, 3, H, W] the dataset's target (truth for traced data)
+    albedo: torch.Tensor    # [1, 3, H, W] the G-buffer's base colour (a demodulating estimator's)
+
+
+FIELDS = ("radiance", "inputs", "surface", "target", "albedo")  # the tensors, in order
 
 
 def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_sum",
@@ -144,15 +149,26 @@ def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_s
         scene = geometry_scene(sample, geometry, model=model, ssao=True, indirect=indirect)
         targets = renderer.draw(scene)
         radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
+        albedo = gl_gbuffer(targets)["albedo"].permute(2, 0, 1)[None].float()
         target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order
         out.append(ShadowNetImage(sample.name, radiance, inputs, surface,
-                                  target.permute(2, 0, 1)[None].float()))
+                                  target.permute(2, 0, 1)[None].float(), albedo))
     return out
+
+
+def model_inputs(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
+    """``img``'s inputs as ``model`` reads them: the stored ones, or with the radiance over the
+    base colour for an estimator that :attr:`~learned.neural.shadow_net.ShadowNet.demodulates`
+    (``shadow_net_input_a`` of ``shadow_net_demodulate``)."""
+    if not model.demodulates:
+        return img.inputs
+    rgb = shadow_net_demodulate(img.radiance[:, :3].movedim(1, -1), img.albedo.movedim(1, -1))
+    return torch.cat([torch.log1p(rgb.clamp_min(0.0)).movedim(-1, 1), img.inputs[:, 3:]], 1)
 
 
 def shaded(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
     """The product ``[1, 4, H, W]`` the frame would show with ``model``'s estimator."""
-    vis = shadow_net(img.inputs, model.layers, model.params())
+    vis = shadow_net(model_inputs(model, img), model.layers, model.params())
     return shadow_net_apply(img.radiance, vis, img.surface)
 
 
@@ -162,8 +178,7 @@ def stack(batch: list[ShadowNetImage]) -> list[ShadowNetImage]:
     for img in batch:
         groups.setdefault(tuple(img.target.shape[-2:]), []).append(img)
     return [ShadowNetImage("+".join(i.name for i in g),
-                           *(torch.cat([getattr(i, k) for i in g]) for k in
-                             ("radiance", "inputs", "surface", "target")))
+                           *(torch.cat([getattr(i, k) for i in g]) for k in FIELDS))
             for g in groups.values()]
 
 
@@ -177,12 +192,12 @@ def augmented(img: ShadowNetImage, rng: np.random.Generator, tint: float) -> Sha
     radiance = torch.cat([img.radiance[:, :3] * k, img.radiance[:, 3:]], 1)
     inputs = img.inputs.clone()
     inputs[:, :3] = torch.log1p(radiance[:, :3].clamp_min(0.0))  # shadow_net_input_a
-    target, surface = img.target * k, img.surface
+    target, surface, albedo = img.target * k, img.surface, img.albedo
     if rng.random() < 0.5:
-        radiance, inputs, target, surface = (t.flip(-1) for t in (radiance, inputs, target,
-                                                                  surface))
+        radiance, inputs, target, surface, albedo = (
+            t.flip(-1) for t in (radiance, inputs, target, surface, albedo))
         inputs[:, 4] = -inputs[:, 4]  # the normal's x (camera space, x to the right)
-    return ShadowNetImage(img.name, radiance, inputs, surface, target)
+    return ShadowNetImage(img.name, radiance, inputs, surface, target, albedo)
 
 
 LOSSES = ("l1", "l2", "log_mse")

@@ -21,6 +21,15 @@ def shadow_net_input_a(radiance: torch.Tensor, ao: torch.Tensor) -> torch.Tensor
     return torch.cat([torch.log(1.0 + radiance.clamp_min(0.0)), ao[..., None]], -1)
 
 
+SHADOW_NET_ALBEDO_FLOOR = 0.05  # GLSL SHADOW_NET_ALBEDO_FLOOR
+
+
+def shadow_net_demodulate(radiance: torch.Tensor, albedo: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec3 shadow_net_demodulate(vec3 radiance, vec3 albedo)``: ``radiance`` over
+    ``max(albedo, SHADOW_NET_ALBEDO_FLOOR)`` per channel (``[..., 3]`` both)."""
+    return radiance / albedo.clamp_min(SHADOW_NET_ALBEDO_FLOOR)
+
+
 def shadow_net_input_b(normal: torch.Tensor, depth: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec4 shadow_net_input_b(vec3 normal, float depth)``: the normal and 1 / (1 + z),
     0 where z <= 0."""
@@ -132,14 +141,20 @@ def shadow_net_conv(a: torch.Tensor, b: torch.Tensor | None, weight: torch.Tenso
 
 
 def shadow_net_inputs(radiance: torch.Tensor, ao: torch.Tensor, normal: torch.Tensor,
-                      depth: torch.Tensor, vis: torch.Tensor) -> torch.Tensor:
+                      depth: torch.Tensor, vis: torch.Tensor,
+                      albedo: torch.Tensor | None = None) -> torch.Tensor:
     """The frame's inputs ``[B, 9, H, W]`` from ``[B, 3 | 4, H, W]`` radiance, ``[B, 1, H, W]``
     occlusion O(x), ``[B, 3, H, W]`` normals, ``[B, 1, H, W]`` view depth and ``[B, 1, H, W]``
-    visibility of the environment's light S(x) (SN_*_SOURCE 4)."""
+    visibility of the environment's light S(x) (SN_*_SOURCE 4); with ``albedo``
+    (``[B, 3, H, W]`` base colour) the radiance is demodulated first (``SN_DEMODULATE``: an
+    estimator whose architecture says ``"demodulate"``)."""
     def last(t):
         return t.movedim(1, -1)
 
-    a = shadow_net_input_a(last(radiance[:, :3]), last(ao)[..., 0])
+    rgb = last(radiance[:, :3])
+    if albedo is not None:
+        rgb = shadow_net_demodulate(rgb, last(albedo))
+    a = shadow_net_input_a(rgb, last(ao)[..., 0])
     b = shadow_net_input_b(last(normal), last(depth)[..., 0])
     c = shadow_net_input_c(last(vis)[..., 0])[..., :1]
     return torch.cat([a, b, c], -1).movedim(-1, 1)

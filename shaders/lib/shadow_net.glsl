@@ -10,6 +10,14 @@ vec4 shadow_net_input_a(vec3 radiance, float ao) {
     return vec4(log(vec3(1.0) + max(radiance, vec3(0.0))), ao);
 }
 
+// The radiance over the surface's base colour, at least SHADOW_NET_ALBEDO_FLOOR per channel
+// ("demodulate"): the light the surface receives, without its texture, so that texture detail
+// does not read as geometry (the albedo demodulation of denoisers).
+const float SHADOW_NET_ALBEDO_FLOOR = 0.05;
+vec3 shadow_net_demodulate(vec3 radiance, vec3 albedo) {
+    return radiance / max(albedo, vec3(SHADOW_NET_ALBEDO_FLOOR));
+}
+
 // The other four: the view-space normal (the pass rotates the G-buffer's) and the view depth
 // as 1 / (1 + z), 0 on the background (z = 0).
 vec4 shadow_net_input_b(vec3 normal, float depth) {

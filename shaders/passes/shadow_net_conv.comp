@@ -13,6 +13,8 @@
 //     1 elsewhere); SN_WEIGHTS: vec4s of the weights
 //   SN_ENV_VIS 1: the frame's S(x) input from u_ssao's g channel; 0: 1 (an estimator that does
 //     not read it: architecture "env_visibility": false)
+//   SN_DEMODULATE 1: the radiance input over the G-buffer's base colour (architecture
+//     "demodulate": shadow_net_demodulate)
 //   SN_OUTPUT 0: the result into the tiled map u_out; 1: the visibility (3 channels) multiplied
 //     into the radiance image u_out in place where there is a surface (the product form)
 // Twin: learned.twins.shadow_net.shadow_net_conv.
@@ -47,7 +49,11 @@ vec4 frame_radiance(ivec2 q) {
 vec4 frame_input(ivec2 q, int s) {
     q = clamp(q, ivec2(0), u_frame_size - 1);
     if (s == 0) {
-        return shadow_net_input_a(frame_radiance(q).rgb, texelFetch(u_ssao, q, 0).r);
+        vec3 radiance = frame_radiance(q).rgb;
+#if SN_DEMODULATE
+        radiance = shadow_net_demodulate(radiance, gbuffer_load(q).albedo);
+#endif
+        return shadow_net_input_a(radiance, texelFetch(u_ssao, q, 0).r);
     }
     if (s == 2) {
         return shadow_net_input_c(SN_ENV_VIS != 0 ? texelFetch(u_ssao, q, 0).g : 1.0);

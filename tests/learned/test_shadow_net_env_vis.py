@@ -13,7 +13,7 @@ from viewer.neural import needs_env_visibility
 from viewer.neural.shadow_net import SOURCE_FRAME, metadata, random_tensors, read_shadow_net
 from viewer.renderer import Renderer
 
-ARCH = {**pc.PARITY_ARCHITECTURE, "env_visibility": False}
+ARCH = {**pc.PARITY_ARCHITECTURE, "env_visibility": False, "demodulate": False}
 
 
 def test_the_estimator_without_s_of_x_ignores_it_in_gl_and_torch(programs, tmp_path):

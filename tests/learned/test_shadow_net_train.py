@@ -99,7 +99,7 @@ def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
     rad = torch.rand(1, 4, 6, 5, generator=g) + 0.1
     inputs = torch.rand(1, 9, 6, 5, generator=g)
     img = ShadowNetImage("a", rad, inputs, torch.rand(1, 1, 6, 5, generator=g) > 0.3,
-                         torch.rand(1, 3, 6, 5, generator=g))
+                         torch.rand(1, 3, 6, 5, generator=g), torch.rand(1, 3, 6, 5, generator=g))
     rng = np.random.default_rng(0)
     seen = set()
     for _ in range(8):
@@ -107,7 +107,9 @@ def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
         flipped = not torch.equal(out.surface, img.surface)
         seen.add(flipped)
         ref = img if not flipped else ShadowNetImage(
-            "a", rad.flip(-1), inputs.flip(-1), img.surface.flip(-1), img.target.flip(-1))
+            "a", rad.flip(-1), inputs.flip(-1), img.surface.flip(-1), img.target.flip(-1),
+            img.albedo.flip(-1))
+        assert torch.equal(out.albedo, ref.albedo)  # the base colour moves with the pixels
         ratio = out.target / out.radiance[:, :3]
         assert torch.allclose(ratio, ref.target / ref.radiance[:, :3], rtol=1e-5)
         assert not torch.allclose(out.radiance[:, :3], ref.radiance[:, :3])
@@ -117,6 +119,41 @@ def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
         assert torch.equal(out.inputs[:, 4], sign * ref.inputs[:, 4])
         assert torch.equal(out.inputs[:, 3], ref.inputs[:, 3])
     assert seen == {True, False}
+
+
+def test_a_demodulating_estimator_reads_the_radiance_over_the_base_colour():
+    """``"demodulate"``: the estimator's radiance input is log(1 + L / max(albedo, 0.05)), in
+    training (:func:`model_inputs`) as in the torch model, so a texture in the albedo that the
+    radiance carries too leaves the input flat; without it the input follows the texture."""
+    from learned.neural.shadow_net import ShadowNet
+    from learned.train.shadow_net import model_inputs, shaded
+    from learned.twins.shadow_net import shadow_net_inputs
+
+    g = torch.Generator().manual_seed(3)
+    light = torch.rand(1, 3, 8, 8, generator=g) * 0.1 + 1.0  # smooth light, ~1
+    albedo = torch.where(torch.rand(1, 3, 8, 8, generator=g) > 0.5, 0.8, 0.1)  # a texture
+    albedo[..., 0, 0] = 0.01  # under the floor: divided by 0.05
+    rad = torch.cat([light * albedo, torch.ones(1, 1, 8, 8)], 1)
+    ao, depth, vis = (torch.rand(1, 1, 8, 8, generator=g) for _ in range(3))
+    normal = torch.nn.functional.normalize(torch.rand(1, 3, 8, 8, generator=g) - 0.5, dim=1)
+    inputs = shadow_net_inputs(rad, ao, normal, depth, vis)
+    img = ShadowNetImage("a", rad, inputs, torch.ones(1, 1, 8, 8, dtype=torch.bool),
+                         torch.rand(1, 3, 8, 8, generator=g), albedo)
+    arch = {"levels": 2, "widths": [4, 4]}
+    plain, demod = ShadowNet(arch), ShadowNet({**arch, "demodulate": True})
+    assert not plain.demodulates and demod.demodulates
+    assert torch.equal(model_inputs(plain, img), inputs)
+    x = model_inputs(demod, img)
+    expect = torch.log1p(light * albedo / albedo.clamp_min(0.05))
+    assert torch.allclose(x[:, :3], expect, atol=1e-6) and torch.equal(x[:, 3:], inputs[:, 3:])
+    assert float(x[:, :3].std()) < 0.5 * float(inputs[:, :3].std())  # the texture is gone
+    demod.load_state_dict(plain.state_dict())
+    with torch.no_grad():
+        v = demod.visibility(rad, ao, normal, depth, vis, albedo=albedo)
+        assert torch.allclose(shaded(demod, img)[:, :3], rad[:, :3] * v, atol=1e-6)
+        assert not torch.allclose(v, plain.visibility(rad, ao, normal, depth, vis), atol=1e-4)
+        with pytest.raises(ValueError, match="give the albedo"):
+            demod.visibility(rad, ao, normal, depth, vis)
 
 
 def test_the_highlight_terms_see_what_the_reinhard_metric_misses():

@@ -3,6 +3,8 @@
 The estimator (thesis eq. 4.3, redesigned for the viewer) is a U-Net over the frame:
 
     x0 = [log(1 + L_unshadowed), O(x), n, 1 / (1 + z), S(x)]    9 channels, full resolution
+                                                                 (``"demodulate": true``: L
+                                                                 over max(albedo, 0.05))
     e_l = relu(conv3(relu(conv2/2(e_{l-1}))))                    l = 1..L at 1 / 2^l
     d_l = relu(conv_k([up(d_{l+1}), e_l]))                       l = L-1..1 (d_L = e_L), k = 3
                                                                  (1 at l = 1), nearest up
@@ -23,9 +25,10 @@ The file is safetensors with float32 tensors ``<layer>.weight`` ``[out, in, k, k
 ``<layer>.bias`` ``[out]`` (the layers of :func:`plan`; input channels: the first source's then
 the skip's) and string metadata ``format`` = :data:`FORMAT`, ``version`` = :data:`FORMAT_VERSION`,
 ``architecture`` (JSON ``{"levels": L, "widths": [C_1 .. C_L]}``, optionally ``"gain": g``,
-``"env_visibility": false`` and ``"upsample": "bilinear"``: the 1 x 1 decoder at half resolution
+``"env_visibility": false``, ``"upsample": "bilinear"``: the 1 x 1 decoder at half resolution
 reads the level below bilinear-upsampled, not nearest, so that V shows no blocks of the coarse
-levels), ``checkpoint`` (sha256 of the
+levels, and ``"demodulate": true``: the radiance input is divided by the surface's base colour,
+so that texture detail does not read as geometry), ``checkpoint`` (sha256 of the
 tensors, :func:`viewer.neural.checkpoint_hash`) and ``training`` (JSON, free form).
 :func:`read_shadow_net` validates all of it; every problem is one :class:`WeightsError` line
 naming the file. :func:`pack_layer` lays a layer's weights out as the ``vec4`` array its pass
@@ -94,6 +97,9 @@ class Layer:
     # whether a frame source reads S(x) (SN_ENV_VIS); False: the input channel holds 1, the
     # architecture's "env_visibility": false (the frame then marches no S(x) for it)
     env_vis: bool = True
+    # whether a frame source divides the radiance by the base colour (SN_DEMODULATE; the
+    # architecture's "demodulate")
+    demodulate: bool = False
 
     @property
     def in_channels(self) -> int:
@@ -138,9 +144,17 @@ def check_architecture(arch: dict) -> tuple[int, list[int]]:
         raise ValueError(f"gain {gain!r} is not a number in {GAIN_RANGE[0]}..{GAIN_RANGE[1]}")
     if not isinstance(arch.get("env_visibility", True), bool):
         raise ValueError(f"env_visibility {arch['env_visibility']!r} is not true or false")
+    if not isinstance(arch.get("demodulate", False), bool):
+        raise ValueError(f"demodulate {arch['demodulate']!r} is not true or false")
     if arch.get("upsample", "nearest") not in UPSAMPLES:
         raise ValueError(f"upsample {arch['upsample']!r} is not one of {', '.join(UPSAMPLES)}")
     return levels, list(widths)
+
+
+def demodulates(arch: dict) -> bool:
+    """Whether an estimator of ``arch`` reads the radiance over the base colour (``"demodulate"``,
+    false when absent: lib/shadow_net.glsl ``shadow_net_demodulate``)."""
+    return bool(arch.get("demodulate", False))
 
 
 def reads_env_visibility(arch: dict) -> bool:
@@ -154,12 +168,13 @@ def plan(arch: dict) -> list[Layer]:
     levels, widths = check_architecture(arch)
     c = [INPUT_CHANNELS] + widths
     vis = reads_env_visibility(arch)
+    dem = demodulates(arch)
     layers = []
     for lv in range(1, levels + 1):
         prev = "input" if lv == 1 else f"enc{lv - 1}"
         src = SOURCE_FRAME if lv == 1 else SOURCE_MAP
         layers.append(Layer(f"down{lv}", lv, 2, 2, prev, src, c[lv - 1], None, SOURCE_NONE, 0,
-                            c[lv], ACT_RELU, env_vis=vis))
+                            c[lv], ACT_RELU, env_vis=vis, demodulate=dem))
         layers.append(Layer(f"enc{lv}", lv, 3, 1, f"down{lv}", SOURCE_MAP, c[lv], None,
                             SOURCE_NONE, 0, c[lv], ACT_RELU))
     coarse = f"enc{levels}"
@@ -170,7 +185,7 @@ def plan(arch: dict) -> list[Layer]:
                             c[lv + 1], f"enc{lv}", SOURCE_MAP, c[lv], c[lv], ACT_RELU))
         coarse = f"dec{lv}"
     layers.append(Layer("out", 0, 1, 1, coarse, SOURCE_BILINEAR_UP, c[1], "input", SOURCE_FRAME,
-                        INPUT_CHANNELS, 3, ACT_SIGMOID, float(arch.get("gain", 1.0)), vis))
+                        INPUT_CHANNELS, 3, ACT_SIGMOID, float(arch.get("gain", 1.0)), vis, dem))
     return layers
 
 

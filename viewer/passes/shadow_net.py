@@ -78,7 +78,8 @@ class ShadowNetPass:
             "SN_A_SLICES": slices(layer.a_channels), "SN_B_SLICES": slices(layer.b_channels),
             "SN_OUT_SLICES": slices(layer.out_channels), "SN_ACT": layer.act,
             "SN_WEIGHTS": len_packed(layer), "SN_OUTPUT": int(last and not visibility),
-            "SN_GAIN": f"{float(layer.gain):.9g}", "SN_ENV_VIS": int(layer.env_vis)},
+            "SN_GAIN": f"{float(layer.gain):.9g}", "SN_ENV_VIS": int(layer.env_vis),
+            "SN_DEMODULATE": int(layer.demodulate)},
             virtual=self.layout.virtual_files())
 
     def run(self, net: ShadowNetFile, gbuffer_textures: dict, radiance, ssao,

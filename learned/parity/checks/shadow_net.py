@@ -3,7 +3,9 @@
 has an odd side somewhere, so the replicated borders and the crops of the upsampling are
 exercised) with seeded random weights of the default architecture with an output gain of 1.5
 (``SN_GAIN``: V in (0, 1.5)) and the bilinear last decoder (``"upsample": "bilinear"``: dec1
-reads bilinear, dec2-4 nearest, so both upsampling sources are checked layer by layer).
+reads bilinear, dec2-4 nearest, so both upsampling sources are checked layer by layer), reading
+the radiance over the base colour (``"demodulate"``: ``SN_DEMODULATE`` in the first and last
+layers, whose frame inputs the twin gets demodulated by :func:`frame_inputs`).
 
 * ``shadow_net:layers`` - each layer alone: the twin of the layer on the maps GL left for its
   inputs, against the map GL wrote (the error of one layer, not the chain's).
@@ -28,6 +30,7 @@ from learned.twins.shadow_net import (
 )
 from viewer.neural.shadow_net import (
     DEFAULT_ARCHITECTURE,
+    demodulates,
     metadata,
     random_tensors,
     read_shadow_net,
@@ -49,7 +52,8 @@ SIZE = (75, 53)
 LAYER_ATOL, LAYER_RTOL = 2e-5, 1e-4
 NET_ATOL, NET_RTOL = 2e-5, 1e-4
 # the default layers with a gain, so that SN_GAIN is exercised (g = 1 is the default's identity)
-PARITY_ARCHITECTURE = {**DEFAULT_ARCHITECTURE, "gain": 1.5, "upsample": "bilinear"}
+PARITY_ARCHITECTURE = {**DEFAULT_ARCHITECTURE, "gain": 1.5, "upsample": "bilinear",
+                       "demodulate": True}
 
 
 def parity_weights(folder: Path, seed: int = 7) -> Path:
@@ -71,10 +75,12 @@ def untile(arr: np.ndarray, channels: int) -> torch.Tensor:
     return t[:channels][None]
 
 
-def frame_inputs(renderer, scene, targets) -> tuple[torch.Tensor, ...]:
+def frame_inputs(renderer, scene, targets, demodulate: bool = False
+                 ) -> tuple[torch.Tensor, ...]:
     """What the estimator reads in the frame ``targets`` that ``renderer`` drew for ``scene``
     without it (drawn with SSAO), in GL row order: ``radiance [1, 4, H, W]`` (unshadowed),
-    ``inputs [1, 9, H, W]`` (the normals in view space, as the pass reads them), ``surface [1, 1, H, W]`` and ``ssao [H, W, 4]`` (r: the frame's
+    ``inputs [1, 9, H, W]`` (the normals in view space, as the pass reads them; ``demodulate``:
+    the radiance over the G-buffer's base colour), ``surface [1, 1, H, W]`` and ``ssao [H, W, 4]`` (r: the frame's
     O(x); g: S(x), which the frame's SSAO pass writes only when something reads it: here from
     :meth:`viewer.renderer.Renderer.environment_visibility`, the same pass on the same G-buffer,
     whose g the blur passes through unchanged)."""
@@ -91,7 +97,7 @@ def frame_inputs(renderer, scene, targets) -> tuple[torch.Tensor, ...]:
     rot = torch.from_numpy(np.asarray(targets.camera.view_matrix()[:3, :3], np.float32))
     normal = torch.einsum("ij,hwj->hwi", rot, torch.as_tensor(gb["normal"]))
     inputs = shadow_net_inputs(radiance, occ[:, :1], chw(normal), chw(gb["depth"]),
-                               occ[:, 1:2])
+                               occ[:, 1:2], chw(gb["albedo"]) if demodulate else None)
     surface = (gb["alpha"][..., 0] > 0.0) & (gb["depth"][..., 0] > 0.0)
     return radiance, inputs, surface[None, None], ssao
 
@@ -140,7 +146,8 @@ def checks() -> dict:
         try:
             scene = _scene(None)
             targets = renderer.draw(scene)
-            _, inputs, _, ssao = frame_inputs(renderer, scene, targets)
+            _, inputs, _, ssao = frame_inputs(renderer, scene, targets,
+                                              demodulates(net.architecture))
             gl_maps, vis_gl = run_gl_layers(programs, net, targets, ssao)
         finally:
             renderer.release()
@@ -170,7 +177,8 @@ def checks() -> dict:
             try:
                 scene = _scene(None)
                 plain = renderer.draw(scene)
-                radiance, inputs, surface, ssao = frame_inputs(renderer, scene, plain)
+                radiance, inputs, surface, ssao = frame_inputs(
+                    renderer, scene, plain, demodulates(net.architecture))
                 _, vis_gl = run_gl_layers(programs, net, plain, ssao)
                 shaded_gl = gl_texture(renderer.draw(_scene(path)).radiance)
             finally:

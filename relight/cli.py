@@ -12,8 +12,9 @@
                   [--compare-students]
     relight train --stage shadow_net --data DIR [--shadow-extra-data DIR ...]
                   [--shadow-val-data DIR ...] [--shadow-degrade L,L] [--shadow-geometry G]
-    relight data OUT --preset truth-train|heldout-kinds|heldout-env|shadow-extra|shadow-val|shadow-blocks|shadow-blocks-val
-                 [--count N] [--size S] [--spp N] [--seed N]
+    relight data OUT --preset NAME [--count N] [--size S] [--spp N] [--seed N]
+                 (NAME: truth-train, heldout-kinds, heldout-env, shadow-extra, shadow-val,
+                 shadow-blocks, shadow-blocks-val)
     relight data OUT --protocol [--count N] [--size S] [--spp N] [--seed N]
     relight eval DATA [--split test] [--by kind|environment] [--teacher-weights FILE]
                  [--shadow-weights FILE] [--json]
@@ -45,16 +46,15 @@ from viewer.errors import AssetNote, RelightError
 
 from . import gallery
 from . import graph as graph_command
+from .commands import eval as eval_command
 from .commands import (
     _fraction,
     _hidden,
     _nonnegative_float,
     _positive_int,
-    _seeds,
     cmd_bench,
     cmd_data,
     cmd_decompose,
-    cmd_eval,
     cmd_info,
     cmd_parity,
     cmd_reference,
@@ -292,46 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=cmd_data)
 
-    p = sub.add_parser("eval", help="PSNR / SSIM / HDR-FLIP of every model on held-out samples")
-    p.add_argument("data", help="dataset root (FFHQ256-PBR layout with targets)")
-    p.add_argument("--split", default=None,
-                   help="train | val | test (default; --factors: val) | all (a held-out dataset: "
-                        "every sample)")
-    p.add_argument("--teacher-samples", type=int, default=128)
-    p.add_argument("--limit", type=int, help="at most this many samples")
-    p.add_argument("--weights", action="append", default=[], metavar="NAME=FILE",
-                   help="also score this student weights file as row 'neural NAME' (repeatable)")
-    p.add_argument("--teacher-weights", metavar="FILE",
-                   help="the teacher's weights file (default: the shipped one)")
-    p.add_argument("--shadow-weights", metavar="FILE",
-                   help="a shadow UNet (relight train's RUN/shadow_final.pt): adds the row "
-                        "teacher x shadow map, in torch ('N spp x shadow (torch)')")
-    p.add_argument("--by", choices=("kind", "environment"),
-                   help="also break the means down by the samples' scene kind or environment "
-                        "(meta.json), one row per group and model; group 'all' is every sample")
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--factors", action="store_true",
-                   help="instead of scoring: what each student learned, the means of its "
-                        "split-sum corrections (1 = ggx_split_sum) and its bounce gain's "
-                        "percentiles over the split's surfaces (the shipped student, or each "
-                        "--weights; learned/factors.py)")
-    p.add_argument("--protocol", action="store_true",
-                   help="the evaluation protocol on a protocol dataset (relight data OUT "
-                        "--protocol): students of --seeds trained on train, the strongest "
-                        "classical model given the same evidence picked on val, both scored on "
-                        "test with the paired difference's bootstrap interval; resumable, cached "
-                        "under DATA/_protocol; every test scoring counted in DATA/test_ledger.json")
-    p.add_argument("--seeds", type=_seeds, default=(0, 1, 2), metavar="S,S,...",
-                   help="--protocol: the students' training seeds (default 0,1,2)")
-    p.add_argument("--degrade", type=_nonnegative_float, default=0.0, metavar="LEVEL",
-                   help="--protocol: degrade every split's G-buffer inputs at LEVEL in [0, 1] "
-                        "(learned/protocol/degrade.py; the thesis's estimated G-buffers; "
-                        "targets stay true)")
-    p.add_argument("--student-steps", type=_positive_int, metavar="N",
-                   help="--protocol: training steps per student (default the shipped 24000)")
-    p.add_argument("--protocol-out", metavar="DIR",
-                   help="--protocol: where runs and results are cached (default DATA/_protocol)")
-    p.set_defaults(func=cmd_eval)
+    eval_command.add_parser(sub)  # relight eval: relight/commands/eval.py
 
     p = sub.add_parser("info", help="GL renderer, version, extensions, float target precision")
     p.add_argument("--json", action="store_true")

@@ -85,7 +85,7 @@ def _train_shadow_net(args) -> int:
 SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val_data",
                       "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry",
                       "shadow_energy": "energy_weight", "shadow_linear": "linear_weight",
-                      "shadow_env_visibility": "architecture"}
+                      "shadow_env_visibility": "architecture", "shadow_arch": "architecture"}
 
 
 def add_shadow_net_arguments(p) -> None:
@@ -113,6 +113,10 @@ def add_shadow_net_arguments(p) -> None:
                         "visibility of the environment's light (default: stacks yes, their only "
                         "cast-shadow evidence; meshes no, their shadow maps cast the sun's, and "
                         "the estimators that read it invented shadows on real assets)")
+    p.add_argument("--shadow-arch", metavar="JSON",
+                   help="--stage shadow_net: architecture keys over the shipped design's, as a "
+                        "JSON object (viewer/neural/shadow_net.py; e.g. '{\"upsample\": "
+                        "\"bilinear\"}', '{\"demodulate\": true}', '{\"gain\": 1}')")
     p.add_argument("--shadow-linear", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term on the linear image's "
                         "relative error (default 0: off)")
@@ -141,12 +145,38 @@ def shadow_net_options(args) -> dict:
             value = tuple(value)
         elif opt in ("shadow_energy", "shadow_linear") and not 0.0 <= value < float("inf"):
             raise RelightError(f"a loss weight must be finite and >= 0, got {value}", where=flag)
-        elif opt == "shadow_env_visibility":
-            from learned.train.shadow_net import SHIPPED_ARCHITECTURE
-
-            value = SHIPPED_ARCHITECTURE | {"env_visibility": bool(value)}  # else the geometry's
+        elif opt == "shadow_env_visibility":  # else the geometry's
+            value = out.get(name, _shipped_architecture()) | {"env_visibility": bool(value)}
+        elif opt == "shadow_arch":
+            value = out.get(name, _shipped_architecture()) | _architecture_keys(value, flag)
         out[name] = value
     return out
+
+
+def _shipped_architecture() -> dict:
+    from learned.train.shadow_net import SHIPPED_ARCHITECTURE
+
+    return dict(SHIPPED_ARCHITECTURE)
+
+
+def _architecture_keys(text: str, flag: str) -> dict:
+    """``--shadow-arch``'s JSON object, checked over the shipped design by the weights file's
+    own rules (:func:`viewer.neural.shadow_net.check_architecture`): one line naming the flag."""
+    import json
+
+    from viewer.neural.shadow_net import check_architecture
+
+    try:
+        keys = json.loads(text)
+    except ValueError as exc:
+        raise RelightError(f"not JSON ({exc})", where=flag) from None
+    if not isinstance(keys, dict):
+        raise RelightError(f"not a JSON object: {text!r}", where=flag)
+    try:
+        check_architecture(_shipped_architecture() | keys)
+    except (TypeError, ValueError) as exc:
+        raise RelightError(str(exc), where=flag) from None
+    return keys
 
 
 def _levels(text: str, flag: str) -> tuple[float, ...]:

@@ -270,6 +270,12 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
     assert mod.architecture(seen.pop())["env_visibility"] is True
     assert main(base + ["--no-shadow-env-visibility"]) == 0
     assert mod.architecture(seen.pop())["env_visibility"] is False
+    # architecture keys over the shipped design (--shadow-arch), with the S(x) option or without
+    assert main(base + ["--shadow-arch", '{"upsample": "bilinear", "demodulate": true}',
+                        "--no-shadow-env-visibility"]) == 0
+    arch = mod.architecture(seen.pop())
+    assert arch == mod.SHIPPED_ARCHITECTURE | {"upsample": "bilinear", "demodulate": True,
+                                               "env_visibility": False}
     # meshes with degraded copies: their degraded stacks, the meshes casting (test_mesh_geometry)
     assert main(base + ["--shadow-geometry", "mesh", "--shadow-degrade", "0.5"]) == 0
     assert mod.levels(seen.pop()) == (0.5,)
@@ -279,7 +285,11 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
                        ("--shadow-degrade", ["--shadow-degrade", "half"]),
                        ("--shadow-energy", ["--shadow-energy", "-1"]),
                        ("--shadow-linear", ["--shadow-linear", "nan"]),
-                       ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)])):
+                       ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)]),
+                       ("--shadow-arch", ["--shadow-arch", "{upsample: bilinear}"]),
+                       ("--shadow-arch", ["--shadow-arch", '["bilinear"]']),
+                       ("--shadow-arch", ["--shadow-arch", '{"upsample": "cubic"}']),
+                       ("--shadow-arch", ["--shadow-arch", '{"gain": 9}'])):
         assert main(base + args) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"relight: error: {flag}: ") and err.count("\n") == 1, err

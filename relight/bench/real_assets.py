@@ -104,12 +104,25 @@ def sx_student_file() -> Path:
     return ASSET_ROOT / "weights" / "students" / "sx-w32x2-split-sun.safetensors"
 
 
-def cases() -> tuple[Case, ...]:
-    """The eight cases of the module docstring; the estimator's frame read from its weights."""
+ESTIMATOR_CASE = "split-sum, screen + "  # the label of a candidate estimator's case, + its name
+
+
+def estimator_case(label: str, net) -> Case:
+    """Split-sum in the frame the estimator file ``net`` was trained on, times its V, judged
+    against split-sum screen-space."""
     from viewer.neural.shadow_net import frame_settings, read_shadow_net
 
-    net = shadow_net_file()
     frame = frame_settings(read_shadow_net(net).training)
+    return Case(label, {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
+                        "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
+                "split-sum, screen")
+
+
+def cases(estimators: tuple[tuple[str, str], ...] = ()) -> tuple[Case, ...]:
+    """The eight cases of the module docstring (the estimator's frame read from its weights),
+    then one case per candidate estimator file of ``estimators`` (``(name, path)``: ``--estimator
+    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``."""
+    net = shadow_net_file()
     # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
     V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
     return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
@@ -119,13 +132,11 @@ def cases() -> tuple[Case, ...]:
             Case("neural S(x), screen",
                  {"model": "neural", "weights": str(sx_student_file()), **SCREEN},
                  "split-sum, screen"),
-            Case("split-sum, screen + estimator",
-                 {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
-                  "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
-                 "split-sum, screen"),
+            estimator_case(ESTIMATOR_CASE + "estimator", net),
             Case("split-sum, estimator's V", {"model": "ggx_split_sum", **V_USE}),
             Case("neural, estimator's V", {"model": "neural", **V_USE},
-                 "split-sum, estimator's V"))
+                 "split-sum, estimator's V"),
+            *(estimator_case(ESTIMATOR_CASE + name, path) for name, path in estimators))
 
 
 def environments() -> list[tuple[str, Path]]:
@@ -172,6 +183,8 @@ class Options:
     assets: tuple[str, ...] | None = None        # names of ASSETS (None: all)
     environments: tuple[str, ...] | None = None  # HDRI names (None: all)
     sunless: bool = True  # each HDRI with a compact sun also without it (lightings)
+    # candidate estimator files scored beside the shipped one: (name, path), --estimator
+    estimators: tuple[tuple[str, str], ...] = ()
     progress: bool = True
 
     @classmethod
@@ -237,7 +250,7 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
     assets = [a for a in ASSETS if options.assets is None or a[0] in options.assets]
     envs = lightings([e for e in environments() if options.environments is None
                       or e[0] in options.environments], options.sunless)
-    case_list = cases()
+    case_list = cases(options.estimators)
     own = renderer is None
     renderer = Renderer() if own else renderer
     rows, sheet, truths = [], [], {}
@@ -315,6 +328,9 @@ def main(argv=None) -> int:
     p.add_argument("--size", help=f"WxH (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})")
     p.add_argument("--quick", action="store_true", help="one asset under lobby and sky (with its "
                    "sun and without), 64 spp")
+    p.add_argument("--estimator", action="append", default=[], metavar="NAME=FILE",
+                   help="also score this shadow-estimator file, as the shipped one is "
+                        "('split-sum, screen + NAME'; repeatable)")
     p.add_argument("-q", "--quiet", action="store_true")
     a = p.parse_args(argv)
     from relight.commands.common import _parse_size
@@ -325,7 +341,8 @@ def main(argv=None) -> int:
             raise RelightError("--spp must be at least 1", where="--spp")
         if Path(a.out).exists() and not Path(a.out).is_dir():
             raise RelightError("--out must be a folder", where=a.out)
-        changes = {"out": Path(a.out), "progress": not a.quiet}
+        changes = {"out": Path(a.out), "progress": not a.quiet,
+                   "estimators": tuple(_estimator(item) for item in a.estimator)}
         if a.size:
             changes["size"] = _parse_size(a.size)
         if a.spp:
@@ -338,6 +355,18 @@ def main(argv=None) -> int:
         return exc.exit_code
     print(markdown(report))
     return 0
+
+
+def _estimator(item: str) -> tuple[str, str]:
+    """``--estimator NAME=FILE`` -> (NAME, FILE), the file read as the viewer reads it."""
+    from viewer.errors import RelightError
+    from viewer.neural.shadow_net import read_shadow_net
+
+    name, sep, path = item.partition("=")
+    if not sep or not name or not path:
+        raise RelightError(f"{item!r}: expected NAME=FILE", where="--estimator")
+    read_shadow_net(path)  # a WeightsError names the file
+    return name, path
 
 
 if __name__ == "__main__":

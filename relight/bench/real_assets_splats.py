@@ -58,8 +58,10 @@ def splat_scene(scene, cache: Path, name: str):
 
 
 def splat_cases(case_list):
-    """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`)."""
-    return tuple(c for c in case_list if c.label in SPLAT_CASES)
+    """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`, and the
+    candidate estimators' of ``--estimator``)."""
+    return tuple(c for c in case_list if c.label in SPLAT_CASES
+                 or c.label.startswith("split-sum, screen + "))  # candidate estimators too
 
 
 def splat_scenes(options, envs, cache: Path, files: dict, scene_of):

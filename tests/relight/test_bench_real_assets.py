@@ -49,7 +49,14 @@ def test_speckle_measures_isolated_pixels_not_gradients():
 
 @pytest.mark.filterwarnings("ignore:.*ignored \\(not supported\\)")  # the gun's skin: bind pose
 def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_llvm, tmp_path):
-    from relight.bench.real_assets import Options, asset_scene, cases, environments, run
+    from relight.bench.real_assets import (
+        Options,
+        asset_scene,
+        cases,
+        environments,
+        run,
+        shadow_net_file,
+    )
     from relight.bench.real_assets_metrics import floor_mask
     from relight.bench.suites import SUITES
     from relight.gallery.cases import GalleryOptions
@@ -58,17 +65,24 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
     from viewer.renderer import Renderer
 
     assert "real_assets" in SUITES
+    # a candidate estimator (--estimator NAME=FILE): here the shipped file again, so its row
+    # must repeat the shipped estimator's
     opts = Options(out=tmp_path, size=(48, 32), spp=8, assets=("cge_plasma_gun",),
-                   environments=("lobby",), progress=False)
+                   environments=("lobby",), progress=False,
+                   estimators=(("again", str(shadow_net_file())),))
     r = Renderer(ctx=ctx)
     try:
         report = run(opts, renderer=r)
         rows = report["rows"]
-        assert [x["case"] for x in rows] == [c.label for c in cases()]
+        assert [x["case"] for x in rows] == [c.label for c in cases(opts.estimators)]
+        assert rows[-1]["case"] == "split-sum, screen + again"
         judged = [x for x in rows if "baseline" in x]
-        assert len(judged) == 5 and all("ok" in x and "invented_shadow_%" in x for x in judged)
+        assert len(judged) == 6 and all("ok" in x and "invented_shadow_%" in x for x in judged)
         assert all(np.isfinite(x["psnr_db"]) and x["floor_pixels"] > 50 for x in rows)
-        assert sum(s["rows"] for s in report["summary"].values()) == 5
+        assert sum(s["rows"] for s in report["summary"].values()) == 6
+        shipped = next(x for x in rows if x["case"] == "split-sum, screen + estimator")
+        assert {k: v for k, v in rows[-1].items() if k != "case"} == {
+            k: v for k, v in shipped.items() if k != "case"}
         for name in ("real_assets.json", "real_assets.md", "real_assets.png"):
             assert (tmp_path / name).is_file()
         assert json.loads((tmp_path / "real_assets.json").read_text())["spp"] == 8
@@ -93,6 +107,19 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
         assert invented_shadow(truth.radiance, frame.radiance, truth.radiance, mask) == 0.0
     finally:
         r.release()
+
+
+def test_a_bad_candidate_estimator_is_one_line(tmp_path, capsys):
+    from relight.bench.real_assets import main
+
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"not a safetensors file")
+    for item, words in (("nofile", "expected NAME=FILE"), (f"x={bad}", str(bad)),
+                        (f"x={tmp_path / 'missing.safetensors'}", "missing.safetensors")):
+        assert main(["--out", str(tmp_path / "o"), "--estimator", item, "-q"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert words in err and "\n" not in err, err
+    assert not (tmp_path / "o").exists()  # nothing written
 
 
 def test_the_splat_capture_tiles_the_gun_and_keeps_its_floor(tmp_path, ctx):

@@ -78,6 +78,11 @@ def cmd_eval(args) -> int:
         if path is not None and not Path(path).is_file():
             raise RelightError("weights file not found", where=path)
     if getattr(args, "factors", False):
+        for flag, value in (("--by", args.by), ("--teacher-weights", args.teacher_weights),
+                            ("--shadow-weights", args.shadow_weights)):
+            if value is not None:
+                raise RelightError(f"{flag} belongs to scoring, not to --factors (which reads "
+                                   "the students' networks only)", where=flag)
         return _factors(args, students)
     rows = ev.evaluate(args.data, split=args.split or "test", teacher_samples=args.teacher_samples,
                        limit=args.limit, students=students, by=args.by,

@@ -172,6 +172,8 @@ def _architecture_keys(text: str, flag: str) -> dict:
         raise RelightError(f"not JSON ({exc})", where=flag) from None
     if not isinstance(keys, dict):
         raise RelightError(f"not a JSON object: {text!r}", where=flag)
+    if "env_visibility" in keys:  # one way to say it, and the geometry's default otherwise
+        raise RelightError("env_visibility is --shadow-env-visibility's", where=flag)
     try:
         check_architecture(_shipped_architecture() | keys)
     except (TypeError, ValueError) as exc:

@@ -169,6 +169,9 @@ def test_eval_factors_reports_a_students_corrections(dataset, tmp_path, ctx, cap
     from learned.export import export
     from learned.neural.student import Student
 
+    assert main(["eval", str(dataset), "--factors", "--by", "kind"]) == 2  # not ignored
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--by belongs to scoring" in err[0]
     export(Student(hidden=(4,)), tmp_path / "free6.safetensors")
     assert main(["eval", str(dataset), "--factors", "--weights",
                  f"f={tmp_path / 'free6.safetensors'}"]) != 0

@@ -289,7 +289,8 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
                        ("--shadow-arch", ["--shadow-arch", "{upsample: bilinear}"]),
                        ("--shadow-arch", ["--shadow-arch", '["bilinear"]']),
                        ("--shadow-arch", ["--shadow-arch", '{"upsample": "cubic"}']),
-                       ("--shadow-arch", ["--shadow-arch", '{"gain": 9}'])):
+                       ("--shadow-arch", ["--shadow-arch", '{"gain": 9}']),
+                       ("--shadow-arch", ["--shadow-arch", '{"env_visibility": true}'])):
         assert main(base + args) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"relight: error: {flag}: ") and err.count("\n") == 1, err

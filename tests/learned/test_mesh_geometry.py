@@ -183,3 +183,60 @@ def test_the_shadow_trade_scores_every_option_against_the_targets(data, renderer
     assert main([str(data), weights, "--geometry", "mesh", "--no-cost", "--out", str(out)]) == 0
     table = (out / "shadow_trade.md").read_text()
     assert all(f"| {name} |" in table for name in OPTIONS)
+
+
+def test_a_stack_behind_its_proxies_is_snapped_onto_them(data, tmp_path, renderer):
+    """An estimated depth 2 % too far (every pixel of a degraded sample's stack behind its own
+    proxy surface): at the default bias 1 the proxies shadow the stack, darkening some pixels
+    by over 10 % against the true stack's frame; with the stack's depth snapped to the proxies'
+    (``shadow_proxy_snap``, the viewer's default 0.05) the frame is the true stack's again, to
+    the tolerance of the test above. A snap tolerance under the error (0.01) snaps nothing."""
+    import OpenImageIO as oiio
+
+    from learned.data.scene import DEGRADED_PROXY_SNAP
+    from viewer.scene.settings import ShadowSettings
+
+    assert ShadowSettings().proxy_snap == 0.05 and DEGRADED_PROXY_SNAP == 0.0
+    copy = tmp_path / "far"
+    shutil.copytree(data, copy)
+    darker = 0.0
+    for folder, clean in zip(list_samples(copy, "val"), list_samples(data, "val")):
+        meta = json.loads((folder / "meta.json").read_text())
+        (folder / "meta.json").write_text(json.dumps(meta | {"degrade": {}}))
+        buf = oiio.ImageBuf(str(folder / "depth.exr"))
+        spec = buf.spec()
+        depth = buf.get_pixels(oiio.FLOAT) * 1.02
+        out = oiio.ImageOutput.create(str(folder / "depth.exr"))
+        out.open(str(folder / "depth.exr"), spec)
+        out.write_image(depth)
+        out.close()
+        s = load_sample(folder)
+        fg = s.foreground()
+        want = renderer.render(sample_mesh_scene(load_sample(clean), model="ggx_split_sum",
+                                                 ssao=True)).radiance[..., :3][fg]
+
+        def frame(snap):
+            scene = sample_mesh_scene(s, model="ggx_split_sum", ssao=True, shadow_bias=1.0,
+                                      shadow_proxy_snap=snap)
+            return renderer.render(scene).radiance[..., :3][fg]
+
+        far = frame(0.0)
+        darker = max(darker, float(((far.sum(-1) < 0.9 * want.sum(-1))).mean()))
+        np.testing.assert_array_equal(frame(0.01), far)  # 2 % off: outside a 1 % tolerance
+        got = frame(0.05)
+        off = np.abs(got - want) > 1e-4 + 1e-3 * np.abs(want)
+        assert off.mean() < 0.03, (folder.name, off.mean())
+        np.testing.assert_allclose(got, want, rtol=0.05, atol=1e-4, err_msg=folder.name)
+    assert darker > 0.01  # the unsnapped stack shadows itself somewhere: the test can fail
+
+
+def test_snap_depth_moves_only_what_lies_within_the_tolerance():
+    from viewer.geometry.proxy_snap import snap_depth
+
+    depth = np.array([4.0, 4.1, 4.5, 0.0, 3.0], np.float32).reshape(1, 5, 1)
+    proxy = np.array([4.0, 4.0, 4.0, 4.0, 0.0], np.float32).reshape(1, 5, 1)
+    got = snap_depth(depth, proxy, 0.05).ravel()
+    # 4.1 is 2.5 % off: snapped; 4.5 is 12.5 % off: kept; the background and a pixel without a
+    # proxy stay as they are
+    np.testing.assert_array_equal(got, [4.0, 4.0, 4.5, 0.0, 3.0])
+    np.testing.assert_array_equal(snap_depth(depth, proxy, 0.0), depth)  # 0: nothing moves

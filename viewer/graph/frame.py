@@ -24,20 +24,20 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..models import ShadingModel, model_info, refracts_forward, sample_count
+from ..models import ShadingModel, model_info, sample_count
 from ..neural import learns_indirect, needs_env_visibility
 from ..passes.forward import (forward_meshes, forward_model, forward_variant,
                                warn_unshadowed)
-from ..passes.gbuffer import GBufferTargets
 from ..passes.ground import scene_catcher
 from ..passes.ssao import denoised, hit_targets, low_resolution, staged
 from ..scene.camera import Camera
 from ..scene.description import Scene
 from ..specialize import Specialization
 from .display import display_passes, ssaa_factor
+from .gbuffer import gbuffer_passes
 from .graph import FrameGraph
 from .raytrace import raytrace_passes
-from .resources import GBufferDesc, MipTextureDesc, TextureDesc
+from .resources import MipTextureDesc, TextureDesc
 from .shadow_net import RADIANCE as SN_RADIANCE
 from .shadow_net import VISIBILITY as SN_VISIBILITY
 from .shadow_net import shadow_net_passes, visibility_route
@@ -76,7 +76,7 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
     g.create("radiance", TextureDesc(size, 4, "f4"), kept=True)
     g.create("display", TextureDesc(out_size, 4, "f1"), kept=True)
 
-    _gbuffer_passes(g, renderer, scene, spec, camera)
+    gbuffer_passes(g, renderer, scene, spec, camera)
     rt = bool(spec.variant.defines.get("RT_LIGHT"))  # rays stand in for SSAO and its bounce
     ssao = _ssao_passes(g, renderer, scene, spec, camera,
                         visibility=needs_env_visibility(settings),
@@ -135,55 +135,6 @@ def build_frame(renderer, req: FrameRequest, reuse: bool = True) -> FrameGraph:
 
     display_passes(g, renderer, settings, n, out_size)
     return g
-
-
-# ---- G-buffer ---------------------------------------------------------------------------------
-def _gbuffer_passes(g: FrameGraph, renderer, scene: Scene, spec: Specialization,
-                    camera: Camera) -> None:
-    """The G-buffer: a lone image stack's own textures (imported), else meshes and image stacks
-    rasterised (``gbuffer``) and splats composited over them (``splats``)."""
-    res = renderer.resources
-    gpass = res.layout_pass("gbuffer", spec.layout)
-    identity = {"objects": scene.objects, "camera": camera, "layout": spec.layout,
-                "geometry": renderer.geometry_cache.version}
-    if spec.direct_stack:
-        # one image-space stack and nothing else: its uploaded textures already are a G-buffer in
-        # this layout, so the lighting pass reads them and no copy pass runs
-        stack = renderer.geometry(scene.objects[0])
-        view = GBufferTargets(ctx=renderer.ctx, layout=spec.layout, size=tuple(camera.size),
-                              textures=dict(gpass._stack_textures(stack)), depth=None, fbo=None)
-        g.import_resource("gbuffer", view, signature=tuple(sorted(identity.items())))
-        return
-    g.create("gbuffer", GBufferDesc(spec.layout, tuple(camera.size)), kept=True)
-    contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
-    clouds = [c for obj, c in contents if obj.type == "splats" and not obj.shadow_only]
-    # KHR_materials_transmission surfaces the forward pass refracts are not in the G-buffer
-    through = refracts_forward(scene.render.model) and any(
-        m.material.transmission > 0.0 for obj, c in contents
-        if obj.type not in ("gbuffer", "splats") and not obj.shadow_only for m in c)
-    if through:
-        identity["forward_transmission"] = True
-
-    def gbuffer(f):
-        gb = f["gbuffer"]
-        gb.clear()
-        meshes = []
-        for obj, content in contents:
-            if obj.type == "gbuffer":
-                gpass.draw_image(gb, content)
-            elif obj.type != "splats" and not obj.shadow_only:  # a caster only: maps, rays
-                meshes.extend(m for m in content if m.alpha_mode != "BLEND"  # BLEND, refracted:
-                              and not (through and m.material.transmission > 0.0))  # forward
-        if meshes:
-            gpass.draw_meshes(gb, camera, meshes)
-    g.add_pass("gbuffer", gbuffer, writes=("gbuffer",), inputs=identity)
-    if clouds:  # after meshes: depth-tested against them, composited over them
-
-        def splats(f):
-            res.layout_pass("splats", spec.layout).draw_clouds(
-                f["gbuffer"], camera, clouds, depth=scene.render.splat_depth)
-        g.add_pass("splats", splats, reads=("gbuffer",), writes=("gbuffer",),
-                   inputs={**identity, "splat_depth": scene.render.splat_depth})
 
 
 # ---- SSAO -------------------------------------------------------------------------------------

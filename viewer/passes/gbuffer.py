@@ -26,11 +26,14 @@ from ..errors import InputError
 from ..gbuffer import CHANNELS, GBufferLayout
 from ..geometry.imagespace import ImageGBuffer
 from ..geometry.mesh import Mesh
+from ..geometry.proxy_snap import snapped
 from ..scene.camera import Camera, gl_bytes
 from . import FullscreenDraw
 from . import set_uniform as _set
 from .mesh_uploads import ANISOTROPY, MeshDraw, MeshUploads, mesh_defines
 from .uploads import UploadCache
+
+MAX_SNAPPED_STACKS = 4  # proxy-snapped copies of stacks kept (each: its depth channel again)
 
 __all__ = ["ANISOTROPY", "GBufferPass", "GBufferTargets", "MeshDraw", "MeshUploads",
            "mesh_defines"]
@@ -135,6 +138,9 @@ class GBufferPass:
         # stack -> [(attachment, texture)]: uploaded once per stack
         self.stacks = UploadCache(self.ctx, "stack uploads",
                                   release=lambda textures: [t.release() for _, t in textures])
+        # stacks with their depth snapped to their proxies' (CPU copies; at most a few)
+        self.snaps = UploadCache(self.ctx, "proxy-snapped stacks", release=lambda stack: None,
+                                 max_items=MAX_SNAPPED_STACKS)
 
     # ---- meshes ----------------------------------------------------------------------------------
     def mesh_defines(self, mesh: Mesh) -> dict[str, int]:
@@ -231,13 +237,31 @@ class GBufferPass:
 
     _stack_textures = stack_textures  # the name viewer.renderer used
 
+    def snapped_stack(self, targets: GBufferTargets, image: ImageGBuffer, camera: Camera,
+                      proxies: tuple[Mesh, ...], tolerance: float) -> ImageGBuffer:
+        """``image`` with its depth snapped to the depth of ``proxies`` seen through ``camera``
+        (:func:`viewer.geometry.proxy_snap.snapped`, within ``tolerance`` of it), made once per
+        stack, proxies, camera and tolerance: the proxies are drawn into ``targets`` (which this
+        clears; call it before drawing the frame's G-buffer) and their depth read back."""
+
+        def make():
+            targets.clear()
+            self.draw_meshes(targets, camera, list(proxies))
+            proxy = targets.read(("depth",))["depth"]
+            targets.clear()
+            out = snapped(image, proxy, tolerance)
+            return out, int(out.channels["depth"].nbytes)
+        return self.snaps.get_or_create((image, *proxies), (float(tolerance), camera), make)
+
     def stats(self) -> dict[str, CacheStats]:
         """Each upload cache of this pass (``Renderer.memory`` gathers them)."""
         return {**{f"gbuffer {k}": v for k, v in self.uploads.stats().items()},
-                "gbuffer stacks": self.stacks.stats(), "gbuffer vertex arrays": self._draw.stats()}
+                "gbuffer stacks": self.stacks.stats(), "gbuffer vertex arrays": self._draw.stats(),
+                "gbuffer snapped stacks": self.snaps.stats()}
 
     def release(self) -> None:
         """Free every uploaded mesh and texture."""
         self.uploads.release()
         self.stacks.release()
+        self.snaps.release()
         self._draw.release()

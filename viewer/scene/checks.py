@@ -156,6 +156,9 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     for k in ("shadow_softness", "shadow_bias"):
         if k in t:
             kw[k] = _num(t[k], f"render.{k}", file, 0.0, 100.0)
+    if "shadow_proxy_snap" in t:
+        kw["shadow_proxy_snap"] = _num(t["shadow_proxy_snap"], "render.shadow_proxy_snap", file,
+                                       0.0, 1.0)
     if "shadow_lod_error" in t:
         kw["shadow_lod_error"] = _num(t["shadow_lod_error"], "render.shadow_lod_error", file,
                                       0.0, LOD_ERROR_MAX)

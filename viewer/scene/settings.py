@@ -120,6 +120,10 @@ class ShadowSettings:
     # scales each light's angular size, so the penumbra (PCSS); 0: hard (shadow_softness)
     softness: float = 1.0
     bias: float = 1.0  # scales the receiver's normal offset (shadow_bias)
+    # an image-space stack's depth snapped to its shadow-only proxies' where the two lie within
+    # this fraction of the proxies' depth (viewer/geometry/proxy_snap.py: an estimated depth then
+    # does not shadow itself at the default bias); 0: off (shadow_proxy_snap, 0..1)
+    proxy_snap: float = 0.05
     # the error a mesh drawn into a shadow map may carry, in the map's texels where it lies:
     # each is drawn at the coarsest level of detail within it (viewer/geometry/simplify.py:
     # meshoptimizer's measure; a silhouette moves about twice as far); 0: whole meshes
@@ -242,6 +246,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "env_shadows": ("shadow", "environment"),
     "shadow_softness": ("shadow", "softness"),
     "shadow_bias": ("shadow", "bias"),
+    "shadow_proxy_snap": ("shadow", "proxy_snap"),
     "shadow_lod_error": ("shadow", "lod_error"),
     "shadow_cascades": ("shadow", "cascades"),
     "contact_shadows": ("shadow", "contact"),

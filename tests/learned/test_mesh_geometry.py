@@ -196,12 +196,15 @@ def test_the_shadow_trade_scores_every_option_against_the_targets(data, renderer
     assert all(f"| {name} |" in table for name in OPTIONS)
 
 
-def test_a_stack_behind_its_proxies_is_snapped_onto_them(data, tmp_path, renderer):
+@pytest.mark.parametrize("raytrace", [False, True], ids=["shadow maps", "rays"])
+def test_a_stack_behind_its_proxies_is_snapped_onto_them(data, tmp_path, renderer, raytrace):
     """An estimated depth 2 % too far (every pixel of a degraded sample's stack behind its own
     proxy surface): at the default bias 1 the proxies shadow the stack, darkening some pixels
-    by over 10 % against the true stack's frame; with the stack's depth snapped to the proxies'
-    (``shadow_proxy_snap``, the viewer's default 0.05) the frame is the true stack's again, to
-    the tolerance of the test above. A snap tolerance under the error (0.01) snaps nothing."""
+    by over 10 % against the true stack's frame (under the default render's rays nearly all of
+    them: each pixel's rays start inside the proxy; measured 98-100 % on four protocol
+    samples); with the stack's depth snapped to the proxies' (``shadow_proxy_snap``, the
+    viewer's default 0.05) the frame is the true stack's again, to the tolerance of the test
+    above. A snap tolerance under the error (0.01) snaps nothing."""
     import OpenImageIO as oiio
 
     from learned.data.scene import DEGRADED_PROXY_SNAP
@@ -220,10 +223,12 @@ def test_a_stack_behind_its_proxies_is_snapped_onto_them(data, tmp_path, rendere
         s = load_sample(folder)
         fg = s.foreground()
         want = renderer.render(sample_mesh_scene(load_sample(clean), model="ggx_split_sum",
-                                                 ssao=True)).radiance[..., :3][fg]
+                                                 ssao=not raytrace, raytrace=raytrace)
+                               ).radiance[..., :3][fg]
 
         def frame(snap):
-            scene = sample_mesh_scene(s, model="ggx_split_sum", ssao=True, shadow_bias=1.0,
+            scene = sample_mesh_scene(s, model="ggx_split_sum", ssao=not raytrace,
+                                      raytrace=raytrace, shadow_bias=1.0,
                                       shadow_proxy_snap=snap)
             return renderer.render(scene).radiance[..., :3][fg]
 
@@ -231,7 +236,8 @@ def test_a_stack_behind_its_proxies_is_snapped_onto_them(data, tmp_path, rendere
         darker = max(darker, float(((far.sum(-1) < 0.9 * want.sum(-1))).mean()))
         np.testing.assert_array_equal(frame(0.01), far)  # 2 % off: outside a 1 % tolerance
         _assert_same_frame(frame(0.05), want, folder.name)
-    assert darker > 0.01  # the unsnapped stack shadows itself somewhere: the test can fail
+    # the unsnapped stack shadows itself somewhere (with rays: almost everywhere)
+    assert darker > (0.5 if raytrace else 0.01)
 
 
 def test_snap_depth_moves_only_what_lies_within_the_tolerance():

@@ -74,7 +74,8 @@ from ..parity.checks.models import gl_gbuffer
 from ..parity.checks.shadow_net import frame_inputs
 from ..protocol.data import dataset_hash
 from ..protocol.degrade import degraded_dataset
-from ..twins.shadow_net import shadow_net, shadow_net_apply, shadow_net_demodulate
+from ..twins.shadow_net import (shadow_net, shadow_net_apply, shadow_net_demodulate,
+                                shadow_net_input_a)
 from .runner import Run, _loop
 
 STAGE = "shadow_net"
@@ -163,7 +164,8 @@ def model_inputs(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
     if not model.demodulates:
         return img.inputs
     rgb = shadow_net_demodulate(img.radiance[:, :3].movedim(1, -1), img.albedo.movedim(1, -1))
-    return torch.cat([torch.log1p(rgb.clamp_min(0.0)).movedim(-1, 1), img.inputs[:, 3:]], 1)
+    a = shadow_net_input_a(rgb, img.inputs[:, 3])  # [B, H, W, 4]: log(1 + L), O(x)
+    return torch.cat([a[..., :3].movedim(-1, 1), img.inputs[:, 3:]], 1)
 
 
 def shaded(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:

@@ -60,7 +60,7 @@ from .real_assets_metrics import (
     speckle,
     verdict,
 )
-from .real_assets_splats import splat_cases, splat_scenes
+from .real_assets_splats import ESTIMATOR_CASE, splat_cases, splat_scenes
 
 # (name, glTF file under assets/models): every bundled model (cge_base_level is a small diorama
 # standing on its own ground; the reference traces its fence's MASK as a cut-out and the
@@ -103,8 +103,6 @@ def sx_student_file() -> Path:
 
     return ASSET_ROOT / "weights" / "students" / "sx-w32x2-split-sun.safetensors"
 
-
-ESTIMATOR_CASE = "split-sum, screen + "  # the label of a candidate estimator's case, + its name
 
 
 def estimator_case(label: str, net) -> Case:

@@ -23,6 +23,7 @@ from pathlib import Path
 
 # (name, the model of relight.bench.real_assets.ASSETS whose scene is tiled)
 SPLAT_ASSETS: tuple[tuple[str, str], ...] = (("cge_plasma_gun_splats", "cge_plasma_gun"),)
+ESTIMATOR_CASE = "split-sum, screen + "  # the label of an estimator's case, + its name
 SPLAT_CASES = ("split-sum, rays", "neural, rays", "split-sum, screen", "neural, screen",
                "neural S(x), screen", "split-sum, screen + estimator",
                "split-sum, estimator's V", "neural, estimator's V")
@@ -61,7 +62,7 @@ def splat_cases(case_list):
     """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`, and the
     candidate estimators' of ``--estimator``)."""
     return tuple(c for c in case_list if c.label in SPLAT_CASES
-                 or c.label.startswith("split-sum, screen + "))  # candidate estimators too
+                 or c.label.startswith(ESTIMATOR_CASE))  # candidate estimators too
 
 
 def splat_scenes(options, envs, cache: Path, files: dict, scene_of):

@@ -142,6 +142,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also score every model against path-traced truth on this held-out "
                         "dataset (relight eval DATA --split all) and mark its Pareto front "
                         "(repeatable; needs torch)")
+    p.add_argument("--trade", action="append", metavar="DATA",
+                   help="the shadow_trade suite's protocol dataset: every visibility option on "
+                        "its val split against truth, at equal time and accuracy (repeatable)")
     p.add_argument("--suite", action="append", metavar="NAME",
                    help="measure only this extra suite (e.g. shadow_truth, penumbra) -> "
                         "OUT/NAME.json and NAME.md (repeatable)")

@@ -46,9 +46,10 @@ from pathlib import Path
 SUITES = ("mc_convergence", "shadows", "antialias", "splats", "neural", "clamps", "shadow_net",
           "rays")
 # relight bench's suites the main step leaves out: CPU-bound (Mitsuba, torch training, new
-# processes) or minutes long; their results do not depend on the GPU much
+# processes) or minutes long, or needing a dataset (shadow_trade); their results do not depend
+# on the GPU much
 LEFT_OUT = ("heldout", "environments", "memory", "shadow_truth", "penumbra", "splat_decomp",
-            "real_assets")
+            "real_assets", "shadow_trade")
 STEPS = ("info", "parity", "path", "suites", "main")
 BUDGET_S = 480.0
 

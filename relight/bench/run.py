@@ -30,7 +30,6 @@ import os
 import platform
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -46,29 +45,13 @@ from viewer.splats.generate import sphere_splats
 from viewer.splats.ply import write_ply
 
 from . import metrics
+from .config import BenchConfig  # noqa: F401 - re-exported
 from .report import CSV_KEYS, RESULT_KEYS, pareto_front, write_reports  # noqa: F401 - re-exported
 from .scenes import bench_scene, demo_scene, with_object
 from .specialize import measure_specialization
 from .suites import SUITES
 from .timing import time_frames
 from .truth import converged_mc, truth_cases, truth_row, truth_scenes
-
-
-@dataclass(frozen=True)
-class BenchConfig:
-    quick: bool = False
-    frames: int = 10  # timed frames per case (after warm-up)
-    warmup: int = 2
-    reference_spp: int = 1024  # samples per pixel of the converged ggx_mc reference
-    truth_spp: int = 4096  # samples per pixel of the converged ggx_mc on the reference scenes
-    truth: bool = True  # measure against the path-traced references (relight.bench.truth)
-    # held-out datasets with path-traced targets (relight.bench.heldout): every model's scores and
-    # Pareto front on each
-    heldout: tuple[str, ...] = ()
-
-    @property
-    def sizes(self) -> list[tuple[int, int]]:
-        return [(160, 100)] if self.quick else [(256, 160), (512, 320)]
 
 
 def _bench_scenes(cache: Path, quick: bool) -> dict[str, Scene]:

@@ -184,6 +184,21 @@ def _suite_real_assets(renderer, scenes, config, cache) -> list[dict]:
     return suite_rows(renderer, scenes, config, cache)
 
 
+def _suite_shadow_trade(renderer, scenes, config, cache) -> list[dict]:
+    """Every visibility option of the rasterised frame (SSAO, contact shadows, the blurred bounce,
+    the shipped shadow estimators, the ray-traced tier at 1-8 frames) against path-traced truth
+    on the val split of each ``--trade`` protocol dataset, meshes, stacks and splats, timed in
+    the same run and read at equal time and equal accuracy (:mod:`relight.bench.shadow_trade`;
+    needs torch). Without ``--trade`` it is left out, with a warning."""
+    if not config.trade:
+        warnings.warn("relight bench shadow_trade: left out (no protocol dataset: give --trade "
+                      "DATA, e.g. from relight data DATA --protocol)", stacklevel=2)
+        return []
+    from .shadow_trade import suite_rows
+
+    return suite_rows(renderer, config.trade, config, cache.parent / "shadow_trade")
+
+
 # Extra suites, each a section of bench.json and a table of bench.md:
 # name -> callable(renderer, scenes, config, cache) -> list[row dict]
 SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_splats,
@@ -194,5 +209,6 @@ SUITES: dict[str, Callable] = {"mc_convergence": _suite_mc, "splats": _suite_spl
                                "penumbra": _suite_penumbra, "splat_decomp": _suite_splat_decomp,
                                "path": _suite_path, "rays": _suite_rays,
                                "shadow_net": _suite_shadow_net,
-                               "real_assets": _suite_real_assets}
+                               "real_assets": _suite_real_assets,
+                               "shadow_trade": _suite_shadow_trade}
 

@@ -7,7 +7,8 @@ def cmd_bench(args) -> int:
 
     config = BenchConfig(quick=args.quick, frames=args.frames,
                          reference_spp=256 if args.quick else 1024,
-                         heldout=tuple(getattr(args, "heldout", None) or ()))
+                         heldout=tuple(getattr(args, "heldout", None) or ()),
+                         trade=tuple(getattr(args, "trade", None) or ()))
     if getattr(args, "suite", None):
         from ..bench.report import suite_table
         from ..bench.run import run_suites

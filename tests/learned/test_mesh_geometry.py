@@ -176,20 +176,24 @@ def test_the_shadow_trade_scores_every_option_against_the_targets(data, renderer
     from learned.parity.checks.shadow_net import parity_weights
     from relight.bench.run import BenchConfig
     from relight.bench.scenes import demo_scene
-    from relight.bench.shadow_trade import OPTIONS, accuracy, cost, main, trade_rows
+    from relight.bench.shadow_trade import (OPTIONS, RAY_OPTIONS, accuracy, cost, main, matched,
+                                            trade_rows)
 
     weights = str(parity_weights(tmp_path))
     mesh = accuracy(str(data), "val", weights, "mesh", renderer)
     assert list(mesh) == list(OPTIONS) and all(len(v) == len(KINDS) for v in mesh.values())
     assert all(np.isfinite(v).all() for v in mesh.values())
     assert mesh["SSAO x shadow estimator"] != mesh["SSAO"]
-    assert mesh["ray-traced tier"] != mesh["SSAO"]
+    assert all(mesh[r] != mesh["SSAO"] for r in RAY_OPTIONS)
+    assert mesh[RAY_OPTIONS[0]] != mesh[RAY_OPTIONS[-1]]  # 1 frame of rays is not 8
     stack = accuracy(str(data), "val", weights, "stack", renderer)
-    assert "ray-traced tier" not in stack and len(stack) == len(OPTIONS) - 1
+    assert not set(RAY_OPTIONS) & set(stack) and len(stack) == len(OPTIONS) - len(RAY_OPTIONS)
     costs = cost(renderer, demo_scene(), weights, BenchConfig(frames=3, warmup=0), size=(32, 32))
     rows = trade_rows(mesh, costs)
     assert rows[0]["option"] == "SSAO" and rows[0]["vs_ssao"] == 0.0
     assert all(r["ratio_frame"] > 0 and r["samples"] == len(KINDS) for r in rows)
+    matched(rows)
+    assert all(("rays_ratio_bound" in r) == (r["option"] not in RAY_OPTIONS) for r in rows)
     out = tmp_path / "trade"
     assert main([str(data), weights, "--geometry", "mesh", "--no-cost", "--out", str(out)]) == 0
     table = (out / "shadow_trade.md").read_text()

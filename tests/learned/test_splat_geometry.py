@@ -124,16 +124,16 @@ def test_the_shadow_trade_on_splats(mesh_dataset, renderer, tmp_path):
     opaque cores: viewer/raytrace/splat_proxies.py) scored per sample; the scene they are timed on is the demo tiled with splats (``cost``
     itself: test_mesh_geometry.py)."""
     from learned.parity.checks.shadow_net import parity_weights
-    from relight.bench.shadow_trade import OPTIONS, accuracy, cost_scene, options
+    from relight.bench.shadow_trade import OPTIONS, RAY_OPTIONS, accuracy, cost_scene, options
     from viewer.splats.ply import read_ply
 
     weights = str(parity_weights(tmp_path))
     got = accuracy(str(mesh_dataset), "val", weights, "splat", renderer)
     assert list(got) == list(OPTIONS) == options("splat")
-    assert options("stack") == [n for n in OPTIONS if n != "ray-traced tier"]
+    assert options("stack") == [n for n in OPTIONS if n not in RAY_OPTIONS]
     assert all(len(v) == len(MESH_KINDS) and np.isfinite(v).all() for v in got.values())
     assert got["SSAO x shadow estimator"] != got["SSAO"]
-    assert got["ray-traced tier"] != got["SSAO"]
+    assert all(got[r] != got["SSAO"] for r in RAY_OPTIONS)
     scene = cost_scene("splat", tmp_path / "cost", size=(32, 32))
     assert [o.type for o in scene.objects] == ["splats"]
     cloud = read_ply(scene.objects[0].path)  # the ten balls' albedo and the floor's grey

@@ -167,3 +167,44 @@ def test_a_rough_floors_grazing_specular_is_the_lobes_not_the_split_sums(rendere
 
     assert err(renderer.render(scene.with_render(raytrace=False)).radiance) < -0.04
     assert abs(err(renderer.render(scene.with_render(raytrace=True)).radiance)) < 0.03
+
+
+def test_a_headless_render_traces_ray_still_frames_frames(ctx):
+    """``ray_still_frames = k``: a headless render is the interactive viewer's k-th still frame,
+    exactly (the same rays, the same running mean, the same filter), for k = 1 and 3; the default
+    is 8 frames, and fewer frames leave a grainier floor (the trade ``relight.bench.shadow_trade``
+    measures)."""
+    from viewer.graph.raytrace import STILL_FRAMES
+    from viewer.renderer import Renderer
+
+    base = load_scene("assets/scenes/reference/park_sphere_on_plane.toml").with_render(
+        raytrace=True)
+    assert base.render.raytrace.still_frames == STILL_FRAMES == 8
+    images = {}
+    for k in (1, 3, 8):
+        r = Renderer(ctx=ctx)
+        images[k] = read_texture(r.draw(base.with_render(ray_still_frames=k)).radiance, "f4")
+        r.release()
+    viewer = Renderer(ctx=ctx)
+    frames = [read_texture(viewer.draw(base, progressive=True).radiance, "f4") for _ in range(3)]
+    viewer.release()
+    assert np.array_equal(images[1], frames[0]) and np.array_equal(images[3], frames[2])
+    default = Renderer(ctx=ctx)
+    assert np.array_equal(read_texture(default.draw(base).radiance, "f4"), images[8])
+    default.release()
+
+    def grain(img):  # mean |lum - its 3x3 median| over the covered pixels
+        from scipy.ndimage import median_filter
+
+        lum = img[..., :3].sum(-1)
+        return float(np.abs(lum - median_filter(lum, 3))[img[..., 3] > 0.5].mean())
+
+    assert grain(images[1]) > 1.2 * grain(images[8]), (grain(images[1]), grain(images[8]))
+
+
+def test_ray_still_frames_is_checked():
+    from viewer.errors import SceneError
+
+    scene = load_scene("assets/scenes/reference/park_sphere_on_plane.toml")
+    with pytest.raises(SceneError, match="ray_still_frames"):
+        scene.with_render(ray_still_frames=0)

@@ -6,8 +6,8 @@ into ``rt_light<k>``, which the lighting pass reads under RT_LIGHT).
 The running mean restarts whenever anything but the display settings changes (the scene, the
 camera, a slider): nothing of an earlier view lingers, so a slider move never ghosts. A still
 view in the interactive viewer adds one frame of rays per frame up to ``ray_frames``, then
-stops tracing (the image is then still, exactly); a headless render traces
-:data:`STILL_FRAMES` frames at once."""
+stops tracing (the image is then still, exactly); a headless render traces ``ray_still_frames``
+frames at once (default :data:`STILL_FRAMES`)."""
 from __future__ import annotations
 
 import dataclasses
@@ -15,10 +15,12 @@ import dataclasses
 from ..passes.rt_light import FILTER_STEPS
 from ..scene.camera import Camera
 from ..scene.description import Scene
+from ..scene.settings import RaytraceSettings
 from .graph import FrameGraph
 from .resources import TextureDesc
 
-STILL_FRAMES = 8  # frames of rays a headless (non-progressive) render accumulates
+# frames of rays a headless (non-progressive) render accumulates by default (ray_still_frames)
+STILL_FRAMES = RaytraceSettings.still_frames
 TARGETS = 3
 
 
@@ -42,6 +44,7 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
     ibl = res.ibl(scene.environment, sun=bool(defines.get("SUN_LIGHT")))
     contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
     window = int(settings.raytrace.frames)
+    still = int(settings.raytrace.still_frames)
 
     def rays(f):
         trace = res.trace.get(contents, renderer.geometry_cache.version)
@@ -50,7 +53,7 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
         key = (dataclasses.replace(scene, render=lighting_settings), camera)
         if not progressive or state.get("key") != key:
             state.update(key=key, count=0)
-        todo = (1 if state["count"] < window else 0) if progressive else STILL_FRAMES
+        todo = (1 if state["count"] < window else 0) if progressive else still
         gb = f["gbuffer"].textures
         for _ in range(todo):
             rpass.trace(gb, f.fbo(*raw), camera, ibl, sampling, scene.environment, settings,

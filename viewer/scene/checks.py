@@ -119,6 +119,9 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "ray_frames" in t:
         kw["ray_frames"] = _int(t["ray_frames"], "render.ray_frames", file, 1,
                                      4096)
+    if "ray_still_frames" in t:
+        kw["ray_still_frames"] = _int(t["ray_still_frames"], "render.ray_still_frames", file, 1,
+                                      4096)
     for k in ("ssao", "indirect", "shadows", "ssao_blur", "indirect_blur", "raytrace",
               "ray_denoise"):
         if k in t:

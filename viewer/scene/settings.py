@@ -61,6 +61,9 @@ class RaytraceSettings:
     # frames a still view accumulates before the history becomes an exponential average of that
     # many (ray_frames)
     frames: int = 32
+    # frames of rays a headless (non-progressive) render accumulates at once: its image's noise
+    # against its cost, about one viewer frame's rays each (ray_still_frames)
+    still_frames: int = 8
 
     def __bool__(self):  # say where the switch is
         raise TypeError("RaytraceSettings has no truth value: use settings.raytrace.enabled")
@@ -255,4 +258,5 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "raytrace_rays": ("raytrace", "rays"),
     "ray_denoise": ("raytrace", "denoise"),
     "ray_frames": ("raytrace", "frames"),
+    "ray_still_frames": ("raytrace", "still_frames"),
 }

@@ -76,6 +76,7 @@ from ..protocol.data import dataset_hash
 from ..protocol.degrade import degraded_dataset
 from ..twins.shadow_net import (shadow_net, shadow_net_apply, shadow_net_demodulate,
                                 shadow_net_input_a)
+from .decals import decal
 from .runner import Run, _loop
 
 STAGE = "shadow_net"
@@ -102,6 +103,7 @@ class ShadowNetTrainConfig:
     visibility_target: bool = False  # min(target, g x unshadowed radiance) (module doc)
     loss: str = "log_mse"  # "log_mse" (the metric) | "l2" | "l1" on log(1 + x) (module doc)
     augment: float = 0.2  # > 0: exposure, tint (this log-normal sigma) and mirror (module doc)
+    decals: float = 0.0  # the share of training images with a painted-on pattern (.decals)
     # log_mse's terms that keep the image's energy and its highlights', and the linear image
     # (loss, module doc; both off: neither moved the validation scores)
     energy_weight: float = 0.0
@@ -200,6 +202,18 @@ def augmented(img: ShadowNetImage, rng: np.random.Generator, tint: float) -> Sha
             t.flip(-1) for t in (radiance, inputs, target, surface, albedo))
         inputs[:, 4] = -inputs[:, 4]  # the normal's x (camera space, x to the right)
     return ShadowNetImage(img.name, radiance, inputs, surface, target, albedo)
+
+
+def decaled(img: ShadowNetImage, rng: np.random.Generator) -> ShadowNetImage:
+    """``img`` with a pattern of :func:`.decals.decal` painted on its surfaces: the radiance, the
+    target and the base colour times the same factor, the radiance input recomputed."""
+    f = decal(rng, *img.target.shape[-2:])
+    f = torch.where(img.surface, f, torch.ones_like(f))
+    radiance = torch.cat([img.radiance[:, :3] * f, img.radiance[:, 3:]], 1)
+    inputs = img.inputs.clone()
+    inputs[:, :3] = torch.log1p(radiance[:, :3].clamp_min(0.0))  # shadow_net_input_a
+    return ShadowNetImage(img.name, radiance, inputs, img.surface, img.target * f,
+                          img.albedo * f)
 
 
 LOSSES = ("l1", "l2", "log_mse")
@@ -343,6 +357,8 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
         pick = rng.choice(len(train), size=min(cfg.batch, len(train)), replace=False)
         batch = [augmented(train[i], rng, cfg.augment) if cfg.augment > 0 else train[i]
                  for i in pick]
+        if cfg.decals > 0:  # no draw without decals: the default's batches are as before
+            batch = [decaled(b, rng) if rng.random() < cfg.decals else b for b in batch]
         return loss(m, batch, cfg.visibility_target, cfg.loss, cfg.linear_weight,
                     cfg.energy_weight)
 

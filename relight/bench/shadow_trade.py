@@ -277,7 +277,7 @@ SHIPPED = {"mesh": "shadow_net_mesh.safetensors", "splat": "shadow_net_mesh.safe
            "stack": "shadow_net.safetensors"}  # the estimator each geometry is scored with
 
 
-def suite_rows(renderer, datasets, config, folder: Path) -> list[dict]:
+def suite_rows(renderer, datasets, config, folder: Path, progress: bool = True) -> list[dict]:
     """``relight bench --suite shadow_trade --trade DATA``: the trade on each dataset's val split
     for meshes, stacks and (not ``--quick``: minutes of splat frames) splats, with the shipped
     estimator of each (:data:`SHIPPED`), timed at 512^2 in the same run, read at equal time and
@@ -285,14 +285,26 @@ def suite_rows(renderer, datasets, config, folder: Path) -> list[dict]:
     from assets import ASSET_ROOT
     from viewer.errors import RelightError
 
+    import sys
+    import time
+
     rows = []
     folder.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+
+    def log(message):
+        if progress:
+            print(f"shadow_trade: {message} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr,
+                  flush=True)
+
     for data in datasets:
         for geometry in ("mesh", "stack") if config.quick else ("mesh", "stack", "splat"):
             weights = ASSET_ROOT / "weights" / SHIPPED[geometry]
             if not weights.is_file():
                 raise RelightError("the shipped estimator is missing", where=weights)
+            log(f"{data}, {geometry}: scoring {len(options(geometry))} options on val")
             scores = accuracy(data, "val", str(weights), geometry, renderer)
+            log(f"{data}, {geometry}: timing them at {SIZE[0]}x{SIZE[1]}")
             costs = cost(renderer, cost_scene(geometry, folder), str(weights), config,
                          options(geometry))
             found = trade_rows(scores, costs)

@@ -85,7 +85,8 @@ def _train_shadow_net(args) -> int:
 SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val_data",
                       "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry",
                       "shadow_energy": "energy_weight", "shadow_linear": "linear_weight",
-                      "shadow_env_visibility": "architecture", "shadow_arch": "architecture"}
+                      "shadow_env_visibility": "architecture", "shadow_arch": "architecture",
+                      "shadow_decals": "decals"}
 
 
 def add_shadow_net_arguments(p) -> None:
@@ -120,6 +121,10 @@ def add_shadow_net_arguments(p) -> None:
     p.add_argument("--shadow-linear", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term on the linear image's "
                         "relative error (default 0: off)")
+    p.add_argument("--shadow-decals", type=float, metavar="P",
+                   help="--stage shadow_net: the share of training images with a random "
+                        "pattern painted on frame, target and base colour alike (textures that "
+                        "cast no shadow; learned/train/decals.py; default 0)")
 
 
 def shadow_net_options(args) -> dict:
@@ -145,6 +150,8 @@ def shadow_net_options(args) -> dict:
             value = tuple(value)
         elif opt in ("shadow_energy", "shadow_linear") and not 0.0 <= value < float("inf"):
             raise RelightError(f"a loss weight must be finite and >= 0, got {value}", where=flag)
+        elif opt == "shadow_decals" and not 0.0 <= value <= 1.0:
+            raise RelightError(f"a share must be in [0, 1], got {value}", where=flag)
         elif opt == "shadow_env_visibility":  # else the geometry's
             value = out.get(name, _shipped_architecture()) | {"env_visibility": bool(value)}
         elif opt == "shadow_arch":

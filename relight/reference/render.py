@@ -20,7 +20,7 @@ import os
 import sys
 import time
 import warnings
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -135,11 +135,21 @@ def camera_rays(camera, jitter: np.ndarray | None = None) -> np.ndarray:
 
 # ---- rendering ----------------------------------------------------------------------------------
 
+# the [render] settings the tracer reads (the rest are the rasteriser's: a new one of those, or
+# a change of one, keeps every cached truth)
+TRACED_RENDER = {"background": lambda r: r.display.background,
+                 "multiscatter": lambda r: bool(r.multiscatter)}
+
+
 def config_key(scene: Scene, options: ReferenceOptions) -> str:
-    """A digest of everything a checkpoint's samples depend on (with glTF alphaMode MASK or
-    BLEND: how it is traced, :data:`~relight.reference.scene.ALPHA_TRACING`; scenes without
-    keep their keys; so do those at the default ``sun_strength``)."""
-    data = {"scene": repr(scene.__class__) + repr(replace(scene, source=None)),
+    """A digest of everything a checkpoint's samples depend on: the scene but the render
+    settings the tracer does not read (:data:`TRACED_RENDER`), and the options (with glTF
+    alphaMode MASK or BLEND: how it is traced, :data:`~relight.reference.scene.ALPHA_TRACING`;
+    scenes without keep their keys; so do those at the default ``sun_strength``)."""
+    data = {"scene": repr(scene.__class__) + repr([(f.name, getattr(scene, f.name))
+                                                   for f in fields(scene)
+                                                   if f.name not in ("source", "render")]),
+            "render": {k: read(scene.render) for k, read in TRACED_RENDER.items()},
             "options": {k: v for k, v in asdict(options).items()
                         if k not in ("spp", "batch_spp")}}
     modes = alpha_modes(scene)

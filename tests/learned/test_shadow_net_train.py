@@ -121,6 +121,36 @@ def test_augmentation_keeps_the_best_visibility_and_mirrors_the_normals():
     assert seen == {True, False}
 
 
+def test_decals_paint_frame_target_and_base_colour_alike_on_the_surfaces():
+    """A decal multiplies radiance, target and base colour by one pattern on the surfaces only
+    (target / radiance unchanged, the background untouched), darkening some surface pixels by
+    at least 20 % (the least contrast), the radiance input recomputed; every kind of pattern is
+    drawn, and each is a factor in (0, 1]."""
+    from learned.train.decals import KINDS, decal
+    from learned.train.shadow_net import decaled
+
+    g = torch.Generator().manual_seed(1)
+    rad = torch.rand(1, 4, 40, 48, generator=g) + 0.1
+    surface = torch.rand(1, 1, 40, 48, generator=g) > 0.3
+    img = ShadowNetImage("a", rad, torch.rand(1, 9, 40, 48, generator=g), surface,
+                         torch.rand(1, 3, 40, 48, generator=g), torch.rand(1, 3, 40, 48,
+                                                                           generator=g))
+    rng = np.random.default_rng(0)
+    for _ in range(8):
+        out = decaled(img, rng)
+        f = out.radiance[:, :3] / rad[:, :3]
+        assert torch.allclose(out.target / img.target, f, rtol=1e-5)
+        assert torch.allclose(out.albedo / img.albedo, f, rtol=1e-5)
+        assert torch.equal(f[~surface.expand_as(f)], torch.ones_like(f[~surface.expand_as(f)]))
+        assert float(f.min()) <= 0.8 + 1e-6 and float(f.max()) <= 1.0 + 1e-6
+        assert torch.allclose(out.inputs[:, :3], torch.log1p(out.radiance[:, :3]), atol=1e-6)
+        assert torch.equal(out.inputs[:, 3:], img.inputs[:, 3:])
+    rng = np.random.default_rng(1)
+    drawn = [decal(rng, 32, 32) for _ in range(40)]
+    assert all(float(d.min()) > 0.0 and float(d.max()) <= 1.0 for d in drawn)
+    assert len(KINDS) == 4 and len({d.numpy().tobytes() for d in drawn}) == 40
+
+
 def test_a_demodulating_estimator_reads_the_radiance_over_the_base_colour():
     """``"demodulate"``: the estimator's radiance input is log(1 + L / max(albedo, 0.05)), in
     training (:func:`model_inputs`) as in the torch model, so a texture in the albedo that the
@@ -251,13 +281,15 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
             str(tmp_path / "run"), "-q"]
     assert main(base + ["--shadow-extra-data", str(dataset), str(dataset), "--shadow-val-data",
                         str(dataset), "--shadow-degrade", "0.25,1", "--shadow-geometry",
-                        "stack", "--shadow-energy", "1", "--shadow-linear", "0.5"]) == 0
+                        "stack", "--shadow-energy", "1", "--shadow-linear", "0.5",
+                        "--shadow-decals", "0.5"]) == 0
     assert main(base + ["--shadow-geometry", "mesh"]) == 0
     assert main(base) == 0
     given, mesh, default = seen
     assert given.extra_data == (str(dataset),) * 2 and given.val_data == (str(dataset),)
     assert given.degrade_levels == (0.25, 1.0) and given.geometry == "stack"
-    assert given.energy_weight == 1.0 and given.linear_weight == 0.5
+    assert given.energy_weight == 1.0 and given.linear_weight == 0.5 and given.decals == 0.5
+    assert default.decals == 0.0
     assert mesh.geometry == "mesh" and mod.levels(mesh) == ()
     assert mod.levels(default) == mod.DEFAULT_DEGRADE_LEVELS  # stacks: degraded copies
     assert main(base + ["--shadow-degrade", "none"]) == 0 and seen.pop().degrade_levels == ()
@@ -285,6 +317,7 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
                        ("--shadow-degrade", ["--shadow-degrade", "half"]),
                        ("--shadow-energy", ["--shadow-energy", "-1"]),
                        ("--shadow-linear", ["--shadow-linear", "nan"]),
+                       ("--shadow-decals", ["--shadow-decals", "1.5"]),
                        ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)]),
                        ("--shadow-arch", ["--shadow-arch", "{upsample: bilinear}"]),
                        ("--shadow-arch", ["--shadow-arch", '["bilinear"]']),

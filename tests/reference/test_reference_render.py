@@ -302,3 +302,25 @@ def test_textured_mesh_reads_its_texture_the_right_way_up(mitsuba_llvm, renderer
     for i, j in ((4, 4), (4, 11), (11, 4), (11, 11)):
         assert np.argmax(ref.radiance[i, j, :3]) == np.argmax(ours[i, j, :3])
         np.testing.assert_allclose(ref.radiance[i, j, :3], ours[i, j, :3], rtol=0.15, atol=0.05)
+
+
+def test_the_cache_key_follows_what_the_tracer_reads():
+    """A cached truth is keyed by the scene and the options (``config_key``): the render settings
+    the rasteriser alone reads (the rays' frames, SSAO, the model) keep the key, so a new one of
+    them does not trace every cached truth again; those the tracer reads (the background's
+    transparency, multiple scattering) and the scene itself change it."""
+    from relight.reference.render import TRACED_RENDER, config_key
+
+    scene = scene_from_dict({"environment": {"procedural": "sky"},
+                             "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]})
+    opts = ReferenceOptions()
+    key = config_key(scene, opts)
+    for change in ({"ray_still_frames": 2}, {"ssao": False}, {"model": "blinn_phong"},
+                   {"raytrace": False}, {"shadow_proxy_snap": 0.0}):
+        assert config_key(scene.with_render(**change), opts) == key, change
+    assert set(TRACED_RENDER) == {"background", "multiscatter"}
+    assert config_key(scene.with_render(background="transparent"), opts) != key
+    assert config_key(scene.with_render(multiscatter=not scene.render.multiscatter), opts) != key
+    assert config_key(scene.with_camera(size=(33, 17)), opts) != key
+    assert config_key(scene, ReferenceOptions(max_depth=2)) != key
+    assert config_key(scene, ReferenceOptions(spp=7)) == key  # a checkpoint's count, not its key

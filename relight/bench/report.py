@@ -35,6 +35,8 @@ def pareto_front(rows: list[dict]) -> list[dict]:
 
 
 def _fmt(v) -> str:
+    if v is None:  # a reading that does not exist (e.g. the rays' PSNR below one frame's cost)
+        return "–"
     if isinstance(v, float):
         if math.isnan(v):
             return "–"

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import warnings
 from pathlib import Path
@@ -47,7 +48,6 @@ import torch
 
 SIZE = (512, 512)
 BASE = {"model": "ggx_split_sum", "ssao": True, "indirect": True, "raytrace": False}
-# name -> render settings over BASE ({weights}: the estimator's file)
 # frames of rays a headless frame accumulates (``ray_still_frames``): one is what an interactive
 # frame traces, 8 the headless default; the points of the rays' curve of accuracy against cost
 RAY_FRAMES = (1, 2, 4, 8)
@@ -168,8 +168,6 @@ def trade_rows(scores: dict, costs: dict | None) -> list[dict]:
 
 def _log_interp(x: float, x0: float, x1: float, y0: float, y1: float) -> float:
     """``y`` at ``x`` on the line through (log x0, y0) and (log x1, y1)."""
-    import math
-
     if x1 == x0:
         return y0
     t = (math.log(x) - math.log(x0)) / (math.log(x1) - math.log(x0))
@@ -180,9 +178,8 @@ def matched(rows: list[dict]) -> None:
     """Adds to every timed row that is not the rays' its equal-time and equal-accuracy readings
     of the rays' curve (module doc), in place: ``rays_psnr_equal_time`` (None when it costs less
     than one frame of rays) and ``rays_ratio_equal_psnr`` with ``rays_ratio_bound`` (``"="``
-    interpolated, ``"<="`` the first frame already reaches it, None when no ray point does)."""
-    import math
-
+    interpolated, ``"<="`` the first frame already reaches it, None when no ray point does);
+    an option dearer than the dearest ray point reads that point's PSNR."""
     rays = sorted(((r["ratio_frame"], r["psnr"]) for r in rows
                    if r["option"] in RAY_OPTIONS and "ratio_frame" in r))
     if not rays:
@@ -285,7 +282,6 @@ def suite_rows(renderer, datasets, config, folder: Path, progress: bool = True) 
     from assets import ASSET_ROOT
     from viewer.errors import RelightError
 
-    import sys
     import time
 
     rows = []

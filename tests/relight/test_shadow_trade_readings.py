@@ -35,6 +35,9 @@ def test_readings_interpolate_in_log_cost_and_say_their_bounds():
     assert all("rays_ratio_bound" not in r for r in rows[3:])
     table = markdown(rows, "t")
     assert "| cheap | 25.00 |" in table and "≤ 3.00" in table
+    from relight.bench.report import suite_table  # the bench suite's table: no "None"
+
+    assert "None" not in "\n".join(suite_table(rows)) and "| – |" in "\n".join(suite_table(rows))
     assert "no ray point reaches it" in table and "cheaper than one frame of rays" in table
 
 

@@ -24,7 +24,7 @@ def cmd_reference(args) -> int:
         render_reference,
         write_reference,
     )
-    from ..reference.render import finished_reference
+    from ..reference.keys import finished_reference
 
     if (args.out is None) == (args.out_dir is None):
         raise SceneError("give either --out (one scene) or --out-dir (one or more scenes)",

@@ -30,7 +30,7 @@ def cached_truth(scene, name: str, options: GalleryOptions, spp: int):
     reference options) with at least ``spp`` samples; else traced and written over that one file.
     Also :mod:`relight.bench.real_assets`' truth."""
     from ..reference import ReferenceOptions, read_reference, render_reference, write_reference
-    from ..reference.render import finished_reference
+    from ..reference.keys import finished_reference
 
     ref_options = ReferenceOptions(spp=spp)
     out = options.cache / f"{name}.exr"

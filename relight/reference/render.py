@@ -13,22 +13,21 @@ A checkpoint after every batch lets an interrupted render resume where it stoppe
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
 import sys
 import time
 import warnings
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from viewer.scene.description import Scene
 
-from .scene import (ALPHA_TRACING, MASKED_INTEGRATOR, ReferenceError, alpha_modes,
-                    check_traceable, to_mitsuba)
+from .keys import config_key
+from .scene import MASKED_INTEGRATOR, ReferenceError, check_traceable, to_mitsuba
 
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 AOVS = ("normal", "depth")
@@ -135,47 +134,6 @@ def camera_rays(camera, jitter: np.ndarray | None = None) -> np.ndarray:
 
 # ---- rendering ----------------------------------------------------------------------------------
 
-# the [render] settings the tracer reads (the rest are the rasteriser's: a new one of those, or
-# a change of one, keeps every cached truth)
-TRACED_RENDER = {"background": lambda r: r.display.background,
-                 "multiscatter": lambda r: bool(r.multiscatter)}
-
-
-def config_key(scene: Scene, options: ReferenceOptions) -> str:
-    """A digest of everything a checkpoint's samples depend on: the scene but the render
-    settings the tracer does not read (:data:`TRACED_RENDER`), and the options (with glTF
-    alphaMode MASK or BLEND: how it is traced, :data:`~relight.reference.scene.ALPHA_TRACING`;
-    scenes without keep their keys; so do those at the default ``sun_strength``)."""
-    data = {"scene": repr(scene.__class__) + repr([(f.name, getattr(scene, f.name))
-                                                   for f in fields(scene)
-                                                   if f.name not in ("source", "render")]),
-            "render": {k: read(scene.render) for k, read in TRACED_RENDER.items()},
-            "options": {k: v for k, v in asdict(options).items()
-                        if k not in ("spp", "batch_spp")}}
-    modes = alpha_modes(scene)
-    if modes:
-        data["alpha"] = [ALPHA_TRACING, modes]
-    if scene.environment.sun_strength != 1.0:  # not in the repr at its default (maps.py)
-        data["sun_strength"] = float(scene.environment.sun_strength)
-    text = json.dumps(data, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def finished_reference(out: str | os.PathLike, scene: Scene, options: ReferenceOptions,
-                       spp: int) -> dict | None:
-    """The metadata of a reference already written to ``out`` (its ``.json`` beside it) for this
-    scene and options with at least ``spp`` samples, or None: then it must be (re)traced. An
-    unreadable ``.json`` counts as none."""
-    meta = Path(out).with_suffix(".json")
-    if not meta.is_file():
-        return None
-    try:
-        done = json.loads(meta.read_text())
-    except ValueError:
-        return None
-    if done.get("key") == config_key(scene, options) and done.get("spp", 0) >= spp:
-        return done
-    return None
 
 
 def render_reference(scene: Scene, options: ReferenceOptions = ReferenceOptions(),

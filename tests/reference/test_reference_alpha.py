@@ -138,7 +138,7 @@ def test_cache_keys_change_with_alpha_tracing_only_for_scenes_with_alpha(tmp_pat
     before (opaque) are not reused; an OPAQUE scene's key does not depend on it."""
     import struct
 
-    from relight.reference import render, scene as ref_scene
+    from relight.reference import keys, scene as ref_scene
 
     mask = _front(_quad(tmp_path / "m.gltf", BLACK, LEFT_HALF, {"alphaMode": "MASK"}))
     opaque = _front(_quad(tmp_path / "o.gltf", BLACK, LEFT_HALF))
@@ -150,7 +150,7 @@ def test_cache_keys_change_with_alpha_tracing_only_for_scenes_with_alpha(tmp_pat
     assert ref_scene.alpha_modes(mask) == ["MASK"] == ref_scene.alpha_modes(glb)
     assert ref_scene.alpha_modes(opaque) == []
     opts = ReferenceOptions()
-    before = [render.config_key(s, opts) for s in (mask, glb, opaque)]
-    monkeypatch.setattr(render, "ALPHA_TRACING", render.ALPHA_TRACING + 1)
-    after = [render.config_key(s, opts) for s in (mask, glb, opaque)]
+    before = [keys.config_key(s, opts) for s in (mask, glb, opaque)]
+    monkeypatch.setattr(keys, "ALPHA_TRACING", keys.ALPHA_TRACING + 1)
+    after = [keys.config_key(s, opts) for s in (mask, glb, opaque)]
     assert before[0] != after[0] and before[1] != after[1] and before[2] == after[2]

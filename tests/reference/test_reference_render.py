@@ -309,7 +309,7 @@ def test_the_cache_key_follows_what_the_tracer_reads():
     the rasteriser alone reads (the rays' frames, SSAO, the model) keep the key, so a new one of
     them does not trace every cached truth again; those the tracer reads (the background's
     transparency, multiple scattering) and the scene itself change it."""
-    from relight.reference.render import TRACED_RENDER, config_key
+    from relight.reference.keys import TRACED_RENDER, config_key
 
     scene = scene_from_dict({"environment": {"procedural": "sky"},
                              "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]})

@@ -84,7 +84,8 @@ def test_the_default_keeps_every_key_made_before_it(tmp_path):
     """At 1 the spec's repr is what it was before the setting (the reference's config_key and
     the gallery's truth cache hash it); any other value changes the reference's key and the
     environment's disk key."""
-    from relight.reference.render import ReferenceOptions, config_key
+    from relight.reference.keys import config_key
+    from relight.reference.render import ReferenceOptions
     from viewer.environment.ibl import IBLOptions
     from viewer.environment.store import EnvironmentStore
 

@@ -6,8 +6,9 @@ Options (:data:`OPTIONS`, all ``ggx_split_sum`` with the indirect light and the 
 SSAO alone (contact shadows off), SSAO with screen-space contact shadows, SSAO with the
 one-bounce light through the bilateral blur (``indirect_blur``), SSAO times the neural
 shadow estimator (a weights file), and the ray-traced tier with 1, 2, 4 and 8 frames of rays
-(``ray_still_frames``: 1 is what one interactive frame traces, 8 a headless render's default;
-meshes, and splats as their opaque cores; a G-buffer stack has no geometry off-screen to trace).
+(``ray_still_frames``: 1 is what one interactive frame traces, 8 a headless render's default)
+and with 1 frame of rays for one pixel in 2 x 2 (``ray_scale``; meshes, and splats as their
+opaque cores; a G-buffer stack has no geometry off-screen to trace).
 
 Accuracy: the protocol's metric (:func:`learned.protocol.scores.psnr`: Reinhard-mapped, over each
 sample's foreground) of the option's frame against the split's path-traced targets, the mean over
@@ -48,13 +49,15 @@ import torch
 
 SIZE = (512, 512)
 BASE = {"model": "ggx_split_sum", "ssao": True, "indirect": True, "raytrace": False}
-# frames of rays a headless frame accumulates (``ray_still_frames``): one is what an interactive
-# frame traces, 8 the headless default; the points of the rays' curve of accuracy against cost
-RAY_FRAMES = (1, 2, 4, 8)
+# the points of the rays' curve of accuracy against cost: (frames of rays a headless frame
+# accumulates, ``ray_still_frames``: one is what an interactive frame traces, 8 the headless
+# default; ``ray_scale``: rays for one pixel in k x k)
+RAY_POINTS = ((1, 2), (1, 1), (2, 1), (4, 1), (8, 1))
 
 
-def ray_option(frames: int) -> str:
-    return f"ray-traced tier, {frames} frame{'s' if frames > 1 else ''}"
+def ray_option(frames: int, scale: int = 1) -> str:
+    return (f"ray-traced tier, {frames} frame{'s' if frames > 1 else ''}"
+            + (f", ray_scale {scale}" if scale > 1 else ""))
 
 
 # name -> render settings over BASE ({weights}: the estimator's file)
@@ -63,10 +66,10 @@ OPTIONS = {
     "SSAO + contact shadows": {"contact_shadows": "on"},
     "SSAO, blurred bounce": {"contact_shadows": "off", "indirect_blur": True},
     "SSAO x shadow estimator": {"contact_shadows": "off", "shadow_net": "{weights}"},
-    **{ray_option(n): {"raytrace": True, "ssao": False, "indirect": False,
-                       "ray_still_frames": n} for n in RAY_FRAMES},
+    **{ray_option(n, k): {"raytrace": True, "ssao": False, "indirect": False,
+                          "ray_still_frames": n, "ray_scale": k} for n, k in RAY_POINTS},
 }
-RAY_OPTIONS = tuple(ray_option(n) for n in RAY_FRAMES)
+RAY_OPTIONS = tuple(ray_option(n, k) for n, k in RAY_POINTS)
 
 
 def option_settings(name: str, weights: str) -> dict:
@@ -251,9 +254,9 @@ def plot(rows: list[dict], path: Path, title: str) -> bool:
                   key=lambda r: r["ratio_frame"])
     if rays:
         ax.plot([r["ratio_frame"] for r in rays], [r["psnr"] for r in rays], "o-", color="k",
-                label="ray-traced tier, 1-8 frames")
+                label="ray-traced tier (frames; ray_scale)")
         for r in rays:
-            ax.annotate(r["option"].split(", ")[1], (r["ratio_frame"], r["psnr"]),
+            ax.annotate(", ".join(r["option"].split(", ")[1:]), (r["ratio_frame"], r["psnr"]),
                         textcoords="offset points", xytext=(4, -10), fontsize=7)
     for i, r in enumerate(x for x in timed if x["option"] not in RAY_OPTIONS):
         ax.errorbar([r["ratio_frame"]], [r["psnr"]], fmt="s", color=plt.cm.tab10(i),

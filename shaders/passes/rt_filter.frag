@@ -3,9 +3,18 @@
 // with holes of u_step pixels, each tap weighted by lib/denoise.glsl's depth and normal
 // edge-stopping function, so light does not leak across silhouettes or creases. Iterations with
 // steps 1, 2, 4 cover a 29-pixel footprint (viewer/passes/rt_light.py FILTER_STEPS). Target 1's
-// alpha (the sun's traced visibility) passes through unfiltered.
+// alpha (the sun's traced visibility) passes through unfiltered. At RT_SCALE = k > 1 it runs on
+// the low-resolution targets, each texel standing for its block's sample pixel
+// (passes/ssao_upsample.glsl ssao_sample_pixel), a step of one texel k pixels of the frame.
 #include "passes/deferred.glsl"
 #include "lib/denoise.glsl"
+#include "lib/shading.glsl"
+#ifndef RT_SCALE
+#define RT_SCALE 1
+#endif
+#define SSAO_SCALE RT_SCALE
+#include "lib/ssao.glsl"
+#include "passes/ssao_upsample.glsl"
 
 uniform sampler2D u_in0;
 uniform sampler2D u_in1;
@@ -19,7 +28,7 @@ layout(location = 2) out vec4 o_2;
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     ivec2 size = textureSize(u_in0, 0);
-    GBuffer g = gbuffer_load(pixel);
+    GBuffer g = gbuffer_load(ssao_sample_pixel(pixel));
     vec4 c0 = texelFetch(u_in0, pixel, 0);
     vec4 c1 = texelFetch(u_in1, pixel, 0);
     vec4 c2 = texelFetch(u_in2, pixel, 0);
@@ -33,12 +42,13 @@ void main() {
         for (int i = -2; i <= 2; ++i) {
             ivec2 q = pixel + ivec2(i, j) * u_step;
             if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) continue;
-            GBuffer gq = gbuffer_load(q);
+            GBuffer gq = gbuffer_load(ssao_sample_pixel(q));
             float w = atrous_kernel(float(i)) * atrous_kernel(float(j));
             if (i != 0 || j != 0) {
                 if (gq.alpha <= 0.0) continue;
                 w *= atrous_edge_weight(g.depth, gq.depth, g.normal, gq.normal,
-                                        float(u_step) * length(vec2(i, j)), u_sigma_z, u_sigma_n);
+                                        float(u_step * RT_SCALE) * length(vec2(i, j)),
+                                        u_sigma_z, u_sigma_n);
             }
             s0 += w * texelFetch(u_in0, q, 0);
             s1 += w * texelFetch(u_in1, q, 0);

@@ -19,7 +19,10 @@
 //   2: the specular lobe's: for a lobe narrower than RT_SPECULAR_MC_ROUGHNESS the light its
 //      ray's hit brings back (rgb; 1), for a wider one the weighted light along the ray, hit or
 //      not (rgb x w; w), the prefiltered share of target 0 then 0 (main)
-// Defines: SPECULAR_LOBE, SUN_LIGHT, RT_SUN, ENV_LIGHTS, LIGHT_COUNT, LIGHT_POSITIONAL.
+// At RT_SCALE = k > 1 (render.ray_scale) one fragment of the low-resolution targets traces for
+// the centre pixel of its k x k block (passes/ssao_upsample.glsl ssao_sample_pixel, as SSAO's
+// reduced scale does); passes/rt_upsample.frag brings the filtered result to full resolution.
+// Defines: SPECULAR_LOBE, SUN_LIGHT, RT_SUN, ENV_LIGHTS, LIGHT_COUNT, LIGHT_POSITIONAL, RT_SCALE.
 #define RAYTRACED 1
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -32,6 +35,12 @@
 #include "lib/path.glsl"
 #include "lib/iridescence.glsl"
 #include "passes/raytrace.glsl"
+#ifndef RT_SCALE
+#define RT_SCALE 1
+#endif
+#define SSAO_SCALE RT_SCALE
+#include "lib/ssao.glsl"
+#include "passes/ssao_upsample.glsl"
 
 layout(location = 1) out vec4 o_bounce_diffuse;
 layout(location = 2) out vec4 o_bounce_specular;
@@ -262,7 +271,8 @@ vec3 rt_hit_radiance(RayHit hit, vec3 o, vec3 d, vec3 u_hit3) {
 }
 
 void main() {
-    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    ivec2 pixel = ssao_sample_pixel(ivec2(gl_FragCoord.xy));  // itself at RT_SCALE 1
+    vec2 frag = vec2(pixel) + 0.5;
     GBuffer g = gbuffer_load(pixel);
     if (g.alpha <= 0.0 || !(g.depth > 0.0)) {  // nothing to shade: ratios of 1, no bounce
         o_radiance = vec4(1.0);
@@ -270,9 +280,9 @@ void main() {
         o_bounce_specular = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
-    vec3 v = -view_ray_ws(gl_FragCoord.xy);
+    vec3 v = -view_ray_ws(frag);
     vec3 n = shading_normal(g.normal, v);
-    vec3 p = light_surface_position(gl_FragCoord.xy, g.depth);
+    vec3 p = light_surface_position(frag, g.depth);
     uvec2 px = uvec2(pixel);
     float seen = 0.0;
     float all_light = 0.0;

@@ -185,7 +185,7 @@ def test_the_shadow_trade_scores_every_option_against_the_targets(data, renderer
     assert all(np.isfinite(v).all() for v in mesh.values())
     assert mesh["SSAO x shadow estimator"] != mesh["SSAO"]
     assert all(mesh[r] != mesh["SSAO"] for r in RAY_OPTIONS)
-    assert mesh[RAY_OPTIONS[0]] != mesh[RAY_OPTIONS[-1]]  # 1 frame of rays is not 8
+    assert len(set(map(tuple, (mesh[r] for r in RAY_OPTIONS)))) == len(RAY_OPTIONS)  # all differ
     stack = accuracy(str(data), "val", weights, "stack", renderer)
     assert not set(RAY_OPTIONS) & set(stack) and len(stack) == len(OPTIONS) - len(RAY_OPTIONS)
     costs = cost(renderer, demo_scene(), weights, BenchConfig(frames=3, warmup=0), size=(32, 32))

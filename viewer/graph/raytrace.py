@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 from ..passes.rt_light import FILTER_STEPS
+from ..passes.ssao import low_resolution
 from ..scene.camera import Camera
 from ..scene.description import Scene
 from ..scene.settings import RaytraceSettings
@@ -35,9 +36,16 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
     out = tuple(f"rt_light{k}" for k in range(TARGETS))
     tmp = tuple(f"rt_tmp{k}" for k in range(TARGETS))
     pong = tuple(f"rt_pong{k}" for k in range(TARGETS))
-    for name in raw + tmp + pong:
-        g.create(name, TextureDesc(size, 4, "f4"))
-    for name in hist + out:
+    scale = int(settings.raytrace.scale)
+    # at ray_scale k > 1 the rays, their history and the filter run at 1/k^2 of the pixels, the
+    # filter ending in rt_low<k>, which rt_upsample brings to rt_light<k>
+    low = tuple(f"rt_low{k}" for k in range(TARGETS)) if scale > 1 else out
+    small = low_resolution(size, scale)
+    for name in raw + tmp + pong + (low if scale > 1 else ()):
+        g.create(name, TextureDesc(small, 4, "f4"))
+    for name in hist:
+        g.create(name, TextureDesc(small, 4, "f4"), kept=True)
+    for name in out:
         g.create(name, TextureDesc(size, 4, "f4"), kept=True)
     rpass = res.layout_pass("rt_light", spec.layout)
     defines = spec.variant.defines
@@ -73,15 +81,21 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
     def denoise(f):
         gb = f["gbuffer"].textures
         if not settings.raytrace.denoise:
+            if scale > 1:
+                rpass.upsample(gb, [f[n].texture for n in hist], f.fbo(*out), camera, scale)
+                return
             for a, b in zip(hist, out):
                 renderer.ctx.copy_framebuffer(dst=f[b].fbo, src=f[a].fbo)
             return
-        source, steps = hist, FILTER_STEPS
+        source, steps = hist, (FILTER_STEPS if scale == 1 else FILTER_STEPS[:-1])
         for i, step in enumerate(steps):
-            # ping-pong between rt_tmp and rt_light, ending in rt_light
-            target = out if (len(steps) - 1 - i) % 2 == 0 else pong
-            rpass.filter(gb, [f[n].texture for n in source], f.fbo(*target), step)
+            # ping-pong between rt_pong and rt_light (rt_low at reduced scale), ending in it
+            target = low if (len(steps) - 1 - i) % 2 == 0 else pong
+            rpass.filter(gb, [f[n].texture for n in source], f.fbo(*target), step, camera, scale)
             source = target
-    g.add_pass("raytrace_filter", denoise, reads=("gbuffer",) + hist, writes=out + pong,
-               inputs={"denoise": settings.raytrace.denoise})
+        if scale > 1:
+            rpass.upsample(gb, [f[n].texture for n in low], f.fbo(*out), camera, scale)
+    g.add_pass("raytrace_filter", denoise, reads=("gbuffer",) + hist,
+               writes=out + pong + (low if scale > 1 else ()),
+               inputs={"denoise": settings.raytrace.denoise, "scale": scale, "camera": camera})
     return out

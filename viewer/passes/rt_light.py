@@ -8,7 +8,7 @@ from __future__ import annotations
 from ..gbuffer import GBufferLayout
 from . import FullscreenDraw, bind_gbuffer
 from . import set_uniform as _set
-from .shade import set_view_and_lighting
+from .shade import set_camera, set_view_and_lighting
 
 # the shading variant's defines the ray pass compiles with (the rest do not change its rays)
 TRACE_DEFINES = ("SPECULAR_LOBE", "SUN_LIGHT", "RT_SUN", "ENV_LIGHTS", "LIGHT_COUNT",
@@ -34,11 +34,17 @@ class RTLightPass:
         return self.programs.graphics("passes/fullscreen.vert", frag, defines=defines or {},
                                       virtual=self.layout.virtual_files())
 
+    def _target(self, out_fbo) -> None:
+        out_fbo.use()
+        self.ctx.viewport = (0, 0) + tuple(out_fbo.size)  # low resolution at ray_scale > 1
+
     def trace(self, gbuffer_textures: dict, out_fbo, camera, ibl, sampling, environment,
               settings, variant_defines: dict, light, trace, frame_index: int) -> None:
-        """This frame's rays into ``out_fbo`` (three RGBA32F attachments); ``sampling``: the
-        environment's distribution (:class:`~viewer.environment.sampling.EnvSampling`)."""
+        """This frame's rays into ``out_fbo`` (three RGBA32F attachments; at ``ray_scale`` k > 1
+        one texel per k x k pixels); ``sampling``: the environment's distribution
+        (:class:`~viewer.environment.sampling.EnvSampling`)."""
         defines = {k: v for k, v in variant_defines.items() if k in TRACE_DEFINES}
+        defines["RT_SCALE"] = int(settings.raytrace.scale)
         defines.update(trace.defines)  # what the traced materials use (RT_MASKS, RT_MAPS)
         prog = self._program("passes/rt_light.frag", defines)
         unit = bind_gbuffer(prog, gbuffer_textures)
@@ -49,7 +55,7 @@ class RTLightPass:
         _set(prog, "u_seed", int(settings.mc.seed))
         _set(prog, "u_rt_rays", int(settings.raytrace.rays))
         set_view_and_lighting(prog, camera, environment, light)
-        out_fbo.use()
+        self._target(out_fbo)
         self._draw(prog)
 
     def accumulate(self, new: list, old: list, out_fbo, weight: float) -> None:
@@ -61,20 +67,35 @@ class RTLightPass:
             old[k].use(3 + k)
             _set(prog, f"u_old{k}", 3 + k)
         _set(prog, "u_weight", float(weight))
-        out_fbo.use()
+        self._target(out_fbo)
         self._draw(prog)
 
-    def filter(self, gbuffer_textures: dict, source: list, out_fbo, step: int) -> None:
-        """One a-trous iteration of hole size ``step`` from ``source`` into ``out_fbo``."""
-        prog = self._program("passes/rt_filter.frag")
+    def filter(self, gbuffer_textures: dict, source: list, out_fbo, step: int, camera,
+               scale: int = 1) -> None:
+        """One a-trous iteration of hole size ``step`` from ``source`` into ``out_fbo`` (at
+        ``scale`` k > 1 the low-resolution targets, a texel per k x k pixels)."""
+        prog = self._program("passes/rt_filter.frag", {"RT_SCALE": int(scale)})
         unit = bind_gbuffer(prog, gbuffer_textures)
+        set_camera(prog, camera)
         for k in range(3):
             source[k].use(unit + k)
             _set(prog, f"u_in{k}", unit + k)
         _set(prog, "u_step", int(step))
         _set(prog, "u_sigma_z", SIGMA_Z)
         _set(prog, "u_sigma_n", SIGMA_N)
-        out_fbo.use()
+        self._target(out_fbo)
+        self._draw(prog)
+
+    def upsample(self, gbuffer_textures: dict, low: list, out_fbo, camera, scale: int) -> None:
+        """The three low-resolution targets ``low`` (``scale`` k > 1) to full resolution in
+        ``out_fbo`` (``passes/rt_upsample.frag``: SSAO's joint bilateral upsampling)."""
+        prog = self._program("passes/rt_upsample.frag", {"RT_SCALE": int(scale)})
+        unit = bind_gbuffer(prog, gbuffer_textures)
+        for k in range(3):
+            low[k].use(unit + k)
+            _set(prog, f"u_low{k}", unit + k)
+        set_camera(prog, camera)
+        self._target(out_fbo)
         self._draw(prog)
 
     def stats(self) -> dict:

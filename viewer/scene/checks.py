@@ -23,6 +23,7 @@ from .settings import (
     SHADOW_BUDGET_MAX,
     SPLAT_DEPTHS,
     SSAA_MAX,
+    RAY_SCALE_MAX,
     SSAO_SCALE_MAX,
 )
 
@@ -119,6 +120,8 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
     if "ray_frames" in t:
         kw["ray_frames"] = _int(t["ray_frames"], "render.ray_frames", file, 1,
                                      4096)
+    if "ray_scale" in t:
+        kw["ray_scale"] = _int(t["ray_scale"], "render.ray_scale", file, 1, RAY_SCALE_MAX)
     if "ray_still_frames" in t:
         kw["ray_still_frames"] = _int(t["ray_still_frames"], "render.ray_still_frames", file, 1,
                                       4096)

@@ -64,6 +64,9 @@ class RaytraceSettings:
     # frames of rays a headless (non-progressive) render accumulates at once: its image's noise
     # against its cost, about one viewer frame's rays each (ray_still_frames)
     still_frames: int = 8
+    # rays for one pixel in k x k (ray_scale): traced, accumulated and filtered at 1/k^2 of the
+    # pixels, then brought to full resolution by SSAO's joint bilateral upsampling
+    scale: int = 1
 
     def __bool__(self):  # say where the switch is
         raise TypeError("RaytraceSettings has no truth value: use settings.raytrace.enabled")
@@ -157,6 +160,7 @@ SHADOW_BUDGET_MAX = 64.0  # [render] shadow_budget: 0 (no limit) or 1..64 maps
 ENV_SHADOWS_MAX = 16  # [render] env_shadows: 0..16 (tiles of one shadow atlas, 2 wide)
 SPLAT_DEPTHS = ("expected", "median")  # [render] splat_depth (viewer.passes.splats)
 SSAO_SCALE_MAX = 8  # [render] ssao_scale: 1..8
+RAY_SCALE_MAX = 4  # [render] ray_scale: 1..4 (beyond, the filter's footprint spans 116 pixels)
 AA_MODES = ("fxaa", "none")  # [render] aa
 SSAA_MAX = 8  # [render] ssaa: 1..8 (ssaa^2 times the pixels of every pass before the resolve)
 
@@ -259,4 +263,5 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ray_denoise": ("raytrace", "denoise"),
     "ray_frames": ("raytrace", "frames"),
     "ray_still_frames": ("raytrace", "still_frames"),
+    "ray_scale": ("raytrace", "scale"),
 }

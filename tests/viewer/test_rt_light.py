@@ -218,3 +218,30 @@ def test_ray_still_frames_and_ray_scale_are_checked():
     for bad in (0, 5):
         with pytest.raises(SceneError, match="ray_scale"):
             scene.with_render(ray_scale=bad)
+
+
+def test_moving_the_ray_scale_slider_leaves_nothing_of_the_last_scale(ctx):
+    """The interactive viewer moved between ray scales 1, 2, 1, 3 (its history and filter
+    targets change size each time): each scale's third frame equals a fresh renderer's, exactly,
+    and the scales' images differ."""
+    from viewer.renderer import Renderer
+
+    base = load_scene("assets/scenes/reference/park_sphere_on_plane.toml").with_render(
+        raytrace=True)
+
+    def third_frame(renderer, k):
+        for _ in range(3):
+            img = read_texture(renderer.draw(base.with_render(ray_scale=k), progressive=True)
+                               .radiance, "f4")
+        return img
+
+    moved = Renderer(ctx=ctx)
+    seen = {}
+    for k in (1, 2, 1, 3):
+        img = third_frame(moved, k)
+        fresh = Renderer(ctx=ctx)
+        assert np.array_equal(img, third_frame(fresh, k)), k
+        fresh.release()
+        seen.setdefault(k, img)
+    moved.release()
+    assert not np.array_equal(seen[1], seen[2]) and not np.array_equal(seen[2], seen[3])

@@ -116,6 +116,9 @@ def _cases(config: BenchConfig) -> list[tuple[str, str, dict]]:
                 cases.append((name, "multiscatter +rays undenoised",
                               {"multiscatter": True, "raytrace": True,
                                "ray_denoise": False}))
+                # rays for one pixel in 2 x 2, upsampled (ray_scale)
+                cases.append((name, "multiscatter +rays 1/2 scale",
+                              {"multiscatter": True, "raytrace": True, "ray_scale": 2}))
         elif name == "ggx_mc":
             # every strategy's convergence is its own table (the mc_convergence suite)
             spps = (1, 4, 16, 64) if config.quick else (1, 4, 16, 64, 256)

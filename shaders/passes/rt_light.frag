@@ -22,7 +22,10 @@
 // At RT_SCALE = k > 1 (render.ray_scale) one fragment of the low-resolution targets traces for
 // the centre pixel of its k x k block (passes/ssao_upsample.glsl ssao_sample_pixel, as SSAO's
 // reduced scale does); passes/rt_upsample.frag brings the filtered result to full resolution.
-// Defines: SPECULAR_LOBE, SUN_LIGHT, RT_SUN, ENV_LIGHTS, LIGHT_COUNT, LIGHT_POSITIONAL, RT_SCALE.
+// The sun's hard shadow needs every pixel: at reduced scale a second draw with RT_SUN_PASS = 1
+// (and RT_SCALE 1) traces only the sun's ray, for each pixel of the frame, into target 0.
+// Defines: SPECULAR_LOBE, SUN_LIGHT, RT_SUN, ENV_LIGHTS, LIGHT_COUNT, LIGHT_POSITIONAL, RT_SCALE,
+// RT_SUN_PASS.
 #define RAYTRACED 1
 #include "passes/deferred.glsl"
 #include "lib/brdf.glsl"
@@ -41,6 +44,9 @@
 #define SSAO_SCALE RT_SCALE
 #include "lib/ssao.glsl"
 #include "passes/ssao_upsample.glsl"
+#ifndef RT_SUN_PASS
+#define RT_SUN_PASS 0
+#endif
 
 layout(location = 1) out vec4 o_bounce_diffuse;
 layout(location = 2) out vec4 o_bounce_specular;
@@ -284,6 +290,20 @@ void main() {
     vec3 n = shading_normal(g.normal, v);
     vec3 p = light_surface_position(frag, g.depth);
     uvec2 px = uvec2(pixel);
+#if RT_SUN
+    // the sun's visibility: one ray towards a uniform point of its disc (soft edges as the
+    // frames accumulate; this channel is not filtered: rt_filter.frag keeps it)
+    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
+    vec3 ld = tangent_to_world(sample_uniform_cone(mc_sample_2d(px.x, px.y, u_frame, u_seed, 4u),
+                                                   cos(u_sun_disc_radius)), l_sun);
+    float sun_seen = bvh_any_hit(ray_offset(p, n, ld), ld, 3.0e38) ? 0.0 : 1.0;
+#if RT_SUN_PASS
+    o_radiance = vec4(sun_seen);
+    o_bounce_diffuse = vec4(0.0, 0.0, 0.0, 1.0);
+    o_bounce_specular = vec4(0.0, 0.0, 0.0, 1.0);
+    return;
+#endif
+#endif
     float seen = 0.0;
     float all_light = 0.0;
     vec3 bounce = vec3(0.0);
@@ -318,12 +338,7 @@ void main() {
     vec4 ratios = vec4(seen, all_light, 1.0, 1.0);
     o_bounce_diffuse = vec4(bounce * inv, 1.0);
 #if RT_SUN
-    // the sun's visibility: one ray towards a uniform point of its disc (soft edges as the
-    // frames accumulate; this channel is not filtered: rt_filter.frag keeps it)
-    vec3 l_sun = rotate_y(u_sun_direction, u_env_rotation);
-    vec3 ld = tangent_to_world(sample_uniform_cone(mc_sample_2d(px.x, px.y, u_frame, u_seed, 4u),
-                                                   cos(u_sun_disc_radius)), l_sun);
-    o_bounce_diffuse.a = bvh_any_hit(ray_offset(p, n, ld), ld, 3.0e38) ? 0.0 : 1.0;
+    o_bounce_diffuse.a = sun_seen;
 #endif
     o_bounce_specular = vec4(0.0, 0.0, 0.0, 1.0);
 #if SPECULAR_LOBE

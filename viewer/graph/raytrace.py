@@ -49,6 +49,14 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
         g.create(name, TextureDesc(size, 4, "f4"), kept=True)
     rpass = res.layout_pass("rt_light", spec.layout)
     defines = spec.variant.defines
+    # at reduced scale the sun's ray is traced for every pixel (its shadow's edge): rt_sunraw,
+    # folded into rt_sunhist as the other targets are into rt_history
+    full_sun = scale > 1 and bool(defines.get("RT_SUN"))
+    sun = ("rt_sunraw", "rt_suntmp", "rt_sunhist") if full_sun else ()
+    if full_sun:
+        g.create("rt_sunraw", TextureDesc(size, 4, "f4"))
+        g.create("rt_suntmp", TextureDesc(size, 4, "f4"))
+        g.create("rt_sunhist", TextureDesc(size, 4, "f4"), kept=True)
     ibl = res.ibl(scene.environment, sun=bool(defines.get("SUN_LIGHT")))
     contents = [(obj, renderer.geometry(obj)) for obj in scene.objects]
     window = int(settings.raytrace.frames)
@@ -72,7 +80,14 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
                              f.fbo(*tmp), weight)
             for a, b in zip(tmp, hist):  # the new mean becomes the history
                 renderer.ctx.copy_framebuffer(dst=f[b].fbo, src=f[a].fbo)
-    g.add_pass("raytrace", rays, reads=("gbuffer",), writes=raw + hist + tmp,
+            if full_sun:
+                rpass.trace(gb, f.fbo("rt_sunraw"), camera, ibl, sampling, scene.environment,
+                            settings, defines, scene.light, trace, state["count"] - 1,
+                            sun_only=True)
+                res.accumulate_pass().add(f["rt_sunraw"].texture, f["rt_sunhist"],
+                                          min(state["count"], window) - 1, 1,
+                                          f.fbo("rt_suntmp"))
+    g.add_pass("raytrace", rays, reads=("gbuffer",), writes=raw + hist + tmp + sun,
                inputs={"objects": scene.objects, "render": lighting_settings,
                        "environment": scene.environment, "light": scene.light,
                        "camera": camera, "defines": tuple(sorted(defines.items()))},
@@ -82,7 +97,8 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
         gb = f["gbuffer"].textures
         if not settings.raytrace.denoise:
             if scale > 1:
-                rpass.upsample(gb, [f[n].texture for n in hist], f.fbo(*out), camera, scale)
+                rpass.upsample(gb, [f[n].texture for n in hist], f.fbo(*out), camera, scale,
+                               f["rt_sunhist"].texture if full_sun else None)
                 return
             for a, b in zip(hist, out):
                 renderer.ctx.copy_framebuffer(dst=f[b].fbo, src=f[a].fbo)
@@ -94,8 +110,9 @@ def raytrace_passes(g: FrameGraph, renderer, scene: Scene, spec, camera: Camera,
             rpass.filter(gb, [f[n].texture for n in source], f.fbo(*target), step, camera, scale)
             source = target
         if scale > 1:
-            rpass.upsample(gb, [f[n].texture for n in low], f.fbo(*out), camera, scale)
-    g.add_pass("raytrace_filter", denoise, reads=("gbuffer",) + hist,
+            rpass.upsample(gb, [f[n].texture for n in low], f.fbo(*out), camera, scale,
+                           f["rt_sunhist"].texture if full_sun else None)
+    g.add_pass("raytrace_filter", denoise, reads=("gbuffer",) + hist + sun[2:],
                writes=out + pong + (low if scale > 1 else ()),
                inputs={"denoise": settings.raytrace.denoise, "scale": scale, "camera": camera})
     return out

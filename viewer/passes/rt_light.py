@@ -39,12 +39,16 @@ class RTLightPass:
         self.ctx.viewport = (0, 0) + tuple(out_fbo.size)  # low resolution at ray_scale > 1
 
     def trace(self, gbuffer_textures: dict, out_fbo, camera, ibl, sampling, environment,
-              settings, variant_defines: dict, light, trace, frame_index: int) -> None:
+              settings, variant_defines: dict, light, trace, frame_index: int,
+              sun_only: bool = False) -> None:
         """This frame's rays into ``out_fbo`` (three RGBA32F attachments; at ``ray_scale`` k > 1
         one texel per k x k pixels); ``sampling``: the environment's distribution
-        (:class:`~viewer.environment.sampling.EnvSampling`)."""
+        (:class:`~viewer.environment.sampling.EnvSampling`). ``sun_only``: only the sun's ray,
+        for every pixel of the frame, into ``out_fbo``'s first attachment (``RT_SUN_PASS``)."""
         defines = {k: v for k, v in variant_defines.items() if k in TRACE_DEFINES}
-        defines["RT_SCALE"] = int(settings.raytrace.scale)
+        defines["RT_SCALE"] = 1 if sun_only else int(settings.raytrace.scale)
+        if sun_only:
+            defines["RT_SUN_PASS"] = 1
         defines.update(trace.defines)  # what the traced materials use (RT_MASKS, RT_MAPS)
         prog = self._program("passes/rt_light.frag", defines)
         unit = bind_gbuffer(prog, gbuffer_textures)
@@ -86,14 +90,21 @@ class RTLightPass:
         self._target(out_fbo)
         self._draw(prog)
 
-    def upsample(self, gbuffer_textures: dict, low: list, out_fbo, camera, scale: int) -> None:
+    def upsample(self, gbuffer_textures: dict, low: list, out_fbo, camera, scale: int,
+                 sun=None) -> None:
         """The three low-resolution targets ``low`` (``scale`` k > 1) to full resolution in
-        ``out_fbo`` (``passes/rt_upsample.frag``: SSAO's joint bilateral upsampling)."""
-        prog = self._program("passes/rt_upsample.frag", {"RT_SCALE": int(scale)})
+        ``out_fbo`` (``passes/rt_upsample.frag``: SSAO's joint bilateral upsampling); ``sun``: the
+        full-resolution texture of the sun's visibility, target 1's alpha instead of the
+        upsampled one."""
+        prog = self._program("passes/rt_upsample.frag", {"RT_SCALE": int(scale),
+                                                         "RT_SUN": int(sun is not None)})
         unit = bind_gbuffer(prog, gbuffer_textures)
         for k in range(3):
             low[k].use(unit + k)
             _set(prog, f"u_low{k}", unit + k)
+        if sun is not None:
+            sun.use(unit + 3)
+            _set(prog, "u_sun", unit + 3)
         set_camera(prog, camera)
         self._target(out_fbo)
         self._draw(prog)

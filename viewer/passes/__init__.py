@@ -12,6 +12,8 @@ Imports: :mod:`viewer.errors`, :mod:`viewer.cache`, :mod:`viewer.gl`, :mod:`view
 :mod:`viewer.models`, :mod:`viewer.scene`, :mod:`viewer.lighting`, :mod:`viewer.geometry`,
 :mod:`viewer.splats`, :mod:`viewer.neural`; never the graph or the renderer.
 """
+import numpy as np
+
 from ..cache import BoundedCache
 from ..gl.programs import on_release
 
@@ -25,6 +27,16 @@ def set_uniform(prog, name: str, value) -> None:
         prog[name].write(value)
     else:
         prog[name].value = value
+
+
+def set_deferred_camera(prog, camera) -> None:
+    """The camera uniforms of ``passes/deferred.glsl``: its frame, field of view and the frame's
+    full resolution (what turns a pixel and its depth into a view ray and a position)."""
+    basis = camera.basis()  # rows: right, up, back
+    set_uniform(prog, "u_camera_to_world",
+                np.ascontiguousarray(basis.astype(np.float32)).tobytes())
+    set_uniform(prog, "u_tan_half_fov", camera.tan_half_fov())
+    set_uniform(prog, "u_resolution", (float(camera.width), float(camera.height)))
 
 
 def bind_gbuffer(prog, textures: dict, first_unit: int = 0) -> int:

@@ -6,9 +6,9 @@ bounce, ``passes/rt_light.glsl``). The frame graph declares the passes
 from __future__ import annotations
 
 from ..gbuffer import GBufferLayout
-from . import FullscreenDraw, bind_gbuffer
+from . import FullscreenDraw, bind_gbuffer, set_deferred_camera
 from . import set_uniform as _set
-from .shade import set_camera, set_view_and_lighting
+from .shade import set_view_and_lighting
 
 # the shading variant's defines the ray pass compiles with (the rest do not change its rays)
 TRACE_DEFINES = ("SPECULAR_LOBE", "SUN_LIGHT", "RT_SUN", "ENV_LIGHTS", "LIGHT_COUNT",
@@ -80,7 +80,7 @@ class RTLightPass:
         ``scale`` k > 1 the low-resolution targets, a texel per k x k pixels)."""
         prog = self._program("passes/rt_filter.frag", {"RT_SCALE": int(scale)})
         unit = bind_gbuffer(prog, gbuffer_textures)
-        set_camera(prog, camera)
+        set_deferred_camera(prog, camera)
         for k in range(3):
             source[k].use(unit + k)
             _set(prog, f"u_in{k}", unit + k)
@@ -105,7 +105,7 @@ class RTLightPass:
         if sun is not None:
             sun.use(unit + 3)
             _set(prog, "u_sun", unit + 3)
-        set_camera(prog, camera)
+        set_deferred_camera(prog, camera)
         self._target(out_fbo)
         self._draw(prog)
 

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ..cache import BoundedCache, CacheStats
 from ..gbuffer import GBufferLayout
 from ..lighting.lights import Light, light_uniforms
@@ -17,7 +15,7 @@ from ..models import ShadeVariant, model_info
 from ..neural import NeuralWeights, model_network, virtual_files
 from ..scene.camera import Camera
 from ..scene.settings import RenderSettings
-from . import FullscreenDraw, bind_gbuffer
+from . import FullscreenDraw, bind_gbuffer, set_deferred_camera
 from .ground import Catcher, ground_uniforms
 from . import set_uniform as _set
 from .shadow_bindings import ShadowBindings
@@ -30,22 +28,13 @@ def shade_defines(model: str, settings: RenderSettings,
     return model_info(model).variant(settings, light).defines
 
 
-def set_camera(prog, camera) -> None:
-    """The camera uniforms of ``passes/deferred.glsl``: its frame, field of view and the frame's
-    full resolution (what turns a pixel and its depth into a view ray and a position)."""
-    basis = camera.basis()  # rows: right, up, back
-    _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
-    _set(prog, "u_tan_half_fov", camera.tan_half_fov())
-    _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
-
-
 def set_view_and_lighting(prog, camera, environment, light) -> None:
     """The view and lighting uniforms of ``passes/deferred.glsl`` and ``passes/lights.glsl``
     (camera frame and position, resolution, environment intensity and rotation, the punctual
     lights' arrays: ``light`` is a :class:`~viewer.lighting.lights.Light`, a tuple of them or None), for
     every pass that includes them: the lighting passes and the forward pass of transparent
     surfaces."""
-    set_camera(prog, camera)
+    set_deferred_camera(prog, camera)
     _set(prog, "u_env_intensity", float(environment.intensity))
     _set(prog, "u_env_rotation", math.radians(environment.rotation_deg))
     _set(prog, "u_camera_position", tuple(float(x) for x in camera.position))

@@ -33,7 +33,7 @@ import numpy as np
 from ..gbuffer import GBufferLayout
 from ..scene.camera import Camera
 from ..scene.settings import RenderSettings
-from . import FullscreenDraw, bind_gbuffer
+from . import FullscreenDraw, bind_gbuffer, set_deferred_camera
 from . import set_uniform as _set
 from .ground import ground_center
 
@@ -114,7 +114,7 @@ class SSAOPass:
                 tex.use(unit + i)
             _set(prog, "u_hits", np.arange(unit, unit + len(hits), dtype=np.int32).tobytes())
             unit += len(hits)
-        self._camera_uniforms(prog, camera)
+        set_deferred_camera(prog, camera)
         _set(prog, "u_ground_center", ground_center(ground, camera))  # no bounce on the catcher
         _set(prog, "u_rays", int(settings.ssao.rays))
         _set(prog, "u_steps", int(settings.ssao.steps))
@@ -167,16 +167,10 @@ class SSAOPass:
         unit = bind_gbuffer(prog, gbuffer_textures)
         source.use(unit)
         prog[uniform].value = unit
-        self._camera_uniforms(prog, camera)
+        set_deferred_camera(prog, camera)
         out_fbo.use()
         self.ctx.viewport = (0, 0, camera.width, camera.height)
         self._draw(prog)
-
-    def _camera_uniforms(self, prog, camera: Camera) -> None:
-        basis = camera.basis()
-        _set(prog, "u_camera_to_world", np.ascontiguousarray(basis.astype(np.float32)).tobytes())
-        _set(prog, "u_tan_half_fov", camera.tan_half_fov())
-        _set(prog, "u_resolution", (float(camera.width), float(camera.height)))
 
     def indirect(self, gbuffer_textures: dict, direct, out_fbo, camera: Camera,
                  settings: RenderSettings, factor=None, hits=None, gather_fbo=None,

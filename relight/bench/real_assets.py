@@ -2,8 +2,9 @@
 bundled HDRI, rendered with the neural student and with split-sum given the same visibility
 evidence, scored against the path-traced truth.
 
-``python -m relight.bench.real_assets [--out DIR] [--spp N] [--size WxH] [--quick]`` (also
-``relight bench --suite real_assets``) writes ``real_assets.json``, ``real_assets.md`` (the table
+``python -m relight.bench.real_assets [--out DIR] [--cache DIR] [--spp N] [--size WxH] [--quick]
+[--estimator NAME=FILE] [--variant CASE KEY=VALUE ...]`` (also ``relight bench --suite
+real_assets``) writes ``real_assets.json``, ``real_assets.md`` (the table
 and a summary line counting the failures) and ``real_assets.png`` (a contact sheet) into ``--out``.
 
 **Scenes** (:func:`asset_scene`): each model of :data:`ASSETS` opened as ``relight render MODEL
@@ -23,7 +24,10 @@ estimator
 (:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student screen-space with
 the estimator's visibility in place of SSAO's occlusion and the student's S(x) (``shadow_net_use
 = "visibility"``: the issue's "usable by every model"). Each non-split-sum case is judged against the split-sum
-case with the same visibility evidence (:attr:`Case.baseline`). **The splat capture**
+case with the same visibility evidence (:attr:`Case.baseline`). Beside them, candidate estimator
+files (``--estimator``) and *variants* (``--variant``, :func:`variant_case`): a case again with
+``[render]`` settings changed, judged against that case, so a setting's cost against the truth
+(``ray_scale=2`` on the rays) is a row of the same table. **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
 floor, drawn the same eight ways (rays see the splats' opaque cores:
 :mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted
@@ -47,7 +51,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .real_assets_report import SHEET_ENV, markdown, summary, summary_line, write
+from .real_assets_report import machine_info, markdown, summary, write
 from .real_assets_metrics import (
     PSNR_TOL,
     SHADOW_MODEL_DARKER,
@@ -61,6 +65,8 @@ from .real_assets_metrics import (
     verdict,
 )
 from .real_assets_splats import ESTIMATOR_CASE, splat_cases, splat_scenes
+
+from viewer.errors import RelightError
 
 # (name, glTF file under assets/models): every bundled model (cge_base_level is a small diorama
 # standing on its own ground; the reference traces its fence's MASK as a cut-out and the
@@ -116,14 +122,27 @@ def estimator_case(label: str, net) -> Case:
                 "split-sum, screen")
 
 
-def cases(estimators: tuple[tuple[str, str], ...] = ()) -> tuple[Case, ...]:
+VARIANT = "; "  # a variant's label: its case's, this, then its settings (variant_case)
+
+
+def variant_case(case: Case, settings: dict) -> Case:
+    """``case`` with ``[render]`` ``settings`` changed (``--variant CASE KEY=VALUE ...``),
+    judged against ``case`` itself: what the settings cost or gain against the truth, e.g.
+    ``ray_scale=2`` on ``split-sum, rays``."""
+    text = " ".join(f"{k}={v}" for k, v in settings.items())
+    return Case(f"{case.label}{VARIANT}{text}", case.render | settings, case.label)
+
+
+def cases(estimators: tuple[tuple[str, str], ...] = (),
+          variants: tuple[tuple[str, dict], ...] = ()) -> tuple[Case, ...]:
     """The eight cases of the module docstring (the estimator's frame read from its weights),
     then one case per candidate estimator file of ``estimators`` (``(name, path)``: ``--estimator
-    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``."""
+    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``, then one per
+    ``variants`` entry ``(label of a case before, [render] settings)``: :func:`variant_case`."""
     net = shadow_net_file()
     # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
     V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
-    return (Case("split-sum, rays", {"model": "ggx_split_sum"}),
+    base = (Case("split-sum, rays", {"model": "ggx_split_sum"}),
             Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
             Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),
             Case("neural, screen", {"model": "neural", **SCREEN}, "split-sum, screen"),
@@ -135,6 +154,12 @@ def cases(estimators: tuple[tuple[str, str], ...] = ()) -> tuple[Case, ...]:
             Case("neural, estimator's V", {"model": "neural", **V_USE},
                  "split-sum, estimator's V"),
             *(estimator_case(ESTIMATOR_CASE + name, path) for name, path in estimators))
+    by_label = {c.label: c for c in base}
+    for label, _ in variants:
+        if label not in by_label:
+            raise RelightError(f"no case {label!r} (one of: {', '.join(by_label)})",
+                               where="--variant")
+    return base + tuple(variant_case(by_label[label], dict(s)) for label, s in variants)
 
 
 def environments() -> list[tuple[str, Path]]:
@@ -183,6 +208,8 @@ class Options:
     sunless: bool = True  # each HDRI with a compact sun also without it (lightings)
     # candidate estimator files scored beside the shipped one: (name, path), --estimator
     estimators: tuple[tuple[str, str], ...] = ()
+    # cases again with [render] settings changed: (case label, settings), --variant
+    variants: tuple[tuple[str, tuple[tuple[str, object], ...]], ...] = ()
     progress: bool = True
 
     @classmethod
@@ -226,7 +253,9 @@ def scene_rows(renderer, name: str, scene, truth, case_list) -> tuple[list[dict]
     by_label = {r["case"]: r for r in rows}
     for row in rows:
         if "baseline" in row:
-            row.update(verdict(row, by_label[row["baseline"]]))
+            base_row = by_label[row["baseline"]]
+            row["psnr_gain_db"] = round(row["psnr_db"] - base_row["psnr_db"], 2)
+            row.update(verdict(row, base_row))
     tiles = {label: display(img) for label, img in radiance.items()}
     tiles["reference"] = display(truth.radiance)
     return rows, tiles
@@ -248,7 +277,7 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
     assets = [a for a in ASSETS if options.assets is None or a[0] in options.assets]
     envs = lightings([e for e in environments() if options.environments is None
                       or e[0] in options.environments], options.sunless)
-    case_list = cases(options.estimators)
+    case_list = cases(options.estimators, options.variants)
     own = renderer is None
     renderer = Renderer() if own else renderer
     rows, sheet, truths = [], [], {}
@@ -275,7 +304,7 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
                 scene_r, tiles = scene_rows(renderer, name, scene, truth, splat_cases(case_list))
                 rows += [r | {"geometry": "splats"} for r in scene_r]
                 sheet.append((name, tiles))
-        machine = _machine(renderer)
+        machine = machine_info(renderer)
     finally:
         if own:
             renderer.release()
@@ -290,19 +319,6 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
               "rows": rows, "summary": summary(rows)}
     write(report, sheet, out, [c.label for c in case_list])
     return report
-
-
-def _machine(renderer) -> dict:
-    """Where it ran (not :func:`relight.bench.run.machine_info`: run imports the suites, which
-    import this)."""
-    import os
-    import platform
-
-    from viewer.gl import gl_info
-
-    return {"gl": {k: v for k, v in gl_info(renderer.ctx).items() if k != "extensions"},
-            "cpus": os.cpu_count(), "platform": platform.platform(),
-            "python": sys.version.split()[0], "date": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
 def suite_rows(renderer, scenes, config, cache) -> list[dict]:
@@ -329,18 +345,28 @@ def main(argv=None) -> int:
     p.add_argument("--estimator", action="append", default=[], metavar="NAME=FILE",
                    help="also score this shadow-estimator file, as the shipped one is "
                         "('split-sum, screen + NAME'; repeatable)")
+    p.add_argument("--variant", action="append", default=[], nargs="+",
+                   metavar=("CASE", "KEY=VALUE"), help="also score CASE (a case's label, e.g. "
+                   "'split-sum, rays') with these [render] settings changed, judged against "
+                   "CASE itself (e.g. --variant 'split-sum, rays' ray_scale=2; repeatable)")
+    p.add_argument("--cache", help="the truth cache folder (default OUT/cache)")
     p.add_argument("-q", "--quiet", action="store_true")
     a = p.parse_args(argv)
-    from relight.commands.common import _parse_size
-    from viewer.errors import RelightError
+    from relight.commands.common import _parse_size, parse_settings
 
     try:
         if a.spp is not None and a.spp < 1:
             raise RelightError("--spp must be at least 1", where="--spp")
         if Path(a.out).exists() and not Path(a.out).is_dir():
             raise RelightError("--out must be a folder", where=a.out)
+        if any(len(v) < 2 for v in a.variant):
+            raise RelightError("expected CASE KEY=VALUE [KEY=VALUE ...]", where="--variant")
         changes = {"out": Path(a.out), "progress": not a.quiet,
-                   "estimators": tuple(_estimator(item) for item in a.estimator)}
+                   "estimators": tuple(_estimator(item) for item in a.estimator),
+                   "variants": tuple((label, tuple(parse_settings(kv, "--variant").items()))
+                                     for label, *kv in a.variant),
+                   "cache": Path(a.cache) if a.cache else None}
+        cases(changes["estimators"], changes["variants"])  # an unknown case: before any work
         if a.size:
             changes["size"] = _parse_size(a.size)
         if a.spp:
@@ -357,7 +383,6 @@ def main(argv=None) -> int:
 
 def _estimator(item: str) -> tuple[str, str]:
     """``--estimator NAME=FILE`` -> (NAME, FILE), the file read as the viewer reads it."""
-    from viewer.errors import RelightError
     from viewer.neural.shadow_net import read_shadow_net
 
     name, sep, path = item.partition("=")

@@ -3,10 +3,24 @@ markdown table and the files (``real_assets.json``, ``.md``, the contact sheets)
 from __future__ import annotations
 
 import json
+import os
+import platform
+import sys
+import time
 from pathlib import Path
 
 # the HDRI of the small sheet: where the student's screen-space speckle was worst (issue 36)
 SHEET_ENV = "lobby"
+
+
+def machine_info(renderer) -> dict:
+    """Where it ran (not :func:`relight.bench.run.machine_info`: run imports the suites, which
+    import the bench)."""
+    from viewer.gl import gl_info
+
+    return {"gl": {k: v for k, v in gl_info(renderer.ctx).items() if k != "extensions"},
+            "cpus": os.cpu_count(), "platform": platform.platform(),
+            "python": sys.version.split()[0], "date": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
 def summary(rows: list[dict]) -> dict:
@@ -17,17 +31,24 @@ def summary(rows: list[dict]) -> dict:
             continue
         key = r["case"] + (" (splats)" if r.get("geometry") == "splats" else "")
         s = out.setdefault(key, {"rows": 0, "speckle": 0, "shadow": 0, "psnr": 0,
-                                       "failed_rows": 0})
+                                       "failed_rows": 0, "psnr_gain_db": []})
         s["rows"] += 1
+        s["psnr_gain_db"].append(r["psnr_gain_db"])
         for k in ("speckle", "shadow", "psnr"):
             s[k] += not r[f"{k}_ok"]
         s["failed_rows"] += not r["ok"]
+    for s in out.values():  # PSNR against the baseline's: mean and worst over the rows
+        gains = s.pop("psnr_gain_db")
+        s["psnr_gain_mean_db"] = round(sum(gains) / len(gains), 2)
+        s["psnr_gain_min_db"] = min(gains)
     return out
 
 
 def summary_line(summary_: dict) -> str:
     return "; ".join(f"{case}: {s['failed_rows']} of {s['rows']} scenes fail (speckle "
-                     f"{s['speckle']}, invented shadow {s['shadow']}, PSNR {s['psnr']})"
+                     f"{s['speckle']}, invented shadow {s['shadow']}, PSNR {s['psnr']}; PSNR "
+                     f"{s['psnr_gain_mean_db']:+.2f} dB on average against its baseline, at "
+                     f"worst {s['psnr_gain_min_db']:+.2f})"
                      for case, s in summary_.items())
 
 

@@ -59,10 +59,12 @@ def splat_scene(scene, cache: Path, name: str):
 
 
 def splat_cases(case_list):
-    """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`, and the
-    candidate estimators' of ``--estimator``)."""
-    return tuple(c for c in case_list if c.label in SPLAT_CASES
-                 or c.label.startswith(ESTIMATOR_CASE))  # candidate estimators too
+    """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`, the
+    candidate estimators' of ``--estimator``, and the ``--variant`` cases of either)."""
+    drawn = {c.label for c in case_list if c.label in SPLAT_CASES
+             or c.label.startswith(ESTIMATOR_CASE)}  # candidate estimators too
+    return tuple(c for c in case_list if c.label in drawn or c.baseline in drawn
+                 and c.label.startswith(c.baseline + "; "))
 
 
 def splat_scenes(options, envs, cache: Path, files: dict, scene_of):

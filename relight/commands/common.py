@@ -27,10 +27,10 @@ def _parse_size(text: str, option: str = "--size") -> tuple[int, int]:
     return w, h
 
 
-def parse_settings(texts) -> dict:
+def parse_settings(texts, option: str = "--set") -> dict:
     """``--set KEY=VALUE ...`` -> the ``[render]`` settings they name, checked by the scene files'
     one validator (:func:`viewer.scene.checks.validate_render`): a bad key or value is the same
-    one-line :class:`SceneError` a scene file gives, naming ``--set``. A value is read as a TOML
+    one-line :class:`SceneError` a scene file gives, naming ``option``. A value is read as a TOML
     value (``true``, ``16``, ``-1``, ``"aces"``), else taken as a plain string (``aces``,
     ``path/to/w.npz``); a key given twice keeps its last value. Paths are relative to the
     working folder."""
@@ -44,13 +44,13 @@ def parse_settings(texts) -> dict:
         key, value = key.strip(), value.strip()
         if not eq or not key:
             raise SceneError(f"must look like KEY=VALUE (a [render] key), got {text!r}",
-                             where="--set")
+                             where=option)
         try:
             parsed = tomllib.loads(f"v = {value}")
             raw[key] = parsed["v"] if set(parsed) == {"v"} else value
         except tomllib.TOMLDecodeError:
             raw[key] = value
-    return validate_render(raw, "--set") if raw else {}
+    return validate_render(raw, option) if raw else {}
 
 
 def _context_options(args):

@@ -66,23 +66,40 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
 
     assert "real_assets" in SUITES
     # a candidate estimator (--estimator NAME=FILE): here the shipped file again, so its row
-    # must repeat the shipped estimator's
+    # must repeat the shipped estimator's; two variants (--variant CASE KEY=VALUE): one that
+    # changes nothing (ray_scale 1 is the default), so it must score its case exactly, and
+    # rays at half scale, a different image judged against the full-scale one
     opts = Options(out=tmp_path, size=(48, 32), spp=8, assets=("cge_plasma_gun",),
                    environments=("lobby",), progress=False,
-                   estimators=(("again", str(shadow_net_file())),))
+                   estimators=(("again", str(shadow_net_file())),),
+                   variants=(("split-sum, rays", (("ray_scale", 1),)),
+                             ("neural, rays", (("ray_scale", 2),))))
     r = Renderer(ctx=ctx)
     try:
         report = run(opts, renderer=r)
         rows = report["rows"]
-        assert [x["case"] for x in rows] == [c.label for c in cases(opts.estimators)]
-        assert rows[-1]["case"] == "split-sum, screen + again"
+        assert [x["case"] for x in rows] == [c.label for c in cases(opts.estimators,
+                                                                    opts.variants)]
+        by_case = {x["case"]: x for x in rows}
+        again, same, half = rows[-3:]
+        assert again["case"] == "split-sum, screen + again"
         judged = [x for x in rows if "baseline" in x]
-        assert len(judged) == 6 and all("ok" in x and "invented_shadow_%" in x for x in judged)
+        assert len(judged) == 8 and all("ok" in x and "invented_shadow_%" in x for x in judged)
         assert all(np.isfinite(x["psnr_db"]) and x["floor_pixels"] > 50 for x in rows)
-        assert sum(s["rows"] for s in report["summary"].values()) == 6
-        shipped = next(x for x in rows if x["case"] == "split-sum, screen + estimator")
-        assert {k: v for k, v in rows[-1].items() if k != "case"} == {
+        assert sum(s["rows"] for s in report["summary"].values()) == 8
+        shipped = by_case["split-sum, screen + estimator"]
+        assert {k: v for k, v in again.items() if k != "case"} == {
             k: v for k, v in shipped.items() if k != "case"}
+        # every judged row's PSNR against its baseline's, and the summary's mean and worst
+        for x in judged:
+            assert x["psnr_gain_db"] == round(x["psnr_db"] - by_case[x["baseline"]]["psnr_db"], 2)
+        assert report["summary"]["split-sum, screen + again"]["psnr_gain_mean_db"] == \
+            shipped["psnr_gain_db"]
+        assert (same["case"], same["baseline"]) == ("split-sum, rays; ray_scale=1",
+                                                   "split-sum, rays")
+        assert same["psnr_gain_db"] == 0.0 and same["differs_%"] == 0.0 and same["ok"]
+        assert (half["case"], half["baseline"]) == ("neural, rays; ray_scale=2", "neural, rays")
+        assert half["differs_%"] > 0.0 and np.isfinite(half["psnr_gain_db"])
         for name in ("real_assets.json", "real_assets.md", "real_assets.png"):
             assert (tmp_path / name).is_file()
         assert json.loads((tmp_path / "real_assets.json").read_text())["spp"] == 8
@@ -119,6 +136,20 @@ def test_a_bad_candidate_estimator_is_one_line(tmp_path, capsys):
         assert main(["--out", str(tmp_path / "o"), "--estimator", item, "-q"]) == 2
         err = capsys.readouterr().err.strip()
         assert words in err and "\n" not in err, err
+    assert not (tmp_path / "o").exists()  # nothing written
+
+
+def test_a_bad_variant_is_one_line(tmp_path, capsys):
+    from relight.bench.real_assets import main
+
+    for variant, words in ((["no such case", "ray_scale=2"], "no such case"),
+                           (["split-sum, rays", "ray_scale=9"], "ray_scale"),
+                           (["split-sum, rays", "nokey=1"], "nokey"),
+                           (["split-sum, rays", "ray_scale"], "KEY=VALUE"),
+                           (["split-sum, rays"], "KEY=VALUE")):
+        assert main(["--out", str(tmp_path / "o"), "--variant", *variant, "-q"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert words in err and "--variant" in err and "\n" not in err, err
     assert not (tmp_path / "o").exists()  # nothing written
 
 

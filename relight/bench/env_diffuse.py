@@ -16,7 +16,6 @@ Alone: ``python -m relight.bench.env_diffuse`` (a table on stdout).
 """
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 

@@ -15,23 +15,23 @@ rotation 0, its compact sun as it is and, where it has one, again without it (:f
 the default *catcher*: the catcher draws only the shadows it receives over the environment, which
 the path tracer has no counterpart for (it would trace a white Lambertian plane).
 
-**Cases** (:func:`cases`): split-sum and the student with the default render (``raytrace =
-true``: ray-traced visibility and bounce), both screen-space (``raytrace = false``, SSAO +
-indirect light, the bounce denoised as by default), the student before this one (which read
-S(x): :func:`sx_student_file`) screen-space, and split-sum screen-space with the mesh shadow
-estimator
-(``assets/weights/shadow_net_mesh.safetensors``) in the frame it was trained on
-(:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student screen-space with
-the estimator's visibility in place of SSAO's occlusion and the student's S(x) (``shadow_net_use
-= "visibility"``: the issue's "usable by every model"). Each non-split-sum case is judged against the split-sum
-case with the same visibility evidence (:attr:`Case.baseline`). Beside them, candidate estimator
-files (``--estimator``) and *variants* (``--variant``, :func:`variant_case`): a case again with
-``[render]`` settings changed, judged against that case, so a setting's cost against the truth
-(``ray_scale=2`` on the rays) is a row of the same table. **The splat capture**
+**Cases** (:mod:`.real_assets_cases`): split-sum and the student with the default render
+(``raytrace = true``: ray-traced visibility and bounce), both screen-space (``raytrace = false``,
+SSAO + indirect light, the bounce denoised as by default), the student before this one (which read
+S(x): :func:`~.real_assets_cases.sx_student_file`) screen-space, and split-sum screen-space with
+the mesh shadow estimator (``assets/weights/shadow_net_mesh.safetensors``) in the frame it was
+trained on (:func:`viewer.neural.shadow_net.frame_settings`); and split-sum and the student
+screen-space with the estimator's visibility in place of SSAO's occlusion and the student's S(x)
+(``shadow_net_use = "visibility"``: the issue's "usable by every model"). Each non-split-sum case
+is judged against the split-sum case with the same visibility evidence
+(:attr:`~.real_assets_cases.Case.baseline`). Beside them, candidate estimator files
+(``--estimator``) and *variants* (``--variant``, :func:`~.real_assets_cases.variant_case`): a case
+again with ``[render]`` settings changed, judged against that case, so a setting's cost against the
+truth (``ray_scale=2`` on the rays) is a row of the same table. **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
 floor, drawn the same eight ways (rays see the splats' opaque cores:
-:mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted
-apart ("(splats)").
+:mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted apart
+("(splats)").
 
 **Truth**: Mitsuba 3 with our BSDF (:mod:`relight.reference`), cached as the gallery caches it
 (:func:`relight.gallery.panels.cached_truth`: one file per scene under ``<out>/cache``, keyed by
@@ -48,7 +48,7 @@ import argparse
 import sys
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from .real_assets_report import machine_info, markdown, summary, write
@@ -64,7 +64,8 @@ from .real_assets_metrics import (
     speckle,
     verdict,
 )
-from .real_assets_splats import ESTIMATOR_CASE, splat_cases, splat_scenes
+from .real_assets_cases import cases
+from .real_assets_splats import splat_cases, splat_scenes
 
 from viewer.errors import RelightError
 
@@ -84,84 +85,6 @@ DEFAULT_SPP = 256
 # and without it (three scenes: every kind of lighting the full matrix judges)
 QUICK = (("cge_plasma_gun",), ("lobby", "sky"), 64)
 SUNLESS = "-nosun"  # the name suffix of an HDRI's variant without its compact sun
-SCREEN = {"raytrace": False, "ssao": True, "indirect": True}  # screen-space visibility evidence
-
-
-@dataclass(frozen=True)
-class Case:
-    """One rendering of every scene: a label, the ``[render]`` settings it changes and the label
-    of the split-sum case with the same visibility evidence (None: it is that baseline)."""
-
-    label: str
-    render: dict = field(default_factory=dict)
-    baseline: str | None = None
-
-
-def shadow_net_file() -> Path:
-    from assets import ASSET_ROOT
-
-    return ASSET_ROOT / "weights" / "shadow_net_mesh.safetensors"
-
-
-def sx_student_file() -> Path:
-    """The student shipped before the ``ssao`` student, whose network read S(x) (``vis``)."""
-    from assets import ASSET_ROOT
-
-    return ASSET_ROOT / "weights" / "students" / "sx-w32x2-split-sun.safetensors"
-
-
-
-def estimator_case(label: str, net) -> Case:
-    """Split-sum in the frame the estimator file ``net`` was trained on, times its V, judged
-    against split-sum screen-space."""
-    from viewer.neural.shadow_net import frame_settings, read_shadow_net
-
-    frame = frame_settings(read_shadow_net(net).training)
-    return Case(label, {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
-                        "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
-                "split-sum, screen")
-
-
-VARIANT = "; "  # a variant's label: its case's, this, then its settings (variant_case)
-
-
-def variant_case(case: Case, settings: dict) -> Case:
-    """``case`` with ``[render]`` ``settings`` changed (``--variant CASE KEY=VALUE ...``),
-    judged against ``case`` itself: what the settings cost or gain against the truth, e.g.
-    ``ray_scale=2`` on ``split-sum, rays``."""
-    text = " ".join(f"{k}={v}" for k, v in settings.items())
-    return Case(f"{case.label}{VARIANT}{text}", case.render | settings, case.label)
-
-
-def cases(estimators: tuple[tuple[str, str], ...] = (),
-          variants: tuple[tuple[str, dict], ...] = ()) -> tuple[Case, ...]:
-    """The eight cases of the module docstring (the estimator's frame read from its weights),
-    then one case per candidate estimator file of ``estimators`` (``(name, path)``: ``--estimator
-    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``, then one per
-    ``variants`` entry ``(label of a case before, [render] settings)``: :func:`variant_case`."""
-    net = shadow_net_file()
-    # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
-    V_USE = SCREEN | {"shadow_net": str(net), "shadow_net_use": "visibility"}
-    base = (Case("split-sum, rays", {"model": "ggx_split_sum"}),
-            Case("neural, rays", {"model": "neural"}, "split-sum, rays"),
-            Case("split-sum, screen", {"model": "ggx_split_sum", **SCREEN}),
-            Case("neural, screen", {"model": "neural", **SCREEN}, "split-sum, screen"),
-            Case("neural S(x), screen",
-                 {"model": "neural", "weights": str(sx_student_file()), **SCREEN},
-                 "split-sum, screen"),
-            estimator_case(ESTIMATOR_CASE + "estimator", net),
-            Case("split-sum, estimator's V", {"model": "ggx_split_sum", **V_USE}),
-            Case("neural, estimator's V", {"model": "neural", **V_USE},
-                 "split-sum, estimator's V"),
-            *(estimator_case(ESTIMATOR_CASE + name, path) for name, path in estimators))
-    by_label = {c.label: c for c in base}
-    for label, _ in variants:
-        if label not in by_label:
-            raise RelightError(f"no case {label!r} (one of: {', '.join(by_label)})",
-                               where="--variant")
-    return base + tuple(variant_case(by_label[label], dict(s)) for label, s in variants)
-
-
 def environments() -> list[tuple[str, Path]]:
     """Every bundled HDRI, ``(name, path)``, sorted by name."""
     from assets import ASSET_ROOT

@@ -103,7 +103,7 @@ def test_the_students_visibility_input_is_the_estimators(tmp_path, student):
     their mean, 0.35, as its O(x) (the shipped student, whose diffuse factor it scales) or as its
     S(x) and O(x) inputs (the S(x) student shipped before), within the parity check's envelope,
     and not its twin on the frame's SSAO."""
-    from relight.bench.real_assets import sx_student_file
+    from relight.bench.real_assets_cases import sx_student_file
 
     weights = default_weights("student") if student == "shipped" else sx_student_file()
     path = constant_weights(tmp_path, (0.2, 0.5, 0.35))

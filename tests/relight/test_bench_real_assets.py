@@ -49,14 +49,8 @@ def test_speckle_measures_isolated_pixels_not_gradients():
 
 @pytest.mark.filterwarnings("ignore:.*ignored \\(not supported\\)")  # the gun's skin: bind pose
 def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_llvm, tmp_path):
-    from relight.bench.real_assets import (
-        Options,
-        asset_scene,
-        cases,
-        environments,
-        run,
-        shadow_net_file,
-    )
+    from relight.bench.real_assets import Options, asset_scene, environments, run
+    from relight.bench.real_assets_cases import cases, shadow_net_file
     from relight.bench.real_assets_metrics import floor_mask
     from relight.bench.suites import SUITES
     from relight.gallery.cases import GalleryOptions
@@ -128,11 +122,14 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
 
 def test_a_bad_candidate_estimator_is_one_line(tmp_path, capsys):
     from relight.bench.real_assets import main
+    from relight.bench.real_assets_cases import shadow_net_file
 
     bad = tmp_path / "bad.safetensors"
     bad.write_bytes(b"not a safetensors file")
+    shipped = "estimator=" + str(shadow_net_file())  # the shipped case's own label
     for item, words in (("nofile", "expected NAME=FILE"), (f"x={bad}", str(bad)),
-                        (f"x={tmp_path / 'missing.safetensors'}", "missing.safetensors")):
+                        (f"x={tmp_path / 'missing.safetensors'}", "missing.safetensors"),
+                        (shipped, "given twice")):
         assert main(["--out", str(tmp_path / "o"), "--estimator", item, "-q"]) == 2
         err = capsys.readouterr().err.strip()
         assert words in err and "\n" not in err, err
@@ -150,6 +147,10 @@ def test_a_bad_variant_is_one_line(tmp_path, capsys):
         assert main(["--out", str(tmp_path / "o"), "--variant", *variant, "-q"]) == 2
         err = capsys.readouterr().err.strip()
         assert words in err and "--variant" in err and "\n" not in err, err
+    twice = ["--variant", "split-sum, rays", "ray_scale=2"] * 2  # one label, two cases
+    assert main(["--out", str(tmp_path / "o"), *twice, "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "given twice" in err and "--variant" in err and "\n" not in err, err
     assert not (tmp_path / "o").exists()  # nothing written
 
 

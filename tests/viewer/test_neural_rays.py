@@ -40,7 +40,7 @@ def _speckle(frame, floor) -> float:
 
 
 def test_the_student_draws_no_speckle_on_the_floor(renderer):
-    from relight.bench.real_assets import sx_student_file
+    from relight.bench.real_assets_cases import sx_student_file
 
     scene = _scene().with_render(tonemap="none")
     screen = {"raytrace": False, "ssao": True, "indirect": True}

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from relight.bench.real_assets import sx_student_file
+from relight.bench.real_assets_cases import sx_student_file
 from viewer.gl.timing import PassTimer
 from viewer.renderer import Renderer
 from viewer.scene.description import scene_from_dict

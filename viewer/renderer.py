@@ -45,6 +45,7 @@ from .resources import GPUResources
 from .scene.bounds import scene_bounds
 from .scene.camera import Camera
 from .scene.description import ObjectSpec, Scene
+from .scene.settings import dormant_settings
 from .specialize import analyse, specialise
 
 __all__ = ["Frame", "FrameTargets", "Renderer"]
@@ -200,7 +201,8 @@ class Renderer:
             _warn_light_ignored(settings.model)
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
-        for key, message in ignored_settings(model, asked, spec.variant):
+        for key, message in ignored_settings(model, asked, spec.variant) + dormant_settings(
+                asked, settings, bool(spec.variant.defines.get("RT_LIGHT"))):
             _warn_once(key, message)
         for lobe, message in ignored_lobes(model, self.specialization(  # what the scene has
                 scene.with_render(specialize=True), aovs).layout):

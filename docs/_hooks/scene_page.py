@@ -313,6 +313,8 @@ def scene_markdown() -> str:
                    intro="Metallic-roughness parameters (Filament conventions); linear values.")
 
     # [render]: flat TOML keys mapped onto grouped dataclasses
+    from viewer.scene.settings import TUNING_KEYS
+
     render = base.render
     flat = render.flat()
     mapping = _render_keys(type(render))
@@ -321,6 +323,11 @@ def scene_markdown() -> str:
             "by the part of the renderer they steer (`scene.render.mc`, `.ssao`, `.neural`, "
             "`.display`; the column *Python*), and `scene.with_render(key=value)` takes the "
             "file's keys, checked as a file's are.", "",
+            "A key that only tunes one pass says so when the frame does not run that pass: set "
+            "away from its default, it has no effect and gives one warning "
+            "(`viewer.scene.settings.dormant_settings`): "
+            + "; ".join(", ".join(f"`{k}`" for k in keys) + f" tune {what}"
+                        for keys, what, _ in TUNING_KEYS) + ".", "",
             "| key | Python | default | accepts | meaning |", "|---|---|---|---|---|"]
     for key, default in flat.items():
         group, field = mapping.get(key, (None, key))

@@ -265,3 +265,46 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "ray_still_frames": ("raytrace", "still_frames"),
     "ray_scale": ("raytrace", "scale"),
 }
+
+
+# [render] keys that only tune one pass, by that pass: (keys, what they tune, whether the frame
+# runs it: (effective settings, whether the ray-traced tier lights the frame) -> bool)
+TUNING_KEYS = (
+    (("raytrace_rays", "ray_denoise", "ray_frames", "ray_still_frames", "ray_scale"),
+     "the ray-traced tier (raytrace = true, a model it lights: blinn_phong, ggx_split_sum or "
+     "neural, and meshes or splats to trace)", lambda s, rays: rays),
+    (("ssao_rays", "ssao_steps", "ssao_radius", "ssao_thickness", "ssao_scale", "ssao_blur"),
+     "the SSAO pass (ssao or indirect = true, without the ray-traced tier)",
+     lambda s, rays: not rays and (s.ssao.enabled or s.ssao.indirect)),
+    (("indirect_blur",), "the screen-space bounce (indirect = true, without the ray-traced tier)",
+     lambda s, rays: not rays and s.ssao.indirect),
+    (("shadow_net_use",), "the shadow estimator (shadow_net = FILE)",
+     lambda s, rays: s.neural.shadow_net is not None),
+)
+
+
+def dormant_settings(asked: RenderSettings, settings: RenderSettings, rays: bool
+                     ) -> list[tuple[str, str]]:
+    """(key, message) for each setting the scene ``asked`` for away from its default that tunes
+    a pass this frame does not run (:data:`TUNING_KEYS`; ``settings``: what the frame draws, a
+    network's needs added; ``rays``: whether the ray-traced tier lights it), so that a knob with
+    no effect is said, not dropped silently (``--set ray_scale=2`` with ``raytrace = false``).
+    The key of each is the knobs' names, not their values: said once per process
+    (:func:`viewer.renderer._warn_once`) however a slider moves them."""
+    default, mine = RenderSettings().flat(), asked.flat()
+    out = []
+    for keys, what, runs in TUNING_KEYS:
+        changed = [k for k in keys if mine[k] != default[k]]
+        if changed and not runs(settings, rays):
+            shown = " and ".join(f"render.{k} = {_toml(mine[k])}" for k in changed)
+            one = len(changed) == 1
+            out.append((f"dormant:{','.join(changed)}",
+                        f"{shown} {'has' if one else 'have'} no effect: "
+                        f"{'it tunes' if one else 'they tune'} {what}, which this frame does "
+                        f"not run"))
+    return out
+
+
+def _toml(value) -> str:
+    return str(value).lower() if isinstance(value, bool) else \
+        f'"{value}"' if isinstance(value, str) else str(value)

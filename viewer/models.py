@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from .errors import SceneError
 from .lighting.lights import light_defines
+from .scene.settings import FrameFacts, dormant_settings
 
 SAMPLINGS = ("uniform", "cosine", "env", "brdf", "mis")
 SAMPLING_IDS = {name: i for i, name in enumerate(SAMPLINGS)}  # the SAMPLING define
@@ -221,13 +222,20 @@ ANISOTROPY_MODELS = CLEARCOAT_MODELS  # and KHR_materials_anisotropy's stretched
 IRIDESCENCE_MODELS = CLEARCOAT_MODELS  # and KHR_materials_iridescence's thin film
 
 
-def ignored_settings(model: ShadingModel, asked, variant: ShadeVariant) -> list[tuple[str, str]]:
+def ignored_settings(model: ShadingModel, asked, settings, variant: ShadeVariant,
+                     graph) -> list[tuple[str, str]]:
     """(key, message) for each render setting the user ``asked`` for (the scene's own settings,
-    before a network's requirements are added) that ``model`` in ``variant`` leaves unused, so
-    that nothing is dropped silently: ``env_shadows`` on a model without that input; and under the
-    ray-traced tier (RT_LIGHT) the rasteriser's stand-ins for what its rays trace: the
+    before a network's requirements are added: ``settings``) that ``model`` in ``variant`` leaves
+    unused, so that nothing is dropped silently: ``env_shadows`` on a model without that input;
+    under the ray-traced tier (RT_LIGHT) the rasteriser's stand-ins for what its rays trace: the
     environment's shadow maps, screen-space occlusion and its indirect bounce
-    (docs/explanation/raytracing.md)."""
+    (docs/explanation/raytracing.md); and every knob of a part of the frame that the compiled
+    ``graph`` does not run (:func:`viewer.scene.settings.dormant_settings`)."""
+    facts = FrameFacts(settings, model, variant.defines, frozenset(p.name for p in graph.passes))
+    return _superseded(model, asked, variant) + dormant_settings(asked, facts)
+
+
+def _superseded(model: ShadingModel, asked, variant: ShadeVariant) -> list[tuple[str, str]]:
     k = asked.shadow.environment
     if k > 0 and not model.env_shadows:
         return [(f"env_shadows:{asked.model}",

@@ -45,7 +45,6 @@ from .resources import GPUResources
 from .scene.bounds import scene_bounds
 from .scene.camera import Camera
 from .scene.description import ObjectSpec, Scene
-from .scene.settings import dormant_settings
 from .specialize import analyse, specialise
 
 __all__ = ["Frame", "FrameTargets", "Renderer"]
@@ -201,9 +200,6 @@ class Renderer:
             _warn_light_ignored(settings.model)
         camera = self.resolve_camera(scene, size)
         spec = self.specialization(scene, aovs)
-        for key, message in ignored_settings(model, asked, spec.variant) + dormant_settings(
-                asked, settings, bool(spec.variant.defines.get("RT_LIGHT"))):
-            _warn_once(key, message)
         for lobe, message in ignored_lobes(model, self.specialization(  # what the scene has
                 scene.with_render(specialize=True), aovs).layout):
             _warn_once(f"{lobe}:{settings.model}", message)
@@ -212,6 +208,8 @@ class Renderer:
         self._pass_begin("ibl")  # precomputation, only when the environment is new
         request = FrameRequest(scene, model, spec, camera, progressive, samples_per_frame)
         graph = build_frame(self, request, reuse=self.reuse_passes).compile()
+        for key, message in ignored_settings(model, asked, settings, spec.variant, graph):
+            _warn_once(key, message)
         frame = graph.execute(on_pass=self._pass_begin)
         self.last_graph = graph
         return FrameTargets(

@@ -323,11 +323,11 @@ def scene_markdown() -> str:
             "by the part of the renderer they steer (`scene.render.mc`, `.ssao`, `.neural`, "
             "`.display`; the column *Python*), and `scene.with_render(key=value)` takes the "
             "file's keys, checked as a file's are.", "",
-            "A key that only tunes one pass says so when the frame does not run that pass: set "
-            "away from its default, it has no effect and gives one warning "
-            "(`viewer.scene.settings.dormant_settings`): "
-            + "; ".join(", ".join(f"`{k}`" for k in keys) + f" tune {what}"
-                        for keys, what, _ in TUNING_KEYS) + ".", "",
+            "A key that only tunes one part of the frame says so when the frame does not run "
+            "that part: set away from its default, it has no effect and gives one warning "
+            "(`viewer.scene.settings.dormant_settings`). The keys and what they tune:", "",
+            *(f"- {', '.join(f'`{k}`' for k in keys)}: {what}" for keys, what, _ in TUNING_KEYS),
+            "",
             "| key | Python | default | accepts | meaning |", "|---|---|---|---|---|"]
     for key, default in flat.items():
         group, field = mapping.get(key, (None, key))

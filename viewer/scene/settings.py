@@ -267,35 +267,68 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
 }
 
 
-# [render] keys that only tune one pass, by that pass: (keys, what they tune, whether the frame
-# runs it: (effective settings, whether the ray-traced tier lights the frame) -> bool)
+# [render] keys that only tune one part of the frame, by that part: (keys, what they tune,
+# whether this frame runs it: frame -> bool, frame a FrameFacts)
 TUNING_KEYS = (
     (("raytrace_rays", "ray_denoise", "ray_frames", "ray_still_frames", "ray_scale"),
      "the ray-traced tier (raytrace = true, a model it lights: blinn_phong, ggx_split_sum or "
-     "neural, and meshes or splats to trace)", lambda s, rays: rays),
-    (("ssao_rays", "ssao_steps", "ssao_radius", "ssao_thickness", "ssao_scale", "ssao_blur"),
-     "the SSAO pass (ssao or indirect = true, without the ray-traced tier)",
-     lambda s, rays: not rays and (s.ssao.enabled or s.ssao.indirect)),
+     "neural, and meshes or splats to trace)", lambda f: "raytrace" in f.passes),
+    (("ssao_rays", "ssao_steps", "ssao_radius", "ssao_thickness", "ssao_scale"),
+     "the SSAO pass and its bounce (ssao or indirect = true, without the ray-traced tier)",
+     lambda f: "ssao" in f.passes or "indirect_gather" in f.passes),
+    (("ssao_blur",), "the SSAO pass's occlusion (ssao = true, without the ray-traced tier)",
+     lambda f: "ssao" in f.passes),
     (("indirect_blur",), "the screen-space bounce (indirect = true, without the ray-traced tier)",
-     lambda s, rays: not rays and s.ssao.indirect),
+     lambda f: "indirect" in f.passes),
     (("shadow_net_use",), "the shadow estimator (shadow_net = FILE)",
-     lambda s, rays: s.neural.shadow_net is not None),
+     lambda f: any(p.startswith("shadow_net") for p in f.passes)),
+    # (not shadow_proxy_snap: the G-buffer pass snaps an image stack's depth with it, rays or not)
+    (("shadow_size", "shadow_cube_size", "shadow_budget", "shadow_softness", "shadow_bias",
+      "shadow_lod_error", "shadow_cascades"),
+     "the shadow maps (shadows = true and a light or sun whose shadow is not traced)",
+     lambda f: any(p.startswith("shadow") and not p.startswith("shadow_net")
+                   for p in f.passes)),
+    (("contact_length",), "the contact shadows (contact_shadows, a model that shades lights)",
+     lambda f: bool(f.defines.get("CONTACT_SHADOWS"))),
+    (("samples",), "the Monte-Carlo models (ggx_mc, path, neural_teacher; the others draw 1)",
+     lambda f: f.model.accumulates or f.settings.mc.samples == 1),
+    (("sampling",), "the sampled models (ggx_mc, neural_teacher)",
+     lambda f: "SAMPLING" in f.defines),
+    (("mis_heuristic",), "ggx_mc's multiple importance sampling (sampling = \"mis\")",
+     lambda f: f.defines.get("SAMPLING") == 4),
+    (("max_depth",), "the path tracer (model = \"path\")", lambda f: f.model.name == "path"),
+    (("weights",), "the neural student (model = \"neural\")",
+     lambda f: f.model.network == "student"),
+    (("teacher_weights",), "the neural teacher (model = \"neural_teacher\")",
+     lambda f: f.model.network == "teacher"),
+    (("neural_storage",), "the neural models' weights in GLSL (model = \"neural\" or "
+     "\"neural_teacher\")", lambda f: f.model.network is not None),
 )
 
 
-def dormant_settings(asked: RenderSettings, settings: RenderSettings, rays: bool
-                     ) -> list[tuple[str, str]]:
+@dataclass(frozen=True)
+class FrameFacts:
+    """What one frame runs, for :func:`dormant_settings`: its settings (a network's needs added),
+    its shading model (:class:`viewer.models.ShadingModel`), the lighting pass's defines and the
+    names of the frame graph's passes."""
+
+    settings: "RenderSettings"
+    model: Any
+    defines: dict
+    passes: frozenset
+
+
+def dormant_settings(asked: RenderSettings, frame: FrameFacts) -> list[tuple[str, str]]:
     """(key, message) for each setting the scene ``asked`` for away from its default that tunes
-    a pass this frame does not run (:data:`TUNING_KEYS`; ``settings``: what the frame draws, a
-    network's needs added; ``rays``: whether the ray-traced tier lights it), so that a knob with
-    no effect is said, not dropped silently (``--set ray_scale=2`` with ``raytrace = false``).
-    The key of each is the knobs' names, not their values: said once per process
+    a part of the frame it does not run (:data:`TUNING_KEYS`), so that a knob with no effect is
+    said, not dropped silently (``--set ray_scale=2`` with ``raytrace = false``). The key of
+    each is the knobs' names, not their values: said once per process
     (:func:`viewer.renderer._warn_once`) however a slider moves them."""
     default, mine = RenderSettings().flat(), asked.flat()
     out = []
     for keys, what, runs in TUNING_KEYS:
-        changed = [k for k in keys if mine[k] != default[k]]
-        if changed and not runs(settings, rays):
+        changed = [k for k in keys if not _same(mine[k], default[k])]
+        if changed and not runs(frame):
             shown = " and ".join(f"render.{k} = {_toml(mine[k])}" for k in changed)
             one = len(changed) == 1
             out.append((f"dormant:{','.join(changed)}",
@@ -305,6 +338,14 @@ def dormant_settings(asked: RenderSettings, settings: RenderSettings, rays: bool
     return out
 
 
+def _same(a, b) -> bool:
+    """Equal, a float to 1e-6 of its size: a slider's float32 0.2 is the default 0.2."""
+    if isinstance(a, float) and isinstance(b, (int, float)) and not isinstance(b, bool):
+        return abs(a - b) <= 1e-6 * max(abs(a), abs(b), 1.0)
+    return a == b
+
+
 def _toml(value) -> str:
     return str(value).lower() if isinstance(value, bool) else \
-        f'"{value}"' if isinstance(value, str) else str(value)
+        f'"{value}"' if isinstance(value, str) else f"{value:.6g}" if isinstance(value, float) \
+        else str(value)

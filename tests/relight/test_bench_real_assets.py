@@ -45,6 +45,13 @@ def test_speckle_measures_isolated_pixels_not_gradients():
     salt[::4, ::5] += 0.5
     assert speckle(salt, mask) > 0.05
     assert speckle(salt, np.zeros_like(mask)) == 0.0
+    # the floor's own pixels only: an object beside it, shaded otherwise, changes nothing
+    floor = np.ones((20, 30), bool)
+    floor[:6, 10:20] = False  # an object standing on the floor's far edge
+    lit = ramp.copy()
+    lit[:6, 10:20] += 0.8  # the object, brighter
+    assert speckle(lit, floor) == speckle(ramp, floor) < 1e-9
+    assert speckle(salt, floor) > 0.05
 
 
 @pytest.mark.filterwarnings("ignore:.*ignored \\(not supported\\)")  # the gun's skin: bind pose

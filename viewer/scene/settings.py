@@ -318,17 +318,23 @@ class FrameFacts:
     passes: frozenset
 
 
+def dormant_keys(frame: FrameFacts) -> dict[str, str]:
+    """Every key of :data:`TUNING_KEYS` whose part ``frame`` does not run, with what it tunes
+    (the viewer's panel greys those knobs)."""
+    return {k: what for keys, what, runs in TUNING_KEYS if not runs(frame) for k in keys}
+
+
 def dormant_settings(asked: RenderSettings, frame: FrameFacts) -> list[tuple[str, str]]:
     """(key, message) for each setting the scene ``asked`` for away from its default that tunes
     a part of the frame it does not run (:data:`TUNING_KEYS`), so that a knob with no effect is
     said, not dropped silently (``--set ray_scale=2`` with ``raytrace = false``). The key of
     each is the knobs' names, not their values: said once per process
     (:func:`viewer.renderer._warn_once`) however a slider moves them."""
-    default, mine = RenderSettings().flat(), asked.flat()
+    default, mine, idle = RenderSettings().flat(), asked.flat(), dormant_keys(frame)
     out = []
-    for keys, what, runs in TUNING_KEYS:
-        changed = [k for k in keys if not _same(mine[k], default[k])]
-        if changed and not runs(frame):
+    for keys, what, _ in TUNING_KEYS:
+        changed = [k for k in keys if k in idle and not _same(mine[k], default[k])]
+        if changed:
             shown = " and ".join(f"render.{k} = {_toml(mine[k])}" for k in changed)
             one = len(changed) == 1
             out.append((f"dormant:{','.join(changed)}",

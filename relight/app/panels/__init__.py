@@ -70,6 +70,7 @@ class ViewerUI(Layout, ScenePanels, MaterialPanel, SettingsPanels):
         self._dialog = None  # a pending portable-file-dialog: (kind, dialog)
         self._size = list(viewer.state.camera.size)
         self._light_memory = None  # the light as it was when switched off (switching on restores)
+        self.dormant: dict[str, str] = {}  # [render] knobs greyed in Shading: key -> what it tunes
 
     def draw(self) -> None:
         """The panel, docked left; sets :attr:`width` for the view area beside it."""

@@ -2,8 +2,9 @@
 (screenshot, save/open scene) sections."""
 from __future__ import annotations
 
-from viewer.models import sample_count
+from viewer.models import model_info, sample_count
 from viewer.passes.debug_view import shadow_views
+from viewer.scene.settings import FrameFacts, dormant_keys
 
 from ..state import VIEWS
 from .choices import CHOICES, LIMITS, QUICK_FIELDS
@@ -16,9 +17,13 @@ class SettingsPanels:
         imgui = self.imgui
         r = state.render
         changes = {}
+        self.dormant = self._dormant(r)
         for key, value in r.flat().items():  # one widget per [render] key
             if key in QUICK_FIELDS:
                 continue
+            if key in self.dormant:  # greyed, still editable, its tooltip says why
+                imgui.push_style_color(imgui.Col_.text,
+                                       imgui.get_style().color_(imgui.Col_.text_disabled))
             if key == "samples" and value is None:  # unset: the model's own count, editable
                 value = sample_count(r)
             choices = (CHOICES.get(key) or (lambda: None))() if isinstance(value, str) else None
@@ -36,13 +41,28 @@ class SettingsPanels:
                 _, new = imgui.input_text(self.fit(key), value)
             else:
                 imgui.text_disabled(f"{key}: {value!r}")
-                continue
+                new = choices = value  # shown, not a widget: nothing to track
+            if key in self.dormant:
+                imgui.pop_style_color()
+                imgui.set_item_tooltip(f"no effect: tunes {self.dormant[key]}, which this "
+                                       f"frame does not run")
             if not choices:
                 self._track(key)
             if new != value:
                 changes[key] = new
         if changes:
             state.render = r.with_flat(**changes)
+
+    def _dormant(self, render) -> dict[str, str]:
+        """The knobs of what the last frame did not run (:func:`dormant_keys`, from the frame's
+        graph and lighting defines): none before the first frame."""
+        viewer = self.viewer
+        graph, targets = viewer.renderer.last_graph, getattr(viewer, "_targets", None)
+        if graph is None or targets is None:
+            return {}
+        return dormant_keys(FrameFacts(render, model_info(render.model),
+                                       targets.variant.defines,
+                                       frozenset(p.name for p in graph.passes)))
 
     def _inspect(self, state) -> None:
         imgui, viewer = self.imgui, self.viewer

@@ -225,13 +225,13 @@ IRIDESCENCE_MODELS = CLEARCOAT_MODELS  # and KHR_materials_iridescence's thin fi
 def ignored_settings(model: ShadingModel, asked, settings, variant: ShadeVariant,
                      graph) -> list[tuple[str, str]]:
     """(key, message) for each render setting the user ``asked`` for (the scene's own settings,
-    before a network's requirements are added: ``settings``) that ``model`` in ``variant`` leaves
-    unused, so that nothing is dropped silently: ``env_shadows`` on a model without that input;
+    before a network's requirements are added; ``settings``: after) that ``model`` in ``variant``
+    leaves unused, so that nothing is dropped silently: ``env_shadows`` on a model without that input;
     under the ray-traced tier (RT_LIGHT) the rasteriser's stand-ins for what its rays trace: the
     environment's shadow maps, screen-space occlusion and its indirect bounce
     (docs/explanation/raytracing.md); and every knob of a part of the frame that the compiled
     ``graph`` does not run (:func:`viewer.scene.settings.dormant_settings`)."""
-    facts = FrameFacts(settings, model, variant.defines, frozenset(p.name for p in graph.passes))
+    facts = FrameFacts.of(settings, model, variant.defines, graph)
     return _superseded(model, asked, variant) + dormant_settings(asked, facts)
 
 

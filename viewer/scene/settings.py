@@ -317,6 +317,11 @@ class FrameFacts:
     defines: dict
     passes: frozenset
 
+    @classmethod
+    def of(cls, settings, model, defines: dict, graph) -> "FrameFacts":
+        """From a compiled frame graph (``viewer.graph``), its passes by name."""
+        return cls(settings, model, defines, frozenset(p.name for p in graph.passes))
+
 
 def dormant_keys(frame: FrameFacts) -> dict[str, str]:
     """Every key of :data:`TUNING_KEYS` whose part ``frame`` does not run, with what it tunes

@@ -60,9 +60,8 @@ class SettingsPanels:
         graph, targets = viewer.renderer.last_graph, getattr(viewer, "_targets", None)
         if graph is None or targets is None:
             return {}
-        return dormant_keys(FrameFacts(render, model_info(render.model),
-                                       targets.variant.defines,
-                                       frozenset(p.name for p in graph.passes)))
+        return dormant_keys(FrameFacts.of(render, model_info(render.model),
+                                          targets.variant.defines, graph))
 
     def _inspect(self, state) -> None:
         imgui, viewer = self.imgui, self.viewer

@@ -29,7 +29,9 @@ ratio of the product's energy to the target's, over the surface and over the fra
 square (:func:`linear_term`). Neither is on by default: on the validation sets (two seeds, meshes;
 docs/measurements/students.md) they changed the Reinhard PSNR by -0.3 to +0.3 dB, within the seeds'
 spread, and the validation images' highlights, picked in the frame, were within 9 % of their energy
-without them, so the validation sets do not show the glint dimming these terms were made for. A
+without them, so the validation sets do not show the glint dimming these terms were made for.
+``prior_weight`` adds the mean |log V| over the surface (:func:`prior_term`), a prior towards V = 1
+for assets unlike the training scenes: off, a wash on validation over three seeds (ibid.). A
 batch of ``batch`` images per step
 (Adam, cosine rate, :func:`learned.train.runner._loop`: progress bar, log lines, checkpoints every
 ``checkpoint_every`` steps into ``OUT/shadow_net.pt``, resumed from). Selection reads the
@@ -77,6 +79,7 @@ from ..protocol.degrade import degraded_dataset
 from ..twins.shadow_net import (shadow_net, shadow_net_apply, shadow_net_demodulate,
                                 shadow_net_input_a)
 from .decals import decal
+from .shadow_terms import energy_term, linear_term, prior_term
 from .runner import Run, _loop
 
 STAGE = "shadow_net"
@@ -108,6 +111,7 @@ class ShadowNetTrainConfig:
     # (loss, module doc; both off: neither moved the validation scores)
     energy_weight: float = 0.0
     linear_weight: float = 0.0
+    prior_weight: float = 0.0  # x mean |log V| (shadow_terms.prior_term; tried, not shipped)
     # the frames drawn from each sample's image-space stack or its meshes (learned.data.scene)
     geometry: str = "stack"
     # the frame the estimator multiplies has the screen-space one-bounce indirect light (module
@@ -219,55 +223,23 @@ def decaled(img: ShadowNetImage, rng: np.random.Generator) -> ShadowNetImage:
 LOSSES = ("l1", "l2", "log_mse")
 
 
-def linear_term(pred: torch.Tensor, goal: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-    """Per image ``[N]``: log of the linear MSE over the surface relative to the target's mean
-    square - the error the Reinhard-mapped metric all but ignores in highlights (a sun's glint at
-    50 maps to 0.98, dimmed to 20 to 0.95), which a linear display of the frame shows."""
-    n = mask.sum((1, 2, 3)).clamp_min(1)
-    err = ((pred - goal) ** 2 * mask).sum((1, 2, 3)) / n
-    return torch.log(err / ((goal ** 2 * mask).sum((1, 2, 3)) / n + 1e-8) + 1e-8)
-
-
-TOP_FRACTION = 0.02  # energy_term's highlights: the image's brightest 2 % of surface pixels
-
-
-def energy_term(pred: torch.Tensor, goal: torch.Tensor, mask: torch.Tensor,
-                frame: torch.Tensor) -> torch.Tensor:
-    """Per image ``[N]``: the squared log ratio of the product's energy to the target's over the
-    surface, plus the same over the :data:`TOP_FRACTION` of surface pixels brightest in the
-    unshadowed ``frame`` (its highlights), so that the estimator neither dims nor brightens an
-    image, nor its glints, as a whole where it moves light between pixels. The highlights are
-    picked in the frame, not the target: the target's brightest pixels are those whose Monte-Carlo
-    noise came out high, and their sum would ask for more light than the truth has."""
-    out = []
-    for p, g, f, m in zip(pred, goal, frame, mask[:, 0].bool()):
-        ps, gs = p[:, m], g[:, m]  # [3, K]
-        if gs.shape[1] == 0:
-            out.append(p.sum() * 0.0)
-            continue
-        lum = f[:3, m].sum(0)
-        k = max(int(TOP_FRACTION * lum.numel()), 1)
-        hi = lum >= lum.topk(k).values[-1]
-        ratio = lambda a, b: torch.log((a.sum() + 1e-6) / (b.sum() + 1e-6)) ** 2
-        out.append(ratio(ps, gs) + ratio(ps[:, hi], gs[:, hi]))
-    return torch.stack(out)
-
-
 def loss(model: ShadowNet, batch: list[ShadowNetImage], visibility_target: bool = False,
-         kind: str = "l1", linear: float = 0.0, energy: float = 0.0) -> torch.Tensor:
+         kind: str = "l1", linear: float = 0.0, energy: float = 0.0,
+         prior: float = 0.0) -> torch.Tensor:
     """``l1`` | ``l2``: the mean difference of log(1 + x) over the surface pixels of ``batch``;
     ``log_mse``: the mean over the images of log(MSE) of the Reinhard-mapped x / (1 + x) over
     each image's surface - the protocol's metric itself (its mean PSNR is -10 / ln 10 times this
     plus a constant), so every image counts as much as it does in the score, however bright.
     ``visibility_target``: against min(target, g x unshadowed radiance), g the network's gain
-    (module doc). With ``log_mse``, each image's term adds ``linear`` x :func:`linear_term` and
-    ``energy`` x :func:`energy_term`."""
+    (module doc). With ``log_mse``, each image's term adds ``linear`` x :func:`linear_term`,
+    ``energy`` x :func:`energy_term` and ``prior`` x :func:`prior_term` (of V itself)."""
     if kind not in LOSSES:
         raise ValueError(f"unknown loss {kind!r} ({' | '.join(LOSSES)})")
     gain = float(model.layers[-1].get("gain", 1.0))
     total, count, logs = 0.0, 0, []
     for img in stack(batch):
-        pred = shaded(model, img)[:, :3]
+        vis = shadow_net(model_inputs(model, img), model.layers, model.params())
+        pred = shadow_net_apply(img.radiance, vis, img.surface)[:, :3]  # shaded()
         goal = torch.minimum(img.target, gain * img.radiance[:, :3]) if visibility_target \
             else img.target
         mask = img.surface.expand_as(pred)
@@ -281,6 +253,8 @@ def loss(model: ShadowNet, batch: list[ShadowNetImage], visibility_target: bool 
                 term = term + linear * linear_term(p, g, mask)
             if energy:
                 term = term + energy * energy_term(p, g, mask, img.radiance)
+            if prior:
+                term = term + prior * prior_term(vis, img.surface)
             logs.append(term[keep])
             continue
         diff = torch.log1p(pred.clamp_min(0.0)) - torch.log1p(goal.clamp_min(0.0))
@@ -360,7 +334,7 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
         if cfg.decals > 0:  # no draw without decals: the default's batches are as before
             batch = [decaled(b, rng) if rng.random() < cfg.decals else b for b in batch]
         return loss(m, batch, cfg.visibility_target, cfg.loss, cfg.linear_weight,
-                    cfg.energy_weight)
+                    cfg.energy_weight, cfg.prior_weight)
 
     losses = _loop(run, STAGE, model, cfg.steps, cfg.lr, step)
     model.eval()

@@ -86,7 +86,7 @@ SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val
                       "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry",
                       "shadow_energy": "energy_weight", "shadow_linear": "linear_weight",
                       "shadow_env_visibility": "architecture", "shadow_arch": "architecture",
-                      "shadow_decals": "decals"}
+                      "shadow_decals": "decals", "shadow_prior": "prior_weight"}
 
 
 def add_shadow_net_arguments(p) -> None:
@@ -121,6 +121,9 @@ def add_shadow_net_arguments(p) -> None:
     p.add_argument("--shadow-linear", type=float, metavar="W",
                    help="--stage shadow_net: weight of the loss term on the linear image's "
                         "relative error (default 0: off)")
+    p.add_argument("--shadow-prior", type=float, metavar="W",
+                   help="--stage shadow_net: weight of the loss term mean |log V|, a prior "
+                        "towards V = 1 (learned/train/shadow_terms.py; default 0: off)")
     p.add_argument("--shadow-decals", type=float, metavar="P",
                    help="--stage shadow_net: the share of training images with a random "
                         "pattern painted on frame, target and base colour alike (textures that "
@@ -148,7 +151,8 @@ def shadow_net_options(args) -> dict:
                     raise RelightError(f"{d}: no {split!r} split folder (a dataset of relight "
                                        "data)", where=flag)
             value = tuple(value)
-        elif opt in ("shadow_energy", "shadow_linear") and not 0.0 <= value < float("inf"):
+        elif opt in ("shadow_energy", "shadow_linear", "shadow_prior") and \
+                not 0.0 <= value < float("inf"):
             raise RelightError(f"a loss weight must be finite and >= 0, got {value}", where=flag)
         elif opt == "shadow_decals" and not 0.0 <= value <= 1.0:
             raise RelightError(f"a share must be in [0, 1], got {value}", where=flag)

@@ -219,6 +219,40 @@ def test_the_highlight_terms_see_what_the_reinhard_metric_misses():
     assert unbiased < 2e-3 and biased > max(5e-3, 10 * unbiased), (unbiased, biased)
 
 
+def test_the_prior_term_is_the_surface_mean_of_abs_log_v_and_pulls_v_to_one():
+    """``prior_term``: 0 where V = 1, |log V| averaged over the surface only (either direction
+    alike), 0 without a surface; and in ``loss`` it adds its weight times that to each image's
+    log MSE, so a network's gradient under it pulls V towards 1."""
+    from learned.train.shadow_terms import prior_term
+
+    mask = torch.zeros(2, 1, 4, 4, dtype=torch.bool)
+    mask[0, :, :2] = True  # 8 surface pixels in image 0, none in image 1
+    v = torch.ones(2, 3, 4, 4)
+    assert torch.equal(prior_term(v, mask), torch.zeros(2))
+    v[0, :, 0] = 2.0   # 4 of the 8 surface pixels at 2, every colour
+    v[0, :, 1] = 0.5   # the other 4 at 1/2: the same |log V|
+    v[0, :, 3] = 9.0   # off the surface: not counted
+    assert torch.allclose(prior_term(v, mask), torch.tensor([np.log(2.0), 0.0]).float(), atol=1e-6)
+    # in the loss: its weight times the term of the network's own V, added per image
+    from learned.train.shadow_net import model_inputs
+    from learned.twins.shadow_net import shadow_net
+
+    g = torch.Generator().manual_seed(3)
+    torch.manual_seed(3)
+    model = ShadowNet({"levels": 2, "widths": [4, 4], "gain": 3.0})
+    img = ShadowNetImage("a", torch.rand(1, 4, 12, 16, generator=g) + 0.1,
+                         torch.rand(1, 9, 12, 16, generator=g),
+                         torch.rand(1, 1, 12, 16, generator=g) > 0.3,
+                         torch.rand(1, 3, 12, 16, generator=g), torch.rand(1, 3, 12, 16,
+                                                                           generator=g))
+    with torch.no_grad():
+        vis = shadow_net(model_inputs(model, img), model.layers, model.params())
+        plain = float(loss(model, [img], kind="log_mse"))
+        pulled = float(loss(model, [img], kind="log_mse", prior=0.5))
+    assert abs(pulled - plain - 0.5 * float(prior_term(vis, img.surface)[0])) < 1e-5
+    assert pulled > plain  # a fresh network's V is not 1 everywhere
+
+
 def test_extra_datasets_join_the_training_images(dataset, tmp_path, ctx, one_thread):
     """``extra_data``: another dataset's train split trains too (here the same one again: twice
     the images), and its hash goes into the weights' metadata."""
@@ -282,13 +316,14 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
     assert main(base + ["--shadow-extra-data", str(dataset), str(dataset), "--shadow-val-data",
                         str(dataset), "--shadow-degrade", "0.25,1", "--shadow-geometry",
                         "stack", "--shadow-energy", "1", "--shadow-linear", "0.5",
-                        "--shadow-decals", "0.5"]) == 0
+                        "--shadow-decals", "0.5", "--shadow-prior", "0.3"]) == 0
     assert main(base + ["--shadow-geometry", "mesh"]) == 0
     assert main(base) == 0
     given, mesh, default = seen
     assert given.extra_data == (str(dataset),) * 2 and given.val_data == (str(dataset),)
     assert given.degrade_levels == (0.25, 1.0) and given.geometry == "stack"
     assert given.energy_weight == 1.0 and given.linear_weight == 0.5 and given.decals == 0.5
+    assert given.prior_weight == 0.3 and default.prior_weight == 0.0
     assert default.decals == 0.0
     assert mesh.geometry == "mesh" and mod.levels(mesh) == ()
     assert mod.levels(default) == mod.DEFAULT_DEGRADE_LEVELS  # stacks: degraded copies
@@ -317,6 +352,7 @@ def test_cli_options_set_the_config(dataset, tmp_path, monkeypatch, capsys):
                        ("--shadow-degrade", ["--shadow-degrade", "half"]),
                        ("--shadow-energy", ["--shadow-energy", "-1"]),
                        ("--shadow-linear", ["--shadow-linear", "nan"]),
+                       ("--shadow-prior", ["--shadow-prior", "-0.1"]),
                        ("--shadow-decals", ["--shadow-decals", "1.5"]),
                        ("--shadow-val-data", ["--shadow-val-data", str(tmp_path)]),
                        ("--shadow-arch", ["--shadow-arch", "{upsample: bilinear}"]),

@@ -23,7 +23,7 @@ its meshes as shadow casters only), or (``splat``) from those meshes tiled with 
 true materials (the viewer's splat G-buffer; splats cast the shadow maps too); the foreground and
 the target are the stack's every way.
 
-``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...]``
+``python -m learned.protocol.shadow_net DATA --split val|test W.safetensors [W2 ...] [--average]``
 ``python -m learned.protocol.shadow_net DATA --split val --oracle [--geometry mesh|splat]``
 """
 from __future__ import annotations
@@ -43,7 +43,8 @@ from viewer.neural.shadow_net import frame_settings, read_shadow_net
 from ..data.reader import DatasetError
 from ..data.scene import GEOMETRIES
 from ..neural.shadow_net import load_shadow_net
-from ..train.shadow_net import shaded, shadow_net_images
+from ..train.shadow_net import model_inputs, shaded, shadow_net_images
+from ..twins.shadow_net import shadow_net, shadow_net_apply
 from ..train.stages import load_images
 from .classical import Classical, variants
 from .data import dataset_hash
@@ -56,18 +57,32 @@ def _top_rows(img: torch.Tensor) -> torch.Tensor:
     return img[0, :3].permute(1, 2, 0).flip(0)
 
 
+def averaged_visibility(models, img) -> torch.Tensor:
+    """The geometric mean of ``models``' V on one estimator image (``[1, 3, H, W]``): an
+    ensemble of their seeds, at their summed cost."""
+    logs = [torch.log(shadow_net(model_inputs(m, img), m.layers, m.params()).clamp_min(1e-6))
+            for m in models]
+    return torch.exp(torch.stack(logs).mean(0))
+
+
 @torch.no_grad()
-def estimator_scores(weights: list[str], est_images, prot_images) -> dict:
+def estimator_scores(weights: list[str], est_images, prot_images,
+                     average: bool = False) -> dict:
     """Per-sample PSNR of the unshadowed frame and of each weights file's product, over the
-    protocol images' foreground pixels."""
+    protocol images' foreground pixels; with ``average`` also of the product with their V
+    averaged (:func:`averaged_visibility`)."""
     by_name = {im.name: im for im in est_images}
-    out = {"frame": [], "estimators": [[] for _ in weights]}
+    out = {"frame": [], "estimators": [[] for _ in weights], "average": []}
     models = [load_shadow_net(w) for w in weights]
     for p in prot_images:
         e = by_name[p.name]
         out["frame"].append(psnr(_top_rows(e.radiance)[p.fg], p.target))
         for m, scores in zip(models, out["estimators"]):
             scores.append(psnr(_top_rows(shaded(m, e))[p.fg], p.target))
+        if average:
+            v = averaged_visibility(models, e)
+            out["average"].append(psnr(_top_rows(shadow_net_apply(e.radiance, v, e.surface))
+                                       [p.fg], p.target))
     return out
 
 
@@ -125,14 +140,16 @@ def weights_frame(weights: list[str]) -> dict:
 
 
 def evaluate(data: str, split: str, weights: list[str], classical: dict | None = None,
-             oracle: bool = False, geometry: str = "stack", indirect: bool | None = None
-             ) -> dict:
+             oracle: bool = False, geometry: str = "stack", indirect: bool | None = None,
+             average: bool = False) -> dict:
     """Scores of ``split``: every classical variant (``classical``: the one chosen on val, as
     :func:`dataclasses.asdict` of :class:`Classical`; None: all of them, the best chosen here -
     on val only), the unshadowed frame and the estimators, and the paired difference of the
     estimators to the chosen classical variant; every frame drawn from ``geometry`` (module
     doc), the estimators' with the indirect light if they were trained on such frames
-    (:func:`weights_frame`; ``indirect`` overrides it, e.g. for ``oracle``)."""
+    (:func:`weights_frame`; ``indirect`` overrides it, e.g. for ``oracle``); with ``average``
+    also the files' V averaged, against the mean file per sample and against the classical
+    variant."""
     from viewer.renderer import Renderer
 
     if indirect is None:
@@ -154,9 +171,15 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
                 "oracle": {k: {"psnr": float(np.mean(v)),
                                "vs_classical": paired_bootstrap(np.array(v) - best_scores)}
                            for k, v in oracle_scores(est, prot).items()}}
-    s = estimator_scores(weights, est, prot)
+    s = estimator_scores(weights, est, prot, average)
     diff = np.array(s["estimators"]) - np.array(best_scores)[None]
-    return {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
+    averaged = {"average_psnr": float(np.mean(s["average"])),
+                "average_vs_files": paired_bootstrap(np.array(s["average"])[None]
+                                                     - np.array(s["estimators"])),
+                "average_vs_classical": paired_bootstrap(np.array(s["average"])
+                                                         - np.array(best_scores))} \
+        if average else {}
+    return averaged | {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
             "classical": asdict(best),
             "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
             "frame_psnr": float(np.mean(s["frame"])),
@@ -177,6 +200,9 @@ def main(argv=None) -> int:
     p.add_argument("--geometry", choices=GEOMETRIES, default="stack",
                    help="draw the frames from the image-space stacks, the samples' meshes, or "
                         "those meshes tiled with splats")
+    p.add_argument("--average", action="store_true",
+                   help="also score the weights files' V averaged (geometric mean): an "
+                        "ensemble of their seeds, against each file and the classical variant")
     p.add_argument("--indirect", action="store_true",
                    help="with --oracle: frames with the indirect light (weights: their own "
                         "training frames, from their metadata)")
@@ -185,12 +211,14 @@ def main(argv=None) -> int:
         p.error("--oracle reads the validation split only")
     if not a.oracle and not a.weights:
         p.error("give the estimators' weights files (or --oracle)")
+    if a.average and (a.oracle or len(a.weights) < 2):
+        p.error("--average needs two or more weights files")
     if a.split == "test" and not a.classical:
         p.error("--split test scores the classical variant chosen on val: give --classical")
     try:
         r = evaluate(a.data, a.split, a.weights,
                      json.loads(a.classical) if a.classical else None, a.oracle, a.geometry,
-                     True if a.indirect else None)
+                     True if a.indirect else None, a.average)
     except RelightError as exc:  # e.g. a sample without the meshes --geometry mesh draws
         print(f"{p.prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code

@@ -43,9 +43,9 @@ from viewer.neural.shadow_net import frame_settings, read_shadow_net
 from ..data.reader import DatasetError
 from ..data.scene import GEOMETRIES
 from ..neural.shadow_net import load_shadow_net
-from ..train.shadow_net import model_inputs, shaded, shadow_net_images
-from ..twins.shadow_net import shadow_net, shadow_net_apply
+from ..train.shadow_net import shaded, shadow_net_images, visibility
 from ..train.stages import load_images
+from ..twins.shadow_net import shadow_net_apply
 from .classical import Classical, variants
 from .data import dataset_hash
 from .run import classical_scores
@@ -57,12 +57,10 @@ def _top_rows(img: torch.Tensor) -> torch.Tensor:
     return img[0, :3].permute(1, 2, 0).flip(0)
 
 
-def averaged_visibility(models, img) -> torch.Tensor:
-    """The geometric mean of ``models``' V on one estimator image (``[1, 3, H, W]``): an
+def averaged_visibility(visibilities: list[torch.Tensor]) -> torch.Tensor:
+    """The geometric mean of several estimators' V (each ``[1, 3, H, W]``) on one image: an
     ensemble of their seeds, at their summed cost."""
-    logs = [torch.log(shadow_net(model_inputs(m, img), m.layers, m.params()).clamp_min(1e-6))
-            for m in models]
-    return torch.exp(torch.stack(logs).mean(0))
+    return torch.exp(torch.stack([torch.log(v.clamp_min(1e-6)) for v in visibilities]).mean(0))
 
 
 @torch.no_grad()
@@ -77,10 +75,11 @@ def estimator_scores(weights: list[str], est_images, prot_images,
     for p in prot_images:
         e = by_name[p.name]
         out["frame"].append(psnr(_top_rows(e.radiance)[p.fg], p.target))
-        for m, scores in zip(models, out["estimators"]):
-            scores.append(psnr(_top_rows(shaded(m, e))[p.fg], p.target))
+        vs = [visibility(m, e) for m in models]
+        for m, v, scores in zip(models, vs, out["estimators"]):
+            scores.append(psnr(_top_rows(shaded(m, e, v))[p.fg], p.target))
         if average:
-            v = averaged_visibility(models, e)
+            v = averaged_visibility(vs)
             out["average"].append(psnr(_top_rows(shadow_net_apply(e.radiance, v, e.surface))
                                        [p.fg], p.target))
     return out
@@ -173,20 +172,20 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
                            for k, v in oracle_scores(est, prot).items()}}
     s = estimator_scores(weights, est, prot, average)
     diff = np.array(s["estimators"]) - np.array(best_scores)[None]
-    averaged = {"average_psnr": float(np.mean(s["average"])),
-                "average_vs_files": paired_bootstrap(np.array(s["average"])[None]
-                                                     - np.array(s["estimators"])),
-                "average_vs_classical": paired_bootstrap(np.array(s["average"])
-                                                         - np.array(best_scores))} \
-        if average else {}
-    return averaged | {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
-            "classical": asdict(best),
-            "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
-            "frame_psnr": float(np.mean(s["frame"])),
-            "estimator_psnr": [float(np.mean(v)) for v in s["estimators"]],
-            "vs_classical": paired_bootstrap(diff),
-            "vs_frame": paired_bootstrap(np.array(s["estimators"]) - np.array(s["frame"])[None]),
-            "weights": weights}
+    out = {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
+           "classical": asdict(best),
+           "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
+           "frame_psnr": float(np.mean(s["frame"])),
+           "estimator_psnr": [float(np.mean(v)) for v in s["estimators"]],
+           "vs_classical": paired_bootstrap(diff),
+           "vs_frame": paired_bootstrap(np.array(s["estimators"]) - np.array(s["frame"])[None]),
+           "weights": weights}
+    if average:  # the files' V averaged: against each file per sample, and the classical variant
+        ens = np.array(s["average"])
+        out |= {"average_psnr": float(np.mean(ens)),
+                "average_vs_files": paired_bootstrap(ens[None] - np.array(s["estimators"])),
+                "average_vs_classical": paired_bootstrap(ens - np.array(best_scores))}
+    return out
 
 
 def main(argv=None) -> int:

@@ -174,9 +174,16 @@ def model_inputs(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
     return torch.cat([a[..., :3].movedim(-1, 1), img.inputs[:, 3:]], 1)
 
 
-def shaded(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
-    """The product ``[1, 4, H, W]`` the frame would show with ``model``'s estimator."""
-    vis = shadow_net(model_inputs(model, img), model.layers, model.params())
+def visibility(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:
+    """``model``'s V ``[1, 3, H, W]`` on ``img``."""
+    return shadow_net(model_inputs(model, img), model.layers, model.params())
+
+
+def shaded(model: ShadowNet, img: ShadowNetImage,
+           vis: torch.Tensor | None = None) -> torch.Tensor:
+    """The product ``[1, 4, H, W]`` the frame would show with ``model``'s estimator (``vis``:
+    its V, when the caller has it already)."""
+    vis = visibility(model, img) if vis is None else vis
     return shadow_net_apply(img.radiance, vis, img.surface)
 
 
@@ -238,8 +245,8 @@ def loss(model: ShadowNet, batch: list[ShadowNetImage], visibility_target: bool 
     gain = float(model.layers[-1].get("gain", 1.0))
     total, count, logs = 0.0, 0, []
     for img in stack(batch):
-        vis = shadow_net(model_inputs(model, img), model.layers, model.params())
-        pred = shadow_net_apply(img.radiance, vis, img.surface)[:, :3]  # shaded()
+        vis = visibility(model, img)  # kept for the prior term
+        pred = shaded(model, img, vis)[:, :3]
         goal = torch.minimum(img.target, gain * img.radiance[:, :3]) if visibility_target \
             else img.target
         mask = img.surface.expand_as(pred)

@@ -43,7 +43,7 @@ def speckle(radiance: np.ndarray, mask: np.ndarray) -> float:
     the object's pixels in its window, so it would measure the object's shading against the
     floor's instead: at 96 x 72 the student's brighter panels made the floor's border read
     1.16-1.68 x split-sum's "speckle" where its inside reads 0.95-1.00 x (2026-11-29)."""
-    inner = ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=1) & mask
+    inner = ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=1)
     if not inner.any():
         return 0.0
     lum = _lum(radiance)

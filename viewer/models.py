@@ -65,6 +65,9 @@ class ShadingModel:
     # once when a scene with lights is rendered with it)
     lights: str = "shaded"
     occlusion: bool = True  # honours `ao` (the G-buffer's) and `ssao` (USE_AO, USE_SSAO)
+    # the occlusion also scales its prefiltered specular light ([render] specular_occlusion:
+    # SPECULAR_OCCLUSION, compiled in where some occlusion is)
+    specular_occlusion: bool = False
     multiscatter: bool = False  # has the GGX energy compensation switch (MULTISCATTER)
     # Monte-Carlo strategies it implements: SAMPLINGS, or a prefix of it (a request past the
     # prefix falls back to its last entry: the teacher has no BRDF pdf, brdf and mis use env)
@@ -104,6 +107,9 @@ class ShadingModel:
         if self.occlusion:
             d["USE_AO"] = int(settings.ao)
             d["USE_SSAO"] = int(settings.ssao.enabled and not rt)  # rays stand in for it
+            if self.specular_occlusion and settings.specular_occlusion \
+                    and (d["USE_AO"] or d["USE_SSAO"]):
+                d["SPECULAR_OCCLUSION"] = 1
         if self.multiscatter:
             d["MULTISCATTER"] = int(settings.multiscatter)
         if self.samplings:
@@ -151,7 +157,7 @@ MODELS: dict[str, ShadingModel] = {
                      "compensation",
                      frozenset({"irradiance", "prefiltered", "dfg", "radiance"}), reads=_LIT,
                      multiscatter=True, specular_lobe=True, analytic_sun=True,
-                     env_shadows=True, ray_light=True),
+                     env_shadows=True, ray_light=True, specular_occlusion=True),
         ShadingModel("ggx_mc", "passes/shade_ggx_mc.frag",
                      "Monte-Carlo reference of the same BRDF (GGX + Lambert) against the "
                      "environment: `samples` per pixel, `sampling` = uniform | cosine | env | "
@@ -170,7 +176,7 @@ MODELS: dict[str, ShadingModel] = {
                      "pixel on the material, n.v, irradiance and prefiltered radiance; "
                      "weights baked into generated GLSL from `weights` (default: assets/weights)",
                      frozenset({"irradiance", "prefiltered", "radiance"}), network="student",
-                     ray_light=True),
+                     ray_light=True, specular_occlusion=True),
         ShadingModel("neural_teacher", "passes/shade_neural_teacher.frag",
                      "the physics-based neural deferred shader (thesis eq. 4.2) in GLSL: diffuse "
                      "and specular MLPs per sampled light direction, `samples` averaged "

@@ -34,6 +34,7 @@ from learned.twins.ibl import (
 from learned.twins.mc import sample_cosine_hemisphere, sample_uniform_hemisphere
 from learned.twins.sampling import tangent_to_world
 from learned.twins.shading import disc_light, shading_normal, sun_specular_weight
+from learned.twins.shading import specular_occlusion as occluded_share
 
 # sampling strategy ids of shade_neural_teacher.frag (SAMPLING define)
 STRATEGIES = {"uniform": 0, "cosine": 1, "env": 2}
@@ -77,8 +78,8 @@ def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor,
-                     vis: torch.Tensor | None = None, dominant: bool = False, sun: bool = False
-                     ) -> tuple[torch.Tensor, ...]:
+                     vis: torch.Tensor | None = None, dominant: bool = False, sun: bool = False,
+                     specular_occlusion: bool = True) -> tuple[torch.Tensor, ...]:
     """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
 
     Returns ``x [N, 11]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis:
@@ -90,6 +91,10 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     LUT at (n.v, clamped roughness), zeros when ``lighting`` has no LUT. ``dominant``: read the
     prefiltered radiance along the split-sum model's dominant direction (``split3`` students, as
     ``ggx_split_sum``) instead of the mirror direction.
+
+    ``specular_occlusion``: the prefiltered radiance times
+    :func:`~learned.twins.shading.specular_occlusion` of ``ao`` (``SPECULAR_OCCLUSION``, the
+    viewer's default ``[render] specular_occlusion``).
 
     ``sun`` (a student whose base shades the environment's sun, ``shade_neural.frag`` with
     ``SUN_LIGHT``): a fourth tensor ``sun [N, 13]`` (n, v, l world space - lifted above the
@@ -118,6 +123,8 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     else:
         prefiltered = ibl_specular_radiance(lighting.prefiltered, r_env, r,
                                             lighting.levels) * lighting.intensity
+    if specular_occlusion:  # shade_neural.frag SPECULAR_OCCLUSION
+        prefiltered = prefiltered * occluded_share(nov, ao, r * r)[..., None]
     if lighting.dfg is not None:
         dfg = ibl_dfg(lighting.dfg, nov, r)
     else:

@@ -13,7 +13,11 @@ irradiance x (1 - E_spec), GGX-prefiltered radiance along the dominant direction
 - ``vis``: which terms S(x) multiplies: ``""`` none, ``"d"`` the diffuse IBL, ``"ds"`` the
   diffuse and specular IBL, ``"dsl"`` those and the sun light;
 - ``indirect``: plus L_ind (the indirect pass's one-bounce light, gathered from the split-sum
-  base's direct light with multiple scattering).
+  base's direct light with multiple scattering);
+- ``specular_occlusion``: the prefiltered specular light times the occlusion's share of it
+  (:func:`learned.twins.shading.specular_occlusion` of the same AO: the material's, times O(x)
+  with ``ssao``), as ``[render] specular_occlusion`` (on by default since 2026-11-29; the
+  variants scored before had none: ``"specular_occlusion": false`` reproduces them).
 
 :func:`variants` lists them all; the protocol scores every variant on the validation split and
 takes the best (:mod:`learned.protocol.run`), so the student faces the strongest classical model
@@ -43,6 +47,7 @@ class Classical:
     ssao: bool = True
     vis: str = ""
     indirect: bool = True
+    specular_occlusion: bool = True
 
     @property
     def name(self) -> str:
@@ -57,22 +62,24 @@ class Classical:
             parts.append(f"S(x) on {'+'.join({'d': 'diff', 's': 'spec', 'l': 'sun'}[c] for c in self.vis)}")
         if self.indirect:
             parts.append("indirect")
+        if self.specular_occlusion:
+            parts.append("spec. occlusion")
         return " + ".join(parts)
 
 
 # the classical renderer's default with its screen-space passes (ggx_split_sum + SSAO +
-# indirect, multiple scattering on; no S(x), the sun inside the IBL)
+# indirect, multiple scattering and specular occlusion on; no S(x), the sun inside the IBL)
 DEFAULT = Classical()
 
 
 def variants() -> list[Classical]:
     """Every distinct variant (the sun light's ``"dsl"`` only with ``sun``)."""
     out = []
-    for sun, ms, ssao, vis, ind in product((False, True), (False, True), (False, True),
-                                           VIS_TERMS, (False, True)):
+    for sun, ms, ssao, vis, ind, so in product((False, True), (False, True), (False, True),
+                                               VIS_TERMS, (False, True), (False, True)):
         if vis == "dsl" and not sun:
             continue
-        out.append(Classical(sun, ms, ssao, vis, ind))
+        out.append(Classical(sun, ms, ssao, vis, ind, so))
     return out
 
 
@@ -87,7 +94,8 @@ def classical_radiance(model: Classical, img) -> torch.Tensor:
     if lighting is None:
         raise ValueError("a classical model with the sun needs load_images(..., sun=True)")
     ao = img.gb["ao"][:, 0] * (img.ssao if model.ssao else 1.0)
-    feats = student_features(img.gb, img.v, lighting, ao, img.vis, dominant=True, sun=model.sun)
+    feats = student_features(img.gb, img.v, lighting, ao, img.vis, dominant=True, sun=model.sun,
+                             specular_occlusion=model.specular_occlusion)
     x, irradiance, prefiltered = feats[:3]
     albedo, metallic, specular = x[:, :3], x[:, 4], x[:, 5]
     dfg = x[:, 8:10]

@@ -151,13 +151,15 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
     variant."""
     from viewer.renderer import Renderer
 
+    frame = weights_frame(weights)
     if indirect is None:
-        indirect = bool(weights_frame(weights)["indirect"])
+        indirect = bool(frame["indirect"])
     renderer = Renderer()
     try:
         prot = load_images(data, split, renderer, sun=True, multiscatter=True, geometry=geometry)
         est = shadow_net_images(data, split, renderer, geometry=geometry,
-                                indirect=indirect)
+                                indirect=indirect,
+                                specular_occlusion=bool(frame["specular_occlusion"]))
     finally:
         renderer.release()
     pool = [Classical(**classical)] if classical else variants()

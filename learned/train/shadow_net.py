@@ -118,6 +118,9 @@ class ShadowNetTrainConfig:
     # doc); recorded in the weights' training metadata ("frame"), read by the protocol's scoring
     # and checked by the viewer (viewer.graph.shadow_net)
     indirect: bool = True
+    # the frame's specular occlusion ([render] specular_occlusion, the viewer's default since
+    # 2026-11-29): off, as the shipped files' frames were drawn (recorded beside indirect)
+    specular_occlusion: bool = False
     # data's train split again at each of these degradation levels (in (0, 1];
     # learned.protocol.degrade, written once under DATA/_degraded/<level>/train); None: the
     # geometry's default (levels): DEFAULT_DEGRADE_LEVELS for stacks, () for meshes
@@ -145,15 +148,18 @@ FIELDS = ("radiance", "inputs", "surface", "target", "albedo")  # the tensors, i
 
 def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_sum",
                       limit: int | None = None, geometry: str = "stack",
-                      indirect: bool = False) -> list[ShadowNetImage]:
+                      indirect: bool = False, specular_occlusion: bool = False
+                      ) -> list[ShadowNetImage]:
     """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator),
     with the screen-space one-bounce indirect light if ``indirect`` (the frame the estimator
-    multiplies: :func:`viewer.neural.shadow_net.frame_settings`), from its image-space stack or (``geometry = "mesh"``)
+    multiplies: :func:`viewer.neural.shadow_net.frame_settings`) and specular occlusion if
+    ``specular_occlusion``, from its image-space stack or (``geometry = "mesh"``)
     from the meshes it was generated from (:func:`learned.data.scene.geometry_scene`)."""
     out = []
     for folder in list_samples(root, split)[:limit]:
         sample = load_sample(folder)
-        scene = geometry_scene(sample, geometry, model=model, ssao=True, indirect=indirect)
+        scene = geometry_scene(sample, geometry, model=model, ssao=True, indirect=indirect,
+                               specular_occlusion=specular_occlusion)
         targets = renderer.draw(scene)
         radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
         albedo = gl_gbuffer(targets)["albedo"].permute(2, 0, 1)[None].float()
@@ -319,7 +325,8 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
                      for lv in cfg.degrade_levels)
     renderer = Renderer()
     images = lambda root, split: shadow_net_images(root, split, renderer, cfg.model, cfg.limit,
-                                                   cfg.geometry, cfg.indirect)
+                                                   cfg.geometry, cfg.indirect,
+                                                   cfg.specular_occlusion)
     try:
         train = [img for root in (*roots, *degraded) for img in images(root, "train")]
         val = images(cfg.data, "val") if (Path(cfg.data) / "val").is_dir() else []
@@ -355,6 +362,7 @@ def train_shadow_net(cfg: ShadowNetTrainConfig, quiet: bool = False) -> dict:
                 f"{sc['without']['psnr']:.2f} dB")
     training = {"command": " ".join(sys.argv), "seed": cfg.seed, "config": asdict(cfg),
                 "frame": {"model": cfg.model, "ssao": True, "indirect": bool(cfg.indirect),
+                          "specular_occlusion": bool(cfg.specular_occlusion),
                           "geometry": cfg.geometry},
                 "dataset_hash": dataset_hash(cfg.data, ("train",)), "steps": cfg.steps,
                 "extra_data_hashes": [dataset_hash(d, ("train",)) for d in cfg.extra_data],

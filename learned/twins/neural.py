@@ -181,9 +181,9 @@ def shade_neural(model: str, net_model, gb: dict, camera, lighting, defines: dic
                 vis = ssao[..., 1].reshape(-1)
         # SUN_LIGHT (a student whose base shades the sun): lighting is the IBL without it
         sun = bool(defines.get("SUN_LIGHT", 0))
-        x, irr, pre, *sun_args = student_features(flat, v, lighting, ao, vis,
-                                                  dominant=getattr(net_model, "dominant", False),
-                                                  sun=sun)
+        x, irr, pre, *sun_args = student_features(
+            flat, v, lighting, ao, vis, dominant=getattr(net_model, "dominant", False), sun=sun,
+            specular_occlusion=bool(defines.get("SPECULAR_OCCLUSION", 0)))
         if tracing:
             x, pre = x.detach().requires_grad_(True), pre.detach().requires_grad_(True)
         c = net_model(x, irr, pre, None, *sun_args)

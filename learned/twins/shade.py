@@ -36,6 +36,7 @@ from .shading import (
     ggx_environment_sun,
     ggx_split_sum,
     shading_normal,
+    specular_occlusion,
     sun_specular_weight,
 )
 
@@ -142,6 +143,8 @@ def shade(model: str, gbuffer: dict[str, torch.Tensor], camera, env: dict, inten
         if defines.get("USE_SSAO", 0):
             ao = ao * ssao  # deferred.glsl ambient_occlusion()
         nov = (n * v).sum(-1).clamp(0.0, 1.0)
+        if defines.get("SPECULAR_OCCLUSION", 0):  # shade_ggx_split_sum.frag
+            prefiltered = prefiltered * specular_occlusion(nov, ao, r * r)[..., None]
         lut = env["dfg"]
         size = torch.tensor([float(lut.shape[1]), float(lut.shape[0])])
         uv_lut = (torch.stack([nov, r.clamp(0.0, 1.0)], -1) * (size - 1.0) + 0.5) / size

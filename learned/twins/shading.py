@@ -45,6 +45,13 @@ def ggx_split_sum(diffuse: torch.Tensor, f0: torch.Tensor, f90: torch.Tensor, ao
     return fd + e_spec * prefiltered
 
 
+def specular_occlusion(nov: torch.Tensor, ao: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float specular_occlusion(NoV, ao, a)``: the share of the prefiltered environment
+    light a lobe of alpha ``a`` still sees at occlusion ``ao`` (Lagarde & de Rousiers 2014;
+    Filament's ``computeSpecularAO``)."""
+    return ((nov + ao) ** torch.exp2(-16.0 * a - 1.0) - 1.0 + ao).clamp(0.0, 1.0)
+
+
 def blinn_phong(diffuse: torch.Tensor, f0: torch.Tensor, ao: torch.Tensor,
                 irradiance: torch.Tensor, prefiltered: torch.Tensor) -> torch.Tensor:
     """GLSL ``vec3 blinn_phong(...)``: Lambert (keeping 1 - f0) + normalised Fresnel-free

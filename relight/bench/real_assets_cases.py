@@ -45,7 +45,9 @@ def estimator_case(label: str, net) -> Case:
 
     frame = frame_settings(read_shadow_net(net).training)
     return Case(label, {"model": frame["model"], "raytrace": False, "ssao": bool(frame["ssao"]),
-                        "indirect": bool(frame["indirect"]), "shadow_net": str(net)},
+                        "indirect": bool(frame["indirect"]),
+                        "specular_occlusion": bool(frame["specular_occlusion"]),
+                        "shadow_net": str(net)},
                 "split-sum, screen")
 
 

@@ -40,6 +40,16 @@ vec3 ggx_split_sum(vec3 diffuse, vec3 f0, float f90, float ao, vec3 irradiance, 
     return fd + e_spec * prefiltered;
 }
 
+// Specular occlusion from ambient occlusion (Lagarde & de Rousiers 2014, "Moving Frostbite to
+// PBR", sec. 4.10.2; Filament's computeSpecularAO, three.js's computeSpecularOcclusion): the
+// share of the prefiltered environment light a lobe still sees where a share 1 - ao of the
+// hemisphere is occluded. A narrow lobe seen head-on keeps more of it than ao (it looks out of
+// the opening), a rough or grazing one about ao; exactly 1 where ao = 1, 0 where ao = 0.
+// NoV: n.v in [0, 1]; a: alpha (clamped perceptual roughness squared), as Filament passes it.
+float specular_occlusion(float NoV, float ao, float a) {
+    return saturate(pow(NoV + ao, exp2(-16.0 * a - 1.0)) - 1.0 + ao);
+}
+
 // Blinn-Phong under environment light (the thesis baseline): Lambert diffuse plus a normalised,
 // Fresnel-free Blinn-Phong lobe whose convolution with the environment is the prefiltered radiance
 // at the matching roughness. The lobe integrates to 1, so the specular colour f0 scales it directly

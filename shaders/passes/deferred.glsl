@@ -42,7 +42,7 @@ vec3 background_radiance(vec3 d_ws) {
 #endif
 }
 
-// ---- ambient occlusion (applied to the diffuse term of every model) ----------------------------
+// ---- ambient occlusion (the diffuse term of every model; SPECULAR_OCCLUSION) ------------------
 // USE_AO: the G-buffer's baked ao channel; USE_SSAO: screen-space occlusion from passes/ssao.frag
 // (thesis eq. 6.19), texture u_ssao (r = visibility O(x); g = the environment's visibility S(x)
 // where SSAO_ENV_VIS computed it). Both multiply diffuse light only. SSAO_SHADOW_NET: u_ssao is
@@ -56,6 +56,12 @@ vec3 background_radiance(vec3 d_ws) {
 #endif
 #ifndef SSAO_SHADOW_NET
 #define SSAO_SHADOW_NET 0
+#endif
+// SPECULAR_OCCLUSION: the same occlusion also takes its share of the environment's specular
+// light (lib/shading.glsl specular_occlusion; [render] specular_occlusion), in the models whose
+// specular light is the prefiltered environment (ggx_split_sum, neural)
+#ifndef SPECULAR_OCCLUSION
+#define SPECULAR_OCCLUSION 0
 #endif
 #if USE_SSAO
 uniform sampler2D u_ssao;

@@ -158,6 +158,9 @@ void main() {
     }
 #endif
     prefiltered = rt_specular_radiance(pixel, prefiltered);  // RT_LIGHT: seen share, bounce
+#if SPECULAR_OCCLUSION
+    prefiltered *= specular_occlusion(NoV, ao, r * r);  // the occluded share of the lobe
+#endif
     vec2 dfg = ibl_dfg(u_env_dfg, NoV, r);
     vec3 diffuse = diffuse_color(g.albedo, g.metallic);
     vec4 fresnel = surface_f0_f90(g.albedo, g.metallic, g.specular, g.dielectric);

@@ -106,6 +106,9 @@ void main() {
     vec2 dfg = vec2(0.0);
 #endif
     float ao = ambient_occlusion(pixel, g);
+#if SPECULAR_OCCLUSION  // as ggx_split_sum: the occluded share of the lobe, before the network
+    prefiltered *= specular_occlusion(NoV, ao, r * r);
+#endif
 #if NEURAL_STUDENT_VIS && USE_SSAO
     float vis = ssao_channel(pixel, 1);  // S(x), or the shadow estimator's V (SSAO_SHADOW_NET)
 #else

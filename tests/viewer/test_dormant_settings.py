@@ -25,16 +25,18 @@ OTHER = {"raytrace_rays": 2, "ray_denoise": False, "ray_frames": 4, "ray_still_f
          "shadow_lod_error": 1.0, "shadow_cascades": 2,
          "contact_length": 0.2, "samples": 64, "sampling": "uniform", "mis_heuristic": "balance",
          "max_depth": 3, "weights": "w.safetensors", "teacher_weights": "t.safetensors",
-         "neural_storage": "ubo"}
+         "neural_storage": "ubo", "specular_occlusion": False}
 NOTHING = FrameFacts(RenderSettings(), SimpleNamespace(name="unlit", accumulates=False,
-                                                       network=None), {}, frozenset())
+                                                       network=None, specular_occlusion=False),
+                     {}, frozenset())
 
 
 def _running(key: str) -> FrameFacts:
     """A frame that runs what ``key`` tunes."""
     model = SimpleNamespace(name="path" if key == "max_depth" else "x", accumulates=True,
-                            network="teacher" if key == "teacher_weights" else "student")
-    return FrameFacts(RenderSettings(), model, {"CONTACT_SHADOWS": 1, "SAMPLING": 4},
+                            network="teacher" if key == "teacher_weights" else "student",
+                            specular_occlusion=True)
+    return FrameFacts(RenderSettings(), model, {"CONTACT_SHADOWS": 1, "SAMPLING": 4, "USE_AO": 1},
                       frozenset({"raytrace", "ssao", "indirect_gather", "indirect",
                                  "shadow_net", "shadowsun"}))
 

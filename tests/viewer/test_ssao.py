@@ -1,6 +1,7 @@
 """Screen-space ambient occlusion and one-bounce indirect light (thesis eqs. 6.19-6.22): a flat
-plane is unoccluded, a crease darkens towards its edge, AO multiplies only diffuse light of every
-model, indirect light brightens creases and leaves flat planes alone."""
+plane is unoccluded, a crease darkens towards its edge, AO multiplies diffuse light of every
+model (and, with ``specular_occlusion``, its share of split-sum's specular light:
+test_specular_occlusion.py), indirect light brightens creases and leaves flat planes alone."""
 import numpy as np
 import pytest
 from ssao_scenes import FLOOR, SIZE, SSAO, WALL, _read, scene
@@ -60,12 +61,14 @@ def test_ssao_multiplies_diffuse_of_every_model(renderer):
         assert (off[..., :3] - on[..., :3]).max() > 0.02, model
 
 
-def test_ssao_does_not_touch_specular(renderer):
-    """A black metal-free mirror-ish surface (no diffuse) is unchanged by SSAO."""
+def test_ssao_does_not_touch_specular_without_specular_occlusion(renderer):
+    """A black metal-free mirror-ish surface (no diffuse) is unchanged by SSAO (thesis eq. 6.19)
+    when ``specular_occlusion`` is off."""
     black = {**FLOOR, "material": {"albedo": [0, 0, 0], "roughness": 0.2, "specular": 1.0}}
     wall = {**WALL, "material": {"albedo": [0, 0, 0], "roughness": 0.2, "specular": 1.0}}
-    a = renderer.render(scene([black, wall], ssao=True, **SSAO)).radiance
-    b = renderer.render(scene([black, wall], **SSAO)).radiance
+    off = {"specular_occlusion": False}
+    a = renderer.render(scene([black, wall], ssao=True, **SSAO, **off)).radiance
+    b = renderer.render(scene([black, wall], **SSAO, **off)).radiance
     np.testing.assert_array_equal(a, b)
 
 
@@ -129,7 +132,8 @@ def test_indirect_reads_the_occlusion_rays_hits(ctx, rays):
     try:
         sc = scene(SPHERES, target=(0, 0.3, -1), ssao=True, indirect=True, ssao_rays=rays,
                    ssao_steps=8, ssao_radius=0.6, ssao_thickness=0.5,
-                   indirect_blur=False)  # the pass's own composite, not the frame's three
+                   indirect_blur=False,  # the pass's own composite, not the frame's three
+                   specular_occlusion=False)  # the direct light the hit count was sized on
         t = renderer.draw(sc)
         reused, direct, ao = (_read(t, n) for n in ("radiance", "direct", "ssao"))
         covered = t.gbuffer.read(["alpha"])["alpha"][..., 0] > 0

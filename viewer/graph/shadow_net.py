@@ -45,16 +45,30 @@ def visibility_route(settings) -> bool:
     return True
 
 
+# the frame's settings an estimator file records (frame_settings) and checks: key -> (what it
+# is, the settings' value)
+FRAME_CHECKS = {
+    "indirect": ("the indirect light", lambda s: bool(s.ssao.indirect)),
+    "specular_occlusion": ("specular occlusion", lambda s: bool(s.specular_occlusion)),
+}
+
+
 def check_frame(net, settings) -> None:
     """Warn (one line naming the file) when the frame is not the one the estimator was trained
     to multiply (:func:`viewer.neural.shadow_net.frame_settings`; files without the record: no
-    indirect light) against ``[render] indirect``. V then corrects light the frame has not got (or lacks the light it has)."""
-    trained = bool(frame_settings(net.training)["indirect"])
-    if trained != bool(settings.ssao.indirect):
-        warnings.warn(f"{net.path}: the shadow estimator was trained on frames "
-                      f"{'with' if trained else 'without'} the indirect light and this frame has "
-                      f"indirect = {str(bool(settings.ssao.indirect)).lower()}: set indirect = "
-                      f"{str(trained).lower()} for the image it was scored on", stacklevel=2)
+    indirect light, no specular occlusion) against ``[render] indirect`` and
+    ``specular_occlusion``. V then corrects light the frame has not got (or lacks the light it
+    has)."""
+    frame = frame_settings(net.training)
+    wrong = {k: bool(frame[k]) for k, (_, now) in FRAME_CHECKS.items()
+             if bool(frame[k]) != now(settings)}
+    if wrong:
+        had = " and ".join(f"{'with' if v else 'without'} {FRAME_CHECKS[k][0]}"
+                           for k, v in wrong.items())
+        fix = " ".join(f"{k} = {str(v).lower()}" for k, v in wrong.items())
+        warnings.warn(f"{net.path}: the shadow estimator was trained on frames {had}, which "
+                      f"this frame differs from: set {fix} for the image it was scored on",
+                      stacklevel=2)
 
 
 def shadow_net_passes(g: FrameGraph, renderer, scene, spec, camera, occlusion: str | None,

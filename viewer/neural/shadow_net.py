@@ -272,10 +272,12 @@ def metadata(arch: dict, tensors: dict, training: dict | None = None) -> dict[st
 
 def frame_settings(training: dict) -> dict:
     """The frame a weights file's estimator was trained to multiply, from its ``training``
-    metadata: ``{"model", "ssao", "indirect", "geometry"}`` (files written before the record:
-    split-sum with SSAO, no indirect light, stacks). Read by the viewer's check
+    metadata: ``{"model", "ssao", "indirect", "specular_occlusion", "geometry"}`` (files
+    written before the record: split-sum with SSAO, no indirect light, stacks; before
+    ``specular_occlusion``: without it). Read by the viewer's check
     (:func:`viewer.graph.shadow_net.check_frame`) and the protocol's scoring."""
-    frame = {"model": "ggx_split_sum", "ssao": True, "indirect": False, "geometry": "stack"}
+    frame = {"model": "ggx_split_sum", "ssao": True, "indirect": False,
+             "specular_occlusion": False, "geometry": "stack"}
     return frame | dict(training.get("frame") or {})
 
 

@@ -86,7 +86,7 @@ def validate_render(t: dict, file: str) -> dict[str, Any]:
         kw["samples"] = _int(t["samples"], "render.samples", file, 1, 1 << 20)
     if "sampling" in t:
         kw["sampling"] = _str(t["sampling"], "render.sampling", file, SAMPLINGS)
-    for k in ("multiscatter", "ao", "sun"):
+    for k in ("multiscatter", "ao", "specular_occlusion", "sun"):
         if k in t:
             if not isinstance(t[k], bool):
                 raise SceneError(f"render.{k} must be true or false, got {t[k]!r}", where=file)

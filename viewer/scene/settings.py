@@ -178,6 +178,10 @@ class RenderSettings:
     # prefiltered chain and the irradiance map like the rest of the environment
     sun: bool = True
     ao: bool = True  # apply the G-buffer's ambient occlusion to diffuse light
+    # the occlusion (the G-buffer's ao times SSAO's) also takes its share of the environment's
+    # specular light, by n.v and roughness (Lagarde 2014, as Filament and three.js do;
+    # lib/shading.glsl specular_occlusion), in ggx_split_sum and the neural student's base
+    specular_occlusion: bool = True
     precision: str = "fp32"  # G-buffer render targets: "fp32" | "fp16" (radiance stays fp32)
     specialize: bool = True  # build only the channels and shader variants the scene needs
     # splat G-buffer depth: "expected" (eq. 6.10, the blending-weighted mean) | "median" (where
@@ -221,6 +225,7 @@ RENDER_KEYS: dict[str, tuple[str | None, str]] = {
     "multiscatter": (None, "multiscatter"),
     "sun": (None, "sun"),
     "ao": (None, "ao"),
+    "specular_occlusion": (None, "specular_occlusion"),
     "tonemap": ("display", "tonemap"),
     "exposure": ("display", "exposure"),
     "background": ("display", "background"),
@@ -288,6 +293,10 @@ TUNING_KEYS = (
      "the shadow maps (shadows = true and a light or sun whose shadow is not traced)",
      lambda f: any(p.startswith("shadow") and not p.startswith("shadow_net")
                    for p in f.passes)),
+    (("specular_occlusion",), "the occlusion of a split-sum model's environment light "
+     "(ggx_split_sum or neural, with ao or ssao)",
+     lambda f: f.model.specular_occlusion
+     and bool(f.defines.get("USE_AO") or f.defines.get("USE_SSAO"))),
     (("contact_length",), "the contact shadows (contact_shadows, a model that shades lights)",
      lambda f: bool(f.defines.get("CONTACT_SHADOWS"))),
     (("samples",), "the Monte-Carlo models (ggx_mc, path, neural_teacher; the others draw 1)",

@@ -46,6 +46,7 @@ _UP = Arg(kind="hemisphere", components=3, adversarial=((0, 0, 1), (1, 0, 0)))
 
 
 _ALPHA_L = Arg(lo=0.0, hi=1.0, adversarial=(0.002025, 1.0))
+_UNIT_RANGE = Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0))  # n.v, ao
 # f90: surface_f0_f90's (Filament's f90_from_f0, or KHR_materials_specular's factor), in [0, 1]
 _F90 = Arg(lo=0.0, hi=1.0, adversarial=(0.0, 1.0))
 
@@ -79,6 +80,14 @@ PARITY_CASES = [
                         "2.5 ulp) ~20 x 2^-24 = 1.2e-6 of <= ~1, times diffuse E ao / pi <= "
                         "10/pi -> 3.8e-6 abs (atol widened from 1e-6; first-order on the draws "
                         "2.1e-6); otherwise ~6 roundings of terms >= 0 -> 7e-7 rel"),
+    # n.v and ao over [0, 1] with their ends, alpha from the clamp's floor to 1
+    ParityCase("specular_occlusion",
+               (_UNIT_RANGE, _UNIT_RANGE, _ALPHA_L),
+               atol=2e-6, rtol=0.0, measured="max abs 2.4e-7 on llvmpipe",
+               envelope="pow(x, p) = exp2(p log2 x) with x = n.v + ao <= 2, p <= 0.5: a result "
+                        "<= sqrt 2 within ~3 ulp (2.5e-7) per side, then - 1 + ao: 2 roundings "
+                        "of values <= 2 (2.4e-7); ~1e-6 abs between the sides at worst, atol "
+                        "2e-6 (the result's cancellation makes rel meaningless near 0)"),
     ParityCase("blinn_phong",
                (_nonneg3(), _nonneg3(), Arg(), _nonneg3(10.0), _nonneg3(100.0, ((1e5, 0, 65504),))),
                atol=1e-6, rtol=2e-6, measured="max rel 1.9e-7 (seeds 0-7)",

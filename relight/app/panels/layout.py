@@ -16,6 +16,8 @@ scroll bar; section headers reach past ``right`` to it): a test checks that no i
 """
 from __future__ import annotations
 
+import re
+
 from dataclasses import dataclass
 
 MIN_WIDGET = 80.0  # pixels: narrower than this, a widget's label goes on its own line
@@ -95,14 +97,16 @@ class Layout:
         return "##" + label
 
     def _wrap(self, text: str, width: float) -> str:
-        """``text`` broken into lines at spaces so that each fits ``width`` pixels."""
+        """``text`` broken into lines at spaces, and after the underscores of a [render] key,
+        so that each fits ``width`` pixels."""
         lines: list[str] = []
-        for word in text.split(" "):
-            line = f"{lines[-1]} {word}" if lines else word
-            if lines and self.imgui.calc_text_size(line).x <= width:
-                lines[-1] = line
-            else:
-                lines.append(word)
+        for piece in re.findall(r"[^ _]*_|[^ _]+", text):
+            if lines:
+                line = lines[-1] + ("" if lines[-1].endswith("_") else " ") + piece
+                if self.imgui.calc_text_size(line).x <= width:
+                    lines[-1] = line
+                    continue
+            lines.append(piece)
         return "\n".join(lines)
 
     def button(self, label: str, same_line: bool = False) -> bool:

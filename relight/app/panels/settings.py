@@ -27,8 +27,8 @@ class SettingsPanels:
             if key == "samples" and value is None:  # unset: the model's own count, editable
                 value = sample_count(r)
             choices = (CHOICES.get(key) or (lambda: None))() if isinstance(value, str) else None
-            if isinstance(value, bool):
-                _, new = imgui.checkbox(key, value)
+            if isinstance(value, bool):  # its label wraps beside it (and records itself)
+                _, new = self._checkbox(key, value)
             elif isinstance(value, int):
                 lo, hi = LIMITS.get(key, (0, 1 << 30))
                 _, new = imgui.input_int(self.fit(key), value)
@@ -46,7 +46,7 @@ class SettingsPanels:
                 imgui.pop_style_color()
                 imgui.set_item_tooltip(f"no effect: tunes {self.dormant[key]}, which this "
                                        f"frame does not run")
-            if not choices:
+            if not choices and not isinstance(value, bool):
                 self._track(key)
             if new != value:
                 changes[key] = new

@@ -119,8 +119,9 @@ class ShadowNetTrainConfig:
     # and checked by the viewer (viewer.graph.shadow_net)
     indirect: bool = True
     # the frame's specular occlusion ([render] specular_occlusion, the viewer's default since
-    # 2026-11-29): off, as the shipped files' frames were drawn (recorded beside indirect)
-    specular_occlusion: bool = False
+    # 2026-11-29; recorded beside indirect): the shipped files' frames since then (the files
+    # before had none: --no-shadow-specular-occlusion)
+    specular_occlusion: bool = True
     # data's train split again at each of these degradation levels (in (0, 1];
     # learned.protocol.degrade, written once under DATA/_degraded/<level>/train); None: the
     # geometry's default (levels): DEFAULT_DEGRADE_LEVELS for stacks, () for meshes

@@ -86,7 +86,8 @@ SHADOW_NET_OPTIONS = {"shadow_extra_data": "extra_data", "shadow_val_data": "val
                       "shadow_degrade": "degrade_levels", "shadow_geometry": "geometry",
                       "shadow_energy": "energy_weight", "shadow_linear": "linear_weight",
                       "shadow_env_visibility": "architecture", "shadow_arch": "architecture",
-                      "shadow_decals": "decals", "shadow_prior": "prior_weight"}
+                      "shadow_decals": "decals", "shadow_prior": "prior_weight",
+                      "shadow_specular_occlusion": "specular_occlusion"}
 
 
 def add_shadow_net_arguments(p) -> None:
@@ -114,6 +115,10 @@ def add_shadow_net_arguments(p) -> None:
                         "visibility of the environment's light (default: stacks yes, their only "
                         "cast-shadow evidence; meshes no, their shadow maps cast the sun's, and "
                         "the estimators that read it invented shadows on real assets)")
+    p.add_argument("--shadow-specular-occlusion", action=argparse.BooleanOptionalAction,
+                   help="--stage shadow_net: frames with specular occlusion ([render] "
+                        "specular_occlusion, the viewer's default, and this one's; the files "
+                        "shipped before 2026-11-29's had none; recorded in the file's frame)")
     p.add_argument("--shadow-arch", metavar="JSON",
                    help="--stage shadow_net: architecture keys over the shipped design's, as a "
                         "JSON object (viewer/neural/shadow_net.py; e.g. '{\"upsample\": "

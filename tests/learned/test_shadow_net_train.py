@@ -337,19 +337,19 @@ def test_the_frame_it_multiplies_is_recorded_scored_and_checked(dataset, tmp_pat
     with pytest.raises(DatasetError) as info:
         weights_frame([files[True], files[False]])
     assert "\n" not in str(info.value) and files[False] in str(info.value)
-    # specular occlusion: off in the frames of the shipped recipe and of files before the record
-    assert frame_settings(read_shadow_net(files[True]).training)["specular_occlusion"] is False
+    # specular occlusion: in the frames of the shipped recipe, not in those of files before it
+    assert frame_settings(read_shadow_net(files[True]).training)["specular_occlusion"] is True
     assert frame_settings({})["specular_occlusion"] is False
     net = SimpleNamespace(path=files[True], training=read_shadow_net(files[True]).training)
-    trained = {"ssao": True, "specular_occlusion": False}
+    off = {"ssao": True, "specular_occlusion": False}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        check_frame(net, RenderSettings().with_flat(indirect=True, **trained))
-        assert not caught
-        check_frame(net, RenderSettings().with_flat(**trained, indirect=False))
         check_frame(net, RenderSettings().with_flat(ssao=True, indirect=True))  # the default
+        assert not caught
         check_frame(net, RenderSettings().with_flat(ssao=True, indirect=False))
+        check_frame(net, RenderSettings().with_flat(indirect=True, **off))
+        check_frame(net, RenderSettings().with_flat(indirect=False, **off))
     said = [str(c.message) for c in caught]
     assert len(said) == 3 and "set indirect = true" in said[0], said
-    assert "set specular_occlusion = false" in said[1] and "indirect" not in said[1], said
-    assert "set indirect = true specular_occlusion = false" in said[2], said
+    assert "set specular_occlusion = true" in said[1] and "indirect" not in said[1], said
+    assert "set indirect = true specular_occlusion = true" in said[2], said

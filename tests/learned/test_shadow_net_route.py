@@ -144,3 +144,25 @@ def test_the_students_visibility_input_is_the_estimators(tmp_path, student):
     assert (err <= bound).all(), float((err - bound).max())
     off = (np.abs(glsl[..., :3] - twin["ssao"][..., :3]) > 10 * bound).any(-1)
     assert off.mean() > 0.3, off.mean()  # most pixels: the sky is the same either way
+
+
+@pytest.mark.parametrize("name", ["shadow_net.safetensors", "shadow_net_mesh.safetensors"])
+def test_the_shipped_estimators_multiply_the_viewers_default_frame(name):
+    """A shipped file records the frame it was trained on (indirect light, specular occlusion);
+    with the viewer's defaults and SSAO on (what shadow_net needs) that frame is the one drawn, so
+    the frame check says nothing. A file trained on other frames would warn on every use."""
+    import warnings
+
+    from assets import ASSET_ROOT
+    from viewer.graph.shadow_net import check_frame
+    from viewer.neural.shadow_net import frame_settings, read_shadow_net
+    from viewer.scene.settings import RenderSettings
+
+    net = read_shadow_net(ASSET_ROOT / "weights" / name)
+    default = RenderSettings().with_flat(raytrace=False, ssao=True, indirect=True)
+    frame = frame_settings(net.training)
+    assert frame["indirect"] is True
+    assert frame["specular_occlusion"] is default.specular_occlusion is True
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_frame(net, default)

@@ -51,6 +51,8 @@ from .data import dataset_hash
 from .run import classical_scores
 from .scores import paired_bootstrap, psnr, record_test
 
+RANKED = 6  # the classical variants listed with their scores, best first (classical_ranking)
+
 
 def _top_rows(img: torch.Tensor) -> torch.Tensor:
     """``[1, C, H, W]`` in GL row order -> ``[H, W, 3]`` with row 0 at the top."""
@@ -165,6 +167,9 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
     pool = [Classical(**classical)] if classical else variants()
     found = [(m, classical_scores(m, prot)) for m in pool]
     best, best_scores = max(found, key=lambda f: float(np.mean(f[1])))
+    # the variants that came closest to the one chosen (the choice's margin), best first
+    ranking = [{"name": m.name, "psnr": float(np.mean(v))}
+               for m, v in sorted(found, key=lambda f: -float(np.mean(f[1])))[:RANKED]]
     if oracle:
         return {"split": split, "geometry": geometry, "indirect": indirect,
                 "samples": len(prot), "classical_name": best.name,
@@ -177,6 +182,7 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
     out = {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
            "classical": asdict(best),
            "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),
+           "classical_ranking": ranking,
            "frame_psnr": float(np.mean(s["frame"])),
            "estimator_psnr": [float(np.mean(v)) for v in s["estimators"]],
            "vs_classical": paired_bootstrap(diff),

@@ -274,6 +274,10 @@ def test_the_shadow_estimator_is_scored_against_the_classical_pick(protocol, tmp
         renderer.release()
     assert r["classical_psnr"] == max(float(np.mean(classical_scores(m, val)))
                                       for m in variants())
+    ranked = r["classical_ranking"]  # the choice's margin: the best variants, best first
+    assert ranked[0] == {"name": r["classical_name"], "psnr": r["classical_psnr"]}
+    assert len(ranked) == sn.RANKED and all(a["psnr"] >= b["psnr"]
+                                            for a, b in zip(ranked, ranked[1:]))
     data = tmp_path / "copy"  # the module's dataset keeps its own ledger count
     shutil.copytree(protocol, data)
     before = len(ledger(data))  # the shared dataset's earlier test scorings (other tests)

@@ -167,9 +167,6 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
     pool = [Classical(**classical)] if classical else variants()
     found = [(m, classical_scores(m, prot)) for m in pool]
     best, best_scores = max(found, key=lambda f: float(np.mean(f[1])))
-    # the variants that came closest to the one chosen (the choice's margin), best first
-    ranking = [{"name": m.name, "psnr": float(np.mean(v))}
-               for m, v in sorted(found, key=lambda f: -float(np.mean(f[1])))[:RANKED]]
     if oracle:
         return {"split": split, "geometry": geometry, "indirect": indirect,
                 "samples": len(prot), "classical_name": best.name,
@@ -179,6 +176,9 @@ def evaluate(data: str, split: str, weights: list[str], classical: dict | None =
                            for k, v in oracle_scores(est, prot).items()}}
     s = estimator_scores(weights, est, prot, average)
     diff = np.array(s["estimators"]) - np.array(best_scores)[None]
+    # the variants that came closest to the one chosen (the choice's margin), best first
+    ranking = [{"name": m.name, "psnr": float(np.mean(v))}
+               for m, v in sorted(found, key=lambda f: -float(np.mean(f[1])))[:RANKED]]
     out = {"split": split, "geometry": geometry, "indirect": indirect, "samples": len(prot),
            "classical": asdict(best),
            "classical_name": best.name, "classical_psnr": float(np.mean(best_scores)),

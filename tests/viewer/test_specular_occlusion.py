@@ -94,6 +94,9 @@ def test_the_frame_takes_the_occluded_share_of_split_sums_specular_light(rendere
                                          and MODELS[m].occlusion and m != "ggx_mc"))
 def test_models_without_it_are_untouched(renderer, model):
     """blinn_phong (the thesis baseline) keeps eq. 6.19: occlusion on its diffuse light only."""
+    import viewer.renderer as renderer_module
+
+    renderer_module._LIGHT_WARNED.discard("dormant:specular_occlusion")  # said once a process
     with pytest.warns(UserWarning, match="specular_occlusion"):  # said once: it does nothing
         _, _, off, _ = _crease(renderer, model, specular_occlusion=False)
     _, _, on, _ = _crease(renderer, model)

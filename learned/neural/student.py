@@ -57,13 +57,16 @@ from .encoding import encoded_size, fourier_encode
 INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "specular", "ao", "NoV")
 # every input in the order :func:`learned.neural.lighting.student_features` returns them (twin:
 # viewer.neural.STUDENT_ALL_INPUTS); "vis": the screen-space visibility of the environment's light
-ALL_INPUTS = INPUTS + ("dfg.a", "dfg.b", "vis")
+# "env_below": the environment's irradiance from below over that from above (one value a frame,
+# learned.neural.torch_lighting.env_below)
+ALL_INPUTS = INPUTS + ("dfg.a", "dfg.b", "vis", "env_below")
 # "ssao": the network reads neither ao nor S(x); ao (material AO x the SSAO pass's O(x)) is only
 # the occlusion factor, applied as the classical models apply it (issue 38: the students that
 # read screen-space evidence turned its noise and stretch into speckle and invented shadows)
 FEATURE_INPUTS = {"base": INPUTS, "dfg": INPUTS + ("dfg.a", "dfg.b"),
                   "ssao": tuple(i for i in INPUTS if i != "ao"),
-                  "vis": INPUTS + ("vis",), "dfg-vis": ALL_INPUTS}
+                  "ssao-env": tuple(i for i in INPUTS if i != "ao") + ("env_below",),
+                  "vis": INPUTS + ("vis",), "dfg-vis": INPUTS + ("dfg.a", "dfg.b", "vis")}
 OUTPUT_SCALE = NEURAL_OUTPUT_SCALE
 # output forms (architecture "output"; twin: viewer.neural.STUDENT_OUTPUTS) -> network outputs
 OUTPUTS = {"free6": 6, "pbr3": 3, "split3": 3}
@@ -129,7 +132,7 @@ class Student(nn.Module):
         if indirect != "none" and OUTPUTS[output] != 3:
             raise ValueError(f"student indirect {indirect!r} needs a three-factor output form "
                              f"(pbr3 or split3), not {output!r}")
-        if features == "ssao" and occlusion != "factor":
+        if features in ("ssao", "ssao-env") and occlusion != "factor":
             raise ValueError("a student with ssao features applies ao only as a factor: "
                              f"occlusion must be 'factor', not {occlusion!r}")
         if sun and output != "split3":

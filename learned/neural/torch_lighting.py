@@ -77,12 +77,44 @@ def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return n, (n * v).sum(-1).clamp(0.0, 1.0)
 
 
+# Rec. 709 luminance (viewer.environment.irradiance.LUMA)
+LUMA = (0.2126, 0.7152, 0.0722)
+
+
+def env_below(lighting: Lighting) -> float:
+    """How bright the environment's light from below is against its light from above: the
+    luminance of its irradiance on a surface facing down over that on a surface facing up, in
+    [0, 1] (0 for a black sky). The irradiance is the map's (``lighting.irradiance``: row 0 faces
+    +Y, the last row -Y, as ``irradiance_lookup`` reads them at n = +-Y) plus each compact light
+    taken out of it (``lighting.lights``: irradiance times max(n.l, 0)); a rotation about +Y
+    leaves it unchanged and the intensity cancels. Twin of
+    :func:`viewer.environment.irradiance.env_below` (the viewer's ``u_env_below``), which reads
+    the same texture in numpy.
+
+    Why a student reads it (``features`` ``"ssao-env"``): split-sum lights a surface facing down
+    with the environment's lower hemisphere, which in a scene is mostly the floor; under an indoor
+    map or a sky without its sun that light is already too bright, and a learned gain on the
+    screen-space bounce then adds to the error, while under a sunlit sky the bounce misses light
+    (the students page, "The bounce and the environment's light from below")."""
+    irr = lighting.irradiance.to(torch.float64)
+    e = torch.stack([irr[0, :, :3].mean(0), irr[-1, :, :3].mean(0)])
+    n = torch.tensor([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]], dtype=torch.float64)
+    for light in lighting.lights or ((lighting.sun,) if lighting.sun is not None else ()):
+        d = torch.tensor(light.direction, dtype=torch.float64)
+        e = e + torch.tensor(light.irradiance, dtype=torch.float64) * (n @ d).clamp_min(0.0)[:, None]
+    lum = e @ torch.tensor(LUMA, dtype=torch.float64)
+    if float(lum[0]) <= 0.0:
+        return 0.0
+    return float((lum[1] / lum[0]).clamp(0.0, 1.0))
+
+
 def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Tensor,
                      vis: torch.Tensor | None = None, dominant: bool = False, sun: bool = False,
                      specular_occlusion: bool = True) -> tuple[torch.Tensor, ...]:
     """Inputs of the student at each pixel, as ``shade_neural.frag`` forms them.
 
-    Returns ``x [N, 11]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis:
+    Returns ``x [N, 12]`` (albedo, roughness, metallic, specular, ao, n.v, dfg.a, dfg.b, vis,
+    env_below - :func:`env_below` of ``lighting``, the same at every pixel -:
     :data:`learned.neural.student.ALL_INPUTS`; a student selects its own),
     ``irradiance [N, 3]`` (the irradiance map's, times intensity) and ``prefiltered [N, 3]`` (GGX-prefiltered
     radiance along the mirror direction at the pixel's roughness, times intensity). ``ao [N]`` is
@@ -132,7 +164,8 @@ def student_features(gb: dict, v: torch.Tensor, lighting: Lighting, ao: torch.Te
     if vis is None:
         vis = torch.ones_like(nov)
     x = torch.cat([gb["albedo"], gb["roughness"], gb["metallic"], gb["specular"], ao[..., None],
-                   nov[..., None], dfg, vis[..., None]], dim=-1)
+                   nov[..., None], dfg, vis[..., None],
+                   torch.full_like(nov, env_below(lighting))[..., None]], dim=-1)
     if not sun:
         return x, irradiance, prefiltered
     if not sun_light:  # no sun taken out: a zero light

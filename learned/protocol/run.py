@@ -5,7 +5,10 @@ at one degradation level (:mod:`learned.protocol.degrade`).
     report = run_protocol(ProtocolConfig(data="runs/protocol", seeds=(0, 1, 2), level=0.5))
     print(format_report(report))
 
-Steps (each cached under ``OUT/level-<L>-steps-<N>/``, so an interrupted run resumes where it stopped):
+Steps (each cached under ``OUT/level-<L>-steps-<N>-<design>/``, so an interrupted run resumes
+where it stopped; ``<design>`` is :func:`design_key`, the hash of the student's design and inputs
+and of the classical variants' names, so a run after either changes trains and scores afresh
+instead of loading the students and val scores of another design):
 
 1. the inputs of every split at the level (the degraded copy of the dataset; the targets are the
    true scene's), with the renderer's screen-space inputs (SSAO, S(x), L_ind) computed on them;
@@ -28,6 +31,7 @@ twin is held to it by the parity checks); PSNR as ``relight eval`` computes it.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shlex
@@ -60,9 +64,21 @@ class ProtocolConfig:
     resamples: int = 10000  # bootstrap resamples
 
 
+def design_key() -> str:
+    """Ten hex digits of the sha256 of what the cached steps depend on besides the data, the
+    level and the steps: the shipped student's design and training (:data:`SHIPPED_STUDENT`),
+    every input :func:`~learned.neural.lighting.student_features` forms (``ALL_INPUTS``) and the
+    classical variants' names (which name every switch, specular occlusion's included)."""
+    from ..neural.student import ALL_INPUTS
+
+    text = json.dumps({"student": SHIPPED_STUDENT, "inputs": list(ALL_INPUTS),
+                       "classical": [m.name for m in variants()]}, sort_keys=True, default=list)
+    return hashlib.sha256(text.encode()).hexdigest()[:10]
+
+
 def _run_root(cfg: ProtocolConfig) -> Path:
     return (Path(cfg.out or Path(cfg.data) / "_protocol")
-            / f"level-{cfg.level:g}-steps-{cfg.student_steps}")
+            / f"level-{cfg.level:g}-steps-{cfg.student_steps}-{design_key()}")
 
 
 def _write_json(path: Path, data) -> None:

@@ -23,13 +23,14 @@ class TrainConfig:
     # light (architecture "light_input": false; learned.neural.teacher)
     teacher_light_input: bool = False
     # the student fields default to the shipped student's design (SHIPPED_STUDENT, as its
-    # weights file's metadata records it): the 7 material and view inputs -> 32 -> 32 -> 3 (no
-    # screen-space evidence: ao x O(x) only as the diffuse factor, "ssao"), split3 with the sun
+    # weights file's metadata records it): the 7 material and view inputs and how bright the
+    # environment is from below (env_below, one value a frame) -> 32 -> 32 -> 3 (no screen-space
+    # evidence: ao x O(x) only as the diffuse factor, "ssao-env"), split3 with the sun
     # light and multiple scattering, a learned indirect factor, gain penalty 1, 24,000 steps on
     # the dataset's own targets
     student_hidden: tuple[int, ...] = (32, 32)
     student_freqs: int = 0
-    student_features: str = "ssao"  # learned.neural.student.FEATURE_INPUTS
+    student_features: str = "ssao-env"  # learned.neural.student.FEATURE_INPUTS
     student_output: str = "split3"  # "free6" | "pbr3" | "split3" (learned.neural.student.OUTPUTS)
     # "none" | "factor": a learned factor on the screen-space indirect light
     # (learned.neural.student.INDIRECTS; trained on TrainImage.indirect)
@@ -74,13 +75,13 @@ STUDENT_TARGETS = ("teacher", "target")
 
 # the shipped student's design and training (assets/weights/neural_student.safetensors's
 # metadata: relight train --stage student ... --student-steps 24000); TrainConfig's defaults
-SHIPPED_STUDENT = {"student_hidden": (32, 32), "student_features": "ssao",
+SHIPPED_STUDENT = {"student_hidden": (32, 32), "student_features": "ssao-env",
                    "student_output": "split3", "student_indirect": "factor", "student_sun": True,
                    "student_multiscatter": True, "student_gain_penalty": 1.0,
                    "student_direct_penalty": 100.0,
                    "student_steps": 24000, "student_target": "target", "batch_pixels": 2048}
 # the Student keyword arguments of that design
-SHIPPED_STUDENT_DESIGN = {"hidden": (32, 32), "features": "ssao", "output": "split3",
+SHIPPED_STUDENT_DESIGN = {"hidden": (32, 32), "features": "ssao-env", "output": "split3",
                           "indirect": "factor", "sun": True, "multiscatter": True}
 
 # the synthetic dataset ``relight train`` generates when it is given no data (OUT/data)

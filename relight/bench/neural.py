@@ -185,7 +185,7 @@ def student_designs(renderer, size: int = 256, reference_samples: int = 1024, re
 
 def time_student_kernel(programs, net, x: np.ndarray, repeats: int = 5) -> float:
     """Best seconds of the generated student MLP (``viewer.neural.STUDENT_KERNEL_ENTRY``) over
-    the inputs ``x [n, 11]`` (planar upload outside the timing)."""
+    the inputs ``x [n, 12]`` (planar upload outside the timing)."""
     ctx = programs.ctx
     prog = programs.compute(STUDENT_KERNEL_ENTRY, virtual={net.include_name: net.glsl})
     n = x.shape[0]
@@ -220,7 +220,7 @@ def student_throughput(programs, weights=None, pixels: int = 65536, repeats: int
         torch_student_throughput = None
     path = weights or default_weights("student")
     net = load_network(path, "student")
-    x = np.random.default_rng(0).uniform(0, 1, (pixels, 11)).astype(np.float32)
+    x = np.random.default_rng(0).uniform(0, 1, (pixels, 12)).astype(np.float32)
     best = t_best = float("inf")
     for _ in range(rounds):
         best = min(best, time_student_kernel(programs, net, x, repeats))
@@ -309,7 +309,7 @@ def weight_storage_rows(programs, pixels: int = 65536, repeats: int = 7, rounds:
     path = weights or default_weights("student")
     net = load_network(path, "student")
     rng = np.random.default_rng(0)
-    x_student = rng.uniform(0, 1, (pixels, 11)).astype(np.float32)
+    x_student = rng.uniform(0, 1, (pixels, 12)).astype(np.float32)
     layers = probe_layers()
     x_probe = rng.uniform(-1, 1, (pixels, PROBE_SIZES[0])).astype(np.float32)
     sizes = "-".join(str(s) for s in net.architecture["networks"]["mlp"]["sizes"])

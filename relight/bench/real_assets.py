@@ -3,7 +3,7 @@ bundled HDRI, rendered with the neural student and with split-sum given the same
 evidence, scored against the path-traced truth.
 
 ``python -m relight.bench.real_assets [--out DIR] [--cache DIR] [--spp N] [--size WxH] [--quick]
-[--estimator NAME=FILE] [--variant CASE KEY=VALUE ...]`` (also ``relight bench --suite
+[--estimator NAME=FILE] [--student NAME=FILE] [--variant CASE KEY=VALUE ...]`` (also ``relight bench --suite
 real_assets``) writes ``real_assets.json``, ``real_assets.md`` (the table
 and a summary line counting the failures) and ``real_assets.png`` (a contact sheet) into ``--out``.
 
@@ -25,7 +25,8 @@ screen-space with the estimator's visibility in place of SSAO's occlusion and th
 (``shadow_net_use = "visibility"``: the issue's "usable by every model"). Each non-split-sum case
 is judged against the split-sum case with the same visibility evidence
 (:attr:`~.real_assets_cases.Case.baseline`). Beside them, candidate estimator files
-(``--estimator``) and *variants* (``--variant``, :func:`~.real_assets_cases.variant_case`): a case
+(``--estimator``), candidate student files (``--student``: ``neural NAME, rays`` and ``neural
+NAME, screen``, judged as the shipped student's cases) and *variants* (``--variant``, :func:`~.real_assets_cases.variant_case`): a case
 again with ``[render]`` settings changed, judged against that case, so a setting's cost against the
 truth (``ray_scale=2`` on the rays) is a row of the same table. **The splat capture**
 (:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
@@ -131,6 +132,8 @@ class Options:
     sunless: bool = True  # each HDRI with a compact sun also without it (lightings)
     # candidate estimator files scored beside the shipped one: (name, path), --estimator
     estimators: tuple[tuple[str, str], ...] = ()
+    # candidate student files scored beside the shipped one: (name, path), --student
+    students: tuple[tuple[str, str], ...] = ()
     # cases again with [render] settings changed: (case label, settings), --variant
     variants: tuple[tuple[str, tuple[tuple[str, object], ...]], ...] = ()
     progress: bool = True
@@ -200,7 +203,7 @@ def run(options: Options = Options(), renderer=None, command: str = "") -> dict:
     assets = [a for a in ASSETS if options.assets is None or a[0] in options.assets]
     envs = lightings([e for e in environments() if options.environments is None
                       or e[0] in options.environments], options.sunless)
-    case_list = cases(options.estimators, options.variants)
+    case_list = cases(options.estimators, options.variants, options.students)
     own = renderer is None
     renderer = Renderer() if own else renderer
     rows, sheet, truths = [], [], {}
@@ -268,6 +271,9 @@ def main(argv=None) -> int:
     p.add_argument("--estimator", action="append", default=[], metavar="NAME=FILE",
                    help="also score this shadow-estimator file, as the shipped one is "
                         "('split-sum, screen + NAME'; repeatable)")
+    p.add_argument("--student", action="append", default=[], metavar="NAME=FILE",
+                   help="also score this student file, as the shipped one is ('neural NAME, "
+                        "rays' and 'neural NAME, screen'; repeatable)")
     p.add_argument("--variant", action="append", default=[], nargs="+",
                    metavar=("CASE", "KEY=VALUE"), help="also score CASE (a case's label, e.g. "
                    "'split-sum, rays') with these [render] settings changed, judged against "
@@ -286,10 +292,12 @@ def main(argv=None) -> int:
             raise RelightError("expected CASE KEY=VALUE [KEY=VALUE ...]", where="--variant")
         changes = {"out": Path(a.out), "progress": not a.quiet,
                    "estimators": tuple(_estimator(item) for item in a.estimator),
+                   "students": tuple(_student(item) for item in a.student),
                    "variants": tuple((label, tuple(parse_settings(kv, "--variant").items()))
                                      for label, *kv in a.variant),
                    "cache": Path(a.cache) if a.cache else None}
-        cases(changes["estimators"], changes["variants"])  # an unknown case: before any work
+        # an unknown case or a repeated label: before any work
+        cases(changes["estimators"], changes["variants"], changes["students"])
         if a.size:
             changes["size"] = _parse_size(a.size)
         if a.spp:
@@ -312,6 +320,17 @@ def _estimator(item: str) -> tuple[str, str]:
     if not sep or not name or not path:
         raise RelightError(f"{item!r}: expected NAME=FILE", where="--estimator")
     read_shadow_net(path)  # a WeightsError names the file
+    return name, path
+
+
+def _student(item: str) -> tuple[str, str]:
+    """``--student NAME=FILE`` -> (NAME, FILE), the file read as the viewer reads it."""
+    from viewer.neural import load_network
+
+    name, sep, path = item.partition("=")
+    if not sep or not name or not path:
+        raise RelightError(f"{item!r}: expected NAME=FILE", where="--student")
+    load_network(path, "student")  # a WeightsError names the file
     return name, path
 
 

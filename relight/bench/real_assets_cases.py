@@ -1,7 +1,7 @@
 """The cases of :mod:`relight.bench.real_assets`: each a way of rendering every scene (a label,
 the ``[render]`` settings it changes, the split-sum case it is judged against), the eight of
-that module's docstring, the candidate estimator files of ``--estimator`` and the variants of
-``--variant``."""
+that module's docstring, the candidate estimator files of ``--estimator``, the candidate
+student files of ``--student`` and the variants of ``--variant``."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -62,11 +62,23 @@ def variant_case(case: Case, settings: dict) -> Case:
     return Case(f"{case.label}{VARIANT}{text}", case.render | settings, case.label)
 
 
+def student_cases(name: str, path) -> tuple[Case, Case]:
+    """The student file ``path`` drawn as the shipped one is, with rays and screen-space
+    (``neural NAME, rays`` / ``neural NAME, screen``), each judged against split-sum with the
+    same visibility evidence: a candidate scored on the issue's criterion before it ships."""
+    return (Case(f"neural {name}, rays", {"model": "neural", "weights": str(path)},
+                 "split-sum, rays"),
+            Case(f"neural {name}, screen", {"model": "neural", "weights": str(path), **SCREEN},
+                 "split-sum, screen"))
+
+
 def cases(estimators: tuple[tuple[str, str], ...] = (),
-          variants: tuple[tuple[str, dict], ...] = ()) -> tuple[Case, ...]:
+          variants: tuple[tuple[str, dict], ...] = (),
+          students: tuple[tuple[str, str], ...] = ()) -> tuple[Case, ...]:
     """The eight cases of the module docstring (the estimator's frame read from its weights),
     then one case per candidate estimator file of ``estimators`` (``(name, path)``: ``--estimator
-    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``, then one per
+    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``, two per candidate
+    student file of ``students`` (``--student NAME=FILE``: :func:`student_cases`), then one per
     ``variants`` entry ``(label of a case before, [render] settings)``: :func:`variant_case`."""
     net = shadow_net_file()
     # the estimator's V in place of SSAO's O(x) and the student's S(x) (shadow_net_use)
@@ -82,17 +94,20 @@ def cases(estimators: tuple[tuple[str, str], ...] = (),
             Case("split-sum, estimator's V", {"model": "ggx_split_sum", **V_USE}),
             Case("neural, estimator's V", {"model": "neural", **V_USE},
                  "split-sum, estimator's V"),
-            *(estimator_case(ESTIMATOR_CASE + name, path) for name, path in estimators))
+            *(estimator_case(ESTIMATOR_CASE + name, path) for name, path in estimators),
+            *(c for name, path in students for c in student_cases(name, path)))
     by_label = {c.label: c for c in base}
     for label, _ in variants:
         if label not in by_label:
             raise RelightError(f"no case {label!r} (one of: {', '.join(by_label)})",
                                where="--variant")
     out = base + tuple(variant_case(by_label[label], dict(s)) for label, s in variants)
+    student_labels = {c.label for name, path in students for c in student_cases(name, path)}
     seen: set[str] = set()
     for c in out:  # one label, one image: a repeated one would replace another case's
         if c.label in seen:
-            raise RelightError(f"the case {c.label!r} is given twice", where="--estimator"
-                               if c.label.startswith(ESTIMATOR_CASE) else "--variant")
+            where = "--estimator" if c.label.startswith(ESTIMATOR_CASE) else \
+                "--student" if c.label in student_labels else "--variant"
+            raise RelightError(f"the case {c.label!r} is given twice", where=where)
         seen.add(c.label)
     return out

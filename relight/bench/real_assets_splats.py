@@ -60,9 +60,11 @@ def splat_scene(scene, cache: Path, name: str):
 
 def splat_cases(case_list):
     """The cases of ``case_list`` a splat scene is drawn with (:data:`SPLAT_CASES`, the
-    candidate estimators' of ``--estimator``, and the ``--variant`` cases of either)."""
+    candidate estimators' of ``--estimator`` and students' of ``--student``, and the
+    ``--variant`` cases of any of them)."""
     drawn = {c.label for c in case_list if c.label in SPLAT_CASES
-             or c.label.startswith(ESTIMATOR_CASE)}  # candidate estimators too
+             or c.label.startswith(ESTIMATOR_CASE)  # candidate estimators too
+             or ("weights" in c.render and c.baseline in SPLAT_CASES)}  # candidate students
     return tuple(c for c in case_list if c.label in drawn or c.baseline in drawn
                  and c.label.startswith(c.baseline + "; "))
 

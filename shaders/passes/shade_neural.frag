@@ -7,7 +7,8 @@
 // NEURAL_STUDENT_PBR, the output form: 1 = pbr3, three achromatic factors of the split-sum form,
 // colour from the material; 0 = free6, six per-channel factors; lib/neural.glsl; and
 // NEURAL_STUDENT_VIS: the student reads the screen-space visibility of the environment's light,
-// the g channel of u_ssao, which the renderer then computes: passes/ssao.frag, SSAO_ENV_VIS).
+// the g channel of u_ssao, which the renderer then computes: passes/ssao.frag, SSAO_ENV_VIS;
+// NEURAL_STUDENT_ENV: it reads u_env_below, how bright the environment is from below).
 // NEURAL_STUDENT_INDIRECT: the student learned a factor on the screen-space indirect light; the
 // pass writes it (lib/neural.glsl neural_indirect_factor, 1 on the background) to the second
 // target o_indirect_factor, which the renderer allocates for it and passes/ssao.frag
@@ -45,6 +46,9 @@
 uniform sampler2D u_env_prefiltered;
 uniform float u_env_levels;
 uniform sampler2D u_env_irradiance;  // exact irradiance map (lib/ibl.glsl irradiance_lookup)
+// the environment's irradiance from below over above (viewer.environment.irradiance.env_below,
+// set by IBL.bind): an input of students with NEURAL_STUDENT_ENV, unused otherwise
+uniform float u_env_below;
 #if NEURAL_STUDENT_DFG || NEURAL_STUDENT_SPLIT
 uniform sampler2D u_env_dfg;
 #endif
@@ -116,8 +120,8 @@ void main() {
 #endif
     vec3 k_0;
     vec3 k_1;
-    neural_student_weights(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg, vis, k_0,
-                           k_1);
+    neural_student_weights(g.albedo, g.roughness, g.metallic, g.specular, ao, NoV, dfg, vis,
+                           u_env_below, k_0, k_1);
 #if NEURAL_STUDENT_SPLIT
     vec3 f0 = compute_f0(g.albedo, g.metallic, g.specular);
 #if NEURAL_STUDENT_MULTISCATTER  // its base: ggx_split_sum with the energy compensation

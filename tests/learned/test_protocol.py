@@ -184,25 +184,38 @@ def test_the_ledger_counts_every_scoring(tmp_path):
     assert [e["what"] for e in ledger(tmp_path)] == ["a", "b"]
 
 
-def test_protocol_run_trains_caches_resumes_and_counts(protocol, tmp_path, ctx):
+def test_protocol_run_trains_caches_resumes_and_counts(protocol, tmp_path, ctx, monkeypatch):
     """Two seeds, a few steps: the report has both seeds' val and test scores, the paired
     interval, the baseline picked on val; the weights record command, seed, dataset hash and
-    their val score (test beside them); a second call retrains nothing and the ledger says 2."""
-    from learned.protocol.run import ProtocolConfig, format_report, run_protocol
+    their val score (test beside them); a second call retrains nothing and the ledger says 2;
+    a third with another student design trains its own students (the cache is keyed by the
+    design: it once loaded the students of the design before)."""
+    from learned.protocol import run as protocol_run
+    from learned.protocol.run import ProtocolConfig, design_key, format_report, run_protocol
     from viewer.neural import load_network
     from viewer.renderer import Renderer
 
     cfg = ProtocolConfig(data=str(protocol), out=str(tmp_path / "runs"), seeds=(0, 1),
                          student_steps=6, resamples=200)
+    folder = tmp_path / "runs" / f"level-0-steps-6-{design_key()}"
     r = Renderer(ctx=ctx)
     try:
         first = run_protocol(cfg, quiet=True, renderer=r)
-        w = tmp_path / "runs" / "level-0-steps-6" / "seed-1" / "neural_student.safetensors"
+        w = folder / "seed-1" / "neural_student.safetensors"
         mtime = w.stat().st_mtime_ns
         second = run_protocol(cfg, quiet=True, renderer=r)
+        # another student design keys another folder: its students are trained, not loaded
+        other = dict(protocol_run.SHIPPED_STUDENT, student_features="ssao")
+        monkeypatch.setattr(protocol_run, "SHIPPED_STUDENT", other)
+        assert design_key() not in folder.name
+        third = run_protocol(cfg, quiet=True, renderer=r)
     finally:
         r.release()
     assert w.stat().st_mtime_ns == mtime
+    again = tmp_path / "runs" / f"level-0-steps-6-{design_key()}" / "seed-1"
+    assert load_network(again / "neural_student.safetensors", "student").features == "ssao"
+    assert load_network(w, "student").features == "ssao-env"
+    assert third["test_scored"] == 3
     assert first["test_scored"] + 1 == second["test_scored"]
     assert first["test"]["students"] == second["test"]["students"]
     assert set(first["test"]["students"]) == {"0", "1"}
@@ -210,7 +223,7 @@ def test_protocol_run_trains_caches_resumes_and_counts(protocol, tmp_path, ctx):
     assert d["lo"] <= d["mean"] <= d["hi"] and d["seeds"] == 2 and d["samples"] == 3
     assert first["val"]["baseline"] == max(
         np.mean(v["psnr"]) for v in json.loads(
-            (tmp_path / "runs" / "level-0-steps-6" / "classical-val.json").read_text())["variants"])
+            (folder / "classical-val.json").read_text())["variants"])
     training = load_network(w, "student").training
     from learned.protocol.data import dataset_hash
 

@@ -69,28 +69,37 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
     # a candidate estimator (--estimator NAME=FILE): here the shipped file again, so its row
     # must repeat the shipped estimator's; two variants (--variant CASE KEY=VALUE): one that
     # changes nothing (ray_scale 1 is the default), so it must score its case exactly, and
-    # rays at half scale, a different image judged against the full-scale one
+    # rays at half scale, a different image judged against the full-scale one; a candidate
+    # student (--student NAME=FILE): the shipped file again, whose rows must repeat the shipped
+    # student's, judged against the same split-sum cases
+    from viewer.neural import default_weights
+
     opts = Options(out=tmp_path, size=(48, 32), spp=8, assets=("cge_plasma_gun",),
                    environments=("lobby",), progress=False,
                    estimators=(("again", str(shadow_net_file())),),
+                   students=(("again", str(default_weights("student"))),),
                    variants=(("split-sum, rays", (("ray_scale", 1),)),
                              ("neural, rays", (("ray_scale", 2),))))
     r = Renderer(ctx=ctx)
     try:
         report = run(opts, renderer=r)
         rows = report["rows"]
-        assert [x["case"] for x in rows] == [c.label for c in cases(opts.estimators,
-                                                                    opts.variants)]
+        assert [x["case"] for x in rows] == [c.label for c in cases(
+            opts.estimators, opts.variants, opts.students)]
         by_case = {x["case"]: x for x in rows}
-        again, same, half = rows[-3:]
+        again, student_rays, student_screen, same, half = rows[-5:]
         assert again["case"] == "split-sum, screen + again"
         judged = [x for x in rows if "baseline" in x]
-        assert len(judged) == 8 and all("ok" in x and "invented_shadow_%" in x for x in judged)
+        assert len(judged) == 10 and all("ok" in x and "invented_shadow_%" in x for x in judged)
         assert all(np.isfinite(x["psnr_db"]) and x["floor_pixels"] > 50 for x in rows)
-        assert sum(s["rows"] for s in report["summary"].values()) == 8
+        assert sum(s["rows"] for s in report["summary"].values()) == 10
         shipped = by_case["split-sum, screen + estimator"]
         assert {k: v for k, v in again.items() if k != "case"} == {
             k: v for k, v in shipped.items() if k != "case"}
+        for row, case in ((student_rays, "neural, rays"), (student_screen, "neural, screen")):
+            assert row["case"] == case.replace("neural", "neural again")
+            assert {k: v for k, v in row.items() if k != "case"} == {
+                k: v for k, v in by_case[case].items() if k != "case"}
         # every judged row's PSNR against its baseline's, and the summary's mean and worst
         for x in judged:
             assert x["psnr_gain_db"] == round(x["psnr_db"] - by_case[x["baseline"]]["psnr_db"], 2)
@@ -140,6 +149,25 @@ def test_a_bad_candidate_estimator_is_one_line(tmp_path, capsys):
         assert main(["--out", str(tmp_path / "o"), "--estimator", item, "-q"]) == 2
         err = capsys.readouterr().err.strip()
         assert words in err and "\n" not in err, err
+    assert not (tmp_path / "o").exists()  # nothing written
+
+
+def test_a_bad_candidate_student_is_one_line(tmp_path, capsys):
+    from relight.bench.real_assets import main
+    from viewer.neural import default_weights
+
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(b"not a safetensors file")
+    shipped = str(default_weights("student"))
+    for items, words in ((["nofile"], "expected NAME=FILE"), ([f"x={bad}"], str(bad)),
+                         ([f"x={tmp_path / 'missing.safetensors'}"], "missing.safetensors"),
+                         ([f"x={shipped}", f"x={shipped}"], "given twice")):
+        args = [a for item in items for a in ("--student", item)]
+        assert main(["--out", str(tmp_path / "o"), *args, "-q"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert words in err and "\n" not in err, err
+        # the option is named where the item itself is wrong; a bad file is named by its path
+        assert ("--student" in err) == (words in ("expected NAME=FILE", "given twice")), err
     assert not (tmp_path / "o").exists()  # nothing written
 
 

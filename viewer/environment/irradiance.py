@@ -124,3 +124,30 @@ def irradiance_brute(env: np.ndarray, normals: np.ndarray) -> np.ndarray:
     for i in range(0, len(normals), 64):  # 64 normals at a time: a few MB of cosines
         out[i:i + 64] = np.maximum(normals[i:i + 64] @ dirs.T, 0.0) @ weighted
     return out
+
+
+# Rec. 709 luminance (twin: learned.neural.torch_lighting.LUMA)
+LUMA = (0.2126, 0.7152, 0.0722)
+
+
+def env_below(irradiance: np.ndarray, lights=()) -> float:
+    """How bright an environment's light from below is against its light from above: the
+    luminance of the irradiance on a surface facing down (-Y) over that on one facing up, in
+    [0, 1] (0 for a black sky). ``irradiance [h, w, >= 3]`` is the map of :func:`irradiance_map`
+    (rows from pole to pole: row 0 faces +Y, the last row -Y; the mean of each row, whose texels
+    are one point); ``lights`` the compact lights taken out of it
+    (:class:`viewer.environment.sun.Sun`: irradiance times max(n.l, 0) added back). The neural
+    student with ``ssao-env`` inputs reads it (``u_env_below``, one value a frame); twin:
+    :func:`learned.neural.torch_lighting.env_below`. Exact where nine SH coefficients are not:
+    a compact sun's SH rings below the horizon (the procedural sky's clamps to 0 there)."""
+    irr = np.asarray(irradiance, np.float64)
+    up, down = irr[0, :, :3].mean(0), irr[-1, :, :3].mean(0)
+    for light in lights:
+        y = float(light.direction[1])
+        e = np.asarray(light.irradiance, np.float64)
+        up, down = up + e * max(y, 0.0), down + e * max(-y, 0.0)
+    luma = np.asarray(LUMA)
+    lum_up, lum_down = float(up @ luma), float(down @ luma)
+    if lum_up <= 0.0:
+        return 0.0
+    return min(max(lum_down / lum_up, 0.0), 1.0)

@@ -9,8 +9,10 @@ STUDENT_INPUTS = ("albedo.r", "albedo.g", "albedo.b", "roughness", "metallic", "
                   "NoV")
 # every student input, in the order of the generated code's arguments and of the parity kernel's
 # planar rows; "vis" is the screen-space visibility of the environment's light (the g channel of
-# passes/ssao.frag with SSAO_ENV_VIS), read by students that see visibility
-STUDENT_ALL_INPUTS = STUDENT_INPUTS + ("dfg.a", "dfg.b", "vis")
+# passes/ssao.frag with SSAO_ENV_VIS), read by students that see visibility; "env_below" the
+# environment's irradiance from below over that from above, one value a frame (u_env_below,
+# viewer.environment.irradiance.env_below)
+STUDENT_ALL_INPUTS = STUDENT_INPUTS + ("dfg.a", "dfg.b", "vis", "env_below")
 # student input sets (architecture "features"; twin: learned.neural.student.FEATURE_INPUTS), each
 # a subsequence of STUDENT_ALL_INPUTS. "ssao": base's inputs but ao, which (the material AO times
 # the SSAO pass's occlusion O(x): the renderer runs SSAO for it, without S(x)) enters only as the
@@ -19,11 +21,14 @@ STUDENT_ALL_INPUTS = STUDENT_INPUTS + ("dfg.a", "dfg.b", "vis")
 # speckle and invented shadows on real assets (issue 38)
 STUDENT_FEATURES = {"base": STUDENT_INPUTS, "dfg": STUDENT_INPUTS + ("dfg.a", "dfg.b"),
                     "ssao": tuple(i for i in STUDENT_INPUTS if i != "ao"),
+                    # "ssao-env": "ssao" + how bright the environment is from below (one value a
+                    # frame): the bounce's gain depends on it (issue 38, lobby and sunless skies)
+                    "ssao-env": tuple(i for i in STUDENT_INPUTS if i != "ao") + ("env_below",),
                     "vis": STUDENT_INPUTS + ("vis",),
-                    "dfg-vis": STUDENT_ALL_INPUTS}
+                    "dfg-vis": STUDENT_INPUTS + ("dfg.a", "dfg.b", "vis")}
 # the input sets whose ao input is the material AO times the SSAO pass's O(x): the renderer runs
 # SSAO for them whatever [render] ssao says (learned.neural.student.Student.reads_occlusion)
-STUDENT_SSAO_FEATURES = ("ssao", "vis", "dfg-vis")
+STUDENT_SSAO_FEATURES = ("ssao", "ssao-env", "vis", "dfg-vis")
 # student output forms (architecture "output"; twin: learned.neural.student.OUTPUTS) -> network
 # outputs. The generated GLSL defines NEURAL_STUDENT_PBR (0 free6, 1 pbr3); shade_neural.frag
 # combines the factors with the lighting by lib/neural.glsl's neural_student_radiance[_pbr].
@@ -151,7 +156,7 @@ def _required_networks(kind: str, arch: dict) -> dict[str, dict]:
     if kind == "student" and arch.get("occlusion", DEFAULT_OCCLUSION) not in STUDENT_OCCLUSION:
         raise ValueError(f"student occlusion {arch['occlusion']!r} "
                          f"(known: {', '.join(STUDENT_OCCLUSION)})")
-    if kind == "student" and features == "ssao" and \
+    if kind == "student" and features in ("ssao", "ssao-env") and \
             arch.get("occlusion", DEFAULT_OCCLUSION) != "factor":
         raise ValueError("student features 'ssao' apply ao only as a factor: occlusion must be "
                          "'factor'")

@@ -224,6 +224,8 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
         lines += [f"#define NEURAL_STUDENT_DFG {int(dfg)}  // 1: the network reads the DFG LUT",
                   f"#define NEURAL_STUDENT_VIS {int(vis)}  // 1: it reads the environment's "
                   "screen-space visibility",
+                  f"#define NEURAL_STUDENT_ENV {int('env_below' in inputs)}  // 1: it reads "
+                  "u_env_below",
                   f"#define NEURAL_STUDENT_PBR {int(pbr)}  // output form: 0 free6, 1 pbr3 "
                   "or split3",
                   f"#define NEURAL_STUDENT_SPLIT {int(split)}  // 1: split3, corrections of "
@@ -240,11 +242,14 @@ def generate_glsl(net: NetworkFile, storage: str = "const") -> NetworkCode:
                   "// the indirect light's k, lib/neural.glsl neural_indirect_factor): the factors that",
                   "// neural_student_radiance[_pbr] (lib/neural.glsl) combine with the lighting;",
                   "// dfg: split-sum LUT at (NoV, roughness), read only when NEURAL_STUDENT_DFG;",
-                  "// vis: S(x) of passes/ssao.frag (SSAO_ENV_VIS), read only when NEURAL_STUDENT_VIS.",
+                  "// vis: S(x) of passes/ssao.frag (SSAO_ENV_VIS), read only when NEURAL_STUDENT_VIS;",
+                  "// env_below: the environment's light from below over above (u_env_below),",
+                  "// read only when NEURAL_STUDENT_ENV.",
                   "// twin: learned.neural.student.Student.weights",
                   "void neural_student_weights(vec3 albedo, float roughness, float metallic,",
                   "                            float specular, float ao, float NoV, vec2 dfg,",
-                  "                            float vis, out vec3 k_0, out vec3 k_1) {"]
+                  "                            float vis, float env_below, out vec3 k_0,",
+                  "                            out vec3 k_1) {"]
         glsl_names = {"dfg.a": "dfg.x", "dfg.b": "dfg.y"}
         raw = [glsl_names.get(name, name) for name in inputs]
         enc_lines, enc = _encode(raw, net.num_freqs)

@@ -54,7 +54,7 @@ TEACHER_RTOL = 2e-3
 
 def eval_student_weights(programs, net, x: np.ndarray, storage: str = "const") -> np.ndarray:
     """GL ``neural_student_weights`` of the generated code of ``net`` for weight ``storage``
-    (``viewer.neural.WEIGHT_STORAGES``) at ``x [n, 11]`` (every student input,
+    (``viewer.neural.WEIGHT_STORAGES``) at ``x [n, 12]`` (every student input,
     :func:`student_inputs`) -> ``[n, 6]`` (``k_0``, ``k_1``; a ``pbr3`` student's ``k_1`` is 0)."""
     code = net.code(storage)
     name = f"<kernel:neural_student:{net.checkpoint[:12]}>"
@@ -70,11 +70,13 @@ def eval_student_weights(programs, net, x: np.ndarray, storage: str = "const") -
 
 
 def student_inputs(n: int, seed: int = 0) -> np.ndarray:
-    """Random student inputs ``[n, 11]`` (every input, ``viewer.neural.STUDENT_ALL_INPUTS``)
-    over the whole domain, plus the corners of [0, 1]^8 (dfg and vis inputs 0 and 1 alternating)."""
+    """Random student inputs ``[n, 12]`` (every input, ``viewer.neural.STUDENT_ALL_INPUTS``)
+    over the whole domain, plus the corners of [0, 1]^8 (dfg, vis and env_below inputs 0 and 1
+    alternating)."""
     rng = np.random.default_rng(seed)
-    x = rng.uniform(0.0, 1.0, size=(n, 11))
-    corners = np.array([[(k >> b) & 1 for b in range(8)] + [k & 1, (k >> 1) & 1, (k >> 2) & 1]
+    x = rng.uniform(0.0, 1.0, size=(n, 12))
+    corners = np.array([[(k >> b) & 1 for b in range(8)]
+                        + [k & 1, (k >> 1) & 1, (k >> 2) & 1, (k >> 3) & 1]
                         for k in range(256)], np.float64)
     return np.concatenate([x, corners]).astype(np.float32)
 

@@ -16,7 +16,6 @@ from learned.neural.lighting import lighting_from_gl
 from learned.neural.student import Student
 from learned.neural.torch_lighting import env_below as env_below_torch
 from learned.parity.checks import neural as tn
-from viewer.environment.irradiance import env_below
 from viewer.environment.maps import EnvironmentSpec
 from viewer.imageio import write_exr
 from viewer.neural import load_network

@@ -194,7 +194,13 @@ vec2 map_uv(int set, mat3 uv_transform) {
 // glTF sampler wrap MIRRORED_REPEAT on the axes where mirror = 1 (the sampler clamps to the edge
 // there, so the edge texel repeats at each mirror seam as GL's own mode does); the derivatives of
 // the unwrapped coordinates choose the mip level, so the seams get no spurious coarse lookups.
+// Without a mirrored axis (a uniform: the branch is the same for every pixel) the implicit
+// derivatives are those same ones, and plain texture() reads them: llvmpipe mis-reads
+// textureGrad under anisotropic filtering (viewer/passes/mesh_uploads.py ANISOTROPY).
 vec4 sample_map(sampler2D map, vec2 uv, vec2 mirror) {
+    if (mirror == vec2(0.0)) {
+        return texture(map, uv);
+    }
     vec2 mirrored = 1.0 - abs(mod(uv, 2.0) - 1.0);
     return textureGrad(map, mix(uv, mirrored, mirror), dFdx(uv), dFdy(uv));
 }

@@ -147,6 +147,11 @@ def glsl_version(ctx) -> str | None:
     return value.decode("ascii", "replace").strip() if value else None
 
 
+def is_software(ctx) -> bool:
+    """Whether ``ctx`` is Mesa's llvmpipe software rasteriser."""
+    return "llvmpipe" in str(ctx.info.get("GL_RENDERER", "")).lower()
+
+
 def gl_info(ctx) -> dict:
     """Renderer, version, extensions and the measured precision of float render targets."""
     info = ctx.info
@@ -156,7 +161,7 @@ def gl_info(ctx) -> dict:
         "version": info.get("GL_VERSION"),
         "glsl": glsl_version(ctx),
         "version_code": ctx.version_code,
-        "software": "llvmpipe" in str(info.get("GL_RENDERER", "")).lower(),
+        "software": is_software(ctx),
         "max_texture_size": info.get("GL_MAX_TEXTURE_SIZE"),
         "max_color_attachments": info.get("GL_MAX_COLOR_ATTACHMENTS"),
         "float_target_mantissa_bits": {"f2": _float_target_bits(ctx, "f2"),

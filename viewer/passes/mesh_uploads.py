@@ -26,6 +26,7 @@ import numpy as np
 
 from ..cache import BoundedCache, CacheStats, texture_bytes
 from ..geometry.mesh import Mesh, TextureSampling
+from ..gl.context import is_software
 from ..gl.programs import on_release
 from ..scene.camera import Camera, gl_bytes
 from . import set_uniform as _set
@@ -51,6 +52,11 @@ _FILM_MAPS = ("iridescence", "iridescence_thickness")  # with KHR_materials_irid
 # thickness map with a volume only (Material.volume: a thin wall has no thickness to scale)
 _DEFAULT_SAMPLING = TextureSampling()
 ANISOTROPY = 8.0  # for mipmapped linear filtering
+# llvmpipe (Mesa 22.3) reads texels from elsewhere in the texture where textureGrad meets a
+# sampler with anisotropy above 1 (the plasma gun's rim under lobby: 55 dark 2 x 2 quads in the
+# base colour, stray emissive dots; measured 2026-11-29). sample_map takes textureGrad only for
+# mirrored wraps, so only their samplers drop to 1 there (tests/viewer/test_texture_specks.py)
+SOFTWARE_MIRROR_ANISOTROPY = 1.0
 MAX_SAMPLERS = 32  # distinct wrap/filter combinations kept as sampler objects
 
 
@@ -196,6 +202,8 @@ class MeshUploads:
                           "linear_mipmap_linear": ctx.LINEAR_MIPMAP_LINEAR}[sampling.min_filter]
             mag_filter = ctx.LINEAR if sampling.mag_filter == "linear" else ctx.NEAREST
             aniso = ANISOTROPY if sampling.min_filter.startswith("linear_mipmap") else 1.0
+            if "mirror" in sampling.wrap and is_software(ctx):  # sample_map's textureGrad
+                aniso = min(aniso, SOFTWARE_MIRROR_ANISOTROPY)
             return ctx.sampler(
                 repeat_x=sampling.wrap[0] == "repeat", repeat_y=sampling.wrap[1] == "repeat",
                 filter=(min_filter, mag_filter), anisotropy=aniso)

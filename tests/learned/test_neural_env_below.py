@@ -34,17 +34,22 @@ def _sky(sun_strength=1.0):
     return EnvironmentSpec(procedural="sky", width=64, sun_strength=sun_strength)
 
 
-def _upper_only(tmp_path):
-    """An equirect map lit from above the horizon only (a blue-white gradient), black below."""
+def _one_side(tmp_path, below: bool = False, scale: float = 1.0):
+    """An equirect map lit from one side of the horizon only (a blue-white gradient), black on
+    the other: above by default, ``below`` flips it; ``scale`` multiplies it."""
     h, w = 64, 128
     theta = (np.arange(h) + 0.5) / h * math.pi  # from +Y down
     img = np.zeros((h, w, 3), np.float32)
-    up = theta < math.pi / 2
-    img[up] = (np.array([0.6, 0.8, 1.0], np.float32)
-               * (1.0 + np.cos(theta[up]))[:, None, None].astype(np.float32))
-    path = tmp_path / "upper.exr"
+    lit = theta > math.pi / 2 if below else theta < math.pi / 2
+    img[lit] = (np.array([0.6, 0.8, 1.0], np.float32) * scale
+                * (1.0 + np.abs(np.cos(theta[lit])))[:, None, None].astype(np.float32))
+    path = tmp_path / f"side_{int(below)}_{scale:g}.exr"
     write_exr(path, img)
     return EnvironmentSpec(path=str(path))
+
+
+def _upper_only(tmp_path):
+    return _one_side(tmp_path)
 
 
 def test_numpy_and_torch_agree(renderer, tmp_path):
@@ -65,15 +70,25 @@ def test_numpy_and_torch_agree(renderer, tmp_path):
 
 
 def test_identities(renderer, tmp_path):
-    """A uniform environment lights a surface facing down as one facing up: 1 (to the SH's
-    float32 rounding). Light from above only: under 0.03 (the 3-band SH's ringing of a step at
-    the horizon, measured 0.0; exact 0). The sky with its sun taken out as a light gives the
+    """A uniform environment lights a surface facing down as one facing up: 1 (to float32
+    rounding). Light from above only: under 0.03 (the irradiance map's bilinear rows at the
+    poles, measured 0.0; exact 0); from below only 1; a black map 0; a map scaled by 1e-6 or
+    1e6 the same as at 1. The sky with its sun taken out as a light gives the
     value of the whole map to 2 % (the SH of a compact sun against its exact cosine: measured
     0.3 %), and taking the sun's light away raises it (more of what is left comes from below)."""
     white = env_below_torch(lighting_from_gl(renderer, EnvironmentSpec(procedural="white")))
     assert white == pytest.approx(1.0, abs=1e-5)
     upper = env_below_torch(lighting_from_gl(renderer, _upper_only(tmp_path)))
     assert upper < 0.03
+    # light from below alone: the clamp's end, 1 (not the 0 of a black sky); any scale alike
+    assert env_below_torch(lighting_from_gl(renderer, _one_side(tmp_path, below=True))) == 1.0
+    black = np.zeros((16, 32, 3), np.float32)
+    write_exr(tmp_path / "black.exr", black)
+    assert env_below_torch(lighting_from_gl(
+        renderer, EnvironmentSpec(path=str(tmp_path / "black.exr")))) == 0.0
+    for scale in (1e-6, 1e6):  # the intensity of the map cancels
+        scaled = env_below_torch(lighting_from_gl(renderer, _one_side(tmp_path, scale=scale)))
+        assert scaled == pytest.approx(upper, abs=1e-6)
     whole = env_below_torch(lighting_from_gl(renderer, _sky()))
     split = lighting_from_gl(renderer, _sky(), sun=True)
     assert split.sun is not None  # the procedural sky's sun is taken out

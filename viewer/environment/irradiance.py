@@ -133,7 +133,7 @@ LUMA = (0.2126, 0.7152, 0.0722)
 def env_below(irradiance: np.ndarray, lights=()) -> float:
     """How bright an environment's light from below is against its light from above: the
     luminance of the irradiance on a surface facing down (-Y) over that on one facing up, in
-    [0, 1] (0 for a black sky). ``irradiance [h, w, >= 3]`` is the map of :func:`irradiance_map`
+    [0, 1] (0 for a black sky, 1 for light from below alone). ``irradiance [h, w, >= 3]`` is the map of :func:`irradiance_map`
     (rows from pole to pole: row 0 faces +Y, the last row -Y; the mean of each row, whose texels
     are one point); ``lights`` the compact lights taken out of it
     (:class:`viewer.environment.sun.Sun`: irradiance times max(n.l, 0) added back). The neural
@@ -148,6 +148,6 @@ def env_below(irradiance: np.ndarray, lights=()) -> float:
         up, down = up + e * max(y, 0.0), down + e * max(-y, 0.0)
     luma = np.asarray(LUMA)
     lum_up, lum_down = float(up @ luma), float(down @ luma)
-    if lum_up <= 0.0:
-        return 0.0
+    if lum_up <= 0.0:  # a black sky 0; light from below alone 1 (the clamp's end)
+        return 1.0 if lum_down > 0.0 else 0.0
     return min(max(lum_down / lum_up, 0.0), 1.0)

@@ -209,7 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "corrections of the split-sum model, which it starts from)")
     p.add_argument("--student-hidden", type=_hidden, metavar="W,W",
                    help="the student's hidden layer widths (default 32,32)")
-    p.add_argument("--student-features", choices=("base", "dfg", "ssao", "ssao-env", "vis", "dfg-vis"),
+    p.add_argument("--student-features",
+                   choices=("base", "dfg", "ssao", "ssao-env", "vis", "dfg-vis"),
                    help="the student's inputs (default ssao-env: the material, n.v and how "
                         "bright the environment is from below, with the SSAO pass's occlusion "
                         "only as the diffuse factor, as the classical models apply it; ssao: "

@@ -84,10 +84,10 @@ LUMA = (0.2126, 0.7152, 0.0722)
 def env_below(lighting: Lighting) -> float:
     """How bright the environment's light from below is against its light from above: the
     luminance of its irradiance on a surface facing down over that on a surface facing up, in
-    [0, 1] (0 for a black sky, 1 for light from below alone). The irradiance is the map's (``lighting.irradiance``: row 0 faces
-    +Y, the last row -Y, as ``irradiance_lookup`` reads them at n = +-Y) plus each compact light
-    taken out of it (``lighting.lights``: irradiance times max(n.l, 0)); a rotation about +Y
-    leaves it unchanged and the intensity cancels. Twin of
+    [0, 1] (0 for a black sky, 1 for light from below alone). The irradiance is the map's
+    (``lighting.irradiance``: row 0 faces +Y, the last row -Y, as ``irradiance_lookup`` reads
+    them at n = +-Y) plus each compact light taken out of it (``lighting.lights``: irradiance
+    times max(n.l, 0)); a rotation about +Y leaves it unchanged and the intensity cancels. Twin of
     :func:`viewer.environment.irradiance.env_below` (the viewer's ``u_env_below``), which reads
     the same texture in numpy.
 
@@ -100,8 +100,8 @@ def env_below(lighting: Lighting) -> float:
     e = torch.stack([irr[0, :, :3].mean(0), irr[-1, :, :3].mean(0)])
     n = torch.tensor([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]], dtype=torch.float64)
     for light in lighting.lights or ((lighting.sun,) if lighting.sun is not None else ()):
-        d = torch.tensor(light.direction, dtype=torch.float64)
-        e = e + torch.tensor(light.irradiance, dtype=torch.float64) * (n @ d).clamp_min(0.0)[:, None]
+        cos = (n @ torch.tensor(light.direction, dtype=torch.float64)).clamp_min(0.0)
+        e = e + torch.tensor(light.irradiance, dtype=torch.float64) * cos[:, None]
     lum = e @ torch.tensor(LUMA, dtype=torch.float64)
     if float(lum[0]) <= 0.0:  # a black sky 0; light from below alone 1 (the clamp's end)
         return 1.0 if float(lum[1]) > 0.0 else 0.0

@@ -3,9 +3,9 @@ bundled HDRI, rendered with the neural student and with split-sum given the same
 evidence, scored against the path-traced truth.
 
 ``python -m relight.bench.real_assets [--out DIR] [--cache DIR] [--spp N] [--size WxH] [--quick]
-[--estimator NAME=FILE] [--student NAME=FILE] [--variant CASE KEY=VALUE ...]`` (also ``relight bench --suite
-real_assets``) writes ``real_assets.json``, ``real_assets.md`` (the table
-and a summary line counting the failures) and ``real_assets.png`` (a contact sheet) into ``--out``.
+[--estimator NAME=FILE] [--student NAME=FILE] [--variant CASE KEY=VALUE ...]`` (also ``relight
+bench --suite real_assets``) writes ``real_assets.json``, ``real_assets.md`` (the table and a
+summary line counting the failures) and ``real_assets.png`` (a contact sheet) into ``--out``.
 
 **Scenes** (:func:`asset_scene`): each model of :data:`ASSETS` opened as ``relight render MODEL
 --env HDRI --floor slab`` opens it (:func:`viewer.scene.assets.open_assets`: upright, framed by the
@@ -26,11 +26,11 @@ screen-space with the estimator's visibility in place of SSAO's occlusion and th
 is judged against the split-sum case with the same visibility evidence
 (:attr:`~.real_assets_cases.Case.baseline`). Beside them, candidate estimator files
 (``--estimator``), candidate student files (``--student``: ``neural NAME, rays`` and ``neural
-NAME, screen``, judged as the shipped student's cases) and *variants* (``--variant``, :func:`~.real_assets_cases.variant_case`): a case
-again with ``[render]`` settings changed, judged against that case, so a setting's cost against the
-truth (``ray_scale=2`` on the rays) is a row of the same table. **The splat capture**
-(:mod:`.real_assets_splats`): the plasma gun tiled with splats of its true materials on the same
-floor, drawn the same eight ways (rays see the splats' opaque cores:
+NAME, screen``, judged as the shipped student's cases) and *variants* (``--variant``,
+:func:`~.real_assets_cases.variant_case`): a case again with ``[render]`` settings changed,
+judged against that case, so a setting's cost against the truth (``ray_scale=2`` on the rays)
+is a row of the same table. **The splat capture** (:mod:`.real_assets_splats`): the plasma gun
+tiled with splats of its true materials on the same floor, drawn the same eight ways (rays see the splats' opaque cores:
 :mod:`viewer.raytrace.splat_proxies`), against the gun's own truth; its failures are counted apart
 ("(splats)").
 

@@ -133,9 +133,9 @@ LUMA = (0.2126, 0.7152, 0.0722)
 def env_below(irradiance: np.ndarray, lights=()) -> float:
     """How bright an environment's light from below is against its light from above: the
     luminance of the irradiance on a surface facing down (-Y) over that on one facing up, in
-    [0, 1] (0 for a black sky, 1 for light from below alone). ``irradiance [h, w, >= 3]`` is the map of :func:`irradiance_map`
-    (rows from pole to pole: row 0 faces +Y, the last row -Y; the mean of each row, whose texels
-    are one point); ``lights`` the compact lights taken out of it
+    [0, 1] (0 for a black sky, 1 for light from below alone). ``irradiance [h, w, >= 3]`` is the
+    map of :func:`irradiance_map` (rows from pole to pole: row 0 faces +Y, the last row -Y; the
+    mean of each row, whose texels are one point); ``lights`` the compact lights taken out of it
     (:class:`viewer.environment.sun.Sun`: irradiance times max(n.l, 0) added back). The neural
     student with ``ssao-env`` inputs reads it (``u_env_below``, one value a frame); twin:
     :func:`learned.neural.torch_lighting.env_below`. Exact where nine SH coefficients are not:

@@ -294,6 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sunless", type=_fraction, metavar="F",
                    help="the share of samples lit without the environment's compact sun and "
                         "lamps (sun_strength 0; default 0; 1: the preset's scenes, all sunless)")
+    p.add_argument("--ground", type=_fraction, metavar="F",
+                   help="the share of samples whose environment's lower hemisphere is a bright "
+                        "Lambertian ground (albedo 0.2-0.9) lit by its sky (default 0)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=cmd_data)
 

@@ -100,8 +100,9 @@ def shadow_blocks_val() -> GeneratorConfig:
 PRESETS = {"truth-train": truth_train, "heldout-kinds": heldout_kinds, "heldout-env": heldout_env,
            "shadow-extra": shadow_extra, "shadow-val": shadow_val,
            "shadow-blocks": shadow_blocks, "shadow-blocks-val": shadow_blocks_val}
-# the fields an override may change (relight data's --count, --size, --spp, --seed, --sunless)
-OVERRIDABLE = ("count", "size", "reference_spp", "seed", "sunless_fraction")
+# the fields an override may change (relight data's --count, --size, --spp, --seed, --sunless,
+# --ground)
+OVERRIDABLE = ("count", "size", "reference_spp", "seed", "sunless_fraction", "ground_fraction")
 
 
 def preset_config(name: str, **overrides) -> GeneratorConfig:

@@ -8,7 +8,7 @@ from .reference import reference_tracer
 
 def _data_config(args):
     """``relight data``'s configuration: ``--preset`` with ``--count``, ``--size``, ``--spp``,
-    ``--seed`` and ``--sunless`` overriding its fields (none given: exactly the preset's
+    ``--seed``, ``--sunless`` and ``--ground`` overriding its fields (none given: exactly the preset's
     dataset)."""
     try:
         from learned.data.presets import preset_config
@@ -16,7 +16,8 @@ def _data_config(args):
         raise RelightError(f"relight data needs the 'reference' extra: pip install -e "
                            f"'.[reference]' ({exc})", where="data") from None
     return preset_config(args.preset, count=args.count, size=args.size, reference_spp=args.spp,
-                         seed=args.seed, sunless_fraction=getattr(args, "sunless", None))
+                         seed=args.seed, sunless_fraction=getattr(args, "sunless", None),
+                         ground_fraction=getattr(args, "ground", None))
 
 
 def _protocol_data(args) -> int:

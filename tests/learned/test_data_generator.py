@@ -146,3 +146,36 @@ def test_datasets_from_before_the_gbuffer_options_still_resume(dataset, tmp_path
         info["config"].pop(k)
     (other / "dataset.json").write_text(json.dumps(info))
     assert _generate(other, TINY, ctx)["kept"] == 10
+
+
+def test_a_lambertian_ground_makes_the_sky_as_bright_below_as_its_albedo():
+    """``lambertian_ground``: the upper hemisphere untouched, the lower one uniform, and a
+    surface facing down lit by albedo x what lights one facing up (``env_below`` within 0.04 of
+    the albedo, measured within 0.003: the soft horizon band keeps a little sky), on the
+    procedural sky with its sun and without (its own dark ground: 0.07 and 0.18)."""
+    from learned.data.generator.config import GeneratorConfig as Config
+    from learned.data.generator.environments import lambertian_ground, random_environment
+    from viewer.environment.irradiance import env_below, irradiance_map
+    from viewer.environment.maps import sky_environment, texel_directions
+
+    for sun in (2000.0, 0.0):
+        sky = sky_environment(128, sun_radiance=sun)
+        y = texel_directions(128)[..., 1]
+        assert env_below(irradiance_map(sky, 128)) < 0.2
+        for albedo in (0.3, 0.8):
+            env = lambertian_ground(sky, albedo)
+            np.testing.assert_array_equal(env[y > 0], sky[y > 0])
+            below = env[y < -0.125]
+            assert np.ptp(below, axis=0).max() < 1e-5 * below.max()
+            assert env_below(irradiance_map(env, 128)) == pytest.approx(albedo, abs=0.04)
+    # the generator's share: 0 draws no ground (the draws of before), 1 a ground every time
+    rng = lambda: np.random.default_rng(5)  # noqa: E731
+    plain, recipe = random_environment(rng(), Config(env_width=64))
+    assert "ground_albedo" not in recipe
+    grounded, recipe = random_environment(rng(), Config(env_width=64, ground_fraction=1.0))
+    assert 0.2 <= recipe["ground_albedo"] <= 0.9
+    assert not np.allclose(plain, grounded)
+    from learned.data.generator.config import check_config
+
+    with pytest.raises(DatasetError, match="ground_fraction"):
+        check_config(Config(count=1, ground_fraction=2.0))

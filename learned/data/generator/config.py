@@ -43,6 +43,11 @@ class GeneratorConfig:
     # 0: viewer.environment.maps.scale_sun; a procedural sky keeps its sky, the studio its
     # softboxes); 0 draws nothing, 1 makes every sample's sunless (the same scenes as 0 gives)
     sunless_fraction: float = 0.0
+    # the share of samples whose environment's lower hemisphere is a Lambertian ground of a
+    # random albedo in GROUND_ALBEDO lit by the upper hemisphere (learned.data.generator.
+    # environments.lambertian_ground: snow, sand or concrete under the sky; env_below about the
+    # albedo, where the bundled skies' grounds give 0.05-0.2); 0 draws nothing
+    ground_fraction: float = 0.0
     # "" (default): sample i goes to the split SPLIT_PATTERN[i % 10]; "train" | "val" | "test":
     # every sample goes there (the protocol's datasets, learned.protocol.data: one configuration
     # per split, its own seed and environments, its summary in dataset.<split>.json)
@@ -189,6 +194,9 @@ def check_config(config: GeneratorConfig, tracer=None) -> None:
     if not 0.0 <= config.sunless_fraction <= 1.0:
         raise DatasetError(f"sunless_fraction {config.sunless_fraction} is not in [0, 1]",
                            where="sunless_fraction")
+    if not 0.0 <= config.ground_fraction <= 1.0:
+        raise DatasetError(f"ground_fraction {config.ground_fraction} is not in [0, 1]",
+                           where="ground_fraction")
     if config.targets == "reference":
         if config.gbuffer_fraction > 0:
             raise DatasetError("image G-buffers have no geometry to path-trace: use "

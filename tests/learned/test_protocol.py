@@ -253,8 +253,12 @@ def test_shipped_weights_say_where_they_come_from(capsys):
     from relight.commands.info import weights_provenance
     from viewer.neural import default_weights
 
+    from viewer.neural import load_network
+
     student = weights_provenance(default_weights("student"))
-    assert "relight train" in student["command"] and student["seed"] == 0
+    trained = load_network(default_weights("student"), "student").training
+    assert "relight train" in student["command"] and student["seed"] == trained["seed"]
+    assert f"--seed {trained['seed']}" in student["command"]  # the JSON names the file's seed
     assert any(v["test_scored"] >= 1 for v in student["test"].values())
     teacher = weights_provenance(default_weights("teacher"))
     assert "--teacher-light-input off" in teacher["command"]

@@ -22,13 +22,15 @@ _COMMON = {"size": 64, "samples": 256, "env_width": 128, "meshes": True, "gbuffe
            "degrade": 0.0,
            # added since (the defaults reproduce the stored sets: the fixed split pattern, no
            # sunless samples)
-           "split": "", "sunless_fraction": 0.0}
+           "split": "", "sunless_fraction": 0.0, "ground_fraction": 0.0}
 _TRUTH_KINDS = ["random", "sphere_on_plane", "cluster", "random", "touching_spheres", "concave",
                 "random", "cluster", "gltf"]
 STORED = {
-    # runs/truth2-sun50 (half the samples sunless; runs/truth2, the student's before, had none)
+    # runs/truth3g (half the samples sunless, a quarter over a bright ground; runs/truth2-sun50,
+    # the student's before, had no ground; runs/truth2, the one before it, no sunless sample)
     "truth-train": _COMMON | {
         "count": 480, "seed": 0, "scene_kinds": _TRUTH_KINDS, "sunless_fraction": 0.5,
+        "ground_fraction": 0.25,
         "env_paths": ["assets/environments/sky.exr", "assets/environments/park.exr"],
         "env_procedural": ["sky", "sky", "studio"]},
     "heldout-kinds": _COMMON | {
@@ -75,13 +77,14 @@ def test_presets_are_the_documented_recipe():
     train = gen.GeneratorConfig(count=480, size=64, samples=256, seed=0, gbuffer_fraction=0.0,
                                 targets="reference", reference_spp=256,
                                 scene_kinds=gen.TRUTH_KINDS, env_paths=gen.TRUTH_ENV_PATHS,
-                                sunless_fraction=0.5)
+                                sunless_fraction=0.5, ground_fraction=0.25)
     assert PRESETS["truth-train"]() == train
     assert PRESETS["heldout-kinds"]() == replace(gen.held_out_config(train, count=40),
-                                                 sunless_fraction=0.0)
+                                                 sunless_fraction=0.0, ground_fraction=0.0)
     assert PRESETS["heldout-env"]() == replace(train, count=40, seed=7,
                                                 env_paths=gen.HELD_OUT_ENV_PATHS,
-                                                env_procedural=(), sunless_fraction=0.0)
+                                                env_procedural=(), sunless_fraction=0.0,
+                                                ground_fraction=0.0)
     envs = {gen._env_identity(e) for e in (*train.env_procedural, *train.env_paths)}
     for name in ("heldout-kinds", "heldout-env"):
         held = PRESETS[name]()
@@ -119,14 +122,14 @@ def test_shadow_presets_share_no_environment_with_each_other_or_the_protocol():
 def test_train_targets_reference_uses_the_truth_preset():
     """`relight train --targets reference` generates the truth-train preset with its --count
     (default the quick dataset's 40) and --reference-spp: the recipe it had before the preset,
-    now with the preset's sunless half (the shipped student's data)."""
+    now with the preset's sunless half and bright-ground quarter (the shipped student's data)."""
     from learned.train.config import QUICK_DATA
 
     args = build_parser().parse_args(["train", "--targets", "reference"])
     old = gen.GeneratorConfig(**(dict(QUICK_DATA) | {
         "gbuffer_fraction": 0.0, "targets": "reference", "reference_spp": 256,
         "scene_kinds": gen.TRUTH_KINDS, "env_paths": gen.TRUTH_ENV_PATHS,
-        "sunless_fraction": 0.5}))
+        "sunless_fraction": 0.5, "ground_fraction": 0.25}))
     assert _truth_config(args) == old == replace(PRESETS["truth-train"](), count=40)
     args = build_parser().parse_args(["train", "--targets", "reference", "--count", "480",
                                       "--reference-spp", "64"])

@@ -21,6 +21,7 @@ import torch
 from learned.twins.brdf import clamp_perceptual_roughness
 from learned.twins.deferred import env_dir, reflect
 from learned.twins.env_sampling import sample_env
+from learned.twins.ground import LUMA  # Rec. 709, as the GLSL
 from learned.twins.equirect import equirect_uv, rotate_y
 from learned.twins.ibl import (
     ibl_dfg,
@@ -77,10 +78,6 @@ def surface(gb: dict, v: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return n, (n * v).sum(-1).clamp(0.0, 1.0)
 
 
-# Rec. 709 luminance (viewer.environment.irradiance.LUMA)
-LUMA = (0.2126, 0.7152, 0.0722)
-
-
 def env_below(lighting: Lighting) -> float:
     """How bright the environment's light from below is against its light from above: the
     luminance of its irradiance on a surface facing down over that on a surface facing up, in
@@ -88,8 +85,8 @@ def env_below(lighting: Lighting) -> float:
     (``lighting.irradiance``: row 0 faces +Y, the last row -Y, as ``irradiance_lookup`` reads
     them at n = +-Y) plus each compact light taken out of it (``lighting.lights``: irradiance
     times max(n.l, 0)); a rotation about +Y leaves it unchanged and the intensity cancels. Twin of
-    :func:`viewer.environment.irradiance.env_below` (the viewer's ``u_env_below``), which reads
-    the same texture in numpy.
+    :func:`viewer.environment.irradiance.env_below` (the viewer's ``u_env_below``), which the IBL's
+    builders compute in numpy from the array this texture was uploaded from.
 
     Why a student reads it (``features`` ``"ssao-env"``): split-sum lights a surface facing down
     with the environment's lower hemisphere, which in a scene is mostly the floor; under an indoor

@@ -53,9 +53,10 @@ def _upper_only(tmp_path):
 
 
 def test_numpy_and_torch_agree(renderer, tmp_path):
-    """The viewer's value (numpy, the IBL's SH and its lights) equals the twin's (torch, the
-    same SH and lights read back) to float32 rounding of the coefficients (rel 1e-5), for the
-    whole IBL and for the one without its sun, whose lights carry the sun."""
+    """The viewer's value (numpy, computed by the IBL's builder from the irradiance map's array and
+    its lights) equals the twin's (torch, the same map read back from the texture, the same
+    lights) to float32 rounding (rel 1e-5), for the whole IBL and for the one without its sun,
+    whose lights carry the sun."""
     from viewer.scene.description import Scene
 
     for spec in (_sky(), _sky(0.0), EnvironmentSpec(path="assets/environments/lobby.exr"),

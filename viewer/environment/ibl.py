@@ -53,7 +53,7 @@ from .ibl_core import (  # noqa: F401 - re-exported: viewer.environment.ibl is t
     prefilter_samples,
     sh_project,
 )
-from .irradiance import IRRADIANCE_WIDTH, irradiance_map
+from .irradiance import IRRADIANCE_WIDTH, env_below, irradiance_map
 from .sun import extract_lights
 
 
@@ -131,8 +131,8 @@ def _build_ibl_fis(programs, env: np.ndarray, options: IBLOptions, sun=None,
 
         # (c) SH projection, (d) the LUTs
         sh = sh_project(programs, source)
-        irradiance = irradiance_texture(ctx, irradiance_map(
-            env if residual is None else res, max(4, min(IRRADIANCE_WIDTH, w))))
+        irr = irradiance_map(env if residual is None else res, max(4, min(IRRADIANCE_WIDTH, w)))
+        irradiance = irradiance_texture(ctx, irr)
         dfg, dominant = build_luts(programs, options)
     except BaseException:
         for tex in (radiance, prefiltered, dfg, dominant, irradiance):
@@ -142,6 +142,7 @@ def _build_ibl_fis(programs, env: np.ndarray, options: IBLOptions, sun=None,
     finally:
         if source is not None and source is not radiance:
             source.release()
+    taken = lights if residual is not None else ()
     return IBL(radiance, prefiltered, dfg, sh, levels, options, dominant,
                sun=sun if residual is not None else None, irradiance=irradiance,
-               lights=lights if residual is not None else ())
+               lights=taken, env_below=env_below(irr, taken))

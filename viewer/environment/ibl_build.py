@@ -38,7 +38,7 @@ from .ibl_core import (
     prefilter_roughness,
     sh_project,
 )
-from .irradiance import IRRADIANCE_WIDTH, irradiance_map
+from .irradiance import IRRADIANCE_WIDTH, env_below, irradiance_map
 from .prefilter import (
     SUN_MAX_POINTS,
     box_down_sparse,
@@ -380,10 +380,11 @@ def build_environment_ibls(programs, env: np.ndarray, options: IBLOptions = IBLO
         raise
     dfg, dominant = luts
     plain = IBL(radiance, full, dfg, np.asarray(parts["sh"], np.float32), levels, options,
-                dominant, owned=(), irradiance=irr)
+                dominant, owned=(), irradiance=irr, env_below=env_below(parts["irradiance"]))
     other = None
     if sunless is not None:
         other = IBL(radiance, sunless, dfg, np.asarray(parts["sh_sunless"], np.float32), levels,
-                    options, dominant, sun=sun, owned=(), irradiance=irr_sunless, lights=lights)
+                    options, dominant, sun=sun, owned=(), irradiance=irr_sunless, lights=lights,
+                    env_below=env_below(parts["irradiance_sunless"], lights))
         other.full_prefiltered = full
     return EnvironmentIBLs(plain, other, textures + owned_luts, parts)

@@ -12,7 +12,6 @@ import moderngl
 import numpy as np
 
 from ..errors import InputError
-from .irradiance import env_below
 
 _GROUP = 8  # local size of the 2D ibl_*.comp passes (8 x 8)
 _SH_RUN = 64  # texels of a row one ibl_sh.comp invocation sums (SH_RUN there)
@@ -95,7 +94,7 @@ class IBL:
     """GPU resources of one environment: textures, SH coefficients and the options used."""
     def __init__(self, radiance, prefiltered, dfg, sh: np.ndarray, levels: int,
                  options: IBLOptions, dominant=None, sun=None, owned=None, irradiance=None,
-                 lights: tuple = ()):
+                 lights: tuple = (), env_below: float | None = None):
         self.radiance = radiance        # moderngl.Texture, RGBA32F, full box mip chain
         self.prefiltered = prefiltered  # moderngl.Texture, RGBA32F, `levels` mips
         self.dfg = dfg                  # moderngl.Texture, RG32F, [dfg_size, dfg_size]
@@ -114,7 +113,9 @@ class IBL:
         # with a sun: the prefiltered chain of the whole environment (the plain IBL's, not owned),
         # which SUN_LIGHT passes read where the lobe is narrower than the sun
         self.full_prefiltered = None
-        self._env_below = None  # env_below, computed on first use
+        # viewer.environment.irradiance.env_below of the irradiance map and the lights taken out
+        # (the builders compute it from the map's array: no readback); None: not computed
+        self.env_below = env_below
         # the textures release() frees (default: radiance, prefiltered, dfg, dominant); an IBL of a
         # viewer.environment.store.EnvironmentStore owns none: the store frees them on eviction
         self._owned = (list(owned) if owned is not None else
@@ -141,7 +142,9 @@ class IBL:
         if "u_sh" in program:
             program["u_sh"].write(np.ascontiguousarray(self.sh, dtype=np.float32).tobytes())
         if "u_env_below" in program:  # the ssao-env student's input (env_below)
-            program["u_env_below"].value = self.env_below
+            if self.env_below is None:
+                raise RuntimeError("an IBL without env_below cannot bind u_env_below")
+            program["u_env_below"].value = float(self.env_below)
         if self.sun is not None:  # SUN_LIGHT (a pass without a specular lobe reads no chain)
             # every light's specular share uses the widest light's radius: the chain mix
             # (ibl_specular_radiance_sun) holds one weight for all of them
@@ -167,14 +170,6 @@ class IBL:
                 program["u_env_prefiltered_full"].value = unit
                 unit += 1
         return unit
-
-    @property
-    def env_below(self) -> float:
-        """:func:`viewer.environment.irradiance.env_below` of this IBL: its irradiance map (read
-        back once) and the lights taken out of it (the whole environment's light either way)."""
-        if self._env_below is None:
-            self._env_below = env_below(self.read_level("irradiance", 0), self.lights)
-        return self._env_below
 
     def read_level(self, texture: str, level: int = 0) -> np.ndarray:
         """Read back one mip of ``"radiance"``, ``"prefiltered"``, ``"dfg"`` or ``"dominant"`` as

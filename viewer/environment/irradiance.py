@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from .sun import texel_solid_angles
+from .sun import _LUMA, texel_solid_angles
 
 # the map's width (height: half); 2 MiB as RGBA32F. 256 wide held every real map within 1.2 %
 # but a studio's lamps (max / median 3e5) to 2.1 % at a normal within a texel of a lamp's
@@ -126,10 +126,6 @@ def irradiance_brute(env: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return out
 
 
-# Rec. 709 luminance (twin: learned.neural.torch_lighting.LUMA)
-LUMA = (0.2126, 0.7152, 0.0722)
-
-
 def env_below(irradiance: np.ndarray, lights=()) -> float:
     """How bright an environment's light from below is against its light from above: the
     luminance of the irradiance on a surface facing down (-Y) over that on one facing up, in
@@ -146,8 +142,7 @@ def env_below(irradiance: np.ndarray, lights=()) -> float:
         y = float(light.direction[1])
         e = np.asarray(light.irradiance, np.float64)
         up, down = up + e * max(y, 0.0), down + e * max(-y, 0.0)
-    luma = np.asarray(LUMA)
-    lum_up, lum_down = float(up @ luma), float(down @ luma)
+    lum_up, lum_down = float(up @ _LUMA), float(down @ _LUMA)  # Rec. 709
     if lum_up <= 0.0:  # a black sky 0; light from below alone 1 (the clamp's end)
         return 1.0 if lum_down > 0.0 else 0.0
     return min(max(lum_down / lum_up, 0.0), 1.0)

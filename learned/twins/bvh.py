@@ -1,6 +1,7 @@
-"""Twins of ``shaders/lib/bvh.glsl`` (a ray against a box and a triangle) and of the traversal in
-``shaders/passes/raytrace.glsl`` (closest and any hit over the BVH of :mod:`viewer.raytrace.bvh`,
-handed in as the arrays the GL buffers hold)."""
+"""Twins of ``shaders/lib/bvh.glsl`` (a ray against a box, a triangle, an ellipsoid and a
+Gaussian) and of the traversal in ``shaders/passes/raytrace.glsl`` (closest hit and
+any hit over the BVH of :mod:`viewer.raytrace.bvh`, handed in as the arrays the GL buffers
+hold)."""
 from __future__ import annotations
 
 import torch
@@ -10,7 +11,7 @@ RAY_MISS = 3.0e38
 # then RT_MAP_SLOTS map slots of two rows; viewer/raytrace/scene.py MATERIAL_VEC4S)
 ROW_SURFACE, ROW_SLOTS, MAP_SLOTS = 1, 11, 13
 MATERIAL_ROWS = ROW_SLOTS + 2 * MAP_SLOTS
-ENTERED_ONLY = -2.0  # a proxy's cutoff: solid where rays enter it (raytrace.glsl RT_ENTERED_ONLY)
+OPAQUE_AT = 0.5  # raytrace.glsl RT_OPAQUE_AT: the gathered opacity at which splats block
 
 
 def safe_inverse(d: torch.Tensor) -> torch.Tensor:
@@ -68,6 +69,31 @@ def ray_offset(p: torch.Tensor, ng: torch.Tensor, d: torch.Tensor) -> torch.Tens
     return p + ng * side[..., None]
 
 
+def gaussian_ray_peak(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor) -> torch.Tensor:
+    """GLSL ``vec2 gaussian_ray_peak(vec3 o, vec3 d, float t_max)`` (o, d in a Gaussian's unit
+    frame): ``[..., 2]`` (t of the peak along the ray within [0, t_max], q^2 there)."""
+    dd = (d * d).sum(-1)
+    t = torch.where(dd > 0.0, torch.minimum(torch.clamp(-(o * d).sum(-1)
+                                                        / torch.where(dd > 0.0, dd, 1.0),
+                                                        min=0.0), t_max),
+                    torch.zeros_like(dd))
+    x = o + t[..., None] * d
+    return torch.stack([t, (x * x).sum(-1)], dim=-1)
+
+
+def ellipsoid_entry(o: torch.Tensor, d: torch.Tensor, r2: torch.Tensor) -> torch.Tensor:
+    """GLSL ``float ellipsoid_entry(vec3 o, vec3 d, float r2)``: where the ray enters the sphere
+    of squared radius r2 (an ellipsoid's unit frame), -1 for a miss, a start inside, an entry
+    behind o or r2 <= 0."""
+    a = (d * d).sum(-1)
+    b = (o * d).sum(-1)
+    c = (o * o).sum(-1) - r2
+    disc = b * b - a * c
+    ok = (a > 0.0) & (r2 > 0.0) & (c > 0.0) & (b < 0.0) & (disc >= 0.0)
+    t = c / (-b + torch.sqrt(torch.clamp(disc, min=0.0)))
+    return torch.where(ok, t, torch.full_like(t, -1.0))
+
+
 # ---- the traversal (passes/raytrace.glsl) -------------------------------------------------------
 
 def _child(nodes: torch.Tensor, row: int, side: int):
@@ -76,16 +102,11 @@ def _child(nodes: torch.Tensor, row: int, side: int):
     return a[:3], c[:3], int(a[3:4].view(torch.int32)), int(c[3:4].view(torch.int32))
 
 
-def _solid(tri, b, materials, maps, vertices, d) -> bool:
+def _solid(tri, materials) -> bool:
     """``rt_solid`` for the masks of the parity scenes: a MASK material's base alpha factor
-    against its cutoff (the parity scenes have no maps); a proxy (cutoff ENTERED_ONLY) solid where
-    the ray along ``d`` enters it, against the triangle's counter-clockwise face."""
+    against its cutoff (the parity scenes have no maps)."""
     rows = materials[int(tri[3]) * MATERIAL_ROWS: int(tri[3]) * MATERIAL_ROWS + MATERIAL_ROWS]
     cutoff = float(rows[ROW_SURFACE, 3])
-    if cutoff == ENTERED_ONLY:
-        p = vertices[0::2, :3]
-        p0, p1, p2 = p[int(tri[0])], p[int(tri[1])], p[int(tri[2])]
-        return float((torch.linalg.cross(p1 - p0, p2 - p0) * d).sum()) < 0.0
     if cutoff < 0.0:
         return True
     if float(rows[ROW_SLOTS, 3]) >= 0.0:  # slot 0, the base colour's map
@@ -93,11 +114,27 @@ def _solid(tri, b, materials, maps, vertices, d) -> bool:
     return float(rows[0, 3]) >= cutoff
 
 
+def _entered_splat(edges, i: int, d) -> int:
+    """``rt_entered_splat``: the splat whose proxy triangle ``i`` is a face of, entered along
+    ``d`` (``edges [3N, 4]``: TraceGeometry.edges, the first texel's w 1 + the splat), -1 for
+    any other triangle, -2 where the ray leaves the proxy through it."""
+    if edges is None or float(edges[3 * i, 3]) < 0.5:
+        return -1
+    enters = float((torch.linalg.cross(edges[3 * i + 1, :3], edges[3 * i + 2, :3]) * d).sum()) < 0
+    return int(edges[3 * i, 3]) - 1 if enters else -2
+
+
+def _splat_ray(rows, o, d):
+    """``rt_splat_ray``: the ray in the splat's unit-Gaussian frame."""
+    return rows[:3, :3] @ o + rows[:3, 3], rows[:3, :3] @ d
+
+
 def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
-                    vertices, materials) -> torch.Tensor:
+                    vertices, materials, splats=None, edges=None) -> torch.Tensor:
     """``RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max)`` over the buffers (``nodes [4K, 4]``
     float32 as uploaded: viewer/raytrace/bvh.py child_pairs, ``triangles [N, 4]`` int,
-    ``vertices [2V, 4]``, ``materials [MATERIAL_ROWS K, 4]``), ray by ray in the GLSL's order:
+    ``vertices [2V, 4]``, ``materials [MATERIAL_ROWS K, 4]``; for splats ``splats [4S, 4]`` and
+    ``edges [3N, 4]``: TraceGeometry.splats and .edges), ray by ray in the GLSL's order:
     ``[R, 4]`` (t, triangle index as float, b1, b2)."""
     out = torch.zeros(o.shape[0], 4, dtype=torch.float32)
     pos = vertices[0::2, :3]
@@ -116,9 +153,21 @@ def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes
                         tri = triangles[i]
                         h = ray_triangle(oo, dd, pos[int(tri[0])], pos[int(tri[1])],
                                          pos[int(tri[2])])
-                        if 0.0 < float(h[0]) < best and _solid(tri, h[1:], materials, None,
-                                                              vertices, dd):
-                            best, tri_best, bb = float(h[0]), i, (float(h[1]), float(h[2]))
+                        t = float(h[0])
+                        if not 0.0 < t < best:
+                            continue
+                        s = _entered_splat(edges, i, dd)
+                        if s == -2:
+                            continue  # leaves the proxy
+                        if s >= 0:  # a splat: where the ray enters its opaque core
+                            splat = splats[4 * s: 4 * s + 4]
+                            oc, dc = _splat_ray(splat, oo, dd)
+                            t = float(ellipsoid_entry(oc, dc, splat[3, 1]))
+                            if not 0.0 < t < best:
+                                continue
+                        elif not _solid(tri, materials):
+                            continue
+                        best, tri_best, bb = t, i, (float(h[1]), float(h[2]))
                 else:
                     tb = torch.tensor(best)
                     left, right = _child(nodes, ref, 0), _child(nodes, ref, 1)
@@ -141,7 +190,33 @@ def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes
 
 
 def bvh_any_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
-                vertices, materials) -> torch.Tensor:
-    """``bool bvh_any_hit(vec3 o, vec3 d, float t_max)``: ``[R]`` float (1 hit, 0 clear)."""
-    hits = bvh_closest_hit(o, d, t_max, nodes, triangles, vertices, materials)
-    return (hits[:, 1] >= 0.0).to(torch.float32)
+                vertices, materials, splats=None, edges=None) -> torch.Tensor:
+    """``bool bvh_any_hit(vec3 o, vec3 d, float t_max)``: ``[R]`` float (1 blocked, 0 clear):
+    blocked by a solid triangle, or once the product of what the entered splats let through
+    falls to ``1 - OPAQUE_AT``. Every triangle on the ray is visited (the product does not
+    depend on the order the GLSL walks in)."""
+    pos = vertices[0::2, :3]
+    out = torch.zeros(o.shape[0], dtype=torch.float32)
+    p = pos[triangles[:, :3].long()]  # [N, 3, 3]
+    for r in range(o.shape[0]):
+        oo, dd, tm = o[r], d[r], t_max[r]
+        h = ray_triangle(oo.expand(len(p), 3), dd.expand(len(p), 3), p[:, 0], p[:, 1], p[:, 2])
+        seen = 1.0
+        for i in torch.nonzero((h[:, 0] > 0.0) & (h[:, 0] < tm)).flatten().tolist():
+            tri = triangles[i]
+            s = _entered_splat(edges, i, dd)
+            if s == -2:
+                continue
+            if s == -1:
+                if _solid(tri, materials):
+                    seen = 0.0
+                    break
+                continue
+            splat = splats[4 * s: 4 * s + 4]
+            oc, dc = _splat_ray(splat, oo, dd)
+            q2 = gaussian_ray_peak(oc, dc, tm)[1]
+            seen *= float(1.0 - splat[3, 0] * torch.exp(-0.5 * q2))
+            if seen <= 1.0 - OPAQUE_AT:
+                break
+        out[r] = float(seen <= 1.0 - OPAQUE_AT)
+    return out

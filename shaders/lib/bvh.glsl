@@ -57,3 +57,29 @@ vec3 ray_offset(vec3 p, vec3 ng, vec3 d) {
     float scale = 1.0e-4 * max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
     return p + ng * (dot(ng, d) >= 0.0 ? scale : -scale);
 }
+
+// A ray o + t d in a Gaussian's unit frame (the Gaussian exp(-|x|^2 / 2) there; o, d mapped by
+// the splat's affine map, d not unit): (t, q^2) at the Gaussian's peak along the ray within
+// [0, t_max], q^2 the squared Mahalanobis distance there. The line's peak is at
+// t* = -(o.d) / (d.d) (3D Gaussian Ray Tracing, Moenne-Loccoz et al. 2024, evaluates a particle
+// there); clamped to the segment, a ray that starts past the peak or stops short of it is
+// judged where it comes nearest.
+vec2 gaussian_ray_peak(vec3 o, vec3 d, float t_max) {
+    float dd = dot(d, d);
+    float t = dd > 0.0 ? clamp(-dot(o, d) / dd, 0.0, t_max) : 0.0;
+    vec3 x = o + t * d;
+    return vec2(t, dot(x, x));
+}
+
+// Where the ray o + t d enters the sphere |x|^2 = r2 (o, d in an ellipsoid's unit frame, d not
+// unit: the ellipsoid itself), or -1 where it misses it, starts inside it, enters behind o or
+// r2 <= 0 (no ellipsoid: a ray through its centre would touch the point).
+// The nearer root of (d.d) t^2 + 2 (o.d) t + o.o - r2, in the form that keeps its digits.
+float ellipsoid_entry(vec3 o, vec3 d, float r2) {
+    float a = dot(d, d);
+    float b = dot(o, d);
+    float c = dot(o, o) - r2;
+    float disc = b * b - a * c;
+    if (!(a > 0.0) || !(r2 > 0.0) || c <= 0.0 || b >= 0.0 || disc < 0.0) return -1.0;
+    return c / (-b + sqrt(disc));  // = (-b - sqrt(disc)) / a, without the cancellation
+}

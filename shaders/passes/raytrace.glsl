@@ -1,6 +1,7 @@
 // raytrace.glsl (pass chunk) - rays against the scene's triangles: the BVH and triangle buffers
 // viewer/raytrace uploads (viewer/raytrace/scene.py says what they hold), its traversal (closest
-// hit, any hit), alpha-masked surfaces, and the surface a ray hits. The pure maths is
+// hit, any hit), alpha-masked surfaces, splats' Gaussians inside their proxies, and the surface a
+// ray hits. The pure maths is
 // lib/bvh.glsl. Buffers bind at 3 .. 5 (viewer/raytrace/upload.py BINDINGS); the nodes and the
 // triangles' edges are textures (upload.py says why).
 #include "lib/bvh.glsl"
@@ -19,7 +20,12 @@ layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_material
 // 4 texels an interior node: its children's (lo, ref), (hi, count) (viewer/raytrace/bvh.py
 // child_pairs)
 uniform sampler2D u_rt_nodes;
-uniform sampler2D u_rt_edges;  // 3 texels a triangle: p0, p1 - p0, p2 - p0 (xyz)
+// 3 texels a triangle: p0, p1 - p0, p2 - p0 (xyz); the first's w: 1 + the splat a splat proxy's
+// face belongs to (viewer/raytrace/splat_proxies.py), 0 for any other triangle
+uniform sampler2D u_rt_edges;
+// 4 texels a splat (viewer/raytrace/splat_proxies.py splat_rows): its unit-Gaussian frame's
+// affine map (rows: W_i, c_i), then (opacity, core radius^2)
+uniform sampler2D u_rt_splats;
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
 
@@ -28,7 +34,6 @@ uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray m
 // wrap modes in row 1's w).
 #define RT_ROW_BASE 0          // base colour factor (rgb), its alpha
 #define RT_ROW_SURFACE 1       // roughness, metallic, specular, MASK cutoff (-1: not masked)
-#define RT_ENTERED_ONLY -2.0   // that cutoff for a proxy solid where rays enter (scene.ENTERED_ONLY)
 #define RT_ROW_EMISSION 2      // emissive (rgb), double-sided
 #define RT_ROW_DIELECTRIC 3    // KHR_materials_ior / _specular: F0 (rgb), F90 (a < 0: none)
 #define RT_ROW_CLEARCOAT 4     // KHR_materials_clearcoat: factor, roughness
@@ -61,10 +66,13 @@ uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray m
 // so a mask test or a map lookup no material needs costs its full price at every call unless
 // it is compiled out.
 #ifndef RT_MASKS
-#define RT_MASKS 1     // whether some material is alphaMode MASK or a proxy (rt_solid reads them)
+#define RT_MASKS 1     // whether some material is alphaMode MASK (rt_solid reads them)
 #endif
 #ifndef RT_MAPS
 #define RT_MAPS 8191   // the map slots some material has a map in: bit k for slot k
+#endif
+#ifndef RT_SPLATS
+#define RT_SPLATS 1    // whether some mesh is a splat proxy (its faces' splats are evaluated)
 #endif
 
 struct RayHit {
@@ -116,31 +124,64 @@ vec2 rt_uv(uvec4 tri, vec2 b) {
     return t0 * (1.0 - b.x - b.y) + t1 * b.x + t2 * b.y;
 }
 
-// Whether triangle i (`tri`) is solid at barycentrics b for a ray along d: alphaMode MASK cuts
-// it where the base colour's alpha (factor x map) is below the cutoff; a closed proxy (cutoff
-// RT_ENTERED_ONLY: a splat's opaque core, viewer/raytrace/splat_proxies.py) is solid only where
-// the ray enters it, against its outward (counter-clockwise) face; every other surface is solid.
-bool rt_solid(int i, uvec4 tri, vec2 b, vec3 d) {
+// Whether triangle i (`tri`) is solid at barycentrics b: alphaMode MASK cuts it where the base
+// colour's alpha (factor x map) is below the cutoff; every other surface is solid (a splat
+// proxy is not a surface: rt_entered_splat).
+bool rt_solid(int i, uvec4 tri, vec2 b) {
 #if !RT_MASKS
     return true;
 #endif
     int m = int(tri.w);
     float cutoff = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_SURFACE].w;
-    if (cutoff == RT_ENTERED_ONLY)
-        return dot(cross(rt_texel(u_rt_edges, 3 * i + 1).xyz, rt_texel(u_rt_edges, 3 * i + 2).xyz),
-                   d) < 0.0;
     if (cutoff < 0.0) return true;
     float alpha = rt_materials[m * RT_MATERIAL_ROWS + RT_ROW_BASE].w
                   * rt_map(m, RT_MAP_BASE_COLOR, rt_uv(tri, b), vec4(1.0)).a;
     return alpha >= cutoff;
 }
 
-// ray_triangle against triangle i of rt_triangles: its p0, p1 - p0, p2 - p0 as uploaded
-// (rt_edges; three reads, where the vertices took four, one after the other).
-vec3 rt_triangle(int i, vec3 o, vec3 d) {
-    return ray_triangle_edges(o, d, rt_texel(u_rt_edges, 3 * i).xyz,
-                              rt_texel(u_rt_edges, 3 * i + 1).xyz,
-                              rt_texel(u_rt_edges, 3 * i + 2).xyz);
+// The splat whose proxy the triangle with edge texels e0, e1, e2 is a face of, entered through it
+// along d (its outward, counter-clockwise face looks against d), or -1: not a splat's proxy, or
+// left through this face. A proxy counts only where a ray enters it (one face a splat; a ray
+// that starts inside leaves it unhindered).
+int rt_entered_splat(vec4 e0, vec4 e1, vec4 e2, vec3 d) {
+#if !RT_SPLATS
+    return -1;
+#endif
+    if (e0.w < 0.5) return -1;
+    return dot(cross(e1.xyz, e2.xyz), d) < 0.0 ? int(e0.w) - 1 : -2;
+}
+
+// The ray o + t d in splat s's unit-Gaussian frame: (o', d').
+void rt_splat_ray(int s, vec3 o, vec3 d, out vec3 oc, out vec3 dc) {
+    vec4 r0 = rt_texel(u_rt_splats, 4 * s), r1 = rt_texel(u_rt_splats, 4 * s + 1);
+    vec4 r2 = rt_texel(u_rt_splats, 4 * s + 2);
+    oc = vec3(dot(r0.xyz, o) + r0.w, dot(r1.xyz, o) + r1.w, dot(r2.xyz, o) + r2.w);
+    dc = vec3(dot(r0.xyz, d), dot(r1.xyz, d), dot(r2.xyz, d));
+}
+
+// Where the ray o + t d (unit d) stops at splat s: the entry into its opaque core (lib/bvh.glsl
+// ellipsoid_entry), or -1 where it passes outside the core or the splat has none.
+float rt_splat_t(int s, vec3 o, vec3 d) {
+    vec3 oc, dc;
+    rt_splat_ray(s, o, d, oc, dc);
+    return ellipsoid_entry(oc, dc, rt_texel(u_rt_splats, 4 * s + 3).y);
+}
+
+// The fraction of light splat s lets through along o + t d, 0 < t < t_max: 1 - opacity
+// exp(-q^2 / 2) at the peak along the segment (lib/bvh.glsl gaussian_ray_peak).
+float rt_splat_transmittance(int s, vec3 o, vec3 d, float t_max) {
+    vec3 oc, dc;
+    rt_splat_ray(s, o, d, oc, dc);
+    vec2 peak = gaussian_ray_peak(oc, dc, t_max);
+    return 1.0 - rt_texel(u_rt_splats, 4 * s + 3).x * exp(-0.5 * peak.y);
+}
+
+// Triangle i's edge texels (rt_edges: p0, p1 - p0, p2 - p0; three reads, where the vertices
+// took four, one after the other), for ray_triangle_edges and rt_entered_splat.
+void rt_edges(int i, out vec4 e0, out vec4 e1, out vec4 e2) {
+    e0 = rt_texel(u_rt_edges, 3 * i);
+    e1 = rt_texel(u_rt_edges, 3 * i + 1);
+    e2 = rt_texel(u_rt_edges, 3 * i + 2);
 }
 
 // The traversal walks child entries (viewer/raytrace/bvh.py child_pairs): (ref, count) is an
@@ -165,12 +206,20 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
     for (;;) {
         if (count > 0) {
             for (int i = ref; i < ref + count; ++i) {
-                vec3 r = rt_triangle(i, o, d);
-                if (r.x > 0.0 && r.x < hit.t && rt_solid(i, rt_triangles[i], r.yz, d)) {
-                    hit.t = r.x;
-                    hit.triangle = i;
-                    hit.b = r.yz;
+                vec4 e0, e1, e2;
+                rt_edges(i, e0, e1, e2);
+                vec3 r = ray_triangle_edges(o, d, e0.xyz, e1.xyz, e2.xyz);
+                if (!(r.x > 0.0 && r.x < hit.t)) continue;
+                int s = rt_entered_splat(e0, e1, e2, d);
+                if (s >= 0) {  // a splat: where the ray enters its opaque core
+                    r.x = rt_splat_t(s, o, d);
+                    if (!(r.x > 0.0 && r.x < hit.t)) continue;
+                } else if (s == -2 || !rt_solid(i, rt_triangles[i], r.yz)) {
+                    continue;
                 }
+                hit.t = r.x;
+                hit.triangle = i;
+                hit.b = r.yz;
             }
         } else {
             vec4 l0 = rt_texel(u_rt_nodes, 4 * ref), l1 = rt_texel(u_rt_nodes, 4 * ref + 1);
@@ -206,9 +255,16 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
     return hit;
 }
 
-// Whether any solid triangle lies on the ray o + t d for 0 < t < t_max (shadow rays).
+// RT_OPAQUE_AT: the opacity at which splats block a shadow ray (splat_proxies.OPAQUE_AT)
+#define RT_OPAQUE_AT 0.5
+
+// Whether the ray o + t d is blocked for 0 < t < t_max (shadow rays): by a solid triangle, or by
+// the splats whose proxies it enters once the opacity it gathers through them reaches
+// RT_OPAQUE_AT, i.e. the product of what each lets through (rt_proxy_transmittance; in any
+// order) falls to 1 - RT_OPAQUE_AT (viewer/raytrace/splat_proxies.py says why).
 bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
     if (u_rt_node_count == 0) return false;
+    float seen = 1.0;
     vec3 inv_d = safe_inverse(d);
     int stack[RAYTRACE_STACK];
     int stack_count[RAYTRACE_STACK];
@@ -218,8 +274,17 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
     for (;;) {
         if (count > 0) {
             for (int i = ref; i < ref + count; ++i) {
-                vec3 r = rt_triangle(i, o, d);
-                if (r.x > 0.0 && r.x < t_max && rt_solid(i, rt_triangles[i], r.yz, d)) return true;
+                vec4 e0, e1, e2;
+                rt_edges(i, e0, e1, e2);
+                vec3 r = ray_triangle_edges(o, d, e0.xyz, e1.xyz, e2.xyz);
+                if (!(r.x > 0.0 && r.x < t_max)) continue;
+                int s = rt_entered_splat(e0, e1, e2, d);
+                if (s >= 0) {
+                    seen *= rt_splat_transmittance(s, o, d, t_max);
+                    if (seen <= 1.0 - RT_OPAQUE_AT) return true;
+                } else if (s == -1 && rt_solid(i, rt_triangles[i], r.yz)) {
+                    return true;
+                }
             }
         } else {
             vec4 l0 = rt_texel(u_rt_nodes, 4 * ref), l1 = rt_texel(u_rt_nodes, 4 * ref + 1);
@@ -244,6 +309,19 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
         count = stack_count[sp];
     }
     return false;
+}
+
+// Whether a ray whose closest hit missed (o + t d, 0 < t < t_max) reaches the environment: always
+// without splats; with them, unless it passed between splats' opaque cores through enough of
+// their Gaussians to be blocked (bvh_any_hit's rule; a closest hit stops at a core only, and on a
+// surface tiled with splats the cores leave gaps: splat_proxies.py). What a ray so blocked would
+// see is not a surface rays can shade; visibility ratios count it as occluded.
+bool rt_escapes(vec3 o, vec3 d, float t_max) {
+#if RT_SPLATS
+    return !bvh_any_hit(o, d, t_max);
+#else
+    return true;
+#endif
 }
 
 // The surface a ray hit: what the path tracer shades at a secondary vertex (the material's

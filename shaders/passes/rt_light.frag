@@ -319,7 +319,7 @@ void main() {
         vec3 o = ray_offset(p, n, l);
         RayHit hit = bvh_closest_hit(o, l, 3.0e38);
         all_light += light;
-        if (hit.triangle < 0) seen += light;
+        if (hit.triangle < 0) seen += rt_escapes(o, l, 3.0e38) ? light : 0.0;
         else bounce += rt_hit_radiance(hit, o, l, vec3(mc_sample_2d(px.x, px.y, index, u_seed, 2u),
                                                   mc_sample_2d(px.x, px.y, index, u_seed, 6u).x));
     }
@@ -381,7 +381,7 @@ void main() {
         float light = luminance(rt_environment(ls, r));
         vec3 o = ray_offset(p, n, ls);
         RayHit hit = bvh_closest_hit(o, ls, 3.0e38);
-        ratios.zw = vec2(hit.triangle < 0 ? light : 0.0, light);
+        ratios.zw = vec2(hit.triangle < 0 && rt_escapes(o, ls, 3.0e38) ? light : 0.0, light);
         if (hit.triangle >= 0) o_bounce_specular = vec4(rt_hit_radiance(hit, o, ls, u_bounce), 1.0);
     }
 #endif

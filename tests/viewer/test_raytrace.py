@@ -21,21 +21,28 @@ from viewer.raytrace.upload import TraceBuffers, material_defines
 T_TOL = 1e-4
 
 
-def _brute(meshes, rays):
-    """(t, mesh, solid) of the nearest hit of each ray in float64 over every triangle, honouring
-    the masks of parity_scenes (base_alpha below the cutoff: no hit) and the splat proxies' one
-    side (solid only where a ray enters: against the counter-clockwise face), and whether
-    anything is hit."""
-    tris, solid, entered = [], [], []
+def _brute(meshes, rays, blocked=None):
+    """The nearest hit of each ray in float64 over every triangle (inf: none), honouring the
+    masks of parity_scenes (base_alpha below the cutoff: no hit) and the splat proxies (counted
+    only where a ray enters one, against its counter-clockwise face; a closest hit where it
+    enters the splat's core ellipsoid, solved in float64 from the splat's rows). ``blocked``: a
+    list filled with each ray's any-hit (a solid triangle, or the product of 1 - alpha
+    exp(-q^2 / 2) over the entered splats, q at the peak along the segment, <= 1/2)."""
+    tris, solid, splat = [], [], []
     for m in meshes:
         p = np.asarray(m.positions, np.float64)[np.asarray(m.indices, np.int64)]
         tris.append(p)
         cut = m.alpha_mode == "MASK" and m.base_alpha < m.alpha_cutoff
         solid.append(np.full(len(p), not cut))
-        entered.append(np.full(len(p), getattr(m, "entered_only", False)))
+        if getattr(m, "entered_only", False):  # 20 triangles a splat, 12 vertices a splat
+            rows = np.asarray(m.splat_rows, np.float64)
+            splat.append(rows[np.asarray(m.indices, np.int64)[:, 0] // 12])
+        else:
+            splat.append(np.full((len(p), 4, 4), np.nan))
     v = np.concatenate(tris)
     solid = np.concatenate(solid)
-    entered = np.concatenate(entered)
+    splat = np.concatenate(splat)
+    is_splat = np.isfinite(splat[:, 0, 0])
     v0, e1, e2 = v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     out = np.full(len(rays), np.inf)
     for i, r in enumerate(rays.astype(np.float64)):
@@ -49,9 +56,25 @@ def _brute(meshes, rays):
             b2 = (qv * d).sum(1) / det
             t = (e2 * qv).sum(1) / det
         front = (np.cross(e1, e2) * d).sum(1) < 0.0  # the ray enters through this face
-        ok = solid & (front | ~entered) & (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & (t < t_max)
+        on = (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & (t < t_max)
+        t = np.where(is_splat, np.inf, t)
+        entered = np.flatnonzero(on & is_splat & front)
+        oc = np.einsum("nij,j->ni", splat[entered, :3, :3], o) + splat[entered, :3, 3]
+        dc = np.einsum("nij,j->ni", splat[entered, :3, :3], d)
+        a, b = (dc * dc).sum(1), (oc * dc).sum(1)
+        c = (oc * oc).sum(1) - splat[entered, 3, 1]
+        disc = b * b - a * c
+        core = (splat[entered, 3, 1] > 0) & (c > 0) & (b < 0) & (disc >= 0)
+        with np.errstate(invalid="ignore"):
+            t[entered] = np.where(core, (-b - np.sqrt(disc)) / a, np.inf)
+        ok = on & ~is_splat & solid | on & is_splat & np.isfinite(t) & (t < t_max)
         if ok.any():
             out[i] = t[ok].min()
+        if blocked is not None:
+            peak = np.clip(-b / a, 0.0, t_max)
+            q2 = ((oc + peak[:, None] * dc) ** 2).sum(1)
+            seen = np.prod(1.0 - splat[entered, 3, 0] * np.exp(-0.5 * q2))
+            blocked.append(bool((on & ~is_splat & solid).any()) or seen <= 0.5)
     return out
 
 
@@ -66,11 +89,12 @@ def test_traversal_finds_the_nearest_hit_of_a_brute_force_search(programs, name)
         gl = trace_gl(programs, buffers, rays)
     finally:
         buffers.release()
-    truth = _brute(meshes, rays)
+    blocked = []
+    truth = _brute(meshes, rays, blocked)
     hit = np.isfinite(truth)
     assert 0.2 < hit.mean() < 0.95  # the rays meet the scene and also miss it
     assert np.array_equal(gl[:, 1] >= 0, hit)
-    assert np.array_equal(gl[:, 4] > 0.5, hit)  # any hit
+    assert np.array_equal(gl[:, 4] > 0.5, np.array(blocked))  # any hit
     assert np.abs(gl[hit, 0] - truth[hit]).max() < T_TOL * max(1.0, truth[hit].max())
     # misses keep t_max
     assert np.array_equal(gl[~hit, 0], rays[~hit, 6])
@@ -240,12 +264,16 @@ def test_a_single_leaf_scene_is_traced(programs):
 
 
 def test_material_defines_say_what_the_materials_use():
-    """RT_MASKS and RT_MAPS (what the rays pass compiles in): nothing for plain materials, the
-    mask for an alphaMode MASK mesh, bit k for a map in slot k (scene.MAPS order)."""
+    """RT_MASKS, RT_SPLATS and RT_MAPS (what the rays pass compiles in): nothing for plain
+    materials, the mask for an alphaMode MASK mesh, the splats for a splat proxy, bit k for a
+    map in slot k (scene.MAPS order)."""
     plain = primitives.sphere(radius=1.0, segments=8, rings=4)
     masked = dataclasses.replace(plain, alpha_mode="MASK", alpha_cutoff=0.5)
-    assert material_defines(material_rows([plain], [{}])) == {"RT_MASKS": 0, "RT_MAPS": 0}
-    assert material_defines(material_rows([plain, masked], [{}, {}]))["RT_MASKS"] == 1
+    none = {"RT_MASKS": 0, "RT_MAPS": 0, "RT_SPLATS": 0}
+    assert material_defines(material_rows([plain], [{}])) == none
+    assert material_defines(material_rows([plain, masked], [{}, {}])) == none | {"RT_MASKS": 1}
+    proxies = parity_scenes()["splat_cores"][:1]
+    assert material_defines(material_rows(proxies, [{}])) == none | {"RT_SPLATS": 1}
     k = MAPS.index("emissive")
     both = material_rows([plain, plain], [{"base_color": 0}, {"emissive": 1}])
-    assert material_defines(both) == {"RT_MASKS": 0, "RT_MAPS": 1 | (1 << k)}
+    assert material_defines(both) == none | {"RT_MAPS": 1 | (1 << k)}

@@ -5,8 +5,9 @@ texture array, and the BVH (:mod:`.bvh`) over them.
 
 What rays see, and what they do not (the reference's choices, :mod:`relight.reference.scene`):
 
-* meshes and primitives; **splat clouds** as their Gaussians' opaque cores, closed proxies that
-  block a ray where the shadow maps' rule does (:mod:`.splat_proxies`); **image-space stacks**
+* meshes and primitives; **splat clouds** as their Gaussians, each inside a closed proxy: shadow
+  rays pass them with the light their opacity leaves, bounce rays stop at their opaque cores
+  (:mod:`.splat_proxies`); **image-space stacks**
   have no geometry off-screen and are not traced (their shadows stay contact shadows');
 * alphaMode MASK surfaces are cut where the base colour's alpha is below the cutoff; **BLEND**
   surfaces are left out (they cast no shadow in the shadow maps either);
@@ -36,8 +37,8 @@ from .bvh import BVH, build_bvh, child_pairs, triangle_boxes
 
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAP_LAYER_BYTES = MAP_SIZE * MAP_SIZE * 8  # one layer of the map array (RGBA16F): 512 KiB
-# a material's cutoff (surface row, w) marking a closed proxy solid only where a ray enters it
-# (raytrace.glsl rt_solid; the splats' opaque cores, :mod:`.splat_proxies`); -1: no mask
+# a material's cutoff (surface row, w) marking a closed proxy counted only where a ray enters it
+# (raytrace.glsl rt_proxy_t; a splat's proxy, :mod:`.splat_proxies`); -1: no mask
 ENTERED_ONLY = -2.0
 
 
@@ -82,11 +83,16 @@ class TraceGeometry:
     vertices: np.ndarray   # [V, 8] float32: position xyz, u, normal xyz, v (TEXCOORD_0)
     triangles: np.ndarray  # [N, 4] uint32: vertex indices, mesh index; in BVH leaf order
     nodes: np.ndarray      # [K, 16] float32: interior nodes' child pairs (bvh.child_pairs)
-    edges: np.ndarray      # [N, 12] float32: p0, p1 - p0, p2 - p0 (xyz, w 0), as triangles
+    # [N, 12] float32: p0, p1 - p0, p2 - p0 (xyz), as triangles; the first w: 1 + the splat a
+    # splat proxy's face belongs to (its row in ``splats``), 0 for any other triangle
+    edges: np.ndarray
     maps: np.ndarray       # [L, MAP_SIZE, MAP_SIZE, 4] float32: every distinct map, a layer each
     layers: list           # per mesh: {map key: layer}
     bvh: BVH
     skipped: int           # triangles left out (degenerate or non-finite)
+    # [S, 16] float32: every splat proxy mesh's splat_rows (splat_proxies.splat_rows), in mesh
+    # order (the edges' w says which a face belongs to)
+    splats: np.ndarray = None
 
     @property
     def nbytes(self) -> int:
@@ -100,8 +106,8 @@ class TraceGeometry:
 
 def build_trace_geometry(meshes) -> TraceGeometry:
     """Gather ``meshes`` (world space) and build the BVH over their triangles."""
-    verts, tris, layers, maps = [], [], [], []
-    base, skipped = 0, 0
+    verts, tris, layers, maps, owners, rows = [], [], [], [], [], []
+    base, skipped, splat_base = 0, 0, 0
     seen = {}  # id(image) -> (layer, image): the image kept alive while its id is a key
     for k, mesh in enumerate(meshes):
         p = np.asarray(mesh.positions, np.float32)
@@ -120,6 +126,14 @@ def build_trace_geometry(meshes) -> TraceGeometry:
         v = np.concatenate([p, uv[:, :1], nrm, uv[:, 1:2]], axis=1)
         verts.append(np.nan_to_num(v, nan=0.0, posinf=0.0, neginf=0.0))
         tris.append(np.concatenate([idx + base, np.full((len(idx), 1), k)], axis=1))
+        splat_rows = (getattr(mesh, "splat_rows", None) if getattr(mesh, "entered_only", False)
+                      else None)
+        if splat_rows is not None:  # 12 vertices a splat, in splat_rows' order
+            owners.append(splat_base + idx[:, 0] // 12 + 1)
+            rows.append(splat_rows.reshape(-1, 16))
+            splat_base += len(splat_rows)
+        else:
+            owners.append(np.zeros(len(idx), np.int64))
         base += len(p)
         mine = {}
         for key, read in MAP_SLOTS.items():
@@ -140,16 +154,19 @@ def build_trace_geometry(meshes) -> TraceGeometry:
     lo, hi = triangle_boxes(vertices[:, :3], triangles[:, :3].astype(np.int64))
     bvh = build_bvh(lo, hi)
     triangles = triangles[bvh.order]
+    owner = (np.concatenate(owners) if owners else np.zeros(0, np.int64))[bvh.order]
     # what the traversal tests a triangle with (float32 differences, as ray_triangle takes them)
     p = vertices[:, :3][triangles[:, :3].astype(np.int64)]  # [N, 3, 3]
     edges = np.zeros((len(triangles), 3, 4), np.float32)
     edges[:, 0, :3] = p[:, 0]
     edges[:, 1, :3] = p[:, 1] - p[:, 0]
     edges[:, 2, :3] = p[:, 2] - p[:, 0]
+    edges[:, 0, 3] = owner  # exact in float32 below 2^24 splats (MAX_TRACED is 100 000)
     stack = (np.stack(maps).astype(np.float32) if maps
              else np.zeros((0, MAP_SIZE, MAP_SIZE, 4), np.float32))
+    splats = np.concatenate(rows).astype(np.float32) if rows else np.zeros((0, 16), np.float32)
     return TraceGeometry(vertices, triangles, child_pairs(bvh), edges.reshape(-1, 12), stack,
-                         layers, bvh, skipped)
+                         layers, bvh, skipped, splats)
 
 
 def slot_rows(meshes, layers) -> np.ndarray:

@@ -1,27 +1,44 @@
-"""Splat clouds as rays see them: every Gaussian's **opaque core** as a closed triangle proxy.
+"""Splat clouds as rays see them: every Gaussian as a closed triangle proxy that **bounds** it,
+and the Gaussian itself evaluated where a ray enters the proxy.
 
-The shadow maps' rule (:mod:`viewer.passes.shadow`) decides what of a splat occludes: a light ray
-is blocked where the splat's projected opacity ``alpha exp(-q^2 / 2)`` reaches 0.5. Along a line
-with direction d, the projected Gaussian's Mahalanobis distance ``q`` of the line equals the
-smallest 3D Mahalanobis distance of the line's points to the mean (the marginal of a Gaussian
-along d is the projection's covariance), so the blocked rays are exactly the rays through the
-ellipsoid ``d_M(x) <= r = sqrt(2 ln(2 alpha))``: a splat of opacity alpha > 0.5 occludes within
-its core, one of alpha <= 0.5 nowhere. Rays and shadow maps agree on what a splat casts.
+A splat of opacity alpha blocks the fraction ``alpha exp(-q^2 / 2)`` of the light along a line,
+``q`` the smallest Mahalanobis distance of the line's points to its mean (the marginal of a
+Gaussian along a direction is its projection's covariance; 3D Gaussian Ray Tracing,
+Moenne-Loccoz et al. 2024, evaluates a particle at the same peak). So:
 
-Each core is an icosahedron (20 triangles, 12 vertices) through ``mean + R S (k r u)`` for the
-icosahedron's unit vertices u, with ``k`` = 1.1821 making its volume the ellipsoid's: the proxy's
-surface lies within -6 % (a face's centre, at the inradius 0.939) and +18 % (a vertex) of the
-core's radius along any direction. The proxy is marked **solid only where a ray enters it**
-(:data:`~viewer.raytrace.scene.ENTERED_ONLY` in the surface row's cutoff, ``rt_solid`` in ``passes/raytrace.glsl``): a
-ray that starts inside a core (the splat surface's own G-buffer points lie inside the cores that
-make them) leaves it unhindered, as it leaves the surface it starts on.
+* **shadow rays** (``bvh_transmittance`` in ``passes/raytrace.glsl``) multiply
+  ``1 - alpha exp(-q^2 / 2)`` over every splat they pass, ``q`` at the peak along the ray within
+  ``[0, t_max]``: a surface tiled with splats is as opaque to them as its splats' overlap makes
+  it, where each splat's **opaque core** alone (the line's opacity reaching 0.5,
+  ``q <= sqrt(2 ln(2 alpha))``) leaves gaps. Measured on a plane tiled by
+  :func:`learned.data.splat_tiling.scene_splats`: 29 % of the rays through it passed between the
+  cores (light leaking through a surface: salt on the shadowed side of a splat capture).
+* **closest hits** (``bvh_closest_hit``: bounce and reflection rays, what they see) stop where a
+  ray enters a splat's opaque core, the ellipsoid itself (solved exactly), so what a ray hits is
+  the shadow maps' rule (:mod:`viewer.passes.shadow`: a splat occludes where its projected
+  opacity reaches 0.5).
+
+Each proxy is an icosahedron (20 triangles, 12 vertices) around the ellipsoid ``d_M(x) <= r_b``,
+``r_b = sqrt(2 ln(alpha / ALPHA_MIN))`` (beyond it a splat blocks less than :data:`ALPHA_MIN` of
+a line's light), its vertices at ``mean + R S (r_b / INRADIUS) u`` for the icosahedron's unit
+vertices u, so that its faces touch the ellipsoid from outside. A splat fainter than
+:data:`ALPHA_MIN` has no proxy. The proxy counts only where a ray **enters** it
+(:data:`~viewer.raytrace.scene.ENTERED_ONLY` in the surface row's cutoff): a ray that starts
+inside a proxy (a splat surface's own G-buffer points lie inside the proxies of the splats that
+make them) leaves it unhindered, as it leaves the surface it starts on, so one entry face counts
+each splat once.
+
+What the traversal reads of a splat: four texels of ``u_rt_splats``
+(:func:`splat_rows`): the affine map to its unit-Gaussian frame and ``(alpha, r_core^2)``;
+a proxy's material row ``ROW["splat"]`` gives its first splat and first vertex, so a
+triangle's splat is ``first + (vertex - first vertex) / 12``.
 
 Materials at a secondary hit: the splat's albedo, roughness and metallic, one texel per splat of
 a ``base_color`` and a ``metallic_roughness`` map of :data:`~viewer.raytrace.scene.MAP_SIZE`
 squared texels (each vertex's TEXCOORD_0 is its splat's texel centre; the factors are 1), so a
 cloud becomes one proxy mesh per ``MAP_SIZE^2`` = 65 536 splats, each with its own two map layers.
 The normal at every vertex is the splat's (stored, or its shortest axis), double-sided. At most
-:data:`MAX_TRACED` cores are traced (the largest first, with a warning naming the cloud).
+:data:`MAX_TRACED` splats are traced (the largest first, with a warning naming the cloud).
 
 Proxies are made once per cloud and kept while the cloud lives (a weak map keyed by the
 :class:`~viewer.splats.data.Splats` object, which the bounded geometry cache owns), so the traced
@@ -41,8 +58,11 @@ from ..scene.material import Material
 from ..splats.data import Splats, min_axis, quat_to_matrix
 from .scene import MAP_SIZE
 
-OPAQUE_AT = 0.5  # the shadow maps' opacity threshold (viewer.passes.shadow)
-# at most this many cores are traced, the largest (core volume) first: 100 000 cores are 2 M
+OPAQUE_AT = 0.5  # the shadow maps' opacity threshold (viewer.passes.shadow): the opaque core
+# the opacity a splat blocks of a line at its proxy's surface: 1/64 of a line's light is left out
+# where a ray passes outside a splat's proxy (the transmittance's error per splat passed)
+ALPHA_MIN = 0.1
+# at most this many splats are traced, the largest (proxy volume) first: 100 000 proxies are 2 M
 # triangles, about 240 MB of traced scene (within the renderer's 256 MB raytrace budget) and a
 # 9.4 s BVH build on the 2-core CI machine; a larger cloud's smaller splats are left to the
 # shadow maps, with a warning
@@ -58,17 +78,17 @@ ICO_FACES = np.array([(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11),
                       (5, 11, 4), (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2),
                       (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
                       (8, 6, 7), (9, 8, 1)], np.int64)  # counter-clockwise seen from outside
-# circumradius giving the icosahedron the unit sphere's volume: V = (5/12)(3 + sqrt 5) a^3 with
-# edge a = R / sin(2 pi / 5)
-VOLUME_SCALE = (4.0 * math.pi / 3.0
-                / (5.0 / 12.0 * (3.0 + math.sqrt(5.0)) / math.sin(2.0 * math.pi / 5.0) ** 3)
-                ) ** (1.0 / 3.0)
+# the distance of the unit-circumradius icosahedron's faces from its centre: its vertices at
+# r / INRADIUS put its faces tangent to the sphere of radius r from outside
+INRADIUS = math.sqrt((5.0 + 2.0 * math.sqrt(5.0)) / 15.0)
 
 @dataclass(kw_only=True)
 class ProxyMesh(Mesh):
-    """A traced stand-in (never rasterised): solid only where a ray enters it."""
+    """A traced stand-in (never rasterised): counted only where a ray enters it; 12 vertices a
+    splat, in the order of ``splat_rows``."""
 
     entered_only: bool = True
+    splat_rows: np.ndarray = None  # [n, 4, 4] float32: splat_rows of its n splats
 
 
 _PROXIES: "weakref.WeakKeyDictionary[Splats, list[ProxyMesh]]" = weakref.WeakKeyDictionary()
@@ -79,6 +99,30 @@ def core_radius(opacities: np.ndarray) -> np.ndarray:
     opacity does not reach :data:`OPAQUE_AT` (no core)."""
     a = np.asarray(opacities, np.float64)
     return np.sqrt(2.0 * np.log(np.maximum(a / OPAQUE_AT, 1.0)))
+
+
+def bound_radius(opacities: np.ndarray) -> np.ndarray:
+    """The Mahalanobis radius of each splat's proxy, ``sqrt(2 ln(alpha / ALPHA_MIN))``, where it
+    blocks :data:`ALPHA_MIN` of a line's light; 0 for a splat fainter than that (no proxy)."""
+    a = np.asarray(opacities, np.float64)
+    return np.sqrt(2.0 * np.log(np.maximum(a / ALPHA_MIN, 1.0)))
+
+
+def splat_rows(means: np.ndarray, rotations: np.ndarray, scales: np.ndarray,
+               opacities: np.ndarray) -> np.ndarray:
+    """``[n, 4, 4]`` float32: what ``passes/raytrace.glsl`` reads of each splat. Rows 0-2: the
+    affine map ``x -> W x + c`` to the splat's unit-Gaussian frame (``W = S^-1 R^T``, the
+    Gaussian there ``exp(-|x'|^2 / 2)``), ``W``'s row i in xyz and ``c_i`` in w; row 3: its
+    opacity and its opaque core's squared radius (:func:`core_radius`; 0: no core)."""
+    rot = quat_to_matrix(np.asarray(rotations, np.float64))  # [n, 3, 3], columns the axes
+    w = np.swapaxes(rot, 1, 2) / np.asarray(scales, np.float64)[:, :, None]
+    c = -np.einsum("nij,nj->ni", w, np.asarray(means, np.float64))
+    out = np.zeros((len(w), 4, 4), np.float64)
+    out[:, :3, :3] = w
+    out[:, :3, 3] = c
+    out[:, 3, 0] = opacities
+    out[:, 3, 1] = core_radius(opacities) ** 2
+    return out.astype(np.float32)
 
 
 def splat_proxies(splats: Splats) -> list[ProxyMesh]:
@@ -101,7 +145,7 @@ def _splat_normals(normals: np.ndarray, rotations: np.ndarray,
 
 
 def _build(splats: Splats) -> list[ProxyMesh]:
-    r = core_radius(splats.opacities)
+    r = bound_radius(splats.opacities)
     scales = np.asarray(splats.scales, np.float64)
     keep = np.flatnonzero((r > 0.0) & np.isfinite(splats.means).all(axis=1)
                           & (scales > 0.0).all(axis=1) & np.isfinite(scales).all(axis=1))
@@ -109,8 +153,8 @@ def _build(splats: Splats) -> list[ProxyMesh]:
         volume = r[keep] ** 3 * scales[keep].prod(axis=1)
         largest = np.sort(keep[np.argsort(-volume, kind="stable")[:MAX_TRACED]])
         warnings.warn(f"{splats.source or 'a splat cloud'}: rays see the {MAX_TRACED:,} largest "
-                      f"of its {len(keep):,} opaque splats (the rest cast shadows in the shadow "
-                      f"maps only)", stacklevel=4)
+                      f"of its {len(keep):,} splats (the rest cast shadows in the shadow maps "
+                      f"only)", stacklevel=4)
         keep = largest
     meshes = []
     for start in range(0, len(keep), PER_MESH):
@@ -122,7 +166,7 @@ def _build(splats: Splats) -> list[ProxyMesh]:
 def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int) -> ProxyMesh:
     n = len(ids)
     rot = quat_to_matrix(np.asarray(splats.rotations, np.float64)[ids])  # [n, 3, 3]
-    m = rot * (np.asarray(splats.scales, np.float64)[ids] * (radius * VOLUME_SCALE)[:, None])[
+    m = rot * (np.asarray(splats.scales, np.float64)[ids] * (radius / INRADIUS)[:, None])[
         :, None, :]
     pos = (np.asarray(splats.means, np.float64)[ids, None, :]
            + np.einsum("nij,vj->nvi", m, ICO_VERTICES))  # [n, 12, 3]
@@ -138,7 +182,7 @@ def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int) 
     mr[:n, 1] = np.clip(np.asarray(splats.roughness, np.float32)[ids], 0.0, 1.0)
     mr[:n, 2] = np.clip(np.asarray(splats.metallic, np.float32)[ids], 0.0, 1.0)
     indices = (np.arange(n, dtype=np.int64)[:, None, None] * 12 + ICO_FACES[None]).reshape(-1, 3)
-    name = f"{splats.source or 'splats'} (opaque cores, part {part + 1})"
+    name = f"{splats.source or 'splats'} (splat proxies, part {part + 1})"
     return ProxyMesh(positions=pos.reshape(-1, 3).astype(np.float32),
                      normals=normals.reshape(-1, 3).astype(np.float32),
                      uvs=np.repeat(uv[:, None, :], 12, axis=1).reshape(-1, 2).astype(np.float32),
@@ -146,4 +190,8 @@ def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int) 
                      material=Material(albedo=(1.0, 1.0, 1.0), roughness=1.0, metallic=1.0),
                      textures={"base_color": base.reshape(MAP_SIZE, MAP_SIZE, 4),
                                "metallic_roughness": mr.reshape(MAP_SIZE, MAP_SIZE, 4)},
-                     double_sided=True, alpha_mode="OPAQUE", name=name, source=splats.source)
+                     double_sided=True, alpha_mode="OPAQUE", name=name, source=splats.source,
+                     splat_rows=splat_rows(np.asarray(splats.means, np.float64)[ids],
+                                           np.asarray(splats.rotations, np.float64)[ids],
+                                           np.asarray(splats.scales, np.float64)[ids],
+                                           np.asarray(splats.opacities, np.float64)[ids]))

@@ -39,11 +39,13 @@ class TraceBuffers:
         self.node_count = int(geometry.nodes.shape[0])
         self.nodes = _texels(ctx, geometry.nodes)
         self.edges = _texels(ctx, geometry.edges)
+        self.splats = _texels(ctx, geometry.splats)  # 4 texels a splat (splat_proxies.splat_rows)
         self.triangles = ctx.buffer(_bytes(geometry.triangles))
         self.vertices = ctx.buffer(_bytes(geometry.vertices))
         self.materials = ctx.buffer(reserve=16)
         self._material_key = None
-        self.defines = {"RT_MASKS": 1, "RT_MAPS": (1 << len(MAPS)) - 1}  # set_materials
+        self.defines = {"RT_MASKS": 1, "RT_MAPS": (1 << len(MAPS)) - 1,
+                        "RT_SPLATS": 1}  # set_materials
         self._slots = None  # slot_rows of the meshes: fixed for these meshes' geometry
         layers = max(int(geometry.maps.shape[0]), 1)
         data = (geometry.maps.astype(np.float16) if geometry.maps.shape[0]
@@ -57,6 +59,7 @@ class TraceBuffers:
         return int(self.triangles.size + self.vertices.size + self.materials.size
                    + 16 * self.nodes.width * self.nodes.height
                    + 16 * self.edges.width * self.edges.height
+                   + 16 * self.splats.width * self.splats.height
                    + self.maps.width * self.maps.height * self.maps.layers * 8)
 
     def set_materials(self, meshes) -> None:
@@ -77,7 +80,8 @@ class TraceBuffers:
         array to texture units from ``unit``; returns the next free unit."""
         for buf, point in zip((self.triangles, self.vertices, self.materials), BINDINGS):
             buf.bind_to_storage_buffer(point)
-        for name, tex in (("u_rt_nodes", self.nodes), ("u_rt_edges", self.edges)):
+        for name, tex in (("u_rt_nodes", self.nodes), ("u_rt_edges", self.edges),
+                          ("u_rt_splats", self.splats)):
             if name in prog:
                 tex.use(unit)
                 prog[name].value = unit
@@ -91,8 +95,8 @@ class TraceBuffers:
         return unit
 
     def release(self) -> None:
-        for obj in (self.nodes, self.triangles, self.vertices, self.edges, self.materials,
-                    self.maps):
+        for obj in (self.nodes, self.triangles, self.vertices, self.edges, self.splats,
+                    self.materials, self.maps):
             obj.release()
 
 
@@ -132,15 +136,17 @@ class TraceStore:
 
 def material_defines(rows: np.ndarray) -> dict:
     """What ``rows`` (:func:`~viewer.raytrace.scene.material_rows`) use, as raytrace.glsl's
-    defines: ``RT_MASKS`` (some material is alphaMode MASK, a cutoff >= 0, or a proxy solid only
-    where rays enter it, :data:`~viewer.raytrace.scene.ENTERED_ONLY`) and ``RT_MAPS`` (bit
-    k: some material has a map in slot k), so a pass compiles out what no material needs."""
+    defines: ``RT_MASKS`` (some material is alphaMode MASK, a cutoff >= 0), ``RT_SPLATS`` (some
+    mesh is a splat proxy, :data:`~viewer.raytrace.scene.ENTERED_ONLY`: the splats' Gaussians are
+    evaluated) and ``RT_MAPS`` (bit k: some material has a map in slot k), so a pass compiles
+    out what no material needs."""
     per = rows.reshape(-1, MATERIAL_VEC4S, 4)
     cutoff = per[:, ROW["surface"], 3]
-    masks = bool(((cutoff >= 0.0) | (cutoff == ENTERED_ONLY)).any())
+    masks = bool((cutoff >= 0.0).any())
     layers = per[:, ROW["slots"]::2, 3]  # each slot's layer, -1: none
     bits = sum(1 << k for k in range(len(MAPS)) if (layers[:, k] >= 0.0).any())
-    return {"RT_MASKS": int(masks), "RT_MAPS": int(bits)}
+    splats = bool((cutoff == ENTERED_ONLY).any())
+    return {"RT_MASKS": int(masks), "RT_MAPS": int(bits), "RT_SPLATS": int(splats)}
 
 
 def _texels(ctx, a: np.ndarray):

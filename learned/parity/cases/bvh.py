@@ -1,5 +1,5 @@
-"""Parity cases of ``shaders/lib/bvh.glsl`` against :mod:`learned.twins.bvh`: rays against boxes
-and triangles. The traversal over a whole BVH (``passes/raytrace.glsl``) is a pass check
+"""Parity cases of ``shaders/lib/bvh.glsl`` against :mod:`learned.twins.bvh`: rays against boxes,
+triangles, ellipsoids and Gaussians. The traversal over a whole BVH (``passes/raytrace.glsl``) is a pass check
 (:mod:`learned.parity.checks.raytrace`)."""
 from __future__ import annotations
 
@@ -59,7 +59,48 @@ def _boxes(args: list[np.ndarray]) -> list[np.ndarray]:
     return [o[pick], inv_d[pick], a[pick], b[pick], t_max[pick]]
 
 
+def _clear_of_tangents(args: list[np.ndarray]) -> list[np.ndarray]:
+    """Rays that clearly miss, clearly enter or start clearly inside the sphere: a ray within
+    float32 rounding of its tangent (the discriminant ~0), of its surface (c ~ 0) or of being
+    perpendicular to o (b ~ 0) is an entry on one GL and a miss on another, which no tolerance on
+    the value guards; kept are rays with |disc|, |c|, |b| >= 2 % of their scale."""
+    o, d, r2 = args
+    a = (d * d).sum(1)
+    b = (o * d).sum(1)
+    c = (o * o).sum(1) - r2
+    disc = b * b - a * c
+    scale = a * np.maximum(r2, (o * o).sum(1))
+    clear = ((np.abs(disc) > 0.02 * scale) & (np.abs(c) > 0.02 * np.maximum(r2, 1e-3))
+             & (np.abs(b) > 0.02 * np.sqrt(scale)))
+    keep = np.where(clear)[0]
+    pick = keep[np.arange(len(o)) % max(len(keep), 1)] if len(keep) else np.arange(len(o))
+    return [o[pick], d[pick], r2[pick]]
+
+
 PARITY_CASES = [
+    ParityCase("gaussian_ray_peak",
+               (Arg(lo=-4.0, hi=4.0, components=3), Arg(lo=-30.0, hi=30.0, components=3,
+                                                         adversarial=((0.0, 0.0, 0.0),)),
+                Arg(lo=0.0, hi=3.0, adversarial=(0.0, 1e30))),
+               atol=2e-5, rtol=2e-5,
+               measured="max abs 5.7e-6, max rel 1.6e-5 (t, q^2 <= 48; seed 0)",
+               envelope="t* = -(o.d) / (d.d): two dot products (3 roundings each, FMA may "
+                        "contract) and a division (2.5 ulp): ~1e-6 relative; q^2 = |o + t d|^2 "
+                        "cancels where the ray passes near the centre, so its error is ~1e-6 "
+                        "of |o|^2 <= 48: 5e-5 abs at worst; 2e-5 + 2e-5 rel covers the "
+                        "drawn inputs (the largest relative error is at q^2 ~ 0.3); d = 0 (adversarial) "
+                        "gives t = 0 and |o|^2 both sides, t_max = 1e30 no clamp"),
+    ParityCase("ellipsoid_entry",
+               (Arg(lo=-4.0, hi=4.0, components=3), Arg(lo=-30.0, hi=30.0, components=3),
+                Arg(lo=0.05, hi=9.0, adversarial=(0.0, -1.0))),
+               atol=2e-6, rtol=5e-5, prepare=_clear_of_tangents,
+               measured="max abs 1.5e-7, max rel 2.9e-6 (seed 0)",
+               envelope="c / (-b + sqrt(b^2 - a c)): no cancellation (b < 0 where it "
+                        "enters), ~10 roundings and a sqrt (as 1 / inversesqrt, 3 ulp): "
+                        "~1e-6 relative, / the discriminant's relative size where it is small: "
+                        "prepare keeps it >= 2 % of a max(r2, |o|^2), so <= 5e-5 rel; the same "
+                        "bounds keep entry and miss apart"),
+
     ParityCase("safe_inverse",
                (Arg(lo=-4.0, hi=4.0, components=3,
                     adversarial=((0.0, 1.0, -1.0), (1e-31, -1e-31, 2.0), (-0.0, 0.5, 1e-20))),),

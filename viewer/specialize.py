@@ -194,7 +194,7 @@ def specialise(features: SceneFeatures | None, settings, aovs=(), enabled: bool 
         needed.discard("ao")
     if settings.ssao.enabled or settings.ssao.indirect:
         needed |= {"depth", "normal"}
-    traceable = features.meshes or features.splats  # splats: their opaque cores (raytrace)
+    traceable = features.meshes or features.splats  # splats: their proxies (raytrace)
     if model.ray_light and settings.raytrace.enabled and traceable:
         needed |= {"depth", "normal"}  # rays start at the surface, the filter stops at edges
     if features.stacks and (features.meshes or features.splats):

@@ -31,7 +31,7 @@ NAME, screen``, judged as the shipped student's cases) and *variants* (``--varia
 judged against that case, so a setting's cost against the truth (``ray_scale=2`` on the rays)
 is a row of the same table. **The splat capture** (:mod:`.real_assets_splats`): the plasma gun
 tiled with splats of its true materials on the same floor, drawn the same eight ways (rays see
-the splats' opaque cores: :mod:`viewer.raytrace.splat_proxies`), against the gun's own truth;
+the splats' Gaussians: :mod:`viewer.raytrace.splat_proxies`), against the gun's own truth;
 its failures are counted apart ("(splats)").
 
 **Truth**: Mitsuba 3 with our BSDF (:mod:`relight.reference`), cached as the gallery caches it

@@ -8,7 +8,7 @@ one-bounce light through the bilateral blur (``indirect_blur``), SSAO times the 
 shadow estimator (a weights file), and the ray-traced tier with 1, 2, 4 and 8 frames of rays
 (``ray_still_frames``: 1 is what one interactive frame traces, 8 a headless render's default)
 and with 1 frame of rays for one pixel in 2 x 2 (``ray_scale``; meshes, and splats as their
-opaque cores; a G-buffer stack has no geometry off-screen to trace).
+Gaussians; a G-buffer stack has no geometry off-screen to trace).
 
 Accuracy: the protocol's metric (:func:`learned.protocol.scores.psnr`: Reinhard-mapped, over each
 sample's foreground) of the option's frame against the split's path-traced targets, the mean over
@@ -80,7 +80,7 @@ def option_settings(name: str, weights: str) -> dict:
 
 def options(geometry: str) -> list[str]:
     """The options of :data:`OPTIONS` that ``geometry`` can draw: the rays need geometry (meshes,
-    or splats' opaque cores: :mod:`viewer.raytrace.splat_proxies`), which a stack has not."""
+    or splats' proxies: :mod:`viewer.raytrace.splat_proxies`), which a stack has not."""
     return [n for n in OPTIONS if geometry != "stack" or n not in RAY_OPTIONS]
 
 

@@ -237,6 +237,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="add W x the squared distance of the student's direct-light corrections "
                         "from its split-sum base, either way, to its loss (default 100, the "
                         "shipped student's; 0: off)")
+    p.add_argument("--student-visibility", metavar="FILE", default=None,
+                   help="a shadow estimator's weights file whose V takes SSAO's O(x) place in "
+                        "the student's frames: a student for [render] shadow_net_use = "
+                        "\"visibility\" (default: SSAO's O(x), the shipped student's)")
     p.add_argument("--targets", choices=("rasteriser", "reference"), default="rasteriser",
                    help="where the generated dataset's targets come from: the rasteriser's "
                         "ggx_mc (default) or path-traced truth (relight reference; needs the "

@@ -56,6 +56,10 @@ class TrainConfig:
     # what the student learns from: "teacher" (teacher x shadow map, the thesis's distillation) or
     # "target" (the dataset's rgb itself: with path-traced targets, truth; STUDENT_TARGETS)
     student_target: str = "target"
+    # a shadow estimator's weights file whose V takes O(x)'s place in the student's frames (a
+    # student for [render] shadow_net_use = "visibility"; learned.train.stages.load_images);
+    # None: SSAO's O(x), the shipped student's
+    student_visibility: str | None = None
     shadow_width: int = 16
     distill_samples: int = 128
     seed: int = 0

@@ -46,7 +46,8 @@ def train(cfg: TrainConfig, stages: str = "all", quiet: bool = False) -> dict:
     renderer = Renderer()
     try:
         images = load_images(cfg.data, "train", renderer, sun=cfg.student_sun,
-                             multiscatter=cfg.student_multiscatter)
+                             multiscatter=cfg.student_multiscatter,
+                             visibility=cfg.student_visibility)
     finally:
         renderer.release()
     run.log(f"{len(images)} training images, {sum(i.v.shape[0] for i in images)} foreground pixels")

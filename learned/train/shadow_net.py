@@ -147,27 +147,32 @@ class ShadowNetImage:
 FIELDS = ("radiance", "inputs", "surface", "target", "albedo")  # the tensors, in order
 
 
+def shadow_net_image(renderer, sample, model: str = "ggx_split_sum", geometry: str = "stack",
+                     indirect: bool = False, specular_occlusion: bool = False
+                     ) -> ShadowNetImage:
+    """One sample drawn by ``renderer`` with ``model`` and SSAO (no estimator), with the
+    screen-space one-bounce indirect light if ``indirect`` (the frame the estimator multiplies:
+    :func:`viewer.neural.shadow_net.frame_settings`) and specular occlusion if
+    ``specular_occlusion``, from its image-space stack or (``geometry = "mesh"``) from the
+    meshes it was generated from (:func:`learned.data.scene.geometry_scene`)."""
+    scene = geometry_scene(sample, geometry, model=model, ssao=True, indirect=indirect,
+                           specular_occlusion=specular_occlusion)
+    targets = renderer.draw(scene)
+    radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
+    albedo = gl_gbuffer(targets)["albedo"].permute(2, 0, 1)[None].float()
+    target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order
+    return ShadowNetImage(sample.name, radiance, inputs, surface,
+                          target.permute(2, 0, 1)[None].float(), albedo)
+
+
 def shadow_net_images(root: str, split: str, renderer, model: str = "ggx_split_sum",
                       limit: int | None = None, geometry: str = "stack",
                       indirect: bool = False, specular_occlusion: bool = False
                       ) -> list[ShadowNetImage]:
-    """Every sample of ``split`` drawn by ``renderer`` with ``model`` and SSAO (no estimator),
-    with the screen-space one-bounce indirect light if ``indirect`` (the frame the estimator
-    multiplies: :func:`viewer.neural.shadow_net.frame_settings`) and specular occlusion if
-    ``specular_occlusion``, from its image-space stack or (``geometry = "mesh"``)
-    from the meshes it was generated from (:func:`learned.data.scene.geometry_scene`)."""
-    out = []
-    for folder in list_samples(root, split)[:limit]:
-        sample = load_sample(folder)
-        scene = geometry_scene(sample, geometry, model=model, ssao=True, indirect=indirect,
-                               specular_occlusion=specular_occlusion)
-        targets = renderer.draw(scene)
-        radiance, inputs, surface, _ = frame_inputs(renderer, scene, targets)
-        albedo = gl_gbuffer(targets)["albedo"].permute(2, 0, 1)[None].float()
-        target = torch.from_numpy(np.ascontiguousarray(sample.target[::-1]))  # GL row order
-        out.append(ShadowNetImage(sample.name, radiance, inputs, surface,
-                                  target.permute(2, 0, 1)[None].float(), albedo))
-    return out
+    """:func:`shadow_net_image` of every sample of ``split`` (the first ``limit``)."""
+    return [shadow_net_image(renderer, load_sample(folder), model, geometry, indirect,
+                             specular_occlusion)
+            for folder in list_samples(root, split)[:limit]]
 
 
 def model_inputs(model: ShadowNet, img: ShadowNetImage) -> torch.Tensor:

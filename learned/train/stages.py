@@ -69,6 +69,27 @@ def screen_space_inputs(renderer, sample, geometry: str = "stack"
     return np.ascontiguousarray(img[..., 0]), np.ascontiguousarray(img[..., 1])
 
 
+@torch.no_grad()
+def estimator_visibility(renderer, sample, weights: str) -> np.ndarray:
+    """The shadow estimator's visibility V of the weights file ``weights`` on the sample, as a
+    frame with ``[render] shadow_net_use = "visibility"`` takes it in place of SSAO's O(x) and
+    S(x): its mean over the colours (``passes/deferred.glsl`` ``ssao_channel`` under
+    ``SSAO_SHADOW_NET``), ``[H, W]`` (row 0 at the top), on the frame the file records
+    (:func:`viewer.neural.shadow_net.frame_settings`: geometry, indirect light, specular
+    occlusion), through the estimator's torch twin (the ``shadow_net`` parity check holds the
+    GLSL passes to it)."""
+    from viewer.neural.shadow_net import frame_settings, read_shadow_net
+
+    from ..neural.shadow_net import load_shadow_net
+    from .shadow_net import shadow_net_image, visibility
+
+    frame = frame_settings(read_shadow_net(weights).training)
+    img = shadow_net_image(renderer, sample, frame["model"], frame["geometry"],
+                           frame["indirect"], frame["specular_occlusion"])
+    v = visibility(load_shadow_net(weights), img)[0].mean(0)  # [H, W], GL row order
+    return np.ascontiguousarray(v.numpy()[::-1])
+
+
 def screen_space_indirect(renderer, sample, multiscatter: bool = False,
                           geometry: str = "stack") -> np.ndarray:
     """The indirect pass's one-bounce light L_ind (eq. 6.22, ``passes/ssao.frag`` with
@@ -91,10 +112,13 @@ def screen_space_indirect(renderer, sample, multiscatter: bool = False,
 
 
 def load_images(root: str, split: str, renderer, sun: bool = False,
-                multiscatter: bool = False, geometry: str = "stack") -> list[TrainImage]:
+                multiscatter: bool = False, geometry: str = "stack",
+                visibility: str | None = None) -> list[TrainImage]:
     """Every usable sample of ``split``; ``sun``: also the lighting of a student whose base
     shades the environment's sun (``TrainImage.lighting_sun``); ``multiscatter``: the indirect
-    light gathered from the direct light of a base with multiple scattering. ``geometry``
+    light gathered from the direct light of a base with multiple scattering; ``visibility``: a
+    shadow estimator's weights file whose V takes the place of O(x) and S(x)
+    (:func:`estimator_visibility`: the frames of ``shadow_net_use = "visibility"``). ``geometry``
     ``"mesh"`` (``"splat"``): the G-buffer channels and the screen-space inputs from the sample's
     mesh scene (tiled with splats; :mod:`learned.data.scene`) instead of its stack; the foreground and the targets are the
     stack's either way."""
@@ -117,6 +141,8 @@ def load_images(root: str, split: str, renderer, sun: bool = False,
         target = torch.from_numpy(np.ascontiguousarray(s.target))
         unshadowed = target if s.unoccluded is None else torch.from_numpy(s.unoccluded)
         ssao, vis = (torch.from_numpy(a) for a in screen_space_inputs(renderer, s, geometry))
+        if visibility is not None:  # V's mean stands for both, as in the viewer
+            ssao = vis = torch.from_numpy(estimator_visibility(renderer, s, visibility))
         indirect = torch.from_numpy(screen_space_indirect(renderer, s, multiscatter, geometry))
         out.append(TrainImage(
             name=s.name, size=s.size, fg=fg, gb={k: t[fg] for k, t in ch.items()}, v=v[fg],

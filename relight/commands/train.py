@@ -16,7 +16,7 @@ TRAIN_OVERRIDES = ("teacher_steps", "shadow_steps", "student_steps", "batch_pixe
                    "light_samples", "strategy", "student_target", "student_features",
                    "student_output", "student_hidden", "student_indirect",
                    "student_sun", "student_multiscatter", "student_gain_penalty",
-                   "student_direct_penalty",
+                   "student_direct_penalty", "student_visibility",
                    "teacher_light_input", "seed")
 
 
@@ -26,6 +26,10 @@ def cmd_train(args) -> int:
     if args.stage != "shadow_net":
         shadow_net_options(args)  # a --shadow-* option without the stage: one line naming it
     over = {k: getattr(args, k) for k in TRAIN_OVERRIDES if getattr(args, k) is not None}
+    if "student_visibility" in over:  # a missing or bad file: one line naming it, before any work
+        from viewer.neural.shadow_net import read_shadow_net
+
+        read_shadow_net(over["student_visibility"])
     if "teacher_light_input" in over:  # --teacher-light-input on | off
         over["teacher_light_input"] = over["teacher_light_input"] == "on"
     if args.compare_students:

@@ -25,8 +25,8 @@ screen-space with the estimator's visibility in place of SSAO's occlusion and th
 (``shadow_net_use = "visibility"``: the issue's "usable by every model"). Each non-split-sum case
 is judged against the split-sum case with the same visibility evidence
 (:attr:`~.real_assets_cases.Case.baseline`). Beside them, candidate estimator files
-(``--estimator``), candidate student files (``--student``: ``neural NAME, rays`` and ``neural
-NAME, screen``, judged as the shipped student's cases) and *variants* (``--variant``,
+(``--estimator``), candidate student files (``--student``: ``neural NAME, rays``, ``neural
+NAME, screen`` and ``neural NAME, estimator's V``, judged as the shipped student's cases) and *variants* (``--variant``,
 :func:`~.real_assets_cases.variant_case`): a case again with ``[render]`` settings changed,
 judged against that case, so a setting's cost against the truth (``ray_scale=2`` on the rays)
 is a row of the same table. **The splat capture** (:mod:`.real_assets_splats`): the plasma gun
@@ -273,7 +273,8 @@ def main(argv=None) -> int:
                         "('split-sum, screen + NAME'; repeatable)")
     p.add_argument("--student", action="append", default=[], metavar="NAME=FILE",
                    help="also score this student file, as the shipped one is ('neural NAME, "
-                        "rays' and 'neural NAME, screen'; repeatable)")
+                        "rays', 'neural NAME, screen' and 'neural NAME, estimator\'s V'; "
+                        "repeatable)")
     p.add_argument("--variant", action="append", default=[], nargs="+",
                    metavar=("CASE", "KEY=VALUE"), help="also score CASE (a case's label, e.g. "
                    "'split-sum, rays') with these [render] settings changed, judged against "

@@ -62,14 +62,17 @@ def variant_case(case: Case, settings: dict) -> Case:
     return Case(f"{case.label}{VARIANT}{text}", case.render | settings, case.label)
 
 
-def student_cases(name: str, path) -> tuple[Case, Case]:
-    """The student file ``path`` drawn as the shipped one is, with rays and screen-space
-    (``neural NAME, rays`` / ``neural NAME, screen``), each judged against split-sum with the
-    same visibility evidence: a candidate scored on the issue's criterion before it ships."""
+def student_cases(name: str, path, v_use: dict) -> tuple[Case, Case, Case]:
+    """The student file ``path`` drawn as the shipped one is, with rays, screen-space and the
+    estimator's V (``neural NAME, rays`` / ``, screen`` / ``, estimator's V``; ``v_use``: the
+    last's settings), each judged against split-sum with the same visibility evidence: a
+    candidate scored on the issue's criterion before it ships."""
     return (Case(f"neural {name}, rays", {"model": "neural", "weights": str(path)},
                  "split-sum, rays"),
             Case(f"neural {name}, screen", {"model": "neural", "weights": str(path), **SCREEN},
-                 "split-sum, screen"))
+                 "split-sum, screen"),
+            Case(f"neural {name}, estimator's V", {"model": "neural", "weights": str(path),
+                                                    **v_use}, "split-sum, estimator's V"))
 
 
 def cases(estimators: tuple[tuple[str, str], ...] = (),
@@ -77,7 +80,7 @@ def cases(estimators: tuple[tuple[str, str], ...] = (),
           students: tuple[tuple[str, str], ...] = ()) -> tuple[Case, ...]:
     """The eight cases of the module docstring (the estimator's frame read from its weights),
     then one case per candidate estimator file of ``estimators`` (``(name, path)``: ``--estimator
-    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``, two per candidate
+    NAME=FILE``), as the shipped file's, labelled ``split-sum, screen + NAME``, three per candidate
     student file of ``students`` (``--student NAME=FILE``: :func:`student_cases`), then one per
     ``variants`` entry ``(label of a case before, [render] settings)``: :func:`variant_case`."""
     net = shadow_net_file()
@@ -95,14 +98,15 @@ def cases(estimators: tuple[tuple[str, str], ...] = (),
             Case("neural, estimator's V", {"model": "neural", **V_USE},
                  "split-sum, estimator's V"),
             *(estimator_case(ESTIMATOR_CASE + name, path) for name, path in estimators),
-            *(c for name, path in students for c in student_cases(name, path)))
+            *(c for name, path in students for c in student_cases(name, path, V_USE)))
     by_label = {c.label: c for c in base}
     for label, _ in variants:
         if label not in by_label:
             raise RelightError(f"no case {label!r} (one of: {', '.join(by_label)})",
                                where="--variant")
     out = base + tuple(variant_case(by_label[label], dict(s)) for label, s in variants)
-    student_labels = {c.label for name, path in students for c in student_cases(name, path)}
+    student_labels = {c.label for name, path in students
+                      for c in student_cases(name, path, V_USE)}
     seen: set[str] = set()
     for c in out:  # one label, one image: a repeated one would replace another case's
         if c.label in seen:

@@ -29,8 +29,8 @@ from learned.neural.lighting import lighting_from_gl, student_features
 from viewer.environment.maps import EnvironmentSpec
 from viewer.neural import default_weights
 
-STUDENTS = [default_weights("student"), *sorted((ASSET_ROOT / "weights" / "students")
-                                                 .glob("*.safetensors"))]
+STUDENTS = [default_weights("student"), default_weights("student_visibility"),
+            *sorted((ASSET_ROOT / "weights" / "students").glob("*.safetensors"))]
 TEACHERS = [default_weights("teacher")]
 
 # Candidate students (assets/weights/students, rendered by the bench as the MLP-size knob, never a

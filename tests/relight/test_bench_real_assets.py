@@ -70,8 +70,9 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
     # must repeat the shipped estimator's; two variants (--variant CASE KEY=VALUE): one that
     # changes nothing (ray_scale 1 is the default), so it must score its case exactly, and
     # rays at half scale, a different image judged against the full-scale one; a candidate
-    # student (--student NAME=FILE): the shipped file again, whose rows must repeat the shipped
-    # student's, judged against the same split-sum cases
+    # student (--student NAME=FILE): the shipped file again, whose rays and screen rows must
+    # repeat the shipped student's, judged against the same split-sum cases; its estimator's-V
+    # row differs from the case's, which draws the student trained on V's frames by default
     from viewer.neural import default_weights
 
     opts = Options(out=tmp_path, size=(48, 32), spp=8, assets=("cge_plasma_gun",),
@@ -87,12 +88,12 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
         assert [x["case"] for x in rows] == [c.label for c in cases(
             opts.estimators, opts.variants, opts.students)]
         by_case = {x["case"]: x for x in rows}
-        again, student_rays, student_screen, same, half = rows[-5:]
+        again, student_rays, student_screen, student_v, same, half = rows[-6:]
         assert again["case"] == "split-sum, screen + again"
         judged = [x for x in rows if "baseline" in x]
-        assert len(judged) == 10 and all("ok" in x and "invented_shadow_%" in x for x in judged)
+        assert len(judged) == 11 and all("ok" in x and "invented_shadow_%" in x for x in judged)
         assert all(np.isfinite(x["psnr_db"]) and x["floor_pixels"] > 50 for x in rows)
-        assert sum(s["rows"] for s in report["summary"].values()) == 10
+        assert sum(s["rows"] for s in report["summary"].values()) == 11
         shipped = by_case["split-sum, screen + estimator"]
         assert {k: v for k, v in again.items() if k != "case"} == {
             k: v for k, v in shipped.items() if k != "case"}
@@ -100,6 +101,9 @@ def test_a_tiny_scene_gives_rows_verdicts_files_and_a_cached_truth(ctx, mitsuba_
             assert row["case"] == case.replace("neural", "neural again")
             assert {k: v for k, v in row.items() if k != "case"} == {
                 k: v for k, v in by_case[case].items() if k != "case"}
+        assert (student_v["case"], student_v["baseline"]) == (
+            "neural again, estimator's V", "split-sum, estimator's V")
+        assert student_v["psnr_db"] != by_case["neural, estimator's V"]["psnr_db"]
         # every judged row's PSNR against its baseline's, and the summary's mean and worst
         for x in judged:
             assert x["psnr_gain_db"] == round(x["psnr_db"] - by_case[x["baseline"]]["psnr_db"], 2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -72,10 +73,57 @@ def model_network(model: str, settings) -> tuple[Network, NetworkCode] | None:
     kind = MODEL_KINDS.get(model)
     if kind is None:
         return None
-    attr = "weights" if kind == "student" else "teacher_weights"
-    path = getattr(settings.neural, attr) or default_weights(kind)
-    net = load_network(path, kind)
+    if kind == "student":
+        path = student_path(settings)
+        net = load_network(path, kind)
+        check_student_frame(net, settings)
+    else:
+        net = load_network(settings.neural.teacher_weights or default_weights(kind), kind)
     return net, net.code(settings.neural.storage)
+
+
+def takes_estimator_visibility(settings) -> bool:
+    """Whether the frame takes the shadow estimator's V in place of SSAO's O(x) and S(x)
+    (``[render] shadow_net`` set and ``shadow_net_use = "visibility"``)."""
+    return settings.neural.shadow_net is not None and \
+        settings.neural.shadow_net_use == "visibility"
+
+
+def student_path(settings) -> Path:
+    """The student's weights: ``[render] weights``, else the shipped file for the frame: the
+    student trained on frames whose O(x) is the shadow estimator's V
+    (``neural_student_visibility``, ``relight train --student-visibility``) when the frame takes
+    V (:func:`takes_estimator_visibility`), else the shipped student."""
+    if settings.neural.weights:
+        return Path(settings.neural.weights)
+    return default_weights("student_visibility" if takes_estimator_visibility(settings)
+                           else "student")
+
+
+_WARNED: set = set()  # (file, trained on V) already warned about: check_student_frame
+
+
+def check_student_frame(net: NetworkFile, settings) -> None:
+    """Warn (one line naming the file) when the student was trained on the other kind of frame:
+    on SSAO's O(x) and used where the frame takes the estimator's V, or the other way round
+    (its training record's ``student_visibility``); its learned corrections were fitted to the
+    other frame's brightness."""
+    trained = bool((net.training.get("config") or {}).get("student_visibility"))
+    key = (net.path, trained)
+    if trained == takes_estimator_visibility(settings) or key in _WARNED:
+        return
+    _WARNED.add(key)  # once per file and process (model_network is asked from several passes)
+    if trained:
+        warnings.warn(f"{net.path}: the student was trained on frames that take the shadow "
+                      f"estimator's V in place of SSAO (shadow_net_use = \"visibility\"); this "
+                      f"frame does not, so its corrections are fitted to another frame's light",
+                      stacklevel=3)
+    else:
+        warnings.warn(f"{net.path}: the student was trained on frames with SSAO's O(x); this "
+                      f"frame takes the shadow estimator's V in its place (shadow_net_use), so "
+                      f"its corrections are fitted to another frame's light (the shipped "
+                      f"{default_weights('student_visibility').name} is trained for it)",
+                      stacklevel=3)
 
 
 def virtual_files(found: tuple[Network, NetworkCode] | None) -> dict[str, str]:

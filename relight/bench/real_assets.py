@@ -26,8 +26,8 @@ screen-space with the estimator's visibility in place of SSAO's occlusion and th
 is judged against the split-sum case with the same visibility evidence
 (:attr:`~.real_assets_cases.Case.baseline`). Beside them, candidate estimator files
 (``--estimator``), candidate student files (``--student``: ``neural NAME, rays``, ``neural
-NAME, screen`` and ``neural NAME, estimator's V``, judged as the shipped student's cases) and *variants* (``--variant``,
-:func:`~.real_assets_cases.variant_case`): a case again with ``[render]`` settings changed,
+NAME, screen`` and ``neural NAME, estimator's V``, judged as the shipped student's cases) and
+*variants* (``--variant``, :func:`~.real_assets_cases.variant_case`): a case again with ``[render]`` settings changed,
 judged against that case, so a setting's cost against the truth (``ray_scale=2`` on the rays)
 is a row of the same table. **The splat capture** (:mod:`.real_assets_splats`): the plasma gun
 tiled with splats of its true materials on the same floor, drawn the same eight ways (rays see

@@ -58,7 +58,8 @@ def weights_provenance(path) -> dict:
 def _print_weights(args) -> int:
     from viewer.neural import default_weights
 
-    files = args.weights or [str(default_weights("student")), str(default_weights("teacher"))]
+    files = args.weights or [str(default_weights(k))
+                             for k in ("student", "student_visibility", "teacher")]
     rows = []
     for f in files:
         if not Path(f).is_file():

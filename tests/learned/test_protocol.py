@@ -262,8 +262,11 @@ def test_shipped_weights_say_where_they_come_from(capsys):
     assert any(v["test_scored"] >= 1 for v in student["test"].values())
     teacher = weights_provenance(default_weights("teacher"))
     assert "--teacher-light-input off" in teacher["command"]
+    v = weights_provenance(default_weights("student_visibility"))
+    assert "--student-visibility" in v["command"] and f"--seed {v['seed']}" in v["command"]
     assert main(["info", "--weights"]) == 0
-    assert "command" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "command" in printed and "neural_student_visibility" in printed
     assert main(["info", "--weights", "nope.safetensors"]) == 2
 
 

@@ -1,6 +1,6 @@
 """Parity cases of ``shaders/lib/bvh.glsl`` against :mod:`learned.twins.bvh`: rays against boxes,
-triangles, ellipsoids and Gaussians. The traversal over a whole BVH (``passes/raytrace.glsl``) is a pass check
-(:mod:`learned.parity.checks.raytrace`)."""
+triangles, ellipsoids and Gaussians. The traversal over a whole BVH (``passes/raytrace.glsl``)
+is a pass check (:mod:`learned.parity.checks.raytrace`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -88,8 +88,9 @@ PARITY_CASES = [
                         "contract) and a division (2.5 ulp): ~1e-6 relative; q^2 = |o + t d|^2 "
                         "cancels where the ray passes near the centre, so its error is ~1e-6 "
                         "of |o|^2 <= 48: 5e-5 abs at worst; 2e-5 + 2e-5 rel covers the "
-                        "drawn inputs (the largest relative error is at q^2 ~ 0.3); d = 0 (adversarial) "
-                        "gives t = 0 and |o|^2 both sides, t_max = 1e30 no clamp"),
+                        "drawn inputs (the largest relative error is at q^2 ~ 0.3); d = 0 "
+                        "(adversarial) gives t = 0 and |o|^2 both sides, t_max = 1e30 no "
+                        "clamp"),
     ParityCase("ellipsoid_entry",
                (Arg(lo=-4.0, hi=4.0, components=3), Arg(lo=-30.0, hi=30.0, components=3),
                 Arg(lo=0.05, hi=9.0, adversarial=(0.0, -1.0))),
@@ -100,7 +101,6 @@ PARITY_CASES = [
                         "~1e-6 relative, / the discriminant's relative size where it is small: "
                         "prepare keeps it >= 2 % of a max(r2, |o|^2), so <= 5e-5 rel; the same "
                         "bounds keep entry and miss apart"),
-
     ParityCase("safe_inverse",
                (Arg(lo=-4.0, hi=4.0, components=3,
                     adversarial=((0.0, 1.0, -1.0), (1e-31, -1e-31, 2.0), (-0.0, 0.5, 1e-20))),),

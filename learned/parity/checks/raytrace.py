@@ -2,9 +2,9 @@
 surfaces, splats) against :mod:`learned.twins.bvh`, on small scenes: a tessellated sphere on a
 floor, a soup of random triangles some of which are masked out, and a splat cloud over a floor
 (proxies counted only where rays enter them; closest hits on the opaque cores, shadow rays
-blocked by the opacity they gather through the Gaussians). The twin walks the same tree in the same order, so the triangle indices
-agree exactly and the distances to float32 rounding; the tests (``tests/viewer/test_raytrace.py``)
-check both against a brute-force search in float64."""
+blocked by the opacity they gather through the Gaussians). The twin walks the same tree in the
+same order, so the triangle indices agree exactly and the distances to float32 rounding; the
+tests (``tests/viewer/test_raytrace.py``) check both against a brute-force search in float64."""
 from __future__ import annotations
 
 import numpy as np

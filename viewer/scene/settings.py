@@ -76,7 +76,10 @@ class RaytraceSettings:
 class NeuralSettings:
     """Which weights the neural models load and where their generated GLSL reads them."""
 
-    weights: str | None = None  # `neural` student weights (.safetensors); None = assets/weights
+    # `neural` student weights (.safetensors); None = assets/weights' student for the frame
+    # (neural_student, or neural_student_visibility where shadow_net_use = "visibility":
+    # viewer.neural.network.student_path)
+    weights: str | None = None
     teacher_weights: str | None = None  # `neural_teacher` weights; None = assets/weights
     # the neural shadow estimator's weights (viewer/neural/shadow_net.py): its visibility
     # multiplies every model's shading (thesis eq. 4.3); None: no estimator (TOML: shadow_net)

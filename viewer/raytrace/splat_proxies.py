@@ -18,20 +18,28 @@ Moenne-Loccoz et al. 2024, evaluates a particle at the same peak). So:
   the shadow maps' rule (:mod:`viewer.passes.shadow`: a splat occludes where its projected
   opacity reaches 0.5).
 
-Each proxy is an icosahedron (20 triangles, 12 vertices) around the ellipsoid ``d_M(x) <= r_b``,
-``r_b = sqrt(2 ln(alpha / ALPHA_MIN))`` (beyond it a splat blocks less than :data:`ALPHA_MIN` of
-a line's light), its vertices at ``mean + R S (r_b / INRADIUS) u`` for the icosahedron's unit
-vertices u, so that its faces touch the ellipsoid from outside. A splat fainter than
-:data:`ALPHA_MIN` has no proxy. The proxy counts only where a ray **enters** it
-(:data:`~viewer.raytrace.scene.ENTERED_ONLY` in the surface row's cutoff): a ray that starts
-inside a proxy (a splat surface's own G-buffer points lie inside the proxies of the splats that
-make them) leaves it unhindered, as it leaves the surface it starts on, so one entry face counts
-each splat once.
+Each proxy bounds the ellipsoid ``d_M(x) <= r_b``, ``r_b = sqrt(2 ln(alpha / ALPHA_MIN))``
+(beyond it a splat blocks less than :data:`ALPHA_MIN` of a line's light); a splat fainter than
+:data:`ALPHA_MIN` has none. It is
 
-What the traversal reads of a splat: four texels of ``u_rt_splats``
-(:func:`splat_rows`): the affine map to its unit-Gaussian frame and ``(alpha, r_core^2)``;
-a proxy's material row ``ROW["splat"]`` gives its first splat and first vertex, so a
-triangle's splat is ``first + (vertex - first vertex) / 12``.
+* an **icosahedron** (20 triangles, 12 vertices) at ``mean + R S (r_b / INRADIUS) u`` for the
+  icosahedron's unit vertices u, its faces touching the ellipsoid from outside, counted only
+  where a ray **enters** it (:data:`~viewer.raytrace.scene.ENTERED_ONLY` in the surface row's
+  cutoff): one entry face a splat, and a ray that starts inside leaves it unhindered;
+* or, for a **flat** splat (:func:`flat_splats`: its shortest axis at most :data:`FLAT` of the
+  next), the **rectangle** (2 triangles, 4 vertices) ``mean +- r_b sigma_u e_u +- r_b sigma_v
+  e_v`` around the bound ellipse in the plane of its two long axes, counted where a ray crosses
+  it, from either side, unless the ray starts inside the bound ellipsoid. A ray through so thin
+  an ellipsoid crosses that plane inside it, but for rays within a few degrees of the plane
+  (``atan`` of the axes' ratio).
+
+Either way a splat surface's own G-buffer points, which lie inside the bounds of the splats
+that make them, send their rays out unhindered, as from the surface they start on.
+
+What the traversal reads of a splat: four texels of ``u_rt_splats`` (:func:`splat_rows`): the
+map ``x -> W (x - mean)`` to its unit-Gaussian frame and ``(alpha, r_core^2, r_b^2)``; a
+proxy face's first edge texel names its splat (1 + its row, negated for a rectangle:
+:attr:`~viewer.raytrace.scene.TraceGeometry.edges`).
 
 Materials at a secondary hit: the splat's albedo, roughness and metallic, one texel per splat of
 a ``base_color`` and a ``metallic_roughness`` map of :data:`~viewer.raytrace.scene.MAP_SIZE`

@@ -104,3 +104,38 @@ def test_the_frame_that_takes_v_gets_the_student_trained_on_v_and_a_wrong_one_is
     wrong = settings(model="neural", weights=str(default_weights("student_visibility")))
     with pytest.warns(UserWarning, match="trained on frames that take the shadow estimator's V"):
         model_network("neural", wrong)
+
+
+def test_the_route_students_bench_scores_students_and_split_sum_on_v_frames(dataset, ctx,
+                                                                             capsys):
+    """``relight.bench.student_visibility``: every student and the classical row scored on V's
+    frames; the classical row is a student at its start (k = 0.5, no correction), so its score
+    is that of the same design exported untrained; the route's student and the O(x) student
+    read the same frames and score differently; a bad argument is one line."""
+    import math
+    import tempfile
+    from pathlib import Path
+
+    from learned.export import export
+    from relight.bench.student_visibility import BASE, base_student, main, score
+    from viewer.neural import default_weights
+    from viewer.renderer import Renderer
+
+    with tempfile.TemporaryDirectory() as tmp:
+        untrained = Path(tmp) / "base.safetensors"
+        export(base_student(), str(untrained), {"stage": "test"})
+        r = Renderer(ctx=ctx)
+        try:
+            table = score(str(MESH_ESTIMATOR),
+                          {"v": str(default_weights("student_visibility")),
+                           "o": str(default_weights("student")), "untrained": str(untrained)},
+                          {"tiny": (str(dataset), "val")}, renderer=r, progress=False)
+        finally:
+            r.release()
+    row = table["tiny"]
+    assert row["images"] >= 1 and all(math.isfinite(row[k]) for k in (BASE, "v", "o"))
+    assert abs(row["untrained"] - row[BASE]) < 1e-4  # the classical row is the untrained design
+    assert row["v"] != row["o"]
+    assert table["pooled"][BASE] == row[BASE]
+    assert main([str(MESH_ESTIMATOR), "nonsense", "--data", f"t={dataset}"]) == 2
+    assert "expected NAME=VALUE" in capsys.readouterr().err

@@ -83,16 +83,15 @@ def gaussian_ray_peak(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor) -> 
 
 def ellipsoid_entry(o: torch.Tensor, d: torch.Tensor, r2: torch.Tensor) -> torch.Tensor:
     """GLSL ``float ellipsoid_entry(vec3 o, vec3 d, float r2)``: where the ray enters the sphere
-    of squared radius r2 (an ellipsoid's unit frame), from the line's nearest point; -1 for a
-    miss, a start inside, an entry behind o or r2 <= 0."""
+    of squared radius r2 (an ellipsoid's unit frame), -1 for a miss, a start inside, an entry
+    behind o or r2 <= 0."""
     a = (d * d).sum(-1)
-    ok = (a > 0.0) & (r2 > 0.0)
-    t = -(o * d).sum(-1) / torch.where(ok, a, torch.ones_like(a))
-    x = o + t[..., None] * d
-    q2 = (x * x).sum(-1)
-    entry = t - torch.sqrt(torch.clamp(r2 - q2, min=0.0) / torch.where(ok, a, torch.ones_like(a)))
-    hit = ok & (q2 <= r2) & (entry > 0.0)
-    return torch.where(hit, entry, torch.full_like(entry, -1.0))
+    b = (o * d).sum(-1)
+    c = (o * o).sum(-1) - r2
+    disc = b * b - a * c
+    ok = (a > 0.0) & (r2 > 0.0) & (c > 0.0) & (b < 0.0) & (disc >= 0.0)
+    t = c / (-b + torch.sqrt(torch.clamp(disc, min=0.0)))
+    return torch.where(ok, t, torch.full_like(t, -1.0))
 
 
 # ---- the traversal (passes/raytrace.glsl) -------------------------------------------------------
@@ -115,26 +114,19 @@ def _solid(tri, materials) -> bool:
     return float(rows[0, 3]) >= cutoff
 
 
-def _splat_ray(rows, o, d):
-    """``rt_splat_ray``: the ray in the splat's unit-Gaussian frame, ``W (o - mean)``, ``W d``."""
-    return rows[:3, :3] @ (o - rows[:3, 3]), rows[:3, :3] @ d
-
-
-def _entered_splat(edges, i: int, o, d, splats) -> int:
-    """``rt_entered_splat``: the splat whose proxy triangle ``i`` is a face of, counted for the ray
-    (``edges [3N, 4]``: TraceGeometry.edges, the first texel's w 1 + the splat, negated for a
-    flat splat's rectangle), -1 for any other triangle, -2 where it is not counted (an
-    icosahedron left through this face; a rectangle crossed from inside the bound)."""
-    w = float(edges[3 * i, 3]) if edges is not None else 0.0
-    if w > 0.5:
-        enters = float((torch.linalg.cross(edges[3 * i + 1, :3], edges[3 * i + 2, :3])
-                        * d).sum()) < 0.0
-        return int(w) - 1 if enters else -2
-    if w > -0.5:
+def _entered_splat(edges, i: int, d) -> int:
+    """``rt_entered_splat``: the splat whose proxy triangle ``i`` is a face of, entered along
+    ``d`` (``edges [3N, 4]``: TraceGeometry.edges, the first texel's w 1 + the splat), -1 for
+    any other triangle, -2 where the ray leaves the proxy through it."""
+    if edges is None or float(edges[3 * i, 3]) < 0.5:
         return -1
-    s = int(-w) - 1
-    oc, _ = _splat_ray(splats[4 * s: 4 * s + 4], o, d)
-    return s if float((oc * oc).sum()) >= float(splats[4 * s + 3, 2]) else -2
+    enters = float((torch.linalg.cross(edges[3 * i + 1, :3], edges[3 * i + 2, :3]) * d).sum()) < 0
+    return int(edges[3 * i, 3]) - 1 if enters else -2
+
+
+def _splat_ray(rows, o, d):
+    """``rt_splat_ray``: the ray in the splat's unit-Gaussian frame."""
+    return rows[:3, :3] @ o + rows[:3, 3], rows[:3, :3] @ d
 
 
 def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, triangles,
@@ -164,7 +156,7 @@ def bvh_closest_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes
                         t = float(h[0])
                         if not 0.0 < t < best:
                             continue
-                        s = _entered_splat(edges, i, oo, dd, splats)
+                        s = _entered_splat(edges, i, dd)
                         if s == -2:
                             continue  # leaves the proxy
                         if s >= 0:  # a splat: where the ray enters its opaque core
@@ -212,7 +204,7 @@ def bvh_any_hit(o: torch.Tensor, d: torch.Tensor, t_max: torch.Tensor, nodes, tr
         seen = 1.0
         for i in torch.nonzero((h[:, 0] > 0.0) & (h[:, 0] < tm)).flatten().tolist():
             tri = triangles[i]
-            s = _entered_splat(edges, i, oo, dd, splats)
+            s = _entered_splat(edges, i, dd)
             if s == -2:
                 continue
             if s == -1:

@@ -73,17 +73,13 @@ vec2 gaussian_ray_peak(vec3 o, vec3 d, float t_max) {
 
 // Where the ray o + t d enters the sphere |x|^2 = r2 (o, d in an ellipsoid's unit frame, d not
 // unit: the ellipsoid itself), or -1 where it misses it, starts inside it, enters behind o or
-// r2 <= 0 (no ellipsoid). From the line's nearest point (its squared distance q2 from the
-// centre, as gaussian_ray_peak takes it): the entry is t* - sqrt((r2 - q2) / d.d), and the
-// ray meets the sphere exactly when q2 <= r2, the rule of a splat's core. (The quadratic's
-// discriminant b^2 - a c cancels for a thin ellipsoid, whose d.d is large; this does not.)
+// r2 <= 0 (no ellipsoid: a ray through its centre would touch the point).
+// The nearer root of (d.d) t^2 + 2 (o.d) t + o.o - r2, in the form that keeps its digits.
 float ellipsoid_entry(vec3 o, vec3 d, float r2) {
     float a = dot(d, d);
-    if (!(a > 0.0) || !(r2 > 0.0)) return -1.0;
-    float t = -dot(o, d) / a;
-    vec3 x = o + t * d;
-    float q2 = dot(x, x);
-    if (q2 > r2) return -1.0;
-    float entry = t - sqrt((r2 - q2) / a);
-    return entry > 0.0 ? entry : -1.0;
+    float b = dot(o, d);
+    float c = dot(o, o) - r2;
+    float disc = b * b - a * c;
+    if (!(a > 0.0) || !(r2 > 0.0) || c <= 0.0 || b >= 0.0 || disc < 0.0) return -1.0;
+    return c / (-b + sqrt(disc));  // = (-b - sqrt(disc)) / a, without the cancellation
 }

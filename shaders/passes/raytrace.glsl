@@ -21,11 +21,10 @@ layout(std430, binding = 5) readonly buffer RaytraceMaterials { vec4 rt_material
 // child_pairs)
 uniform sampler2D u_rt_nodes;
 // 3 texels a triangle: p0, p1 - p0, p2 - p0 (xyz); the first's w: 1 + the splat a splat proxy's
-// face belongs to (viewer/raytrace/splat_proxies.py), negated for a flat splat's rectangle, 0
-// for any other triangle
+// face belongs to (viewer/raytrace/splat_proxies.py), 0 for any other triangle
 uniform sampler2D u_rt_edges;
-// 4 texels a splat (viewer/raytrace/splat_proxies.py splat_rows): its unit-Gaussian frame's map
-// x -> W (x - mean) (rows: W_i, mean_i), then (opacity, core radius^2, bound radius^2)
+// 4 texels a splat (viewer/raytrace/splat_proxies.py splat_rows): its unit-Gaussian frame's
+// affine map (rows: W_i, c_i), then (opacity, core radius^2)
 uniform sampler2D u_rt_splats;
 uniform sampler2DArray u_rt_maps;  // every traced map, one layer each (MAP_SIZE^2, linear)
 uniform int u_rt_node_count;       // 0: the scene has no triangles (every ray misses)
@@ -140,31 +139,24 @@ bool rt_solid(int i, uvec4 tri, vec2 b) {
     return alpha >= cutoff;
 }
 
+// The splat whose proxy the triangle with edge texels e0, e1, e2 is a face of, entered through it
+// along d (its outward, counter-clockwise face looks against d), or -1: not a splat's proxy, or
+// left through this face. A proxy counts only where a ray enters it (one face a splat; a ray
+// that starts inside leaves it unhindered).
+int rt_entered_splat(vec4 e0, vec4 e1, vec4 e2, vec3 d) {
+#if !RT_SPLATS
+    return -1;
+#endif
+    if (e0.w < 0.5) return -1;
+    return dot(cross(e1.xyz, e2.xyz), d) < 0.0 ? int(e0.w) - 1 : -2;
+}
+
 // The ray o + t d in splat s's unit-Gaussian frame: (o', d').
 void rt_splat_ray(int s, vec3 o, vec3 d, out vec3 oc, out vec3 dc) {
     vec4 r0 = rt_texel(u_rt_splats, 4 * s), r1 = rt_texel(u_rt_splats, 4 * s + 1);
     vec4 r2 = rt_texel(u_rt_splats, 4 * s + 2);
-    vec3 x = o - vec3(r0.w, r1.w, r2.w);  // from the mean first (splat_rows says why)
-    oc = vec3(dot(r0.xyz, x), dot(r1.xyz, x), dot(r2.xyz, x));
+    oc = vec3(dot(r0.xyz, o) + r0.w, dot(r1.xyz, o) + r1.w, dot(r2.xyz, o) + r2.w);
     dc = vec3(dot(r0.xyz, d), dot(r1.xyz, d), dot(r2.xyz, d));
-}
-
-// The splat whose proxy the triangle with edge texels e0, e1, e2 is a face of, counted for the
-// ray o + t d, or -1: not a splat's proxy, -2: not counted. An icosahedron counts where the ray
-// enters it (its outward, counter-clockwise face looks against d): one face a splat, and a ray
-// that starts inside leaves it unhindered. A flat splat's rectangle (e0.w negative) counts
-// wherever the ray crosses it, unless the ray starts inside the splat's bound ellipsoid (the
-// same rule: the surface a ray starts on does not stop it).
-int rt_entered_splat(vec4 e0, vec4 e1, vec4 e2, vec3 o, vec3 d) {
-#if !RT_SPLATS
-    return -1;
-#endif
-    if (e0.w > 0.5) return dot(cross(e1.xyz, e2.xyz), d) < 0.0 ? int(e0.w) - 1 : -2;
-    if (e0.w > -0.5) return -1;
-    int s = int(-e0.w) - 1;
-    vec3 oc, dc;
-    rt_splat_ray(s, o, d, oc, dc);
-    return dot(oc, oc) >= rt_texel(u_rt_splats, 4 * s + 3).z ? s : -2;
 }
 
 // Where the ray o + t d (unit d) stops at splat s: the entry into its opaque core (lib/bvh.glsl
@@ -218,7 +210,7 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
                 rt_edges(i, e0, e1, e2);
                 vec3 r = ray_triangle_edges(o, d, e0.xyz, e1.xyz, e2.xyz);
                 if (!(r.x > 0.0 && r.x < hit.t)) continue;
-                int s = rt_entered_splat(e0, e1, e2, o, d);
+                int s = rt_entered_splat(e0, e1, e2, d);
                 if (s >= 0) {  // a splat: where the ray enters its opaque core
                     r.x = rt_splat_t(s, o, d);
                     if (!(r.x > 0.0 && r.x < hit.t)) continue;
@@ -286,7 +278,7 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
                 rt_edges(i, e0, e1, e2);
                 vec3 r = ray_triangle_edges(o, d, e0.xyz, e1.xyz, e2.xyz);
                 if (!(r.x > 0.0 && r.x < t_max)) continue;
-                int s = rt_entered_splat(e0, e1, e2, o, d);
+                int s = rt_entered_splat(e0, e1, e2, d);
                 if (s >= 0) {
                     seen *= rt_splat_transmittance(s, o, d, t_max);
                     if (seen <= 1.0 - RT_OPAQUE_AT) return true;

@@ -23,29 +23,25 @@ T_TOL = 1e-4
 
 def _brute(meshes, rays, blocked=None):
     """The nearest hit of each ray in float64 over every triangle (inf: none), honouring the
-    masks of parity_scenes (base_alpha below the cutoff: no hit) and the splat proxies (an
-    icosahedron counted only where a ray enters it, against its counter-clockwise face; a flat
-    splat's rectangle where crossed from outside its bound ellipsoid; a closest hit where it
+    masks of parity_scenes (base_alpha below the cutoff: no hit) and the splat proxies (counted
+    only where a ray enters one, against its counter-clockwise face; a closest hit where it
     enters the splat's core ellipsoid, solved in float64 from the splat's rows). ``blocked``: a
     list filled with each ray's any-hit (a solid triangle, or the product of 1 - alpha
     exp(-q^2 / 2) over the entered splats, q at the peak along the segment, <= 1/2)."""
-    tris, solid, splat, flat = [], [], [], []
+    tris, solid, splat = [], [], []
     for m in meshes:
         p = np.asarray(m.positions, np.float64)[np.asarray(m.indices, np.int64)]
         tris.append(p)
         cut = m.alpha_mode == "MASK" and m.base_alpha < m.alpha_cutoff
         solid.append(np.full(len(p), not cut))
-        if getattr(m, "entered_only", False):  # vertices_per_splat vertices a splat
+        if getattr(m, "entered_only", False):  # 20 triangles a splat, 12 vertices a splat
             rows = np.asarray(m.splat_rows, np.float64)
-            splat.append(rows[np.asarray(m.indices, np.int64)[:, 0] // m.vertices_per_splat])
-            flat.append(np.full(len(p), m.flat))
+            splat.append(rows[np.asarray(m.indices, np.int64)[:, 0] // 12])
         else:
-            flat.append(np.zeros(len(p), bool))
             splat.append(np.full((len(p), 4, 4), np.nan))
     v = np.concatenate(tris)
     solid = np.concatenate(solid)
     splat = np.concatenate(splat)
-    flat = np.concatenate(flat)
     is_splat = np.isfinite(splat[:, 0, 0])
     v0, e1, e2 = v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     out = np.full(len(rays), np.inf)
@@ -62,12 +58,8 @@ def _brute(meshes, rays, blocked=None):
         front = (np.cross(e1, e2) * d).sum(1) < 0.0  # the ray enters through this face
         on = (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & (t < t_max)
         t = np.where(is_splat, np.inf, t)
-        # an icosahedron counts where entered; a flat splat's rectangle where crossed by a ray
-        # that starts outside its bound ellipsoid (|o'|^2 >= r_b^2)
-        o_in = np.einsum("nij,ni->ni", splat[:, :3, :3], o - splat[:, :3, 3])
-        outside = (o_in * o_in).sum(1) >= splat[:, 3, 2]
-        entered = np.flatnonzero(on & is_splat & np.where(flat, outside, front))
-        oc = np.einsum("nij,nj->ni", splat[entered, :3, :3], o - splat[entered, :3, 3])
+        entered = np.flatnonzero(on & is_splat & front)
+        oc = np.einsum("nij,j->ni", splat[entered, :3, :3], o) + splat[entered, :3, 3]
         dc = np.einsum("nij,j->ni", splat[entered, :3, :3], d)
         a, b = (dc * dc).sum(1), (oc * dc).sum(1)
         c = (oc * oc).sum(1) - splat[entered, 3, 1]

@@ -84,8 +84,7 @@ class TraceGeometry:
     triangles: np.ndarray  # [N, 4] uint32: vertex indices, mesh index; in BVH leaf order
     nodes: np.ndarray      # [K, 16] float32: interior nodes' child pairs (bvh.child_pairs)
     # [N, 12] float32: p0, p1 - p0, p2 - p0 (xyz), as triangles; the first w: 1 + the splat a
-    # splat proxy's face belongs to (its row in ``splats``), negated for a flat splat's
-    # rectangle, 0 for any other triangle
+    # splat proxy's face belongs to (its row in ``splats``), 0 for any other triangle
     edges: np.ndarray
     maps: np.ndarray       # [L, MAP_SIZE, MAP_SIZE, 4] float32: every distinct map, a layer each
     layers: list           # per mesh: {map key: layer}
@@ -129,10 +128,8 @@ def build_trace_geometry(meshes) -> TraceGeometry:
         tris.append(np.concatenate([idx + base, np.full((len(idx), 1), k)], axis=1))
         splat_rows = (getattr(mesh, "splat_rows", None) if getattr(mesh, "entered_only", False)
                       else None)
-        if splat_rows is not None:  # vertices_per_splat a splat, in splat_rows' order;
-            # a flat splat's rectangle named negative (raytrace.glsl rt_entered_splat)
-            owner = splat_base + idx[:, 0] // mesh.vertices_per_splat + 1
-            owners.append(-owner if mesh.flat else owner)
+        if splat_rows is not None:  # 12 vertices a splat, in splat_rows' order
+            owners.append(splat_base + idx[:, 0] // 12 + 1)
             rows.append(splat_rows.reshape(-1, 16))
             splat_base += len(splat_rows)
         else:
@@ -164,7 +161,7 @@ def build_trace_geometry(meshes) -> TraceGeometry:
     edges[:, 0, :3] = p[:, 0]
     edges[:, 1, :3] = p[:, 1] - p[:, 0]
     edges[:, 2, :3] = p[:, 2] - p[:, 0]
-    edges[:, 0, 3] = owner  # exact in float32 below 2^24 splats (MAX_TRIANGLES is 2 M)
+    edges[:, 0, 3] = owner  # exact in float32 below 2^24 splats (MAX_TRACED is 100 000)
     stack = (np.stack(maps).astype(np.float32) if maps
              else np.zeros((0, MAP_SIZE, MAP_SIZE, 4), np.float32))
     splats = np.concatenate(rows).astype(np.float32) if rows else np.zeros((0, 16), np.float32)

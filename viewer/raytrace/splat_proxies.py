@@ -18,36 +18,27 @@ Moenne-Loccoz et al. 2024, evaluates a particle at the same peak). So:
   the shadow maps' rule (:mod:`viewer.passes.shadow`: a splat occludes where its projected
   opacity reaches 0.5).
 
-Each proxy bounds the ellipsoid ``d_M(x) <= r_b``, ``r_b = sqrt(2 ln(alpha / ALPHA_MIN))``
-(beyond it a splat blocks less than :data:`ALPHA_MIN` of a line's light); a splat fainter than
-:data:`ALPHA_MIN` has none. It is
+Each proxy is an icosahedron (20 triangles, 12 vertices) around the ellipsoid ``d_M(x) <= r_b``,
+``r_b = sqrt(2 ln(alpha / ALPHA_MIN))`` (beyond it a splat blocks less than :data:`ALPHA_MIN` of
+a line's light), its vertices at ``mean + R S (r_b / INRADIUS) u`` for the icosahedron's unit
+vertices u, so that its faces touch the ellipsoid from outside. A splat fainter than
+:data:`ALPHA_MIN` has no proxy. The proxy counts only where a ray **enters** it
+(:data:`~viewer.raytrace.scene.ENTERED_ONLY` in the surface row's cutoff): a ray that starts
+inside a proxy (a splat surface's own G-buffer points lie inside the proxies of the splats that
+make them) leaves it unhindered, as it leaves the surface it starts on, so one entry face counts
+each splat once.
 
-* an **icosahedron** (20 triangles, 12 vertices) at ``mean + R S (r_b / INRADIUS) u`` for the
-  icosahedron's unit vertices u, its faces touching the ellipsoid from outside, counted only
-  where a ray **enters** it (:data:`~viewer.raytrace.scene.ENTERED_ONLY` in the surface row's
-  cutoff): one entry face a splat, and a ray that starts inside leaves it unhindered;
-* or, for a **flat** splat (:func:`flat_splats`: its shortest axis at most :data:`FLAT` of the
-  next), the **rectangle** (2 triangles, 4 vertices) ``mean +- r_b sigma_u e_u +- r_b sigma_v
-  e_v`` around the bound ellipse in the plane of its two long axes, counted where a ray crosses
-  it, from either side, unless the ray starts inside the bound ellipsoid. A ray through so thin
-  an ellipsoid crosses that plane inside it, but for rays within a few degrees of the plane
-  (``atan`` of the axes' ratio).
-
-Either way a splat surface's own G-buffer points, which lie inside the bounds of the splats
-that make them, send their rays out unhindered, as from the surface they start on.
-
-What the traversal reads of a splat: four texels of ``u_rt_splats`` (:func:`splat_rows`): the
-map ``x -> W (x - mean)`` to its unit-Gaussian frame and ``(alpha, r_core^2, r_b^2)``; a
-proxy face's first edge texel names its splat (1 + its row, negated for a rectangle:
-:attr:`~viewer.raytrace.scene.TraceGeometry.edges`).
+What the traversal reads of a splat: four texels of ``u_rt_splats``
+(:func:`splat_rows`): the affine map to its unit-Gaussian frame and ``(alpha, r_core^2)``;
+a proxy's material row ``ROW["splat"]`` gives its first splat and first vertex, so a
+triangle's splat is ``first + (vertex - first vertex) / 12``.
 
 Materials at a secondary hit: the splat's albedo, roughness and metallic, one texel per splat of
 a ``base_color`` and a ``metallic_roughness`` map of :data:`~viewer.raytrace.scene.MAP_SIZE`
 squared texels (each vertex's TEXCOORD_0 is its splat's texel centre; the factors are 1), so a
 cloud becomes one proxy mesh per ``MAP_SIZE^2`` = 65 536 splats, each with its own two map layers.
 The normal at every vertex is the splat's (stored, or its shortest axis), double-sided. At most
-:data:`MAX_TRIANGLES` proxy triangles are traced (the largest splats first, with a warning naming
-the cloud).
+:data:`MAX_TRACED` splats are traced (the largest first, with a warning naming the cloud).
 
 Proxies are made once per cloud and kept while the cloud lives (a weak map keyed by the
 :class:`~viewer.splats.data.Splats` object, which the bounded geometry cache owns), so the traced
@@ -68,23 +59,15 @@ from ..splats.data import Splats, min_axis, quat_to_matrix
 from .scene import MAP_SIZE
 
 OPAQUE_AT = 0.5  # the shadow maps' opacity threshold (viewer.passes.shadow): the opaque core
-# the opacity a splat blocks of a line at its proxy's surface: a ray passing outside a splat's
-# proxy leaves out less than this of the light it would block
+# the opacity a splat blocks of a line at its proxy's surface: 1/64 of a line's light is left out
+# where a ray passes outside a splat's proxy (the transmittance's error per splat passed)
 ALPHA_MIN = 0.1
-# a splat whose shortest axis is at most this share of the next is flat: its proxy is the
-# rectangle (2 triangles) around its bound ellipse in its plane, not an icosahedron (20)
-FLAT = 0.1
-# at most this many proxy triangles are traced, the largest splats (the area of their two
-# longest axes) first: 2 M triangles are about 240 MB of traced scene (within the renderer's
-# 256 MB raytrace budget) and a 9.4 s BVH build on the 2-core CI machine: 100 000 icosahedra or
-# a million flat splats; a larger cloud's smaller splats are left to the shadow maps, with a
-# warning
-MAX_TRIANGLES = 2_000_000
+# at most this many splats are traced, the largest (proxy volume) first: 100 000 proxies are 2 M
+# triangles, about 240 MB of traced scene (within the renderer's 256 MB raytrace budget) and a
+# 9.4 s BVH build on the 2-core CI machine; a larger cloud's smaller splats are left to the
+# shadow maps, with a warning
+MAX_TRACED = 100_000
 PER_MESH = MAP_SIZE * MAP_SIZE
-# the rectangle of a flat splat: its corners in units of the bound radius along the two long
-# axes, counter-clockwise seen from the third, and its two triangles
-QUAD_CORNERS = np.array([(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)])
-QUAD_FACES = np.array([(0, 1, 2), (0, 2, 3)], np.int64)
 
 _PHI = (1.0 + math.sqrt(5.0)) / 2.0
 _ICO = np.array([(-1, _PHI, 0), (1, _PHI, 0), (-1, -_PHI, 0), (1, -_PHI, 0),
@@ -101,18 +84,11 @@ INRADIUS = math.sqrt((5.0 + 2.0 * math.sqrt(5.0)) / 15.0)
 
 @dataclass(kw_only=True)
 class ProxyMesh(Mesh):
-    """A traced stand-in (never rasterised): an icosahedron a splat, counted only where a ray
-    enters it (12 vertices a splat), or for flat splats a rectangle, counted where a ray that
-    starts outside the bound crosses it (``flat``: 4 vertices a splat); in the order of
-    ``splat_rows``."""
+    """A traced stand-in (never rasterised): counted only where a ray enters it; 12 vertices a
+    splat, in the order of ``splat_rows``."""
 
     entered_only: bool = True
     splat_rows: np.ndarray = None  # [n, 4, 4] float32: splat_rows of its n splats
-    flat: bool = False
-
-    @property
-    def vertices_per_splat(self) -> int:
-        return 4 if self.flat else 12
 
 
 _PROXIES: "weakref.WeakKeyDictionary[Splats, list[ProxyMesh]]" = weakref.WeakKeyDictionary()
@@ -135,26 +111,18 @@ def bound_radius(opacities: np.ndarray) -> np.ndarray:
 def splat_rows(means: np.ndarray, rotations: np.ndarray, scales: np.ndarray,
                opacities: np.ndarray) -> np.ndarray:
     """``[n, 4, 4]`` float32: what ``passes/raytrace.glsl`` reads of each splat. Rows 0-2: the
-    map ``x -> W (x - mean)`` to the splat's unit-Gaussian frame (``W = S^-1 R^T``, the Gaussian
-    there ``exp(-|x'|^2 / 2)``), ``W``'s row i in xyz and ``mean_i`` in w (the difference first:
-    ``W x - W mean`` would cancel for a thin splat, whose ``W`` is large); row 3: its
-    opacity, its opaque core's squared radius (:func:`core_radius`; 0: no core) and its
-    bound's (:func:`bound_radius`)."""
+    affine map ``x -> W x + c`` to the splat's unit-Gaussian frame (``W = S^-1 R^T``, the
+    Gaussian there ``exp(-|x'|^2 / 2)``), ``W``'s row i in xyz and ``c_i`` in w; row 3: its
+    opacity and its opaque core's squared radius (:func:`core_radius`; 0: no core)."""
     rot = quat_to_matrix(np.asarray(rotations, np.float64))  # [n, 3, 3], columns the axes
     w = np.swapaxes(rot, 1, 2) / np.asarray(scales, np.float64)[:, :, None]
+    c = -np.einsum("nij,nj->ni", w, np.asarray(means, np.float64))
     out = np.zeros((len(w), 4, 4), np.float64)
     out[:, :3, :3] = w
-    out[:, :3, 3] = np.asarray(means, np.float64)
+    out[:, :3, 3] = c
     out[:, 3, 0] = opacities
     out[:, 3, 1] = core_radius(opacities) ** 2
-    out[:, 3, 2] = bound_radius(opacities) ** 2
     return out.astype(np.float32)
-
-
-def flat_splats(scales: np.ndarray) -> np.ndarray:
-    """``[n]`` bool: the splats whose shortest axis is at most :data:`FLAT` of the next."""
-    ordered = np.sort(np.asarray(scales, np.float64), axis=1)
-    return ordered[:, 0] <= FLAT * ordered[:, 1]
 
 
 def splat_proxies(splats: Splats) -> list[ProxyMesh]:
@@ -181,48 +149,29 @@ def _build(splats: Splats) -> list[ProxyMesh]:
     scales = np.asarray(splats.scales, np.float64)
     keep = np.flatnonzero((r > 0.0) & np.isfinite(splats.means).all(axis=1)
                           & (scales > 0.0).all(axis=1) & np.isfinite(scales).all(axis=1))
-    flat = flat_splats(scales)
-    triangles = np.where(flat[keep], len(QUAD_FACES), len(ICO_FACES))
-    if triangles.sum() > MAX_TRIANGLES:
-        area = np.sort(scales[keep], axis=1)[:, 1:].prod(axis=1)  # the two longest axes
-        order = np.argsort(-area, kind="stable")
-        fits = np.cumsum(triangles[order]) <= MAX_TRIANGLES
-        largest = np.sort(keep[order[fits]])
-        warnings.warn(f"{splats.source or 'a splat cloud'}: rays see the {len(largest):,} "
-                      f"largest of its {len(keep):,} splats (the rest cast shadows in the shadow "
-                      f"maps only)", stacklevel=4)
+    if len(keep) > MAX_TRACED:
+        volume = r[keep] ** 3 * scales[keep].prod(axis=1)
+        largest = np.sort(keep[np.argsort(-volume, kind="stable")[:MAX_TRACED]])
+        warnings.warn(f"{splats.source or 'a splat cloud'}: rays see the {MAX_TRACED:,} largest "
+                      f"of its {len(keep):,} splats (the rest cast shadows in the shadow maps "
+                      f"only)", stacklevel=4)
         keep = largest
     meshes = []
-    for is_flat in (False, True):
-        ids_all = keep[flat[keep] == is_flat]
-        for start in range(0, len(ids_all), PER_MESH):
-            ids = ids_all[start:start + PER_MESH]
-            meshes.append(_proxy_mesh(splats, ids, r[ids], len(meshes), is_flat))
+    for start in range(0, len(keep), PER_MESH):
+        ids = keep[start:start + PER_MESH]
+        meshes.append(_proxy_mesh(splats, ids, r[ids], len(meshes)))
     return meshes
 
 
-def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int,
-                flat: bool = False) -> ProxyMesh:
+def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int) -> ProxyMesh:
     n = len(ids)
     rot = quat_to_matrix(np.asarray(splats.rotations, np.float64)[ids])  # [n, 3, 3]
-    sc = np.asarray(splats.scales, np.float64)[ids]
-    mean = np.asarray(splats.means, np.float64)[ids, None, :]
-    if flat:  # the rectangle around the bound ellipse in the plane of the two long axes
-        order = np.argsort(sc, axis=1)  # [short, middle, long]
-        axis = [np.take_along_axis(rot, order[:, None, k:k + 1], axis=2)[:, :, 0] for k in range(3)]
-        half = [np.take_along_axis(sc, order[:, k:k + 1], axis=1) * radius[:, None]
-                for k in range(3)]
-        u, v, w = axis[2] * half[2], axis[1] * half[1], axis[0]
-        v = np.where((np.cross(u, v) * w).sum(1, keepdims=True) < 0.0, -v, v)  # CCW about w
-        pos = mean + (QUAD_CORNERS[None, :, :1] * u[:, None, :]
-                      + QUAD_CORNERS[None, :, 1:] * v[:, None, :])  # [n, 4, 3]
-        faces, per = QUAD_FACES, 4
-    else:
-        m = rot * (sc * (radius / INRADIUS)[:, None])[:, None, :]
-        pos = mean + np.einsum("nij,vj->nvi", m, ICO_VERTICES)  # [n, 12, 3]
-        faces, per = ICO_FACES, 12
+    m = rot * (np.asarray(splats.scales, np.float64)[ids] * (radius / INRADIUS)[:, None])[
+        :, None, :]
+    pos = (np.asarray(splats.means, np.float64)[ids, None, :]
+           + np.einsum("nij,vj->nvi", m, ICO_VERTICES))  # [n, 12, 3]
     normals = np.repeat(_splat_normals(splats.normals[ids], splats.rotations[ids],
-                                       splats.scales[ids])[:, None, :], per, axis=1)
+                                       splats.scales[ids])[:, None, :], 12, axis=1)
     texel = np.arange(n)
     uv = np.stack([(texel % MAP_SIZE + 0.5) / MAP_SIZE, (texel // MAP_SIZE + 0.5) / MAP_SIZE], 1)
     base = np.zeros((PER_MESH, 4), np.float32)
@@ -232,11 +181,11 @@ def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int,
     mr[:, 3] = 1.0
     mr[:n, 1] = np.clip(np.asarray(splats.roughness, np.float32)[ids], 0.0, 1.0)
     mr[:n, 2] = np.clip(np.asarray(splats.metallic, np.float32)[ids], 0.0, 1.0)
-    indices = (np.arange(n, dtype=np.int64)[:, None, None] * per + faces[None]).reshape(-1, 3)
+    indices = (np.arange(n, dtype=np.int64)[:, None, None] * 12 + ICO_FACES[None]).reshape(-1, 3)
     name = f"{splats.source or 'splats'} (splat proxies, part {part + 1})"
     return ProxyMesh(positions=pos.reshape(-1, 3).astype(np.float32),
                      normals=normals.reshape(-1, 3).astype(np.float32),
-                     uvs=np.repeat(uv[:, None, :], per, axis=1).reshape(-1, 2).astype(np.float32),
+                     uvs=np.repeat(uv[:, None, :], 12, axis=1).reshape(-1, 2).astype(np.float32),
                      indices=indices.astype(np.uint32),
                      material=Material(albedo=(1.0, 1.0, 1.0), roughness=1.0, metallic=1.0),
                      textures={"base_color": base.reshape(MAP_SIZE, MAP_SIZE, 4),
@@ -245,5 +194,4 @@ def _proxy_mesh(splats: Splats, ids: np.ndarray, radius: np.ndarray, part: int,
                      splat_rows=splat_rows(np.asarray(splats.means, np.float64)[ids],
                                            np.asarray(splats.rotations, np.float64)[ids],
                                            np.asarray(splats.scales, np.float64)[ids],
-                                           np.asarray(splats.opacities, np.float64)[ids]),
-                     flat=flat)
+                                           np.asarray(splats.opacities, np.float64)[ids]))

@@ -95,13 +95,12 @@ PARITY_CASES = [
                (Arg(lo=-4.0, hi=4.0, components=3), Arg(lo=-30.0, hi=30.0, components=3),
                 Arg(lo=0.05, hi=9.0, adversarial=(0.0, -1.0))),
                atol=2e-6, rtol=5e-5, prepare=_clear_of_tangents,
-               measured="max abs 8.9e-8, max rel 5.6e-6 (seed 0)",
-               envelope="t* - sqrt((r2 - q2) / d.d) from the line's nearest point: t* and q2 "
-                        "as gaussian_ray_peak (~1e-6 relative), a sqrt (as 1 / inversesqrt, "
-                        "3 ulp) and a subtraction that loses digits where the ray starts near "
-                        "the surface or grazes it; prepare keeps r2 - q2 and the start's "
-                        "distance >= 2 % of their scale, so <= 5e-5 rel; the same bounds keep "
-                        "entry and miss apart"),
+               measured="max abs 1.5e-7, max rel 2.9e-6 (seed 0)",
+               envelope="c / (-b + sqrt(b^2 - a c)): no cancellation (b < 0 where it "
+                        "enters), ~10 roundings and a sqrt (as 1 / inversesqrt, 3 ulp): "
+                        "~1e-6 relative, / the discriminant's relative size where it is small: "
+                        "prepare keeps it >= 2 % of a max(r2, |o|^2), so <= 5e-5 rel; the same "
+                        "bounds keep entry and miss apart"),
     ParityCase("safe_inverse",
                (Arg(lo=-4.0, hi=4.0, components=3,
                     adversarial=((0.0, 1.0, -1.0), (1e-31, -1e-31, 2.0), (-0.0, 0.5, 1e-20))),),

@@ -51,14 +51,12 @@ def parity_scenes() -> dict[str, list]:
 
 
 def _cloud(rng) -> Splats:
-    """40 splats over the parity scenes' space, a quarter of them too faint to have a core, the
-    last ten flat (their shortest axis 1/50 of the next: rectangles, not icosahedra), some rays
-    starting inside the bounds (parity_rays' origins reach into them)."""
+    """40 splats over the parity scenes' space, a quarter of them too faint to have a core, some
+    rays starting inside the cores (parity_rays' origins reach into them)."""
     n = 40
-    scales = rng.uniform(0.05, 0.5, (n, 3))
-    scales[30:, 2] = scales[30:, :2].min(axis=1) / 50.0
     return make_splats(means=rng.uniform(-1.2, 1.2, (n, 3)) + (0.0, 0.6, 0.0),
-                       scales=scales, rotations=rng.normal(size=(n, 4)),
+                       scales=rng.uniform(0.05, 0.5, (n, 3)),
+                       rotations=rng.normal(size=(n, 4)),
                        opacities=np.where(np.arange(n) % 4 == 0, 0.4, rng.uniform(0.55, 0.99, n)))
 
 
@@ -117,8 +115,8 @@ def checks() -> dict:
             results.append(compare(f"bvh_closest_hit:{name}:t,b", gl[:, [0, 2, 3]],
                                    ref[:, [0, 2, 3]], atol=2e-5, rtol=1e-5, kind="pass",
                                    measured="max abs 4.7e-6 on the meshes (t <= 7; llvmpipe "
-                                            "contracts to FMA where torch does not), 1.4e-6 "
-                                            "on the splats' cores",
+                                            "contracts to FMA where torch does not), 4.1e-5 "
+                                            "at t ~ 5 on the splats' cores (rel 3.9e-6)",
                                    envelope="ray_triangle's case envelope (~3e-5 abs at "
                                             "|sin| >= 0.1) on the same triangle; these rays "
                                             "meet surfaces at steeper angles; a core's entry: "

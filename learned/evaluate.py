@@ -88,6 +88,14 @@ def teacher_shadow_image(teacher, shadow, sample, lighting, samples: int, seed: 
     return out.permute(1, 2, 0).numpy()
 
 
+def tonemapped_psnr(pred: np.ndarray, ref: np.ndarray) -> float:
+    """PSNR (dB) of linear radiances after ``x / (1 + x)`` (negative values clipped to 0), over
+    every element given: :func:`metrics`' PSNR of the foreground pixels."""
+    p, r = np.clip(pred, 0.0, None), np.clip(ref, 0.0, None)
+    mse = float(((p / (1.0 + p) - r / (1.0 + r)) ** 2).mean())
+    return 10.0 * math.log10(1.0 / max(mse, 1e-12))
+
+
 def metrics(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> dict:
     """pred, ref ``[H, W, 3]`` linear; fg ``[H, W]`` bool."""
     from pytorch_msssim import ssim  # the `bench` extra: only the metrics need it
@@ -96,8 +104,7 @@ def metrics(pred: np.ndarray, ref: np.ndarray, fg: np.ndarray) -> dict:
     p = np.clip(pred, 0.0, None) * m
     r = np.clip(ref, 0.0, None) * m
     pt, rt = p / (1.0 + p), r / (1.0 + r)
-    mse = float(((pt - rt) ** 2)[fg].mean())
-    psnr = 10.0 * math.log10(1.0 / max(mse, 1e-12))
+    psnr = tonemapped_psnr(pred[fg], ref[fg])
     win = 7 if min(fg.shape) >= 7 else 1
     s = float(ssim(torch.from_numpy(pt).permute(2, 0, 1)[None],
                    torch.from_numpy(rt).permute(2, 0, 1)[None], data_range=1.0, win_size=win))

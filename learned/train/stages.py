@@ -11,6 +11,8 @@ shadow map, ``distill_samples`` light samples) per pixel under :func:`distill_lo
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -78,16 +80,26 @@ def estimator_visibility(renderer, sample, weights: str) -> np.ndarray:
     (:func:`viewer.neural.shadow_net.frame_settings`: geometry, indirect light, specular
     occlusion), through the estimator's torch twin (the ``shadow_net`` parity check holds the
     GLSL passes to it)."""
+    from .shadow_net import shadow_net_image, visibility
+
+    path = Path(weights)
+    stamp = (path.stat().st_mtime_ns, path.stat().st_size) if path.is_file() else None
+    frame, net = _estimator(str(path), stamp)  # a missing file: read_shadow_net's one line
+    img = shadow_net_image(renderer, sample, frame["model"], frame["geometry"],
+                           frame["indirect"], frame["specular_occlusion"])
+    v = visibility(net, img)[0].mean(0)  # [H, W], GL row order
+    return np.ascontiguousarray(v.numpy()[::-1])
+
+
+@lru_cache(maxsize=2)  # one file a training run or a bench: read once, not once a sample
+def _estimator(weights: str, stamp):
+    """(the frame the estimator file was trained on, its torch network); ``stamp``: the file's
+    modification time and size, so a file rewritten in place is read again."""
     from viewer.neural.shadow_net import frame_settings, read_shadow_net
 
     from ..neural.shadow_net import load_shadow_net
-    from .shadow_net import shadow_net_image, visibility
 
-    frame = frame_settings(read_shadow_net(weights).training)
-    img = shadow_net_image(renderer, sample, frame["model"], frame["geometry"],
-                           frame["indirect"], frame["specular_occlusion"])
-    v = visibility(load_shadow_net(weights), img)[0].mean(0)  # [H, W], GL row order
-    return np.ascontiguousarray(v.numpy()[::-1])
+    return frame_settings(read_shadow_net(weights).training), load_shadow_net(weights)
 
 
 def screen_space_indirect(renderer, sample, multiscatter: bool = False,
@@ -263,6 +275,28 @@ def design_features(model: Student, images: list[TrainImage]) -> list[tuple]:
                              dominant=model.dominant, sun=sun) for img in images]
 
 
+def student_args(model: Student, img: TrainImage, feats: tuple, idx=None) -> tuple:
+    """The arguments of ``model``'s forward for ``img`` (``feats``: its :func:`design_features`)
+    at the foreground pixels ``idx`` (None: all): the features, the indirect light of a student
+    that learns a factor on it, the sun's arguments of a student whose base shades the sun."""
+    x, irr, pre, *sun = feats if idx is None else (t[idx] for t in feats)
+    if not (model.learns_indirect or sun):
+        return x, irr, pre
+    ind = None
+    if model.learns_indirect:
+        ind = img.indirect if idx is None else img.indirect[idx]
+    return (x, irr, pre, ind, *sun)
+
+
+def fixed_light(model: Student, img: TrainImage, feats: tuple) -> torch.Tensor | None:
+    """What a sun student's pass adds to its prediction besides the network: the environment's
+    other compact lights through its classical base (``env_lights_base``), fixed terms over all
+    of ``img``'s foreground pixels; None for any other student or image."""
+    if not (model.sun and img.lighting_sun is not None and len(feats) > 3):
+        return None
+    return env_lights_base(img.gb, feats[0], feats[3], img.lighting_sun, model.multiscatter)
+
+
 def distill_loss(pred: torch.Tensor, target: torch.Tensor, kind: str) -> torch.Tensor:
     """Distillation loss of ``pred`` against ``target`` (radiance ``[N, 3]``): ``l1`` on radiance,
     or ``log_l1`` on log(1 + radiance), which weighs dark and bright pixels alike, like the
@@ -293,19 +327,13 @@ def distill_student(run: Run, images: list[TrainImage], targets: list[torch.Tens
     rng = np.random.default_rng([cfg.seed, run.rank, 3])
     if feats is None:
         feats = design_features(model, images)
-    # a sun student's pass adds the environment's other compact lights through its classical
-    # base (env_lights_base): fixed terms, added to its prediction here as there
-    extra = [env_lights_base(img.gb, f[0], f[3], img.lighting_sun, model.multiscatter)
-             if model.sun and img.lighting_sun is not None and len(f) > 3 else None
-             for img, f in zip(images, feats)]
+    extra = [fixed_light(model, img, f) for img, f in zip(images, feats)]
 
     def step(ddp, _):
         k = int(rng.integers(0, len(images)))
         p = targets[k].shape[0]
         idx = torch.from_numpy(rng.choice(p, size=min(cfg.batch_pixels, p), replace=False))
-        x, irr, pre, *sun = (t[idx] for t in feats[k])  # sun: [the sun's arguments] or []
-        ind = images[k].indirect[idx] if model.learns_indirect else None
-        args = (x, irr, pre, ind, *sun) if model.learns_indirect or sun else (x, irr, pre)
+        args = student_args(model, images[k], feats[k], idx)
         fixed = extra[k][idx] if extra[k] is not None else 0.0
         if cfg.student_gain_penalty > 0.0 or cfg.student_direct_penalty > 0.0:
             # + the penalties on brightening the direct light and on any direct correction

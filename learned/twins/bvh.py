@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import torch
 
+
 RAY_MISS = 3.0e38
 # rt_materials rows per material (raytrace.glsl RT_MATERIAL_ROWS: RT_ROW_SLOTS factor rows,
 # then RT_MAP_SLOTS map slots of two rows; viewer/raytrace/scene.py MATERIAL_VEC4S)
 ROW_SURFACE, ROW_SLOTS, MAP_SLOTS = 1, 11, 13
 MATERIAL_ROWS = ROW_SLOTS + 2 * MAP_SLOTS
-OPAQUE_AT = 0.5  # raytrace.glsl RT_OPAQUE_AT: the gathered opacity at which splats block
+# the gathered opacity at which splats block a shadow ray: raytrace.glsl RT_OPAQUE_AT, the shadow
+# maps' per-splat threshold (viewer.raytrace.splat_proxies.OPAQUE_AT; tested equal)
+OPAQUE_AT = 0.5
 
 
 def safe_inverse(d: torch.Tensor) -> torch.Tensor:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -43,22 +42,17 @@ def image_psnr(model, images) -> list[float]:
     the foreground, as ``relight eval`` scores a frame."""
     import torch
 
-    from learned.neural.lighting import env_lights_base
-    from learned.train.stages import design_features
+    from learned.evaluate import tonemapped_psnr
+    from learned.train.stages import design_features, fixed_light, student_args
 
     out = []
     with torch.no_grad():
         for img, f in zip(images, design_features(model, images)):
-            x, irr, pre, *sun = f
-            ind = img.indirect if model.learns_indirect else None
-            args = (x, irr, pre, ind, *sun) if model.learns_indirect or sun else (x, irr, pre)
-            pred = model(*args)
-            if model.sun and img.lighting_sun is not None and len(f) > 3:
-                pred = pred + env_lights_base(img.gb, f[0], f[3], img.lighting_sun,
-                                              model.multiscatter)
-            p, t = pred.clamp_min(0.0), img.target.clamp_min(0.0)
-            mse = float(((p / (1.0 + p) - t / (1.0 + t)) ** 2).mean())
-            out.append(10.0 * math.log10(1.0 / max(mse, 1e-12)))
+            pred = model(*student_args(model, img, f))
+            fixed = fixed_light(model, img, f)
+            if fixed is not None:
+                pred = pred + fixed
+            out.append(tonemapped_psnr(pred.numpy(), img.target.numpy()))
     return out
 
 

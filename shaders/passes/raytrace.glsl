@@ -2,8 +2,8 @@
 // viewer/raytrace uploads (viewer/raytrace/scene.py says what they hold), its traversal (closest
 // hit, any hit), alpha-masked surfaces, splats' Gaussians inside their proxies, and the surface a
 // ray hits. The pure maths is
-// lib/bvh.glsl. Buffers bind at 3 .. 5 (viewer/raytrace/upload.py BINDINGS); the nodes and the
-// triangles' edges are textures (upload.py says why).
+// lib/bvh.glsl. Buffers bind at 3 .. 5 (viewer/raytrace/upload.py BINDINGS); the nodes, the
+// triangles' edges and the splats are textures (upload.py says why).
 #include "lib/bvh.glsl"
 // dielectric_f0_ior (the specular maps), anisotropy_map_direction: included whatever the scene
 // (the resolver includes a file once, even inside a false #if)
@@ -124,10 +124,10 @@ vec2 rt_uv(uvec4 tri, vec2 b) {
     return t0 * (1.0 - b.x - b.y) + t1 * b.x + t2 * b.y;
 }
 
-// Whether triangle i (`tri`) is solid at barycentrics b: alphaMode MASK cuts it where the base
+// Whether the triangle `tri` is solid at barycentrics b: alphaMode MASK cuts it where the base
 // colour's alpha (factor x map) is below the cutoff; every other surface is solid (a splat
 // proxy is not a surface: rt_entered_splat).
-bool rt_solid(int i, uvec4 tri, vec2 b) {
+bool rt_solid(uvec4 tri, vec2 b) {
 #if !RT_MASKS
     return true;
 #endif
@@ -214,7 +214,7 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
                 if (s >= 0) {  // a splat: where the ray enters its opaque core
                     r.x = rt_splat_t(s, o, d);
                     if (!(r.x > 0.0 && r.x < hit.t)) continue;
-                } else if (s == -2 || !rt_solid(i, rt_triangles[i], r.yz)) {
+                } else if (s == -2 || !rt_solid(rt_triangles[i], r.yz)) {
                     continue;
                 }
                 hit.t = r.x;
@@ -260,7 +260,7 @@ RayHit bvh_closest_hit(vec3 o, vec3 d, float t_max) {
 
 // Whether the ray o + t d is blocked for 0 < t < t_max (shadow rays): by a solid triangle, or by
 // the splats whose proxies it enters once the opacity it gathers through them reaches
-// RT_OPAQUE_AT, i.e. the product of what each lets through (rt_proxy_transmittance; in any
+// RT_OPAQUE_AT, i.e. the product of what each lets through (rt_splat_transmittance; in any
 // order) falls to 1 - RT_OPAQUE_AT (viewer/raytrace/splat_proxies.py says why).
 bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
     if (u_rt_node_count == 0) return false;
@@ -282,7 +282,7 @@ bool bvh_any_hit(vec3 o, vec3 d, float t_max) {
                 if (s >= 0) {
                     seen *= rt_splat_transmittance(s, o, d, t_max);
                     if (seen <= 1.0 - RT_OPAQUE_AT) return true;
-                } else if (s == -1 && rt_solid(i, rt_triangles[i], r.yz)) {
+                } else if (s == -1 && rt_solid(rt_triangles[i], r.yz)) {
                     return true;
                 }
             }

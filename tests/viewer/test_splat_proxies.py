@@ -67,10 +67,24 @@ def test_the_core_is_where_the_peak_opacity_along_a_line_reaches_one_half():
     assert (blocked[margin] == inside[margin]).all()
 
 
+def test_shadow_rays_are_blocked_at_the_shadow_maps_opacity():
+    """One threshold for a splat's core, the shadow maps' rule and the opacity a shadow ray
+    gathers: raytrace.glsl's RT_OPAQUE_AT and the twin's are splat_proxies.OPAQUE_AT."""
+    import re
+
+    from learned.twins import bvh as twin
+    from shaders import SHADER_ROOT
+    from viewer.raytrace.splat_proxies import OPAQUE_AT
+
+    text = (SHADER_ROOT / "passes" / "raytrace.glsl").read_text()
+    (value,) = re.findall(r"#define RT_OPAQUE_AT ([0-9.]+)", text)
+    assert float(value) == OPAQUE_AT == twin.OPAQUE_AT
+
+
 def test_the_icosahedron_bounds_the_unit_sphere_from_outside():
     """Vertices at 1 / INRADIUS: every face's plane is tangent to the unit sphere (its distance
     from the centre is 1), so the proxy holds the whole ellipsoid d_M <= r_b; its faces wind
-    counter-clockwise seen from outside (the side rt_enters tests)."""
+    counter-clockwise seen from outside (the side rt_entered_splat tests)."""
     v = ICO_VERTICES / INRADIUS
     tri = v[ICO_FACES]
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])

@@ -38,7 +38,8 @@ from .bvh import BVH, build_bvh, child_pairs, triangle_boxes
 MAP_SIZE = 256  # every map of a traced material, resampled to this square size
 MAP_LAYER_BYTES = MAP_SIZE * MAP_SIZE * 8  # one layer of the map array (RGBA16F): 512 KiB
 # a material's cutoff (surface row, w) marking a closed proxy counted only where a ray enters it
-# (raytrace.glsl rt_proxy_t; a splat's proxy, :mod:`.splat_proxies`); -1: no mask
+# (a splat's proxy, :mod:`.splat_proxies`; raytrace.glsl finds its faces by their edge texel,
+# rt_entered_splat, and compiles the splats in where a material has it, RT_SPLATS); -1: no mask
 ENTERED_ONLY = -2.0
 
 
